@@ -1,0 +1,72 @@
+//! Library error types. Every error names where it came from (a flag, a key, a time and state) and,
+//! for an out-of-range value, what is allowed.
+
+use thiserror::Error;
+
+/// A parameter outside its allowed range, or malformed.
+#[derive(Debug, Clone, PartialEq, Error)]
+#[error("{name} = {value}: {allowed}")]
+pub struct ParamError {
+    /// Name of the parameter as the user spells it (flag, scenario key, or symbol).
+    pub name: String,
+    /// The offending value, as given.
+    pub value: String,
+    /// What is allowed, in words, with units.
+    pub allowed: String,
+}
+
+impl ParamError {
+    /// Build an error for parameter `name` with value `value` and an `allowed` description.
+    pub fn new(name: impl Into<String>, value: impl ToString, allowed: impl Into<String>) -> Self {
+        Self {
+            name: name.into(),
+            value: value.to_string(),
+            allowed: allowed.into(),
+        }
+    }
+
+    /// Same error, renamed (e.g. from the symbol `R` to the flag `--radius`).
+    pub fn renamed(mut self, name: impl Into<String>) -> Self {
+        self.name = name.into();
+        self
+    }
+}
+
+/// Require `value` to be finite and strictly positive.
+pub fn positive(name: &str, value: f64, unit: &str) -> Result<f64, ParamError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(ParamError::new(
+            name,
+            value,
+            format!("must be a finite number > 0 {unit}"),
+        ))
+    }
+}
+
+/// Require `value` to be finite and ≥ 0.
+pub fn non_negative(name: &str, value: f64, unit: &str) -> Result<f64, ParamError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(ParamError::new(
+            name,
+            value,
+            format!("must be a finite number >= 0 {unit}"),
+        ))
+    }
+}
+
+/// Require `lo <= value <= hi` (finite).
+pub fn in_range(name: &str, value: f64, lo: f64, hi: f64, unit: &str) -> Result<f64, ParamError> {
+    if value.is_finite() && value >= lo && value <= hi {
+        Ok(value)
+    } else {
+        Err(ParamError::new(
+            name,
+            value,
+            format!("must lie in [{lo}, {hi}] {unit}"),
+        ))
+    }
+}

@@ -1,0 +1,190 @@
+//! Parsing of physical quantities typed by users: bare numbers are SI, or a number followed by a
+//! unit (`51mm`, `9.33MPa`, `240mJ/m^2`, `0.0445mm/s`, `1.5kHz`). Each quantity kind accepts only
+//! units of its own dimension, so `--radius 3Hz` is an error that names the allowed units.
+
+use crate::error::ParamError;
+
+/// The dimension of a quantity, which fixes the units it accepts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dimension {
+    /// Metres.
+    Length,
+    /// Pascals.
+    Pressure,
+    /// Joules per square metre (work of adhesion).
+    EnergyPerArea,
+    /// Metres per second.
+    Speed,
+    /// Hertz (cycles per second).
+    Frequency,
+    /// Seconds.
+    Time,
+    /// Kilograms.
+    Mass,
+    /// Newtons.
+    Force,
+    /// Newtons per metre.
+    Stiffness,
+    /// Newton seconds per metre.
+    Damping,
+    /// Dimensionless.
+    Dimensionless,
+}
+
+impl Dimension {
+    /// The accepted unit spellings and their factor to SI.
+    pub fn units(self) -> &'static [(&'static str, f64)] {
+        match self {
+            Dimension::Length => &[
+                ("m", 1.0),
+                ("cm", 1e-2),
+                ("mm", 1e-3),
+                ("um", 1e-6),
+                ("µm", 1e-6),
+                ("nm", 1e-9),
+            ],
+            Dimension::Pressure => &[("Pa", 1.0), ("kPa", 1e3), ("MPa", 1e6), ("GPa", 1e9)],
+            Dimension::EnergyPerArea => &[
+                ("J/m^2", 1.0),
+                ("J/m2", 1.0),
+                ("N/m", 1.0),
+                ("mJ/m^2", 1e-3),
+                ("mJ/m2", 1e-3),
+                ("mN/m", 1e-3),
+            ],
+            Dimension::Speed => &[
+                ("m/s", 1.0),
+                ("mm/s", 1e-3),
+                ("um/s", 1e-6),
+                ("µm/s", 1e-6),
+                ("nm/s", 1e-9),
+            ],
+            Dimension::Frequency => &[("Hz", 1.0), ("kHz", 1e3)],
+            Dimension::Time => &[("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("µs", 1e-6)],
+            Dimension::Mass => &[("kg", 1.0), ("g", 1e-3), ("mg", 1e-6)],
+            Dimension::Force => &[("N", 1.0), ("mN", 1e-3), ("uN", 1e-6), ("µN", 1e-6)],
+            Dimension::Stiffness => &[("N/m", 1.0), ("N/mm", 1e3), ("kN/m", 1e3)],
+            Dimension::Damping => &[("Ns/m", 1.0), ("N*s/m", 1.0), ("kg/s", 1.0)],
+            Dimension::Dimensionless => &[],
+        }
+    }
+
+    /// The SI unit symbol.
+    pub fn si(self) -> &'static str {
+        match self {
+            Dimension::Length => "m",
+            Dimension::Pressure => "Pa",
+            Dimension::EnergyPerArea => "J/m^2",
+            Dimension::Speed => "m/s",
+            Dimension::Frequency => "Hz",
+            Dimension::Time => "s",
+            Dimension::Mass => "kg",
+            Dimension::Force => "N",
+            Dimension::Stiffness => "N/m",
+            Dimension::Damping => "N s/m",
+            Dimension::Dimensionless => "",
+        }
+    }
+}
+
+/// Parse `text` as a quantity of dimension `dim`, returning its SI value. `name` (a flag or key)
+/// is used in the error. The value is not range-checked here.
+pub fn parse_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    let t = text.trim();
+    // Split at the first character that cannot belong to a float literal's tail.
+    let split = t
+        .char_indices()
+        .find(|&(i, c)| {
+            !(c.is_ascii_digit()
+                || c == '.'
+                || c == '+'
+                || c == '-'
+                || ((c == 'e' || c == 'E')
+                    && t[i + 1..]
+                        .chars()
+                        .next()
+                        .is_some_and(|d| d.is_ascii_digit() || d == '-' || d == '+')))
+        })
+        .map(|(i, _)| i)
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let unit = unit.trim();
+    let allowed_units = || {
+        let list: Vec<&str> = dim.units().iter().map(|(u, _)| *u).collect();
+        if list.is_empty() {
+            "a plain number (dimensionless)".to_string()
+        } else {
+            format!(
+                "a number in SI ({}) or with one of the units {}",
+                dim.si(),
+                list.join(", ")
+            )
+        }
+    };
+    let value: f64 = num.parse().map_err(|_| {
+        ParamError::new(
+            name,
+            text,
+            format!("not a number: expected {}", allowed_units()),
+        )
+    })?;
+    if !value.is_finite() {
+        return Err(ParamError::new(name, text, "must be finite"));
+    }
+    if unit.is_empty() {
+        return Ok(value);
+    }
+    match dim.units().iter().find(|(u, _)| *u == unit) {
+        Some((_, f)) => Ok(value * f),
+        None => Err(ParamError::new(
+            name,
+            text,
+            format!("unknown unit '{unit}': expected {}", allowed_units()),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_si_and_units() {
+        assert_eq!(
+            parse_quantity("r", "0.051", Dimension::Length).unwrap(),
+            0.051
+        );
+        assert!((parse_quantity("r", "51mm", Dimension::Length).unwrap() - 0.051).abs() < 1e-15);
+        assert!(
+            (parse_quantity("K", "9.33MPa", Dimension::Pressure).unwrap() - 9.33e6).abs() < 1e-6
+        );
+        assert!(
+            (parse_quantity("w", "240 mJ/m^2", Dimension::EnergyPerArea).unwrap() - 0.24).abs()
+                < 1e-15
+        );
+        assert!(
+            (parse_quantity("v", "0.0445mm/s", Dimension::Speed).unwrap() - 4.45e-5).abs() < 1e-18
+        );
+        assert_eq!(
+            parse_quantity("f", "1.5kHz", Dimension::Frequency).unwrap(),
+            1500.0
+        );
+        assert_eq!(
+            parse_quantity("x", "1e-3", Dimension::Length).unwrap(),
+            1e-3
+        );
+        assert_eq!(
+            parse_quantity("x", "2.5e-1mm", Dimension::Length).unwrap(),
+            2.5e-4
+        );
+    }
+
+    #[test]
+    fn rejects_unknown_units_and_garbage() {
+        let e = parse_quantity("--radius", "3Hz", Dimension::Length).unwrap_err();
+        assert!(e.to_string().contains("--radius") && e.to_string().contains("unknown unit"));
+        assert!(parse_quantity("--n", "abc", Dimension::Dimensionless).is_err());
+        assert!(parse_quantity("--n", "1mm", Dimension::Dimensionless).is_err());
+        assert!(parse_quantity("--n", "inf", Dimension::Dimensionless).is_err());
+    }
+}
