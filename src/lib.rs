@@ -2,13 +2,25 @@
 //!
 //! The physics lives in pure functions: [`jkr`] (contact relations), [`adhesion`] (rate-dependent
 //! work of adhesion), [`imposed_area`] (the paper's Sec. 2.1 method), [`closed_form`] (eqs. 16–24,
-//! 29), [`comparators`] (Shui et al., Yi et al.). I/O lives at the edges (the CLI, output writers).
+//! 29), [`comparators`] (Shui et al., Yi et al.), [`dynamics`] (the time-domain simulator).
+//! I/O lives at the edges: [`scenario::parse`], [`output`], [`plot`], and the CLI.
 #![deny(clippy::float_cmp)]
 #![warn(missing_docs)]
 
 pub mod adhesion;
+pub mod beta_fit;
+pub mod closed_form;
+pub mod comparators;
+pub mod dynamics;
 pub mod error;
+pub mod figures;
+pub mod gs_fit;
+pub mod imposed_area;
 pub mod jkr;
 pub mod material;
 pub mod numerics;
+pub mod output;
+pub mod plot;
+pub mod quadrature;
+pub mod scenario;
 pub mod units;

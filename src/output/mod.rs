@@ -1,0 +1,1 @@
+//! Output writers: HDF5, summary.json, CSV (in progress).

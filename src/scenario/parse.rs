@@ -1,0 +1,1 @@
+//! TOML parsing and validation of scenario files (in progress).
