@@ -40,7 +40,7 @@ pub fn positive(name: &str, value: f64, unit: &str) -> Result<f64, ParamError> {
         Err(ParamError::new(
             name,
             value,
-            format!("must be a finite number > 0 {unit}"),
+            format!("must be a finite number > 0{}", unit_suffix(unit)),
         ))
     }
 }
@@ -53,7 +53,7 @@ pub fn non_negative(name: &str, value: f64, unit: &str) -> Result<f64, ParamErro
         Err(ParamError::new(
             name,
             value,
-            format!("must be a finite number >= 0 {unit}"),
+            format!("must be a finite number >= 0{}", unit_suffix(unit)),
         ))
     }
 }
@@ -66,7 +66,15 @@ pub fn in_range(name: &str, value: f64, lo: f64, hi: f64, unit: &str) -> Result<
         Err(ParamError::new(
             name,
             value,
-            format!("must lie in [{lo}, {hi}] {unit}"),
+            format!("must lie in [{lo}, {hi}]{}", unit_suffix(unit)),
         ))
+    }
+}
+
+fn unit_suffix(unit: &str) -> String {
+    if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" ({unit})")
     }
 }

@@ -1,0 +1,154 @@
+//! Flag parsing shared by the commands: quantities with units, the material and the law.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use djkr::adhesion::{GentSchultz, Law};
+use djkr::error::{non_negative, positive, ParamError};
+use djkr::material::Material;
+use djkr::units::{parse_quantity, Dimension};
+use std::path::PathBuf;
+
+/// Parse a flag's text as a quantity (bare numbers are SI).
+pub fn quantity(flag: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    parse_quantity(flag, text, dim)
+}
+
+/// Parse a flag that must be > 0.
+pub fn positive_quantity(flag: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    let v = quantity(flag, text, dim)?;
+    positive(flag, v, dim.si()).map_err(|e| ParamError {
+        value: text.to_string(),
+        ..e
+    })
+}
+
+/// Parse a flag that must be ≥ 0.
+pub fn non_negative_quantity(flag: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    let v = quantity(flag, text, dim)?;
+    non_negative(flag, v, dim.si()).map_err(|e| ParamError {
+        value: text.to_string(),
+        ..e
+    })
+}
+
+/// Material and Gent–Schultz constants. Defaults: the paper's Fig. 2 set.
+#[derive(Args, Debug, Clone, Default)]
+pub struct MaterialArgs {
+    /// Scenario file whose [material] and [adhesion] sections to use (flags below override it).
+    #[arg(long, value_name = "FILE", allow_hyphen_values = true)]
+    pub material: Option<PathBuf>,
+    /// JKR elastic constant K = 4E*/3 [default 9.33MPa]. Units: Pa, kPa, MPa, GPa.
+    #[arg(long = "modulus", value_name = "K", allow_hyphen_values = true)]
+    pub k: Option<String>,
+    /// Sphere radius R [default 51mm]. Units: m, cm, mm, um, nm.
+    #[arg(long, value_name = "R", allow_hyphen_values = true)]
+    pub radius: Option<String>,
+    /// Quasi-static work of adhesion w0 [default 240mJ/m^2]. Units: J/m^2, mJ/m^2.
+    #[arg(long, value_name = "W0", allow_hyphen_values = true)]
+    pub w0: Option<String>,
+    /// Gent–Schultz reference speed v0 (C = v0^-n) [default 0.0445mm/s]. Units: m/s, mm/s, um/s.
+    #[arg(long, value_name = "V0", allow_hyphen_values = true)]
+    pub v0: Option<String>,
+    /// Gent–Schultz exponent n > 0 [default 0.531].
+    #[arg(long, value_name = "N", allow_hyphen_values = true)]
+    pub n: Option<String>,
+}
+
+impl MaterialArgs {
+    /// Resolve the material and a Gent–Schultz law (file first, then flags, then the paper).
+    pub fn resolve(&self) -> Result<(Material, GentSchultz)> {
+        let (mut m, mut law) = (Material::PAPER, GentSchultz::PAPER);
+        if let Some(path) = &self.material {
+            let scn: djkr::scenario::Scenario =
+                Err(anyhow::anyhow!("scenario files: parser not landed yet"))
+                    .with_context(|| format!("--material {}", path.display()))?;
+            m = scn.material;
+            law = match scn.law {
+                Law::GentSchultz(gs) => gs,
+                Law::Constant(c) => GentSchultz {
+                    w0: c.w0,
+                    // A constant law is the GS law with an infinitely large reference speed.
+                    v0: f64::INFINITY,
+                    n: 1.0,
+                },
+                other => bail!(
+                    "--material {}: this command needs a Gent-Schultz or constant law (closed forms and the imposed-area table assume eqs. 1-2); the file has {other:?}",
+                    path.display()
+                ),
+            };
+            law.w0 = m.w0;
+        }
+        if let Some(t) = &self.k {
+            m.k = positive_quantity("--modulus", t, Dimension::Pressure)?;
+        }
+        if let Some(t) = &self.radius {
+            m.r = positive_quantity("--radius", t, Dimension::Length)?;
+        }
+        if let Some(t) = &self.w0 {
+            m.w0 = positive_quantity("--w0", t, Dimension::EnergyPerArea)?;
+        }
+        law.w0 = m.w0;
+        if let Some(t) = &self.v0 {
+            law.v0 = positive_quantity("--v0", t, Dimension::Speed)?;
+        }
+        if let Some(t) = &self.n {
+            law.n = positive_quantity("--n", t, Dimension::Dimensionless)?;
+        }
+        Ok((m, law))
+    }
+}
+
+/// Angular frequency from a `--freq` flag (Hz, > 0).
+pub fn omega_from(flag: &str, text: &str) -> Result<f64, ParamError> {
+    Ok(2.0 * std::f64::consts::PI * positive_quantity(flag, text, Dimension::Frequency)?)
+}
+
+/// Print a JSON value (pretty), refusing non-finite numbers (serde_json would write `null`).
+pub fn print_json(v: &serde_json::Value) -> Result<()> {
+    fn check(v: &serde_json::Value, path: &str) -> Result<()> {
+        match v {
+            serde_json::Value::Null => bail!("internal error: non-finite value at {path}"),
+            serde_json::Value::Object(o) => o
+                .iter()
+                .try_for_each(|(k, x)| check(x, &format!("{path}.{k}"))),
+            serde_json::Value::Array(a) => a
+                .iter()
+                .enumerate()
+                .try_for_each(|(i, x)| check(x, &format!("{path}[{i}]"))),
+            _ => Ok(()),
+        }
+    }
+    check(v, "$")?;
+    println!("{}", serde_json::to_string_pretty(v)?);
+    Ok(())
+}
+
+/// A two-column table of (label, value with unit) rows, aligned.
+pub fn print_table(title: &str, rows: &[(&str, String)]) {
+    println!("{title}");
+    let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
+    for (k, v) in rows {
+        println!("  {k:<w$}  {v}");
+    }
+}
+
+/// Format a length in the most readable unit.
+pub fn fmt_len(x: f64) -> String {
+    let a = x.abs();
+    if a >= 1e-3 || a == 0.0 {
+        format!("{:.6} mm", x * 1e3)
+    } else if a >= 1e-6 {
+        format!("{:.6} µm", x * 1e6)
+    } else {
+        format!("{:.6} nm", x * 1e9)
+    }
+}
+
+/// Format a force in the most readable unit.
+pub fn fmt_force(f: f64) -> String {
+    if f.abs() >= 1.0 {
+        format!("{f:.6} N")
+    } else {
+        format!("{:.6} mN", f * 1e3)
+    }
+}

@@ -1,0 +1,261 @@
+//! `djkr cycle` and `djkr pulloff`: the imposed-area method, the closed form and the comparators.
+
+use super::common::{
+    fmt_force, fmt_len, non_negative_quantity, omega_from, positive_quantity, print_json,
+    print_table, quantity, MaterialArgs,
+};
+use anyhow::{bail, Result};
+use clap::{Args, ValueEnum};
+use djkr::imposed_area;
+use djkr::units::Dimension;
+use serde_json::json;
+
+/// Flags of `djkr cycle`.
+#[derive(Args, Debug)]
+pub struct CycleArgs {
+    /// Vibration frequency f = ω/2π (> 0). Units: Hz, kHz.
+    #[arg(long, value_name = "HZ", allow_hyphen_values = true)]
+    freq: String,
+    /// Imposed mean contact radius a_m (≥ −a_A; below a_A the cycle is truncated at a = 0).
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    a_mean: String,
+    /// Amplitude a_A of the contact-radius oscillation (≥ 0).
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    a_amp: String,
+    /// Print one JSON object of SI values instead of a table.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    material: MaterialArgs,
+}
+
+/// Run `djkr cycle`.
+pub fn cycle(a: &CycleArgs) -> Result<()> {
+    let (m, law) = a.material.resolve()?;
+    let omega = omega_from("--freq", &a.freq)?;
+    let a_amp = non_negative_quantity("--a-amp", &a.a_amp, Dimension::Length)?;
+    let a_mean = quantity("--a-mean", &a.a_mean, Dimension::Length)?;
+    if a_mean < -a_amp {
+        bail!(
+            "--a-mean = {}: must be >= -a_A = {} m (below, the contact never forms)",
+            a.a_mean,
+            -a_amp
+        );
+    }
+    let c = imposed_area::cycle(&m, &law, omega, a_mean, a_amp)?;
+    if a.json {
+        return print_json(&json!({
+            "a_mean": c.a_mean,
+            "a_mean_imposed": c.a_mean_imposed,
+            "a_amp": c.a_amp,
+            "delta_mean": c.delta_mean,
+            "delta_amp": c.delta_amp,
+            "delta_sin": c.delta_sin,
+            "delta_cos": c.delta_cos,
+            "force_mean": c.force_mean,
+            "contact_fraction": c.contact_fraction,
+        }));
+    }
+    print_table(
+        &format!(
+            "Imposed-area cycle at {:.6} Hz (a(t) = a_m + a_A sin ωt{})",
+            omega / (2.0 * std::f64::consts::PI),
+            if c.contact_fraction < 1.0 {
+                ", truncated at a = 0"
+            } else {
+                ""
+            }
+        ),
+        &[
+            ("a_m imposed", fmt_len(c.a_mean_imposed)),
+            ("a_A", fmt_len(c.a_amp)),
+            ("a_m (mean of the cycle)", fmt_len(c.a_mean)),
+            ("δ_m mean indentation", fmt_len(c.delta_mean)),
+            ("δ_s (sin harmonic, eq. 26)", fmt_len(c.delta_sin)),
+            ("δ_c (cos harmonic, eq. 25)", fmt_len(c.delta_cos)),
+            ("δ_A (eq. 27)", fmt_len(c.delta_amp)),
+            ("F_m mean force", fmt_force(c.force_mean)),
+            ("contact fraction", format!("{:.6}", c.contact_fraction)),
+        ],
+    );
+    Ok(())
+}
+
+/// Pull-off methods.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PulloffMethod {
+    /// Imposed-area method (Sec. 2.1), minimised over a_m.
+    Exact,
+    /// Closed form, eqs. (20)–(24) with β.
+    Approx,
+    /// Shui et al. eq. (5), corrected (needs --mass, --damping, --base-amp).
+    Shui,
+    /// Yi et al. eq. (8) with δ_m = δ_A.
+    Yi,
+}
+
+/// Flags of `djkr pulloff`.
+#[derive(Args, Debug)]
+pub struct PulloffArgs {
+    /// Vibration frequency f = ω/2π (> 0). Units: Hz, kHz.
+    #[arg(long, value_name = "HZ", allow_hyphen_values = true)]
+    freq: String,
+    /// Amplitude a_A of the contact-radius oscillation (≥ 0). For `yi` it sets δ_A = 2a_A²/R
+    /// unless --delta-amp is given.
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    a_amp: Option<String>,
+    /// Method.
+    #[arg(long, value_enum, default_value_t = PulloffMethod::Exact)]
+    method: PulloffMethod,
+    /// Speed correction β of eq. (24) for `approx` (> 0).
+    #[arg(long, default_value = "2.5", allow_hyphen_values = true)]
+    beta: String,
+    /// δ_A amplitude in the closed form: as derived from eqs. (14)−(15) (MODEL.md), or as
+    /// printed in eq. (23) (for comparison with the paper).
+    #[arg(long, value_enum, default_value_t = DeltaForm::Derived)]
+    delta_form: DeltaForm,
+    /// Sphere mass m for `shui` (> 0). Units: kg, g.
+    #[arg(long, value_name = "KG", allow_hyphen_values = true)]
+    mass: Option<String>,
+    /// Damping c for `shui` (≥ 0). Units: Ns/m.
+    #[arg(long, value_name = "C", allow_hyphen_values = true)]
+    damping: Option<String>,
+    /// Base amplitude X_b for `shui` (≥ 0).
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    base_amp: Option<String>,
+    /// Indentation amplitude δ_A for `yi` (≥ 0).
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
+    delta_amp: Option<String>,
+    /// Print one JSON object of SI values instead of a table.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    material: MaterialArgs,
+}
+
+/// Closed-form δ_A variants.
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DeltaForm {
+    /// δ_A derived from eqs. (14)−(15) (zero at a_A = 0).
+    Derived,
+    /// δ_A as printed in eq. (23).
+    Printed,
+}
+
+/// Result rows shared by all methods.
+struct PulloffReport {
+    method: &'static str,
+    a_mean: f64,
+    delta_mean: f64,
+    delta_amp: f64,
+    force: f64,
+    amplification: f64,
+    notes: Vec<String>,
+}
+
+/// Run `djkr pulloff`.
+pub fn pulloff(a: &PulloffArgs) -> Result<()> {
+    let (m, law) = a.material.resolve()?;
+    let omega = omega_from("--freq", &a.freq)?;
+    let a_amp = match &a.a_amp {
+        Some(t) => Some(non_negative_quantity("--a-amp", t, Dimension::Length)?),
+        None => None,
+    };
+    let need_a_amp =
+        || a_amp.ok_or_else(|| anyhow::anyhow!("--a-amp is required for --method {:?}", a.method));
+    let r = match a.method {
+        PulloffMethod::Exact => {
+            let p = imposed_area::pull_off(&m, &law, omega, need_a_amp()?)?;
+            let mut notes = Vec::new();
+            if p.local_minima.len() > 1 {
+                notes.push(format!(
+                    "the mean-force curve F_m(a_m) has {} local minima; the global one is reported. Others (a_m imposed, F_m): {}",
+                    p.local_minima.len(),
+                    p.local_minima
+                        .iter()
+                        .map(|(am, f)| format!("({}, {})", fmt_len(*am), fmt_force(*f)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+            if !p.global {
+                notes.push("the global minimum could not be certified (see local minima)".into());
+            }
+            if p.cycle.contact_fraction < 1.0 {
+                notes.push(format!(
+                    "contact is lost during part of the cycle (contact fraction {:.4}); a_m is the a-posteriori mean",
+                    p.cycle.contact_fraction
+                ));
+            }
+            PulloffReport {
+                method: "exact (imposed-area method, Sec. 2.1)",
+                a_mean: p.cycle.a_mean,
+                delta_mean: p.cycle.delta_mean,
+                delta_amp: p.cycle.delta_amp,
+                force: p.force,
+                amplification: p.amplification,
+                notes,
+            }
+        }
+        PulloffMethod::Approx => {
+            let beta = positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
+            let form = match a.delta_form {
+                DeltaForm::Derived => djkr::closed_form::DeltaAmpForm::Derived,
+                DeltaForm::Printed => djkr::closed_form::DeltaAmpForm::Printed,
+            };
+            let p = djkr::closed_form::pull_off_approx(&m, &law, omega, need_a_amp()?, beta, form)?;
+            PulloffReport {
+                method: "approx (closed form, eqs. 20-24)",
+                a_mean: p.a_mean,
+                delta_mean: p.delta_mean,
+                delta_amp: p.delta_amp,
+                force: p.force,
+                amplification: p.amplification,
+                notes: vec![format!("beta = {beta}, delta_A {:?}", a.delta_form)],
+            }
+        }
+        PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
+    };
+    report(&r, a.json)
+}
+
+fn report(r: &PulloffReport, json_out: bool) -> Result<()> {
+    if json_out {
+        return print_json(&json!({
+            "method": r.method,
+            "a_mean": r.a_mean,
+            "delta_mean": r.delta_mean,
+            "delta_amp": r.delta_amp,
+            "force": r.force,
+            "amplification": r.amplification,
+        }));
+    }
+    print_table(
+        &format!("Pull-off, {}", r.method),
+        &[
+            ("a_m,po mean contact radius", fmt_len(r.a_mean)),
+            ("δ_m,po mean indentation", fmt_len(r.delta_mean)),
+            ("δ_A,po indentation amplitude", fmt_len(r.delta_amp)),
+            ("F_m,po pull-off force", fmt_force(r.force)),
+            (
+                "amplification F/F0 (F0 = -3/2 π R w0)",
+                format!("{:.6}", r.amplification),
+            ),
+        ],
+    );
+    for n in &r.notes {
+        println!("  note: {n}");
+    }
+    Ok(())
+}
+
+fn comparators(
+    a: &PulloffArgs,
+    m: &djkr::material::Material,
+    law: &djkr::adhesion::GentSchultz,
+    omega: f64,
+    a_amp: Option<f64>,
+) -> Result<()> {
+    let _ = (a, m, law, omega, a_amp);
+    bail!("--method {:?}: not wired yet", a.method)
+}
