@@ -23,4 +23,5 @@ pub mod output;
 pub mod plot;
 pub mod quadrature;
 pub mod scenario;
+pub mod transfer;
 pub mod units;
