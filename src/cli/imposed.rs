@@ -256,6 +256,73 @@ fn comparators(
     omega: f64,
     a_amp: Option<f64>,
 ) -> Result<()> {
-    let _ = (a, m, law, omega, a_amp);
-    bail!("--method {:?}: not wired yet", a.method)
+    use djkr::comparators as cmp;
+    let r = if a.method == PulloffMethod::Shui {
+        let need = |flag: &str, v: &Option<String>| {
+            v.clone()
+                .ok_or_else(|| anyhow::anyhow!("--method shui needs {flag} (Shui et al.'s eq. 5 is a sphere/contact oscillator)"))
+        };
+        let s = cmp::ShuiSystem {
+            mass: positive_quantity("--mass", &need("--mass", &a.mass)?, Dimension::Mass)?,
+            damping: positive_quantity(
+                "--damping",
+                &need("--damping", &a.damping)?,
+                Dimension::Damping,
+            )?,
+            base_amplitude: non_negative_quantity(
+                "--base-amp",
+                &need("--base-amp", &a.base_amp)?,
+                Dimension::Length,
+            )?,
+            omega,
+        };
+        let p = cmp::shui_pull_off(m, &s)?;
+        let eq6 = cmp::shui_pull_off_eq6(&s);
+        let eq7 = cmp::shui_pull_off_eq7(&s);
+        if a.json {
+            return print_json(&json!({
+                "method": "shui",
+                "a_mean": p.a_mean,
+                "force": p.force,
+                "amplification": p.amplification,
+                "force_eq6": eq6,
+                "force_eq7": eq7,
+            }));
+        }
+        print_table(
+            "Pull-off, Shui et al. (2020) eq. (5) with the a_m^3 correction (no Gent-Schultz dependence)",
+            &[
+                ("a_m,po mean contact radius", fmt_len(p.a_mean)),
+                ("F_m,po minimum of eq. (5)", fmt_force(p.force)),
+                ("amplification F/F0", format!("{:.6}", p.amplification)),
+                ("eq. (6), (mω/c)^2 corrected", fmt_force(eq6)),
+                ("eq. (7), c → ∞", fmt_force(eq7)),
+            ],
+        );
+        return Ok(());
+    } else {
+        let delta_amp = match (&a.delta_amp, a_amp) {
+            (Some(t), _) => non_negative_quantity("--delta-amp", t, Dimension::Length)?,
+            (None, Some(aa)) => cmp::yi_indentation_amplitude_from_area_amplitude(m, aa),
+            (None, None) => bail!("--method yi needs --delta-amp or --a-amp (then δ_A = 2 a_A²/R)"),
+        };
+        let p = cmp::yi_mean_force(m, law, omega, delta_amp)?;
+        PulloffReport {
+            method: "Yi et al. (2024) eq. (8), δ_m = δ_A",
+            a_mean: (m.r * delta_amp).sqrt(),
+            delta_mean: delta_amp,
+            delta_amp,
+            force: p.force,
+            amplification: p.amplification,
+            notes: vec![
+                "a_m here is the Hertz radius at δ_m (Yi's model does not search a_m)".into(),
+                format!(
+                    "peak contact-radius speed {:.6} mm/s, mean w {:.6} mJ/m^2",
+                    p.peak_speed * 1e3,
+                    p.mean_work_of_adhesion * 1e3
+                ),
+            ],
+        }
+    };
+    report(&r, a.json)
 }

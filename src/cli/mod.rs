@@ -1,6 +1,7 @@
 //! Command-line front end. Each subcommand parses its flags, calls the library and reports
 //! (a readable table with units, or `--json` with SI values).
 
+mod closed;
 mod common;
 mod imposed;
 
@@ -33,6 +34,11 @@ enum Command {
     /// Pull-off for a given vibration (ω, a_A): the minimum over a_m of the mean force, by the
     /// exact imposed-area method, the closed form (eqs. 20–24), Shui et al. or Yi et al.
     Pulloff(imposed::PulloffArgs),
+    /// Eq. (29): the contact-radius speed a_A ω the closed form needs for a target amplification.
+    RequiredSpeed(closed::RequiredSpeedArgs),
+    /// Refit the speed correction β of eq. (24) against the exact pull-off over a range of n and
+    /// v_max/v0 (checks the paper's Fig. 3(b) and β ≈ 2.5), reporting the error curve.
+    BetaFit(closed::BetaFitArgs),
 }
 
 /// Entry point: run the command, print errors as one readable message, map to an exit code.
@@ -41,6 +47,8 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Cycle(a) => imposed::cycle(&a),
         Command::Pulloff(a) => imposed::pulloff(&a),
+        Command::RequiredSpeed(a) => closed::required_speed(&a),
+        Command::BetaFit(a) => closed::beta_fit(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,211 @@
+//! `djkr required-speed` (eq. 29) and `djkr beta-fit` (Fig. 3(b) and β ≈ 2.5, checked).
+
+use super::common::{positive_quantity, print_json, print_table, MaterialArgs};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use djkr::beta_fit::{self, BetaFitConfig};
+use djkr::closed_form;
+use djkr::units::Dimension;
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Flags of `djkr required-speed`.
+#[derive(Args, Debug)]
+pub struct RequiredSpeedArgs {
+    /// Target pull-off amplification F_m,po/F0 (≥ 1).
+    #[arg(long, value_name = "A", allow_hyphen_values = true)]
+    amplification: String,
+    /// Speed correction β of eq. (24) (> 0).
+    #[arg(long, default_value = "2.5", allow_hyphen_values = true)]
+    beta: String,
+    /// Print one JSON object of SI values.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    material: MaterialArgs,
+}
+
+/// Run `djkr required-speed`.
+pub fn required_speed(a: &RequiredSpeedArgs) -> Result<()> {
+    let (_, law) = a.material.resolve()?;
+    let target = positive_quantity(
+        "--amplification",
+        &a.amplification,
+        Dimension::Dimensionless,
+    )?;
+    let beta = positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
+    let v = closed_form::vibration_speed_for_amplification(&law, target, beta)
+        .map_err(|e| e.renamed("--amplification"))?;
+    let printed = closed_form::vibration_speed_as_printed(&law, target, beta).ok();
+    if a.json {
+        let mut o = json!({ "speed": v, "amplification": target, "beta": beta });
+        if let Some(p) = printed {
+            o["speed_as_printed"] = json!(p);
+        }
+        return print_json(&o);
+    }
+    let mut rows = vec![(
+        "v = a_A ω from eqs. (21), (24)",
+        format!("{:.6} mm/s", v * 1e3),
+    )];
+    if let Some(p) = printed {
+        rows.push((
+            "eq. (29) as printed (drops the 1/4 of eq. 21)",
+            format!("{:.6} mm/s", p * 1e3),
+        ));
+    }
+    print_table(
+        &format!("Vibration speed for amplification {target} (β = {beta})"),
+        &rows,
+    );
+    Ok(())
+}
+
+/// Flags of `djkr beta-fit`.
+#[derive(Args, Debug)]
+pub struct BetaFitArgs {
+    /// Gent–Schultz exponents n, comma-separated (each > 0).
+    #[arg(long, default_value = "0.1,0.3,0.5,0.7,0.9")]
+    n_values: String,
+    /// Speed ratios v_max/v0 as MIN:MAX:COUNT, log-spaced (v_max = a_A ω).
+    #[arg(long, default_value = "1e-2:1e2:25")]
+    speed_ratio: String,
+    /// β search range MIN:MAX:COUNT (the error curve is reported on this log grid).
+    #[arg(long, default_value = "0.5:10:60")]
+    beta: String,
+    /// Vibration frequency (Hz), which sets a_A = v_max/ω.
+    #[arg(long, default_value = "200", value_name = "HZ")]
+    freq: String,
+    /// Write the error curve and the ratio table as CSV (and plots) into this directory.
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    material: MaterialArgs,
+}
+
+/// Parse `MIN:MAX:COUNT`.
+fn range(flag: &str, text: &str) -> Result<(f64, f64, usize)> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let bad = || {
+        anyhow::anyhow!("{flag} = {text}: expected MIN:MAX:COUNT with 0 < MIN < MAX and COUNT >= 1")
+    };
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let lo: f64 = parts[0].trim().parse().map_err(|_| bad())?;
+    let hi: f64 = parts[1].trim().parse().map_err(|_| bad())?;
+    let n: usize = parts[2].trim().parse().map_err(|_| bad())?;
+    if !(lo > 0.0 && hi >= lo && hi.is_finite() && n >= 1) {
+        return Err(bad());
+    }
+    Ok((lo, hi, n))
+}
+
+/// Run `djkr beta-fit`.
+pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
+    let (m, law) = a.material.resolve()?;
+    let n_values = a
+        .n_values
+        .split(',')
+        .map(|t| positive_quantity("--n-values", t.trim(), Dimension::Dimensionless))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (slo, shi, sn) = range("--speed-ratio", &a.speed_ratio)?;
+    let (blo, bhi, bn) = range("--beta", &a.beta)?;
+    if bn < 3 || bhi <= blo {
+        bail!("--beta = {}: needs MIN < MAX and COUNT >= 3", a.beta);
+    }
+    let cfg = BetaFitConfig {
+        material: m,
+        v0: law.v0,
+        frequency_hz: positive_quantity("--freq", &a.freq, Dimension::Frequency)?,
+        n_values,
+        speed_ratios: beta_fit::log_space(slo, shi, sn),
+        beta_min: blo,
+        beta_max: bhi,
+        beta_points: bn,
+    };
+    eprintln!(
+        "computing {} exact pull-offs ({} n x {} speed ratios)...",
+        cfg.n_values.len() * cfg.speed_ratios.len(),
+        cfg.n_values.len(),
+        cfg.speed_ratios.len()
+    );
+    let fit = beta_fit::fit_beta(&cfg)?;
+    if let Some(dir) = &a.out {
+        write_beta_outputs(dir, &fit).with_context(|| format!("--out {}", dir.display()))?;
+    }
+    if a.json {
+        return print_json(&serde_json::to_value(&fit)?);
+    }
+    let worst = |r: &[beta_fit::RatioPoint]| {
+        r.iter()
+            .map(|p| p.ratio)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x), hi.max(x))
+            })
+    };
+    let (blo_r, bhi_r) = worst(&fit.ratios_best);
+    let (plo_r, phi_r) = worst(&fit.ratios_paper);
+    print_table(
+        "β refit: exact / approximate pull-off amplification (error = RMS of ln ratio)",
+        &[
+            ("best β", format!("{:.4}", fit.best_beta)),
+            ("error at best β", format!("{:.4e}", fit.best_error)),
+            ("ratio range at best β", format!("{blo_r:.4} .. {bhi_r:.4}")),
+            (
+                "error at β = 2.5 (paper)",
+                format!("{:.4e}", fit.error_at_paper_beta),
+            ),
+            (
+                "ratio range at β = 2.5",
+                format!("{plo_r:.4} .. {phi_r:.4}"),
+            ),
+        ],
+    );
+    println!("\n  error curve (β, error):");
+    for (b, e) in fit
+        .error_curve
+        .iter()
+        .step_by((fit.error_curve.len() / 15).max(1))
+    {
+        println!("    {b:8.4}  {e:.4e}");
+    }
+    Ok(())
+}
+
+fn write_beta_outputs(dir: &std::path::Path, fit: &beta_fit::BetaFit) -> Result<()> {
+    use djkr::plot::{render, Figure, Series, Style};
+    std::fs::create_dir_all(dir)?;
+    let mut curve = String::from("beta,error_rms_ln_ratio\n");
+    for (b, e) in &fit.error_curve {
+        curve.push_str(&format!("{b:e},{e:e}\n"));
+    }
+    super::common::write_atomic(&dir.join("beta_error_curve.csv"), curve.as_bytes())?;
+    let mut table = String::from(
+        "n,v_max_over_v0,amp_exact,amp_approx_best_beta,ratio_best_beta,ratio_beta_2_5\n",
+    );
+    for (b, p) in fit.ratios_best.iter().zip(&fit.ratios_paper) {
+        table.push_str(&format!(
+            "{},{:e},{:e},{:e},{:e},{:e}\n",
+            b.n, b.speed_ratio, b.amp_exact, b.amp_approx, b.ratio, p.ratio
+        ));
+    }
+    super::common::write_atomic(&dir.join("beta_ratios.csv"), table.as_bytes())?;
+    let fig = Figure::new(
+        "β refit: error of the closed form",
+        "β",
+        "RMS ln(A_exact / A_approx)",
+    )
+    .with_series(Series::new(
+        "error",
+        fit.error_curve.iter().map(|p| p.0).collect(),
+        fit.error_curve.iter().map(|p| p.1).collect(),
+        Style::Line,
+    ))
+    .with_log(true, false);
+    render(&fig, &dir.join("beta_error_curve"))?;
+    Ok(())
+}
