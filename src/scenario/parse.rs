@@ -1,1 +1,1200 @@
-//! TOML parsing and validation of scenario files (in progress).
+//! TOML parsing and validation of scenario files.
+//!
+//! The file is first parsed into a generic TOML table (syntax errors carry the line and column
+//! TOML reports), then walked section by section. Walking the table by hand, rather than through
+//! `#[serde(deny_unknown_fields)]` structs, is what lets every error name the file, the dotted key
+//! (`stage[2].speed`, `material.K`), the value as written and the allowed range with its unit:
+//! serde's messages know the field name but not the section path or the range.
+//!
+//! Physical quantities are bare numbers in SI, or strings with a unit (`R = "51mm"`,
+//! `frequency = "0.3kHz"`) parsed by [`crate::units::parse_quantity`]. Integers are accepted
+//! wherever a number is (`stiffness = 200`).
+//!
+//! The key names are a contract (README, "Scenario files"):
+//!
+//! | section | keys (default) |
+//! |---|---|
+//! | top level | `version` (required, = 1) |
+//! | `[material]` (required) | `K` (Pa, > 0), `R` (m, > 0), `w0` (J/m², > 0) |
+//! | `[adhesion]` (absent: constant w0) | `law` = `"constant"` · `"gent-schultz"` (`v0` m/s > 0, `n` > 0) · `"gent-schultz-saturated"` (`v0`, `n`, `v_sat` m/s > 0) · `"tabulated"` (`file`, relative to the scenario) |
+//! | `[sphere]` | `mass` (kg, ≥ 0; required unless `spring.rigid`), `gravity` (m/s², ≥ 0, 9.807) |
+//! | `[spring]` (absent: no spring) | `stiffness` (N/m, ≥ 0) or `rigid = true` |
+//! | `[damping]` (absent: none) | `c` (N s/m, ≥ 0), `on` = `"sphere"` (default) or `"contact"` |
+//! | `[base]` (absent: no vibration) | `amplitude` (m, ≥ 0), `frequency` (Hz, > 0) |
+//! | `[contact]` | `formation` = `"jump-in"` (default) or `"seed"` with `seed_radius` (m, 0 < r ≤ jump-in radius) |
+//! | `[initial]` | `preload` (N, > 0) or `gap` (m, > 0); absent without a spring: the sphere's weight |
+//! | `[[stage]]` (≥ 1) | `kind`, `speed` (m/s), one of `duration` (s) / `preload` (N) / `until = "pull-off"`, `vibration` (bool), `max_duration` (s, 1e4) |
+//! | `[solver]` | `method`, `rtol` (0, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `event_tol` (s, > 0) |
+//! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool) |
+
+use std::fmt::Display;
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+use toml::{Table, Value};
+
+use super::{
+    BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Scenario,
+    Solver, Sphere, Stage, StageKind, Until,
+};
+use crate::adhesion::{
+    AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw,
+};
+use crate::error::ParamError;
+use crate::jkr;
+use crate::material::Material;
+use crate::units::{parse_quantity, Dimension};
+
+/// The scenario-file format version this parser reads.
+pub const SCENARIO_VERSION: i64 = 1;
+/// Default gravitational acceleration (m/s²) when `sphere.gravity` is absent.
+pub const DEFAULT_GRAVITY: f64 = 9.807;
+/// Default safety limit (s) of a stage that ends on a preload or at pull-off.
+pub const DEFAULT_MAX_DURATION: f64 = 1e4;
+/// Largest allowed relative tolerance `solver.rtol`.
+pub const MAX_RTOL: f64 = 1e-2;
+/// Relative agreement required between a tabulated law's w(0) and `material.w0`.
+pub const TABLE_W0_RTOL: f64 = 1e-6;
+
+/// Why a scenario file was rejected. Every variant names the file; value errors also name the
+/// dotted key, the value as written and what is allowed.
+#[derive(Debug, Error)]
+pub enum ScenarioError {
+    /// The file could not be read.
+    #[error("{file}: cannot read: {source}")]
+    Io {
+        /// The file.
+        file: String,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// TOML syntax error.
+    #[error("{file}: TOML syntax error at line {line}, column {column}: {message}")]
+    Syntax {
+        /// The file.
+        file: String,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column (in characters).
+        column: usize,
+        /// What the TOML parser said.
+        message: String,
+    },
+    /// A value of the wrong type or out of range.
+    #[error("{file}: {key} = {value}: {allowed}")]
+    Value {
+        /// The file.
+        file: String,
+        /// Dotted key, e.g. `stage[1].speed`.
+        key: String,
+        /// The value as written.
+        value: String,
+        /// What is allowed (with units), or what is wrong with the value.
+        allowed: String,
+    },
+    /// A key or section that is missing, unknown, or in conflict with another.
+    #[error("{file}: {key}: {message}")]
+    Key {
+        /// The file.
+        file: String,
+        /// Dotted key or section, e.g. `material.K`, `[foo]`, `stage[0]`.
+        key: String,
+        /// What is wrong and what is expected.
+        message: String,
+    },
+}
+
+impl ScenarioError {
+    /// The file the error is about.
+    pub fn file(&self) -> &str {
+        match self {
+            ScenarioError::Io { file, .. }
+            | ScenarioError::Syntax { file, .. }
+            | ScenarioError::Value { file, .. }
+            | ScenarioError::Key { file, .. } => file,
+        }
+    }
+
+    /// The dotted key the error is about, when there is one.
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            ScenarioError::Value { key, .. } | ScenarioError::Key { key, .. } => Some(key),
+            _ => None,
+        }
+    }
+}
+
+type Result<T> = std::result::Result<T, ScenarioError>;
+
+/// Parse and validate a scenario from its text. `source_name` names it in errors (usually the
+/// path); `base_dir` is where a tabulated law's `file` is looked up when relative (`None`: the
+/// current directory).
+pub fn parse_scenario(text: &str, source_name: &str, base_dir: Option<&Path>) -> Result<Scenario> {
+    let p = Parser { file: source_name };
+    let root = p.parse_toml(text)?;
+    let top = Section::root(&root);
+    p.check_top_level(&top)?;
+    p.version(&top, true)?;
+    let material = p.material(&top)?;
+    let law = p.law(&top, &material, base_dir)?;
+    let holder = p.holder(&top)?;
+    let sphere = p.sphere(&top, holder)?;
+    let damping = p.damping(&top)?;
+    let base = p.base(&top)?;
+    let formation = p.formation(&top, &material)?;
+    let initial = p.initial(&top, holder, sphere)?;
+    let stages = p.stages(&top, holder, base.is_some())?;
+    let solver = p.solver(&top)?;
+    let output = p.output(&top)?;
+    Ok(Scenario {
+        material,
+        law,
+        sphere,
+        holder,
+        damping,
+        base,
+        formation,
+        initial,
+        stages,
+        solver,
+        output,
+        source_text: text.to_string(),
+        source_name: source_name.to_string(),
+    })
+}
+
+/// Read, parse and validate a scenario file. A tabulated law's `file` is resolved relative to
+/// the scenario file's directory.
+pub fn load_scenario(path: &Path) -> Result<Scenario> {
+    let name = path.display().to_string();
+    let text = read_text(path, &name)?;
+    parse_scenario(&text, &name, Some(&parent_dir(path)))
+}
+
+/// Only the `[material]` and `[adhesion]` sections of a file, for commands that need nothing else
+/// (`--material FILE`). The file may be a full scenario (its other known sections are ignored, not
+/// validated) or hold just these two sections; `version`, when present, must be 1; unknown
+/// top-level keys are still rejected.
+pub fn material_and_law(path: &Path) -> Result<(Material, Law)> {
+    let name = path.display().to_string();
+    let text = read_text(path, &name)?;
+    parse_material_and_law(&text, &name, Some(&parent_dir(path)))
+}
+
+/// [`material_and_law`] on a text already in memory (`source_name` and `base_dir` as in
+/// [`parse_scenario`]).
+pub fn parse_material_and_law(
+    text: &str,
+    source_name: &str,
+    base_dir: Option<&Path>,
+) -> Result<(Material, Law)> {
+    let p = Parser { file: source_name };
+    let root = p.parse_toml(text)?;
+    let top = Section::root(&root);
+    p.check_top_level(&top)?;
+    p.version(&top, false)?;
+    let material = p.material(&top)?;
+    let law = p.law(&top, &material, base_dir)?;
+    Ok((material, law))
+}
+
+fn read_text(path: &Path, name: &str) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+        file: name.to_string(),
+        source,
+    })
+}
+
+fn parent_dir(path: &Path) -> PathBuf {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    }
+}
+
+/// The top-level keys and sections, in the order the README lists them.
+const TOP_KEYS: &[&str] = &[
+    "version", "material", "adhesion", "sphere", "spring", "damping", "base", "contact", "initial",
+    "stage", "solver", "output",
+];
+
+/// A physical quantity kind: the units a string may carry and the SI unit shown in errors.
+#[derive(Clone, Copy)]
+struct Quantity {
+    /// `None`: bare numbers only.
+    dim: Option<Dimension>,
+    /// Unit label for messages.
+    unit: &'static str,
+}
+
+const PRESSURE: Quantity = q(Some(Dimension::Pressure), "Pa");
+const LENGTH: Quantity = q(Some(Dimension::Length), "m");
+const ENERGY_PER_AREA: Quantity = q(Some(Dimension::EnergyPerArea), "J/m^2");
+const SPEED: Quantity = q(Some(Dimension::Speed), "m/s");
+const FREQUENCY: Quantity = q(Some(Dimension::Frequency), "Hz");
+const TIME: Quantity = q(Some(Dimension::Time), "s");
+const MASS: Quantity = q(Some(Dimension::Mass), "kg");
+const FORCE: Quantity = q(Some(Dimension::Force), "N");
+const STIFFNESS: Quantity = q(Some(Dimension::Stiffness), "N/m");
+const DAMPING: Quantity = q(Some(Dimension::Damping), "N s/m");
+const ACCELERATION: Quantity = q(None, "m/s^2");
+const DIMENSIONLESS: Quantity = q(None, "dimensionless");
+const RATE: Quantity = q(Some(Dimension::Frequency), "samples per second");
+
+const fn q(dim: Option<Dimension>, unit: &'static str) -> Quantity {
+    Quantity { dim, unit }
+}
+
+/// A number read from the file, with its text as written (for messages).
+struct Num {
+    v: f64,
+    shown: String,
+}
+
+/// One TOML table and its dotted path (`""` for the root, `"stage[2]"`, `"material"`).
+struct Section<'a> {
+    path: String,
+    table: &'a Table,
+}
+
+impl<'a> Section<'a> {
+    fn root(table: &'a Table) -> Self {
+        Self {
+            path: String::new(),
+            table,
+        }
+    }
+
+    fn key(&self, k: &str) -> String {
+        if self.path.is_empty() {
+            k.to_string()
+        } else {
+            format!("{}.{}", self.path, k)
+        }
+    }
+
+    fn has(&self, k: &str) -> bool {
+        self.table.contains_key(k)
+    }
+}
+
+/// Shows a TOML value as it would be written (strings quoted).
+fn show(v: &Value) -> String {
+    match v {
+        Value::Table(_) => "(a table)".to_string(),
+        other => other.to_string(),
+    }
+}
+
+struct Parser<'a> {
+    file: &'a str,
+}
+
+impl Parser<'_> {
+    fn value_err(
+        &self,
+        key: &str,
+        value: impl Display,
+        allowed: impl Into<String>,
+    ) -> ScenarioError {
+        ScenarioError::Value {
+            file: self.file.to_string(),
+            key: key.to_string(),
+            value: value.to_string(),
+            allowed: allowed.into(),
+        }
+    }
+
+    fn key_err(&self, key: &str, message: impl Into<String>) -> ScenarioError {
+        ScenarioError::Key {
+            file: self.file.to_string(),
+            key: key.to_string(),
+            message: message.into(),
+        }
+    }
+
+    fn parse_toml(&self, text: &str) -> Result<Table> {
+        text.parse::<Table>().map_err(|e| {
+            let offset = e.span().map(|s| s.start).unwrap_or(0).min(text.len());
+            let before = text.get(..offset).unwrap_or(text);
+            let line = before.matches('\n').count() + 1;
+            let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+            ScenarioError::Syntax {
+                file: self.file.to_string(),
+                line,
+                column,
+                message: e.message().trim().to_string(),
+            }
+        })
+    }
+
+    /// Reject keys of `s` not in `allowed`; `context` is appended to the message
+    /// (e.g. ` for law = "constant"`).
+    fn check_keys(&self, s: &Section, allowed: &[&str], context: &str) -> Result<()> {
+        for k in s.table.keys() {
+            if !allowed.contains(&k.as_str()) {
+                return Err(self.key_err(
+                    &s.key(k),
+                    format!("unknown key{context}; allowed here: {}", allowed.join(", ")),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn check_top_level(&self, top: &Section) -> Result<()> {
+        for (k, v) in top.table {
+            if !TOP_KEYS.contains(&k.as_str()) {
+                return Err(match v {
+                    Value::Table(_) => self.key_err(
+                        &format!("[{k}]"),
+                        "unknown section; allowed sections: [material], [adhesion], [sphere], \
+                         [spring], [damping], [base], [contact], [initial], [[stage]], \
+                         [solver], [output]",
+                    ),
+                    _ => self.key_err(
+                        k,
+                        "unknown top-level key; allowed: version (the sections are tables)",
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The sub-table `name` of `parent`, if present.
+    fn section<'t>(&self, parent: &Section<'t>, name: &str) -> Result<Option<Section<'t>>> {
+        match parent.table.get(name) {
+            None => Ok(None),
+            Some(Value::Table(t)) => Ok(Some(Section {
+                path: parent.key(name),
+                table: t,
+            })),
+            Some(v) => Err(self.value_err(
+                &parent.key(name),
+                show(v),
+                format!("must be a table: write [{name}] and its keys on the lines below"),
+            )),
+        }
+    }
+
+    fn number(&self, s: &Section, k: &str, qty: Quantity) -> Result<Option<Num>> {
+        let key = s.key(k);
+        match s.table.get(k) {
+            None => Ok(None),
+            Some(Value::Integer(i)) => Ok(Some(Num {
+                v: *i as f64,
+                shown: i.to_string(),
+            })),
+            Some(Value::Float(f)) => Ok(Some(Num {
+                v: *f,
+                shown: Value::Float(*f).to_string(),
+            })),
+            Some(Value::String(text)) if qty.dim.is_some() => {
+                let dim = qty.dim.unwrap_or(Dimension::Dimensionless);
+                let v = parse_quantity(&key, text, dim)
+                    .map_err(|e| self.value_err(&key, Value::String(text.clone()), e.allowed))?;
+                Ok(Some(Num {
+                    v,
+                    shown: Value::String(text.clone()).to_string(),
+                }))
+            }
+            Some(v) => {
+                let allowed = match qty.dim {
+                    Some(_) => format!(
+                        "must be a number in SI ({}) or a string with a unit such as \"3mm\"",
+                        qty.unit
+                    ),
+                    None => format!("must be a number ({})", qty.unit),
+                };
+                Err(self.value_err(&key, show(v), allowed))
+            }
+        }
+    }
+
+    fn required(&self, s: &Section, k: &str, qty: Quantity, what: &str) -> Result<Num> {
+        self.number(s, k, qty)?
+            .ok_or_else(|| self.key_err(&s.key(k), format!("missing: {what}")))
+    }
+
+    fn string<'t>(&self, s: &Section<'t>, k: &str, choices: &[&str]) -> Result<Option<&'t str>> {
+        let key = s.key(k);
+        let list = || {
+            choices
+                .iter()
+                .map(|c| format!("\"{c}\""))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        match s.table.get(k) {
+            None => Ok(None),
+            Some(Value::String(v)) if choices.is_empty() || choices.contains(&v.as_str()) => {
+                Ok(Some(v.as_str()))
+            }
+            Some(v @ Value::String(_)) => {
+                Err(self.value_err(&key, show(v), format!("must be one of {}", list())))
+            }
+            Some(v) if choices.is_empty() => {
+                Err(self.value_err(&key, show(v), "must be a string (in quotes)"))
+            }
+            Some(v) => Err(self.value_err(
+                &key,
+                show(v),
+                format!("must be a string, one of {}", list()),
+            )),
+        }
+    }
+
+    fn boolean(&self, s: &Section, k: &str) -> Result<Option<bool>> {
+        match s.table.get(k) {
+            None => Ok(None),
+            Some(Value::Boolean(b)) => Ok(Some(*b)),
+            Some(v) => Err(self.value_err(&s.key(k), show(v), "must be true or false")),
+        }
+    }
+
+    fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
+        if n.v.is_finite() && n.v > 0.0 {
+            Ok(n.v)
+        } else {
+            Err(self.value_err(
+                &s.key(k),
+                &n.shown,
+                format!("must be a finite number > 0 ({unit})"),
+            ))
+        }
+    }
+
+    fn non_negative(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
+        if n.v.is_finite() && n.v >= 0.0 {
+            Ok(n.v)
+        } else {
+            Err(self.value_err(
+                &s.key(k),
+                &n.shown,
+                format!("must be a finite number >= 0 ({unit})"),
+            ))
+        }
+    }
+
+    fn req_positive(&self, s: &Section, k: &str, qty: Quantity, what: &str) -> Result<f64> {
+        let n = self.required(s, k, qty, what)?;
+        self.positive(s, k, &n, qty.unit)
+    }
+
+    fn opt_positive(&self, s: &Section, k: &str, qty: Quantity) -> Result<Option<f64>> {
+        match self.number(s, k, qty)? {
+            Some(n) => self.positive(s, k, &n, qty.unit).map(Some),
+            None => Ok(None),
+        }
+    }
+
+    fn version(&self, top: &Section, required: bool) -> Result<()> {
+        match top.table.get("version") {
+            None if required => Err(self.key_err(
+                "version",
+                format!("missing: the first line of a scenario file must be `version = {SCENARIO_VERSION}`"),
+            )),
+            None => Ok(()),
+            Some(Value::Integer(v)) if *v == SCENARIO_VERSION => Ok(()),
+            Some(v @ Value::Integer(_)) => Err(self.value_err(
+                "version",
+                show(v),
+                format!("this djkr reads scenario format version {SCENARIO_VERSION} only"),
+            )),
+            Some(v) => Err(self.value_err(
+                "version",
+                show(v),
+                format!("must be the integer {SCENARIO_VERSION}"),
+            )),
+        }
+    }
+
+    fn material(&self, top: &Section) -> Result<Material> {
+        let s = self.section(top, "material")?.ok_or_else(|| {
+            self.key_err(
+                "[material]",
+                "missing section: give [material] with K (Pa), R (m) and w0 (J/m^2)",
+            )
+        })?;
+        self.check_keys(&s, &["K", "R", "w0"], "")?;
+        let k = self.req_positive(
+            &s,
+            "K",
+            PRESSURE,
+            "JKR elastic constant K = 4E*/3 (Pa, > 0)",
+        )?;
+        let r = self.req_positive(&s, "R", LENGTH, "sphere radius R (m, > 0)")?;
+        let w0 = self.req_positive(
+            &s,
+            "w0",
+            ENERGY_PER_AREA,
+            "quasi-static work of adhesion w0 (J/m^2, > 0)",
+        )?;
+        Ok(Material { k, r, w0 })
+    }
+
+    fn law(&self, top: &Section, m: &Material, base_dir: Option<&Path>) -> Result<Law> {
+        let Some(s) = self.section(top, "adhesion")? else {
+            return Ok(Law::Constant(ConstantW { w0: m.w0 }));
+        };
+        const LAWS: &[&str] = &[
+            "constant",
+            "gent-schultz",
+            "gent-schultz-saturated",
+            "tabulated",
+        ];
+        let law = self.string(&s, "law", LAWS)?.ok_or_else(|| {
+            self.key_err(
+                &s.key("law"),
+                "missing: one of \"constant\", \"gent-schultz\", \"gent-schultz-saturated\", \"tabulated\"",
+            )
+        })?;
+        let context = format!(" for law = \"{law}\"");
+        let param = |e: ParamError| self.value_err(&s.key(&e.name), e.value, e.allowed);
+        match law {
+            "constant" => {
+                self.check_keys(&s, &["law"], &context)?;
+                Ok(Law::Constant(ConstantW { w0: m.w0 }))
+            }
+            "gent-schultz" | "gent-schultz-saturated" => {
+                let saturated = law == "gent-schultz-saturated";
+                let keys: &[&str] = if saturated {
+                    &["law", "v0", "n", "v_sat"]
+                } else {
+                    &["law", "v0", "n"]
+                };
+                self.check_keys(&s, keys, &context)?;
+                let v0 = self.req_positive(
+                    &s,
+                    "v0",
+                    SPEED,
+                    "Gent-Schultz reference speed v0 (m/s, > 0; C = v0^-n)",
+                )?;
+                let n =
+                    self.req_positive(&s, "n", DIMENSIONLESS, "Gent-Schultz exponent n (> 0)")?;
+                if saturated {
+                    let v_sat =
+                        self.req_positive(&s, "v_sat", SPEED, "saturation speed v_sat (m/s, > 0)")?;
+                    Ok(Law::Saturated(
+                        SaturatedGentSchultz::new(m.w0, v0, n, v_sat).map_err(param)?,
+                    ))
+                } else {
+                    Ok(Law::GentSchultz(
+                        GentSchultz::new(m.w0, v0, n).map_err(param)?,
+                    ))
+                }
+            }
+            _ => {
+                self.check_keys(&s, &["law", "file"], &context)?;
+                let file = self.string(&s, "file", &[])?.ok_or_else(|| {
+                    self.key_err(
+                        &s.key("file"),
+                        "missing: a CSV file of two columns, speed (m/s, > 0 healing) and w (J/m^2), relative to the scenario file",
+                    )
+                })?;
+                let key = s.key("file");
+                let shown = Value::String(file.to_string()).to_string();
+                let path = match base_dir {
+                    Some(d) if Path::new(file).is_relative() => d.join(file),
+                    _ => PathBuf::from(file),
+                };
+                let text = std::fs::read_to_string(&path).map_err(|e| {
+                    self.value_err(&key, &shown, format!("cannot read {}: {e}", path.display()))
+                })?;
+                let table = TabulatedLaw::from_csv_str(&text, &path.display().to_string())
+                    .map_err(|e| self.value_err(&key, &shown, e.to_string()))?;
+                let w_table = table.w0();
+                if (w_table - m.w0).abs() > TABLE_W0_RTOL * m.w0 {
+                    return Err(self.value_err(
+                        &key,
+                        &shown,
+                        format!(
+                            "the table gives w(0) = {w_table} J/m^2 but material.w0 = {}; they must agree (to {TABLE_W0_RTOL:e} relative)",
+                            m.w0
+                        ),
+                    ));
+                }
+                Ok(Law::Tabulated(table))
+            }
+        }
+    }
+
+    fn holder(&self, top: &Section) -> Result<Holder> {
+        let Some(s) = self.section(top, "spring")? else {
+            return Ok(Holder::None);
+        };
+        self.check_keys(&s, &["stiffness", "rigid"], "")?;
+        let rigid = self.boolean(&s, "rigid")?;
+        let stiffness = self.number(&s, "stiffness", STIFFNESS)?;
+        match (rigid, stiffness) {
+            (Some(true), Some(_)) => Err(self.key_err(
+                "[spring]",
+                "give either stiffness (N/m) or rigid = true, not both",
+            )),
+            (Some(true), None) => Ok(Holder::Rigid),
+            (_, Some(n)) => Ok(Holder::Spring {
+                stiffness: self.non_negative(&s, "stiffness", &n, STIFFNESS.unit)?,
+            }),
+            (_, None) => Err(self.key_err(
+                &s.key("stiffness"),
+                "missing: give stiffness (N/m, >= 0) or rigid = true (or leave out [spring])",
+            )),
+        }
+    }
+
+    fn sphere(&self, top: &Section, holder: Holder) -> Result<Sphere> {
+        let rigid = matches!(holder, Holder::Rigid);
+        let Some(s) = self.section(top, "sphere")? else {
+            if rigid {
+                return Ok(Sphere {
+                    mass: 0.0,
+                    gravity: DEFAULT_GRAVITY,
+                });
+            }
+            return Err(self.key_err(
+                "sphere.mass",
+                "missing: give [sphere] with mass (kg, >= 0; 0 = quasi-static force balance); \
+                 only a rigid link ([spring] rigid = true) needs no mass",
+            ));
+        };
+        self.check_keys(&s, &["mass", "gravity"], "")?;
+        let mass = match self.number(&s, "mass", MASS)? {
+            Some(n) => self.non_negative(&s, "mass", &n, MASS.unit)?,
+            None if rigid => 0.0,
+            None => {
+                return Err(self.key_err(
+                    &s.key("mass"),
+                    "missing: sphere mass (kg, >= 0; 0 = quasi-static force balance); required unless spring.rigid = true",
+                ))
+            }
+        };
+        let gravity = match self.number(&s, "gravity", ACCELERATION)? {
+            Some(n) => self.non_negative(&s, "gravity", &n, ACCELERATION.unit)?,
+            None => DEFAULT_GRAVITY,
+        };
+        Ok(Sphere { mass, gravity })
+    }
+
+    fn damping(&self, top: &Section) -> Result<Option<Damping>> {
+        let Some(s) = self.section(top, "damping")? else {
+            return Ok(None);
+        };
+        self.check_keys(&s, &["c", "on"], "")?;
+        let n = self.required(&s, "c", DAMPING, "damping coefficient c (N s/m, >= 0)")?;
+        let c = self.non_negative(&s, "c", &n, DAMPING.unit)?;
+        let on = match self.string(&s, "on", &["sphere", "contact"])? {
+            None | Some("sphere") => DampingOn::Sphere,
+            Some(_) => DampingOn::Contact,
+        };
+        Ok(Some(Damping { c, on }))
+    }
+
+    fn base(&self, top: &Section) -> Result<Option<BaseMotion>> {
+        let Some(s) = self.section(top, "base")? else {
+            return Ok(None);
+        };
+        self.check_keys(&s, &["amplitude", "frequency"], "")?;
+        let n = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
+        let amplitude = self.non_negative(&s, "amplitude", &n, LENGTH.unit)?;
+        let frequency =
+            self.req_positive(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
+        Ok(Some(BaseMotion {
+            amplitude,
+            frequency,
+        }))
+    }
+
+    fn formation(&self, top: &Section, m: &Material) -> Result<ContactFormation> {
+        let Some(s) = self.section(top, "contact")? else {
+            return Ok(ContactFormation::JumpIn);
+        };
+        self.check_keys(&s, &["formation", "seed_radius"], "")?;
+        match self.string(&s, "formation", &["jump-in", "seed"])? {
+            Some("seed") => {
+                let n = self.required(
+                    &s,
+                    "seed_radius",
+                    LENGTH,
+                    "seed radius (m, > 0) for formation = \"seed\"",
+                )?;
+                let r = self.positive(&s, "seed_radius", &n, LENGTH.unit)?;
+                let a_jump = jkr::jump_in_radius(m, m.w0);
+                if r > a_jump {
+                    return Err(self.value_err(
+                        &s.key("seed_radius"),
+                        &n.shown,
+                        format!(
+                            "must not exceed the JKR jump-in radius (8 pi w0 R^2 / 3K)^(1/3) = {a_jump:.4e} m of this material"
+                        ),
+                    ));
+                }
+                Ok(ContactFormation::Seed(r))
+            }
+            _ => {
+                if s.has("seed_radius") {
+                    return Err(self.key_err(
+                        &s.key("seed_radius"),
+                        "only used with formation = \"seed\" (the default \"jump-in\" forms the contact at the JKR jump-in radius)",
+                    ));
+                }
+                Ok(ContactFormation::JumpIn)
+            }
+        }
+    }
+
+    fn initial(&self, top: &Section, holder: Holder, sphere: Sphere) -> Result<Initial> {
+        let weight = sphere.mass * sphere.gravity;
+        let no_spring_force = !has_spring_force(holder);
+        let Some(s) = self.section(top, "initial")? else {
+            if no_spring_force && weight > 0.0 {
+                return Ok(Initial::Preload(weight));
+            }
+            return Err(self.key_err(
+                "[initial]",
+                "missing section: give [initial] with preload (N, > 0: static JKR equilibrium under this force) or gap (m, > 0)",
+            ));
+        };
+        self.check_keys(&s, &["preload", "gap"], "")?;
+        let preload = self.opt_positive(&s, "preload", FORCE)?;
+        let gap = self.opt_positive(&s, "gap", LENGTH)?;
+        match (preload, gap) {
+            (Some(_), Some(_)) => {
+                Err(self.key_err("[initial]", "give either preload (N) or gap (m), not both"))
+            }
+            (Some(p), None) => {
+                if no_spring_force && (p - weight).abs() > 1e-9 * weight.max(f64::MIN_POSITIVE) {
+                    return Err(self.value_err(
+                        &s.key("preload"),
+                        p,
+                        format!(
+                            "without a spring force the sphere rests on its own weight, so a static start needs preload = m g = {weight} N (or leave out [initial])"
+                        ),
+                    ));
+                }
+                Ok(Initial::Preload(p))
+            }
+            (None, Some(g)) => Ok(Initial::Gap(g)),
+            (None, None) => {
+                Err(self.key_err("[initial]", "empty: give preload (N, > 0) or gap (m, > 0)"))
+            }
+        }
+    }
+
+    fn stages(&self, top: &Section, holder: Holder, has_base: bool) -> Result<Vec<Stage>> {
+        let list = match top.table.get("stage") {
+            None => {
+                return Err(self.key_err(
+                    "[[stage]]",
+                    "missing: the protocol needs at least one [[stage]] (kind = \"approach\", \"hold\" or \"unload\")",
+                ))
+            }
+            Some(Value::Array(a)) => a,
+            Some(v @ Value::Table(_)) => {
+                return Err(self.value_err(
+                    "stage",
+                    show(v),
+                    "must be an array of tables: write each stage as [[stage]] (two brackets)",
+                ))
+            }
+            Some(v) => {
+                return Err(self.value_err(
+                    "stage",
+                    show(v),
+                    "must be an array of tables: write each stage as [[stage]]",
+                ))
+            }
+        };
+        if list.is_empty() {
+            return Err(self.key_err("stage", "empty: the protocol needs at least one [[stage]]"));
+        }
+        list.iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let path = format!("stage[{i}]");
+                match v {
+                    Value::Table(t) => self.stage(&Section { path, table: t }, holder, has_base),
+                    other => Err(self.value_err(&path, show(other), "must be a table ([[stage]])")),
+                }
+            })
+            .collect()
+    }
+
+    fn stage(&self, s: &Section, holder: Holder, has_base: bool) -> Result<Stage> {
+        self.check_keys(
+            s,
+            &[
+                "kind",
+                "speed",
+                "duration",
+                "preload",
+                "until",
+                "vibration",
+                "max_duration",
+            ],
+            "",
+        )?;
+        let kind = match self.string(s, "kind", &["approach", "hold", "unload"])? {
+            Some("approach") => StageKind::Approach,
+            Some("hold") => StageKind::Hold,
+            Some(_) => StageKind::Unload,
+            None => {
+                return Err(self.key_err(
+                    &s.key("kind"),
+                    "missing: one of \"approach\", \"hold\", \"unload\"",
+                ))
+            }
+        };
+        let kind_name = match kind {
+            StageKind::Approach => "approach",
+            StageKind::Hold => "hold",
+            StageKind::Unload => "unload",
+        };
+        // Speed.
+        let speed = match kind {
+            StageKind::Hold => match self.number(s, "speed", SPEED)? {
+                Some(n) if n.v == 0.0 => 0.0,
+                Some(n) => {
+                    return Err(self.value_err(
+                        &s.key("speed"),
+                        &n.shown,
+                        "a hold keeps the spring end still: leave speed out (or set it to 0)",
+                    ))
+                }
+                None => 0.0,
+            },
+            _ => {
+                if !has_spring_force(holder) {
+                    return Err(self.value_err(
+                        &s.key("kind"),
+                        format!("\"{kind_name}\""),
+                        "moves the spring end, but there is no spring to move: give [spring] with stiffness > 0 (N/m) or rigid = true, or use hold stages only",
+                    ));
+                }
+                self.req_positive(
+                    s,
+                    "speed",
+                    SPEED,
+                    &format!("spring-end speed of the {kind_name} stage (m/s, > 0)"),
+                )?
+            }
+        };
+        // End condition: exactly one of duration, preload, until.
+        let given: Vec<&str> = ["duration", "preload", "until"]
+            .into_iter()
+            .filter(|k| s.has(k))
+            .collect();
+        if given.len() > 1 {
+            return Err(self.key_err(
+                &s.path,
+                format!(
+                    "two end conditions ({}): give exactly one of duration (s), preload (N, approach only) or until = \"pull-off\" (unload only)",
+                    given.join(" and ")
+                ),
+            ));
+        }
+        let until = match given.first().copied() {
+            Some("duration") => {
+                Until::Duration(self.req_positive(s, "duration", TIME, "stage duration (s)")?)
+            }
+            Some("preload") => {
+                if kind != StageKind::Approach {
+                    return Err(self.key_err(
+                        &s.key("preload"),
+                        format!("a preload end is for approach stages only (this is kind = \"{kind_name}\"); use duration or until = \"pull-off\""),
+                    ));
+                }
+                Until::Preload(self.req_positive(s, "preload", FORCE, "compressive preload (N)")?)
+            }
+            Some(_) => {
+                self.string(s, "until", &["pull-off"])?;
+                if kind != StageKind::Unload {
+                    return Err(self.key_err(
+                        &s.key("until"),
+                        format!("until = \"pull-off\" is for unload stages only (this is kind = \"{kind_name}\")"),
+                    ));
+                }
+                Until::PullOff
+            }
+            None => {
+                return Err(self.key_err(
+                    &s.path,
+                    "no end condition: give exactly one of duration (s), preload (N, approach only) or until = \"pull-off\" (unload only)",
+                ))
+            }
+        };
+        let vibration = self.boolean(s, "vibration")?;
+        if vibration == Some(true) && !has_base {
+            return Err(self.value_err(
+                &s.key("vibration"),
+                "true",
+                "no [base] section defines the vibration: add [base] with amplitude (m) and frequency (Hz)",
+            ));
+        }
+        let max_duration = match (until, self.opt_positive(s, "max_duration", TIME)?) {
+            (Until::Duration(d), None) => d,
+            (Until::Duration(_), Some(_)) => {
+                return Err(self.key_err(
+                    &s.key("max_duration"),
+                    "only for stages that end on a preload or at pull-off (a duration end is its own limit)",
+                ))
+            }
+            (_, Some(m)) => m,
+            (_, None) => DEFAULT_MAX_DURATION,
+        };
+        Ok(Stage {
+            kind,
+            speed,
+            until,
+            vibration,
+            max_duration,
+        })
+    }
+
+    fn solver(&self, top: &Section) -> Result<Solver> {
+        let mut solver = Solver::default();
+        let Some(s) = self.section(top, "solver")? else {
+            return Ok(solver);
+        };
+        self.check_keys(
+            &s,
+            &[
+                "method",
+                "rtol",
+                "atol",
+                "max_steps",
+                "max_wall_s",
+                "event_tol",
+            ],
+            "",
+        )?;
+        match self.string(&s, "method", &["auto", "dopri5", "dop853", "implicit"])? {
+            None | Some("auto") => {}
+            Some("dopri5") => solver.method = Method::Dopri5,
+            Some("dop853") => solver.method = Method::Dop853,
+            Some(_) => solver.method = Method::Implicit,
+        }
+        if let Some(n) = self.number(&s, "rtol", DIMENSIONLESS)? {
+            if !(n.v.is_finite() && n.v > 0.0 && n.v <= MAX_RTOL) {
+                return Err(self.value_err(
+                    &s.key("rtol"),
+                    &n.shown,
+                    format!("must lie in (0, {MAX_RTOL:e}] (relative tolerance, dimensionless)"),
+                ));
+            }
+            solver.rtol = n.v;
+        }
+        if let Some(n) = self.number(&s, "atol", DIMENSIONLESS)? {
+            if !(n.v.is_finite() && n.v > 0.0 && n.v <= 1.0) {
+                return Err(self.value_err(
+                    &s.key("atol"),
+                    &n.shown,
+                    "must lie in (0, 1] (absolute tolerance relative to each state component's natural scale, dimensionless)",
+                ));
+            }
+            solver.atol = n.v;
+        }
+        if let Some(v) = s.table.get("max_steps") {
+            let ok = match v {
+                Value::Integer(i) if *i >= 1 => Some(*i as u64),
+                Value::Float(f)
+                    if f.is_finite() && *f >= 1.0 && f.fract() == 0.0 && *f <= 9.0e15 =>
+                {
+                    Some(*f as u64)
+                }
+                _ => None,
+            };
+            solver.max_steps = ok.ok_or_else(|| {
+                self.value_err(
+                    &s.key("max_steps"),
+                    show(v),
+                    "must be a whole number >= 1 (steps)",
+                )
+            })?;
+        }
+        if let Some(w) = self.opt_positive(&s, "max_wall_s", TIME)? {
+            solver.max_wall_s = w;
+        }
+        if let Some(t) = self.opt_positive(&s, "event_tol", TIME)? {
+            solver.event_tol = t;
+        }
+        Ok(solver)
+    }
+
+    fn output(&self, top: &Section) -> Result<Output> {
+        let mut out = Output::default();
+        let Some(s) = self.section(top, "output")? else {
+            return Ok(out);
+        };
+        self.check_keys(&s, &["sample_rate", "csv"], "")?;
+        if let Some(n) = self.number(&s, "sample_rate", RATE)? {
+            out.sample_rate =
+                self.non_negative(&s, "sample_rate", &n, "samples per second; 0 = every step")?;
+        }
+        if let Some(b) = self.boolean(&s, "csv")? {
+            out.csv = b;
+        }
+        Ok(out)
+    }
+}
+
+/// True when the holder can exert a force that the protocol controls (a spring with k > 0, or a
+/// rigid link).
+fn has_spring_force(holder: Holder) -> bool {
+    match holder {
+        Holder::None => false,
+        Holder::Spring { stiffness } => stiffness > 0.0,
+        Holder::Rigid => true,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+version = 1
+[material]
+K = 9.33e6
+R = 0.051
+w0 = 0.240
+[sphere]
+mass = 3e-3
+[spring]
+stiffness = 200
+[initial]
+preload = 0.02
+[[stage]]
+kind = "unload"
+speed = 5e-6
+until = "pull-off"
+"#;
+
+    #[test]
+    fn minimal_scenario_gets_documented_defaults() {
+        let s = parse_scenario(MINIMAL, "min.toml", None).unwrap();
+        assert_eq!(s.material, Material::PAPER);
+        assert_eq!(s.law, Law::Constant(ConstantW { w0: 0.24 }));
+        assert_eq!(
+            s.sphere,
+            Sphere {
+                mass: 3e-3,
+                gravity: DEFAULT_GRAVITY
+            }
+        );
+        assert_eq!(s.holder, Holder::Spring { stiffness: 200.0 });
+        assert_eq!(s.damping, None);
+        assert_eq!(s.base, None);
+        assert_eq!(s.formation, ContactFormation::JumpIn);
+        assert_eq!(s.initial, Initial::Preload(0.02));
+        assert_eq!(s.solver, Solver::default());
+        assert_eq!(s.output, Output::default());
+        assert_eq!(
+            s.stages,
+            vec![Stage {
+                kind: StageKind::Unload,
+                speed: 5e-6,
+                until: Until::PullOff,
+                vibration: None,
+                max_duration: DEFAULT_MAX_DURATION,
+            }]
+        );
+        assert_eq!(s.source_text, MINIMAL);
+        assert_eq!(s.source_name, "min.toml");
+    }
+
+    #[test]
+    fn quantities_with_units_are_converted_to_si() {
+        let text = MINIMAL
+            .replace("R = 0.051", "R = \"51mm\"")
+            .replace("stiffness = 200", "stiffness = \"0.2N/mm\"")
+            .replace("speed = 5e-6", "speed = \"5um/s\"");
+        let s = parse_scenario(&text, "u.toml", None).unwrap();
+        assert!((s.material.r - 0.051).abs() < 1e-15);
+        assert_eq!(s.holder, Holder::Spring { stiffness: 200.0 });
+        assert!((s.stages[0].speed - 5e-6).abs() < 1e-20);
+        let e = parse_scenario(
+            &MINIMAL.replace("R = 0.051", "R = \"51Hz\""),
+            "u.toml",
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.starts_with("u.toml: material.R = \"51Hz\": unknown unit 'Hz'"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn error_display_names_file_key_value_and_range() {
+        let e = parse_scenario(
+            &MINIMAL.replace("speed = 5e-6", "speed = -1"),
+            "scenarios/x.toml",
+            None,
+        )
+        .unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "scenarios/x.toml: stage[0].speed = -1: must be a finite number > 0 (m/s)"
+        );
+        assert_eq!(e.key(), Some("stage[0].speed"));
+        assert_eq!(e.file(), "scenarios/x.toml");
+    }
+
+    #[test]
+    fn syntax_error_reports_line_and_column() {
+        let text = "version = 1\n[material]\nK = = 3\n";
+        let e = parse_scenario(text, "s.toml", None).unwrap_err();
+        match e {
+            ScenarioError::Syntax { line, column, .. } => {
+                assert_eq!(line, 3);
+                assert!(column >= 3, "column {column}");
+            }
+            other => panic!("expected a syntax error, got {other}"),
+        }
+    }
+
+    #[test]
+    fn material_and_law_ignores_the_protocol_but_checks_unknown_sections() {
+        let text = "[material]\nK = 1e6\nR = 0.01\nw0 = 0.1\n[adhesion]\nlaw = \"gent-schultz\"\nv0 = 1e-5\nn = 0.5\n";
+        let (m, law) = parse_material_and_law(text, "m.toml", None).unwrap();
+        assert_eq!(
+            m,
+            Material {
+                k: 1e6,
+                r: 0.01,
+                w0: 0.1
+            }
+        );
+        assert_eq!(
+            law,
+            Law::GentSchultz(GentSchultz {
+                w0: 0.1,
+                v0: 1e-5,
+                n: 0.5
+            })
+        );
+        let (_, law) = parse_material_and_law(MINIMAL, "min.toml", None).unwrap();
+        assert_eq!(law, Law::Constant(ConstantW { w0: 0.24 }));
+        let e = parse_material_and_law(&format!("{text}[bogus]\nx = 1\n"), "m.toml", None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("[bogus]"), "{e}");
+    }
+
+    #[test]
+    fn no_spring_defaults_the_initial_state_to_the_weight() {
+        let text = MINIMAL
+            .replace("[spring]\nstiffness = 200\n", "")
+            .replace("[initial]\npreload = 0.02\n", "")
+            .replace(
+                "kind = \"unload\"\nspeed = 5e-6\nuntil = \"pull-off\"",
+                "kind = \"hold\"\nduration = 1.0",
+            );
+        let s = parse_scenario(&text, "w.toml", None).unwrap();
+        assert_eq!(s.holder, Holder::None);
+        assert_eq!(s.initial, Initial::Preload(3e-3 * DEFAULT_GRAVITY));
+    }
+}
