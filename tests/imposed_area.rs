@@ -346,6 +346,30 @@ fn paper_pull_off_facts() {
     assert!((25.0..45.0).contains(&amp_max), "{amp_max}");
 }
 
+/// Fig. 2 (200 Hz, a_A = 1 mm): with contact kept (a_m = 1.5 mm) the indentation peaks near
+/// π/2 and bottoms near π, as the paper notes (the basis of its estimate (14)-(15)).
+#[test]
+fn fig2_extrema_near_half_pi_and_pi() {
+    let law = GentSchultz::PAPER;
+    let omega = 2.0 * PI * 200.0;
+    let n = 20_000;
+    let (mut mx, mut mn) = ((0.0, f64::MIN), (0.0, f64::MAX));
+    for i in 0..n {
+        let th = 2.0 * PI * i as f64 / n as f64;
+        let d = indentation_at(&M, &law, omega, 1.5e-3, 1e-3, th);
+        if d > mx.1 {
+            mx = (th, d);
+        }
+        if d < mn.1 {
+            mn = (th, d);
+        }
+    }
+    assert!((mx.0 / PI - 0.5).abs() < 0.05, "max at {} pi", mx.0 / PI);
+    assert!((mn.0 / PI - 1.0).abs() < 0.1, "min at {} pi", mn.0 / PI);
+    // Out of contact the indentation is 0 (a_m = 33 µm: a < 0 around 3π/2).
+    assert!(indentation_at(&M, &law, omega, 33e-6, 1e-3, 1.5 * PI).abs() < f64::MIN_POSITIVE);
+}
+
 /// Convergence study (prints a table): relative error of F_m and δ_A against the graded
 /// Gauss–Legendre reference, for tanh-sinh rules of growing size.
 #[test]
