@@ -3,6 +3,11 @@
 //! [`types`] holds what a run produces and the observer interface; the driver and the models live
 //! beside it.
 
+pub mod driver;
+pub mod esdirk;
+pub mod explicit;
+pub mod model;
 pub mod types;
 
+pub use driver::{simulate, SimError};
 pub use types::*;

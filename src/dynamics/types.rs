@@ -103,6 +103,64 @@ pub struct RunResult {
     pub method: String,
     /// Final state.
     pub final_state: Sample,
+    /// Per-cycle records (exact quadratures over each base period while the shaker is on).
+    pub cycles: Vec<CycleRecord>,
+}
+
+/// Exact averages over one base period, from quadrature states integrated with the solution
+/// (not from decimated output). Harmonics use θ = ω (t − t_on): a signal s(t) over the cycle is
+/// `mean + sin · sin θ + cos · cos θ + …` with `sin = (2/T) ∫ s sin θ dt`, `cos = (2/T) ∫ s cos θ dt`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CycleRecord {
+    /// Cycle index since the shaker last switched on (0-based).
+    pub index: u64,
+    /// Stage index at the end of the cycle.
+    pub stage: usize,
+    /// Start time (s).
+    pub t_start: f64,
+    /// End time (s).
+    pub t_end: f64,
+    /// Cycle-mean contact force ⟨F⟩ (N).
+    pub force_mean: f64,
+    /// First harmonic of F, sine part (N).
+    pub force_sin: f64,
+    /// First harmonic of F, cosine part (N).
+    pub force_cos: f64,
+    /// ⟨δ⟩ (m).
+    pub delta_mean: f64,
+    /// First harmonic of δ, sine part (m).
+    pub delta_sin: f64,
+    /// First harmonic of δ, cosine part (m).
+    pub delta_cos: f64,
+    /// ⟨a⟩ (m).
+    pub a_mean: f64,
+    /// First harmonic of a, sine part (m).
+    pub a_sin: f64,
+    /// First harmonic of a, cosine part (m).
+    pub a_cos: f64,
+    /// ⟨x_s⟩ (m).
+    pub x_s_mean: f64,
+    /// ⟨x_k⟩ (m).
+    pub x_k_mean: f64,
+    /// Mean force of the holder on the sphere, down + (N): k (⟨x_k⟩ − ⟨x_s⟩) for a spring, F − m g
+    /// for a rigid link (its reaction), 0 without a holder.
+    pub spring_mean: f64,
+    /// First harmonic of the holder force, sine part (N).
+    pub spring_sin: f64,
+    /// First harmonic of the holder force, cosine part (N).
+    pub spring_cos: f64,
+    /// Work done by the base on the sphere–contact system over the cycle (J).
+    pub work_base: f64,
+    /// Work done by the moving spring end over the cycle (J).
+    pub work_holder: f64,
+    /// Energy dissipated by viscous damping over the cycle (J).
+    pub dissipation_damping: f64,
+    /// Energy dissipated by the rate-dependent adhesion, ∫ (w0 − w) 2πa ȧ dt (J).
+    pub dissipation_adhesion: f64,
+    /// Total mechanical energy at the start of the cycle (J; see `dynamics::model::total_energy`).
+    pub energy_start: f64,
+    /// Total mechanical energy at the end of the cycle (J).
+    pub energy_end: f64,
 }
 
 /// Watches a run. The driver calls `sample` at the output cadence and `event` for each located
@@ -116,6 +174,10 @@ pub trait Observer {
     /// A located event.
     fn event(&mut self, e: &Event) {
         let _ = e;
+    }
+    /// A completed base-period record (only while the shaker is on).
+    fn cycle(&mut self, c: &CycleRecord) {
+        let _ = c;
     }
 }
 
@@ -131,6 +193,8 @@ pub struct Recorder {
     pub samples: Vec<Sample>,
     /// Events, in time order.
     pub events: Vec<Event>,
+    /// Cycle records, in time order.
+    pub cycles: Vec<CycleRecord>,
 }
 
 impl Observer for Recorder {
@@ -140,5 +204,8 @@ impl Observer for Recorder {
     }
     fn event(&mut self, e: &Event) {
         self.events.push(*e);
+    }
+    fn cycle(&mut self, c: &CycleRecord) {
+        self.cycles.push(*c);
     }
 }

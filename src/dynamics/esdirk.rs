@@ -1,0 +1,464 @@
+//! The implicit stepper: Kennedy & Carpenter's ESDIRK4(3)6L[2]SA (the implicit half of
+//! ARK4(3)6L[2]SA, coefficients as SUNDIALS ARKODE ships them), applied to the whole state
+//! (x_s, v_s, a), with the quadrature states integrated by the same weights.
+//!
+//! Each implicit stage reduces to one scalar monotone root: at fixed a the mechanical stage
+//! equations are linear in (x_s, v_s) (F is linear in δ at fixed a), so they are eliminated in
+//! closed form ([`Model::position`]); what remains is the contact-radius equation in its forward
+//! form G_s(a_i, δ_i(a_i)) = w(ȧ_i) with ȧ_i = (a_i − c_i)/(hγ), which has no infinite speeds
+//! anywhere (a compressive edge, G ≤ 0, and a constant w, where it becomes the algebraic
+//! G = w0, are all harmless). The root is the *upward* crossing of
+//! ρ(a) = (G_s − w)/w0 nearest the predictor, bracketed by geometric expansion and refined by
+//! Brent (`roots::find_root_brent` with [`RelativeConvergency`]). No root with a > 0 means the
+//! contact collapses within the stage: the step fails ([`StepFail::NoRoot`]) and the driver
+//! shrinks it; when it cannot be shrunk further the contact is lost.
+//!
+//! The method is stiffly accurate (y_{n+1} is the last stage, so ȧ at the step end is the
+//! exact rate of the new state and is reused as the first, explicit stage of the next step) and
+//! L-stable: the healing stiffness ∂ȧ/∂a ≈ −4aȧ/(nRu) costs no stability restriction.
+
+use super::model::{Kinematics, Mechanics, Model, NQ};
+use crate::jkr;
+use crate::numerics::RelativeConvergency;
+
+/// Number of stages.
+pub const S: usize = 6;
+/// Diagonal coefficient γ.
+pub const GAMMA: f64 = 0.25;
+
+/// Butcher coefficients A (lower triangular, diagonal γ from the second stage on).
+pub const A: [[f64; S]; S] = [
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    [0.25, 0.25, 0.0, 0.0, 0.0, 0.0],
+    [8611.0 / 62500.0, -1743.0 / 31250.0, 0.25, 0.0, 0.0, 0.0],
+    [
+        5012029.0 / 34652500.0,
+        -654441.0 / 2922500.0,
+        174375.0 / 388108.0,
+        0.25,
+        0.0,
+        0.0,
+    ],
+    [
+        15267082809.0 / 155376265600.0,
+        -71443401.0 / 120774400.0,
+        730878875.0 / 902184768.0,
+        2285395.0 / 8070912.0,
+        0.25,
+        0.0,
+    ],
+    [
+        82889.0 / 524892.0,
+        0.0,
+        15625.0 / 83664.0,
+        69875.0 / 102672.0,
+        -2260.0 / 8211.0,
+        0.25,
+    ],
+];
+/// Weights of the 4th-order solution (= the last row of A: stiffly accurate).
+pub const B: [f64; S] = A[5];
+/// Weights of the embedded 3rd-order solution.
+pub const BHAT: [f64; S] = [
+    4586570599.0 / 29645900160.0,
+    0.0,
+    178811875.0 / 945068544.0,
+    814220225.0 / 1159782912.0,
+    -3700637.0 / 11593932.0,
+    61727.0 / 225920.0,
+];
+/// Nodes.
+pub const C: [f64; S] = [0.0, 0.5, 83.0 / 250.0, 31.0 / 50.0, 17.0 / 20.0, 1.0];
+
+/// The integrated state at one time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct State {
+    /// Time (s).
+    pub t: f64,
+    /// Sphere position x_s (m).
+    pub x: f64,
+    /// Sphere velocity (m/s).
+    pub v: f64,
+    /// Sphere acceleration (m/s²; derived, kept for dense output).
+    pub acc: f64,
+    /// Contact radius (m; 0 out of contact).
+    pub a: f64,
+    /// ȧ (m/s): the exact rate of this state (first stage of the next step).
+    pub adot: f64,
+    /// In contact.
+    pub contact: bool,
+    /// Quadrature states.
+    pub q: [f64; NQ],
+}
+
+/// Why a step attempt failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepFail {
+    /// A stage found no contact radius a > 0: the contact collapses within the step.
+    NoRoot,
+    /// A stage produced a non-finite value.
+    NonFinite,
+}
+
+/// A completed step attempt.
+#[derive(Debug, Clone, Copy)]
+pub struct StepOut {
+    /// The state at t + h.
+    pub y: State,
+    /// Weighted RMS error estimate (accept when ≤ 1).
+    pub err: f64,
+    /// Residual / right-hand-side evaluations spent.
+    pub evals: u64,
+}
+
+/// Tolerances of the error norm.
+#[derive(Debug, Clone, Copy)]
+pub struct Tol {
+    /// Relative tolerance.
+    pub rtol: f64,
+    /// Absolute tolerance relative to each component's natural scale.
+    pub atol: f64,
+}
+
+/// Find the contact radius of an implicit stage: the upward zero crossing of `rho` (a function of
+/// a, increasing through its root) nearest to the predictor `a_p`. Returns `None` when no
+/// crossing exists with a > 0.
+pub fn solve_radius<F: FnMut(f64) -> f64>(
+    mut rho: F,
+    a_p: f64,
+    step0: f64,
+    evals: &mut u64,
+) -> Option<f64> {
+    let mut eval = |a: f64| {
+        *evals += 1;
+        rho(a)
+    };
+    let r_p = eval(a_p);
+    if !r_p.is_finite() {
+        return None;
+    }
+    if r_p == 0.0 {
+        return Some(a_p);
+    }
+    let mut d = step0.max(4.0 * f64::EPSILON * a_p);
+    let (lo, hi, rlo, rhi);
+    if r_p < 0.0 {
+        let mut l = a_p;
+        let mut rl = r_p;
+        loop {
+            let h = a_p + d;
+            let r = eval(h);
+            if !r.is_finite() {
+                return None;
+            }
+            if r >= 0.0 {
+                (lo, hi, rlo, rhi) = (l, h, rl, r);
+                break;
+            }
+            l = h;
+            rl = r;
+            d *= 4.0;
+            if d > 1e12 * a_p.max(step0) {
+                return None;
+            }
+        }
+    } else {
+        let mut h = a_p;
+        let mut rh = r_p;
+        let mut last = false;
+        loop {
+            let mut l = a_p - d;
+            if l <= 0.0 {
+                l = a_p * 1e-12;
+                last = true;
+            }
+            let r = eval(l);
+            if r.is_finite() && r < 0.0 {
+                (lo, hi, rlo, rhi) = (l, h, r, rh);
+                break;
+            }
+            if last {
+                return None;
+            }
+            h = l;
+            rh = if r.is_finite() { r } else { f64::INFINITY };
+            d *= 4.0;
+        }
+    }
+    if rhi == 0.0 {
+        return Some(hi);
+    }
+    let _ = rlo;
+    let mut conv = RelativeConvergency {
+        x_rel: 8.0 * f64::EPSILON,
+        x_abs: 1e-300,
+        f_abs: 0.0,
+        max_iter: 100,
+    };
+    match roots::find_root_brent(lo, hi, &mut eval, &mut conv) {
+        Ok(a) if a > 0.0 => Some(a),
+        Ok(_) => None,
+        // The bracket is valid, so only the iteration limit can fail: take its midpoint.
+        Err(_) => Some(0.5 * (lo + hi)),
+    }
+}
+
+/// Values at one stage.
+#[derive(Debug, Clone, Copy)]
+struct Stage {
+    x: f64,
+    v: f64,
+    a: f64,
+    fx: f64,
+    fv: f64,
+    fa: f64,
+    fq: [f64; NQ],
+}
+
+/// Evaluate the explicit derivatives at a state (used for the first stage and after resets).
+pub fn derivatives(model: &Model, kin: &Kinematics, y: &State) -> (f64, [f64; NQ]) {
+    let acc = match model.mech {
+        Mechanics::Dynamic => model.accel(kin, y.x, y.v, y.a, y.contact),
+        _ => 0.0,
+    };
+    let w = if y.contact {
+        model.work_of_adhesion(y.adot)
+    } else {
+        model.w0
+    };
+    let fq = model.integrands(kin, y.x, y.v, y.a, y.adot, w, y.contact);
+    (acc, fq)
+}
+
+/// Solve one implicit stage (also used alone as a backward-Euler step with `hg` = h).
+/// `xk`, `vk`, `ck` are the known parts of x, v, a; returns the stage values.
+#[allow(clippy::too_many_arguments)]
+fn implicit_stage(
+    model: &Model,
+    kin: &Kinematics,
+    contact: bool,
+    xk: f64,
+    vk: f64,
+    ck: f64,
+    hg: f64,
+    adot_guess: f64,
+    evals: &mut u64,
+) -> Result<Stage, StepFail> {
+    let (a, adot, w) = if contact {
+        let mat = &model.mat;
+        let w0 = model.w0;
+        let rho = |a: f64| {
+            if a <= 0.0 {
+                return f64::NAN;
+            }
+            let ad = (a - ck) / hg;
+            let (x, _) = model.position(kin, a, ad, true, xk, vk, hg);
+            let g = jkr::signed_energy_release_rate(mat, a, x + kin.xb);
+            (g - model.work_of_adhesion(ad)) / w0
+        };
+        let mut a_p = ck + hg * adot_guess;
+        if !(a_p > 0.0 && a_p.is_finite()) {
+            a_p = if ck > 0.0 { ck } else { model.a_floor };
+        }
+        let step0 = (1e-3 * (a_p - ck).abs()).max(1e-10 * a_p);
+        let a = solve_radius(rho, a_p, step0, evals).ok_or(StepFail::NoRoot)?;
+        let ad = (a - ck) / hg;
+        (a, ad, model.work_of_adhesion(ad))
+    } else {
+        (0.0, 0.0, model.w0)
+    };
+    let (x, v) = model.position(kin, a, adot, contact, xk, vk, hg);
+    let fv = match model.mech {
+        Mechanics::Dynamic => model.accel(kin, x, v, a, contact),
+        _ => 0.0,
+    };
+    *evals += 1;
+    let fq = model.integrands(kin, x, v, a, adot, w, contact);
+    if !(x.is_finite() && v.is_finite() && a.is_finite() && adot.is_finite() && fv.is_finite()) {
+        return Err(StepFail::NonFinite);
+    }
+    Ok(Stage {
+        x,
+        v,
+        a,
+        fx: v,
+        fv,
+        fa: adot,
+        fq,
+    })
+}
+
+/// One ESDIRK step of size h from y (the drive must not change within the step).
+pub fn step(
+    model: &Model,
+    drive: &super::model::Drive,
+    y: &State,
+    h: f64,
+    tol: Tol,
+) -> Result<StepOut, StepFail> {
+    let mut evals = 0u64;
+    let kin0 = drive.at(model, y.t);
+    let (acc0, fq0) = derivatives(model, &kin0, y);
+    evals += 1;
+    let mut st = [Stage {
+        x: y.x,
+        v: y.v,
+        a: y.a,
+        fx: y.v,
+        fv: acc0,
+        fa: if y.contact { y.adot } else { 0.0 },
+        fq: fq0,
+    }; S];
+    let hg = h * GAMMA;
+    for i in 1..S {
+        let t = y.t + C[i] * h;
+        let kin = drive.at(model, t);
+        let (mut xk, mut vk, mut ck) = (y.x, y.v, y.a);
+        for j in 0..i {
+            let aij = A[i][j];
+            if aij != 0.0 {
+                xk += h * aij * st[j].fx;
+                vk += h * aij * st[j].fv;
+                ck += h * aij * st[j].fa;
+            }
+        }
+        let guess = st[i - 1].fa;
+        st[i] = implicit_stage(model, &kin, y.contact, xk, vk, ck, hg, guess, &mut evals)?;
+    }
+    let last = st[S - 1];
+    let mut qn = y.q;
+    for (k, qk) in qn.iter_mut().enumerate() {
+        let mut s = 0.0;
+        for (j, stj) in st.iter().enumerate() {
+            s += B[j] * stj.fq[k];
+        }
+        *qk += h * s;
+    }
+    // Error estimate: h Σ (b − b̂) f for the integrated components.
+    let (mut ex, mut ev, mut ea) = (0.0, 0.0, 0.0);
+    for (j, stj) in st.iter().enumerate() {
+        let e = B[j] - BHAT[j];
+        ex += e * stj.fx;
+        ev += e * stj.fv;
+        ea += e * stj.fa;
+    }
+    let (ex, ev, ea) = (h * ex, h * ev, h * ea);
+    let mut sum = 0.0;
+    let mut n = 0;
+    if model.mech == Mechanics::Dynamic {
+        let sx = tol.atol * model.len_scale + tol.rtol * y.x.abs().max(last.x.abs());
+        let sv = tol.atol * model.vel_scale + tol.rtol * y.v.abs().max(last.v.abs());
+        sum += (ex / sx).powi(2) + (ev / sv).powi(2);
+        n += 2;
+    }
+    if y.contact {
+        let sa = tol.atol * model.a_jump + tol.rtol * y.a.abs().max(last.a.abs());
+        sum += (ea / sa).powi(2);
+        n += 1;
+    }
+    let err = if n > 0 { (sum / n as f64).sqrt() } else { 0.0 };
+    if !err.is_finite() || qn.iter().any(|v| !v.is_finite()) {
+        return Err(StepFail::NonFinite);
+    }
+    Ok(StepOut {
+        y: State {
+            t: y.t + h,
+            x: last.x,
+            v: last.v,
+            acc: last.fv,
+            a: last.a,
+            adot: last.fa,
+            contact: y.contact,
+            q: qn,
+        },
+        err,
+        evals,
+    })
+}
+
+/// One backward-Euler step of size h (first order, L-stable): used right after a contact forms
+/// from a seed, where the healing rate of the reset state is practically infinite. The rate ȧ
+/// it returns is the exact rate of its end state, so the ESDIRK can continue from there.
+pub fn backward_euler(
+    model: &Model,
+    drive: &super::model::Drive,
+    y: &State,
+    h: f64,
+) -> Result<StepOut, StepFail> {
+    let mut evals = 0;
+    let kin = drive.at(model, y.t + h);
+    let kin0 = drive.at(model, y.t);
+    let (_, fq0) = derivatives(model, &kin0, y);
+    let st = implicit_stage(model, &kin, y.contact, y.x, y.v, y.a, h, 0.0, &mut evals)?;
+    let mut qn = y.q;
+    for (k, qk) in qn.iter_mut().enumerate() {
+        *qk += 0.5 * h * (fq0[k] + st.fq[k]);
+    }
+    Ok(StepOut {
+        y: State {
+            t: y.t + h,
+            x: st.x,
+            v: st.v,
+            acc: st.fv,
+            a: st.a,
+            adot: st.fa,
+            contact: y.contact,
+            q: qn,
+        },
+        err: 0.0,
+        evals,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn order_conditions() {
+        let c = C;
+        for i in 0..S {
+            let s: f64 = A[i].iter().sum();
+            assert!((s - c[i]).abs() < 1e-14, "row {i}");
+        }
+        let dot = |u: &[f64; S], v: &[f64; S]| u.iter().zip(v).map(|(a, b)| a * b).sum::<f64>();
+        let ac = |v: &[f64; S]| {
+            let mut r = [0.0; S];
+            for i in 0..S {
+                r[i] = (0..S).map(|j| A[i][j] * v[j]).sum();
+            }
+            r
+        };
+        let c2: [f64; S] = c.map(|x| x * x);
+        let c3: [f64; S] = c.map(|x| x * x * x);
+        let one = [1.0; S];
+        for (w, p) in [(B, 4), (BHAT, 3)] {
+            let mut conds = vec![
+                (dot(&w, &one), 1.0),
+                (dot(&w, &c), 0.5),
+                (dot(&w, &c2), 1.0 / 3.0),
+                (dot(&w, &ac(&c)), 1.0 / 6.0),
+            ];
+            if p >= 4 {
+                let cac: [f64; S] = {
+                    let t = ac(&c);
+                    let mut r = [0.0; S];
+                    for i in 0..S {
+                        r[i] = c[i] * t[i];
+                    }
+                    r
+                };
+                conds.push((dot(&w, &c3), 0.25));
+                conds.push((dot(&w, &cac), 0.125));
+                conds.push((dot(&w, &ac(&c2)), 1.0 / 12.0));
+                conds.push((dot(&w, &ac(&ac(&c))), 1.0 / 24.0));
+            }
+            for (k, (got, want)) in conds.iter().enumerate() {
+                assert!(
+                    (got - want).abs() < 1e-12,
+                    "order {p} condition {k}: {got} vs {want}"
+                );
+            }
+        }
+    }
+}

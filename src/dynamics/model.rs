@@ -1,0 +1,514 @@
+//! The resolved model of a scene and the pure physics of one instant: positions of the drive
+//! (spring end, base), the mechanical balance, quadrature integrands and the total energy.
+//!
+//! Everything here is allocation-free and SI. The driver ([`super::driver`]) owns the time loop;
+//! the stepper ([`super::esdirk`]) calls these functions at its stages.
+
+use crate::adhesion::{AdhesionLaw, Law};
+use crate::jkr;
+use crate::material::Material;
+use crate::scenario::{DampingOn, Holder, Scenario};
+use std::f64::consts::PI;
+
+/// Number of quadrature states carried along with the solution.
+pub const NQ: usize = 18;
+
+/// Indices of the quadrature states (each is ∫ … dt from the start of the run).
+pub mod q {
+    /// ∫ F dt.
+    pub const F: usize = 0;
+    /// ∫ F sin θ dt.
+    pub const F_SIN: usize = 1;
+    /// ∫ F cos θ dt.
+    pub const F_COS: usize = 2;
+    /// ∫ δ dt.
+    pub const DELTA: usize = 3;
+    /// ∫ δ sin θ dt.
+    pub const DELTA_SIN: usize = 4;
+    /// ∫ δ cos θ dt.
+    pub const DELTA_COS: usize = 5;
+    /// ∫ a dt.
+    pub const A: usize = 6;
+    /// ∫ a sin θ dt.
+    pub const A_SIN: usize = 7;
+    /// ∫ a cos θ dt.
+    pub const A_COS: usize = 8;
+    /// ∫ x_s dt.
+    pub const XS: usize = 9;
+    /// ∫ x_k dt.
+    pub const XK: usize = 10;
+    /// ∫ holder force dt.
+    pub const SPRING: usize = 11;
+    /// ∫ holder force sin θ dt.
+    pub const SPRING_SIN: usize = 12;
+    /// ∫ holder force cos θ dt.
+    pub const SPRING_COS: usize = 13;
+    /// Work of the base: ∫ F_b ẋ_b dt with F_b the force transmitted through the contact.
+    pub const W_BASE: usize = 14;
+    /// Viscous dissipation ∫ c ẋ² dt (or c δ̇² for contact damping).
+    pub const D_DAMP: usize = 15;
+    /// Adhesive dissipation ∫ (w0 − w) 2πa ȧ dt.
+    pub const D_ADH: usize = 16;
+    /// Work of the moving spring end ∫ k (x_k − x_s) ẋ_k dt.
+    pub const W_HOLDER: usize = 17;
+}
+
+/// How the sphere's position is determined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mechanics {
+    /// Inertia: eq. (30) integrated for (x_s, v_s).
+    Dynamic,
+    /// m = 0 without damping: the force balance k (x_k − x_s) = F(a, x_s + x_b) gives x_s in closed
+    /// form at each a (F is linear in δ at fixed a); only a is integrated.
+    QuasiStatic,
+    /// Rigid link: x_s = x_k(t); only a is integrated.
+    Rigid,
+}
+
+/// The scene's constants, resolved from a [`Scenario`].
+#[derive(Debug, Clone)]
+pub struct Model {
+    /// Contact pair.
+    pub mat: Material,
+    /// Adhesion law.
+    pub law: Law,
+    /// w0 of the law (J/m²).
+    pub w0: f64,
+    /// True for a rate-independent law (a algebraic: G = w0).
+    pub rate_independent: bool,
+    /// Mass (kg).
+    pub m: f64,
+    /// Gravity (m/s²).
+    pub g: f64,
+    /// Spring stiffness (N/m; 0 without a holder or for a rigid link).
+    pub k: f64,
+    /// True without a holder (k = 0).
+    pub free_holder: bool,
+    /// Damping coefficient (N s/m).
+    pub c: f64,
+    /// Damping acts on δ̇ while in contact (otherwise on ẋ_s).
+    pub contact_damping: bool,
+    /// Mechanical model.
+    pub mech: Mechanics,
+    /// Base angular frequency ω (rad/s; 0 without base motion).
+    pub omega: f64,
+    /// Base amplitude X_b (m; 0 without base motion).
+    pub xb_amp: f64,
+    /// JKR jump-in radius at w0 (m): the radius scale.
+    pub a_jump: f64,
+    /// Contact-loss radius (m): contact is lost when a falls to this value.
+    pub a_floor: f64,
+    /// Length scale for the error norm (m).
+    pub len_scale: f64,
+    /// Velocity scale for the error norm (m/s).
+    pub vel_scale: f64,
+    /// Characteristic time (s): the shortest of the base period and the free contact period.
+    pub t_char: f64,
+}
+
+/// Why a scene cannot be simulated as given.
+pub fn resolve(s: &Scenario) -> Result<Model, String> {
+    let mat = s.material;
+    let w0 = s.law.w0();
+    let ok = |v: f64| v.is_finite();
+    if !(ok(mat.k) && mat.k > 0.0 && ok(mat.r) && mat.r > 0.0 && ok(w0) && w0 > 0.0) {
+        return Err(format!(
+            "material K = {}, R = {} and law w0 = {} must be finite and > 0",
+            mat.k, mat.r, w0
+        ));
+    }
+    let m = s.sphere.mass;
+    let g = s.sphere.gravity;
+    if !(ok(m) && m >= 0.0 && ok(g)) {
+        return Err(format!(
+            "sphere mass = {m} (>= 0) and gravity = {g} must be finite"
+        ));
+    }
+    let (k, free_holder, rigid) = match s.holder {
+        Holder::None => (0.0, true, false),
+        Holder::Spring { stiffness } => {
+            if !(ok(stiffness) && stiffness > 0.0) {
+                return Err(format!(
+                    "spring stiffness = {stiffness} must be finite and > 0"
+                ));
+            }
+            (stiffness, false, false)
+        }
+        Holder::Rigid => (0.0, false, true),
+    };
+    let (c, contact_damping) = match s.damping {
+        Some(d) => {
+            if !(ok(d.c) && d.c >= 0.0) {
+                return Err(format!("damping c = {} must be finite and >= 0", d.c));
+            }
+            (d.c, d.on == DampingOn::Contact)
+        }
+        None => (0.0, false),
+    };
+    let mech = if rigid {
+        Mechanics::Rigid
+    } else if m == 0.0 {
+        if free_holder {
+            return Err(
+                "mass = 0 with holder = none leaves the sphere undetermined: give it a mass or a holder"
+                    .into(),
+            );
+        }
+        if c > 0.0 {
+            return Err(
+                "mass = 0 with damping is not supported (the quasi-static balance is \
+                 undamped): give the sphere a mass, or remove the damping"
+                    .into(),
+            );
+        }
+        Mechanics::QuasiStatic
+    } else {
+        Mechanics::Dynamic
+    };
+    let (omega, xb_amp) = match s.base {
+        Some(b) => {
+            if !(ok(b.amplitude) && b.amplitude >= 0.0 && ok(b.frequency) && b.frequency > 0.0) {
+                return Err(format!(
+                    "base amplitude = {} (>= 0) and frequency = {} (> 0) must be finite",
+                    b.amplitude, b.frequency
+                ));
+            }
+            (2.0 * PI * b.frequency, b.amplitude)
+        }
+        None => (0.0, 0.0),
+    };
+    let a_jump = jkr::jump_in_radius(&mat, w0);
+    let seed = match s.formation {
+        crate::scenario::ContactFormation::JumpIn => a_jump,
+        crate::scenario::ContactFormation::Seed(r) => {
+            if !(ok(r) && r > 0.0) {
+                return Err(format!("contact seed radius = {r} must be finite and > 0"));
+            }
+            r
+        }
+    };
+    let a_floor = (1e-3 * a_jump).min(0.1 * seed);
+    let mut len_scale = (a_jump * a_jump / mat.r).max(xb_amp);
+    if let crate::scenario::Initial::Gap(g0) = s.initial {
+        len_scale = len_scale.max(g0.abs());
+    }
+    let kc = jkr::contact_stiffness(&mat, a_jump);
+    let mut t_char = f64::INFINITY;
+    if mech == Mechanics::Dynamic {
+        t_char = 2.0 * PI * (m / (k + kc)).sqrt();
+    }
+    if omega > 0.0 {
+        t_char = t_char.min(2.0 * PI / omega);
+    }
+    if !t_char.is_finite() {
+        // Quasi-static scenes: the time scale of the protocol (spring-end motion).
+        let v = s
+            .stages
+            .iter()
+            .map(|st| st.speed)
+            .filter(|v| *v > 0.0)
+            .fold(0.0_f64, f64::max);
+        t_char = if v > 0.0 { len_scale / v } else { 1.0 };
+    }
+    let vel_scale = len_scale * 2.0 * PI / t_char;
+    Ok(Model {
+        mat,
+        law: s.law.clone(),
+        w0,
+        rate_independent: s.law.is_rate_independent(),
+        m,
+        g,
+        k,
+        free_holder,
+        c,
+        contact_damping,
+        mech,
+        omega,
+        xb_amp,
+        a_jump,
+        a_floor,
+        len_scale,
+        vel_scale,
+        t_char,
+    })
+}
+
+/// The prescribed motions during one stretch of a stage: the spring end moves linearly, the base
+/// oscillates while the shaker is on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drive {
+    /// Spring-end position at `tk0` (m).
+    pub xk0: f64,
+    /// Reference time of the spring-end line (s).
+    pub tk0: f64,
+    /// Spring-end speed (m/s, signed: + towards the substrate).
+    pub xk_speed: f64,
+    /// Shaker on.
+    pub shaker: bool,
+    /// Time the shaker switched on (s).
+    pub t_on: f64,
+}
+
+/// Prescribed quantities at one time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Kinematics {
+    /// x_k (m).
+    pub xk: f64,
+    /// ẋ_k (m/s).
+    pub vk: f64,
+    /// x_b (m).
+    pub xb: f64,
+    /// ẋ_b (m/s).
+    pub vb: f64,
+    /// sin θ (0 with the shaker off).
+    pub sin: f64,
+    /// cos θ (0 with the shaker off).
+    pub cos: f64,
+}
+
+impl Drive {
+    /// Spring-end position at t.
+    #[inline]
+    pub fn x_k(&self, t: f64) -> f64 {
+        self.xk0 + self.xk_speed * (t - self.tk0)
+    }
+
+    /// Prescribed quantities at t (one sin_cos per call).
+    #[inline]
+    pub fn at(&self, m: &Model, t: f64) -> Kinematics {
+        let (xb, vb, sin, cos) = if self.shaker && m.omega > 0.0 {
+            let (s, c) = (m.omega * (t - self.t_on)).sin_cos();
+            (m.xb_amp * s, m.xb_amp * m.omega * c, s, c)
+        } else {
+            (0.0, 0.0, 0.0, 0.0)
+        };
+        Kinematics {
+            xk: self.x_k(t),
+            vk: self.xk_speed,
+            xb,
+            vb,
+            sin,
+            cos,
+        }
+    }
+}
+
+impl Model {
+    /// Contact stiffness and the a-only part of the force: F = kc δ − f0 with kc = 3Ka/2,
+    /// f0 = K a³/(2R); both 0 out of contact.
+    #[inline]
+    fn contact_terms(&self, a: f64, contact: bool) -> (f64, f64) {
+        if contact {
+            (
+                1.5 * self.mat.k * a,
+                0.5 * self.mat.k * a * a * a / self.mat.r,
+            )
+        } else {
+            (0.0, 0.0)
+        }
+    }
+
+    /// Damping coefficient on the sphere velocity and the one on the base velocity (the force is
+    /// −c_v v − c_b ẋ_b).
+    #[inline]
+    fn damping_terms(&self, contact: bool) -> (f64, f64) {
+        if self.contact_damping {
+            if contact {
+                (self.c, self.c)
+            } else {
+                (0.0, 0.0)
+            }
+        } else {
+            (self.c, 0.0)
+        }
+    }
+
+    /// Total force on the sphere, down + (N): −c ẋ − k(x − x_k) − F + m g (eq. 30).
+    #[inline]
+    pub fn net_force(&self, kin: &Kinematics, x: f64, v: f64, a: f64, contact: bool) -> f64 {
+        let (kc, f0) = self.contact_terms(a, contact);
+        let (cv, cb) = self.damping_terms(contact);
+        -cv * v - cb * kin.vb - self.k * (x - kin.xk) - (kc * (x + kin.xb) - f0) + self.m * self.g
+    }
+
+    /// Acceleration (Dynamic mechanics).
+    #[inline]
+    pub fn accel(&self, kin: &Kinematics, x: f64, v: f64, a: f64, contact: bool) -> f64 {
+        self.net_force(kin, x, v, a, contact) / self.m
+    }
+
+    /// Sphere position and velocity at a stage with known contact radius a.
+    ///
+    /// Dynamic: the implicit stage x = X + hγ v, m v = m V + hγ f(x, v) is linear in (x, v) at
+    /// fixed a (F is linear in δ), solved in closed form. QuasiStatic: the force balance (with
+    /// the velocity by the chain rule, using ȧ = `adot`). Rigid: x = x_k.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn position(
+        &self,
+        kin: &Kinematics,
+        a: f64,
+        adot: f64,
+        contact: bool,
+        xk_known: f64,
+        vk_known: f64,
+        hg: f64,
+    ) -> (f64, f64) {
+        match self.mech {
+            Mechanics::Dynamic => {
+                let (kc, f0) = self.contact_terms(a, contact);
+                let (cv, cb) = self.damping_terms(contact);
+                let b0 = -cb * kin.vb + self.k * kin.xk - kc * kin.xb + f0 + self.m * self.g;
+                let kt = self.k + kc;
+                let den = self.m + hg * cv + hg * hg * kt;
+                let v = (self.m * vk_known + hg * (b0 - kt * xk_known)) / den;
+                (xk_known + hg * v, v)
+            }
+            Mechanics::QuasiStatic => {
+                if contact {
+                    let kk = self.mat.k;
+                    let r = self.mat.r;
+                    let kc = 1.5 * kk * a;
+                    let n = self.k * kin.xk - kc * kin.xb + 0.5 * kk * a * a * a / r;
+                    let d = self.k + kc;
+                    let x = n / d;
+                    let dn = self.k * kin.vk - kc * kin.vb
+                        + adot * (-1.5 * kk * kin.xb + 1.5 * kk * a * a / r);
+                    let dd = 1.5 * kk * adot;
+                    (x, (dn - x * dd) / d)
+                } else {
+                    (kin.xk, kin.vk)
+                }
+            }
+            Mechanics::Rigid => (kin.xk, kin.vk),
+        }
+    }
+
+    /// Contact force F(a, δ) (0 out of contact).
+    #[inline]
+    pub fn force(&self, a: f64, delta: f64, contact: bool) -> f64 {
+        if contact {
+            jkr::contact_force(&self.mat, a, delta)
+        } else {
+            0.0
+        }
+    }
+
+    /// Force of the holder on the sphere, down +: k (x_k − x_s) for a spring; for a rigid link its
+    /// reaction F − m g (quasi-static); 0 without a holder.
+    #[inline]
+    pub fn holder_force(&self, kin: &Kinematics, x: f64, force: f64) -> f64 {
+        match self.mech {
+            Mechanics::Rigid => force - self.m * self.g,
+            _ => self.k * (kin.xk - x),
+        }
+    }
+
+    /// Work of adhesion at rate ȧ (w0 for a rate-independent law).
+    #[inline]
+    pub fn work_of_adhesion(&self, adot: f64) -> f64 {
+        if self.rate_independent {
+            self.w0
+        } else {
+            self.law.work_of_adhesion(adot)
+        }
+    }
+
+    /// Integrands of the quadrature states at one instant; `w` is w(ȧ) (already known).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn integrands(
+        &self,
+        kin: &Kinematics,
+        x: f64,
+        v: f64,
+        a: f64,
+        adot: f64,
+        w: f64,
+        contact: bool,
+    ) -> [f64; NQ] {
+        let delta = x + kin.xb;
+        let f = self.force(a, delta, contact);
+        let fs = self.holder_force(kin, x, f);
+        let (s, c) = (kin.sin, kin.cos);
+        let ddot = v + kin.vb;
+        let (fb, diss) = if self.contact_damping {
+            if contact {
+                (f + self.c * ddot, self.c * ddot * ddot)
+            } else {
+                (0.0, 0.0)
+            }
+        } else {
+            (f, self.c * v * v)
+        };
+        let dadh = if contact && !self.rate_independent {
+            (self.w0 - w) * 2.0 * PI * a * adot
+        } else {
+            0.0
+        };
+        let whold = match self.mech {
+            Mechanics::Rigid => 0.0,
+            _ => fs * kin.vk,
+        };
+        let a = if contact { a } else { 0.0 };
+        [
+            f,
+            f * s,
+            f * c,
+            delta,
+            delta * s,
+            delta * c,
+            a,
+            a * s,
+            a * c,
+            x,
+            kin.xk,
+            fs,
+            fs * s,
+            fs * c,
+            fb * kin.vb,
+            diss,
+            dadh,
+            whold,
+        ]
+    }
+}
+
+/// Elastic energy stored in a contact of radius a at indentation δ (J):
+/// U = (3K/4) a δ² − (K/2) a³ δ / R + (3K/20) a⁵ / R², so that ∂U/∂δ = F and ∂U/∂a = 2πa G
+/// (derivation: integrate F over δ at fixed a, fix the a-dependent constant by ∂U/∂a = (3K/4) u²).
+pub fn elastic_energy(m: &Material, a: f64, delta: f64) -> f64 {
+    let (k, r) = (m.k, m.r);
+    0.75 * k * a * delta * delta - 0.5 * k * a * a * a * delta / r + 0.15 * k * a.powi(5) / (r * r)
+}
+
+/// Total mechanical energy (J): ½ m v² + ½ k (x − x_k)² − m g x + U(a, δ) − w0 π a². Its rate is
+/// (base work) + (spring-end work) − (viscous dissipation) − (adhesive dissipation), which the
+/// quadrature states integrate (see [`q`]).
+pub fn total_energy(model: &Model, kin: &Kinematics, x: f64, v: f64, a: f64, contact: bool) -> f64 {
+    let mut e =
+        0.5 * model.m * v * v + 0.5 * model.k * (x - kin.xk).powi(2) - model.m * model.g * x;
+    if contact {
+        e += elastic_energy(&model.mat, a, x + kin.xb) - model.w0 * PI * a * a;
+    }
+    e
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn elastic_energy_derivatives() {
+        let m = Material::PAPER;
+        let (a, d) = (1e-3, 5e-6);
+        let h = 1e-9;
+        let df = (elastic_energy(&m, a, d + h) - elastic_energy(&m, a, d - h)) / (2.0 * h);
+        let f = jkr::contact_force(&m, a, d);
+        assert!((df - f).abs() < 1e-6 * f.abs());
+        let ha = 1e-9;
+        let da = (elastic_energy(&m, a + ha, d) - elastic_energy(&m, a - ha, d)) / (2.0 * ha);
+        let g = jkr::energy_release_rate(&m, a, d);
+        assert!((da - 2.0 * PI * a * g).abs() < 1e-6 * (2.0 * PI * a * g));
+    }
+}
