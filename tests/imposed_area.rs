@@ -370,6 +370,63 @@ fn fig2_extrema_near_half_pi_and_pi() {
     assert!(indentation_at(&M, &law, omega, 33e-6, 1e-3, 1.5 * PI).abs() < f64::MIN_POSITIVE);
 }
 
+/// Mean force by a plain uniform rule with `n` samples per cycle (what a time-stepping average
+/// does), through the public point functions.
+fn uniform_force_mean(law: &GentSchultz, omega: f64, a_m: f64, a_a: f64, n: usize) -> f64 {
+    let mut f = 0.0;
+    for i in 0..n {
+        let th = 2.0 * PI * i as f64 / n as f64;
+        let a = (a_m + a_a * th.sin()).max(0.0);
+        f += jkr::contact_force(&M, a, indentation_at(&M, law, omega, a_m, a_a, th));
+    }
+    f / n as f64
+}
+
+#[test]
+fn uniform_sampling_converges_slowly() {
+    // The kinks |cos θ|^n in w make a uniform rule converge only like N^-(1 + n/2): at the paper's
+    // pull-off point (200 Hz, a_A = 1.2 mm) it underestimates |F_m| by several per cent with a few
+    // tens of samples per cycle, and is still far from 1e-9 with a thousand.
+    let law = GentSchultz::PAPER;
+    let omega = 2.0 * PI * 200.0;
+    let p = pull_off(&M, &law, omega, 1.2e-3).unwrap();
+    let a_m = p.cycle.a_mean_imposed;
+    let errs: Vec<f64> = [32, 64, 128, 256, 512, 1024]
+        .iter()
+        .map(|&n| rel(uniform_force_mean(&law, omega, a_m, 1.2e-3, n), p.force))
+        .collect();
+    assert!(errs[0] > 2e-2, "{errs:?}");
+    assert!(errs.windows(2).all(|w| w[1] < w[0]), "{errs:?}");
+    assert!(errs[5] > 1e-5 && errs[5] < 1e-3, "{errs:?}");
+}
+
+/// Amplification at pull-off when F_m is averaged with a uniform rule of N samples per cycle
+/// (minimised over a fine a_m grid), against the kink-aware value (prints).
+#[test]
+#[ignore]
+fn study_uniform_sampling_amplification() {
+    let law = GentSchultz::PAPER;
+    for &f in &[200.0, 400.0] {
+        let omega = 2.0 * PI * f;
+        for &a_a in &[0.5e-3, 1.2e-3] {
+            let p = pull_off(&M, &law, omega, a_a).unwrap();
+            for &n in &[16usize, 32, 64, 128, 1024] {
+                let best = (0..=400)
+                    .map(|j| {
+                        let a_m = p.cycle.a_mean_imposed - 0.5e-3 + 1e-3 * j as f64 / 400.0;
+                        uniform_force_mean(&law, omega, a_m, a_a, n)
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                println!(
+                    "f {f} Hz a_A {a_a:e}: N {n:5} amplification {:.3} (kink-aware {:.3})",
+                    best / M.static_pull_off_force(),
+                    p.amplification
+                );
+            }
+        }
+    }
+}
+
 /// Convergence study (prints a table): relative error of F_m and δ_A against the graded
 /// Gauss–Legendre reference, for tanh-sinh rules of growing size.
 #[test]
