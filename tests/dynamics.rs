@@ -155,3 +155,174 @@ fn rigid_link_pull_off_is_displacement_controlled() {
     assert!((loss.state.force / f_dc - 1.0).abs() < 1e-4);
     assert!(r.detached);
 }
+
+/// The impact time of the ramp-driven oscillator, located by the driver, against the closed form
+/// root of x(t) = 0 (bisection on the closed form), and its convergence with the tolerances.
+#[test]
+fn impact_time_converges_to_closed_form() {
+    let g0 = 2e-5;
+    let v = 2e-3;
+    let w = (10.0f64 / 1e-3).sqrt();
+    let x = |t: f64| -g0 + v * t - v / w * (w * t).sin();
+    // First root: scan, then bisect.
+    let mut t = 0.0;
+    while x(t) < 0.0 {
+        t += 1e-4;
+    }
+    let (mut lo, mut hi): (f64, f64) = (t - 1e-4, t);
+    for _ in 0..200 {
+        let m = 0.5 * (lo + hi);
+        if x(m) < 0.0 {
+            lo = m
+        } else {
+            hi = m
+        }
+    }
+    let t_ref = 0.5 * (lo + hi);
+    let mut errs = vec![];
+    for (rtol, etol) in [(1e-6, 1e-8), (1e-8, 1e-10), (1e-10, 1e-13)] {
+        let mut s = scene();
+        s.initial = Initial::Gap(g0);
+        s.solver.rtol = rtol;
+        s.solver.event_tol = etol;
+        s.stages = vec![stage(StageKind::Approach, v, Until::Duration(0.1), None)];
+        let (r, _) = run(&s);
+        let imp = first(&r, EventKind::Impact).expect("impact");
+        errs.push((imp.time - t_ref).abs());
+    }
+    println!("t_ref {t_ref}, errors {errs:?}");
+    assert!(errs[2] < 1e-11, "{errs:?}");
+    assert!(errs[2] < errs[0]);
+}
+
+fn gs() -> Law {
+    Law::GentSchultz(GentSchultz::PAPER)
+}
+
+/// Gent–Schultz law through a rigid link, quasi-static unload: the most tensile force exceeds the
+/// static −3/2 πRw0 (rate effect) and tends to it as the unload speed → 0.
+#[test]
+fn gs_rigid_unload_rate_effect_vanishes_slowly() {
+    let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
+    let mut amps = vec![];
+    for v in [1e-7, 1e-9, 1e-11] {
+        let mut s = scene();
+        s.law = gs();
+        s.holder = Holder::Rigid;
+        s.stages = vec![stage(StageKind::Unload, v, Until::PullOff, None)];
+        let (r, _) = run(&s);
+        assert!(r.detached);
+        amps.push(r.pull_off.force / f0);
+        println!("v {v:e}: amplification {} {:?}", r.pull_off.force / f0, r.stats);
+    }
+    assert!(amps[0] > amps[1] && amps[1] > amps[2] && amps[2] > 1.0, "{amps:?}");
+    assert!(amps[2] - 1.0 < 0.02, "{amps:?}");
+}
+
+/// The paper's material on a 3 g sphere, 200 N/m spring, light damping, 300 Hz shaker.
+fn vibrating(xb: f64) -> Scenario {
+    let mut s = scene();
+    s.law = gs();
+    s.sphere = Sphere {
+        mass: 3e-3,
+        gravity: 9.81,
+    };
+    s.holder = Holder::Spring { stiffness: 200.0 };
+    s.damping = Some(Damping {
+        c: 0.02,
+        on: DampingOn::Sphere,
+    });
+    s.base = Some(BaseMotion {
+        amplitude: xb,
+        frequency: 300.0,
+    });
+    s.initial = Initial::Preload(0.02);
+    s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.05), Some(true))];
+    s
+}
+
+/// Over every cycle, exactly (to integration accuracy): momentum balance
+/// ⟨F⟩ − m g − ⟨F_spring⟩ = −(m Δv + c Δx)/T, and energy balance
+/// ΔE = W_base + W_holder − D_damping − D_adhesion. In periodic steady state Δv = Δx = 0, so the
+/// first is ⟨F⟩ = m g − k(⟨x_s⟩ − x_k).
+#[test]
+fn cycle_balances_hold() {
+    let s = vibrating(2e-6);
+    let (r, rec) = run(&s);
+    assert!(r.cycles.len() >= 14, "{}", r.cycles.len());
+    assert_eq!(rec.cycles.len(), r.cycles.len());
+    let at = |t: f64| {
+        rec.samples
+            .iter()
+            .find(|x| x.t == t)
+            .copied()
+            .expect("sample at cycle boundary")
+    };
+    let (m, g, c) = (3e-3, 9.81, 0.02);
+    let mut worst_mom = 0.0f64;
+    let mut worst_en = 0.0f64;
+    for cy in &r.cycles {
+        let (s0, s1) = (at(cy.t_start), at(cy.t_end));
+        let tt = cy.t_end - cy.t_start;
+        let lhs = cy.force_mean - m * g - cy.spring_mean;
+        let rhs = -(m * (s1.v_s - s0.v_s) + c * (s1.x_s - s0.x_s)) / tt;
+        worst_mom = worst_mom.max((lhs - rhs).abs() / cy.force_sin.hypot(cy.force_cos));
+        let de = cy.energy_end - cy.energy_start;
+        let budget = cy.work_base + cy.work_holder - cy.dissipation_damping - cy.dissipation_adhesion;
+        worst_en = worst_en.max((de - budget).abs() / cy.work_base.abs());
+    }
+    let last = r.cycles.last().unwrap();
+    let ss = (last.force_mean - (m * g + last.spring_mean)).abs() / last.force_sin.hypot(last.force_cos);
+    println!("momentum {worst_mom:e}, energy {worst_en:e}, steady-state residual {ss:e}, {:?}", r.stats);
+    assert!(worst_mom < 1e-7);
+    assert!(worst_en < 1e-6);
+    assert!(last.dissipation_adhesion > 0.0 && last.dissipation_damping > 0.0);
+}
+
+/// In periodic steady state (heavier damping so the transient dies within the run) the
+/// cycle-averaged contact force equals m g − k(⟨x_s⟩ − x_k).
+#[test]
+fn steady_state_force_balance() {
+    let mut s = vibrating(2e-6);
+    s.damping = Some(Damping {
+        c: 0.5,
+        on: DampingOn::Sphere,
+    });
+    s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.15), Some(true))];
+    let (r, _) = run(&s);
+    let last = r.cycles.last().unwrap();
+    let k = 200.0;
+    let balance = 3e-3 * 9.81 - k * (last.x_s_mean - last.x_k_mean);
+    let amp = last.force_sin.hypot(last.force_cos);
+    println!("<F> {} balance {} amplitude {amp} {:?}", last.force_mean, balance, r.stats);
+    assert!((last.force_mean - balance).abs() < 1e-5 * amp);
+}
+
+/// A large-amplitude shaker that breaks and re-makes the contact every cycle: no NaN, a ≥ 0,
+/// finite forces, and the events alternate.
+#[test]
+fn repeated_impacts_stay_finite() {
+    let cases = [
+        (Law::Constant(ConstantW { w0: M.w0 }), ContactFormation::JumpIn, 20e-6),
+        (Law::Constant(ConstantW { w0: M.w0 }), ContactFormation::Seed(1e-5), 20e-6),
+        (gs(), ContactFormation::Seed(1e-5), 150e-6),
+        (gs(), ContactFormation::JumpIn, 150e-6),
+    ];
+    for (law, formation, xb) in cases {
+        let mut s = vibrating(xb);
+        s.law = law.clone();
+        s.formation = formation;
+        s.initial = Initial::Preload(0.005);
+        s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.03), Some(true))];
+        let (r, rec) = run(&s);
+        let losses = r.events.iter().filter(|e| e.kind == EventKind::ContactLoss).count();
+        let impacts = r.events.iter().filter(|e| e.kind == EventKind::Impact).count();
+        println!("{formation:?}: {losses} losses, {impacts} impacts, {:?}", r.stats);
+        if matches!(law, Law::Constant(_)) {
+            assert!(losses >= 3 && impacts >= 3, "{losses} {impacts}");
+        }
+        for smp in &rec.samples {
+            assert!(smp.a >= 0.0 && smp.a.is_finite() && smp.force.is_finite() && smp.x_s.is_finite());
+        }
+    }
+}
