@@ -124,9 +124,9 @@ fn check_material(m: &Material) -> Result<(), ParamError> {
 /// Accuracy: ~1e-11 relative in F_m or better for laws that are smooth in ȧ except at ȧ = 0
 /// (Gent–Schultz, saturated Gent–Schultz, constant). A law with kinks at other speeds is
 /// integrated across them: [`crate::adhesion::TabulatedLaw`] (piecewise linear in asinh ȧ) gives
-/// ~2e-5 relative for a 61-point table of the paper's law at 400 Hz. Splitting at the table
-/// speeds would restore full accuracy but needs the law to expose them, which
-/// [`AdhesionLaw`] does not.
+/// ~2e-5 relative for a 61-point table of the paper's law at 400 Hz; [`cycle_with_kinks`] splits
+/// at given kink speeds and restores full accuracy ([`AdhesionLaw`] does not expose a law's kinks,
+/// so the caller passes them).
 pub fn cycle<L: AdhesionLaw + ?Sized>(
     m: &Material,
     law: &L,
@@ -159,6 +159,53 @@ fn cycle_unchecked<L: AdhesionLaw + ?Sized>(
     a_m: f64,
     a_a: f64,
     rule: &QuadratureRule,
+) -> Cycle {
+    cycle_pieces(m, law, omega, a_m, a_a, rule, &[])
+}
+
+/// One imposed-area cycle with the cycle also split where |ȧ| equals one of `kink_speeds` (m/s,
+/// sign ignored): for laws with kinks away from ȧ = 0, e.g. a [`crate::adhesion::TabulatedLaw`]
+/// (pass its table speeds). Each speed v < a_A ω adds the break points φ = asin(v/(a_A ω)) and
+/// π − φ, so each piece is smooth inside and tanh-sinh keeps its accuracy. Same checks as
+/// [`cycle`], plus finite kink speeds.
+pub fn cycle_with_kinks<L: AdhesionLaw + ?Sized>(
+    m: &Material,
+    law: &L,
+    omega: f64,
+    a_mean: f64,
+    a_amp: f64,
+    rule: &QuadratureRule,
+    kink_speeds: &[f64],
+) -> Result<Cycle, ParamError> {
+    check_material(m)?;
+    check_inputs(omega, a_mean, a_amp)?;
+    if let Some(v) = kink_speeds.iter().find(|v| !v.is_finite()) {
+        return Err(ParamError::new(
+            "kink_speeds",
+            v,
+            "must be finite speeds (m/s)",
+        ));
+    }
+    Ok(cycle_pieces(
+        m,
+        law,
+        omega,
+        a_mean,
+        a_amp,
+        rule,
+        kink_speeds,
+    ))
+}
+
+/// The cycle, integrated piecewise over [0, Φ] split at the φ where |ȧ| hits a kink speed.
+fn cycle_pieces<L: AdhesionLaw + ?Sized>(
+    m: &Material,
+    law: &L,
+    omega: f64,
+    a_m: f64,
+    a_a: f64,
+    rule: &QuadratureRule,
+    kink_speeds: &[f64],
 ) -> Cycle {
     let k = m.k;
     let r = m.r;
@@ -194,26 +241,27 @@ fn cycle_unchecked<L: AdhesionLaw + ?Sized>(
         out.evaluations = 1;
         return out;
     }
-    // Half-width of the contact interval in φ.
+    // Half-width Φ of the contact interval in φ; atan2 keeps it accurate where acos would be
+    // ill-conditioned (a_m → ±a_A).
     let truncated = a_m < a_a;
     let (phi_end, sin_end, cos_end) = if truncated {
-        let c = -a_m / a_a; // cos Φ
-        let s = ((a_a - a_m) * (a_a + a_m)).max(0.0).sqrt() / a_a; // sin Φ
-                                                                   // atan2 keeps Φ accurate where acos is ill-conditioned (a_m → ±a_A).
+        let c = -a_m / a_a;
+        let s = ((a_a - a_m) * (a_a + a_m)).max(0.0).sqrt() / a_a;
         (s.atan2(c), s, c)
     } else {
         (PI, 0.0, -1.0)
     };
     let base = if truncated { 0.0 } else { a_m - a_a };
     let two_r = 2.0 / r;
-    // [Σ(δh+δp), Σ(δh+δp)cosφ, Σ(δh−δp)sinφ, Σ(Fh+Fp), Σ slope]
-    let sums = rule.integrate_n(0.0, phi_end, |_phi, d0, d1| {
+    // Integrand at distances d0 = φ and d1 = Φ − φ, each accurate near its own end:
+    // [(δh+δp), (δh+δp)cosφ, (δh−δp)sinφ, (Fh+Fp), slope].
+    let node = |d0: f64, d1: f64| -> [f64; 5] {
         // sin φ, cos φ from the nearer end.
         let (sin_phi, cos_phi) = if d0 <= d1 {
             d0.sin_cos()
         } else {
             let (sd, cd) = d1.sin_cos();
-            // φ = Φ − d.
+            // φ = Φ − d1.
             (sin_end * cd - cos_end * sd, cos_end * cd + sin_end * sd)
         };
         let half = (0.5 * d1).sin();
@@ -230,7 +278,37 @@ fn cycle_unchecked<L: AdhesionLaw + ?Sized>(
         let fsum = k * a * (a2r - 1.5 * g * s);
         let slope = 6.0 * k * a * a / r - 2.25 * k * g * s;
         [dsum, dsum * cos_phi, g * dd * sin_phi, fsum, slope]
-    });
+    };
+    let mut sums = [0.0; 5];
+    let mut pieces = 1;
+    if kink_speeds.is_empty() {
+        sums = rule.integrate_n(0.0, phi_end, |_, d0, d1| node(d0, d1));
+    } else {
+        let mut cuts: Vec<f64> = kink_speeds
+            .iter()
+            .map(|v| v.abs() / speed)
+            .filter(|&x| x > 0.0 && x <= 1.0)
+            .flat_map(|x| {
+                let p = x.asin();
+                [p, PI - p]
+            })
+            .filter(|&p| p > 0.0 && p < phi_end)
+            .collect();
+        cuts.push(0.0);
+        cuts.push(phi_end);
+        cuts.sort_by(f64::total_cmp);
+        cuts.dedup_by(|x, y| (*x - *y).abs() <= 4.0 * f64::EPSILON * PI);
+        pieces = cuts.len() - 1;
+        for win in cuts.windows(2) {
+            let (p0, p1) = (win[0], win[1]);
+            // Distances to the cycle's own ends stay exact in the first and last piece.
+            let tail = phi_end - p1;
+            let part = rule.integrate_n(p0, p1, |_, dl, dr| node(p0 + dl, tail + dr));
+            for (s, v) in sums.iter_mut().zip(part) {
+                *s += v;
+            }
+        }
+    }
     let inv2pi = 0.5 / PI;
     out.a_mean = (a_m * phi_end + a_a * sin_end) / PI;
     out.delta_mean = sums[0] * inv2pi;
@@ -240,7 +318,7 @@ fn cycle_unchecked<L: AdhesionLaw + ?Sized>(
     out.force_mean = sums[3] * inv2pi;
     out.force_slope = sums[4] * inv2pi;
     out.contact_fraction = phi_end / PI;
-    out.evaluations = 2 * rule.len();
+    out.evaluations = 2 * rule.len() * pieces;
     out
 }
 
