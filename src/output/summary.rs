@@ -1,0 +1,254 @@
+//! `summary.json`: the run's headline numbers, machine-readable.
+//!
+//! ```json
+//! {
+//!   "format_version": 1,
+//!   "djkr_version": "0.1.0",
+//!   "scenario": "scenarios/paper-protocol-300hz.toml",
+//!   "method": "dopri5 (auto: ...)",
+//!   "detached": true,
+//!   "pull_off": {"amplification": 1.7, "force": -0.098, "time": 12.3},
+//!   "stats": {"rejected": 12, "rhs_evals": 7000, "steps": 1000, "wall_s": 0.4},
+//!   "samples": 1000,
+//!   "final_state": {"F": 0.0, "G": 0.0, "a": 0.0, ..., "stage": 3, "t": 12.4, ...},
+//!   "cycles": {"count": 3600, "last": {"force_mean": -0.05, "index": 3599, ...}},
+//!   "event_counts": {"impact": 3, "pull-off": 1, ...},
+//!   "units": {"F": "N", "pull_off.force": "N", "t": "s", ...},
+//!   "files": {"hdf5": "run.h5", "timeseries_csv": "timeseries.csv", ...},
+//!   "non_finite": {"pull_off.force": "NaN"},
+//!   "events": [
+//!     {"kind": "stage-start", "stage": 0, "state": {...}, "time": 0.0},
+//!     ...
+//!   ]
+//! }
+//! ```
+//!
+//! Top-level keys come one per line in this order, and events one per line, so the file diffs
+//! and greps well even with thousands of impacts.
+//!
+//! **Non-finite rule.** JSON has no NaN or infinity (serde_json would write `null`, which then fails
+//! to read back as a number). A non-finite number is therefore *omitted* from its object and its
+//! dotted path recorded in `non_finite` with its value spelled `"NaN"`, `"inf"` or `"-inf"` —
+//! e.g. a run that never detached may have no `pull_off.time` and
+//! `"non_finite": {"pull_off.time": "NaN"}`. Readers treat a number field as optional and look in
+//! `non_finite` when it is missing. `non_finite` is always present (empty when all is finite).
+
+use std::collections::BTreeMap;
+
+use serde_json::{Map, Value};
+
+use super::cycles::{cycle_table, cycle_unit, CycleColumn};
+use super::hdf5_file::kind_name;
+use super::timeseries::{stage_index, SERIES, STAGE, STAGE_UNIT};
+use crate::dynamics::types::{RunResult, Sample};
+use crate::scenario::Scenario;
+
+/// Version of the summary layout, stored as `format_version`.
+pub const SUMMARY_VERSION: i64 = 1;
+
+/// File names (relative to the output directory) listed under `files`.
+#[derive(Debug, Clone, Default)]
+pub struct SummaryFiles {
+    /// The HDF5 file.
+    pub hdf5: String,
+    /// The time-series CSV, when written.
+    pub timeseries_csv: Option<String>,
+    /// The events CSV, when written.
+    pub events_csv: Option<String>,
+    /// The cycles CSV, when written.
+    pub cycles_csv: Option<String>,
+}
+
+/// Builds JSON objects while applying the non-finite rule.
+#[derive(Default)]
+struct Builder {
+    non_finite: BTreeMap<String, Value>,
+}
+
+impl Builder {
+    fn put(&mut self, map: &mut Map<String, Value>, prefix: &str, key: &str, x: f64) {
+        match serde_json::Number::from_f64(x) {
+            Some(n) if x.is_finite() => {
+                map.insert(key.to_string(), Value::Number(n));
+            }
+            _ => {
+                let text = if x.is_nan() {
+                    "NaN"
+                } else if x > 0.0 {
+                    "inf"
+                } else {
+                    "-inf"
+                };
+                self.non_finite
+                    .insert(format!("{prefix}{key}"), Value::String(text.to_string()));
+            }
+        }
+    }
+
+    fn state(&mut self, prefix: &str, s: &Sample) -> Value {
+        let mut m = Map::new();
+        for def in SERIES.iter() {
+            self.put(&mut m, prefix, def.name, def.value(s));
+        }
+        m.insert(STAGE.to_string(), Value::from(stage_index(s.stage)));
+        Value::Object(m)
+    }
+}
+
+/// The units of every number in the summary (keys as in the file; state keys as in the HDF5
+/// datasets).
+pub fn units() -> BTreeMap<String, String> {
+    let mut u: BTreeMap<String, String> = SERIES
+        .iter()
+        .map(|c| (c.name.to_string(), c.unit.to_string()))
+        .collect();
+    u.insert(STAGE.into(), STAGE_UNIT.into());
+    for (k, v) in [
+        ("pull_off.force", "N"),
+        ("pull_off.amplification", "1"),
+        ("pull_off.time", "s"),
+        ("events.time", "s"),
+        ("stats.wall_s", "s"),
+        ("stats.steps", "1"),
+        ("stats.rejected", "1"),
+        ("stats.rhs_evals", "1"),
+    ] {
+        u.insert(k.into(), v.into());
+    }
+    u
+}
+
+/// The summary as JSON text (layout and non-finite rule in the module doc). `samples` is the
+/// number of time-series samples written.
+pub fn summary_json(
+    scenario: &Scenario,
+    result: &RunResult,
+    samples: usize,
+    files: &SummaryFiles,
+) -> String {
+    let mut b = Builder::default();
+
+    let mut pull_off = Map::new();
+    b.put(&mut pull_off, "pull_off.", "force", result.pull_off.force);
+    b.put(
+        &mut pull_off,
+        "pull_off.",
+        "amplification",
+        result.pull_off.amplification,
+    );
+    b.put(&mut pull_off, "pull_off.", "time", result.pull_off.time);
+
+    let mut stats = Map::new();
+    stats.insert("steps".into(), Value::from(result.stats.steps));
+    stats.insert("rejected".into(), Value::from(result.stats.rejected));
+    stats.insert("rhs_evals".into(), Value::from(result.stats.rhs_evals));
+    b.put(&mut stats, "stats.", "wall_s", result.stats.wall_s);
+
+    let final_state = b.state("final_state.", &result.final_state);
+
+    let mut counts: BTreeMap<String, u64> = BTreeMap::new();
+    let events: Vec<Value> = result
+        .events
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let kind = kind_name(e.kind);
+            *counts.entry(kind.clone()).or_default() += 1;
+            let prefix = format!("events[{i}].");
+            let mut m = Map::new();
+            m.insert("kind".into(), Value::String(kind));
+            b.put(&mut m, &prefix, "time", e.time);
+            m.insert("stage".into(), Value::from(stage_index(e.stage)));
+            m.insert(
+                "state".into(),
+                b.state(&format!("{prefix}state."), &e.state),
+            );
+            Value::Object(m)
+        })
+        .collect();
+
+    let table = cycle_table(&result.cycles);
+    let mut cycles = Map::new();
+    cycles.insert("count".into(), Value::from(table.len() as u64));
+    let mut cycle_units = BTreeMap::new();
+    if !table.is_empty() {
+        let mut m = Map::new();
+        for (name, col) in table.names.iter().zip(&table.columns) {
+            match col {
+                CycleColumn::F64(v) => {
+                    b.put(&mut m, "cycles.last.", name, v[v.len() - 1]);
+                }
+                CycleColumn::I64(v) => {
+                    m.insert(name.clone(), Value::from(v[v.len() - 1]));
+                }
+            }
+            cycle_units.insert(format!("cycles.last.{name}"), cycle_unit(name).to_string());
+        }
+        cycles.insert("last".into(), Value::Object(m));
+    }
+
+    let mut file_map = Map::new();
+    file_map.insert("hdf5".into(), Value::String(files.hdf5.clone()));
+    if let Some(f) = &files.timeseries_csv {
+        file_map.insert("timeseries_csv".into(), Value::String(f.clone()));
+    }
+    if let Some(f) = &files.events_csv {
+        file_map.insert("events_csv".into(), Value::String(f.clone()));
+    }
+    if let Some(f) = &files.cycles_csv {
+        file_map.insert("cycles_csv".into(), Value::String(f.clone()));
+    }
+
+    let top: Vec<(&str, Value)> = vec![
+        ("format_version", Value::from(SUMMARY_VERSION)),
+        ("djkr_version", Value::from(env!("CARGO_PKG_VERSION"))),
+        ("scenario", Value::from(scenario.source_name.as_str())),
+        ("method", Value::from(result.method.as_str())),
+        ("detached", Value::Bool(result.detached)),
+        ("pull_off", Value::Object(pull_off)),
+        ("stats", Value::Object(stats)),
+        ("samples", Value::from(samples as u64)),
+        ("final_state", final_state),
+        ("cycles", Value::Object(cycles)),
+        (
+            "event_counts",
+            Value::Object(
+                counts
+                    .into_iter()
+                    .map(|(k, v)| (k, Value::from(v)))
+                    .collect(),
+            ),
+        ),
+        (
+            "units",
+            Value::Object(
+                units()
+                    .into_iter()
+                    .chain(cycle_units)
+                    .map(|(k, v)| (k, Value::String(v)))
+                    .collect(),
+            ),
+        ),
+        ("files", Value::Object(file_map)),
+        (
+            "non_finite",
+            Value::Object(b.non_finite.into_iter().collect()),
+        ),
+    ];
+
+    let mut out = String::from("{\n");
+    for (k, v) in &top {
+        out.push_str(&format!("  {}: {},\n", Value::from(*k), v));
+    }
+    out.push_str("  \"events\": [");
+    for (i, e) in events.iter().enumerate() {
+        out.push_str(if i == 0 { "\n    " } else { ",\n    " });
+        out.push_str(&e.to_string());
+    }
+    out.push_str(if events.is_empty() {
+        "]\n}\n"
+    } else {
+        "\n  ]\n}\n"
+    });
+    out
+}
