@@ -326,3 +326,24 @@ fn repeated_impacts_stay_finite() {
         }
     }
 }
+
+/// Dopri5, Dop853 and the implicit method agree on the same vibrating scene as rtol → 0.
+#[test]
+fn methods_agree() {
+    let mut res = vec![];
+    for method in [Method::Implicit, Method::Dopri5, Method::Dop853] {
+        let mut s = vibrating(2e-6);
+        s.solver.method = method;
+        s.solver.rtol = 1e-10;
+        s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.02), Some(true))];
+        let (r, _) = run(&s);
+        let c = *r.cycles.last().unwrap();
+        println!("{method:?}: <F> {:e} delta_s {:e} a_s {:e} {:?} {}", c.force_mean, c.delta_sin, c.a_sin, r.stats, r.method);
+        res.push(c);
+    }
+    for c in &res[1..] {
+        assert!((c.force_mean - res[0].force_mean).abs() < 1e-7 * res[0].force_sin.abs());
+        assert!((c.delta_sin / res[0].delta_sin - 1.0).abs() < 1e-7);
+        assert!((c.a_sin / res[0].a_sin - 1.0).abs() < 1e-6);
+    }
+}

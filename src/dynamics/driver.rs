@@ -2,6 +2,8 @@
 //! the observer. See the module documentation of [`crate::dynamics`] for the design.
 
 use super::esdirk::{self, State, StepFail, Tol};
+use super::explicit::{self, ExplicitKind};
+use crate::adhesion::AdhesionLaw;
 use super::model::{self, q, Drive, Mechanics, Model, NQ};
 use super::types::*;
 use crate::jkr;
@@ -142,6 +144,38 @@ fn hermite(y0: &State, y1: &State, t: f64) -> State {
     y
 }
 
+/// The integration engine in use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Engine {
+    /// ESDIRK4(3)6L[2]SA with the root-solved contact radius.
+    Implicit,
+    /// An `ode_solvers` explicit method.
+    Explicit(ExplicitKind),
+}
+
+impl Engine {
+    fn name(self) -> &'static str {
+        match self {
+            Engine::Implicit => "implicit ESDIRK4(3)6L[2]SA (root-solved contact radius)",
+            Engine::Explicit(ExplicitKind::Dopri5) => "explicit Dopri5 (ode_solvers)",
+            Engine::Explicit(ExplicitKind::Dop853) => "explicit Dop853 (ode_solvers)",
+        }
+    }
+}
+
+/// The `auto` rule: the implicit method when the explicit form cannot work at all — a
+/// rate-independent law (a is algebraic: ȧ = law⁻¹(G) does not exist) or contact formed from a
+/// seed (healing from G ≈ 0 at ȧ ≈ ∞ after every impact) — and Dop853 otherwise, with a fall
+/// back to the implicit method for the rest of a stage whenever the explicit form meets G ≤ 0,
+/// stiffness or its step budget.
+pub fn auto_engine(s: &Scenario) -> Engine {
+    if s.law.is_rate_independent() || matches!(s.formation, ContactFormation::Seed(_)) {
+        Engine::Implicit
+    } else {
+        Engine::Explicit(ExplicitKind::Dop853)
+    }
+}
+
 /// Which state function an event watches.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Watch {
@@ -186,6 +220,16 @@ struct Run<'a> {
     collapse_at: Option<f64>,
     /// The current stage ends at pull-off.
     in_pulloff: bool,
+    /// Engine in use.
+    engine: Engine,
+    /// Engine chosen for the run (auto may fall back from it within a stage).
+    engine0: Engine,
+    /// `method = auto`.
+    auto: bool,
+    /// Last inner step of the explicit engine (s).
+    h_inner: f64,
+    /// Fall-backs taken by `auto`.
+    notes: Vec<String>,
 }
 
 impl Run<'_> {
@@ -433,7 +477,23 @@ impl Run<'_> {
 
     /// Try a step; `Ok(None)` for a failed stage solve.
     fn try_step(&mut self, y: &State, h: f64) -> Result<Option<esdirk::StepOut>, StepFail> {
-        match esdirk::step(&self.model, &self.drive, y, h, self.tol) {
+        let r = match self.engine {
+            Engine::Implicit => esdirk::step(&self.model, &self.drive, y, h, self.tol),
+            Engine::Explicit(kind) => explicit::macro_step(
+                &self.model,
+                &self.drive,
+                y,
+                h,
+                self.tol,
+                kind,
+                self.h_inner,
+            )
+            .map(|(o, hi)| {
+                self.h_inner = hi;
+                o
+            }),
+        };
+        match r {
             Ok(o) => {
                 self.stats.rhs_evals += o.evals;
                 Ok(Some(o))
@@ -523,7 +583,7 @@ impl Run<'_> {
                 let y = self.y;
                 self.lose_contact(&y);
             }
-            Err(StepFail::NonFinite) => {
+            Err(StepFail::NonFinite | StepFail::Explicit(_)) => {
                 return Err(SimError::NonFinite {
                     t: self.y.t,
                     state: self.err_state(),
@@ -605,6 +665,7 @@ impl Run<'_> {
 
     fn run_stage(&mut self, idx: usize, st: &crate::scenario::Stage) -> Result<(), SimError> {
         self.stage = idx;
+        self.engine = self.engine0;
         let t0 = self.y.t;
         let speed = match st.kind {
             StageKind::Approach => st.speed,
@@ -702,6 +763,22 @@ impl Run<'_> {
                     }
                     self.h = 0.25 * h;
                     continue;
+                }
+                Err(StepFail::Explicit(reason)) => {
+                    if self.auto {
+                        self.notes.push(format!(
+                            "t = {:e} s: {reason}; fell back to the implicit method for the rest of stage {idx}",
+                            y0.t
+                        ));
+                        self.engine = Engine::Implicit;
+                        continue;
+                    }
+                    return Err(SimError::Explicit {
+                        method: self.engine.name().into(),
+                        t: y0.t,
+                        reason: reason.into(),
+                        state: self.err_state(),
+                    });
                 }
                 Err(_) => {
                     self.stats.rejected += 1;
@@ -846,17 +923,13 @@ impl Run<'_> {
 pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
     let start = Instant::now();
     let model = model::resolve(s).map_err(SimError::Setup)?;
-    let method = match s.solver.method {
-        Method::Auto => "implicit ESDIRK4(3)6L[2]SA with a root-solved contact radius (auto: \
-                         the implicit method is chosen for every scene; see dynamics docs)"
-            .to_string(),
-        Method::Implicit => {
-            "implicit ESDIRK4(3)6L[2]SA with a root-solved contact radius".to_string()
-        }
-        Method::Dopri5 | Method::Dop853 => {
-            return super::explicit::simulate_explicit(s, obs, &model, start);
-        }
+    let engine = match s.solver.method {
+        Method::Auto => auto_engine(s),
+        Method::Implicit => Engine::Implicit,
+        Method::Dopri5 => Engine::Explicit(ExplicitKind::Dopri5),
+        Method::Dop853 => Engine::Explicit(ExplicitKind::Dop853),
     };
+    let auto = s.solver.method == Method::Auto;
     let (y, drive) = initial_state(s, &model)?;
     let tol = Tol {
         rtol: s.solver.rtol,
@@ -896,7 +969,22 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
         detached: false,
         collapse_at: None,
         in_pulloff: false,
+        engine,
+        engine0: engine,
+        auto,
+        h_inner: 0.0,
+        notes: Vec::new(),
     };
+    if let (Engine::Explicit(_), true) = (engine, run.model.rate_independent) {
+        return Err(SimError::Explicit {
+            method: engine.name().into(),
+            t: 0.0,
+            reason: "the adhesion law is rate-independent: the contact radius is algebraic \
+                     (G = w0) and has no explicit rate"
+                .into(),
+            state: run.err_state(),
+        });
+    }
     run.refresh();
     let y0 = run.y;
     run.output(&y0, &y0);
@@ -922,10 +1010,22 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
         detached: run.detached,
         events: run.events,
         stats: run.stats,
-        method: if run.stopped {
-            format!("{method}; stopped by the observer")
-        } else {
-            method
+        method: {
+            let mut m = engine.name().to_string();
+            if auto {
+                m = format!(
+                    "{m}; auto: implicit for rate-independent laws and seeded contact formation, \
+                     Dop853 otherwise, falling back to implicit within a stage on failure"
+                );
+            }
+            for n in &run.notes {
+                m.push_str("; ");
+                m.push_str(n);
+            }
+            if run.stopped {
+                m.push_str("; stopped by the observer");
+            }
+            m
         },
         final_state,
         cycles: run.cycles,

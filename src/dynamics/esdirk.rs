@@ -98,6 +98,8 @@ pub enum StepFail {
     NoRoot,
     /// A stage produced a non-finite value.
     NonFinite,
+    /// The explicit formulation cannot continue (reason).
+    Explicit(&'static str),
 }
 
 /// A completed step attempt.
@@ -139,6 +141,38 @@ pub fn solve_radius<F: FnMut(f64) -> f64>(
     }
     if r_p == 0.0 {
         return Some(a_p);
+    }
+    // Fast path: secant iteration from the predictor, accepted only if it converges onto an
+    // upward crossing (positive slope); otherwise the bracketing search below decides.
+    {
+        let (mut a0, mut r0) = (a_p, r_p);
+        let dir = if r_p < 0.0 { 1.0 } else { -1.0 };
+        let mut a1 = a_p + dir * step0.max(1e-9 * a_p);
+        if a1 > 0.0 {
+            let mut r1 = eval(a1);
+            for _ in 0..12 {
+                if !r1.is_finite() || r1 == r0 {
+                    break;
+                }
+                let slope = (r1 - r0) / (a1 - a0);
+                if slope <= 0.0 {
+                    break;
+                }
+                let a2 = a1 - r1 / slope;
+                if !(a2 > 0.0) {
+                    break;
+                }
+                if (a2 - a1).abs() <= 1e-14 * a2 {
+                    return Some(a2);
+                }
+                (a0, r0) = (a1, r1);
+                a1 = a2;
+                r1 = eval(a1);
+                if r1 == 0.0 {
+                    return Some(a1);
+                }
+            }
+        }
     }
     let mut d = step0.max(4.0 * f64::EPSILON * a_p);
     let (lo, hi, rlo, rhi);

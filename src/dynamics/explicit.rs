@@ -1,20 +1,286 @@
-//! Explicit methods (`ode_solvers` Dopri5 / Dop853) on y = (x_s, v_s, a) with ȧ = law.crack_speed(G).
+//! Explicit methods: `ode_solvers` Dopri5 and Dop853 on the scaled state
+//! (x_s, v_s, a, quadratures) with ȧ = law.crack_speed(G) in closed form (or by the law's own
+//! inverse).
+//!
+//! `ode_solvers` has no event location, and its Dense output hands mismatched (x, y) pairs to
+//! `solout`, so it is used here only as a *macro-step* engine: [`macro_step`] integrates from a
+//! state over [t, t + H] with the crate's own adaptive control (Sparse output; the last point is
+//! the end state). The driver chooses H (never across a stage end, a base-period boundary or a
+//! known event), scans each macro step for events and locates them by re-integrating from its
+//! start over shorter spans — the same bracketing search as for the implicit method.
+//!
+//! Scaling: the components are divided by their natural scales (length, velocity, jump-in radius)
+//! so that the crate's scalar atol/rtol act like the implicit method's per-component norm. The
+//! quadrature states are divided by 1e6 × their natural scale, which keeps them in the error norm
+//! with a loose weight (their relative error is still controlled by rtol).
+//!
+//! Failure modes (reported to the driver as [`StepFail::Explicit`]): a compressive edge or G ≤ 0
+//! (ȧ = +∞: the explicit form cannot pass it), a rate-independent law (ȧ undefined), stiffness
+//! detected by `ode_solvers`, or its step budget exhausted.
 
-use super::driver::SimError;
-use super::model::Model;
-use super::types::{Observer, RunResult};
-use crate::scenario::Scenario;
-use std::time::Instant;
+use super::esdirk::{State, StepFail, StepOut, Tol};
+use super::model::{Drive, Mechanics, Model, NQ};
+use crate::adhesion::AdhesionLaw;
+use crate::jkr;
+use ode_solvers::dop_shared::{IntegrationError, OutputType};
+use ode_solvers::{Dop853, Dopri5, SVector, System};
+use std::cell::Cell;
 
-/// Run a scenario with an explicit method.
-pub fn simulate_explicit(
-    s: &Scenario,
-    obs: &mut dyn Observer,
+/// Which explicit method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ExplicitKind {
+    /// Dormand–Prince 5(4).
+    Dopri5,
+    /// Dormand–Prince 8(5,3).
+    Dop853,
+}
+
+const N: usize = 3 + NQ;
+type Y = SVector<f64, N>;
+
+struct Rhs<'a> {
+    model: &'a Model,
+    drive: Drive,
+    contact: bool,
+    scale: [f64; N],
+    singular: &'a Cell<bool>,
+    evals: &'a Cell<u64>,
+}
+
+/// Instantaneous derivatives of the explicit formulation at (t, x, v, a); returns
+/// (x, v, acc, ȧ, w, integrands). `None` when ȧ is infinite (G ≤ 0) or undefined.
+#[allow(clippy::type_complexity)]
+fn explicit_rates(
     model: &Model,
-    start: Instant,
-) -> Result<RunResult, SimError> {
-    let _ = (s, obs, model, start);
-    Err(SimError::Setup(
-        "explicit methods are not available yet: use method = \"implicit\" or \"auto\"".into(),
+    drive: &Drive,
+    t: f64,
+    x: f64,
+    v: f64,
+    a: f64,
+    contact: bool,
+) -> Option<(f64, f64, f64, f64, [f64; NQ])> {
+    let kin = drive.at(model, t);
+    let (x, v, adot, w) = if contact {
+        if !(a > 0.0) || model.rate_independent {
+            return None;
+        }
+        let (xq, _) = match model.mech {
+            Mechanics::Dynamic => (x, v),
+            _ => model.position(&kin, a, 0.0, true, x, v, 0.0),
+        };
+        let g = jkr::signed_energy_release_rate(&model.mat, a, xq + kin.xb);
+        let adot = model.law.crack_speed(g);
+        if !adot.is_finite() {
+            return None;
+        }
+        let (x, v) = match model.mech {
+            Mechanics::Dynamic => (x, v),
+            _ => model.position(&kin, a, adot, true, x, v, 0.0),
+        };
+        // On the law, w(ȧ) = G exactly.
+        (x, v, adot, g)
+    } else {
+        let (x, v) = match model.mech {
+            Mechanics::Dynamic => (x, v),
+            _ => model.position(&kin, 0.0, 0.0, false, x, v, 0.0),
+        };
+        (x, v, 0.0, model.w0)
+    };
+    let acc = match model.mech {
+        Mechanics::Dynamic => model.accel(&kin, x, v, a, contact),
+        _ => 0.0,
+    };
+    let fq = model.integrands(&kin, x, v, a, adot, w, contact);
+    Some((x, v, acc, adot, fq))
+}
+
+impl System<f64, Y> for Rhs<'_> {
+    fn system(&self, t: f64, y: &Y, dy: &mut Y) {
+        self.evals.set(self.evals.get() + 1);
+        let s = &self.scale;
+        let (x, v, a) = (y[0] * s[0], y[1] * s[1], y[2] * s[2]);
+        match explicit_rates(self.model, &self.drive, t, x, v, a, self.contact) {
+            Some((_, v, acc, adot, fq)) => {
+                dy[0] = v / s[0];
+                dy[1] = acc / s[1];
+                dy[2] = adot / s[2];
+                for k in 0..NQ {
+                    dy[3 + k] = fq[k] / s[3 + k];
+                }
+            }
+            None => {
+                self.singular.set(true);
+                for k in 0..N {
+                    dy[k] = 0.0;
+                }
+            }
+        }
+    }
+}
+
+fn scales(model: &Model) -> [f64; N] {
+    let mut s = [1.0; N];
+    s[0] = model.len_scale;
+    s[1] = model.vel_scale;
+    s[2] = model.a_jump;
+    let f = jkr::hertz_force(&model.mat, model.a_jump).max(1e-300);
+    let t = model.t_char;
+    let qs: [f64; NQ] = {
+        let l = model.len_scale;
+        let a = model.a_jump;
+        let e = f * l;
+        [
+            f * t,
+            f * t,
+            f * t,
+            l * t,
+            l * t,
+            l * t,
+            a * t,
+            a * t,
+            a * t,
+            l * t,
+            l * t,
+            f * t,
+            f * t,
+            f * t,
+            e,
+            e,
+            e,
+            e,
+        ]
+    };
+    for k in 0..NQ {
+        s[3 + k] = 1e6 * qs[k];
+    }
+    s
+}
+
+/// Integrate from `y` over [y.t, y.t + h] with an `ode_solvers` method. `h_guess` is the inner
+/// step to start with (0: the crate's own initial guess); the last inner step is returned for the
+/// next call.
+pub fn macro_step(
+    model: &Model,
+    drive: &Drive,
+    y: &State,
+    h: f64,
+    tol: Tol,
+    kind: ExplicitKind,
+    h_guess: f64,
+) -> Result<(StepOut, f64), StepFail> {
+    let scale = scales(model);
+    let mut y0 = Y::zeros();
+    y0[0] = y.x / scale[0];
+    y0[1] = y.v / scale[1];
+    y0[2] = y.a / scale[2];
+    for k in 0..NQ {
+        y0[3 + k] = y.q[k] / scale[3 + k];
+    }
+    let singular = Cell::new(false);
+    let evals = Cell::new(0u64);
+    let rhs = Rhs {
+        model,
+        drive: *drive,
+        contact: y.contact,
+        scale,
+        singular: &singular,
+        evals: &evals,
+    };
+    let (t0, t1) = (y.t, y.t + h);
+    let hg = if h_guess > 0.0 { h_guess.min(h) } else { 0.0 };
+    let rtol = tol.rtol;
+    let atol = tol.atol;
+    let n_max = 200_000;
+    macro_rules! run {
+        ($solver:ident, $beta:expr, $fmin:expr, $fmax:expr) => {{
+            let mut s = $solver::from_param(
+                rhs,
+                t0,
+                t1,
+                h,
+                y0,
+                rtol,
+                atol,
+                0.9,
+                $beta,
+                $fmin,
+                $fmax,
+                h,
+                hg,
+                n_max,
+                1000,
+                OutputType::Sparse,
+            );
+            let res = s.integrate();
+            let (xs, ys) = s.results().get();
+            let out = match (xs.last(), ys.last()) {
+                (Some(&t), Some(yv)) => Some((t, *yv)),
+                _ => None,
+            };
+            let last_h = if xs.len() >= 2 {
+                xs[xs.len() - 1] - xs[xs.len() - 2]
+            } else {
+                h
+            };
+            (res, out, last_h)
+        }};
+    }
+    let (res, out, last_h) = match kind {
+        ExplicitKind::Dopri5 => run!(Dopri5, 0.04, 0.2, 10.0),
+        ExplicitKind::Dop853 => run!(Dop853, 0.0, 0.333, 6.0),
+    };
+    let n_evals = evals.get();
+    if singular.get() {
+        return Err(StepFail::Explicit(
+            "the contact edge became compressive or G <= 0 (infinite healing speed)",
+        ));
+    }
+    match res {
+        Ok(_) => {}
+        Err(IntegrationError::StiffnessDetected { .. }) => {
+            return Err(StepFail::Explicit("stiffness detected"))
+        }
+        Err(IntegrationError::MaxNumStepReached { .. }) => {
+            return Err(StepFail::Explicit("step budget of the explicit method exhausted"))
+        }
+        Err(IntegrationError::StepSizeUnderflow { .. }) => {
+            return Err(StepFail::Explicit("step size underflow"))
+        }
+    }
+    let Some((t_end, ye)) = out else {
+        return Err(StepFail::Explicit("no output"));
+    };
+    if (t_end - t1).abs() > 1e-9 * h.max(f64::MIN_POSITIVE) + 4.0 * f64::EPSILON * t1.abs() {
+        return Err(StepFail::Explicit("integration stopped early"));
+    }
+    let (x, v, a) = (ye[0] * scale[0], ye[1] * scale[1], ye[2] * scale[2]);
+    let Some((x, v, acc, adot, _)) = explicit_rates(model, drive, t1, x, v, a, y.contact) else {
+        return Err(StepFail::Explicit(
+            "the contact edge is compressive or G <= 0 (infinite healing speed)",
+        ));
+    };
+    let mut q = [0.0; NQ];
+    for k in 0..NQ {
+        q[k] = ye[3 + k] * scale[3 + k];
+    }
+    if !(x.is_finite() && v.is_finite() && a.is_finite() && q.iter().all(|v| v.is_finite())) {
+        return Err(StepFail::NonFinite);
+    }
+    Ok((
+        StepOut {
+            y: State {
+                t: t1,
+                x,
+                v,
+                acc,
+                a: if y.contact { a } else { 0.0 },
+                adot,
+                contact: y.contact,
+                q,
+            },
+            err: 0.0,
+            evals: n_evals,
+        },
+        last_h,
     ))
 }
