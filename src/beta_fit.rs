@@ -156,6 +156,8 @@ pub struct BetaFit {
     pub best_beta: f64,
     /// RMS of ln(A_exact/A_approx) at the best β.
     pub best_error: f64,
+    /// True when the best β lies at an end of [beta_min, beta_max]: widen the range.
+    pub at_bound: bool,
     /// The error at the paper's β = 2.5.
     pub error_at_paper_beta: f64,
     /// The error curve (β, RMS ln ratio) on the log-spaced β grid.
@@ -252,14 +254,18 @@ pub fn fit_beta_on(
             format!("must be finite and > beta_min = {beta_min}"),
         ));
     }
-    if points
+    if let Some(p) = points
         .iter()
-        .any(|p| !(p.amp_exact.is_finite() && p.amp_exact > 0.0))
+        .find(|p| !(p.amp_exact.is_finite() && p.amp_exact > 0.0))
     {
         return Err(ParamError::new(
-            "exact amplification",
-            "non-finite or <= 0",
-            "every exact amplification must be finite and > 0",
+            format!(
+                "exact amplification at n = {}, v_max/v0 = {}",
+                p.n, p.speed_ratio
+            ),
+            p.amp_exact,
+            "must be finite and > 0 for the log-ratio error (a large a_A/a_m can leave no \
+             adhesive mean force: shrink the speed range or raise the frequency)",
         ));
     }
     let betas = log_space(beta_min, beta_max, beta_points.max(3));
@@ -284,9 +290,11 @@ pub fn fit_beta_on(
     } else {
         curve[i_best]
     };
+    let at_bound = best_beta <= beta_min * (1.0 + 1e-4) || best_beta >= beta_max * (1.0 - 1e-4);
     Ok(BetaFit {
         best_beta,
         best_error,
+        at_bound,
         error_at_paper_beta: error_at(points, closed_form::BETA_PAPER),
         error_curve: curve,
         ratios_best: ratios_at(points, best_beta),

@@ -251,6 +251,37 @@ pub fn vibration_speed_as_printed(
     Ok(beta * law.v0 * x.max(0.0).powf(1.0 / law.n))
 }
 
+/// The exact imposed-area amplification in the small-amplitude limit a_A/a_m → 0 at fixed peak
+/// speed v = a_A ω (dimensionless), for any law: A₀ = ⟨√(w/w0)⟩².
+///
+/// Derivation: with a ≈ a_m over the cycle, eq. (13) gives δ(θ) = a_m²/R − √(8π a_m w(θ)/(3K)),
+/// so δ_m = a_m²/R − √(8π a_m/(3K)) ⟨√w⟩ and, by eq. (10), F_m(a_m) is the JKR curve with
+/// √w_eff = ⟨√w⟩: its minimum is −(3/2)π R ⟨√w⟩². With ȧ = v cos θ, folding each half cycle onto
+/// φ ∈ (0, π/2): ⟨√w⟩ = (1/π)∫₀^{π/2} [√w(−v sin φ) + √w(v sin φ)] dφ (tanh-sinh, 1e-12).
+///
+/// The paper's eq. (19) replaces this mean by the two-point value ½(√w(−v) + √w0): it keeps the
+/// peeling peak and ignores the healing half, where w < w0. That is why no single β makes
+/// eq. (24) match the exact pull-off over all n (see [`crate::beta_fit`]).
+pub fn small_amplitude_amplification<L: crate::adhesion::AdhesionLaw + ?Sized>(
+    law: &L,
+    speed: f64,
+) -> f64 {
+    let w0 = law.w0();
+    if speed == 0.0 {
+        return 1.0;
+    }
+    let mean_root = crate::comparators::tanh_sinh(
+        |phi| {
+            let v = speed * phi.sin();
+            (law.work_of_adhesion(-v) / w0).sqrt() + (law.work_of_adhesion(v) / w0).sqrt()
+        },
+        0.0,
+        std::f64::consts::FRAC_PI_2,
+        1e-12,
+    ) / std::f64::consts::PI;
+    mean_root * mean_root
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
