@@ -402,10 +402,14 @@ impl Parser<'_> {
             }
             Some(v) => {
                 let allowed = match qty.dim {
-                    Some(_) => format!(
-                        "must be a number in SI ({}) or a string with a unit such as \"3mm\"",
-                        qty.unit
-                    ),
+                    Some(dim) => {
+                        let units = dim.units();
+                        let example = units.get(1).or(units.first()).map_or("", |u| u.0);
+                        format!(
+                            "must be a number in SI ({}) or a string with a unit such as \"1{example}\"",
+                            qty.unit
+                        )
+                    }
                     None => format!("must be a number ({})", qty.unit),
                 };
                 Err(self.value_err(&key, show(v), allowed))
@@ -769,7 +773,7 @@ impl Parser<'_> {
                         &s.key("preload"),
                         p,
                         format!(
-                            "without a spring force the sphere rests on its own weight, so a static start needs preload = m g = {weight} N (or leave out [initial])"
+                            "without a spring force the sphere rests on its own weight, so a static start needs preload = m g = {weight:.6e} N (or leave out [initial])"
                         ),
                     ));
                 }

@@ -1,0 +1,327 @@
+//! Scenario files: the corpus under tests/scenarios (every good file parses; every bad file fails
+//! with the message its first line states, `# expect: ...`) and the bundled scenarios/*.toml
+//! (they parse, and their physics matches what their comments claim).
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+use djkr::adhesion::{AdhesionLaw, Law};
+use djkr::jkr;
+use djkr::scenario::parse::{load_scenario, material_and_law, ScenarioError};
+use djkr::scenario::{
+    ContactFormation, DampingOn, Holder, Initial, Method, Scenario, StageKind, Until,
+};
+
+fn dir(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+fn toml_files(rel: &str) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir(rel))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    v.sort();
+    v
+}
+
+fn load(rel: &str) -> Scenario {
+    let p = dir(rel);
+    load_scenario(&p).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Relative closeness for values that went through a unit conversion (one multiplication).
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 2.0 * f64::EPSILON * a.abs().max(b.abs())
+}
+
+#[test]
+fn every_good_file_parses() {
+    let files = toml_files("tests/scenarios/good");
+    assert!(files.len() >= 10, "{files:?}");
+    for f in files {
+        if let Err(e) = load_scenario(&f) {
+            panic!("{}: {e}", f.display());
+        }
+    }
+}
+
+#[test]
+fn every_bad_file_fails_with_the_error_it_states() {
+    let files = toml_files("tests/scenarios/bad");
+    assert!(files.len() >= 15, "only {} bad cases", files.len());
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let expect = text
+            .lines()
+            .next()
+            .and_then(|l| l.strip_prefix("# expect: "))
+            .unwrap_or_else(|| panic!("{}: first line must be `# expect: ...`", f.display()))
+            .trim();
+        let err = match load_scenario(&f) {
+            Ok(_) => panic!("{}: parsed, but should fail with: {expect}", f.display()),
+            Err(e) => e,
+        };
+        let msg = err.to_string();
+        assert!(
+            msg.contains(expect),
+            "{}:\n  expected the message to contain: {expect}\n  got: {msg}",
+            f.display()
+        );
+        // Every message starts with the file it is about.
+        let name = f.display().to_string();
+        assert!(msg.starts_with(&format!("{name}: ")), "{msg}");
+        assert_eq!(err.file(), name);
+    }
+}
+
+#[test]
+fn good_files_carry_the_values_written() {
+    let s = load("tests/scenarios/good/every-key.toml");
+    assert_eq!(
+        s.damping.map(|d| (d.c, d.on)),
+        Some((0.5, DampingOn::Contact))
+    );
+    assert_eq!(s.formation, ContactFormation::Seed(1e-6));
+    assert_eq!(s.solver.method, Method::Dop853);
+    assert_eq!(
+        (
+            s.solver.rtol,
+            s.solver.atol,
+            s.solver.max_steps,
+            s.solver.max_wall_s,
+            s.solver.event_tol
+        ),
+        (1e-9, 1e-11, 10_000_000, 120.0, 1e-13)
+    );
+    assert_eq!((s.output.sample_rate, s.output.csv), (12000.0, true));
+    let last = s.stages[2];
+    assert_eq!(last.until, Until::PullOff);
+    assert_eq!(last.vibration, Some(true));
+    assert_eq!(last.max_duration, 500.0);
+    assert_eq!(s.stages[0].max_duration, 0.1); // a duration end is its own limit
+
+    // Units as strings give the same SI values as the bare numbers of every-key.toml.
+    let u = load("tests/scenarios/good/units-as-strings.toml");
+    assert!(close(u.material.k, 9.33e6) && close(u.material.r, 0.051));
+    assert!(close(u.material.w0, 0.240));
+    match u.law {
+        Law::GentSchultz(gs) => assert!(close(gs.v0, 4.45e-5) && gs.n == 0.531),
+        other => panic!("{other:?}"),
+    }
+    assert!(close(u.sphere.mass, 3e-3));
+    let b = u.base.unwrap();
+    assert!(close(b.amplitude, 10e-6) && close(b.frequency, 300.0));
+    assert!(close(u.stages[2].speed, 5e-6));
+    assert!(matches!(u.stages[0].until, Until::Duration(d) if close(d, 0.1)));
+    assert!(matches!(u.initial, Initial::Preload(p) if close(p, 0.02)));
+
+    let t = load("tests/scenarios/good/tabulated.toml");
+    match &t.law {
+        Law::Tabulated(l) => {
+            assert_eq!(l.w0(), 0.240);
+            assert_eq!(l.work_of_adhesion(1e-5), 0.15);
+            assert_eq!(l.work_of_adhesion(-1e-3), 1.2);
+        }
+        other => panic!("{other:?}"),
+    }
+
+    let r = load("tests/scenarios/good/rigid-link.toml");
+    assert_eq!(r.holder, Holder::Rigid);
+    assert_eq!(
+        r.law,
+        Law::Constant(djkr::adhesion::ConstantW { w0: 0.240 })
+    );
+
+    let w = load("tests/scenarios/good/resting-on-weight.toml");
+    assert_eq!(w.holder, Holder::None);
+    assert_eq!(w.initial, Initial::Preload(3e-3 * 9.807));
+
+    let g = load("tests/scenarios/good/approach-from-gap.toml");
+    assert_eq!(g.initial, Initial::Gap(1e-4));
+    assert_eq!(g.stages[0].kind, StageKind::Approach);
+    assert_eq!(g.stages[0].until, Until::Preload(0.02));
+    assert_eq!(g.stages[1].speed, 0.0);
+}
+
+#[test]
+fn material_and_law_reads_a_full_scenario() {
+    let (m, law) = material_and_law(&dir("scenarios/paper-protocol-300hz.toml")).unwrap();
+    assert_eq!(m, djkr::material::Material::PAPER);
+    assert_eq!(law, Law::GentSchultz(djkr::adhesion::GentSchultz::PAPER));
+    let e = material_and_law(&dir("tests/scenarios/bad/negative-radius.toml")).unwrap_err();
+    assert!(e.to_string().contains("material.R = -0.051"), "{e}");
+    let missing = dir("tests/scenarios/no-such-file.toml");
+    match material_and_law(&missing) {
+        Err(ScenarioError::Io { file, .. }) => assert!(file.ends_with("no-such-file.toml")),
+        other => panic!("{other:?}"),
+    }
+}
+
+// ---- bundled scenarios -------------------------------------------------------------------
+
+/// |δ_A / X_b| from the linearised transfer of MODEL.md (eqs. 36-39, derived correctly).
+fn transfer(m: f64, k: f64, c: f64, kc: f64, f: f64) -> f64 {
+    let om = 2.0 * PI * f;
+    let a = k - m * om * om;
+    let b = k + kc - m * om * om;
+    let d = c * om;
+    let den = b * b + d * d;
+    ((a * b + d * d) / den).hypot(d * (b - a) / den)
+}
+
+/// Contact stiffness (3/2) K a_m at the static JKR radius under `force`.
+fn contact_stiffness_at(s: &Scenario, force: f64) -> f64 {
+    let a = jkr::equilibrium_radius_for_force(&s.material, force, s.material.w0).unwrap();
+    1.5 * s.material.k * a
+}
+
+fn stage_preload(s: &Scenario) -> f64 {
+    match s.initial {
+        Initial::Preload(p) => p,
+        Initial::Gap(_) => s
+            .stages
+            .iter()
+            .find_map(|st| match st.until {
+                Until::Preload(p) => Some(p),
+                _ => None,
+            })
+            .unwrap(),
+    }
+}
+
+#[test]
+fn bundled_scenarios_parse_and_say_how_to_run_them() {
+    let files = toml_files("scenarios");
+    assert!(files.len() >= 6, "{files:?}");
+    for f in files {
+        let s = load_scenario(&f).unwrap_or_else(|e| panic!("{e}"));
+        let name = f.file_name().unwrap().to_string_lossy().into_owned();
+        assert!(
+            s.source_text.starts_with("# "),
+            "{name}: must open with a comment block"
+        );
+        assert!(
+            s.source_text
+                .contains(&format!("djkr run scenarios/{name}")),
+            "{name}: the comment must say how to run it"
+        );
+    }
+}
+
+#[test]
+fn paper_protocol_follows_the_paper_and_stays_far_above_resonance() {
+    for f in [200.0, 300.0, 400.0] {
+        let s = load(&format!("scenarios/paper-protocol-{f}hz.toml"));
+        let kinds: Vec<StageKind> = s.stages.iter().map(|st| st.kind).collect();
+        assert_eq!(
+            kinds,
+            [
+                StageKind::Approach,
+                StageKind::Hold,
+                StageKind::Hold,
+                StageKind::Unload
+            ]
+        );
+        assert_eq!(s.stages[0].speed, 100e-6); // paper: load at 100 um/s
+        assert_eq!(s.stages[3].speed, 5e-6); // paper: unload at 5 um/s
+        assert_eq!(s.stages[3].until, Until::PullOff);
+        assert_eq!(s.stages[1].vibration, Some(false));
+        assert_eq!(s.stages[2].vibration, Some(true));
+        let base = s.base.unwrap();
+        assert_eq!(base.frequency, f);
+        assert_eq!(s.law, Law::GentSchultz(djkr::adhesion::GentSchultz::PAPER));
+        let Holder::Spring { stiffness: k } = s.holder else {
+            panic!("spring expected")
+        };
+        let kc = contact_stiffness_at(&s, stage_preload(&s));
+        let m = s.sphere.mass;
+        let f_r = ((k + kc) / m).sqrt() / (2.0 * PI);
+        assert!(f_r < f / 4.0, "resonance {f_r} Hz too close to {f} Hz");
+        // The paper: X_b and delta_A differ by a few % only.
+        let c = s.damping.unwrap().c;
+        let tr = transfer(m, k, c, kc, f);
+        assert!((tr - 1.0).abs() < 0.05, "{f} Hz: |delta_A/X_b| = {tr}");
+        // The spring is soft compared with the contact: close to load control.
+        assert!(k < 0.2 * kc);
+        // The preload lies above the compressive overshoot after jump-in, bounded by the
+        // tensile jump-in force itself, K a_J^3 / (2R).
+        let a_j = jkr::jump_in_radius(&s.material, s.material.w0);
+        let f_jump = s.material.k * a_j.powi(3) / (2.0 * s.material.r);
+        assert!(stage_preload(&s) < f_jump * 1.5 && stage_preload(&s) > 0.7 * f_jump);
+    }
+}
+
+#[test]
+fn quasi_static_jkr_is_a_rigid_unvibrated_elastic_unload() {
+    let s = load("scenarios/quasi-static-jkr.toml");
+    assert_eq!(s.holder, Holder::Rigid);
+    assert_eq!(s.base, None);
+    assert!(matches!(s.law, Law::Constant(_)));
+    assert_eq!(s.stages.len(), 1);
+    assert_eq!(s.stages[0].kind, StageKind::Unload);
+    assert_eq!(s.stages[0].until, Until::PullOff);
+    // The numbers quoted in its comment.
+    let m = s.material;
+    let f_dc = jkr::displacement_controlled_pull_off_force(&m, m.w0);
+    assert!((f_dc - -0.03204).abs() < 5e-6, "{f_dc}");
+    assert!(s.source_text.contains("-0.03204 N"));
+    // The unload covers the way from the start to the turning point within max_duration.
+    let a0 = jkr::equilibrium_radius_for_force(&m, stage_preload(&s), m.w0).unwrap();
+    let d0 = jkr::equilibrium_indentation(&m, a0, m.w0);
+    let a_dc = jkr::displacement_controlled_pull_off_radius(&m, m.w0);
+    let d_dc = jkr::equilibrium_indentation(&m, a_dc, m.w0);
+    assert!((d0 - 9.71e-6).abs() < 0.01e-6 && (d_dc - -6.298e-6).abs() < 0.001e-6);
+    assert!((d0 - d_dc) / s.stages[0].speed < 0.5 * s.stages[0].max_duration);
+}
+
+#[test]
+fn resonance_scene_resonates_at_400_hz() {
+    let s = load("scenarios/resonance-400hz.toml");
+    let Holder::Spring { stiffness: k } = s.holder else {
+        panic!("spring expected")
+    };
+    let kc = contact_stiffness_at(&s, stage_preload(&s));
+    let f_r = ((k + kc) / s.sphere.mass).sqrt() / (2.0 * PI);
+    assert!((f_r - 400.0).abs() < 1.0, "f_r = {f_r} Hz");
+    let base = s.base.unwrap();
+    assert_eq!(base.frequency, 400.0);
+    // The linear response at resonance stays below the mean indentation (contact stays closed).
+    let tr = transfer(s.sphere.mass, k, s.damping.unwrap().c, kc, 400.0);
+    assert!((tr - 13.5).abs() < 0.1, "{tr}");
+    let a =
+        jkr::equilibrium_radius_for_force(&s.material, stage_preload(&s), s.material.w0).unwrap();
+    let delta_m = jkr::equilibrium_indentation(&s.material, a, s.material.w0);
+    assert!(
+        tr * base.amplitude < delta_m,
+        "{} vs {delta_m}",
+        tr * base.amplitude
+    );
+    assert_eq!(s.stages[0].vibration, Some(true));
+}
+
+#[test]
+fn impacts_scene_loses_contact_every_cycle() {
+    let s = load("scenarios/impacts.toml");
+    let m = s.material;
+    let base = s.base.unwrap();
+    let a = jkr::equilibrium_radius_for_force(&m, stage_preload(&s), m.w0).unwrap();
+    let delta_m = jkr::equilibrium_indentation(&m, a, m.w0);
+    let a_dc = jkr::displacement_controlled_pull_off_radius(&m, m.w0);
+    let delta_min = jkr::equilibrium_indentation(&m, a_dc, m.w0);
+    // Far above resonance the indentation follows the base: it must swing well below the lowest
+    // indentation a static JKR contact survives.
+    assert!(
+        delta_m - base.amplitude < 2.0 * delta_min,
+        "{delta_m} {delta_min}"
+    );
+    let Holder::Spring { stiffness: k } = s.holder else {
+        panic!("spring expected")
+    };
+    let kc = 1.5 * m.k * a;
+    let f_r = ((k + kc) / s.sphere.mass).sqrt() / (2.0 * PI);
+    assert!(f_r < base.frequency / 4.0);
+    assert_eq!(s.stages[0].vibration, Some(true));
+    assert_eq!(s.formation, ContactFormation::JumpIn);
+}
