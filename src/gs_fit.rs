@@ -663,10 +663,33 @@ mod tests {
             .collect();
         for deg in [1, 3] {
             let s = local_fits(&rows, 3, deg);
-            assert!(s[2].is_none() && s[16].is_none());
+            assert!(s[2].is_none() && s[3].is_some() && s[16].is_some() && s[17].is_none());
             let f = s[10].unwrap();
             assert!((f.slope + 3e-5).abs() < 1e-15);
             assert!(f.var_a < 1e-24);
         }
+    }
+
+    #[test]
+    fn cubic_local_fit_is_exact_on_a_cubic_with_uneven_steps() {
+        let a = |t: f64| 2e-3 - 1e-5 * t + 4e-6 * t * t - 3e-6 * t * t * t;
+        let rows: Vec<UnloadingRow> = (0..15)
+            .map(|i| {
+                let t = 0.1 * i as f64 + 0.013 * ((i * 7) % 5) as f64;
+                UnloadingRow {
+                    t,
+                    a: a(t),
+                    force: 0.0,
+                }
+            })
+            .collect();
+        let f = local_fits(&rows, 4, 3)[7].unwrap();
+        let t = rows[7].t;
+        let exact = -1e-5 + 8e-6 * t - 9e-6 * t * t;
+        assert!(
+            (f.slope - exact).abs() < 1e-12 * 1e-5,
+            "{} vs {exact}",
+            f.slope
+        );
     }
 }
