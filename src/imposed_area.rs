@@ -560,6 +560,46 @@ mod tests {
     }
 
     #[test]
+    fn zeroin_converges_fast_on_smooth_and_kinked_slopes() {
+        use std::cell::Cell;
+        let template = cycle(&M, &GentSchultz::PAPER, 1.0, 1e-3, 0.0).unwrap();
+        for (name, f, root) in [
+            (
+                "cubic",
+                (|x: f64| x * x * x - 2.0) as fn(f64) -> f64,
+                2f64.cbrt(),
+            ),
+            (
+                "kinked",
+                |x: f64| if x < 0.3 { x - 0.3 } else { 5.0 * (x - 0.3) },
+                0.3,
+            ),
+            ("flat", |x: f64| (x - 0.7).powi(3), 0.7),
+        ] {
+            let calls = Cell::new(0);
+            let eval = |x: f64| {
+                calls.set(calls.get() + 1);
+                Cycle {
+                    a_mean_imposed: x,
+                    force_slope: f(x),
+                    ..template
+                }
+            };
+            let c = slope_root(&eval, eval(0.0), eval(2.0), 1e-12);
+            let tol = if name == "flat" { 1e-4 } else { 1e-11 };
+            assert!(
+                (c.a_mean_imposed - root).abs() < tol,
+                "{name}: {}",
+                c.a_mean_imposed
+            );
+            // Superlinear where the slope has a simple root; at worst a few times bisection
+            // (41 halvings of the bracket) for a degenerate, triple root.
+            let max_calls = if name == "flat" { 150 } else { 20 };
+            assert!(calls.get() < max_calls, "{name}: {} calls", calls.get());
+        }
+    }
+
+    #[test]
     fn mean_truncated_radius_and_contact_fraction() {
         let law = GentSchultz::PAPER;
         let a_a = 1e-3;
