@@ -267,6 +267,12 @@ fn quasi_static_jkr_is_a_rigid_unvibrated_elastic_unload() {
     let f_dc = jkr::displacement_controlled_pull_off_force(&m, m.w0);
     assert!((f_dc - -0.03204).abs() < 5e-6, "{f_dc}");
     assert!(s.source_text.contains("-0.03204 N"));
+    let f0 = m.static_pull_off_force();
+    assert!((f0 - -0.05768).abs() < 5e-6, "{f0}");
+    assert!(s.source_text.contains("-0.05768 N"));
+    let a_po = jkr::load_controlled_pull_off_radius(&m, m.w0);
+    let d_po = jkr::equilibrium_indentation(&m, a_po, m.w0);
+    assert!((a_po - 0.6806e-3).abs() < 0.0001e-3 && (d_po - -3.028e-6).abs() < 0.001e-6);
     // The unload covers the way from the start to the turning point within max_duration.
     let a0 = jkr::equilibrium_radius_for_force(&m, stage_preload(&s), m.w0).unwrap();
     let d0 = jkr::equilibrium_indentation(&m, a0, m.w0);
@@ -324,4 +330,18 @@ fn impacts_scene_loses_contact_every_cycle() {
     assert!(f_r < base.frequency / 4.0);
     assert_eq!(s.stages[0].vibration, Some(true));
     assert_eq!(s.formation, ContactFormation::JumpIn);
+    // With the Gent-Schultz law the threshold is much higher: the derived delta_A of MODEL.md
+    // (eq. 23 corrected) at a_A = a_m, where a(t) first touches 0, must lie below X_b.
+    let Law::GentSchultz(gs) = s.law else {
+        panic!("Gent-Schultz law expected")
+    };
+    let omega = 2.0 * PI * base.frequency;
+    let s_ = 8.0 * PI * a * m.w0 / (3.0 * m.k);
+    let c_rate = (a * omega / gs.v0).powf(gs.n);
+    let delta_a =
+        a * a / m.r + a * a / (2.0 * m.r) + 0.5 * ((s_ * (1.0 + c_rate)).sqrt() - s_.sqrt());
+    assert!(
+        delta_a > 0.1e-3 && delta_a < 0.5 * base.amplitude,
+        "delta_A at a_A = a_m: {delta_a}"
+    );
 }
