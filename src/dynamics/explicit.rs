@@ -44,6 +44,7 @@ struct Rhs<'a> {
     contact: bool,
     scale: [f64; N],
     singular: &'a Cell<bool>,
+    collapse: &'a Cell<bool>,
     evals: &'a Cell<u64>,
 }
 
@@ -109,7 +110,11 @@ impl System<f64, Y> for Rhs<'_> {
                 }
             }
             None => {
-                self.singular.set(true);
+                if self.contact && !(a > 0.0) {
+                    self.collapse.set(true);
+                } else {
+                    self.singular.set(true);
+                }
                 for k in 0..N {
                     dy[k] = 0.0;
                 }
@@ -177,6 +182,7 @@ pub fn macro_step(
         y0[3 + k] = y.q[k] / scale[3 + k];
     }
     let singular = Cell::new(false);
+    let collapse = Cell::new(false);
     let evals = Cell::new(0u64);
     let rhs = Rhs {
         model,
@@ -184,6 +190,7 @@ pub fn macro_step(
         contact: y.contact,
         scale,
         singular: &singular,
+        collapse: &collapse,
         evals: &evals,
     };
     let (t0, t1) = (y.t, y.t + h);
@@ -217,11 +224,16 @@ pub fn macro_step(
                 (Some(&t), Some(yv)) => Some((t, *yv)),
                 _ => None,
             };
-            let last_h = if xs.len() >= 2 {
-                xs[xs.len() - 1] - xs[xs.len() - 2]
-            } else {
-                h
-            };
+            // The largest inner step (the last one is usually clipped to reach t + h).
+            let last_h = xs.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+            let last_h = if last_h > 0.0 { last_h } else { h };
+            if std::env::var("DJKR_DEBUG").is_ok() {
+                eprintln!(
+                    "macro t0 {t0:e} h {h:e} inner {} last_h {last_h:e} res {:?}",
+                    xs.len(),
+                    res.is_ok()
+                );
+            }
             (res, out, last_h)
         }};
     }
@@ -230,6 +242,10 @@ pub fn macro_step(
         ExplicitKind::Dop853 => run!(Dop853, 0.0, 0.333, 6.0),
     };
     let n_evals = evals.get();
+    if collapse.get() && !singular.get() {
+        // A trial stage pushed a through 0: the contact collapses within the macro step.
+        return Err(StepFail::NoRoot);
+    }
     if singular.get() {
         return Err(StepFail::Explicit(
             "the contact edge became compressive or G <= 0 (infinite healing speed)",
@@ -241,10 +257,18 @@ pub fn macro_step(
             return Err(StepFail::Explicit("stiffness detected"))
         }
         Err(IntegrationError::MaxNumStepReached { .. }) => {
-            return Err(StepFail::Explicit("step budget of the explicit method exhausted"))
+            return Err(StepFail::Explicit(
+                "step budget of the explicit method exhausted",
+            ))
         }
         Err(IntegrationError::StepSizeUnderflow { .. }) => {
-            return Err(StepFail::Explicit("step size underflow"))
+            // In contact this is the finite-time collapse a → 0 (ȧ → −∞) inside the macro
+            // step: report it like a failed implicit stage so that the driver closes in on it.
+            return Err(if y.contact {
+                StepFail::NoRoot
+            } else {
+                StepFail::Explicit("step size underflow")
+            });
         }
     }
     let Some((t_end, ye)) = out else {
