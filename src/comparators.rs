@@ -264,11 +264,10 @@ pub fn shui_pull_off_eq7(s: &ShuiSystem) -> f64 {
     -s.mass * s.omega * s.omega * s.base_amplitude
 }
 
-/// Radius at which the dynamic term of eq. (5) peaks: 3K a*/2 = m ω² + (c ω)²/(m ω²) (m).
+/// Radius at which the dynamic term of eq. (5) peaks: 3K a*/2 = m ω² + (c ω)²/(m ω²)
+/// = m ω² + c²/m (m); finite at ω = 0 too.
 pub fn shui_peak_radius(m: &Material, s: &ShuiSystem) -> f64 {
-    let mw2 = s.mass * s.omega * s.omega;
-    let cw = s.damping * s.omega;
-    (mw2 + cw * cw / mw2) / (1.5 * m.k)
+    (s.mass * s.omega * s.omega + s.damping * s.damping / s.mass) / (1.5 * m.k)
 }
 
 /// The pull-off (minimum of eq. (5) over a_m) of Shui et al.'s model.
