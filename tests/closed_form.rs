@@ -8,6 +8,7 @@ use djkr::comparators::{self as cmp, ShuiSystem};
 use djkr::imposed_area;
 use djkr::jkr;
 use djkr::material::Material;
+use proptest::prelude::*;
 use std::f64::consts::PI;
 
 const M: Material = Material::PAPER;
@@ -149,6 +150,19 @@ fn eq29_exact_inversion_and_the_papers_86_mm_per_s() {
         v48 * 1e3
     );
     assert!(v48 > 1.6 && v48 < 1.7, "{v48}");
+}
+
+proptest! {
+    // Eq. (29) inverts eqs. (21)/(24) for any n, β and amplification.
+    #[test]
+    fn eq29_inverts_the_closed_form(n in 0.1f64..1.5, beta in 0.5f64..10.0, log_a in 0.001f64..3.0) {
+        let law = GentSchultz::new(0.24, 4.45e-5, n).unwrap();
+        let target = 10f64.powf(log_a);
+        let v = cf::vibration_speed_for_amplification(&law, target, beta).unwrap();
+        prop_assert!(rel(cf::amplification(&law, v, beta), target) < 1e-9);
+        let po = cf::pull_off_approx(&M, &law, 1.0, v, beta, DeltaAmpForm::Derived).unwrap();
+        prop_assert!(rel(po.amplification, target) < 1e-9);
+    }
 }
 
 #[test]
