@@ -4,6 +4,7 @@
 mod closed;
 mod common;
 mod imposed;
+mod run;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -28,6 +29,11 @@ const EXAMPLES: &str = "Examples:
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Run a scenario file with the time-domain simulator (eqs. 30-32): writes summary.json and
+    /// run.h5 (and CSV with --csv) into --out, atomically.
+    Run(run::RunArgs),
+    /// Validate scenario files without running them.
+    Check(run::CheckArgs),
     /// One imposed-area cycle (paper Sec. 2.1): a(t) = a_m + a_A sin ωt → δ(t), its mean and
     /// first harmonics (eqs. 25–27), the mean force and the contact fraction.
     Cycle(imposed::CycleArgs),
@@ -45,6 +51,8 @@ enum Command {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Run(a) => run::run(&a),
+        Command::Check(a) => run::check(&a),
         Command::Cycle(a) => imposed::cycle(&a),
         Command::Pulloff(a) => imposed::pulloff(&a),
         Command::RequiredSpeed(a) => closed::required_speed(&a),

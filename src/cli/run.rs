@@ -1,0 +1,215 @@
+//! `djkr run FILE` and `djkr check FILE`: the time-domain simulator on a scenario file.
+
+use super::common::print_json;
+use anyhow::{Context, Result};
+use clap::Args;
+use djkr::dynamics::{self, Event, Observer, RunResult, Sample};
+use djkr::output::RunWriter;
+use djkr::scenario::parse::load_scenario;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// Flags of `djkr run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    /// Scenario file (TOML; see README, "Scenario files").
+    file: PathBuf,
+    /// Output directory for summary.json and run.h5 (created if needed) [default: out/<scenario name>].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Also write timeseries.csv and events.csv.
+    #[arg(long)]
+    csv: bool,
+    /// Print the summary as JSON (SI values) instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Flags of `djkr check`.
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    /// Scenario file(s) to validate without running.
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
+}
+
+/// Shows progress on a terminal (indicatif hides itself otherwise) and forwards to the writer.
+struct Progress<'a> {
+    inner: &'a mut RunWriter,
+    bar: ProgressBar,
+    last: Instant,
+    events: usize,
+    stages: usize,
+}
+
+impl Observer for Progress<'_> {
+    fn sample(&mut self, s: &Sample) -> bool {
+        if self.last.elapsed() >= Duration::from_millis(100) {
+            self.last = Instant::now();
+            self.bar.set_message(format!(
+                "t = {:.6} s  stage {}/{}  a = {:.4} mm  F = {:.4} mN  events {}",
+                s.t,
+                s.stage + 1,
+                self.stages,
+                s.a * 1e3,
+                s.force * 1e3,
+                self.events
+            ));
+        }
+        self.inner.sample(s)
+    }
+    fn event(&mut self, e: &Event) {
+        self.events += 1;
+        self.inner.event(e);
+    }
+    fn cycle(&mut self, c: &dynamics::CycleRecord) {
+        self.inner.cycle(c);
+    }
+}
+
+/// Run `djkr run`.
+pub fn run(a: &RunArgs) -> Result<()> {
+    let scn = load_scenario(&a.file)?;
+    let out = a.out.clone().unwrap_or_else(|| {
+        let stem = a
+            .file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "run".into());
+        PathBuf::from("out").join(stem)
+    });
+    let mut writer = RunWriter::create(&out, &scn, a.csv || scn.output.csv)
+        .with_context(|| format!("--out {}", out.display()))?;
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed}] {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(200));
+    let mut obs = Progress {
+        inner: &mut writer,
+        bar: bar.clone(),
+        last: Instant::now(),
+        events: 0,
+        stages: scn.stages.len(),
+    };
+    let result = dynamics::simulate(&scn, &mut obs);
+    bar.finish_and_clear();
+    let result = match result {
+        Ok(r) => r,
+        Err(e) => {
+            writer.abort();
+            return Err(anyhow::Error::new(e).context(format!(
+                "{}: run failed (no output written)",
+                a.file.display()
+            )));
+        }
+    };
+    let paths = writer
+        .finish(&result)
+        .with_context(|| format!("writing results into {}", out.display()))?;
+    if a.json {
+        return print_json(&serde_json::to_value(summary_json(&result))?);
+    }
+    print_summary(&a.file, &scn, &result);
+    println!("\nwrote:");
+    for p in paths.all() {
+        println!("  {}", p.display());
+    }
+    Ok(())
+}
+
+fn summary_json(r: &RunResult) -> serde_json::Value {
+    serde_json::json!({
+        "pull_off": r.pull_off,
+        "detached": r.detached,
+        "events": r.events.iter().map(|e| serde_json::json!({"kind": e.kind, "time": e.time, "stage": e.stage})).collect::<Vec<_>>(),
+        "stats": r.stats,
+        "method": r.method,
+    })
+}
+
+fn print_summary(file: &std::path::Path, scn: &djkr::scenario::Scenario, r: &RunResult) {
+    println!(
+        "{}: {} stage(s), method {}",
+        file.display(),
+        scn.stages.len(),
+        r.method
+    );
+    if r.detached {
+        println!(
+            "  pull-off force     {:.6} mN  (amplification {:.4} over −3/2 π R w0 = {:.6} mN)",
+            r.pull_off.force * 1e3,
+            r.pull_off.amplification,
+            scn.material.static_pull_off_force() * 1e3
+        );
+        println!("  reached at         t = {:.6} s", r.pull_off.time);
+    } else {
+        println!(
+            "  no detachment; most tensile {} force {:.6} mN at t = {:.6} s",
+            if scn.base.is_some() {
+                "cycle-averaged"
+            } else {
+                "contact"
+            },
+            r.pull_off.force * 1e3,
+            r.pull_off.time
+        );
+    }
+    let mut counts = std::collections::BTreeMap::new();
+    for e in &r.events {
+        *counts.entry(format!("{:?}", e.kind)).or_insert(0usize) += 1;
+    }
+    let list: Vec<String> = counts.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
+    println!("  events             {}", list.join(", "));
+    println!(
+        "  solver             {} steps, {} rejected, {} rhs evaluations, {:.3} s wall",
+        r.stats.steps, r.stats.rejected, r.stats.rhs_evals, r.stats.wall_s
+    );
+    let f = &r.final_state;
+    println!(
+        "  final state        t = {:.6} s, a = {:.6} mm, δ = {:.6} µm, F = {:.6} mN",
+        f.t,
+        f.a * 1e3,
+        f.delta * 1e6,
+        f.force * 1e3
+    );
+}
+
+/// Run `djkr check`.
+pub fn check(a: &CheckArgs) -> Result<()> {
+    let mut failed = 0;
+    for f in &a.files {
+        match load_scenario(f) {
+            Ok(s) => println!(
+                "{}: ok ({} stage(s), law {}, {})",
+                f.display(),
+                s.stages.len(),
+                law_name(&s.law),
+                if s.base.is_some() {
+                    "vibrating base"
+                } else {
+                    "no base motion"
+                }
+            ),
+            Err(e) => {
+                failed += 1;
+                eprintln!("error: {e}");
+            }
+        }
+    }
+    if failed > 0 {
+        anyhow::bail!("{failed} of {} scenario file(s) invalid", a.files.len());
+    }
+    Ok(())
+}
+
+fn law_name(l: &djkr::adhesion::Law) -> &'static str {
+    match l {
+        djkr::adhesion::Law::Constant(_) => "constant w0",
+        djkr::adhesion::Law::GentSchultz(_) => "gent-schultz",
+        djkr::adhesion::Law::Saturated(_) => "gent-schultz-saturated",
+        djkr::adhesion::Law::Tabulated(_) => "tabulated",
+    }
+}
