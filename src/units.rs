@@ -145,6 +145,7 @@ pub fn parse_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, Par
 }
 
 #[cfg(test)]
+#[allow(clippy::float_cmp)] // unit factors of 1 and exact decimal inputs
 mod tests {
     use super::*;
 

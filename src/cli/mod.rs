@@ -3,6 +3,7 @@
 
 mod closed;
 mod common;
+mod fit;
 mod imposed;
 mod run;
 
@@ -45,6 +46,9 @@ enum Command {
     /// Refit the speed correction β of eq. (24) against the exact pull-off over a range of n and
     /// v_max/v0 (checks the paper's Fig. 3(b) and β ≈ 2.5), reporting the error curve.
     BetaFit(closed::BetaFitArgs),
+    /// Fit the Gent–Schultz constants w0, v0, n (with uncertainties) to a quasi-static unloading
+    /// record (CSV: t, a, F), using eq. (28) for w and −ȧ for the crack speed.
+    GsFit(fit::GsFitArgs),
 }
 
 /// Entry point: run the command, print errors as one readable message, map to an exit code.
@@ -57,6 +61,7 @@ pub fn main() -> ExitCode {
         Command::Pulloff(a) => imposed::pulloff(&a),
         Command::RequiredSpeed(a) => closed::required_speed(&a),
         Command::BetaFit(a) => closed::beta_fit(&a),
+        Command::GsFit(a) => fit::gs_fit(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,81 @@
+//! `djkr gs-fit FILE`: Gent–Schultz constants from a quasi-static unloading record (Sec. 3).
+
+use super::common::{print_json, print_table, MaterialArgs};
+use anyhow::{Context, Result};
+use clap::Args;
+use djkr::gs_fit::{self, GsFitOptions};
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Flags of `djkr gs-fit`.
+#[derive(Args, Debug)]
+pub struct GsFitArgs {
+    /// CSV record with columns t (s), a (m), F (N, compressive +) and a header naming them.
+    file: PathBuf,
+    /// Half-width (rows) of the local polynomial window used to differentiate a(t).
+    #[arg(long, default_value_t = GsFitOptions::default().half_window)]
+    half_window: usize,
+    /// Print one JSON object of SI values.
+    #[arg(long)]
+    json: bool,
+    /// K and R of the contact (w0, v0, n flags are ignored: they are what is fitted).
+    #[command(flatten)]
+    material: MaterialArgs,
+}
+
+/// Run `djkr gs-fit`.
+pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
+    let (m, _) = a.material.resolve()?;
+    let text = std::fs::read_to_string(&a.file)
+        .with_context(|| format!("reading {}", a.file.display()))?;
+    let rows = gs_fit::parse_csv(&text, &a.file.display().to_string())?;
+    let opts = GsFitOptions {
+        half_window: a.half_window,
+        ..GsFitOptions::default()
+    };
+    let fit = gs_fit::fit_gent_schultz(&m, &rows, &opts)?;
+    if a.json {
+        return print_json(&json!({
+            "w0": fit.w0, "v0": fit.v0, "n": fit.n,
+            "sigma": {"w0": fit.sigma[0], "v0": fit.sigma[1], "n": fit.sigma[2]},
+            "points_used": fit.points_used, "rows": fit.rows,
+            "residual_rms": fit.residual_rms, "chi2_reduced": fit.chi2_reduced,
+            "speed_range": [fit.speed_range.0, fit.speed_range.1],
+            "n_at_bound": fit.n_at_bound,
+        }));
+    }
+    print_table(
+        &format!(
+            "Gent–Schultz fit of {} (w by eq. 28, crack speed −ȧ by local fits)",
+            a.file.display()
+        ),
+        &[
+            (
+                "w0",
+                format!("{:.4} ± {:.4} mJ/m^2", fit.w0 * 1e3, fit.sigma[0] * 1e3),
+            ),
+            (
+                "v0",
+                format!("{:.5} ± {:.5} mm/s", fit.v0 * 1e3, fit.sigma[1] * 1e3),
+            ),
+            ("n", format!("{:.4} ± {:.4}", fit.n, fit.sigma[2])),
+            (
+                "points used / rows",
+                format!("{} / {}", fit.points_used, fit.rows),
+            ),
+            (
+                "crack speeds used",
+                format!("{:.3e} .. {:.3e} m/s", fit.speed_range.0, fit.speed_range.1),
+            ),
+            (
+                "residual RMS",
+                format!("{:.4} mJ/m^2", fit.residual_rms * 1e3),
+            ),
+            ("reduced χ²", format!("{:.3}", fit.chi2_reduced)),
+        ],
+    );
+    if fit.n_at_bound {
+        println!("  note: n sits at the edge of its search range: the data may not constrain it");
+    }
+    Ok(())
+}
