@@ -345,3 +345,64 @@ fn impacts_scene_loses_contact_every_cycle() {
         "delta_A at a_A = a_m: {delta_a}"
     );
 }
+
+/// Every one-line mutation of every good file (line removed, or its value replaced by something
+/// out of range or of the wrong type) either parses or fails with an error naming the file; none
+/// panics.
+#[test]
+fn mutated_files_never_panic_and_always_name_the_file() {
+    use djkr::scenario::parse::parse_scenario;
+    let replacements = [
+        "-1",
+        "0",
+        "-0.0",
+        "nan",
+        "inf",
+        "-inf",
+        "\"x\"",
+        "\"-3mm\"",
+        "\"1e999m\"",
+        "true",
+        "[]",
+        "{}",
+        "9223372036854775807",
+        "1e-320",
+    ];
+    let base = dir("tests/scenarios/good");
+    let mut parsed = 0;
+    let mut rejected = 0;
+    for f in toml_files("tests/scenarios/good") {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        for i in 0..lines.len() {
+            let mut variants = vec![lines
+                .iter()
+                .enumerate()
+                .filter(|&(j, _)| j != i)
+                .map(|(_, l)| *l)
+                .collect::<Vec<_>>()
+                .join("\n")];
+            if let Some((key, _)) = lines[i].split_once('=') {
+                for r in replacements {
+                    let mut v = lines.clone();
+                    let new = format!("{key}= {r}");
+                    v[i] = &new;
+                    variants.push(v.join("\n"));
+                }
+            }
+            for v in variants {
+                match parse_scenario(&v, "mutant.toml", Some(&base)) {
+                    Ok(_) => parsed += 1,
+                    Err(e) => {
+                        rejected += 1;
+                        assert!(e.to_string().starts_with("mutant.toml: "), "{e}");
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        parsed > 50 && rejected > 1000,
+        "{parsed} parsed, {rejected} rejected"
+    );
+}

@@ -6,6 +6,8 @@
 //! (`stage[2].speed`, `material.K`), the value as written and the allowed range with its unit:
 //! serde's messages know the field name but not the section path or the range.
 //!
+//! "> 0" means a finite, normal (not subnormal) positive number throughout.
+//!
 //! Physical quantities are bare numbers in SI, or strings with a unit (`R = "51mm"`,
 //! `frequency = "0.3kHz"`) parsed by [`crate::units::parse_quantity`]. Integers are accepted
 //! wherever a number is (`stiffness = 200`).
@@ -24,7 +26,7 @@
 //! | `[contact]` | `formation` = `"jump-in"` (default) or `"seed"` with `seed_radius` (m, 0 < r ≤ jump-in radius) |
 //! | `[initial]` | `preload` (N, > 0) or `gap` (m, > 0); absent without a spring: the sphere's weight |
 //! | `[[stage]]` (≥ 1) | `kind`, `speed` (m/s), one of `duration` (s) / `preload` (N) / `until = "pull-off"`, `vibration` (bool), `max_duration` (s, 1e4) |
-//! | `[solver]` | `method`, `rtol` (0, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `event_tol` (s, > 0) |
+//! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `event_tol` (s, > 0) |
 //! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool) |
 
 use std::fmt::Display;
@@ -53,6 +55,8 @@ pub const DEFAULT_GRAVITY: f64 = 9.807;
 pub const DEFAULT_MAX_DURATION: f64 = 1e4;
 /// Largest allowed relative tolerance `solver.rtol`.
 pub const MAX_RTOL: f64 = 1e-2;
+/// Smallest allowed relative tolerance `solver.rtol` (a few ulps: tighter is rounding noise).
+pub const MIN_RTOL: f64 = 1e-14;
 /// Relative agreement required between a tabulated law's w(0) and `material.w0`.
 pub const TABLE_W0_RTOL: f64 = 1e-6;
 
@@ -279,10 +283,25 @@ impl<'a> Section<'a> {
     }
 }
 
+/// Shows a float as a user would write it: shortest round-trip digits, exponent form outside
+/// [1e-3, 1e9), TOML's spelling of non-finite values.
+fn show_float(x: f64) -> String {
+    if x.is_nan() {
+        "nan".to_string()
+    } else if x.is_infinite() {
+        if x > 0.0 { "inf" } else { "-inf" }.to_string()
+    } else if x == 0.0 || (1e-3..1e9).contains(&x.abs()) {
+        Value::Float(x).to_string()
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// Shows a TOML value as it would be written (strings quoted).
 fn show(v: &Value) -> String {
     match v {
         Value::Table(_) => "(a table)".to_string(),
+        Value::Float(f) => show_float(*f),
         other => other.to_string(),
     }
 }
@@ -389,7 +408,7 @@ impl Parser<'_> {
             })),
             Some(Value::Float(f)) => Ok(Some(Num {
                 v: *f,
-                shown: Value::Float(*f).to_string(),
+                shown: show_float(*f),
             })),
             Some(Value::String(text)) if qty.dim.is_some() => {
                 let dim = qty.dim.unwrap_or(Dimension::Dimensionless);
@@ -459,8 +478,17 @@ impl Parser<'_> {
     }
 
     fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if n.v.is_finite() && n.v > 0.0 {
+        if n.v.is_finite() && n.v >= f64::MIN_POSITIVE {
             Ok(n.v)
+        } else if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
+            Err(self.value_err(
+                &s.key(k),
+                &n.shown,
+                format!(
+                    "is subnormal (below {:e}): must be a normal finite number > 0 ({unit})",
+                    f64::MIN_POSITIVE
+                ),
+            ))
         } else {
             Err(self.value_err(
                 &s.key(k),
@@ -980,17 +1008,17 @@ impl Parser<'_> {
             Some(_) => solver.method = Method::Implicit,
         }
         if let Some(n) = self.number(&s, "rtol", DIMENSIONLESS)? {
-            if !(n.v.is_finite() && n.v > 0.0 && n.v <= MAX_RTOL) {
+            if !(n.v.is_finite() && (MIN_RTOL..=MAX_RTOL).contains(&n.v)) {
                 return Err(self.value_err(
                     &s.key("rtol"),
                     &n.shown,
-                    format!("must lie in (0, {MAX_RTOL:e}] (relative tolerance, dimensionless)"),
+                    format!("must lie in [{MIN_RTOL:e}, {MAX_RTOL:e}] (relative tolerance, dimensionless; below {MIN_RTOL:e} the error estimate is rounding noise)"),
                 ));
             }
             solver.rtol = n.v;
         }
         if let Some(n) = self.number(&s, "atol", DIMENSIONLESS)? {
-            if !(n.v.is_finite() && n.v > 0.0 && n.v <= 1.0) {
+            if !(n.v.is_finite() && n.v >= f64::MIN_POSITIVE && n.v <= 1.0) {
                 return Err(self.value_err(
                     &s.key("atol"),
                     &n.shown,
