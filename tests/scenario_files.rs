@@ -406,3 +406,94 @@ fn mutated_files_never_panic_and_always_name_the_file() {
         "{parsed} parsed, {rejected} rejected"
     );
 }
+
+// ---- bundled scenarios through the simulator and the writers --------------------------------
+
+/// quasi-static-jkr.toml end to end: simulate with a RunWriter attached, then check the JKR
+/// numbers its comment promises and that run.h5 / summary.json hold that very run.
+#[test]
+fn quasi_static_jkr_runs_to_the_jkr_numbers_and_writes_them() {
+    use djkr::dynamics::{simulate, EventKind};
+    use djkr::output::RunWriter;
+
+    let s = load("scenarios/quasi-static-jkr.toml");
+    let out = tempfile::tempdir().unwrap();
+    let mut w = RunWriter::create(out.path(), &s, true).unwrap();
+    let res = simulate(&s, &mut w).unwrap_or_else(|e| panic!("{e}"));
+    let m = s.material;
+    assert!(res.detached);
+    // Under displacement control the unload passes through the JKR force minimum.
+    let f0 = m.static_pull_off_force();
+    assert!(
+        ((res.pull_off.force - f0) / f0).abs() < 1e-9,
+        "pull-off {} vs {f0}",
+        res.pull_off.force
+    );
+    assert!((res.pull_off.amplification - 1.0).abs() < 1e-9);
+    // The contact jumps off at the turning point delta_min, where F = -(5/6) pi R w0. The event
+    // is located in time (event_tol), and the force is flat in delta there, so 1e-5 is loose.
+    let loss = res
+        .events
+        .iter()
+        .find(|e| e.kind == EventKind::ContactLoss)
+        .expect("a contact-loss event");
+    let f_dc = jkr::displacement_controlled_pull_off_force(&m, m.w0);
+    assert!(
+        ((loss.state.force - f_dc) / f_dc).abs() < 1e-5,
+        "{}",
+        loss.state.force
+    );
+    let a_dc = jkr::displacement_controlled_pull_off_radius(&m, m.w0);
+    let d_dc = jkr::equilibrium_indentation(&m, a_dc, m.w0);
+    assert!(((loss.state.delta - d_dc) / d_dc).abs() < 1e-5);
+
+    let paths = w.finish(&res).unwrap();
+    let f = hdf5_pure::File::open(&paths.hdf5).unwrap();
+    let t = f.dataset("t").unwrap().read_f64().unwrap();
+    let force = f.dataset("F").unwrap().read_f64().unwrap();
+    assert!(t.len() > 100 && t.windows(2).all(|p| p[1] >= p[0]));
+    let most_tensile = force.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(most_tensile >= res.pull_off.force - 1e-12 * f0.abs());
+    let kinds = f.dataset("events/kind").unwrap().read_string().unwrap();
+    assert_eq!(kinds.len(), res.events.len());
+    assert!(kinds.iter().any(|k| k == "pull-off"));
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&paths.summary).unwrap()).unwrap();
+    assert_eq!(j["detached"], true);
+    assert_eq!(j["samples"].as_u64(), Some(t.len() as u64));
+    assert!(paths.timeseries_csv.is_some_and(|p| p.exists()));
+}
+
+/// resonance-400hz.toml and paper-protocol-400hz.toml: the simulated indentation amplitude
+/// during the vibrating hold matches the linear transfer their comments quote (13.5 at
+/// resonance, 1.011 far above it). Adhesion hysteresis adds some damping the linear model lacks
+/// (a first run gave 13.44, 0.4 % below), hence 1 % at resonance; far from it the linear estimate
+/// should be close to exact (0.02 % seen).
+#[test]
+fn vibrating_scenes_respond_as_their_comments_say() {
+    use djkr::dynamics::{simulate, Recorder};
+
+    for (file, hold, expect, tol) in [
+        ("scenarios/resonance-400hz.toml", 0usize, 13.5, 0.01),
+        ("scenarios/paper-protocol-400hz.toml", 2, 1.0108, 0.003),
+    ] {
+        let mut s = load(file);
+        // Stop after the vibrating hold: its cycles are what is checked.
+        s.stages.truncate(hold + 1);
+        let mut rec = Recorder::default();
+        let res = simulate(&s, &mut rec).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let x_b = s.base.unwrap().amplitude;
+        let last: Vec<f64> = res
+            .cycles
+            .iter()
+            .filter(|c| c.stage == hold)
+            .map(|c| c.delta_sin.hypot(c.delta_cos) / x_b)
+            .collect();
+        assert!(last.len() > 100, "{file}: {} cycles", last.len());
+        let ratio = last[last.len() - 1];
+        assert!(
+            ((ratio - expect) / expect).abs() < tol,
+            "{file}: |delta_A/X_b| = {ratio}, expected {expect}"
+        );
+    }
+}
