@@ -532,3 +532,54 @@ fn probe_ode_solvers_dop853() {
         );
     }
 }
+
+#[test]
+#[ignore]
+fn probe_paper_protocol() {
+    for m in [Method::Auto, Method::Implicit] {
+        let mut s = djkr::dynamics::catalogue::paper_protocol(5e-6);
+        s.solver.method = m;
+        let (r, _) = run(&s);
+        println!("{:?} {} {:?}", r.pull_off, r.detached, r.stats);
+        for e in &r.events {
+            if e.kind != EventKind::Impact && e.kind != EventKind::ContactLoss {
+                println!("  {:?} t {:e} F {:e}", e.kind, e.time, e.state.force);
+            }
+        }
+        println!(
+            "  {} cycles, {} events; {}",
+            r.cycles.len(),
+            r.events.len(),
+            r.method
+        );
+    }
+}
+
+#[test]
+#[ignore]
+fn probe_protocol_convergence() {
+    for m in [Method::Implicit, Method::Dopri5] {
+        for rtol in [1e-7, 1e-8, 1e-9, 1e-10] {
+            let mut s = djkr::dynamics::catalogue::paper_protocol(1e-3);
+            s.solver.method = m;
+            s.solver.rtol = rtol;
+            match simulate(&s, &mut djkr::dynamics::NoObserver) {
+                Ok(r) => {
+                    let last = r.cycles.last().unwrap();
+                    let c5 = r.cycles.iter().find(|c| c.t_end >= 5.0).unwrap();
+                    let loss = r
+                        .events
+                        .iter()
+                        .find(|e| e.kind == EventKind::ContactLoss && e.time > 1.0)
+                        .map(|e| e.time);
+                    println!(
+                        "   cycle at {:.6}: <F> {:.10e} delta_s {:.8e}; first loss {loss:?}",
+                        c5.t_end, c5.force_mean, c5.delta_sin
+                    );
+                    println!("{m:?} {rtol:e}: pull-off {:.6e} at {:.6}, detach t {:.6}, last-cycle <F> {:.6e}, steps {} ; {}", r.pull_off.force, r.pull_off.time, first(&r, EventKind::PullOff).map(|e| e.time).unwrap_or(-1.0), last.force_mean, r.stats.steps, r.method.len());
+                }
+                Err(e) => println!("{m:?} {rtol:e}: {e}"),
+            }
+        }
+    }
+}

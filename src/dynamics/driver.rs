@@ -26,7 +26,7 @@ pub enum SimError {
         /// Last attempted step (s).
         h: f64,
         /// State.
-        state: Sample,
+        state: Box<Sample>,
     },
     /// `solver.max_steps` exhausted.
     #[error("step budget of {max_steps} steps exhausted at t = {t:e} s; {}", describe(.state))]
@@ -36,7 +36,7 @@ pub enum SimError {
         /// The budget.
         max_steps: u64,
         /// State.
-        state: Sample,
+        state: Box<Sample>,
     },
     /// `solver.max_wall_s` exhausted.
     #[error("wall-clock budget of {max_wall_s} s exhausted at t = {t:e} s; {}", describe(.state))]
@@ -46,7 +46,7 @@ pub enum SimError {
         /// The budget (s).
         max_wall_s: f64,
         /// State.
-        state: Sample,
+        state: Box<Sample>,
     },
     /// A stage ran for its `max_duration` without meeting its end condition.
     #[error("stage {stage} ({until}) did not end within max_duration = {max_duration} s (t = {t:e} s); {}", describe(.state))]
@@ -60,7 +60,7 @@ pub enum SimError {
         /// Time (s).
         t: f64,
         /// State.
-        state: Sample,
+        state: Box<Sample>,
     },
     /// The state became non-finite and no smaller step cured it.
     #[error("non-finite state at t = {t:e} s; {}", describe(.state))]
@@ -68,7 +68,7 @@ pub enum SimError {
         /// Time (s).
         t: f64,
         /// Last finite state.
-        state: Sample,
+        state: Box<Sample>,
     },
     /// An explicitly requested explicit method met a state it cannot integrate.
     #[error("{method} failed at t = {t:e} s: {reason}; {}; use method = \"implicit\" (or \"auto\")", describe(.state))]
@@ -80,7 +80,7 @@ pub enum SimError {
         /// What happened.
         reason: String,
         /// State.
-        state: Sample,
+        state: Box<Sample>,
     },
 }
 
@@ -290,8 +290,8 @@ impl Run<'_> {
         self.events.push(e);
     }
 
-    fn err_state(&self) -> Sample {
-        self.sample_of(&self.y)
+    fn err_state(&self) -> Box<Sample> {
+        Box::new(self.sample_of(&self.y))
     }
 
     /// Refresh the derived parts of the state (acceleration; x, v for the reduced mechanics)
@@ -524,7 +524,7 @@ impl Run<'_> {
                 break;
             }
             let mut th = (lo * ghi - hi * glo) / (ghi - glo);
-            if !(th > lo && th < hi) || !th.is_finite() {
+            if !th.is_finite() || th <= lo || th >= hi {
                 th = 0.5 * (lo + hi);
             }
             // Keep trial points away from the ends so the bracket always shrinks.
@@ -686,12 +686,8 @@ impl Run<'_> {
                     self.start_cycles();
                 }
             }
-            Some(false) => {
-                if self.drive.shaker {
-                    self.off_pending = true;
-                }
-            }
-            None => {}
+            Some(false) if self.drive.shaker => self.off_pending = true,
+            _ => {}
         }
         self.refresh();
         let y = self.y;

@@ -151,7 +151,7 @@ pub fn solve_radius<F: FnMut(f64) -> f64>(
         if a1 > 0.0 {
             let mut r1 = eval(a1);
             for _ in 0..12 {
-                if !r1.is_finite() || r1 == r0 {
+                if !r1.is_finite() || (r1 - r0).abs() <= 0.0 {
                     break;
                 }
                 let slope = (r1 - r0) / (a1 - a0);
@@ -159,7 +159,7 @@ pub fn solve_radius<F: FnMut(f64) -> f64>(
                     break;
                 }
                 let a2 = a1 - r1 / slope;
-                if !(a2 > 0.0) {
+                if a2.is_nan() || a2 <= 0.0 {
                     break;
                 }
                 if (a2 - a1).abs() <= 1e-14 * a2 {

@@ -62,7 +62,7 @@ fn explicit_rates(
 ) -> Option<(f64, f64, f64, f64, [f64; NQ])> {
     let kin = drive.at(model, t);
     let (x, v, adot, w) = if contact {
-        if !(a > 0.0) || model.rate_independent {
+        if a.is_nan() || a <= 0.0 || model.rate_independent {
             return None;
         }
         let (xq, _) = match model.mech {
@@ -110,7 +110,7 @@ impl System<f64, Y> for Rhs<'_> {
                 }
             }
             None => {
-                if self.contact && !(a > 0.0) {
+                if self.contact && (a.is_nan() || a <= 0.0) {
                     self.collapse.set(true);
                 } else {
                     self.singular.set(true);
