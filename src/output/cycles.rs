@@ -4,7 +4,8 @@
 //! The columns are taken from the record's serde serialisation, so a field added to
 //! [`CycleRecord`] reaches every file without touching the writers; its unit then comes from
 //! [`cycle_unit`] (by name pattern), which answers `""` for a name it does not know. Integer
-//! fields (`index`, `stage`) become int64 columns, the rest f64. A non-finite f64 (which serde
+//! fields (`index`, `stage`) become int64 columns, the rest f64. Column order: `index`, `stage`,
+//! `t_start`, `t_end`, then the other fields in serialisation order. A non-finite f64 (which serde
 //! turns into `null`) is stored as NaN.
 
 use serde_json::Value;
@@ -66,6 +67,9 @@ pub fn cycle_unit(name: &str) -> &'static str {
     }
 }
 
+/// Columns put first, in this order, when the record has them.
+const LEADING: [&str; 4] = ["index", "stage", "t_start", "t_end"];
+
 /// Fields of one record, in serialisation order.
 fn fields(c: &CycleRecord) -> Vec<(String, Value)> {
     match serde_json::to_value(c) {
@@ -79,7 +83,9 @@ pub fn cycle_table(cycles: &[CycleRecord]) -> CycleTable {
     let Some(first) = cycles.first() else {
         return CycleTable::default();
     };
-    let proto = fields(first);
+    let mut proto = fields(first);
+    // Identification columns first, then the rest in serialisation order.
+    proto.sort_by_key(|(k, _)| LEADING.iter().position(|l| l == k).unwrap_or(LEADING.len()));
     let names: Vec<String> = proto.iter().map(|(k, _)| k.clone()).collect();
     let mut columns: Vec<CycleColumn> = proto
         .iter()
