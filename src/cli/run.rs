@@ -1,6 +1,5 @@
 //! `djkr run FILE` and `djkr check FILE`: the time-domain simulator on a scenario file.
 
-use super::common::print_json;
 use anyhow::{Context, Result};
 use clap::Args;
 use djkr::dynamics::{self, Event, Observer, RunResult, Sample};
@@ -110,7 +109,11 @@ pub fn run(a: &RunArgs) -> Result<()> {
         .finish(&result)
         .with_context(|| format!("writing results into {}", out.display()))?;
     if a.json {
-        return print_json(&serde_json::to_value(summary_json(&result))?);
+        // Exactly the summary.json just written (its non-finite rule included).
+        let text = std::fs::read_to_string(&paths.summary)
+            .with_context(|| format!("reading back {}", paths.summary.display()))?;
+        println!("{}", text.trim_end());
+        return Ok(());
     }
     print_summary(&a.file, &scn, &result);
     println!("\nwrote:");
@@ -118,16 +121,6 @@ pub fn run(a: &RunArgs) -> Result<()> {
         println!("  {}", p.display());
     }
     Ok(())
-}
-
-fn summary_json(r: &RunResult) -> serde_json::Value {
-    serde_json::json!({
-        "pull_off": r.pull_off,
-        "detached": r.detached,
-        "events": r.events.iter().map(|e| serde_json::json!({"kind": e.kind, "time": e.time, "stage": e.stage})).collect::<Vec<_>>(),
-        "stats": r.stats,
-        "method": r.method,
-    })
 }
 
 fn print_summary(file: &std::path::Path, scn: &djkr::scenario::Scenario, r: &RunResult) {

@@ -209,6 +209,6 @@ pub struct Scenario {
     pub output: Output,
     /// The scenario file's text, stored with the results.
     pub source_text: String,
-    /// Where it came from (path or "<string>").
+    /// Where it came from (path, or `<string>`).
     pub source_name: String,
 }
