@@ -720,10 +720,21 @@ impl Run<'_> {
             }
             self.budget()?;
             let y0 = self.y;
+            if !y0.contact && self.watch_value(Watch::Impact, &y0) >= 0.0 {
+                // Out of contact with no gap (e.g. the spring end driven into the substrate at
+                // a stage start): contact forms now.
+                self.pending_loss = None;
+                self.form_contact()?;
+                continue;
+            }
             let t_bound = self.next_boundary();
             let t_lim = t_end.min(t_bound);
-            if t_lim - y0.t <= 0.0 {
-                // Boundaries are hit exactly; anything else is a logic slip: re-sync.
+            let snap = 16.0 * f64::EPSILON * y0.t.abs().max(self.model.t_char);
+            if t_lim - y0.t <= snap {
+                // Boundaries are hit exactly; a rounding sliver between two of them (a stage end
+                // and a period boundary computed differently) is absorbed here.
+                self.y.t = self.y.t.max(t_lim);
+                let y0 = self.y;
                 if t_bound <= y0.t {
                     self.record_cycle();
                     continue;
@@ -758,13 +769,23 @@ impl Run<'_> {
                 Ok(Some(o)) => o,
                 Ok(None) => {
                     self.stats.rejected += 1;
-                    if y0.contact {
+                    if y0.contact && y0.adot < 0.0 {
+                        // A shrinking contact with no stage root: it collapses before t + h.
                         let tc = y0.t + h;
                         self.collapse_at = Some(self.collapse_at.map_or(tc, |c| c.min(tc)));
                         self.h = 0.5 * h;
                         continue;
                     }
+                    // Healing (e.g. right after a seeded impact, ȧ huge): the step is too long
+                    // for the stage rates; shorten it.
                     self.h = 0.25 * h;
+                    if self.h <= self.h_min() {
+                        return Err(SimError::StepSizeUnderflow {
+                            t: y0.t,
+                            h: self.h,
+                            state: self.err_state(),
+                        });
+                    }
                     continue;
                 }
                 Err(StepFail::Explicit(reason)) => {

@@ -295,7 +295,19 @@ fn implicit_stage(
             a_p = if ck > 0.0 { ck } else { model.a_floor };
         }
         let step0 = (1e-3 * (a_p - ck).abs()).max(1e-10 * a_p);
-        let a = solve_radius(rho, a_p, step0, evals).ok_or(StepFail::NoRoot)?;
+        let a = match solve_radius(rho, a_p, step0, evals) {
+            Some(a) => a,
+            None => {
+                if std::env::var("DJKR_DEBUG").is_ok() {
+                    let pts: Vec<(f64, f64)> = [0.1, 0.5, 0.9, 1.0, 1.1, 2.0, 10.0]
+                        .iter()
+                        .map(|f| (f * a_p, rho(f * a_p)))
+                        .collect();
+                    eprintln!("NoRoot: a_p {a_p:e} ck {ck:e} hg {hg:e} guess {adot_guess:e} delta-ish {:e} pts {pts:?}", xk + kin.xb);
+                }
+                return Err(StepFail::NoRoot);
+            }
+        };
         let ad = (a - ck) / hg;
         (a, ad, model.work_of_adhesion(ad))
     } else {
