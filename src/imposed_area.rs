@@ -15,10 +15,15 @@
 //! With sin θ = cos φ and cos θ = ±sin φ:
 //! - δ_m = (1/2π) ∫₀^Φ (δ_h + δ_p) dφ, F_m = (1/2π) ∫₀^Φ (F_h + F_p) dφ;
 //! - δ_s = (1/π) ∫₀^Φ (δ_h + δ_p) cos φ dφ, δ_c = (1/π) ∫₀^Φ (δ_h − δ_p) sin φ dφ (eqs. 25–27);
+//! - likewise for the force, F_s = (1/π) ∫₀^{2π} F sin θ dθ = (1/π) ∫₀^Φ (F_h + F_p) cos φ dφ and
+//!   F_c = (1/π) ∫₀^{2π} F cos θ dθ = (1/π) ∫₀^Φ (F_h − F_p) sin φ dφ: the even part (about
+//!   θ = π/2) pairs with sin θ = cos φ, the odd part with cos θ = ±sin φ (used by
+//!   [`crate::describing`]);
 //! - mean of the truncated radius (closed form): ā = (a_m Φ + a_A sin Φ)/π; contact fraction Φ/π.
 //!
 //! With g = √(8π a/(3K)) and S = √w_p + √w_h, D = √w_p − √w_h:
-//! δ_h + δ_p = 2a²/R − g S, δ_h − δ_p = g D, F_h + F_p = 2K a³/R − (3/2) K a g S.
+//! δ_h + δ_p = 2a²/R − g S, δ_h − δ_p = g D, F_h + F_p = 2K a³/R − (3/2) K a g S,
+//! F_h − F_p = (3/2) K a g D.
 //!
 //! Near the right end the radius is evaluated from the distance d = Φ − φ without cancellation:
 //! a = (a_m + a_A cos Φ) + 2 a_A (−cos Φ) sin²(d/2) + a_A sin Φ sin d, where the first bracket is 0
@@ -58,6 +63,10 @@ pub struct Cycle {
     pub delta_amp: f64,
     /// Mean contact force F_m (N, positive compressive), with F = 0 out of contact.
     pub force_mean: f64,
+    /// First harmonic sine coefficient of the force F_s = (1/π) ∫ F sin θ dθ (N).
+    pub force_sin: f64,
+    /// First harmonic cosine coefficient of the force F_c = (1/π) ∫ F cos θ dθ (N).
+    pub force_cos: f64,
     /// dF_m/da_m at fixed ω and a_A (N/m): zero at pull-off.
     pub force_slope: f64,
     /// Fraction of the period in contact (a > 0).
@@ -218,6 +227,8 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
         delta_cos: 0.0,
         delta_amp: 0.0,
         force_mean: 0.0,
+        force_sin: 0.0,
+        force_cos: 0.0,
         force_slope: 0.0,
         contact_fraction: 0.0,
         evaluations: 0,
@@ -253,8 +264,8 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
     let base = if truncated { 0.0 } else { a_m - a_a };
     let two_r = 2.0 / r;
     // Integrand at distances d0 = φ and d1 = Φ − φ, each accurate near its own end:
-    // [(δh+δp), (δh+δp)cosφ, (δh−δp)sinφ, (Fh+Fp), slope].
-    let node = |d0: f64, d1: f64| -> [f64; 5] {
+    // [(δh+δp), (δh+δp)cosφ, (δh−δp)sinφ, (Fh+Fp), slope, (Fh+Fp)cosφ, (Fh−Fp)sinφ].
+    let node = |d0: f64, d1: f64| -> [f64; 7] {
         // sin φ, cos φ from the nearer end.
         let (sin_phi, cos_phi) = if d0 <= d1 {
             d0.sin_cos()
@@ -276,9 +287,18 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
         let dsum = a2r - g * s;
         let fsum = k * a * (a2r - 1.5 * g * s);
         let slope = 6.0 * k * a * a / r - 2.25 * k * g * s;
-        [dsum, dsum * cos_phi, g * dd * sin_phi, fsum, slope]
+        let fdiff = 1.5 * k * a * g * dd;
+        [
+            dsum,
+            dsum * cos_phi,
+            g * dd * sin_phi,
+            fsum,
+            slope,
+            fsum * cos_phi,
+            fdiff * sin_phi,
+        ]
     };
-    let mut sums = [0.0; 5];
+    let mut sums = [0.0; 7];
     let mut pieces = 1;
     if kink_speeds.is_empty() {
         sums = rule.integrate_n(0.0, phi_end, |_, d0, d1| node(d0, d1));
@@ -316,6 +336,8 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
     out.delta_amp = out.delta_sin.hypot(out.delta_cos);
     out.force_mean = sums[3] * inv2pi;
     out.force_slope = sums[4] * inv2pi;
+    out.force_sin = sums[5] / PI;
+    out.force_cos = sums[6] / PI;
     out.contact_fraction = phi_end / PI;
     out.evaluations = 2 * rule.len() * pieces;
     out
