@@ -11,6 +11,7 @@ pub mod adhesion;
 pub mod beta_fit;
 pub mod closed_form;
 pub mod comparators;
+pub mod describing;
 pub mod dynamics;
 pub mod error;
 pub mod figures;

@@ -1,0 +1,1115 @@
+//! Describing-function (harmonic-balance) predictor of the small and moderate oscillations of the
+//! sphere, built on the imposed-area cycle and solved self-consistently with eq. (30).
+//!
+//! ## Ansatz
+//! In periodic steady state the contact radius is taken as a(t) = a_m + a_A sin(ωt + ψ), the
+//! imposed-area ansatz with a phase. With θ = ωt + ψ, [`imposed_area::cycle`] gives δ(θ) and F(θ)
+//! over the cycle: their means δ_m, F_m and first harmonics δ_s sin θ + δ_c cos θ,
+//! F_s sin θ + F_c cos θ.
+//!
+//! ## Phasors
+//! A first harmonic x(t) = x_s sin ωt + x_c cos ωt is written as the complex number
+//! X = x_s + i x_c. Then ẋ = ω(x_s cos ωt − x_c sin ωt) has phasor ω(−x_c + i x_s) = iωX, so d/dt
+//! is iω (and d²/dt² is −ω²). The base x_b = X_b sin ωt has phasor X_b (real). A shift of the
+//! time origin by ψ/ω rotates phasors: with sin θ = sin ωt cos ψ + cos ωt sin ψ and
+//! cos θ = cos ωt cos ψ − sin ωt sin ψ, the t-phasor of δ_s sin θ + δ_c cos θ is
+//! (δ_s cos ψ − δ_c sin ψ) + i(δ_s sin ψ + δ_c cos ψ) = e^{iψ}(δ_s + i δ_c). So
+//! δ1 = e^{iψ}(δ_s + i δ_c) and F1 = e^{iψ}(F_s + i F_c).
+//!
+//! ## Harmonic balance of eq. (30)
+//! m ẍ_s + c ẋ_s + k(x_s − x_k) = −F + m g with x_s = δ − x_b, x_b = X_b sin ωt.
+//! - Mean (⟨ẍ_s⟩ = ⟨ẋ_s⟩ = ⟨x_b⟩ = 0, so ⟨x_s⟩ = δ_m): F_m = m g − k(δ_m − x_k).
+//! - First harmonic, damping on the sphere (c ẋ_s): with A = k − mω², D = cω, Z = A + iD and
+//!   X_s = δ1 − X_b: Z(δ1 − X_b) = −F1.
+//! - Damping on the contact (c δ̇): A(δ1 − X_b) + iD δ1 = −F1.
+//!
+//! Check: with a linear contact F1 = k_c δ1 the sphere case gives δ1/X_b = (A + iD)/(B + iD),
+//! B = A + k_c, i.e. δ_s/X_b = (AB + D²)/(B² + D²), δ_c/X_b = D(B − A)/(B² + D²), which is
+//! [`crate::transfer::linear`]; the contact case gives A(B − iD)/(B² + D²), also as there.
+//!
+//! Unknowns (a_m, a_A, ψ), three real equations (the mean and the real and imaginary parts of
+//! the first harmonic). They are solved by damped Newton in the variables (a_m, ln a_A, ψ): the
+//! logarithm keeps the Jacobian well scaled when a_A is tiny, as it is under a Gent–Schultz law
+//! (δ1 grows like a_A^n there, see below). The ψ column of the Jacobian is exact
+//! (∂δ1/∂ψ = iδ1, ∂F1/∂ψ = iF1), the other two are central finite differences. The start is a
+//! describing-function fixed point: the linear transfer with a complex contact stiffness κ
+//! (initially k_c = (3/2) K a_0), a_A matched to its |δ1|, κ updated to F1/δ1, a few times.
+//! [`continuation`] walks an increasing list of base amplitudes with adaptive substeps.
+//!
+//! ## Effective contact (describing function)
+//! F1 = (k_eff + iω c_eff) δ1 ([`effective_contact`]), independent of ψ (both phasors rotate
+//! together). c_eff > 0 means the contact absorbs energy: the work done on it per cycle is
+//! ∮ F dδ = π ω c_eff |δ1|². This is how adhesion hysteresis (peeling at w > w0, healing at
+//! w < w0) shows up as damping.
+//!
+//! ## Small-amplitude limits (a real finding about eq. (37))
+//! - Rate-independent law (constant w): the contact moves along the JKR equilibrium curve, so
+//!   δ1 = δ_eq'(a_m) α and F1 = F_eq'(a_m) α to first order, and F1/δ1 → the JKR tangent stiffness
+//!   k_t = F_eq'/δ_eq' = k_c (2a/R − 3s)/(2a/R − s), s = √(2πw/(3K a)) ([`tangent_stiffness`]),
+//!   with no damping. k_t < k_c always; k_t = 0 at the load-controlled pull-off radius. Eq. (37)'s
+//!   k_c = (3/2) K a_m (∂F/∂δ at fixed a) is not the small-signal stiffness of this model.
+//! - Gent–Schultz law with n < 1: w − w0 ∝ |ȧ|^n, so δ1 ∝ a_A^n ≫ a_A and a_A → 0 faster than X_b:
+//!   the contact line is effectively pinned and F1/δ1 → k_c (eq. (37) is then right), with
+//!   c_eff ∝ a_A^{1−n} → 0.
+//!
+//! ## Limitations
+//! When a_A > a_m the imposed cycle loses contact; the imposed-area method then sets δ = 0 out of
+//! contact, which is not the free flight of the sphere. Such solutions are returned with
+//! `contact_fraction < 1` and should not be trusted. A sinusoidal a(t) is an ansatz: the time-domain
+//! a(t) has higher harmonics, which this predictor ignores. With damping on the contact, δ1 = 0 at
+//! ω² = k/m (an anti-resonance of this model), where ln a_A → −∞: no solution is found there.
+
+use crate::adhesion::{AdhesionLaw, Law};
+use crate::error::ParamError;
+use crate::imposed_area::{self, Cycle};
+use crate::jkr;
+use crate::material::Material;
+use crate::scenario::{DampingOn, Holder, Initial, Scenario};
+use crate::transfer::Transfer;
+use serde::Serialize;
+use std::f64::consts::PI;
+use thiserror::Error;
+
+/// The mechanical system around the contact (eq. 30), SI.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct System {
+    /// Sphere mass m (kg), ≥ 0.
+    pub mass: f64,
+    /// Holding-spring stiffness k (N/m), ≥ 0 (0: no spring, the weight alone loads the contact).
+    pub stiffness: f64,
+    /// Viscous damping c (N s/m), ≥ 0.
+    pub damping: f64,
+    /// Where the damping acts.
+    pub damping_on: DampingOn,
+    /// Gravitational acceleration g (m/s²), towards the substrate.
+    pub gravity: f64,
+}
+
+/// How the mean load is set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Support {
+    /// The spring's far end sits at x_k (m, down +).
+    SpringEnd(f64),
+    /// x_k is placed so that the static JKR contact (w0, no vibration) carries this compressive
+    /// force P (N): x_k = δ0 + (P − m g)/k, δ0 the static indentation under P. With k = 0 the
+    /// load must equal m g.
+    StaticLoad(f64),
+}
+
+/// A starting point for Newton: the imposed cycle a = a_m + a_A sin(ωt + ψ).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Guess {
+    /// a_m (m).
+    pub a_mean: f64,
+    /// a_A (m), > 0.
+    pub a_amp: f64,
+    /// ψ (rad).
+    pub phase: f64,
+}
+
+/// The static contact (no vibration) the oscillation is built on.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct StaticState {
+    /// Contact radius a_0 (m).
+    pub a: f64,
+    /// Indentation δ_0 (m).
+    pub delta: f64,
+    /// Contact force F_0 = m g − k(δ_0 − x_k) (N).
+    pub force: f64,
+    /// Spring end x_k (m).
+    pub x_k: f64,
+}
+
+/// A harmonic-balance solution: a(t) = a_mean + a_amp sin(ωt + phase), and the indentation and
+/// force it implies, δ(t) ≈ δ_m + δ_s sin ωt + δ_c cos ωt (time origin of the base motion
+/// x_b = X_b sin ωt), F(t) likewise.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HarmonicBalance {
+    /// Imposed mean contact radius a_m (m).
+    pub a_mean: f64,
+    /// Contact-radius amplitude a_A (m).
+    pub a_amp: f64,
+    /// Phase ψ of the contact radius relative to the base motion (rad).
+    pub phase: f64,
+    /// Mean indentation δ_m = ⟨x_s⟩ (m).
+    pub delta_mean: f64,
+    /// δ_s: coefficient of sin ωt in δ (m).
+    pub delta_sin: f64,
+    /// δ_c: coefficient of cos ωt in δ (m).
+    pub delta_cos: f64,
+    /// |δ1| = hypot(δ_s, δ_c) (m).
+    pub delta_amp: f64,
+    /// Mean contact force F_m (N).
+    pub force_mean: f64,
+    /// F_s: coefficient of sin ωt in F (N).
+    pub force_sin: f64,
+    /// F_c: coefficient of cos ωt in F (N).
+    pub force_cos: f64,
+    /// Fraction of the period in contact (< 1: the solution is outside the method's validity).
+    pub contact_fraction: f64,
+    /// Spring end x_k used (m).
+    pub x_k: f64,
+    /// Base amplitude X_b (m).
+    pub base_amplitude: f64,
+    /// Angular frequency ω (rad/s).
+    pub omega: f64,
+    /// Newton iterations spent (summed over continuation substeps when [`solve`] needed them).
+    pub iterations: usize,
+    /// Relative residual at the solution: the largest of the mean and first-harmonic equation
+    /// residuals, each divided by the sum of the magnitudes of its terms.
+    pub residual: f64,
+}
+
+impl HarmonicBalance {
+    /// δ1 / X_b as a [`Transfer`], comparable with [`crate::transfer::linear`].
+    pub fn transfer(&self) -> Transfer {
+        Transfer {
+            sin: self.delta_sin / self.base_amplitude,
+            cos: self.delta_cos / self.base_amplitude,
+        }
+    }
+
+    /// The solution as a starting point for a neighbouring problem.
+    pub fn guess(&self) -> Guess {
+        Guess {
+            a_mean: self.a_mean,
+            a_amp: self.a_amp,
+            phase: self.phase,
+        }
+    }
+
+    /// Effective contact stiffness and damping F1/δ1 = k_eff + iω c_eff of this solution
+    /// (N/m, N s/m); `None` at zero amplitude.
+    pub fn effective_contact(&self) -> Option<EffectiveContact> {
+        effective_from_phasors(
+            self.delta_sin,
+            self.delta_cos,
+            self.force_sin,
+            self.force_cos,
+            self.omega,
+        )
+    }
+}
+
+/// Describing-function contact: F1 = (stiffness + iω damping) δ1.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct EffectiveContact {
+    /// k_eff = Re(F1/δ1) (N/m).
+    pub stiffness: f64,
+    /// c_eff = Im(F1/δ1)/ω (N s/m); > 0 when the contact dissipates energy.
+    pub damping: f64,
+}
+
+/// Why the predictor has no answer.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum DescribingError {
+    /// An input out of range.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// No static contact equilibrium to start from.
+    #[error("no static contact: {0}")]
+    NoStaticState(String),
+    /// Newton (with continuation) did not converge.
+    #[error(
+        "harmonic balance did not converge at omega = {omega} rad/s, X_b = {base_amplitude} m \
+         after {iterations} iterations (relative residual {residual:e})"
+    )]
+    NotConverged {
+        /// ω (rad/s).
+        omega: f64,
+        /// X_b (m).
+        base_amplitude: f64,
+        /// Iterations spent.
+        iterations: usize,
+        /// Best relative residual reached (may be infinite when no cycle could be evaluated).
+        residual: f64,
+    },
+    /// The scenario cannot be mapped onto this predictor.
+    #[error("scenario not supported: {0}")]
+    Unsupported(String),
+}
+
+/// Relative residual at which Newton stops.
+const TARGET: f64 = 1e-12;
+/// Relative residual a solution must reach to be returned.
+pub const ACCEPT: f64 = 1e-10;
+const MAX_NEWTON: usize = 60;
+
+/// JKR tangent stiffness dF/dδ along the equilibrium curve at work of adhesion w (N/m):
+/// k_t = F_eq'(a)/δ_eq'(a) = (3/2) K a (2a/R − 3s)/(2a/R − s), s = √(2πw/(3K a)). Infinite at the
+/// displacement-controlled pull-off radius (δ_eq' = 0), negative between it and the
+/// load-controlled one. The small-amplitude stiffness of a rate-independent contact.
+pub fn tangent_stiffness(m: &Material, a: f64, w: f64) -> f64 {
+    let s = (2.0 * PI * w / (3.0 * m.k * a)).sqrt();
+    let t = 2.0 * a / m.r;
+    jkr::contact_stiffness(m, a) * (t - 3.0 * s) / (t - s)
+}
+
+fn effective_from_phasors(
+    ds: f64,
+    dc: f64,
+    fs: f64,
+    fc: f64,
+    omega: f64,
+) -> Option<EffectiveContact> {
+    let den = ds * ds + dc * dc;
+    if !(den > 0.0 && den.is_finite() && omega > 0.0) {
+        return None;
+    }
+    // F1/δ1 = (fs + i fc)(ds − i dc)/|δ1|².
+    let re = (fs * ds + fc * dc) / den;
+    let im = (fc * ds - fs * dc) / den;
+    (re.is_finite() && im.is_finite()).then_some(EffectiveContact {
+        stiffness: re,
+        damping: im / omega,
+    })
+}
+
+/// Effective (describing-function) contact stiffness and damping of the imposed cycle
+/// a = a_m + a_A sin θ at ω: F1/δ1 = k_eff + iω c_eff (N/m, N s/m). Independent of the phase.
+/// Errors on invalid inputs and on a_A = 0 or a cycle without indentation harmonic.
+pub fn effective_contact<L: AdhesionLaw + ?Sized>(
+    m: &Material,
+    law: &L,
+    omega: f64,
+    a_mean: f64,
+    a_amp: f64,
+) -> Result<EffectiveContact, ParamError> {
+    let c = imposed_area::cycle(m, law, omega, a_mean, a_amp)?;
+    effective_from_phasors(c.delta_sin, c.delta_cos, c.force_sin, c.force_cos, omega).ok_or_else(
+        || {
+            ParamError::new(
+                "a_amp",
+                a_amp,
+                "must give a nonzero indentation harmonic (a_A > 0)",
+            )
+        },
+    )
+}
+
+fn check_system(s: &System) -> Result<(), ParamError> {
+    let ok = |v: f64| v.is_finite() && v >= 0.0;
+    if !ok(s.mass) {
+        return Err(ParamError::new(
+            "mass",
+            s.mass,
+            "must be finite and >= 0 kg",
+        ));
+    }
+    if !ok(s.stiffness) {
+        return Err(ParamError::new(
+            "stiffness",
+            s.stiffness,
+            "must be finite and >= 0 N/m",
+        ));
+    }
+    if !ok(s.damping) {
+        return Err(ParamError::new(
+            "damping",
+            s.damping,
+            "must be finite and >= 0 N s/m",
+        ));
+    }
+    if !s.gravity.is_finite() {
+        return Err(ParamError::new(
+            "gravity",
+            s.gravity,
+            "must be finite (m/s^2)",
+        ));
+    }
+    Ok(())
+}
+
+/// The static contact under `support` at w0 = law.w0() (no vibration).
+///
+/// StaticLoad(P): the JKR radius for P on the stable branch, x_k = δ0 + (P − m g)/k (with k = 0, P
+/// must equal m g within 1e-9). SpringEnd(x_k): the largest root a of
+/// F_eq(a) + k(δ_eq(a) − x_k) − m g = 0 (the root on the stable branch; with k = 0 the radius for
+/// the load m g).
+pub fn static_state<L: AdhesionLaw + ?Sized>(
+    m: &Material,
+    law: &L,
+    sys: &System,
+    support: Support,
+) -> Result<StaticState, DescribingError> {
+    m.validate()?;
+    check_system(sys)?;
+    let w0 = law.w0();
+    if !(w0.is_finite() && w0 >= 0.0) {
+        return Err(ParamError::new("w0", w0, "must be finite and >= 0 J/m^2").into());
+    }
+    let weight = sys.mass * sys.gravity;
+    let radius_for = |p: f64| {
+        jkr::equilibrium_radius_for_force(m, p, w0)
+            .filter(|a| a.is_finite() && *a > 0.0)
+            .ok_or_else(|| {
+                DescribingError::NoStaticState(format!(
+                    "load {p} N is not carried by a JKR contact (pull-off force {} N)",
+                    jkr::load_controlled_pull_off_force(m, w0)
+                ))
+            })
+    };
+    let k = sys.stiffness;
+    if k <= 0.0 {
+        if let Support::StaticLoad(p) = support {
+            if !(p.is_finite() && (p - weight).abs() <= 1e-9 * p.abs().max(weight.abs())) {
+                return Err(ParamError::new(
+                    "static load",
+                    p,
+                    format!("without a spring must equal the weight m g = {weight} N"),
+                )
+                .into());
+            }
+        }
+        let a = radius_for(weight)?;
+        let x_k = match support {
+            Support::SpringEnd(x) if x.is_finite() => x,
+            _ => 0.0,
+        };
+        return Ok(StaticState {
+            a,
+            delta: jkr::equilibrium_indentation(m, a, w0),
+            force: weight,
+            x_k,
+        });
+    }
+    match support {
+        Support::StaticLoad(p) => {
+            if !p.is_finite() {
+                return Err(ParamError::new("static load", p, "must be finite (N)").into());
+            }
+            let a = radius_for(p)?;
+            let d = jkr::equilibrium_indentation(m, a, w0);
+            Ok(StaticState {
+                a,
+                delta: d,
+                force: p,
+                x_k: d + (p - weight) / k,
+            })
+        }
+        Support::SpringEnd(x_k) => {
+            if !x_k.is_finite() {
+                return Err(ParamError::new("x_k", x_k, "must be finite (m)").into());
+            }
+            let f = |a: f64| {
+                jkr::equilibrium_force(m, a, w0)
+                    + k * (jkr::equilibrium_indentation(m, a, w0) - x_k)
+                    - weight
+            };
+            // Upper end: f > 0 for large a. Scan down geometrically for the first sign change.
+            let mut hi = jkr::jump_in_radius(m, w0.max(1e-300)).max(1e-9 * m.r);
+            let mut guard = 0;
+            while f(hi) <= 0.0 {
+                hi *= 2.0;
+                guard += 1;
+                if guard > 200 || !hi.is_finite() {
+                    return Err(DescribingError::NoStaticState(format!(
+                        "no contact equilibrium for x_k = {x_k} m"
+                    )));
+                }
+            }
+            let lo_limit = 1e-12 * hi;
+            let mut lo = hi;
+            loop {
+                lo *= 0.9;
+                if lo < lo_limit {
+                    return Err(DescribingError::NoStaticState(format!(
+                        "x_k = {x_k} m: the spring does not hold the sphere in contact"
+                    )));
+                }
+                if f(lo) <= 0.0 {
+                    break;
+                }
+                hi = lo;
+            }
+            // Bisection (f is continuous; 200 halvings reach the rounding floor).
+            for _ in 0..200 {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                if f(mid) <= 0.0 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let a = hi;
+            let d = jkr::equilibrium_indentation(m, a, w0);
+            Ok(StaticState {
+                a,
+                delta: d,
+                force: weight - k * (d - x_k),
+                x_k,
+            })
+        }
+    }
+}
+
+/// Complex helpers on (re, im) pairs.
+#[derive(Debug, Clone, Copy)]
+struct C(f64, f64);
+
+impl C {
+    fn add(self, o: C) -> C {
+        C(self.0 + o.0, self.1 + o.1)
+    }
+    fn sub(self, o: C) -> C {
+        C(self.0 - o.0, self.1 - o.1)
+    }
+    fn mul(self, o: C) -> C {
+        C(self.0 * o.0 - self.1 * o.1, self.0 * o.1 + self.1 * o.0)
+    }
+    fn div(self, o: C) -> C {
+        let d = o.0 * o.0 + o.1 * o.1;
+        C(
+            (self.0 * o.0 + self.1 * o.1) / d,
+            (self.1 * o.0 - self.0 * o.1) / d,
+        )
+    }
+    fn scale(self, s: f64) -> C {
+        C(self.0 * s, self.1 * s)
+    }
+    fn abs(self) -> f64 {
+        self.0.hypot(self.1)
+    }
+    fn rot(self, psi: f64) -> C {
+        let (s, c) = psi.sin_cos();
+        self.mul(C(c, s))
+    }
+}
+
+/// One problem: everything but the unknowns.
+struct Problem<'a, L: AdhesionLaw + ?Sized> {
+    m: &'a Material,
+    law: &'a L,
+    sys: System,
+    x_k: f64,
+    xb: f64,
+    omega: f64,
+}
+
+/// The residual at (a_m, ln a_A, ψ), with what is needed to report it.
+#[derive(Clone, Copy)]
+struct Eval {
+    cycle: Cycle,
+    /// δ1, F1 in the time frame.
+    d1: C,
+    f1: C,
+    /// [mean, Re first harmonic, Im first harmonic] (N).
+    r: [f64; 3],
+    /// Relative residual (see [`HarmonicBalance::residual`]).
+    rel: f64,
+}
+
+impl<L: AdhesionLaw + ?Sized> Problem<'_, L> {
+    fn a_coef(&self) -> f64 {
+        self.sys.stiffness - self.sys.mass * self.omega * self.omega
+    }
+    fn d_coef(&self) -> f64 {
+        self.sys.damping * self.omega
+    }
+
+    /// First-harmonic residual and the sum of its term magnitudes, from δ1, F1 (time frame).
+    fn harmonic(&self, d1: C, f1: C) -> (C, f64) {
+        let (a, d) = (self.a_coef(), self.d_coef());
+        let xs = d1.sub(C(self.xb, 0.0));
+        match self.sys.damping_on {
+            DampingOn::Sphere => {
+                let z = C(a, d).mul(xs);
+                (f1.add(z), f1.abs() + z.abs())
+            }
+            DampingOn::Contact => {
+                let z1 = xs.scale(a);
+                let z2 = C(0.0, d).mul(d1);
+                (f1.add(z1).add(z2), f1.abs() + z1.abs() + z2.abs())
+            }
+        }
+    }
+
+    fn eval(&self, x: [f64; 3]) -> Option<Eval> {
+        let a_amp = x[1].exp();
+        let cycle = imposed_area::cycle(self.m, self.law, self.omega, x[0], a_amp).ok()?;
+        let d1 = C(cycle.delta_sin, cycle.delta_cos).rot(x[2]);
+        let f1 = C(cycle.force_sin, cycle.force_cos).rot(x[2]);
+        let k = self.sys.stiffness;
+        let weight = self.sys.mass * self.sys.gravity;
+        let spring = k * (cycle.delta_mean - self.x_k);
+        let r0 = cycle.force_mean + spring - weight;
+        let s0 = cycle.force_mean.abs() + spring.abs() + weight.abs();
+        let (r1, s1) = self.harmonic(d1, f1);
+        let rel = (r0.abs() / s0.max(f64::MIN_POSITIVE)).max(r1.abs() / s1.max(f64::MIN_POSITIVE));
+        let r = [r0, r1.0, r1.1];
+        (r.iter().all(|v| v.is_finite()) && rel.is_finite()).then_some(Eval {
+            cycle,
+            d1,
+            f1,
+            r,
+            rel,
+        })
+    }
+
+    /// Damped Newton from x. Returns the solution and the iterations, or the best residual.
+    fn newton(
+        &self,
+        mut x: [f64; 3],
+        scale: [f64; 2],
+    ) -> Result<(Eval, [f64; 3], usize), (f64, usize)> {
+        let norm = |e: &Eval| {
+            let a = e.r[0] / scale[0];
+            let b = e.r[1] / scale[1];
+            let c = e.r[2] / scale[1];
+            (a * a + b * b + c * c).sqrt()
+        };
+        let Some(mut cur) = self.eval(x) else {
+            return Err((f64::INFINITY, 0));
+        };
+        let mut stalls = 0;
+        for it in 0..MAX_NEWTON {
+            if cur.rel <= TARGET {
+                return Ok((cur, x, it));
+            }
+            // Jacobian: central differences in a_m and ln a_A, exact in ψ.
+            let a_amp = x[1].exp();
+            let h0 = 1e-7 * x[0].abs().max(a_amp);
+            let h1 = 1e-6;
+            let mut jac = [[0.0; 3]; 3];
+            for (col, h) in [(0usize, h0), (1, h1)] {
+                let mut xp = x;
+                let mut xm = x;
+                xp[col] += h;
+                xm[col] -= h;
+                let (Some(ep), Some(em)) = (self.eval(xp), self.eval(xm)) else {
+                    return Err((cur.rel, it));
+                };
+                for (row, (p, q)) in jac.iter_mut().zip(ep.r.iter().zip(&em.r)) {
+                    row[col] = (p - q) / (2.0 * h);
+                }
+            }
+            let (dr, _) = self.harmonic(cur.d1.mul(C(0.0, 1.0)), cur.f1.mul(C(0.0, 1.0)));
+            // ∂R1/∂ψ: the X_b term does not rotate, so remove its contribution from harmonic().
+            let (r_xb, _) = self.harmonic(C(0.0, 0.0), C(0.0, 0.0));
+            let dpsi = dr.sub(r_xb);
+            jac[0][2] = 0.0;
+            jac[1][2] = dpsi.0;
+            jac[2][2] = dpsi.1;
+            let rhs = [-cur.r[0], -cur.r[1], -cur.r[2]];
+            let Some(mut dx) = solve3(jac, rhs) else {
+                return Err((cur.rel, it));
+            };
+            // Trust limits: ln a_A by at most 2, a_m by at most half of max(a_m, a_A), ψ by 1 rad.
+            let lim = [0.5 * x[0].abs().max(a_amp), 2.0, 1.0];
+            let mut shrink: f64 = 1.0;
+            for i in 0..3 {
+                if dx[i].abs() > lim[i] {
+                    shrink = shrink.min(lim[i] / dx[i].abs());
+                }
+            }
+            for v in &mut dx {
+                *v *= shrink;
+            }
+            let n0 = norm(&cur);
+            let mut lambda = 1.0;
+            let mut accepted = None;
+            for _ in 0..30 {
+                let xt = [
+                    x[0] + lambda * dx[0],
+                    x[1] + lambda * dx[1],
+                    x[2] + lambda * dx[2],
+                ];
+                if let Some(e) = self.eval(xt) {
+                    if norm(&e) < (1.0 - 1e-4 * lambda) * n0 {
+                        accepted = Some((e, xt));
+                        break;
+                    }
+                }
+                lambda *= 0.5;
+            }
+            match accepted {
+                Some((e, xt)) => {
+                    cur = e;
+                    x = xt;
+                    stalls = 0;
+                }
+                None => {
+                    // At the rounding floor no step decreases the norm: accept if good enough.
+                    stalls += 1;
+                    if cur.rel <= ACCEPT {
+                        return Ok((cur, x, it + 1));
+                    }
+                    return Err((cur.rel, it + 1 + stalls));
+                }
+            }
+        }
+        if cur.rel <= ACCEPT {
+            Ok((cur, x, MAX_NEWTON))
+        } else {
+            Err((cur.rel, MAX_NEWTON))
+        }
+    }
+
+    /// Force scales of the mean and first-harmonic equations, for the Newton line search.
+    fn scales(&self, a0: f64) -> [f64; 2] {
+        let f0 = 1.5 * PI * self.m.r * self.law.w0();
+        let weight = (self.sys.mass * self.sys.gravity).abs();
+        let kc = jkr::contact_stiffness(self.m, a0);
+        let z = self.a_coef().hypot(self.d_coef());
+        [
+            (f0 + weight + kc * a0 * a0 / self.m.r).max(f64::MIN_POSITIVE),
+            ((z + kc) * self.xb).max(f64::MIN_POSITIVE),
+        ]
+    }
+
+    /// Linear transfer with complex contact stiffness κ: δ1.
+    fn linear_d1(&self, kappa: C) -> Option<C> {
+        let (a, d) = (self.a_coef(), self.d_coef());
+        let xb = C(self.xb, 0.0);
+        let out = match self.sys.damping_on {
+            DampingOn::Sphere => {
+                let z = C(a, d);
+                z.mul(xb).div(z.add(kappa))
+            }
+            DampingOn::Contact => xb.scale(a).div(C(a, d).add(kappa)),
+        };
+        (out.0.is_finite() && out.1.is_finite() && out.abs() > 0.0).then_some(out)
+    }
+
+    /// a_A at which the cycle's |δ1| equals `target` (safeguarded secant in log-log).
+    fn match_amplitude(&self, a_m: f64, target: f64) -> Option<(f64, Cycle)> {
+        let amp = |la: f64| {
+            imposed_area::cycle(self.m, self.law, self.omega, a_m, la.exp())
+                .ok()
+                .filter(|c| c.delta_amp > 0.0 && c.delta_amp.is_finite())
+        };
+        let lt = target.ln();
+        // Hertz-like start: δ_A ≈ 2 a_m a_A / R.
+        let mut x = (target * self.m.r / (2.0 * a_m)).min(0.5 * a_m).ln();
+        let mut c = amp(x)?;
+        let mut y = c.delta_amp.ln();
+        let mut p = 1.0;
+        for _ in 0..40 {
+            if (y - lt).abs() < 1e-4 {
+                break;
+            }
+            let step = ((lt - y) / p).clamp(-5.0, 5.0);
+            let xn = (x + step).min((0.95 * a_m).ln());
+            let cn = amp(xn)?;
+            let yn = cn.delta_amp.ln();
+            if (xn - x).abs() > 1e-12 {
+                p = ((yn - y) / (xn - x)).clamp(0.05, 3.0);
+            }
+            x = xn;
+            y = yn;
+            c = cn;
+            if xn >= (0.95 * a_m).ln() && yn < lt {
+                break;
+            }
+        }
+        Some((x.exp(), c))
+    }
+
+    /// Describing-function fixed point as a starting guess.
+    fn initial_guess(&self, a0: f64) -> Option<[f64; 3]> {
+        let mut kappa = C(jkr::contact_stiffness(self.m, a0), 0.0);
+        let mut x = None;
+        for _ in 0..4 {
+            let d1 = self.linear_d1(kappa)?;
+            let (a_amp, c) = self.match_amplitude(a0, d1.abs())?;
+            let d_theta = C(c.delta_sin, c.delta_cos);
+            let psi = d1.1.atan2(d1.0) - d_theta.1.atan2(d_theta.0);
+            x = Some([a0, a_amp.ln(), psi]);
+            let k_new = C(c.force_sin, c.force_cos).div(d_theta);
+            if !(k_new.0.is_finite() && k_new.1.is_finite()) {
+                break;
+            }
+            kappa = k_new;
+        }
+        x
+    }
+
+    fn finish(&self, e: &Eval, x: [f64; 3], iterations: usize) -> HarmonicBalance {
+        let psi = x[2].rem_euclid(2.0 * PI);
+        HarmonicBalance {
+            a_mean: x[0],
+            a_amp: x[1].exp(),
+            phase: psi,
+            delta_mean: e.cycle.delta_mean,
+            delta_sin: e.d1.0,
+            delta_cos: e.d1.1,
+            delta_amp: e.d1.abs(),
+            force_mean: e.cycle.force_mean,
+            force_sin: e.f1.0,
+            force_cos: e.f1.1,
+            contact_fraction: e.cycle.contact_fraction,
+            x_k: self.x_k,
+            base_amplitude: self.xb,
+            omega: self.omega,
+            iterations,
+            residual: e.rel,
+        }
+    }
+}
+
+/// Solve a dense 3×3 system (nalgebra LU with partial pivoting); `None` when singular or not
+/// finite.
+fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
+    let m = nalgebra::Matrix3::from_fn(|i, j| a[i][j]);
+    let x = m.lu().solve(&nalgebra::Vector3::from(b))?;
+    let x = [x[0], x[1], x[2]];
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+fn check_drive(omega: f64, xb: f64) -> Result<(), ParamError> {
+    if !(omega.is_finite() && omega > 0.0) {
+        return Err(ParamError::new(
+            "omega",
+            omega,
+            "must be finite and > 0 rad/s",
+        ));
+    }
+    if !(xb.is_finite() && xb >= 0.0) {
+        return Err(ParamError::new(
+            "base amplitude",
+            xb,
+            "must be finite and >= 0 m",
+        ));
+    }
+    Ok(())
+}
+
+fn static_solution(st: &StaticState, xb: f64, omega: f64) -> HarmonicBalance {
+    HarmonicBalance {
+        a_mean: st.a,
+        a_amp: 0.0,
+        phase: 0.0,
+        delta_mean: st.delta,
+        delta_sin: 0.0,
+        delta_cos: 0.0,
+        delta_amp: 0.0,
+        force_mean: st.force,
+        force_sin: 0.0,
+        force_cos: 0.0,
+        contact_fraction: 1.0,
+        x_k: st.x_k,
+        base_amplitude: xb,
+        omega,
+        iterations: 0,
+        residual: 0.0,
+    }
+}
+
+/// Harmonic-balance solution at base amplitude X_b (m) and angular frequency ω (rad/s).
+///
+/// Tries, in order: Newton from `guess`; Newton from the describing-function fixed point
+/// (module doc); continuation in X_b from X_b/1000 ([`continuation`]). X_b = 0 returns the static
+/// contact (a_A = 0). Errors, never NaN, on invalid inputs, no static contact, or no convergence
+/// to a relative residual of [`ACCEPT`].
+#[allow(clippy::too_many_arguments)]
+pub fn solve<L: AdhesionLaw + ?Sized>(
+    material: &Material,
+    law: &L,
+    system: &System,
+    support: Support,
+    base_amplitude: f64,
+    omega: f64,
+    guess: Option<Guess>,
+) -> Result<HarmonicBalance, DescribingError> {
+    check_drive(omega, base_amplitude)?;
+    let st = static_state(material, law, system, support)?;
+    if base_amplitude <= 0.0 {
+        return Ok(static_solution(&st, base_amplitude, omega));
+    }
+    let pb = Problem {
+        m: material,
+        law,
+        sys: *system,
+        x_k: st.x_k,
+        xb: base_amplitude,
+        omega,
+    };
+    let scale = pb.scales(st.a);
+    let mut spent = 0;
+    let mut best = f64::INFINITY;
+    if let Some(g) = guess {
+        if g.a_amp > 0.0 && g.a_amp.is_finite() && g.a_mean.is_finite() && g.phase.is_finite() {
+            match pb.newton([g.a_mean, g.a_amp.ln(), g.phase], scale) {
+                Ok((e, x, it)) => return Ok(pb.finish(&e, x, it)),
+                Err((r, it)) => {
+                    spent += it;
+                    best = best.min(r);
+                }
+            }
+        }
+    }
+    if let Some(x0) = pb.initial_guess(st.a) {
+        match pb.newton(x0, scale) {
+            Ok((e, x, it)) => return Ok(pb.finish(&e, x, it + spent)),
+            Err((r, it)) => {
+                spent += it;
+                best = best.min(r);
+            }
+        }
+    }
+    let ramp: Vec<f64> = (0..=6)
+        .map(|i| base_amplitude * 10f64.powf(-3.0 + 0.5 * i as f64))
+        .collect();
+    match continuation_from(material, law, system, &st, omega, &ramp) {
+        Ok(v) => match v.last() {
+            Some(h) => {
+                let mut h = *h;
+                h.iterations += spent;
+                Ok(h)
+            }
+            None => Err(DescribingError::NotConverged {
+                omega,
+                base_amplitude,
+                iterations: spent,
+                residual: best,
+            }),
+        },
+        Err(DescribingError::NotConverged {
+            iterations,
+            residual,
+            ..
+        }) => Err(DescribingError::NotConverged {
+            omega,
+            base_amplitude,
+            iterations: iterations + spent,
+            residual: residual.min(best),
+        }),
+        Err(e) => Err(e),
+    }
+}
+
+/// Continuation in X_b: solutions at each of `amplitudes` (m, increasing, > 0), each started
+/// from the previous one (ln a_A extrapolated linearly in ln X_b), with the step halved (up to
+/// 12 times) where Newton fails. Intermediate substeps are not returned.
+#[allow(clippy::too_many_arguments)]
+pub fn continuation<L: AdhesionLaw + ?Sized>(
+    material: &Material,
+    law: &L,
+    system: &System,
+    support: Support,
+    omega: f64,
+    amplitudes: &[f64],
+) -> Result<Vec<HarmonicBalance>, DescribingError> {
+    check_drive(omega, 0.0)?;
+    let mut prev = 0.0;
+    for &xb in amplitudes {
+        check_drive(omega, xb)?;
+        if xb <= prev {
+            return Err(ParamError::new("amplitudes", xb, "must be increasing and > 0 m").into());
+        }
+        prev = xb;
+    }
+    let st = static_state(material, law, system, support)?;
+    continuation_from(material, law, system, &st, omega, amplitudes)
+}
+
+fn continuation_from<L: AdhesionLaw + ?Sized>(
+    material: &Material,
+    law: &L,
+    system: &System,
+    st: &StaticState,
+    omega: f64,
+    amplitudes: &[f64],
+) -> Result<Vec<HarmonicBalance>, DescribingError> {
+    let mut out = Vec::with_capacity(amplitudes.len());
+    // Last two accepted points (ln X_b, x).
+    let mut hist: Vec<(f64, [f64; 3])> = Vec::new();
+    let mut iterations = 0;
+    let fail = |xb: f64, iterations: usize, residual: f64| DescribingError::NotConverged {
+        omega,
+        base_amplitude: xb,
+        iterations,
+        residual,
+    };
+    for &target in amplitudes {
+        let mut lo_xb = hist.last().map(|h| h.0.exp());
+        let mut step_target = target;
+        let mut halvings = 0;
+        loop {
+            let pb = Problem {
+                m: material,
+                law,
+                sys: *system,
+                x_k: st.x_k,
+                xb: step_target,
+                omega,
+            };
+            let scale = pb.scales(st.a);
+            let lx = step_target.ln();
+            let x0 = match hist.len() {
+                0 => pb.initial_guess(st.a),
+                1 => Some(hist[0].1),
+                _ => {
+                    let (l1, x1) = hist[hist.len() - 2];
+                    let (l2, x2) = hist[hist.len() - 1];
+                    let t = (lx - l2) / (l2 - l1);
+                    Some([
+                        x2[0] + t * (x2[0] - x1[0]),
+                        x2[1] + t * (x2[1] - x1[1]),
+                        x2[2] + t * (x2[2] - x1[2]),
+                    ])
+                }
+            };
+            let res = match x0 {
+                Some(x0) => pb.newton(x0, scale),
+                None => Err((f64::INFINITY, 0)),
+            };
+            match res {
+                Ok((e, x, it)) => {
+                    iterations += it;
+                    hist.push((lx, x));
+                    if hist.len() > 2 {
+                        hist.remove(0);
+                    }
+                    if (step_target - target).abs() <= 0.0 {
+                        out.push(pb.finish(&e, x, iterations));
+                        break;
+                    }
+                    lo_xb = Some(step_target);
+                    step_target = target;
+                }
+                Err((r, it)) => {
+                    iterations += it;
+                    halvings += 1;
+                    if halvings > 12 {
+                        return Err(fail(step_target, iterations, r));
+                    }
+                    step_target = match lo_xb {
+                        // Geometric midpoint between the last solution and the failed target.
+                        Some(lo) => (lo * step_target).sqrt(),
+                        // No solution yet: start lower.
+                        None => step_target * 0.1,
+                    };
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A scenario's contact and mechanics, ready for [`Setup::solve`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Setup {
+    /// Contact pair.
+    pub material: Material,
+    /// Adhesion law.
+    pub law: Law,
+    /// Sphere, spring, damping, gravity.
+    pub system: System,
+    /// Mean load: the scenario's initial preload (x_k = δ0 + (P − m g)/k, as the simulator places
+    /// the spring end), or the spring end of an initial gap.
+    pub support: Support,
+}
+
+impl Setup {
+    /// From a scenario: material, law, sphere mass and gravity, spring (Holder::None: k = 0),
+    /// damping; the initial state sets the mean load. Errors for a rigid holder (δ is prescribed
+    /// there: no dynamics to balance) and for an initial gap (no contact to oscillate about).
+    pub fn from_scenario(s: &Scenario) -> Result<Setup, DescribingError> {
+        let stiffness = match s.holder {
+            Holder::Spring { stiffness } => stiffness,
+            Holder::None => 0.0,
+            Holder::Rigid => {
+                return Err(DescribingError::Unsupported(
+                    "rigid holder: the indentation is prescribed, nothing to balance".into(),
+                ))
+            }
+        };
+        let (damping, damping_on) = match s.damping {
+            Some(d) => (d.c, d.on),
+            None => (0.0, DampingOn::Sphere),
+        };
+        let support = match s.initial {
+            Initial::Preload(p) => Support::StaticLoad(p),
+            Initial::Gap(_) => {
+                return Err(DescribingError::Unsupported(
+                    "initial gap: no static contact to oscillate about".into(),
+                ))
+            }
+        };
+        let system = System {
+            mass: s.sphere.mass,
+            stiffness,
+            damping,
+            damping_on,
+            gravity: s.sphere.gravity,
+        };
+        check_system(&system)?;
+        Ok(Setup {
+            material: s.material,
+            law: s.law.clone(),
+            system,
+            support,
+        })
+    }
+
+    /// [`solve`] for this setup at frequency f (Hz) and base amplitude X_b (m).
+    pub fn solve(
+        &self,
+        frequency: f64,
+        amplitude: f64,
+        guess: Option<Guess>,
+    ) -> Result<HarmonicBalance, DescribingError> {
+        solve(
+            &self.material,
+            &self.law,
+            &self.system,
+            self.support,
+            amplitude,
+            2.0 * PI * frequency,
+            guess,
+        )
+    }
+}
+
+/// Harmonic balance for a scenario at frequency f (Hz) and base amplitude X_b (m) (SI): the
+/// comparison point for the time-domain steady state. See [`Setup::from_scenario`].
+pub fn from_scenario(
+    s: &Scenario,
+    frequency: f64,
+    amplitude: f64,
+) -> Result<HarmonicBalance, DescribingError> {
+    Setup::from_scenario(s)?.solve(frequency, amplitude, None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn solve3_matches_known_solution() {
+        let a = [[2.0, 1.0, 0.0], [1.0, 3.0, 1.0], [0.0, 1.0, 4.0]];
+        let x = [1.0, -2.0, 0.5];
+        let b = [
+            2.0 * x[0] + x[1],
+            x[0] + 3.0 * x[1] + x[2],
+            x[1] + 4.0 * x[2],
+        ];
+        let s = solve3(a, b).unwrap_or([0.0; 3]);
+        for i in 0..3 {
+            assert!((s[i] - x[i]).abs() < 1e-14);
+        }
+        assert!(solve3([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]], b).is_none());
+    }
+
+    #[test]
+    fn tangent_stiffness_is_finite_difference_of_the_jkr_curve() {
+        let m = Material::PAPER;
+        for &a in &[2e-3, 5e-3, 1e-2] {
+            let h = 1e-6 * a;
+            let df =
+                jkr::equilibrium_force(&m, a + h, m.w0) - jkr::equilibrium_force(&m, a - h, m.w0);
+            let dd = jkr::equilibrium_indentation(&m, a + h, m.w0)
+                - jkr::equilibrium_indentation(&m, a - h, m.w0);
+            let kt = tangent_stiffness(&m, a, m.w0);
+            assert!(
+                (df / dd / kt - 1.0).abs() < 1e-7,
+                "{a}: {} vs {kt}",
+                df / dd
+            );
+        }
+    }
+}
