@@ -29,6 +29,28 @@ fn bench(c: &mut Criterion) {
             b.iter(|| simulate(black_box(&s), &mut NoObserver).map(|r| r.stats.steps))
         });
     }
+    // The cost of one right-hand-side evaluation (one stage residual: mechanical closed form,
+    // signed G, w(ȧ) of the GS law), to compare with wall / rhs_evals.
+    let s = vibrating_hold(5e-6, 400.0, 1.0);
+    let model = djkr::dynamics::model::resolve(&s).expect("scene resolves");
+    let drive = djkr::dynamics::model::Drive {
+        xk0: 0.0,
+        tk0: 0.0,
+        xk_speed: 0.0,
+        shaker: true,
+        t_on: 0.0,
+    };
+    let kin = drive.at(&model, 1e-4);
+    g.bench_function("one_rhs", |b| {
+        let mut a = 1.1e-3;
+        b.iter(|| {
+            a += 1e-12;
+            let ad = (a - 1.1e-3) / 1e-6;
+            let (x, _) = model.position(&kin, a, ad, true, 1e-5, 0.0, 1e-6);
+            let g = djkr::jkr::signed_energy_release_rate(&model.mat, a, x + kin.xb);
+            black_box(g - model.work_of_adhesion(black_box(ad)))
+        })
+    });
     g.finish();
 }
 

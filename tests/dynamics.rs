@@ -696,3 +696,14 @@ fn errors_are_explicit() {
         .to_string();
     assert!(e.contains("weight"), "{e}");
 }
+
+#[test]
+#[ignore]
+fn probe_vibration_cost() {
+    for m in [Method::Implicit, Method::Auto] {
+        let mut s = djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
+        s.solver.method = m;
+        let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+        println!("{m:?}: {:?}", r.stats);
+    }
+}

@@ -835,9 +835,6 @@ impl Run<'_> {
                 }
                 continue;
             }
-            if std::env::var("DJKR_DEBUG").is_ok() {
-                eprintln!("t {:e} h {:e} err {:e}", y0.t, h, out.err);
-            }
             let fac = if out.err > 0.0 {
                 (0.9 * out.err.powf(-0.25)).clamp(0.2, 5.0)
             } else {

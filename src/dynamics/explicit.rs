@@ -227,13 +227,6 @@ pub fn macro_step(
             // The largest inner step (the last one is usually clipped to reach t + h).
             let last_h = xs.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
             let last_h = if last_h > 0.0 { last_h } else { h };
-            if std::env::var("DJKR_DEBUG").is_ok() {
-                eprintln!(
-                    "macro t0 {t0:e} h {h:e} inner {} last_h {last_h:e} res {:?}",
-                    xs.len(),
-                    res.is_ok()
-                );
-            }
             (res, out, last_h)
         }};
     }
