@@ -1,0 +1,325 @@
+//! Describing-function predictor: tests against independent references (brute-force cycle
+//! harmonics in θ without folding, JKR finite differences, the linear transfer, loop areas), and
+//! a study printing numbers (`cargo test --test describing -- --ignored --nocapture`).
+
+use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz};
+use djkr::describing::{self, DescribingError, Support, System};
+use djkr::imposed_area::{self, indentation_at};
+use djkr::jkr;
+use djkr::material::Material;
+use djkr::quadrature::QuadratureRule;
+use djkr::scenario::DampingOn;
+use djkr::transfer::{self, Oscillator, Transfer};
+use std::f64::consts::PI;
+
+const M: Material = Material::PAPER;
+const PRELOAD: f64 = 0.02;
+
+fn sys(on: DampingOn) -> System {
+    System {
+        mass: 3e-3,
+        stiffness: 200.0,
+        damping: 0.02,
+        damping_on: on,
+        gravity: 9.81,
+    }
+}
+
+fn oscillator(s: &System, kc: f64) -> Oscillator {
+    Oscillator {
+        mass: s.mass,
+        stiffness: s.stiffness,
+        damping: s.damping,
+        damping_on: s.damping_on,
+        contact_stiffness: kc,
+    }
+}
+
+fn static_radius() -> f64 {
+    jkr::equilibrium_radius_for_force(&M, PRELOAD, M.w0).unwrap_or(f64::NAN)
+}
+
+/// Brute-force harmonics of the imposed cycle a = a_m + a_A sin(θ): [δ_m, δ_s, δ_c, F_m, F_s,
+/// F_c] by a graded Gauss–Legendre rule in θ itself (no folding), on pieces split at the kinks
+/// θ = π/2, 3π/2 and at the contact-loss points, with δ from `indentation_at` and F from
+/// `jkr::contact_force`.
+fn brute_force<L: AdhesionLaw>(law: &L, omega: f64, a_m: f64, a_a: f64) -> [f64; 6] {
+    brute_force_shifted(law, omega, a_m, a_a, 0.0)
+}
+
+/// As [`brute_force`], but projected on sin ωt and cos ωt with θ = ωt + ψ, i.e. on sin(θ − ψ)
+/// and cos(θ − ψ): the time-frame harmonics, without the phasor rotation.
+fn brute_force_shifted<L: AdhesionLaw>(
+    law: &L,
+    omega: f64,
+    a_m: f64,
+    a_a: f64,
+    psi: f64,
+) -> [f64; 6] {
+    let rule = QuadratureRule::graded_gauss_legendre(12, 40, 0.3);
+    let mut cuts = vec![-0.5 * PI, 0.5 * PI, 1.5 * PI];
+    if a_m < a_a {
+        // Contact lost where sin θ = −a_m/a_A, in (π, 2π) shifted into [−π/2, 3π/2].
+        let t = (-a_m / a_a).asin();
+        cuts.push(PI - t);
+        cuts.push(if t < -0.5 * PI { t + 2.0 * PI } else { t });
+    }
+    cuts.sort_by(f64::total_cmp);
+    let mut out = [0.0; 6];
+    for w in cuts.windows(2) {
+        for (i, out_i) in out.iter_mut().enumerate() {
+            *out_i += rule.integrate(w[0], w[1], |th, _, _| {
+                let a = a_m + a_a * th.sin();
+                let d = indentation_at(&M, law, omega, a_m, a_a, th);
+                let f = if a > 0.0 {
+                    jkr::contact_force(&M, a, d)
+                } else {
+                    0.0
+                };
+                let (s, c) = (th - psi).sin_cos();
+                [
+                    d / (2.0 * PI),
+                    d * s / PI,
+                    d * c / PI,
+                    f / (2.0 * PI),
+                    f * s / PI,
+                    f * c / PI,
+                ][i]
+            });
+        }
+    }
+    out
+}
+
+#[test]
+fn force_harmonics_match_brute_force_in_theta() {
+    let gs = GentSchultz::PAPER;
+    let cw = ConstantW { w0: M.w0 };
+    let soft = GentSchultz::new(0.24, 4.45e-5, 1.5).unwrap_or(gs);
+    let laws: [(
+        &str,
+        &dyn Fn(f64, f64, f64) -> ([f64; 6], imposed_area::Cycle),
+    ); 3] = [
+        ("gs", &|o, am, aa| {
+            (
+                brute_force(&gs, o, am, aa),
+                imposed_area::cycle(&M, &gs, o, am, aa).unwrap(),
+            )
+        }),
+        ("cw", &|o, am, aa| {
+            (
+                brute_force(&cw, o, am, aa),
+                imposed_area::cycle(&M, &cw, o, am, aa).unwrap(),
+            )
+        }),
+        ("gs n=1.5", &|o, am, aa| {
+            (
+                brute_force(&soft, o, am, aa),
+                imposed_area::cycle(&M, &soft, o, am, aa).unwrap(),
+            )
+        }),
+    ];
+    let omega = 2.0 * PI * 300.0;
+    for (name, f) in laws {
+        // Untruncated, truncated, barely truncated.
+        for &(a_m, a_a) in &[
+            (1.2e-3, 0.3e-3),
+            (1.2e-3, 1e-6),
+            (0.4e-3, 0.7e-3),
+            (0.69e-3, 0.7e-3),
+        ] {
+            let (b, c) = f(omega, a_m, a_a);
+            let fscale = b[4].hypot(b[5]).max(b[3].abs());
+            let dscale = b[1].hypot(b[2]).max(b[0].abs());
+            let got = [
+                c.delta_mean,
+                c.delta_sin,
+                c.delta_cos,
+                c.force_mean,
+                c.force_sin,
+                c.force_cos,
+            ];
+            for i in 0..6 {
+                let scale = if i < 3 { dscale } else { fscale };
+                assert!(
+                    (got[i] - b[i]).abs() <= 1e-9 * scale,
+                    "{name} a_m {a_m} a_A {a_a} [{i}]: folded {} vs brute force {}",
+                    got[i],
+                    b[i]
+                );
+            }
+        }
+    }
+}
+
+/// JKR tangent stiffness dF/dδ along the equilibrium curve by central differences of the
+/// `jkr` equilibrium relations in a (independent of `describing::tangent_stiffness`).
+fn jkr_tangent_fd(a: f64, w: f64) -> f64 {
+    let h = 1e-5 * a;
+    let df = jkr::equilibrium_force(&M, a + h, w) - jkr::equilibrium_force(&M, a - h, w);
+    let dd =
+        jkr::equilibrium_indentation(&M, a + h, w) - jkr::equilibrium_indentation(&M, a - h, w);
+    df / dd
+}
+
+fn close(t: &Transfer, r: &Transfer, tol: f64) -> bool {
+    (t.sin - r.sin).hypot(t.cos - r.cos) <= tol * r.magnitude()
+}
+
+#[test]
+fn constant_w_small_amplitude_is_linear_transfer_with_jkr_tangent_stiffness() {
+    let cw = ConstantW { w0: M.w0 };
+    let a0 = static_radius();
+    let kt = jkr_tangent_fd(a0, M.w0);
+    let kc = jkr::contact_stiffness(&M, a0);
+    // The finding: along the JKR curve the small-signal stiffness is well below eq. (37)'s k_c.
+    assert!(kt < 0.7 * kc, "kt {kt} kc {kc}");
+    for on in [DampingOn::Sphere, DampingOn::Contact] {
+        let s = sys(on);
+        for &f in &[50.0, 200.0, 400.0, 600.0] {
+            let omega = 2.0 * PI * f;
+            let h = describing::solve(
+                &M,
+                &cw,
+                &s,
+                Support::StaticLoad(PRELOAD),
+                1e-10,
+                omega,
+                None,
+            )
+            .unwrap();
+            let t = h.transfer();
+            let lt = transfer::linear(&oscillator(&s, kt), omega);
+            let lc = transfer::linear(&oscillator(&s, kc), omega);
+            assert!(
+                close(&t, &lt, 1e-6),
+                "{on:?} {f} Hz: {t:?} vs k_t transfer {lt:?}"
+            );
+            assert!(
+                !close(&t, &lc, 0.05),
+                "{on:?} {f} Hz: {t:?} vs k_c transfer {lc:?}"
+            );
+            let e = h.effective_contact().unwrap();
+            assert!((e.stiffness / kt - 1.0).abs() < 1e-6, "{e:?} vs {kt}");
+            assert!((e.damping * omega).abs() < 1e-8 * kt, "{e:?}");
+        }
+    }
+}
+
+#[test]
+fn gent_schultz_small_amplitude_is_eq37_with_pinned_contact_line() {
+    let gs = GentSchultz::PAPER;
+    let a0 = static_radius();
+    let kc = jkr::contact_stiffness(&M, a0);
+    for on in [DampingOn::Sphere, DampingOn::Contact] {
+        let s = sys(on);
+        for &f in &[50.0, 200.0, 400.0, 600.0] {
+            let omega = 2.0 * PI * f;
+            let lc = transfer::linear(&oscillator(&s, kc), omega);
+            let mut prev_c = f64::INFINITY;
+            for &xb in &[1e-6, 1e-7, 1e-8, 1e-9] {
+                let h =
+                    describing::solve(&M, &gs, &s, Support::StaticLoad(PRELOAD), xb, omega, None)
+                        .unwrap();
+                let e = h.effective_contact().unwrap();
+                // c_eff > 0 and vanishing with the amplitude (like a_A^(1 − n)).
+                assert!(
+                    e.damping > 0.0 && e.damping < prev_c,
+                    "{on:?} {f} Hz {xb}: {e:?}"
+                );
+                prev_c = e.damping;
+                if xb <= 1e-9 {
+                    assert!(
+                        close(&h.transfer(), &lc, 1e-4),
+                        "{on:?} {f} Hz: {:?} vs {lc:?}",
+                        h.transfer()
+                    );
+                    assert!((e.stiffness / kc - 1.0).abs() < 1e-5, "{e:?} vs {kc}");
+                }
+            }
+        }
+    }
+}
+
+/// Cases used by the residual and identity tests: (law, damping, frequency, X_b).
+fn cases() -> Vec<(bool, DampingOn, f64, f64)> {
+    let mut v = Vec::new();
+    for gs in [false, true] {
+        for on in [DampingOn::Sphere, DampingOn::Contact] {
+            for &(f, xb) in &[(50.0, 1e-6), (200.0, 3e-6), (400.0, 1e-7), (600.0, 5e-6)] {
+                v.push((gs, on, f, xb));
+            }
+        }
+    }
+    v
+}
+
+#[test]
+fn residuals_and_mean_force_identity_at_the_solution() {
+    let gs = GentSchultz::PAPER;
+    let cw = ConstantW { w0: M.w0 };
+    for (is_gs, on, f, xb) in cases() {
+        let s = sys(on);
+        let omega = 2.0 * PI * f;
+        let law: &dyn AdhesionLaw = if is_gs { &gs } else { &cw };
+        let h =
+            describing::solve(&M, law, &s, Support::StaticLoad(PRELOAD), xb, omega, None).unwrap();
+        let tag = format!("gs {is_gs} {on:?} {f} Hz X_b {xb}");
+        assert!(h.residual <= 1e-10, "{tag}: {}", h.residual);
+        assert!(h.contact_fraction >= 1.0, "{tag}");
+        // Recompute the three equations from the reported fields.
+        let weight = s.mass * s.gravity;
+        let spring = s.stiffness * (h.delta_mean - h.x_k);
+        let r0 = h.force_mean - (weight - spring);
+        assert!(
+            r0.abs() <= 1e-10 * (h.force_mean.abs() + spring.abs() + weight),
+            "{tag}: {r0}"
+        );
+        let (a, d) = (s.stiffness - s.mass * omega * omega, s.damping * omega);
+        let (xs, xc) = (h.delta_sin - xb, h.delta_cos);
+        let (r1, r2, scale) = match on {
+            DampingOn::Sphere => (
+                h.force_sin + a * xs - d * xc,
+                h.force_cos + a * xc + d * xs,
+                h.force_sin.hypot(h.force_cos) + a.hypot(d) * xs.hypot(xc),
+            ),
+            DampingOn::Contact => (
+                h.force_sin + a * xs - d * h.delta_cos,
+                h.force_cos + a * xc + d * h.delta_sin,
+                h.force_sin.hypot(h.force_cos)
+                    + a.abs() * xs.hypot(xc)
+                    + d * h.delta_sin.hypot(h.delta_cos),
+            ),
+        };
+        assert!(r1.hypot(r2) <= 1e-10 * scale, "{tag}: {r1} {r2} / {scale}");
+        // The reported time-frame harmonics are those of a(t) = a_m + a_A sin(ωt + ψ), projected
+        // directly on sin ωt, cos ωt (brute force, no phasor rotation).
+        let b = if is_gs {
+            brute_force_shifted(&gs, omega, h.a_mean, h.a_amp, h.phase)
+        } else {
+            brute_force_shifted(&cw, omega, h.a_mean, h.a_amp, h.phase)
+        };
+        let got = [
+            h.delta_mean,
+            h.delta_sin,
+            h.delta_cos,
+            h.force_mean,
+            h.force_sin,
+            h.force_cos,
+        ];
+        let dscale = h.delta_amp.max(1e-3 * h.delta_mean.abs());
+        let fscale = h
+            .force_sin
+            .hypot(h.force_cos)
+            .max(1e-3 * h.force_mean.abs());
+        for i in 0..6 {
+            let sc = if i < 3 { dscale } else { fscale };
+            assert!(
+                (got[i] - b[i]).abs() <= 1e-8 * sc,
+                "{tag} [{i}]: {} vs {}",
+                got[i],
+                b[i]
+            );
+        }
+    }
+}
