@@ -5,7 +5,6 @@ use djkr::dynamics::{simulate, EventKind, Recorder, RunResult};
 use djkr::jkr;
 use djkr::material::Material;
 use djkr::scenario::*;
-use std::f64::consts::PI;
 
 const M: Material = Material::PAPER;
 
@@ -706,4 +705,54 @@ fn probe_vibration_cost() {
         let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
         println!("{m:?}: {:?}", r.stats);
     }
+}
+
+/// Convergence order of the ESDIRK stepper with fixed steps on the free ramp-driven oscillator
+/// (closed form): halving h divides the error by ≈ 2⁴.
+#[test]
+fn esdirk_fixed_step_order_is_four() {
+    use djkr::dynamics::esdirk::{step, State, Tol};
+    use djkr::dynamics::model::{resolve, Drive, NQ};
+    let mut s = scene();
+    s.initial = Initial::Gap(1.0);
+    let model = resolve(&s).unwrap();
+    let v = 2e-3;
+    let w = (10.0f64 / 1e-3).sqrt();
+    let drive = Drive {
+        xk0: -1.0,
+        tk0: 0.0,
+        xk_speed: v,
+        shaker: false,
+        t_on: 0.0,
+    };
+    let t_end = 0.1;
+    let err = |n: usize| {
+        let h = t_end / n as f64;
+        let mut y = State {
+            t: 0.0,
+            x: -1.0,
+            v: 0.0,
+            acc: 0.0,
+            a: 0.0,
+            adot: 0.0,
+            contact: false,
+            q: [0.0; NQ],
+        };
+        let tol = Tol {
+            rtol: 1.0,
+            atol: 1.0,
+        };
+        for _ in 0..n {
+            y = step(&model, &drive, &y, h, tol).unwrap().y;
+        }
+        let x = -1.0 + v * t_end - v / w * (w * t_end).sin();
+        (y.x - x).abs()
+    };
+    let (e1, e2, e3) = (err(40), err(80), err(160));
+    let (p1, p2) = ((e1 / e2).log2(), (e2 / e3).log2());
+    println!("errors {e1:e} {e2:e} {e3:e}; observed orders {p1:.2} {p2:.2}");
+    assert!(
+        (p2 - 4.0).abs() < 0.3 && (p1 - 4.0).abs() < 0.5,
+        "{p1} {p2}"
+    );
 }

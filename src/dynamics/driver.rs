@@ -147,7 +147,7 @@ fn hermite(y0: &State, y1: &State, t: f64) -> State {
 /// The integration engine in use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Engine {
-    /// ESDIRK4(3)6L[2]SA with the root-solved contact radius.
+    /// `ESDIRK4(3)6L[2]SA` with the root-solved contact radius.
     Implicit,
     /// An `ode_solvers` explicit method.
     Explicit(ExplicitKind),

@@ -1,5 +1,5 @@
-//! The implicit stepper: Kennedy & Carpenter's ESDIRK4(3)6L[2]SA (the implicit half of
-//! ARK4(3)6L[2]SA, coefficients as SUNDIALS ARKODE ships them), applied to the whole state
+//! The implicit stepper: Kennedy & Carpenter's `ESDIRK4(3)6L[2]SA` (the implicit half of
+//! `ARK4(3)6L[2]SA`, coefficients as SUNDIALS ARKODE ships them), applied to the whole state
 //! (x_s, v_s, a), with the quadrature states integrated by the same weights.
 //!
 //! Each implicit stage reduces to one scalar monotone root: at fixed a the mechanical stage
