@@ -756,3 +756,47 @@ fn esdirk_fixed_step_order_is_four() {
         "{p1} {p2}"
     );
 }
+
+/// Output on a fixed grid, the shaker switching off at a period boundary (x_b continuous, no
+/// more cycles), and an observer that stops the run.
+#[test]
+fn sampling_shaker_off_and_observer_stop() {
+    let mut s = vibrating(2e-6);
+    s.output.sample_rate = 10_000.0;
+    s.stages = vec![
+        stage(StageKind::Hold, 0.0, Until::Duration(0.0101), Some(true)),
+        stage(StageKind::Hold, 0.0, Until::Duration(0.01), Some(false)),
+    ];
+    let (r, rec) = run(&s);
+    // Samples every 0.1 ms from t = 0.
+    for (i, smp) in rec.samples.iter().enumerate() {
+        assert!((smp.t - i as f64 * 1e-4).abs() < 1e-12, "{i}: {}", smp.t);
+    }
+    assert_eq!(rec.samples.len(), 202);
+    // 300 Hz: the shaker runs until the boundary after 0.0101 s, i.e. 4 whole periods (0.01333 s).
+    assert_eq!(r.cycles.len(), 4);
+    let t_off = r.cycles.last().unwrap().t_end;
+    assert!((t_off - 4.0 / 300.0).abs() < 1e-12);
+    assert!(rec
+        .samples
+        .iter()
+        .filter(|x| x.t > t_off)
+        .all(|x| x.x_b == 0.0));
+    let max_jump = rec
+        .samples
+        .windows(2)
+        .map(|w| (w[1].x_b - w[0].x_b).abs())
+        .fold(0.0, f64::max);
+    assert!(max_jump <= 2e-6 * 2.0 * std::f64::consts::PI * 300.0 * 1e-4 * 1.01);
+
+    struct StopAt(usize);
+    impl djkr::dynamics::Observer for StopAt {
+        fn sample(&mut self, _: &djkr::dynamics::Sample) -> bool {
+            self.0 -= 1;
+            self.0 > 0
+        }
+    }
+    let r = simulate(&s, &mut StopAt(10)).unwrap();
+    assert!(r.method.contains("stopped by the observer"));
+    assert!(r.final_state.t < 2e-3);
+}
