@@ -800,3 +800,32 @@ fn sampling_shaker_off_and_observer_stop() {
     assert!(r.method.contains("stopped by the observer"));
     assert!(r.final_state.t < 2e-3);
 }
+
+/// Effect of the contact-loss radius a_floor = min(1e-3 a_J, seed/10) on a GS rigid-link
+/// pull-off (the seed only sets a_floor here: no impact happens): the loss time moves by far
+/// less than the time resolution of the unload.
+#[test]
+fn contact_loss_radius_has_negligible_effect() {
+    let mut rows = vec![];
+    for formation in [
+        ContactFormation::JumpIn,
+        ContactFormation::Seed(1e-6),
+        ContactFormation::Seed(1e-8),
+    ] {
+        let mut s = scene();
+        s.law = gs();
+        s.holder = Holder::Rigid;
+        s.formation = formation;
+        s.solver.method = Method::Implicit;
+        s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
+        let (r, _) = run(&s);
+        let loss = first(&r, EventKind::ContactLoss).unwrap();
+        rows.push((loss.time, loss.state.a, r.pull_off.force));
+    }
+    println!("{rows:?}");
+    let (t0, _, f0) = rows[0];
+    for &(t, _, f) in &rows[1..] {
+        assert!((t - t0).abs() < 1e-6 * t0, "{rows:?}");
+        assert!((f - f0).abs() < 1e-12 * f0.abs(), "{rows:?}");
+    }
+}

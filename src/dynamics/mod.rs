@@ -80,7 +80,9 @@
 //!   displacement-controlled turning point of a constant-w contact). Effect of a_floor: near
 //!   a → 0 with δ < 0 the GS law gives a^(1+1/n) ∝ (t_c − t), so the time from 10⁻³ a_J to 0 is
 //!   ~10^(−3(1+1/n)) ≈ 10⁻⁸·⁶ of the time from a_J: far below any tolerance. The displacement-
-//!   controlled test loses contact at a/a_dc − 1 = 7.5e-6, F/F_dc − 1 = 9e-6.
+//!   controlled test loses contact at a/a_dc − 1 = 7.5e-6, F/F_dc − 1 = 9e-6. Measured on a GS
+//!   rigid-link pull-off at 0.1 µm/s: a_floor 8.2e-7 m → 1e-7 m moves the loss time by 5.7e-8 s
+//!   of 179.58 s and leaves the pull-off force unchanged (`contact_loss_radius_has_negligible_effect`).
 //! - **Impact**: out of contact, δ rises through 0. Contact forms at the jump-in radius
 //!   (`JumpIn`) or the seed radius (`Seed`); a backward-Euler kick of 10⁻⁷ t_char then supplies
 //!   the (possibly enormous, but finite) healing rate of the new state for the next step.
