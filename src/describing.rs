@@ -817,8 +817,10 @@ fn static_solution(st: &StaticState, xb: f64, omega: f64) -> HarmonicBalance {
 /// Harmonic-balance solution at base amplitude X_b (m) and angular frequency ω (rad/s).
 ///
 /// Tries, in order: Newton from `guess`; Newton from the describing-function fixed point
-/// (module doc); continuation in X_b from X_b/1000 ([`continuation`]). X_b = 0 returns the static
-/// contact (a_A = 0). Errors, never NaN, on invalid inputs, no static contact, or no convergence
+/// (module doc); continuation in X_b from X_b/1000 ([`continuation`]); the first solution of a
+/// scan along a_A ([`solutions`], which passes folds of the response). Where several solutions
+/// exist, which one is returned depends on the start; use [`solutions`] to get them all.
+/// X_b = 0 returns the static contact (a_A = 0). Errors, never NaN, on invalid inputs, no static contact, or no convergence
 /// to a relative residual of [`ACCEPT`].
 #[allow(clippy::too_many_arguments)]
 pub fn solve<L: AdhesionLaw + ?Sized>(
@@ -887,12 +889,19 @@ pub fn solve<L: AdhesionLaw + ?Sized>(
             iterations,
             residual,
             ..
-        }) => Err(DescribingError::NotConverged {
-            omega,
-            base_amplitude,
-            iterations: iterations + spent,
-            residual: residual.min(best),
-        }),
+        }) => {
+            // Last resort: scan the branch in a_A (passes folds in X_b).
+            let found = solutions(material, law, system, support, base_amplitude, omega)?;
+            match found.first() {
+                Some(h) => Ok(*h),
+                None => Err(DescribingError::NotConverged {
+                    omega,
+                    base_amplitude,
+                    iterations: iterations + spent,
+                    residual: residual.min(best),
+                }),
+            }
+        }
         Err(e) => Err(e),
     }
 }
@@ -1002,6 +1011,261 @@ fn continuation_from<L: AdhesionLaw + ?Sized>(
                 }
             }
         }
+    }
+    Ok(out)
+}
+
+/// The harmonic-balance solution with the contact-radius amplitude a_A (m) given and the base
+/// amplitude X_b an output: the parametrisation that passes folds of the response in X_b (jumps
+/// near a nonlinear resonance), where [`solve`] and [`continuation`] in X_b stop.
+///
+/// The mean equation does not involve ψ, so a_m solves it alone (1-D, bracketed Illinois false
+/// position from the static radius). Then the first harmonic gives X_b and ψ in closed form, in
+/// the θ frame (δ1 = e^{iψ} δ1θ, F1 = e^{iψ} F1θ):
+/// - sphere damping: Z X_b e^{−iψ} = Z δ1θ + F1θ, so X_b = |δ1θ + F1θ/Z|, ψ = −arg(δ1θ + F1θ/Z);
+/// - contact damping: A X_b e^{−iψ} = (A + iD) δ1θ + F1θ, so with q = ((A + iD) δ1θ + F1θ)/A,
+///   X_b = |q|, ψ = −arg q (A = k − mω² ≠ 0).
+///
+/// Errors when a_A is not finite and > 0, when the mean equation has no root with a_m ≥ −a_A,
+/// or when Z (or A) vanishes.
+pub fn at_contact_amplitude<L: AdhesionLaw + ?Sized>(
+    material: &Material,
+    law: &L,
+    system: &System,
+    support: Support,
+    omega: f64,
+    a_amp: f64,
+) -> Result<HarmonicBalance, DescribingError> {
+    check_drive(omega, 0.0)?;
+    if !(a_amp.is_finite() && a_amp > 0.0) {
+        return Err(ParamError::new("a_amp", a_amp, "must be finite and > 0 m").into());
+    }
+    let st = static_state(material, law, system, support)?;
+    let weight = system.mass * system.gravity;
+    let k = system.stiffness;
+    let mean = |a_m: f64| -> Option<(f64, Cycle)> {
+        let c = imposed_area::cycle(material, law, omega, a_m, a_amp).ok()?;
+        let r = c.force_mean + k * (c.delta_mean - st.x_k) - weight;
+        r.is_finite().then_some((r, c))
+    };
+    let no_root = |why: &str| {
+        DescribingError::NoStaticState(format!(
+            "mean equation at a_A = {a_amp} m, omega = {omega} rad/s: {why}"
+        ))
+    };
+    // Bracket: the residual increases with a_m on the branch of the static contact.
+    let lo_limit = -a_amp;
+    let (mut lo, mut hi) = (st.a, st.a);
+    let (mut rlo, mut clo) = mean(lo).ok_or_else(|| no_root("cycle failed"))?;
+    let (mut rhi, mut chi) = (rlo, clo);
+    let mut step = 0.1 * st.a.max(a_amp);
+    for _ in 0..200 {
+        if rlo <= 0.0 && rhi >= 0.0 {
+            break;
+        }
+        if rlo > 0.0 {
+            hi = lo;
+            rhi = rlo;
+            chi = clo;
+            lo = (lo - step).max(lo_limit);
+            let v = mean(lo).ok_or_else(|| no_root("cycle failed"))?;
+            rlo = v.0;
+            clo = v.1;
+            if rlo > 0.0 && lo <= lo_limit {
+                return Err(no_root("positive down to a_m = -a_A"));
+            }
+        } else {
+            lo = hi;
+            rlo = rhi;
+            clo = chi;
+            hi += step;
+            let v = mean(hi).ok_or_else(|| no_root("cycle failed"))?;
+            rhi = v.0;
+            chi = v.1;
+        }
+        step *= 2.0;
+    }
+    if !(rlo <= 0.0 && rhi >= 0.0) {
+        return Err(no_root("no sign change found"));
+    }
+    // Illinois false position.
+    let mut side = 0;
+    let mut best = if rlo.abs() < rhi.abs() {
+        (lo, clo, rlo)
+    } else {
+        (hi, chi, rhi)
+    };
+    for _ in 0..200 {
+        let scale =
+            best.1.force_mean.abs() + weight.abs() + (k * (best.1.delta_mean - st.x_k)).abs();
+        if best.2.abs() <= 1e-14 * scale || (hi - lo) <= 1e-15 * hi.abs().max(a_amp) {
+            break;
+        }
+        let mut x = (lo * rhi - hi * rlo) / (rhi - rlo);
+        if !(x > lo && x < hi) {
+            x = 0.5 * (lo + hi);
+        }
+        let (r, c) = mean(x).ok_or_else(|| no_root("cycle failed"))?;
+        if r.abs() < best.2.abs() {
+            best = (x, c, r);
+        }
+        if r <= 0.0 {
+            lo = x;
+            rlo = r;
+            if side == -1 {
+                rhi *= 0.5;
+            }
+            side = -1;
+        } else {
+            hi = x;
+            rhi = r;
+            if side == 1 {
+                rlo *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    let (a_m, c, _) = best;
+    let a = system.stiffness - system.mass * omega * omega;
+    let d = system.damping * omega;
+    let d1 = C(c.delta_sin, c.delta_cos);
+    let f1 = C(c.force_sin, c.force_cos);
+    let q = match system.damping_on {
+        DampingOn::Sphere => {
+            if a.hypot(d) <= 0.0 {
+                return Err(ParamError::new(
+                    "omega",
+                    omega,
+                    "must not make k - m omega^2 + i c omega vanish",
+                )
+                .into());
+            }
+            d1.add(f1.div(C(a, d)))
+        }
+        DampingOn::Contact => {
+            if a.abs() <= 0.0 {
+                return Err(ParamError::new(
+                    "omega",
+                    omega,
+                    "must not equal sqrt(k/m) with contact damping",
+                )
+                .into());
+            }
+            C(a, d).mul(d1).add(f1).scale(1.0 / a)
+        }
+    };
+    let xb = q.abs();
+    if !(xb.is_finite() && xb > 0.0) {
+        return Err(no_root("no first harmonic"));
+    }
+    let psi = -q.1.atan2(q.0);
+    let pb = Problem {
+        m: material,
+        law,
+        sys: *system,
+        x_k: st.x_k,
+        xb,
+        omega,
+    };
+    let e = pb
+        .eval([a_m, a_amp.ln(), psi])
+        .ok_or_else(|| no_root("cycle failed at the solution"))?;
+    Ok(pb.finish(&e, [a_m, a_amp.ln(), psi], 0))
+}
+
+/// Number of points per decade of a_A in [`solutions`]' scan of the branch.
+const SCAN_PER_DECADE: f64 = 8.0;
+
+/// Every harmonic-balance solution at base amplitude X_b (m) and ω (rad/s), in increasing a_A.
+///
+/// Near a nonlinear resonance X_b(a_A) ([`at_contact_amplitude`]) is not monotonic: one X_b can
+/// have three solutions (a fold; the time-domain response then depends on its history, with
+/// jumps). This scans ln a_A at 8 points per decade, from where X_b(a_A) is below the target up
+/// to a_A = 2 a_0 or the first truncated cycle (contact loss: outside the method), brackets each
+/// crossing of X_b, refines it by bisection in ln a_A, and polishes it by Newton at the exact
+/// X_b. The first entry is the branch connected to X_b = 0, the one continuation from rest
+/// follows. An empty list means no in-contact periodic solution of this form (e.g. beyond the
+/// largest X_b the contact can follow without loss). Errors on invalid inputs.
+pub fn solutions<L: AdhesionLaw + ?Sized>(
+    material: &Material,
+    law: &L,
+    system: &System,
+    support: Support,
+    base_amplitude: f64,
+    omega: f64,
+) -> Result<Vec<HarmonicBalance>, DescribingError> {
+    check_drive(omega, base_amplitude)?;
+    let st = static_state(material, law, system, support)?;
+    if base_amplitude <= 0.0 {
+        return Ok(vec![static_solution(&st, base_amplitude, omega)]);
+    }
+    let at = |la: f64| {
+        at_contact_amplitude(material, law, system, support, omega, la.exp())
+            .ok()
+            .filter(|h| h.contact_fraction >= 1.0 && h.base_amplitude.is_finite())
+    };
+    let target = base_amplitude;
+    let step = std::f64::consts::LN_10 / SCAN_PER_DECADE;
+    let top = (2.0 * st.a).ln();
+    // Lowest a_A: start six decades below a_0 and go down until X_b is below the target.
+    let mut lo = (1e-6 * st.a).ln();
+    let mut first = None;
+    for _ in 0..30 {
+        match at(lo) {
+            Some(h) if h.base_amplitude < target => {
+                first = Some(h);
+                break;
+            }
+            _ => lo -= 3.0 * std::f64::consts::LN_10,
+        }
+    }
+    let Some(mut prev) = first else {
+        return Ok(Vec::new());
+    };
+    let mut la = lo;
+    let mut out = Vec::new();
+    while la < top {
+        let next_la = la + step;
+        let Some(next) = at(next_la) else { break };
+        let (f0, f1) = (prev.base_amplitude - target, next.base_amplitude - target);
+        if (f0 < 0.0) != (f1 < 0.0) {
+            // Bisection in ln a_A on X_b(a_A) − X_b.
+            let (mut a, mut b, mut fa) = (la, next_la, f0);
+            let mut best = if f0.abs() < f1.abs() { prev } else { next };
+            for _ in 0..60 {
+                let m = 0.5 * (a + b);
+                let Some(hm) = at(m) else { break };
+                let fm = hm.base_amplitude - target;
+                if fm.abs() < (best.base_amplitude - target).abs() {
+                    best = hm;
+                }
+                if (fm < 0.0) == (fa < 0.0) {
+                    a = m;
+                    fa = fm;
+                } else {
+                    b = m;
+                }
+                if (b - a) < 1e-10 {
+                    break;
+                }
+            }
+            let pb = Problem {
+                m: material,
+                law,
+                sys: *system,
+                x_k: st.x_k,
+                xb: target,
+                omega,
+            };
+            let x0 = [best.a_mean, best.a_amp.ln(), best.phase];
+            if let Ok((e, x, it)) = pb.newton(x0, pb.scales(st.a)) {
+                if (x[1] - x0[1]).abs() < 0.1 {
+                    out.push(pb.finish(&e, x, it));
+                }
+            }
+        }
+        prev = next;
+        la = next_la;
     }
     Ok(out)
 }

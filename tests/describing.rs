@@ -524,3 +524,227 @@ fn continuation_is_smooth_and_matches_independent_solves() {
         }
     }
 }
+
+#[test]
+#[ignore]
+fn study_branches() {
+    let gs = GentSchultz::PAPER;
+    let cw = ConstantW { w0: M.w0 };
+    let s = sys(DampingOn::Sphere);
+    for (name, law, f) in [
+        ("gs", &gs as &dyn AdhesionLaw, 600.0),
+        ("gs", &gs as &dyn AdhesionLaw, 400.0),
+        ("cw", &cw as &dyn AdhesionLaw, 300.0),
+        ("cw", &cw as &dyn AdhesionLaw, 600.0),
+    ] {
+        println!("{name} {f} Hz: a_A -> X_b");
+        let omega = 2.0 * PI * f;
+        let top = if name == "gs" { 2e-5 } else { 1.1e-3 };
+        let mut aa = if name == "gs" { 1e-12 } else { 1e-7 };
+        while aa < top {
+            match describing::at_contact_amplitude(
+                &M,
+                law,
+                &s,
+                Support::StaticLoad(PRELOAD),
+                omega,
+                aa,
+            ) {
+                Ok(h) => {
+                    let e = h.effective_contact().unwrap();
+                    println!(
+                        "  a_A {aa:.2e}: X_b {:.4e} |T| {:.4} ph {:.4} a_m {:.4e} k_eff {:.1} c_eff {:.3e} cf {:.3} res {:.0e}",
+                        h.base_amplitude, h.transfer().magnitude(), h.transfer().phase(), h.a_mean, e.stiffness, e.damping, h.contact_fraction, h.residual
+                    );
+                }
+                Err(e) => println!("  a_A {aa:.2e}: {e}"),
+            }
+            aa *= 10f64.powf(0.25);
+        }
+    }
+}
+
+#[test]
+fn amplitude_parametrised_branch_agrees_with_solve() {
+    let gs = GentSchultz::PAPER;
+    let cw = ConstantW { w0: M.w0 };
+    for (law, f, aa) in [
+        (&gs as &dyn AdhesionLaw, 200.0, 1e-9),
+        (&gs as &dyn AdhesionLaw, 600.0, 1e-7),
+        (&cw as &dyn AdhesionLaw, 600.0, 1e-5),
+    ] {
+        for on in [DampingOn::Sphere, DampingOn::Contact] {
+            let s = sys(on);
+            let omega = 2.0 * PI * f;
+            let b = describing::at_contact_amplitude(
+                &M,
+                law,
+                &s,
+                Support::StaticLoad(PRELOAD),
+                omega,
+                aa,
+            )
+            .unwrap();
+            assert!(b.residual <= 1e-10, "{b:?}");
+            let h = describing::solve(
+                &M,
+                law,
+                &s,
+                Support::StaticLoad(PRELOAD),
+                b.base_amplitude,
+                omega,
+                None,
+            )
+            .unwrap();
+            assert!(
+                (h.a_amp / aa - 1.0).abs() < 1e-7,
+                "{f} {on:?}: {} vs {aa}",
+                h.a_amp
+            );
+            assert!((h.a_mean / b.a_mean - 1.0).abs() < 1e-9);
+            assert!(close(&h.transfer(), &b.transfer(), 1e-8));
+        }
+    }
+}
+
+#[test]
+fn fold_near_the_stiffening_gent_schultz_resonance_has_three_solutions() {
+    // GS stiffens with amplitude (a_m grows), pushing the resonance from 369 Hz (k_c) upwards:
+    // at 400 Hz X_b(a_A) rises to ~1.05 µm, falls to ~0.25 µm and rises again.
+    let gs = GentSchultz::PAPER;
+    let s = sys(DampingOn::Sphere);
+    let omega = 2.0 * PI * 400.0;
+    let v = describing::solutions(&M, &gs, &s, Support::StaticLoad(PRELOAD), 6e-7, omega).unwrap();
+    assert_eq!(v.len(), 3, "{v:?}");
+    for w in v.windows(2) {
+        assert!(w[1].a_amp > 1.5 * w[0].a_amp);
+    }
+    for h in &v {
+        assert!(h.residual <= 1e-10 && (h.base_amplitude - 6e-7).abs() <= 0.0);
+    }
+    // Lower branch below resonance (in phase), upper one beyond it (out of phase).
+    assert!(v[0].transfer().phase().abs() < 0.1 && v[2].transfer().phase() > 3.0);
+    // Beyond the fold, solve still finds the far branch (through the scan).
+    let h =
+        describing::solve(&M, &gs, &s, Support::StaticLoad(PRELOAD), 3e-6, omega, None).unwrap();
+    assert!(h.residual <= 1e-10 && h.transfer().phase() > 3.0, "{h:?}");
+}
+
+#[test]
+fn beyond_the_in_contact_range_is_an_error_not_nan() {
+    // Constant w at 300 Hz (just above the k_t resonance, 295 Hz): the response softens and
+    // X_b(a_A) peaks near 4.7 µm before the contact would be lost; above, no solution.
+    let cw = ConstantW { w0: M.w0 };
+    let s = sys(DampingOn::Sphere);
+    let omega = 2.0 * PI * 300.0;
+    let v = describing::solutions(&M, &cw, &s, Support::StaticLoad(PRELOAD), 1e-5, omega).unwrap();
+    assert!(v.is_empty(), "{v:?}");
+    match describing::solve(&M, &cw, &s, Support::StaticLoad(PRELOAD), 1e-5, omega, None) {
+        Err(DescribingError::NotConverged { residual, .. }) => assert!(!residual.is_nan()),
+        other => panic!("{other:?}"),
+    }
+    // Bad inputs name the parameter.
+    for (xb, om) in [
+        (f64::NAN, omega),
+        (-1e-6, omega),
+        (1e-6, 0.0),
+        (1e-6, f64::INFINITY),
+    ] {
+        assert!(matches!(
+            describing::solve(&M, &cw, &s, Support::StaticLoad(PRELOAD), xb, om, None),
+            Err(DescribingError::Param(_))
+        ));
+    }
+    let bad = System { mass: -1.0, ..s };
+    assert!(describing::solve(
+        &M,
+        &cw,
+        &bad,
+        Support::StaticLoad(PRELOAD),
+        1e-6,
+        omega,
+        None
+    )
+    .is_err());
+    // Below the JKR pull-off load there is no static contact.
+    assert!(matches!(
+        describing::solve(&M, &cw, &s, Support::StaticLoad(-1.0), 1e-6, omega, None),
+        Err(DescribingError::NoStaticState(_))
+    ));
+    // Contact damping at ω² = k/m: δ1 = 0 is forced (an anti-resonance of this model); an error
+    // or a finite answer, never NaN.
+    let sc = sys(DampingOn::Contact);
+    let w_anti = (sc.stiffness / sc.mass).sqrt();
+    match describing::solve(
+        &M,
+        &cw,
+        &sc,
+        Support::StaticLoad(PRELOAD),
+        1e-6,
+        w_anti,
+        None,
+    ) {
+        Ok(h) => assert!(h.delta_amp.is_finite() && h.residual.is_finite()),
+        Err(e) => assert!(!format!("{e}").contains("NaN"), "{e}"),
+    }
+}
+
+#[test]
+fn spring_end_and_static_load_agree_and_match_eq30_at_rest() {
+    let cw = ConstantW { w0: M.w0 };
+    let s = sys(DampingOn::Sphere);
+    let st = describing::static_state(&M, &cw, &s, Support::StaticLoad(PRELOAD)).unwrap();
+    // Eq. (30) at rest: k (x_s − x_k) = −F + m g with x_s = δ0.
+    let lhs = s.stiffness * (st.delta - st.x_k);
+    assert!(
+        (lhs - (-PRELOAD + s.mass * s.gravity)).abs() < 1e-15,
+        "{lhs}"
+    );
+    let st2 = describing::static_state(&M, &cw, &s, Support::SpringEnd(st.x_k)).unwrap();
+    assert!((st2.a / st.a - 1.0).abs() < 1e-12 && (st2.force - PRELOAD).abs() < 1e-12);
+    // Without a spring the weight alone loads the contact.
+    let free = System {
+        stiffness: 0.0,
+        ..s
+    };
+    let st3 = describing::static_state(&M, &cw, &free, Support::SpringEnd(0.0)).unwrap();
+    assert!((st3.force - s.mass * s.gravity).abs() < 1e-15);
+    let a3 = jkr::equilibrium_radius_for_force(&M, s.mass * s.gravity, M.w0).unwrap_or(0.0);
+    assert!((st3.a / a3 - 1.0).abs() < 1e-12);
+}
+
+#[test]
+fn from_a_bundled_scenario() {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/resonance-400hz.toml");
+    let sc = djkr::scenario::parse::load_scenario(&path).unwrap();
+    let setup = describing::Setup::from_scenario(&sc).unwrap();
+    let p = match sc.initial {
+        djkr::scenario::Initial::Preload(p) => p,
+        _ => f64::NAN,
+    };
+    let st = describing::static_state(&setup.material, &setup.law, &setup.system, setup.support)
+        .unwrap();
+    assert!((st.force - p).abs() < 1e-12 * p);
+    let base = sc
+        .base
+        .map_or((400.0, 0.5e-6), |b| (b.frequency, b.amplitude));
+    let h = describing::from_scenario(&sc, base.0, base.1).unwrap();
+    assert!(h.residual <= 1e-10 && h.contact_fraction >= 1.0);
+    // Tiny amplitude: the mean force is the preload, the transfer eq. (37)'s (GS: pinned line).
+    let t = describing::from_scenario(&sc, base.0, 1e-10).unwrap();
+    assert!((t.force_mean - p).abs() < 1e-9 * p);
+    let kc = jkr::contact_stiffness(&sc.material, st.a);
+    let lin = transfer::linear(&oscillator(&setup.system, kc), 2.0 * PI * base.0);
+    assert!(
+        close(&t.transfer(), &lin, 1e-4),
+        "{:?} vs {lin:?}",
+        t.transfer()
+    );
+    let mut rigid = sc.clone();
+    rigid.holder = djkr::scenario::Holder::Rigid;
+    assert!(matches!(
+        describing::Setup::from_scenario(&rigid),
+        Err(DescribingError::Unsupported(_))
+    ));
+}
