@@ -217,6 +217,10 @@ struct Run<'a> {
     stopped: bool,
     /// Most tensile force candidate (force, time).
     min_force: Option<(f64, f64)>,
+    /// Most tensile cycle-mean force (force, cycle end time).
+    min_cycle: Option<(f64, f64)>,
+    /// Shaker state when detachment was declared.
+    shaker_at_detach: Option<bool>,
     /// Contact loss that may turn out to be the final detachment.
     pending_loss: Option<Event>,
     detached: bool,
@@ -442,8 +446,8 @@ impl Run<'_> {
             energy_start: self.cycle_e0,
             energy_end: e1,
         };
-        if !self.detached && self.min_force.is_none_or(|(f, _)| rec.force_mean < f) {
-            self.min_force = Some((rec.force_mean, rec.t_end));
+        if !self.detached && self.min_cycle.is_none_or(|(f, _)| rec.force_mean < f) {
+            self.min_cycle = Some((rec.force_mean, rec.t_end));
         }
         self.obs.cycle(&rec);
         self.cycles.push(rec);
@@ -702,6 +706,11 @@ impl Run<'_> {
         };
         let pulloff = matches!(st.until, Until::PullOff);
         self.in_pulloff = pulloff;
+        if pulloff && !self.detached {
+            // The pull-off summary describes the pull-off stage.
+            self.min_force = None;
+            self.min_cycle = None;
+        }
         if let (Some(p), true) = (preload, self.y.contact) {
             if self.force_of(&self.y) >= p {
                 let y = self.y;
@@ -908,6 +917,7 @@ impl Run<'_> {
                         self.obs.event(&e);
                         self.events.push(e);
                         self.detached = true;
+                        self.shaker_at_detach = Some(self.drive.shaker);
                         self.pending_loss = None;
                         return Ok(());
                     }
@@ -986,6 +996,8 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
         next_sample: 0.0,
         stopped: false,
         min_force: None,
+        min_cycle: None,
+        shaker_at_detach: None,
         pending_loss: None,
         detached: false,
         collapse_at: None,
@@ -1020,7 +1032,17 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
     }
     run.stats.wall_s = run.start.elapsed().as_secs_f64();
     let f0 = jkr::load_controlled_pull_off_force(&run.model.mat, run.model.w0);
-    let (force, time) = run.min_force.unwrap_or((0.0, 0.0));
+    // The shaker state at detachment decides which minimum is the pull-off force: the most
+    // tensile cycle mean while vibrating, the most tensile instantaneous force otherwise (each
+    // taken over the pull-off stage, or the whole run without one). Without detachment: the
+    // cycle means if there are any.
+    let vibrating = run.shaker_at_detach.unwrap_or(run.min_cycle.is_some());
+    let pick = if vibrating {
+        run.min_cycle.or(run.min_force)
+    } else {
+        run.min_force.or(run.min_cycle)
+    };
+    let (force, time) = pick.unwrap_or((0.0, 0.0));
     let final_state = run.sample_of(&run.y);
     Ok(RunResult {
         pull_off: PullOffSummary {

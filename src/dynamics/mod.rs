@@ -107,9 +107,11 @@
 //! ∫F cos θ, the same for δ and a, ∫x_s, ∫x_k, the holder force and its two harmonics, base work
 //! ∫F_b ẋ_b, viscous and adhesive dissipation ∫c ẋ², ∫(w0 − w) 2πa ȧ, and spring-end work. At
 //! every base-period boundary (hit exactly) a [`CycleRecord`] gives the exact cycle means and
-//! first harmonics and the energy balance. `pull_off.force` is the most tensile of: every
-//! cycle-mean force (shaker on) and every instantaneous force while the shaker is off (interior
-//! minima refined by golden section with exact re-stepping), up to detachment.
+//! first harmonics and the energy balance. `pull_off.force`: if the shaker is on at detachment
+//! (without detachment: if any cycle was recorded), the most tensile cycle-mean force; otherwise
+//! the most tensile instantaneous force recorded while the shaker was off (interior minima refined by
+//! golden section with exact re-stepping). Both are taken up to detachment, over the pull-off
+//! stage (the whole run if no stage ends at pull-off).
 //!
 //! # Measured (see `tests/dynamics.rs`, `benches/dynamics.rs`)
 //!
