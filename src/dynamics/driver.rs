@@ -352,40 +352,63 @@ impl Run<'_> {
             cand.push((self.force_of(y0), y0.t));
         }
         if self.force_rate(y0) < 0.0 && self.force_rate(y1) > 0.0 {
-            // Exact to integration accuracy: each trial is a fresh step from y0.
-            let f = |run: &mut Self, t: f64| match run.try_step(y0, t - y0.t) {
-                Ok(Some(o)) => run.force_of(&o.y),
-                _ => run.force_of(&hermite(y0, y1, t)),
-            };
-            let (mut lo, mut hi) = (y0.t, y1.t);
-            let r = 0.5 * (5f64.sqrt() - 1.0);
-            let mut c = hi - r * (hi - lo);
-            let mut d = lo + r * (hi - lo);
-            let (mut fc, mut fd) = (f(self, c), f(self, d));
-            for _ in 0..60 {
-                if fc < fd {
-                    hi = d;
-                    d = c;
-                    fd = fc;
-                    c = hi - r * (hi - lo);
-                    fc = f(self, c);
-                } else {
-                    lo = c;
-                    c = d;
-                    fc = fd;
-                    d = lo + r * (hi - lo);
-                    fd = f(self, d);
-                }
-                if hi - lo <= self.event_tol.max(1e-15 * y1.t.abs()) {
-                    break;
-                }
+            // A cheap search on the step's interpolant first; only a minimum that may beat the
+            // record is refined exactly (each trial a fresh step from y0).
+            let hermite_f = |run: &mut Self, t: f64| run.force_of(&hermite(y0, y1, t));
+            let (fh, th) = self.golden(y0.t, y1.t, 1e-6 * (y1.t - y0.t), hermite_f);
+            let scale = fh.abs().max(1e-300);
+            if self.min_force.is_none_or(|(m, _)| fh < m + 1e-3 * scale) {
+                let exact = |run: &mut Self, t: f64| match run.try_step(y0, t - y0.t) {
+                    Ok(Some(o)) => run.force_of(&o.y),
+                    _ => run.force_of(&hermite(y0, y1, t)),
+                };
+                let tol = self.event_tol.max(1e-15 * y1.t.abs());
+                cand.push(self.golden(y0.t, y1.t, tol, exact));
+            } else {
+                cand.push((fh, th));
             }
-            cand.push((fc.min(fd), 0.5 * (lo + hi)));
         }
         for (f, t) in cand {
             if self.min_force.is_none_or(|(m, _)| f < m) {
                 self.min_force = Some((f, t));
             }
+        }
+    }
+
+    /// Golden-section minimisation of `f` over [lo, hi] to a bracket of `tol`: (min, argmin).
+    fn golden(
+        &mut self,
+        mut lo: f64,
+        mut hi: f64,
+        tol: f64,
+        f: impl Fn(&mut Self, f64) -> f64,
+    ) -> (f64, f64) {
+        let r = 0.5 * (5f64.sqrt() - 1.0);
+        let mut c = hi - r * (hi - lo);
+        let mut d = lo + r * (hi - lo);
+        let (mut fc, mut fd) = (f(self, c), f(self, d));
+        for _ in 0..80 {
+            if hi - lo <= tol {
+                break;
+            }
+            if fc < fd {
+                hi = d;
+                d = c;
+                fd = fc;
+                c = hi - r * (hi - lo);
+                fc = f(self, c);
+            } else {
+                lo = c;
+                c = d;
+                fc = fd;
+                d = lo + r * (hi - lo);
+                fd = f(self, d);
+            }
+        }
+        if fc < fd {
+            (fc, c)
+        } else {
+            (fd, d)
         }
     }
 
