@@ -226,6 +226,21 @@ pub enum DescribingError {
         /// Best relative residual reached (may be infinite when no cycle could be evaluated).
         residual: f64,
     },
+    /// The only harmonic-balance solution found loses contact for part of the cycle (a_A > a_m),
+    /// where the imposed-area method sets δ = 0 instead of following the sphere's flight: the
+    /// regime of impacts, outside this predictor.
+    #[error(
+        "at omega = {omega} rad/s, X_b = {base_amplitude} m the contact is lost for part of the \
+         cycle (contact fraction {contact_fraction}): impacts, outside the predictor"
+    )]
+    ContactLost {
+        /// ω (rad/s).
+        omega: f64,
+        /// X_b (m).
+        base_amplitude: f64,
+        /// Fraction of the period in contact of the truncated solution.
+        contact_fraction: f64,
+    },
     /// The scenario cannot be mapped onto this predictor.
     #[error("scenario not supported: {0}")]
     Unsupported(String),
@@ -820,10 +835,37 @@ fn static_solution(st: &StaticState, xb: f64, omega: f64) -> HarmonicBalance {
 /// (module doc); continuation in X_b from X_b/1000 ([`continuation`]); the first solution of a
 /// scan along a_A ([`solutions`], which passes folds of the response). Where several solutions
 /// exist, which one is returned depends on the start; use [`solutions`] to get them all.
-/// X_b = 0 returns the static contact (a_A = 0). Errors, never NaN, on invalid inputs, no static contact, or no convergence
-/// to a relative residual of [`ACCEPT`].
+/// X_b = 0 returns the static contact (a_A = 0). Errors, never NaN, on invalid inputs, no static
+/// contact, no convergence to a relative residual of [`ACCEPT`], or when the only solution found
+/// loses contact ([`DescribingError::ContactLost`]).
 #[allow(clippy::too_many_arguments)]
 pub fn solve<L: AdhesionLaw + ?Sized>(
+    material: &Material,
+    law: &L,
+    system: &System,
+    support: Support,
+    base_amplitude: f64,
+    omega: f64,
+    guess: Option<Guess>,
+) -> Result<HarmonicBalance, DescribingError> {
+    let h = solve_any(material, law, system, support, base_amplitude, omega, guess)?;
+    if h.contact_fraction >= 1.0 {
+        return Ok(h);
+    }
+    // Converged to a truncated cycle: look for an in-contact solution elsewhere on the branch.
+    match solutions(material, law, system, support, base_amplitude, omega)?.first() {
+        Some(g) => Ok(*g),
+        None => Err(DescribingError::ContactLost {
+            omega,
+            base_amplitude,
+            contact_fraction: h.contact_fraction,
+        }),
+    }
+}
+
+/// [`solve`] without the contact-loss check.
+#[allow(clippy::too_many_arguments)]
+fn solve_any<L: AdhesionLaw + ?Sized>(
     material: &Material,
     law: &L,
     system: &System,
@@ -1181,7 +1223,7 @@ const SCAN_PER_DECADE: f64 = 8.0;
 /// Near a nonlinear resonance X_b(a_A) ([`at_contact_amplitude`]) is not monotonic: one X_b can
 /// have three solutions (a fold; the time-domain response then depends on its history, with
 /// jumps). This scans ln a_A at 8 points per decade, from where X_b(a_A) is below the target up
-/// to a_A = 2 a_0 or the first truncated cycle (contact loss: outside the method), brackets each
+/// to a_A = 20 a_0 or the first truncated cycle (contact loss: outside the method), brackets each
 /// crossing of X_b, refines it by bisection in ln a_A, and polishes it by Newton at the exact
 /// X_b. The first entry is the branch connected to X_b = 0, the one continuation from rest
 /// follows. An empty list means no in-contact periodic solution of this form (e.g. beyond the
@@ -1206,7 +1248,7 @@ pub fn solutions<L: AdhesionLaw + ?Sized>(
     };
     let target = base_amplitude;
     let step = std::f64::consts::LN_10 / SCAN_PER_DECADE;
-    let top = (2.0 * st.a).ln();
+    let top = (20.0 * st.a).ln();
     // Lowest a_A: start six decades below a_0 and go down until X_b is below the target.
     let mut lo = (1e-6 * st.a).ln();
     let mut first = None;
@@ -1259,7 +1301,7 @@ pub fn solutions<L: AdhesionLaw + ?Sized>(
             };
             let x0 = [best.a_mean, best.a_amp.ln(), best.phase];
             if let Ok((e, x, it)) = pb.newton(x0, pb.scales(st.a)) {
-                if (x[1] - x0[1]).abs() < 0.1 {
+                if (x[1] - x0[1]).abs() < 0.1 && e.cycle.contact_fraction >= 1.0 {
                     out.push(pb.finish(&e, x, it));
                 }
             }

@@ -639,8 +639,31 @@ fn beyond_the_in_contact_range_is_an_error_not_nan() {
     assert!(v.is_empty(), "{v:?}");
     match describing::solve(&M, &cw, &s, Support::StaticLoad(PRELOAD), 1e-5, omega, None) {
         Err(DescribingError::NotConverged { residual, .. }) => assert!(!residual.is_nan()),
+        Err(DescribingError::ContactLost { .. }) => {}
         other => panic!("{other:?}"),
     }
+    // Constant w near its resonance: Newton from the linear start lands on a truncated cycle
+    // (a_A > a_m, a_m < 0); solve does not return it but finds the in-contact solution on the
+    // branch scan.
+    let s4 = System {
+        mass: 2.71e-3,
+        damping: 0.5,
+        ..s
+    };
+    let h = describing::solve(
+        &M,
+        &cw,
+        &s4,
+        Support::StaticLoad(0.05),
+        5e-6,
+        2.0 * PI * 400.0,
+        None,
+    )
+    .unwrap();
+    assert!(
+        h.contact_fraction >= 1.0 && h.a_amp < h.a_mean && h.residual <= 1e-10,
+        "{h:?}"
+    );
     // Bad inputs name the parameter.
     for (xb, om) in [
         (f64::NAN, omega),
@@ -745,4 +768,67 @@ fn from_a_bundled_scenario() {
         describing::Setup::from_scenario(&rigid),
         Err(DescribingError::Unsupported(_))
     ));
+}
+
+#[test]
+#[ignore]
+fn study_scenarios() {
+    for (file, amps) in [
+        ("resonance-400hz.toml", vec![1e-7, 5e-7, 1e-6, 2e-6, 5e-6]),
+        ("impacts.toml", vec![1e-5, 5e-5, 1e-4, 2e-4, 3e-4, 4e-4]),
+    ] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenarios")
+            .join(file);
+        let sc = djkr::scenario::parse::load_scenario(&path).unwrap();
+        let setup = describing::Setup::from_scenario(&sc).unwrap();
+        let st =
+            describing::static_state(&setup.material, &setup.law, &setup.system, setup.support)
+                .unwrap();
+        let f = sc.base.map_or(400.0, |b| b.frequency);
+        let omega = 2.0 * PI * f;
+        let kc = jkr::contact_stiffness(&sc.material, st.a);
+        let kt = describing::tangent_stiffness(&sc.material, st.a, sc.material.w0);
+        let lc = transfer::linear(&oscillator(&setup.system, kc), omega);
+        let lt = transfer::linear(&oscillator(&setup.system, kt), omega);
+        println!("{file}: {f} Hz a0 {:.4e} k_c {kc:.0} k_t {kt:.0}; eq.37 |T| {:.4} ph {:.4}; k_t |T| {:.4} ph {:.4}", st.a, lc.magnitude(), lc.phase(), lt.magnitude(), lt.phase());
+        let cw = ConstantW { w0: sc.material.w0 };
+        for xb in amps {
+            let all = describing::solutions(
+                &setup.material,
+                &setup.law,
+                &setup.system,
+                setup.support,
+                xb,
+                omega,
+            )
+            .unwrap();
+            for h in &all {
+                let e = h.effective_contact().unwrap();
+                println!("  gs X_b {xb:.1e}: |T| {:.4} ph {:.4} a_m {:.4e} a_A {:.3e} delta_m {:.3e} F_m {:.5} k_eff {:.0} c_eff {:.3e}", h.transfer().magnitude(), h.transfer().phase(), h.a_mean, h.a_amp, h.delta_mean, h.force_mean, e.stiffness, e.damping);
+            }
+            if all.is_empty() {
+                println!("  gs X_b {xb:.1e}: no in-contact solution");
+            }
+            match describing::solve(
+                &setup.material,
+                &cw,
+                &setup.system,
+                setup.support,
+                xb,
+                omega,
+                None,
+            ) {
+                Ok(h) => println!(
+                    "  cw X_b {xb:.1e}: |T| {:.4} ph {:.4} a_m {:.4e} a_A {:.3e} F_m {:.5}",
+                    h.transfer().magnitude(),
+                    h.transfer().phase(),
+                    h.a_mean,
+                    h.a_amp,
+                    h.force_mean
+                ),
+                Err(e) => println!("  cw X_b {xb:.1e}: {e}"),
+            }
+        }
+    }
 }
