@@ -54,8 +54,11 @@
 //!
 //! ## Limitations
 //! When a_A > a_m the imposed cycle loses contact; the imposed-area method then sets δ = 0 out of
-//! contact, which is not the free flight of the sphere. Such solutions are returned with
-//! `contact_fraction < 1` and should not be trusted. A sinusoidal a(t) is an ansatz: the time-domain
+//! contact, which is not the free flight of the sphere. [`solve`] and [`solutions`] never return
+//! such cycles ([`DescribingError::ContactLost`]); [`at_contact_amplitude`] does, flagged by
+//! `contact_fraction < 1`, and they should not be trusted.
+//! Near a nonlinear resonance one X_b can have three solutions (a fold): [`solutions`] returns
+//! them all, [`solve`] one of them. A sinusoidal a(t) is an ansatz: the time-domain
 //! a(t) has higher harmonics, which this predictor ignores. With damping on the contact, δ1 = 0 at
 //! ω² = k/m (an anti-resonance of this model), where ln a_A → −∞: no solution is found there.
 
@@ -153,7 +156,8 @@ pub struct HarmonicBalance {
     pub base_amplitude: f64,
     /// Angular frequency ω (rad/s).
     pub omega: f64,
-    /// Newton iterations spent (summed over continuation substeps when [`solve`] needed them).
+    /// Newton iterations spent (summed over continuation substeps when [`solve`] needed them;
+    /// 0 from [`at_contact_amplitude`], whose X_b and ψ are closed forms).
     pub iterations: usize,
     /// Relative residual at the solution: the largest of the mean and first-harmonic equation
     /// residuals, each divided by the sum of the magnitudes of its terms. ≤ [`ACCEPT`] except at
