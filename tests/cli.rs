@@ -1,0 +1,266 @@
+//! The command line as a contract: JSON keys of `cycle` and `pulloff`, errors that name the flag,
+//! the value and what is allowed (exit status 2, never a panic), and every bundled scenario running
+//! through `djkr run` with complete output.
+
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn djkr(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args(args)
+        .output()
+        .expect("djkr binary runs")
+}
+
+fn json(args: &[&str]) -> Value {
+    let o = djkr(args);
+    assert!(
+        o.status.success(),
+        "djkr {args:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    serde_json::from_slice(&o.stdout).expect("valid JSON on stdout")
+}
+
+fn num(v: &Value, key: &str) -> f64 {
+    v[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("key {key} missing or not a number in {v}"))
+}
+
+#[test]
+fn cycle_json_has_the_contract_keys_in_si() {
+    let v = json(&[
+        "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1mm", "--json",
+    ]);
+    for k in [
+        "a_mean",
+        "delta_mean",
+        "delta_amp",
+        "delta_sin",
+        "delta_cos",
+        "force_mean",
+        "contact_fraction",
+    ] {
+        assert!(num(&v, k).is_finite(), "{k}");
+    }
+    // SI: radii in metres, the harmonics combine to the amplitude (eq. 27).
+    assert!((num(&v, "a_mean") - 1e-3).abs() < 1e-15);
+    let (s, c) = (num(&v, "delta_sin"), num(&v, "delta_cos"));
+    assert!((s.hypot(c) - num(&v, "delta_amp")).abs() < 1e-12 * num(&v, "delta_amp"));
+    assert!((num(&v, "contact_fraction") - 1.0).abs() < 1e-15);
+    // The same cycle with units spelled differently gives the same numbers.
+    let w = json(&[
+        "cycle", "--freq", "0.2kHz", "--a-mean", "0.001", "--a-amp", "1000um", "--json",
+    ]);
+    assert!((num(&w, "force_mean") - num(&v, "force_mean")).abs() < 1e-12);
+}
+
+#[test]
+fn pulloff_json_without_vibration_is_classical_jkr() {
+    // a_A = 0: every method must give the static load-controlled JKR pull-off, -3/2 pi R w0, at
+    // a^3 = 3 pi w0 R^2 / (2K) (paper material).
+    let (k, r, w0) = (9.33e6, 0.051, 0.240);
+    let f0 = -1.5 * std::f64::consts::PI * r * w0;
+    let a0 = (3.0 * std::f64::consts::PI * w0 * r * r / (2.0 * k)).cbrt();
+    for method in ["exact", "approx"] {
+        let v = json(&[
+            "pulloff", "--freq", "300", "--a-amp", "0", "--method", method, "--json",
+        ]);
+        for key in [
+            "a_mean",
+            "delta_mean",
+            "delta_amp",
+            "force",
+            "amplification",
+        ] {
+            assert!(num(&v, key).is_finite(), "{method}: {key}");
+        }
+        assert!((num(&v, "force") / f0 - 1.0).abs() < 1e-8, "{method}: {v}");
+        assert!(
+            (num(&v, "amplification") - 1.0).abs() < 1e-8,
+            "{method}: {v}"
+        );
+        assert!((num(&v, "a_mean") / a0 - 1.0).abs() < 1e-6, "{method}: {v}");
+    }
+}
+
+#[test]
+fn pulloff_with_vibration_amplifies_and_material_flags_apply() {
+    let v = json(&["pulloff", "--freq", "400", "--a-amp", "0.5mm", "--json"]);
+    assert!(num(&v, "amplification") > 10.0, "{v}");
+    // Doubling w0 doubles the static reference; the amplification is relative to the flag's w0.
+    let w = json(&[
+        "pulloff",
+        "--freq",
+        "400",
+        "--a-amp",
+        "0",
+        "--w0",
+        "480mJ/m^2",
+        "--json",
+    ]);
+    assert!((num(&w, "force") / (-1.5 * std::f64::consts::PI * 0.051 * 0.48) - 1.0).abs() < 1e-8);
+    for method in [
+        &["--method", "yi"][..],
+        &[
+            "--method",
+            "shui",
+            "--mass",
+            "3g",
+            "--damping",
+            "0.5",
+            "--base-amp",
+            "10um",
+        ],
+    ] {
+        let mut args = vec!["pulloff", "--freq", "400", "--a-amp", "0.5mm", "--json"];
+        args.extend_from_slice(method);
+        assert!(num(&json(&args), "force").is_finite(), "{args:?}");
+    }
+}
+
+#[test]
+fn bad_input_names_the_flag_value_and_range() {
+    let cases: &[(&[&str], &[&str])] = &[
+        (
+            &["pulloff", "--freq", "0", "--a-amp", "1mm"],
+            &["--freq", "0", "> 0"],
+        ),
+        (
+            &["pulloff", "--freq", "200", "--a-amp", "-1mm"],
+            &["--a-amp", "-1mm", ">= 0"],
+        ),
+        (
+            &[
+                "pulloff", "--freq", "200", "--a-amp", "1mm", "--radius", "-1",
+            ],
+            &["--radius", "-1", "> 0"],
+        ),
+        (
+            &["pulloff", "--freq", "200", "--a-amp", "1mm", "--n", "0"],
+            &["--n", "0", "> 0"],
+        ),
+        (
+            &[
+                "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1furlong",
+            ],
+            &["--a-amp", "furlong", "unknown unit"],
+        ),
+        (
+            &[
+                "cycle", "--freq", "200", "--a-mean", "-2mm", "--a-amp", "1mm",
+            ],
+            &["--a-mean", "-2mm"],
+        ),
+        (
+            &[
+                "pulloff", "--freq", "200", "--a-amp", "1mm", "--method", "shui",
+            ],
+            &["--mass"],
+        ),
+        (&["run", "no/such/file.toml"], &["no/such/file.toml"]),
+    ];
+    for (args, needles) in cases {
+        let o = djkr(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "djkr {args:?}: {err}");
+        assert!(!err.contains("panicked"), "djkr {args:?} panicked: {err}");
+        for n in *needles {
+            assert!(err.contains(n), "djkr {args:?}: '{n}' missing from: {err}");
+        }
+    }
+}
+
+#[test]
+fn check_accepts_bundled_scenarios_and_rejects_bad_ones() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files: Vec<String> = std::fs::read_dir(dir.join("scenarios"))
+        .unwrap()
+        .map(|e| e.unwrap().path().display().to_string())
+        .filter(|p| p.ends_with(".toml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 4);
+    let mut args = vec!["check"];
+    args.extend(files.iter().map(String::as_str));
+    let o = djkr(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let bad = dir.join("tests/scenarios/bad");
+    let first_bad = std::fs::read_dir(&bad)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|x| x == "toml"))
+        .unwrap();
+    let o = djkr(&["check", first_bad.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr)
+        .contains(first_bad.file_name().unwrap().to_str().unwrap()));
+}
+
+/// "Every bundled scenario runs from the README's command": each one through `djkr run`, with
+/// complete output and physically valid results.
+#[test]
+fn every_bundled_scenario_runs_with_complete_output() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios");
+    let out = tempfile::tempdir().unwrap();
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_none_or(|x| x != "toml") {
+            continue;
+        }
+        n += 1;
+        let name = p.file_stem().unwrap().to_str().unwrap().to_string();
+        let od = out.path().join(&name);
+        let o = djkr(&[
+            "run",
+            p.to_str().unwrap(),
+            "--out",
+            od.to_str().unwrap(),
+            "--csv",
+        ]);
+        assert!(
+            o.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        for f in ["summary.json", "run.h5", "timeseries.csv", "events.csv"] {
+            assert!(od.join(f).is_file(), "{name}: {f} missing");
+        }
+        let leftovers: Vec<_> = std::fs::read_dir(&od)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|f| f.contains("partial"))
+            .collect();
+        assert!(
+            leftovers.is_empty(),
+            "{name}: partial files left: {leftovers:?}"
+        );
+        let s: Value =
+            serde_json::from_str(&std::fs::read_to_string(od.join("summary.json")).unwrap())
+                .unwrap();
+        assert!(
+            s["pull_off"]["force"].as_f64().unwrap().is_finite(),
+            "{name}"
+        );
+        assert!(s["stats"]["steps"].as_u64().unwrap() > 0, "{name}");
+        assert_eq!(
+            s["non_finite"].as_object().map(|m| m.len()),
+            Some(0),
+            "{name}"
+        );
+        // a >= 0 and finite force throughout the written time series.
+        let csv = std::fs::read_to_string(od.join("timeseries.csv")).unwrap();
+        let mut lines = csv.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let ia = header.iter().position(|h| *h == "a_m").unwrap();
+        let iff = header.iter().position(|h| *h == "F_N").unwrap();
+        for l in lines {
+            let c: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            assert!(c[ia] >= 0.0 && c[iff].is_finite(), "{name}: {l}");
+        }
+    }
+    assert!(n >= 4);
+}
