@@ -1350,6 +1350,7 @@ impl Setup {
         };
         let support = match s.initial {
             Initial::Preload(p) => Support::StaticLoad(p),
+            Initial::State { x_k, .. } => Support::SpringEnd(x_k),
             Initial::Gap(_) => {
                 return Err(DescribingError::Unsupported(
                     "initial gap: no static contact to oscillate about".into(),

@@ -1137,6 +1137,29 @@ pub fn initial_state(s: &Scenario, m: &Model) -> Result<(State, Drive), SimError
                 _ => d + (p - m.m * m.g) / m.k,
             };
         }
+        Initial::State {
+            x_s,
+            v_s,
+            a,
+            a_dot,
+            x_k,
+        } => {
+            let vals = [x_s, v_s, a, a_dot, x_k];
+            if vals.iter().any(|v| !v.is_finite()) || a < 0.0 {
+                return Err(SimError::Setup(format!(
+                    "initial state must be finite with a >= 0: x_s = {x_s}, v_s = {v_s}, a = {a}, a_dot = {a_dot}, x_k = {x_k}"
+                )));
+            }
+            y.x = x_s;
+            y.v = v_s;
+            y.a = a;
+            y.contact = a > 0.0;
+            y.adot = if y.contact { a_dot } else { 0.0 };
+            xk = match m.mech {
+                Mechanics::Rigid => x_s,
+                _ => x_k,
+            };
+        }
         Initial::Gap(g0) => {
             if !(g0.is_finite() && g0 > 0.0) {
                 return Err(SimError::Setup(format!("initial gap {g0} m must be > 0")));

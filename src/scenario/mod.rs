@@ -82,6 +82,22 @@ pub enum Initial {
     /// Out of contact, at rest, with this gap (m, > 0) between sphere and substrate; the spring
     /// end is placed so the sphere is in equilibrium in free space.
     Gap(f64),
+    /// An explicit state, e.g. the end of an earlier run (shooting, frequency sweeps): the sphere
+    /// at `x_s` (m) moving at `v_s` (m/s), contact radius `a` (m; 0 = out of contact) growing at
+    /// `a_dot` (m/s; the rate consistent with the state, as a [`crate::dynamics::Sample`]
+    /// reports it), spring end at `x_k` (m). The base is at rest at phase 0 (x_b = 0).
+    State {
+        /// Sphere position (m, down +).
+        x_s: f64,
+        /// Sphere velocity (m/s, down +).
+        v_s: f64,
+        /// Contact radius (m).
+        a: f64,
+        /// Contact-radius rate (m/s).
+        a_dot: f64,
+        /// Spring-end position (m, down +).
+        x_k: f64,
+    },
 }
 
 /// When a stage ends.
