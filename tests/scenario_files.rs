@@ -180,7 +180,7 @@ fn contact_stiffness_at(s: &Scenario, force: f64) -> f64 {
 fn stage_preload(s: &Scenario) -> f64 {
     match s.initial {
         Initial::Preload(p) => p,
-        Initial::Gap(_) => s
+        Initial::Gap(_) | Initial::State { .. } => s
             .stages
             .iter()
             .find_map(|st| match st.until {
