@@ -33,10 +33,10 @@
 
 use crate::adhesion::GentSchultz;
 use crate::closed_form;
-use crate::comparators::brent_minimize;
 use crate::error::{positive, ParamError};
 use crate::imposed_area;
 use crate::material::Material;
+use crate::numerics::brent_minimize;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;

@@ -274,7 +274,7 @@ pub fn small_amplitude_amplification<L: crate::adhesion::AdhesionLaw + ?Sized>(
     if speed == 0.0 {
         return 1.0;
     }
-    let mean_root = crate::comparators::tanh_sinh(
+    let mean_root = crate::quadrature::integrate_adaptive(
         |phi| {
             let v = speed * phi.sin();
             (law.work_of_adhesion(-v) / w0).sqrt() + (law.work_of_adhesion(v) / w0).sqrt()

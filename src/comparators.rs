@@ -53,152 +53,6 @@ use crate::material::Material;
 use serde::Serialize;
 use std::f64::consts::{FRAC_PI_2, PI};
 
-/// Brent's local minimiser (golden section with parabolic steps; Brent 1973, "localmin") of `f`
-/// on [a, b]. Returns (x_min, f(x_min)). Converges to |Δx| ≲ 3 (rel_tol |x| + abs_tol). Pure,
-/// allocation-free, no clock: used by the pull-off searches, the β refit and the GS fit.
-pub(crate) fn brent_minimize<F: FnMut(f64) -> f64>(
-    mut f: F,
-    a: f64,
-    b: f64,
-    rel_tol: f64,
-    abs_tol: f64,
-    max_iter: usize,
-) -> (f64, f64) {
-    let cgold = 0.5 * (3.0 - 5f64.sqrt());
-    let (mut a, mut b) = (a.min(b), a.max(b));
-    let mut x = a + cgold * (b - a);
-    let (mut w, mut v) = (x, x);
-    let mut fx = f(x);
-    let (mut fw, mut fv) = (fx, fx);
-    let (mut d, mut e) = (0.0_f64, 0.0_f64);
-    for _ in 0..max_iter {
-        let xm = 0.5 * (a + b);
-        let tol = rel_tol * x.abs() + abs_tol;
-        let tol2 = 2.0 * tol;
-        if (x - xm).abs() <= tol2 - 0.5 * (b - a) {
-            break;
-        }
-        let mut golden = true;
-        if e.abs() > tol {
-            let r = (x - w) * (fx - fv);
-            let mut q = (x - v) * (fx - fw);
-            let mut p = (x - v) * q - (x - w) * r;
-            q = 2.0 * (q - r);
-            if q > 0.0 {
-                p = -p;
-            }
-            q = q.abs();
-            let e_old = e;
-            e = d;
-            if p.abs() < (0.5 * q * e_old).abs() && p > q * (a - x) && p < q * (b - x) {
-                d = p / q;
-                let u = x + d;
-                if u - a < tol2 || b - u < tol2 {
-                    d = if xm >= x { tol } else { -tol };
-                }
-                golden = false;
-            }
-        }
-        if golden {
-            e = if x >= xm { a - x } else { b - x };
-            d = cgold * e;
-        }
-        let u = if d.abs() >= tol {
-            x + d
-        } else if d > 0.0 {
-            x + tol
-        } else {
-            x - tol
-        };
-        let fu = f(u);
-        // NaN never wins: `fu <= fx` is false for NaN.
-        if fu <= fx {
-            if u >= x {
-                a = x;
-            } else {
-                b = x;
-            }
-            v = w;
-            fv = fw;
-            w = x;
-            fw = fx;
-            x = u;
-            fx = fu;
-        } else {
-            if u < x {
-                a = u;
-            } else {
-                b = u;
-            }
-            if fu <= fw || w.to_bits() == x.to_bits() {
-                v = w;
-                fv = fw;
-                w = u;
-                fw = fu;
-            } else if fu <= fv || v.to_bits() == x.to_bits() || v.to_bits() == w.to_bits() {
-                v = u;
-                fv = fu;
-            }
-        }
-    }
-    (x, fx)
-}
-
-/// Tanh-sinh (double-exponential) quadrature of `f` over [a, b], refined level by level until two
-/// successive estimates agree to `rel_tol` (or 10 levels). Handles integrable end-point
-/// singularities and kinks at the ends; never evaluates f at a or b. Allocation-free.
-pub(crate) fn tanh_sinh<F: FnMut(f64) -> f64>(mut f: F, a: f64, b: f64, rel_tol: f64) -> f64 {
-    let c = 0.5 * (a + b);
-    let h = 0.5 * (b - a);
-    if h == 0.0 {
-        return 0.0;
-    }
-    // At |t| = 4.5, π/2 sinh t ≈ 71 and the distance to the end is ~1e−61 (b − a): enough for
-    // an x^(−1/2) end singularity, whose tail beyond the last node is ~√distance. Nodes that round
-    // onto an end are skipped (the integrand may be infinite there).
-    let t_max = 4.5_f64;
-    // Contribution of the node pair ±t (or the single node t = 0).
-    let mut pair = |t: f64| -> f64 {
-        let u = FRAC_PI_2 * t.sinh();
-        let cu = u.cosh();
-        let weight = FRAC_PI_2 * t.cosh() / (cu * cu);
-        // Distance of the node from the nearer end, without cancellation: h (1 − tanh|u|).
-        let dist = h * 2.0 / (1.0 + (2.0 * u.abs()).exp());
-        if t == 0.0 {
-            weight * f(c)
-        } else {
-            let (xl, xr) = (a + dist, b - dist);
-            let left = if xl > a { f(xl) } else { 0.0 };
-            let right = if xr < b { f(xr) } else { 0.0 };
-            weight * (left + right)
-        }
-    };
-    let mut step = 0.5_f64;
-    let mut sum = pair(0.0);
-    let mut k = 1;
-    while (k as f64) * step <= t_max {
-        sum += pair(k as f64 * step);
-        k += 1;
-    }
-    let mut estimate = h * step * sum;
-    for level in 1..=10 {
-        step *= 0.5;
-        // New nodes: odd multiples of the halved step.
-        let mut k = 1;
-        while (k as f64) * step <= t_max {
-            sum += pair(k as f64 * step);
-            k += 2;
-        }
-        let next = h * step * sum;
-        let converged = (next - estimate).abs() <= rel_tol * next.abs();
-        estimate = next;
-        if converged && level >= 3 {
-            break;
-        }
-    }
-    estimate
-}
-
 // ---------------------------------------------------------------------------------------------
 // Shui et al.
 // ---------------------------------------------------------------------------------------------
@@ -314,7 +168,7 @@ pub fn shui_pull_off(m: &Material, s: &ShuiSystem) -> Result<ShuiPullOff, ParamE
     for i in 1..n_scan - 1 {
         let f_next = f(at(i + 1));
         if f_cur <= f_prev && f_cur <= f_next {
-            let (x, fx) = brent_minimize(f, at(i - 1), at(i + 1), 1e-12, 0.0, 200);
+            let (x, fx) = crate::numerics::brent_minimize(f, at(i - 1), at(i + 1), 1e-12, 0.0, 200);
             consider(x, fx, &mut best);
             consider(at(i), f_cur, &mut best);
         }
@@ -324,7 +178,7 @@ pub fn shui_pull_off(m: &Material, s: &ShuiSystem) -> Result<ShuiPullOff, ParamE
     if a_peak > 0.0 && s.base_amplitude > 0.0 {
         let half = 10.0 * s.damping * s.omega / (1.5 * m.k);
         let lo = (a_peak - half).max(0.5 * a_lo);
-        let (x, fx) = brent_minimize(f, lo, a_peak + half, 1e-12, 0.0, 200);
+        let (x, fx) = crate::numerics::brent_minimize(f, lo, a_peak + half, 1e-12, 0.0, 200);
         consider(x, fx, &mut best);
     }
     let (a_mean, force) = best;
@@ -376,7 +230,7 @@ pub fn yi_mean_work_of_adhesion<L: AdhesionLaw + ?Sized>(law: &L, peak_speed: f6
     if peak_speed == 0.0 {
         return law.w0();
     }
-    tanh_sinh(
+    crate::quadrature::integrate_adaptive(
         |phi| {
             let v = peak_speed * phi.sin();
             law.work_of_adhesion(-v) + law.work_of_adhesion(v)
@@ -425,7 +279,14 @@ mod tests {
 
     #[test]
     fn brent_finds_a_parabola_minimum() {
-        let (x, fx) = brent_minimize(|x| (x - 0.3).powi(2) + 1.0, -2.0, 5.0, 1e-12, 1e-15, 200);
+        let (x, fx) = crate::numerics::brent_minimize(
+            |x| (x - 0.3).powi(2) + 1.0,
+            -2.0,
+            5.0,
+            1e-12,
+            1e-15,
+            200,
+        );
         assert!((x - 0.3).abs() < 1e-7, "{x}");
         assert!((fx - 1.0).abs() < 1e-13);
     }
@@ -433,9 +294,9 @@ mod tests {
     #[test]
     fn tanh_sinh_handles_endpoint_singularity() {
         // ∫_0^1 x^{-1/2} dx = 2; ∫_0^{π/2} sin x dx = 1.
-        let i = tanh_sinh(|x| 1.0 / x.sqrt(), 0.0, 1.0, 1e-13);
+        let i = crate::quadrature::integrate_adaptive(|x| 1.0 / x.sqrt(), 0.0, 1.0, 1e-13);
         assert!((i - 2.0).abs() < 1e-10, "{i}");
-        let i = tanh_sinh(f64::sin, 0.0, FRAC_PI_2, 1e-13);
+        let i = crate::quadrature::integrate_adaptive(f64::sin, 0.0, FRAC_PI_2, 1e-13);
         assert!((i - 1.0).abs() < 1e-13, "{i}");
     }
 }

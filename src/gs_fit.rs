@@ -45,10 +45,10 @@
 //! the fit (errors-in-variables beyond first order): keep `min_speed_over_noise` ≥ 3.
 
 use crate::adhesion::GentSchultz;
-use crate::comparators::brent_minimize;
 use crate::error::{non_negative, positive, ParamError};
 use crate::jkr;
 use crate::material::Material;
+use crate::numerics::brent_minimize;
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 use serde::Serialize;
 

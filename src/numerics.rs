@@ -36,3 +36,94 @@ impl roots::Convergency<f64> for RelativeConvergency {
         iter >= self.max_iter
     }
 }
+
+/// Brent's local minimiser (golden section with parabolic steps; Brent 1973, "localmin") of `f`
+/// on [a, b]. Returns (x_min, f(x_min)). Converges to |Δx| ≲ 3 (rel_tol |x| + abs_tol). Pure,
+/// allocation-free, no clock: used by the pull-off searches, the β refit and the GS fit.
+pub fn brent_minimize<F: FnMut(f64) -> f64>(
+    mut f: F,
+    a: f64,
+    b: f64,
+    rel_tol: f64,
+    abs_tol: f64,
+    max_iter: usize,
+) -> (f64, f64) {
+    let cgold = 0.5 * (3.0 - 5f64.sqrt());
+    let (mut a, mut b) = (a.min(b), a.max(b));
+    let mut x = a + cgold * (b - a);
+    let (mut w, mut v) = (x, x);
+    let mut fx = f(x);
+    let (mut fw, mut fv) = (fx, fx);
+    let (mut d, mut e) = (0.0_f64, 0.0_f64);
+    for _ in 0..max_iter {
+        let xm = 0.5 * (a + b);
+        let tol = rel_tol * x.abs() + abs_tol;
+        let tol2 = 2.0 * tol;
+        if (x - xm).abs() <= tol2 - 0.5 * (b - a) {
+            break;
+        }
+        let mut golden = true;
+        if e.abs() > tol {
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            }
+            q = q.abs();
+            let e_old = e;
+            e = d;
+            if p.abs() < (0.5 * q * e_old).abs() && p > q * (a - x) && p < q * (b - x) {
+                d = p / q;
+                let u = x + d;
+                if u - a < tol2 || b - u < tol2 {
+                    d = if xm >= x { tol } else { -tol };
+                }
+                golden = false;
+            }
+        }
+        if golden {
+            e = if x >= xm { a - x } else { b - x };
+            d = cgold * e;
+        }
+        let u = if d.abs() >= tol {
+            x + d
+        } else if d > 0.0 {
+            x + tol
+        } else {
+            x - tol
+        };
+        let fu = f(u);
+        // NaN never wins: `fu <= fx` is false for NaN.
+        if fu <= fx {
+            if u >= x {
+                a = x;
+            } else {
+                b = x;
+            }
+            v = w;
+            fv = fw;
+            w = x;
+            fw = fx;
+            x = u;
+            fx = fu;
+        } else {
+            if u < x {
+                a = u;
+            } else {
+                b = u;
+            }
+            if fu <= fw || w.to_bits() == x.to_bits() {
+                v = w;
+                fv = fw;
+                w = u;
+                fw = fu;
+            } else if fu <= fv || v.to_bits() == x.to_bits() || v.to_bits() == w.to_bits() {
+                v = u;
+                fv = fu;
+            }
+        }
+    }
+    (x, fx)
+}
