@@ -24,5 +24,6 @@ pub mod output;
 pub mod plot;
 pub mod quadrature;
 pub mod scenario;
+pub mod steady;
 pub mod transfer;
 pub mod units;
