@@ -7,6 +7,7 @@
 #![deny(clippy::float_cmp)]
 #![warn(missing_docs)]
 
+pub mod accuracy;
 pub mod adhesion;
 pub mod beta_fit;
 pub mod closed_form;

@@ -1,6 +1,7 @@
 //! Command-line front end. Each subcommand parses its flags, calls the library and reports
 //! (a readable table with units, or `--json` with SI values).
 
+mod accuracy;
 mod closed;
 mod common;
 mod fit;
@@ -49,6 +50,10 @@ enum Command {
     /// Fit the Gent–Schultz constants w0, v0, n (with uncertainties) to a quasi-static unloading
     /// record (CSV: t, a, F), using eq. (28) for w and −ȧ for the crack speed.
     GsFit(fit::GsFitArgs),
+    /// Speed vs accuracy: a work-precision study of the integrators on a scenario FILE (errors
+    /// against a converged reference, median wall time, steps, RHS evaluations; CSV, table,
+    /// plot), or with --imposed-area, quadrature nodes vs error and the closed form's error map.
+    Accuracy(accuracy::AccuracyArgs),
 }
 
 /// Entry point: run the command, print errors as one readable message, map to an exit code.
@@ -62,6 +67,7 @@ pub fn main() -> ExitCode {
         Command::RequiredSpeed(a) => closed::required_speed(&a),
         Command::BetaFit(a) => closed::beta_fit(&a),
         Command::GsFit(a) => fit::gs_fit(&a),
+        Command::Accuracy(a) => accuracy::accuracy(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,238 @@
+//! `djkr accuracy`: speed versus accuracy. With a scenario FILE, a work-precision study of the
+//! time-domain methods on that scene; with `--imposed-area`, quadrature nodes versus error of the
+//! imposed-area cycle and the closed form's error map. Writes CSV, a markdown table and plots
+//! into `--out`; prints the table.
+
+use super::common::{positive_quantity, write_atomic};
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use djkr::accuracy::{self, StudyConfig};
+use djkr::beta_fit::log_space;
+use djkr::error::ParamError;
+use djkr::plot;
+use djkr::scenario::parse::load_scenario;
+use djkr::units::Dimension;
+use std::path::{Path, PathBuf};
+
+/// Flags of `djkr accuracy`.
+#[derive(Args, Debug)]
+pub struct AccuracyArgs {
+    /// Scenario file (TOML) to study; not needed with --imposed-area.
+    #[arg(required_unless_present = "imposed_area")]
+    file: Option<PathBuf>,
+    /// Methods, comma-separated: implicit, dopri5, dop853, auto.
+    #[arg(long, default_value = "implicit,dopri5,dop853,auto")]
+    methods: String,
+    /// Relative tolerances, comma-separated, each in (0, 1) (atol = --atol-ratio × rtol).
+    #[arg(long, default_value = "1e-4,1e-6,1e-8,1e-10")]
+    tolerances: String,
+    /// Timed runs per method and tolerance; the wall time reported is their median.
+    #[arg(long, default_value = "3")]
+    repeats: String,
+    /// Tolerance of the reference run (implicit), checked by dopri5 at the same tolerance.
+    #[arg(long, default_value = "1e-12")]
+    ref_rtol: String,
+    /// atol / rtol for every run.
+    #[arg(long, default_value = "0.01")]
+    atol_ratio: String,
+    /// Output directory [default: out/accuracy-<scenario name>, or out/accuracy-imposed-area].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Study the imposed-area method instead: quadrature nodes vs error, closed form vs exact.
+    #[arg(long)]
+    imposed_area: bool,
+    /// With --imposed-area: tanh-sinh node counts, comma-separated (each 3..=2001).
+    #[arg(long, default_value = "11,21,31,41,51,61,81,101,121,161")]
+    nodes: String,
+    /// With --imposed-area: frequency of the closed-form map (sets a_A = v_max/ω).
+    #[arg(long, default_value = "200", value_name = "HZ")]
+    freq: String,
+    /// With --imposed-area: speed correction β of eq. (24) for the closed form.
+    #[arg(long, default_value = "2.5")]
+    beta: String,
+}
+
+fn list<T>(flag: &str, text: &str, f: impl Fn(&str) -> Result<T, ParamError>) -> Result<Vec<T>> {
+    let v: Vec<T> = text
+        .split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| f(s.trim()))
+        .collect::<Result<_, _>>()?;
+    if v.is_empty() {
+        bail!("{flag} = {text:?}: needs at least one comma-separated value");
+    }
+    Ok(v)
+}
+
+fn count(flag: &str, text: &str, lo: usize, hi: usize) -> Result<usize, ParamError> {
+    text.trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|n| (lo..=hi).contains(n))
+        .ok_or_else(|| ParamError::new(flag, text, format!("must be an integer in {lo}..={hi}")))
+}
+
+/// Run `djkr accuracy`.
+pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
+    if a.imposed_area {
+        return imposed_area(a);
+    }
+    let Some(file) = &a.file else {
+        bail!("accuracy: give a scenario FILE, or --imposed-area");
+    };
+    let cfg = StudyConfig {
+        methods: list("--methods", &a.methods, |s| {
+            accuracy::parse_method("--methods", s)
+        })?,
+        tolerances: list("--tolerances", &a.tolerances, |s| {
+            positive_quantity("--tolerances", s, Dimension::Dimensionless)
+        })?,
+        repeats: count("--repeats", &a.repeats, 1, 1000)?,
+        reference_rtol: positive_quantity("--ref-rtol", &a.ref_rtol, Dimension::Dimensionless)?,
+        atol_ratio: positive_quantity("--atol-ratio", &a.atol_ratio, Dimension::Dimensionless)?,
+    };
+    cfg.validate()?;
+    let scn = load_scenario(file)?;
+    let out = a.out.clone().unwrap_or_else(|| {
+        let stem = file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scene".into());
+        PathBuf::from("out").join(format!("accuracy-{stem}"))
+    });
+    eprintln!(
+        "reference: implicit at rtol {:e}, checked by dopri5 …",
+        cfg.reference_rtol
+    );
+    let study = accuracy::work_precision(&scn, &cfg, |i, n, m, rtol| {
+        eprintln!("[{}/{}] {m} rtol {rtol:e}", i + 1, n);
+    })
+    .with_context(|| format!("{}", file.display()))?;
+    let table = accuracy::study_table(&study);
+    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
+    write_atomic(
+        &out.join("work_precision.csv"),
+        accuracy::study_csv(&study).as_bytes(),
+    )?;
+    write_atomic(&out.join("work_precision.md"), table.as_bytes())?;
+    let (png, svg) = plot::render(&accuracy::study_figure(&study), &out.join("work_precision"))?;
+    println!("{table}");
+    print_written(
+        &out,
+        &[png, svg],
+        &["work_precision.csv", "work_precision.md"],
+    );
+    Ok(())
+}
+
+fn print_written(out: &Path, plots: &[PathBuf], files: &[&str]) {
+    println!("wrote:");
+    for f in files {
+        println!("  {}", out.join(f).display());
+    }
+    for p in plots {
+        println!("  {}", p.display());
+    }
+}
+
+fn imposed_area(a: &AccuracyArgs) -> Result<()> {
+    let nodes = list("--nodes", &a.nodes, |s| count("--nodes", s, 3, 2001))?;
+    let repeats = count("--repeats", &a.repeats, 1, 1000)?;
+    let freq = positive_quantity("--freq", &a.freq, Dimension::Frequency)?;
+    let beta = positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join("accuracy-imposed-area"));
+    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
+
+    eprintln!("quadrature study …");
+    let q = accuracy::quadrature_study(&nodes, repeats);
+    let mut table = format!(
+        "Imposed-area cycle, tanh-sinh nodes vs worst error over {} cases (reference: graded \
+         Gauss–Legendre, own uncertainty {:.1e})\n\n| nodes | worst F_m rel. error | worst δ \
+         error / JKR scale | time per cycle | worst case |\n|---|---|---|---|---|\n",
+        q.cases, q.reference_uncertainty
+    );
+    let mut csv =
+        String::from("nodes,worst_force_rel,worst_delta_scaled,time_per_cycle_s,worst_case\n");
+    for r in &q.rows {
+        table += &format!(
+            "| {} | {:.1e} | {:.1e} | {} | {} |\n",
+            r.nodes,
+            r.worst_force_rel,
+            r.worst_delta_scaled,
+            accuracy::fmt_time(r.time_per_cycle_s),
+            r.worst_case
+        );
+        csv += &format!(
+            "{},{:e},{:e},{:e},\"{}\"\n",
+            r.nodes, r.worst_force_rel, r.worst_delta_scaled, r.time_per_cycle_s, r.worst_case
+        );
+    }
+    write_atomic(&out.join("quadrature.csv"), csv.as_bytes())?;
+    let (qp, qs) = plot::render(&accuracy::quadrature_figure(&q), &out.join("quadrature"))?;
+
+    eprintln!("closed-form map …");
+    let n_values: Vec<f64> = (1..=30).map(|i| 0.05 * i as f64).collect();
+    let ratios = log_space(1e-2, 1e6, 33);
+    let map = accuracy::closed_form_map(&n_values, &ratios, freq, beta)?;
+    let mut mcsv = String::from("n,speed_ratio,amp_exact,amp_approx,ln_ratio\n");
+    let f = |x: Option<f64>| x.map_or_else(String::new, |v| format!("{v:e}"));
+    for p in &map {
+        mcsv += &format!(
+            "{},{:e},{},{},{}\n",
+            p.n,
+            p.speed_ratio,
+            f(p.amp_exact),
+            f(p.amp_approx),
+            f(p.ln_ratio)
+        );
+    }
+    write_atomic(&out.join("closed_form_map.csv"), mcsv.as_bytes())?;
+    let (mp, ms) = plot::render_heatmap(
+        &accuracy::closed_form_heatmap(&map, &n_values, &ratios, freq, beta),
+        &out.join("closed_form_map"),
+    )?;
+    table += &format!(
+        "\nClosed form (β = {beta}) vs exact pull-off at {freq} Hz: largest v_max/v0 with \
+         |ln(A_exact/A_approx)| below 0.05 / 0.1 / 0.2 (all smaller speeds too), per n\n\n| n | \
+         < 0.05 | < 0.1 | < 0.2 | worst |ln ratio| |\n|---|---|---|---|---|\n"
+    );
+    for &n in n_values.iter().step_by(2) {
+        let row: Vec<_> = map.iter().filter(|p| (p.n - n).abs() < 1e-12).collect();
+        let upto = |lim: f64| -> String {
+            let mut best = None;
+            for p in &row {
+                match p.ln_ratio {
+                    Some(v) if v.abs() < lim => best = Some(p.speed_ratio),
+                    _ => break,
+                }
+            }
+            best.map_or_else(|| "—".into(), |r| format!("{r:.1e}"))
+        };
+        let worst = row
+            .iter()
+            .filter_map(|p| p.ln_ratio)
+            .map(f64::abs)
+            .fold(0.0, f64::max);
+        table += &format!(
+            "| {n:.2} | {} | {} | {} | {worst:.2} |\n",
+            upto(0.05),
+            upto(0.1),
+            upto(0.2)
+        );
+    }
+    let failed = map.iter().filter(|p| p.ln_ratio.is_none()).count();
+    if failed > 0 {
+        table += &format!("\n{failed} grid points had no exact pull-off (grey in the map).\n");
+    }
+    write_atomic(&out.join("imposed_area.md"), table.as_bytes())?;
+    println!("{table}");
+    print_written(
+        &out,
+        &[qp, qs, mp, ms],
+        &["quadrature.csv", "closed_form_map.csv", "imposed_area.md"],
+    );
+    Ok(())
+}
