@@ -533,6 +533,24 @@ pub fn work_precision(
     })
 }
 
+/// A short label of what ran: the requested method, and for `auto` what it used
+/// (`auto→dopri5`, `auto→implicit`, `auto→dopri5+implicit` when it fell back within a stage).
+pub fn method_label(requested: &str, used: &str) -> String {
+    if requested != "auto" {
+        return requested.to_string();
+    }
+    let u = used.to_lowercase();
+    if u.contains("fell back") {
+        "auto→dopri5+implicit".into()
+    } else if u.starts_with("explicit dopri5") || u.starts_with("dopri5") {
+        "auto→dopri5".into()
+    } else if u.contains("implicit") {
+        "auto→implicit".into()
+    } else {
+        format!("auto→{used}")
+    }
+}
+
 fn opt(x: Option<f64>) -> String {
     x.map_or_else(|| "n/a".into(), |v| format!("{v:.2e}"))
 }
@@ -603,6 +621,26 @@ pub fn study_table(st: &Study) -> String {
         opt(re.check_errors.event_time),
         re.check_errors.final_state
     );
+    let ro = &re.outputs;
+    out += &format!(
+        "Reference values: pull-off force {:.6e} N{}; last cycle ⟨F⟩ {}, ⟨δ⟩ {}, δ_A {}; {} \
+         events; final t {:.6} s\n\n",
+        ro.pull_off_force,
+        if ro.detached { " (detached)" } else { "" },
+        ro.cycles
+            .last()
+            .map_or("n/a".into(), |c| format!("{:.6e} N", c.1)),
+        ro.cycles
+            .last()
+            .map_or("n/a".into(), |c| format!("{:.6e} m", c.2)),
+        ro.cycles
+            .last()
+            .map_or("n/a".into(), |c| format!("{:.6e} m", c.3)),
+        ro.events.len(),
+        ro.final_state.t
+    );
+    out += "Steps are the driver's steps; for dopri5/dop853 each is a macro span of many inner \
+            steps, so compare rhs evaluations across methods.\n\n";
     out += "| method | rtol | wall (median) | steps | rejected | rhs evals | pull-off rel. | \
             F_po | ⟨F⟩ | ⟨δ⟩ | δ_A | events Δt/T | final state |\n";
     out += "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -617,11 +655,7 @@ pub fn study_table(st: &Study) -> String {
                 };
                 out += &format!(
                     "| {} | {:.0e} | {} | {} | {} | {} | {:.1e} | {:.1e} | {} | {} | {} | {} | {:.1e} |\n",
-                    if m.method_used.starts_with(r.method) {
-                        r.method.to_string()
-                    } else {
-                        format!("{} ({})", r.method, m.method_used)
-                    },
+                    method_label(r.method, &m.method_used),
                     r.rtol,
                     fmt_time(m.wall_median_s),
                     m.stats.steps,
