@@ -1,1 +1,1165 @@
-//! (in progress)
+//! A thin plotting layer over `plotters`: line/marker figures and heat maps, written as PNG and SVG.
+//!
+//! Text is drawn with DejaVu Sans embedded in the binary (the `dejavu` crate), registered with
+//! plotters' `ab_glyph` font table once per process, so no system font or fontconfig is needed.
+//! The SVG output names the family `sans-serif` in its `<text>` elements (a viewer substitutes its
+//! own sans font; layout was computed with DejaVu Sans metrics).
+//!
+//! Robustness rules: non-finite points (and, on a log axis, non-positive ones) are skipped and
+//! split a line into separate pieces — they never panic and never reach the drawing; a series whose
+//! x and y lengths differ is an error, not a silent truncation. Files are written atomically: each
+//! is drawn to a temporary file in the target directory and renamed into place, so an interrupted
+//! run leaves no `stem.png` / `stem.svg` that looks complete but is not.
+
+use plotters::coord::combinators::IntoLogRange;
+use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::OnceLock;
+use thiserror::Error;
+
+/// How a series is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Style {
+    /// Solid line through the points in order.
+    Line,
+    /// Dashed line through the points in order.
+    Dashed,
+    /// One filled circle per point, no line.
+    Markers,
+    /// Solid line plus a marker at every point.
+    LineMarkers,
+}
+
+/// One data series of a [`Figure`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Series {
+    /// Legend text; an empty label gives no legend entry.
+    pub label: String,
+    /// Abscissae (same length as `y`).
+    pub x: Vec<f64>,
+    /// Ordinates (same length as `x`).
+    pub y: Vec<f64>,
+    /// Line or marker style.
+    pub style: Style,
+    /// Index into the palette ([`palette_color`]); `None` uses the series' position in the figure.
+    pub color: Option<usize>,
+}
+
+impl Series {
+    /// A series with the palette colour chosen by position.
+    pub fn new(label: impl Into<String>, x: Vec<f64>, y: Vec<f64>, style: Style) -> Self {
+        Self {
+            label: label.into(),
+            x,
+            y,
+            style,
+            color: None,
+        }
+    }
+
+    /// Same series with palette colour `index`.
+    pub fn with_color(mut self, index: usize) -> Self {
+        self.color = Some(index);
+        self
+    }
+}
+
+/// Where the legend box sits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum LegendPosition {
+    /// Upper left corner (default).
+    #[default]
+    UpperLeft,
+    /// Upper right corner.
+    UpperRight,
+    /// Lower left corner.
+    LowerLeft,
+    /// Lower right corner.
+    LowerRight,
+}
+
+/// A 2-D figure: axes, labels and series.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Figure {
+    /// Caption above the plot.
+    pub title: String,
+    /// Horizontal axis label (with units).
+    pub x_label: String,
+    /// Vertical axis label (with units).
+    pub y_label: String,
+    /// Logarithmic horizontal axis (non-positive x are skipped).
+    pub x_log: bool,
+    /// Logarithmic vertical axis (non-positive y are skipped).
+    pub y_log: bool,
+    /// Fixed horizontal range; `None` fits the finite data.
+    pub x_range: Option<(f64, f64)>,
+    /// Fixed vertical range; `None` fits the finite data.
+    pub y_range: Option<(f64, f64)>,
+    /// The data, drawn in order (later series on top).
+    pub series: Vec<Series>,
+    /// Legend placement.
+    pub legend: LegendPosition,
+    /// Image size in pixels (width, height), for both PNG and SVG.
+    pub size: (u32, u32),
+}
+
+impl Figure {
+    /// An empty linear-axes figure of the default size (1000 × 700 px).
+    pub fn new(
+        title: impl Into<String>,
+        x_label: impl Into<String>,
+        y_label: impl Into<String>,
+    ) -> Self {
+        Self {
+            title: title.into(),
+            x_label: x_label.into(),
+            y_label: y_label.into(),
+            x_log: false,
+            y_log: false,
+            x_range: None,
+            y_range: None,
+            series: Vec::new(),
+            legend: LegendPosition::default(),
+            size: DEFAULT_SIZE,
+        }
+    }
+
+    /// Append a series.
+    pub fn with_series(mut self, s: Series) -> Self {
+        self.series.push(s);
+        self
+    }
+
+    /// Set logarithmic axes.
+    pub fn with_log(mut self, x_log: bool, y_log: bool) -> Self {
+        self.x_log = x_log;
+        self.y_log = y_log;
+        self
+    }
+
+    /// Fix the horizontal range.
+    pub fn with_x_range(mut self, lo: f64, hi: f64) -> Self {
+        self.x_range = Some((lo, hi));
+        self
+    }
+
+    /// Fix the vertical range.
+    pub fn with_y_range(mut self, lo: f64, hi: f64) -> Self {
+        self.y_range = Some((lo, hi));
+        self
+    }
+
+    /// Place the legend.
+    pub fn with_legend(mut self, pos: LegendPosition) -> Self {
+        self.legend = pos;
+        self
+    }
+}
+
+/// A 2-D colour map over a rectilinear grid of cell centres, with a colour bar.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Heatmap {
+    /// Caption above the map.
+    pub title: String,
+    /// Horizontal axis label (with units).
+    pub x_label: String,
+    /// Vertical axis label (with units).
+    pub y_label: String,
+    /// Colour-bar label (with units).
+    pub z_label: String,
+    /// Cell centres along x, strictly increasing, finite (and > 0 when `x_log`).
+    pub x: Vec<f64>,
+    /// Cell centres along y, strictly increasing, finite (and > 0 when `y_log`).
+    pub y: Vec<f64>,
+    /// Values, row-major: `z[iy * x.len() + ix]`. Non-finite cells (and non-positive ones when
+    /// `z_log`) are drawn grey.
+    pub z: Vec<f64>,
+    /// Logarithmic x axis.
+    pub x_log: bool,
+    /// Logarithmic y axis.
+    pub y_log: bool,
+    /// Logarithmic colour scale.
+    pub z_log: bool,
+    /// Fixed colour range; `None` spans the valid data.
+    pub z_range: Option<(f64, f64)>,
+    /// Image size in pixels (width, height).
+    pub size: (u32, u32),
+}
+
+/// Why a figure could not be written.
+#[derive(Debug, Error)]
+pub enum PlotError {
+    /// A file could not be written, renamed or its directory read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file involved.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+    /// plotters failed while drawing.
+    #[error("{path}: drawing failed: {message}")]
+    Draw {
+        /// The file being drawn.
+        path: PathBuf,
+        /// plotters' message.
+        message: String,
+    },
+    /// The figure description is inconsistent (lengths, ranges, grid).
+    #[error("figure '{title}': {message}")]
+    Invalid {
+        /// The figure's title.
+        title: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The embedded font could not be registered.
+    #[error("embedded font could not be registered: {0}")]
+    Font(String),
+}
+
+/// Default image size (width, height) in pixels.
+pub const DEFAULT_SIZE: (u32, u32) = (1000, 700);
+
+/// Palette: black, blue, red, green, then further distinct colours (the paper's order is black,
+/// blue, red for 200, 300, 400 Hz). Indices wrap around.
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(0, 0, 0),
+    RGBColor(31, 82, 204),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(148, 103, 189),
+    RGBColor(255, 127, 14),
+    RGBColor(23, 190, 207),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+];
+
+/// Palette colour `index` (wrapping) as (r, g, b).
+pub fn palette_color(index: usize) -> (u8, u8, u8) {
+    let c = PALETTE[index % PALETTE.len()];
+    (c.0, c.1, c.2)
+}
+
+const FONT_FAMILY: &str = "sans-serif";
+
+/// Register DejaVu Sans (regular and bold) as plotters' `sans-serif` family, once per process.
+fn ensure_font() -> Result<(), PlotError> {
+    static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
+    REGISTERED
+        .get_or_init(|| {
+            plotters::style::register_font(FONT_FAMILY, FontStyle::Normal, dejavu::sans::regular())
+                .map_err(|_| "DejaVu Sans regular".to_string())?;
+            plotters::style::register_font(FONT_FAMILY, FontStyle::Bold, dejavu::sans::bold())
+                .map_err(|_| "DejaVu Sans bold".to_string())?;
+            Ok(())
+        })
+        .clone()
+        .map_err(PlotError::Font)
+}
+
+/// Render `fig` to `stem.png` and `stem.svg` (the stem's extension, if any, is replaced). Creates
+/// the parent directory if needed. Returns the two paths (PNG, SVG).
+pub fn render(fig: &Figure, path_stem: &Path) -> Result<(PathBuf, PathBuf), PlotError> {
+    validate_figure(fig)?;
+    ensure_font()?;
+    let (png, svg) = output_paths(path_stem)?;
+    write_png(&png, fig.size, |area| draw_figure(area, fig))?;
+    write_svg(&svg, fig.size, |area| draw_figure(area, fig))?;
+    Ok((png, svg))
+}
+
+/// Render `map` to `stem.png` and `stem.svg`, a colour map with a colour bar on the right.
+pub fn render_heatmap(map: &Heatmap, path_stem: &Path) -> Result<(PathBuf, PathBuf), PlotError> {
+    validate_heatmap(map)?;
+    ensure_font()?;
+    let (png, svg) = output_paths(path_stem)?;
+    write_png(&png, map.size, |area| draw_heatmap(area, map))?;
+    write_svg(&svg, map.size, |area| draw_heatmap(area, map))?;
+    Ok((png, svg))
+}
+
+fn output_paths(stem: &Path) -> Result<(PathBuf, PathBuf), PlotError> {
+    if stem.file_name().is_none() {
+        return Err(PlotError::Io {
+            path: stem.to_path_buf(),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "no file name"),
+        });
+    }
+    if let Some(dir) = stem.parent().filter(|d| !d.as_os_str().is_empty()) {
+        fs::create_dir_all(dir).map_err(|source| PlotError::Io {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+    }
+    Ok((stem.with_extension("png"), stem.with_extension("svg")))
+}
+
+/// A temporary sibling of `target` that keeps its extension (the PNG encoder picks the format
+/// from the extension): `dir/.name.<pid>.<n>.partial.ext`.
+fn temp_sibling(target: &Path) -> PathBuf {
+    static COUNTER: AtomicU64 = AtomicU64::new(0);
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let name = target
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let ext = target
+        .extension()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    target.with_file_name(format!(".{name}.{}.{n}.partial.{ext}", std::process::id()))
+}
+
+fn rename_into_place(tmp: &Path, target: &Path) -> Result<(), PlotError> {
+    fs::rename(tmp, target).map_err(|source| {
+        let _ = fs::remove_file(tmp);
+        PlotError::Io {
+            path: target.to_path_buf(),
+            source,
+        }
+    })
+}
+
+type DrawResult = Result<(), String>;
+
+fn write_png<F>(path: &Path, size: (u32, u32), draw: F) -> Result<(), PlotError>
+where
+    F: for<'a> Fn(&DrawingArea<BitMapBackend<'a>, Shift>) -> DrawResult,
+{
+    let tmp = temp_sibling(path);
+    let result = (|| {
+        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+        draw(&root)?;
+        root.present().map_err(|e| e.to_string())
+    })();
+    if let Err(message) = result {
+        let _ = fs::remove_file(&tmp);
+        return Err(PlotError::Draw {
+            path: path.to_path_buf(),
+            message,
+        });
+    }
+    rename_into_place(&tmp, path)
+}
+
+fn write_svg<F>(path: &Path, size: (u32, u32), draw: F) -> Result<(), PlotError>
+where
+    F: for<'a> Fn(&DrawingArea<SVGBackend<'a>, Shift>) -> DrawResult,
+{
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, size).into_drawing_area();
+        let drawn = draw(&root).and_then(|_| root.present().map_err(|e| e.to_string()));
+        drawn.map_err(|message| PlotError::Draw {
+            path: path.to_path_buf(),
+            message,
+        })?;
+    }
+    let tmp = temp_sibling(path);
+    let io = |source| PlotError::Io {
+        path: tmp.clone(),
+        source,
+    };
+    let written = (|| {
+        let mut f = fs::File::create(&tmp).map_err(io)?;
+        f.write_all(text.as_bytes()).map_err(io)?;
+        f.sync_all().map_err(io)
+    })();
+    if let Err(e) = written {
+        let _ = fs::remove_file(&tmp);
+        return Err(e);
+    }
+    rename_into_place(&tmp, path)
+}
+
+fn validate_figure(fig: &Figure) -> Result<(), PlotError> {
+    let invalid = |message: String| PlotError::Invalid {
+        title: fig.title.clone(),
+        message,
+    };
+    if fig.size.0 < 100 || fig.size.1 < 100 {
+        return Err(invalid(format!(
+            "image size {}x{} px is too small (at least 100x100)",
+            fig.size.0, fig.size.1
+        )));
+    }
+    for s in &fig.series {
+        if s.x.len() != s.y.len() {
+            return Err(invalid(format!(
+                "series '{}' has {} x values and {} y values",
+                s.label,
+                s.x.len(),
+                s.y.len()
+            )));
+        }
+    }
+    for (name, range, log) in [("x", fig.x_range, fig.x_log), ("y", fig.y_range, fig.y_log)] {
+        if let Some((lo, hi)) = range {
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) || (log && lo <= 0.0) {
+                return Err(invalid(format!(
+                    "{name} range ({lo}, {hi}) must be finite, increasing{}",
+                    if log { " and > 0 on a log axis" } else { "" }
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+fn validate_heatmap(map: &Heatmap) -> Result<(), PlotError> {
+    let invalid = |message: String| PlotError::Invalid {
+        title: map.title.clone(),
+        message,
+    };
+    if map.size.0 < 200 || map.size.1 < 100 {
+        return Err(invalid(format!(
+            "image size {}x{} px is too small (at least 200x100)",
+            map.size.0, map.size.1
+        )));
+    }
+    for (name, v, log) in [("x", &map.x, map.x_log), ("y", &map.y, map.y_log)] {
+        if v.is_empty() {
+            return Err(invalid(format!("no {name} cell centres")));
+        }
+        let ok_values = v.iter().all(|t| t.is_finite() && (!log || *t > 0.0));
+        let increasing = v.windows(2).all(|w| w[0] < w[1]);
+        if !ok_values || !increasing {
+            return Err(invalid(format!(
+                "{name} cell centres must be finite, strictly increasing{}",
+                if log { " and > 0 on a log axis" } else { "" }
+            )));
+        }
+    }
+    if map.z.len() != map.x.len() * map.y.len() {
+        return Err(invalid(format!(
+            "z has {} values, expected {} x {} = {}",
+            map.z.len(),
+            map.x.len(),
+            map.y.len(),
+            map.x.len() * map.y.len()
+        )));
+    }
+    if let Some((lo, hi)) = map.z_range {
+        if !(lo.is_finite() && hi.is_finite() && lo < hi) || (map.z_log && lo <= 0.0) {
+            return Err(invalid(format!(
+                "colour range ({lo}, {hi}) must be finite, increasing{}",
+                if map.z_log {
+                    " and > 0 on a log scale"
+                } else {
+                    ""
+                }
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// True when `v` can be placed on an axis (finite, and > 0 on a log axis).
+fn plottable(v: f64, log: bool) -> bool {
+    v.is_finite() && (!log || v > 0.0)
+}
+
+/// Data range of the plottable values, padded (5 % linear, a fraction of a decade log); a fixed
+/// range wins. Degenerate or empty data get a unit-sized range around the value (or [0, 1]).
+fn axis_range(
+    values: impl Iterator<Item = f64>,
+    log: bool,
+    fixed: Option<(f64, f64)>,
+) -> (f64, f64) {
+    if let Some(r) = fixed {
+        return r;
+    }
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| plottable(*v, log)) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if lo > hi {
+        return if log { (0.1, 10.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        let (llo, lhi) = (lo.log10(), hi.log10());
+        let pad = if lhi > llo { 0.03 * (lhi - llo) } else { 0.5 };
+        (10f64.powf(llo - pad), 10f64.powf(lhi + pad))
+    } else if hi > lo {
+        let pad = 0.04 * (hi - lo);
+        (lo - pad, hi + pad)
+    } else {
+        let half = if lo == 0.0 { 1.0 } else { 0.5 * lo.abs() };
+        (lo - half, hi + half)
+    }
+}
+
+/// Tick label: up to 5 significant digits, no float noise, scientific outside [1e-3, 1e5).
+pub fn tick_label(v: f64) -> String {
+    if !v.is_finite() {
+        return String::new();
+    }
+    if v == 0.0 || v.abs() < 1e-300 {
+        return "0".to_string();
+    }
+    let mag = v.abs().log10().floor();
+    if (-3.0..5.0).contains(&mag) {
+        let decimals = (4.0 - mag).clamp(0.0, 8.0) as usize;
+        let s = format!("{v:.decimals$}");
+        let s = if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        };
+        if s == "-0" {
+            "0".to_string()
+        } else {
+            s
+        }
+    } else {
+        let s = format!("{v:.3e}");
+        match s.split_once('e') {
+            Some((m, e)) => {
+                let m = if m.contains('.') {
+                    m.trim_end_matches('0').trim_end_matches('.')
+                } else {
+                    m
+                };
+                format!("{m}e{e}")
+            }
+            None => s,
+        }
+    }
+}
+
+/// Tick formatter for one axis over [lo, hi]. Linear: values within 1e-9 of the span of zero
+/// print as "0" (tick positions carry float noise). Log: only 10^k are labelled when the axis
+/// spans two decades or more, else only 1, 2 and 5 × 10^k (plotters proposes every light tick,
+/// whose labels would overlap).
+fn axis_formatter(log: bool, lo: f64, hi: f64) -> impl Fn(&f64) -> String {
+    let span = (hi - lo).abs();
+    let decades = if log && lo > 0.0 && hi > 0.0 {
+        (hi / lo).log10().abs()
+    } else {
+        0.0
+    };
+    move |v: &f64| {
+        let v = *v;
+        if !log {
+            return if v.abs() <= 1e-9 * span {
+                "0".to_string()
+            } else {
+                tick_label(v)
+            };
+        }
+        if !(v > 0.0 && v.is_finite()) {
+            return String::new();
+        }
+        let e = v.log10().floor();
+        let mantissa = v / 10f64.powf(e);
+        let near = |m: f64| (mantissa - m).abs() < 1e-6 * m || (mantissa - 10.0 * m).abs() < 1e-5;
+        let keep = if decades >= 2.0 {
+            near(1.0)
+        } else {
+            near(1.0) || near(2.0) || near(5.0)
+        };
+        if keep {
+            tick_label(v)
+        } else {
+            String::new()
+        }
+    }
+}
+
+fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> DrawResult {
+    let xs = fig.series.iter().flat_map(|s| s.x.iter().copied());
+    let ys = fig.series.iter().flat_map(|s| s.y.iter().copied());
+    let (x0, x1) = axis_range(xs, fig.x_log, fig.x_range);
+    let (y0, y1) = axis_range(ys, fig.y_log, fig.y_range);
+    match (fig.x_log, fig.y_log) {
+        (false, false) => draw_xy(root, fig, x0..x1, y0..y1),
+        (true, false) => draw_xy(root, fig, (x0..x1).log_scale(), y0..y1),
+        (false, true) => draw_xy(root, fig, x0..x1, (y0..y1).log_scale()),
+        (true, true) => draw_xy(root, fig, (x0..x1).log_scale(), (y0..y1).log_scale()),
+    }
+}
+
+/// Contiguous runs of plottable points, inside the axis ranges' validity.
+fn segments(s: &Series, x_log: bool, y_log: bool) -> Vec<Vec<(f64, f64)>> {
+    let mut out = Vec::new();
+    let mut cur = Vec::new();
+    for (&x, &y) in s.x.iter().zip(&s.y) {
+        if plottable(x, x_log) && plottable(y, y_log) {
+            cur.push((x, y));
+        } else if !cur.is_empty() {
+            out.push(std::mem::take(&mut cur));
+        }
+    }
+    if !cur.is_empty() {
+        out.push(cur);
+    }
+    out
+}
+
+fn draw_xy<DB, XS, YS>(root: &DrawingArea<DB, Shift>, fig: &Figure, xs: XS, ys: YS) -> DrawResult
+where
+    DB: DrawingBackend,
+    XS: AsRangedCoord<Value = f64>,
+    YS: AsRangedCoord<Value = f64>,
+    XS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    YS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let (w, h) = fig.size;
+    let scale = f64::from(w.min(h)) / 700.0;
+    let px = |v: f64| (v * scale).round().max(1.0) as u32;
+    let mut chart = ChartBuilder::on(root)
+        .caption(&fig.title, (FONT_FAMILY, px(26.0)))
+        .margin(px(18.0))
+        .x_label_area_size(px(60.0))
+        .y_label_area_size(px(95.0))
+        .build_cartesian_2d(xs, ys)
+        .map_err(|e| err(&e))?;
+    let (xr, yr) = (chart.x_range(), chart.y_range());
+    let x_fmt = axis_formatter(fig.x_log, xr.start, xr.end);
+    let y_fmt = axis_formatter(fig.y_log, yr.start, yr.end);
+    chart
+        .configure_mesh()
+        .x_desc(&fig.x_label)
+        .y_desc(&fig.y_label)
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
+        .label_style((FONT_FAMILY, px(17.0)))
+        .axis_desc_style((FONT_FAMILY, px(20.0)))
+        .light_line_style(RGBColor(235, 235, 235))
+        .bold_line_style(RGBColor(205, 205, 205))
+        .draw()
+        .map_err(|e| err(&e))?;
+
+    let stroke = px(2.0);
+    let dash = px(9.0);
+    let gap = px(6.0);
+    let radius = px(4.0);
+    for (i, s) in fig.series.iter().enumerate() {
+        let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
+        let line_style = color.stroke_width(stroke);
+        for seg in segments(s, fig.x_log, fig.y_log) {
+            if matches!(s.style, Style::Line | Style::LineMarkers) {
+                chart
+                    .draw_series(LineSeries::new(seg.iter().copied(), line_style))
+                    .map_err(|e| err(&e))?;
+            }
+            if s.style == Style::Dashed {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        seg.iter().copied(),
+                        dash,
+                        gap,
+                        line_style,
+                    ))
+                    .map_err(|e| err(&e))?;
+            }
+            if matches!(s.style, Style::Markers | Style::LineMarkers) {
+                chart
+                    .draw_series(seg.iter().map(|&p| Circle::new(p, radius, color.filled())))
+                    .map_err(|e| err(&e))?;
+            }
+        }
+    }
+    draw_legend(&chart.plotting_area().strip_coord_spec(), fig, px)
+}
+
+/// The legend, drawn by hand in pixel coordinates of the plotting area (plotters' own legend
+/// needs `DB: 'static` when the backend is generic). Series with an empty label are left out.
+fn draw_legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    fig: &Figure,
+    px: impl Fn(f64) -> u32,
+) -> DrawResult {
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    let entries: Vec<(usize, &Series)> = fig
+        .series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| !s.label.is_empty())
+        .collect();
+    if entries.is_empty() {
+        return Ok(());
+    }
+    let font = (FONT_FAMILY, px(16.0)).into_font();
+    let text_style = TextStyle::from(font.clone()).color(&BLACK);
+    let mut text_w = 0u32;
+    for (_, s) in &entries {
+        let (w, _) = area
+            .estimate_text_size(&s.label, &text_style)
+            .map_err(|e| err(&e))?;
+        text_w = text_w.max(w);
+    }
+    let pad = px(8.0) as i32;
+    let glyph_w = px(34.0) as i32;
+    let row_h = px(22.0) as i32;
+    let box_w = glyph_w + 2 * pad + text_w as i32 + pad / 2;
+    let box_h = row_h * entries.len() as i32 + pad;
+    let (aw, ah) = area.dim_in_pixel();
+    let (aw, ah) = (aw as i32, ah as i32);
+    let margin = px(10.0) as i32;
+    let x0 = match fig.legend {
+        LegendPosition::UpperLeft | LegendPosition::LowerLeft => margin,
+        LegendPosition::UpperRight | LegendPosition::LowerRight => aw - margin - box_w,
+    };
+    let y0 = match fig.legend {
+        LegendPosition::UpperLeft | LegendPosition::UpperRight => margin,
+        LegendPosition::LowerLeft | LegendPosition::LowerRight => ah - margin - box_h,
+    };
+    area.draw(&Rectangle::new(
+        [(x0, y0), (x0 + box_w, y0 + box_h)],
+        WHITE.mix(0.88).filled(),
+    ))
+    .map_err(|e| err(&e))?;
+    area.draw(&Rectangle::new(
+        [(x0, y0), (x0 + box_w, y0 + box_h)],
+        RGBColor(120, 120, 120).stroke_width(1),
+    ))
+    .map_err(|e| err(&e))?;
+    let stroke = px(2.0);
+    let radius = px(4.0) as i32;
+    for (row, (i, s)) in entries.iter().enumerate() {
+        let color = PALETTE[s.color.unwrap_or(*i) % PALETTE.len()];
+        let line = color.stroke_width(stroke);
+        let yc = y0 + pad / 2 + row_h * row as i32 + row_h / 2;
+        let gx = x0 + pad;
+        match s.style {
+            Style::Line | Style::LineMarkers => {
+                area.draw(&PathElement::new(vec![(gx, yc), (gx + glyph_w, yc)], line))
+                    .map_err(|e| err(&e))?;
+            }
+            Style::Dashed => {
+                let d = glyph_w / 4;
+                for k in [0, 2] {
+                    let a = gx + k * d + d / 4;
+                    area.draw(&PathElement::new(vec![(a, yc), (a + d + d / 4, yc)], line))
+                        .map_err(|e| err(&e))?;
+                }
+            }
+            Style::Markers => {}
+        }
+        if matches!(s.style, Style::Markers | Style::LineMarkers) {
+            area.draw(&Circle::new((gx + glyph_w / 2, yc), radius, color.filled()))
+                .map_err(|e| err(&e))?;
+        }
+        let ts = text_style.pos(plotters::style::text_anchor::Pos::new(
+            plotters::style::text_anchor::HPos::Left,
+            plotters::style::text_anchor::VPos::Center,
+        ));
+        area.draw(&Text::new(s.label.clone(), (gx + glyph_w + pad, yc), ts))
+            .map_err(|e| err(&e))?;
+    }
+    Ok(())
+}
+
+/// Viridis, sampled at 9 stops and interpolated linearly; `t` in [0, 1].
+fn colormap(t: f64) -> RGBColor {
+    const STOPS: [(u8, u8, u8); 9] = [
+        (68, 1, 84),
+        (71, 44, 122),
+        (59, 81, 139),
+        (44, 113, 142),
+        (33, 144, 141),
+        (39, 173, 129),
+        (92, 200, 99),
+        (170, 220, 50),
+        (253, 231, 37),
+    ];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let f = t * (STOPS.len() - 1) as f64;
+    let i = (f.floor() as usize).min(STOPS.len() - 2);
+    let u = f - i as f64;
+    let lerp = |a: u8, b: u8| (f64::from(a) + u * (f64::from(b) - f64::from(a))).round() as u8;
+    let (a, b) = (STOPS[i], STOPS[i + 1]);
+    RGBColor(lerp(a.0, b.0), lerp(a.1, b.1), lerp(a.2, b.2))
+}
+
+const MISSING: RGBColor = RGBColor(190, 190, 190);
+
+/// Cell edges from centres: midpoints (geometric on a log axis), outer edges mirrored.
+fn cell_edges(c: &[f64], log: bool) -> Vec<f64> {
+    let t: Vec<f64> = if log {
+        c.iter().map(|v| v.log10()).collect()
+    } else {
+        c.to_vec()
+    };
+    let mut e = Vec::with_capacity(t.len() + 1);
+    if t.len() == 1 {
+        // A single cell: half a decade on a log axis, half the value (or 0.5 at 0) otherwise.
+        let half = if log || t[0].abs() < f64::MIN_POSITIVE {
+            0.5
+        } else {
+            0.5 * t[0].abs()
+        };
+        e.push(t[0] - half);
+        e.push(t[0] + half);
+    } else {
+        e.push(t[0] - 0.5 * (t[1] - t[0]));
+        for w in t.windows(2) {
+            e.push(0.5 * (w[0] + w[1]));
+        }
+        let n = t.len();
+        e.push(t[n - 1] + 0.5 * (t[n - 1] - t[n - 2]));
+    }
+    if log {
+        e.iter().map(|v| 10f64.powf(*v)).collect()
+    } else {
+        e
+    }
+}
+
+/// Colour-scale range and the map value → [0, 1].
+fn z_scale(map: &Heatmap) -> (f64, f64) {
+    if let Some(r) = map.z_range {
+        return r;
+    }
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for &v in map.z.iter().filter(|v| plottable(**v, map.z_log)) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if lo > hi {
+        return if map.z_log { (0.1, 10.0) } else { (0.0, 1.0) };
+    }
+    if hi > lo {
+        (lo, hi)
+    } else if map.z_log {
+        (lo / 2.0, hi * 2.0)
+    } else {
+        let half = if lo == 0.0 { 1.0 } else { 0.5 * lo.abs() };
+        (lo - half, hi + half)
+    }
+}
+
+fn z_fraction(v: f64, (lo, hi): (f64, f64), log: bool) -> Option<f64> {
+    if !plottable(v, log) {
+        return None;
+    }
+    let t = if log {
+        (v.log10() - lo.log10()) / (hi.log10() - lo.log10())
+    } else {
+        (v - lo) / (hi - lo)
+    };
+    Some(t.clamp(0.0, 1.0))
+}
+
+fn draw_heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, map: &Heatmap) -> DrawResult {
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let (w, _) = map.size;
+    let bar_width = (w / 6).max(80);
+    let (main, bar) = root.split_horizontally(w.saturating_sub(bar_width));
+    let xe = cell_edges(&map.x, map.x_log);
+    let ye = cell_edges(&map.y, map.y_log);
+    let (x0, x1) = (xe[0], xe[xe.len() - 1]);
+    let (y0, y1) = (ye[0], ye[ye.len() - 1]);
+    match (map.x_log, map.y_log) {
+        (false, false) => draw_cells(&main, map, &xe, &ye, x0..x1, y0..y1)?,
+        (true, false) => draw_cells(&main, map, &xe, &ye, (x0..x1).log_scale(), y0..y1)?,
+        (false, true) => draw_cells(&main, map, &xe, &ye, x0..x1, (y0..y1).log_scale())?,
+        (true, true) => draw_cells(
+            &main,
+            map,
+            &xe,
+            &ye,
+            (x0..x1).log_scale(),
+            (y0..y1).log_scale(),
+        )?,
+    }
+    let (z0, z1) = z_scale(map);
+    if map.z_log {
+        draw_colorbar(&bar, map, (z0..z1).log_scale())
+    } else {
+        draw_colorbar(&bar, map, z0..z1)
+    }
+}
+
+fn draw_cells<DB, XS, YS>(
+    area: &DrawingArea<DB, Shift>,
+    map: &Heatmap,
+    xe: &[f64],
+    ye: &[f64],
+    xs: XS,
+    ys: YS,
+) -> DrawResult
+where
+    DB: DrawingBackend,
+    XS: AsRangedCoord<Value = f64>,
+    YS: AsRangedCoord<Value = f64>,
+    XS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    YS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    let (w, h) = map.size;
+    let scale = f64::from(w.min(h)) / 700.0;
+    let px = |v: f64| (v * scale).round().max(1.0) as u32;
+    let mut chart = ChartBuilder::on(area)
+        .caption(&map.title, (FONT_FAMILY, px(26.0)))
+        .margin(px(18.0))
+        .x_label_area_size(px(60.0))
+        .y_label_area_size(px(95.0))
+        .build_cartesian_2d(xs, ys)
+        .map_err(|e| err(&e))?;
+    let zr = z_scale(map);
+    let nx = map.x.len();
+    let cells = (0..map.y.len()).flat_map(|iy| {
+        (0..nx).map(move |ix| {
+            let color = match z_fraction(map.z[iy * nx + ix], zr, map.z_log) {
+                Some(t) => colormap(t),
+                None => MISSING,
+            };
+            Rectangle::new([(xe[ix], ye[iy]), (xe[ix + 1], ye[iy + 1])], color.filled())
+        })
+    });
+    chart.draw_series(cells).map_err(|e| err(&e))?;
+    let (xr, yr) = (chart.x_range(), chart.y_range());
+    let x_fmt = axis_formatter(map.x_log, xr.start, xr.end);
+    let y_fmt = axis_formatter(map.y_log, yr.start, yr.end);
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_desc(&map.x_label)
+        .y_desc(&map.y_label)
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
+        .label_style((FONT_FAMILY, px(17.0)))
+        .axis_desc_style((FONT_FAMILY, px(20.0)))
+        .draw()
+        .map_err(|e| err(&e))?;
+    Ok(())
+}
+
+fn draw_colorbar<DB, ZS>(area: &DrawingArea<DB, Shift>, map: &Heatmap, zs: ZS) -> DrawResult
+where
+    DB: DrawingBackend,
+    ZS: AsRangedCoord<Value = f64>,
+    ZS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    let (w, h) = map.size;
+    let scale = f64::from(w.min(h)) / 700.0;
+    let px = |v: f64| (v * scale).round().max(1.0) as u32;
+    let zr = z_scale(map);
+    let mut chart = ChartBuilder::on(area)
+        .margin_top(px(18.0) + px(40.0))
+        .margin_bottom(px(18.0) + px(60.0))
+        .margin_right(px(10.0))
+        .y_label_area_size(px(80.0))
+        .build_cartesian_2d(0.0..1.0, zs)
+        .map_err(|e| err(&e))?;
+    const STEPS: usize = 128;
+    let (l0, l1) = if map.z_log {
+        (zr.0.log10(), zr.1.log10())
+    } else {
+        zr
+    };
+    let at = |k: usize| {
+        let v = l0 + (l1 - l0) * k as f64 / STEPS as f64;
+        if map.z_log {
+            10f64.powf(v)
+        } else {
+            v
+        }
+    };
+    chart
+        .draw_series((0..STEPS).map(|k| {
+            let t = (k as f64 + 0.5) / STEPS as f64;
+            Rectangle::new([(0.0, at(k)), (1.0, at(k + 1))], colormap(t).filled())
+        }))
+        .map_err(|e| err(&e))?;
+    let zr_axis = chart.y_range();
+    let fmt = axis_formatter(map.z_log, zr_axis.start, zr_axis.end);
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_desc(&map.z_label)
+        .y_label_formatter(&fmt)
+        .label_style((FONT_FAMILY, px(15.0)))
+        .axis_desc_style((FONT_FAMILY, px(18.0)))
+        .draw()
+        .map_err(|e| err(&e))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Width and height from a PNG's IHDR chunk (bytes 16..24), after checking the signature.
+    fn png_size(bytes: &[u8]) -> Option<(u32, u32)> {
+        const SIG: [u8; 8] = [0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a];
+        if bytes.len() < 24 || bytes[..8] != SIG || &bytes[12..16] != b"IHDR" {
+            return None;
+        }
+        let w = u32::from_be_bytes([bytes[16], bytes[17], bytes[18], bytes[19]]);
+        let h = u32::from_be_bytes([bytes[20], bytes[21], bytes[22], bytes[23]]);
+        Some((w, h))
+    }
+
+    fn sample_figure() -> Figure {
+        let x: Vec<f64> = (0..50).map(|i| f64::from(i) * 0.1).collect();
+        let y: Vec<f64> = x.iter().map(|v| v.sin()).collect();
+        let mut y_nan = y.iter().map(|v| v * 0.5).collect::<Vec<_>>();
+        y_nan[10] = f64::NAN;
+        y_nan[11] = f64::INFINITY;
+        Figure::new("Sample", "time t (s)", "signal y (mm)")
+            .with_series(Series::new("sin", x.clone(), y, Style::Line))
+            .with_series(Series::new(
+                "half, with gaps",
+                x.clone(),
+                y_nan,
+                Style::Dashed,
+            ))
+            .with_series(Series::new(
+                "points",
+                x.clone(),
+                x.iter().map(|v| v.cos()).collect(),
+                Style::Markers,
+            ))
+    }
+
+    #[test]
+    fn renders_png_and_svg_with_labels() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut fig = sample_figure();
+        fig.size = (640, 480);
+        let (png, svg) = render(&fig, &dir.path().join("sub").join("sample")).unwrap();
+        let bytes = fs::read(&png).unwrap();
+        assert_eq!(png_size(&bytes), Some((640, 480)));
+        let text = fs::read_to_string(&svg).unwrap();
+        assert!(text.contains("time t (s)"));
+        assert!(text.contains("signal y (mm)"));
+        assert!(text.contains("half, with gaps"));
+        // No temporary files left behind.
+        let leftovers: Vec<_> = fs::read_dir(dir.path().join("sub"))
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains("partial"))
+            .collect();
+        assert!(leftovers.is_empty(), "{leftovers:?}");
+    }
+
+    #[test]
+    fn log_axes_skip_non_positive_and_all_nan_is_fine() {
+        let dir = tempfile::tempdir().unwrap();
+        let fig = Figure::new("Log", "v/v0 (-)", "ratio (-)")
+            .with_log(true, true)
+            .with_series(Series::new(
+                "decades",
+                vec![-1.0, 0.0, 1e-2, 1.0, 1e2],
+                vec![1.0, 2.0, 0.5, 1.0, 3.0],
+                Style::LineMarkers,
+            ))
+            .with_series(Series::new(
+                "nothing",
+                vec![f64::NAN; 3],
+                vec![1.0; 3],
+                Style::Line,
+            ));
+        let (png, svg) = render(&fig, &dir.path().join("log")).unwrap();
+        assert_eq!(png_size(&fs::read(png).unwrap()), Some(DEFAULT_SIZE));
+        assert!(fs::read_to_string(svg).unwrap().contains("v/v0 (-)"));
+        // An empty figure renders too (default ranges).
+        let empty = Figure::new("Empty", "x", "y");
+        render(&empty, &dir.path().join("empty")).unwrap();
+    }
+
+    #[test]
+    fn mismatched_lengths_and_bad_ranges_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let fig = Figure::new("Bad", "x", "y").with_series(Series::new(
+            "s",
+            vec![1.0, 2.0],
+            vec![1.0],
+            Style::Line,
+        ));
+        assert!(matches!(
+            render(&fig, &dir.path().join("bad")),
+            Err(PlotError::Invalid { .. })
+        ));
+        let fig = Figure::new("Bad", "x", "y")
+            .with_log(true, false)
+            .with_x_range(0.0, 1.0);
+        assert!(matches!(
+            render(&fig, &dir.path().join("bad")),
+            Err(PlotError::Invalid { .. })
+        ));
+        assert!(!dir.path().join("bad.png").exists());
+    }
+
+    #[test]
+    fn heatmap_renders_with_missing_cells() {
+        let dir = tempfile::tempdir().unwrap();
+        let x = vec![100.0, 200.0, 400.0, 800.0];
+        let y = vec![0.1, 0.2, 0.3];
+        let mut z: Vec<f64> = (0..12).map(|k| 1e-6 * 10f64.powi(k % 5)).collect();
+        z[5] = f64::NAN;
+        let map = Heatmap {
+            title: "Error map".into(),
+            x_label: "frequency f (Hz)".into(),
+            y_label: "amplitude a_A (mm)".into(),
+            z_label: "relative error (-)".into(),
+            x,
+            y,
+            z,
+            x_log: true,
+            y_log: false,
+            z_log: true,
+            z_range: None,
+            size: (800, 600),
+        };
+        let (png, svg) = render_heatmap(&map, &dir.path().join("map")).unwrap();
+        assert_eq!(png_size(&fs::read(png).unwrap()), Some((800, 600)));
+        let text = fs::read_to_string(svg).unwrap();
+        assert!(text.contains("frequency f (Hz)"));
+        assert!(text.contains("relative error (-)"));
+        let mut bad = map.clone();
+        bad.z.pop();
+        assert!(render_heatmap(&bad, &dir.path().join("bad")).is_err());
+    }
+
+    #[test]
+    fn tick_labels_are_clean() {
+        let lin = axis_formatter(false, -1.0, 1.0);
+        assert_eq!(lin(&2.22e-16), "0");
+        let log = axis_formatter(true, 50.0, 1500.0);
+        assert_eq!(log(&200.0), "200");
+        assert_eq!(log(&300.0), "");
+        assert_eq!(log(&1000.0), "1000");
+        let wide = axis_formatter(true, 1e-2, 1e2);
+        assert_eq!(wide(&0.1), "0.1");
+        assert_eq!(wide(&0.2), "");
+        assert_eq!(tick_label(0.30000000000000004), "0.3");
+        assert_eq!(tick_label(-0.0), "0");
+        assert_eq!(tick_label(1500.0), "1500");
+        assert_eq!(tick_label(0.01), "0.01");
+        assert_eq!(tick_label(1e-5), "1e-5");
+        assert_eq!(tick_label(2.5e6), "2.5e6");
+        assert_eq!(tick_label(-1.25), "-1.25");
+    }
+
+    #[test]
+    fn cell_edges_bracket_centres() {
+        let e = cell_edges(&[1.0, 2.0, 4.0], false);
+        assert_eq!(e.len(), 4);
+        assert!((e[0] - 0.5).abs() < 1e-12 && (e[3] - 5.0).abs() < 1e-12);
+        let e = cell_edges(&[1.0, 100.0], true);
+        assert!((e[1] - 10.0).abs() < 1e-9);
+    }
+}
