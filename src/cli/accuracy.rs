@@ -35,6 +35,9 @@ pub struct AccuracyArgs {
     /// atol / rtol for every run.
     #[arg(long, default_value = "0.01")]
     atol_ratio: String,
+    /// Wall-clock budget of each studied run (a slower run is reported as failed).
+    #[arg(long, default_value = "60s", value_name = "TIME")]
+    max_wall: String,
     /// Output directory [default: out/accuracy-<scenario name>, or out/accuracy-imposed-area].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
@@ -90,6 +93,8 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         repeats: count("--repeats", &a.repeats, 1, 1000)?,
         reference_rtol: positive_quantity("--ref-rtol", &a.ref_rtol, Dimension::Dimensionless)?,
         atol_ratio: positive_quantity("--atol-ratio", &a.atol_ratio, Dimension::Dimensionless)?,
+        max_wall_s: positive_quantity("--max-wall", &a.max_wall, Dimension::Time)?,
+        ..StudyConfig::default()
     };
     cfg.validate()?;
     let scn = load_scenario(file)?;
