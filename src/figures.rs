@@ -1,1 +1,491 @@
-//! (in progress)
+//! The paper's figures as data (and plots): Fig. 2 (δ cycles), Fig. 3(a) (mean force vs mean
+//! indentation), Fig. 3(b) (exact/approximate pull-off ratio, via [`crate::beta_fit`]) and
+//! Figs. 4–8 (pull-off quantities vs a_A at 200, 300, 400 Hz, exact and approximate).
+//!
+//! The data functions are pure; [`write_figures`] writes each figure as CSV (headers carry units)
+//! plus PNG and SVG, atomically. Differences from the paper's captions, kept deliberately:
+//! - Fig. 3(a): the caption says a_A = 3/10, 3/5, 9/10 mm, the text 250, 500, 750 µm; the text's
+//!   values are the default ([`FIG3A_AMPLITUDES`]), the caption's are [`FIG3A_AMPLITUDES_CAPTION`].
+//! - Fig. 7: the caption's F0 = −3/2 π R v0 is a misprint for w0 (MODEL.md).
+//! - Figs. 4–8 dashed lines: the closed form with the δ_A derived from eqs. (14)−(15) (MODEL.md);
+//!   the CSV also has the printed eq. (23) column.
+
+use crate::adhesion::GentSchultz;
+use crate::beta_fit::{self, BetaFitConfig, RatioPoint};
+use crate::closed_form::{self, DeltaAmpForm};
+use crate::error::ParamError;
+use crate::imposed_area::{self, PullOff};
+use crate::material::Material;
+use crate::output::{write_atomic, OutputError};
+use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style};
+use std::f64::consts::PI;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Fig. 2: imposed mean radii (m) at a_A = 1 mm, 200 Hz.
+pub const FIG2_MEAN_RADII: [f64; 4] = [33e-6, 500e-6, 1000e-6, 1500e-6];
+/// Fig. 3(a): contact-radius amplitudes of the paper's text (m).
+pub const FIG3A_AMPLITUDES: [f64; 3] = [250e-6, 500e-6, 750e-6];
+/// Fig. 3(a): the amplitudes printed in the caption (m).
+pub const FIG3A_AMPLITUDES_CAPTION: [f64; 3] = [300e-6, 600e-6, 900e-6];
+/// Figs. 4–8: frequencies (Hz).
+pub const TABLE_FREQUENCIES: [f64; 3] = [200.0, 300.0, 400.0];
+
+/// Figs. 4–8: 61 amplitudes a_A = 0 … 1.5 mm (m).
+pub fn table_amplitudes() -> Vec<f64> {
+    (0..61).map(|i| i as f64 * 25e-6).collect()
+}
+
+/// Which figure.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FigureId {
+    /// δ(ωt) cycles.
+    Fig2,
+    /// Mean force vs mean indentation.
+    Fig3a,
+    /// Exact/approximate pull-off ratio vs v_max/v0.
+    Fig3b,
+    /// Figs. 4–8 (one table, five plots).
+    Figs4to8,
+}
+
+impl FigureId {
+    /// All figures.
+    pub const ALL: [FigureId; 4] = [Self::Fig2, Self::Fig3a, Self::Fig3b, Self::Figs4to8];
+
+    /// Parse `fig2`, `fig3a`, `fig3b`, `fig4-8` (also `4`…`8`).
+    pub fn parse(text: &str) -> Option<Self> {
+        match text.trim().to_ascii_lowercase().trim_start_matches("fig") {
+            "2" => Some(Self::Fig2),
+            "3a" => Some(Self::Fig3a),
+            "3b" => Some(Self::Fig3b),
+            "4-8" | "4" | "5" | "6" | "7" | "8" => Some(Self::Figs4to8),
+            _ => None,
+        }
+    }
+}
+
+/// Why figures could not be produced.
+#[derive(Debug, Error)]
+pub enum FiguresError {
+    /// A parameter was out of range.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// Writing a CSV failed.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// Rendering a plot failed.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// The output directory could not be created.
+    #[error("{path}: cannot create directory: {source}")]
+    Dir {
+        /// The directory.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+}
+
+/// One Fig. 2 curve: δ(θ) over a cycle for one imposed a_m.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fig2Curve {
+    /// Imposed mean radius (m).
+    pub a_mean: f64,
+    /// Phase θ = ωt (rad), 0 … 2π.
+    pub theta: Vec<f64>,
+    /// Indentation δ(θ) (m); 0 where a(θ) ≤ 0.
+    pub delta: Vec<f64>,
+}
+
+/// Fig. 2 data: δ(θ) at 200 Hz, a_A = 1 mm, for [`FIG2_MEAN_RADII`], `points` samples per cycle.
+pub fn fig2(m: &Material, law: &GentSchultz, points: usize) -> Vec<Fig2Curve> {
+    let omega = 2.0 * PI * 200.0;
+    let n = points.max(2);
+    FIG2_MEAN_RADII
+        .iter()
+        .map(|&a_mean| {
+            let theta: Vec<f64> = (0..n)
+                .map(|i| 2.0 * PI * i as f64 / (n - 1) as f64)
+                .collect();
+            let delta = theta
+                .iter()
+                .map(|&t| imposed_area::indentation_at(m, law, omega, a_mean, 1e-3, t))
+                .collect();
+            Fig2Curve {
+                a_mean,
+                theta,
+                delta,
+            }
+        })
+        .collect()
+}
+
+/// One Fig. 3(a) curve: (δ_m, F_m) along a sweep of a_m at fixed a_A.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fig3aCurve {
+    /// Contact-radius amplitude (m).
+    pub a_amp: f64,
+    /// Mean radius (a posteriori, m) of each point.
+    pub a_mean: Vec<f64>,
+    /// Exact mean indentation (m).
+    pub delta_mean: Vec<f64>,
+    /// Exact mean force (N).
+    pub force_mean: Vec<f64>,
+    /// Closed-form mean indentation, eq. (22) with eq. (24) (m).
+    pub approx_delta_mean: Vec<f64>,
+    /// Closed-form mean force, eq. (18) with eq. (24) (N).
+    pub approx_force_mean: Vec<f64>,
+}
+
+/// Fig. 3(a) data at 400 Hz: for each a_A, a_m swept over `points` values up to 4 mm.
+pub fn fig3a(
+    m: &Material,
+    law: &GentSchultz,
+    amplitudes: &[f64],
+    beta: f64,
+    points: usize,
+) -> Result<Vec<Fig3aCurve>, ParamError> {
+    let omega = 2.0 * PI * 400.0;
+    let n = points.max(2);
+    amplitudes
+        .iter()
+        .map(|&a_amp| {
+            let w_eff = closed_form::effective_work_of_adhesion(law, omega, a_amp, beta);
+            let mut c = Fig3aCurve {
+                a_amp,
+                a_mean: Vec::with_capacity(n),
+                delta_mean: Vec::with_capacity(n),
+                force_mean: Vec::with_capacity(n),
+                approx_delta_mean: Vec::with_capacity(n),
+                approx_force_mean: Vec::with_capacity(n),
+            };
+            for i in 0..n {
+                let a_m = 0.1e-3 + (4e-3 - 0.1e-3) * i as f64 / (n - 1) as f64;
+                let cyc = imposed_area::cycle(m, law, omega, a_m, a_amp)?;
+                c.a_mean.push(cyc.a_mean);
+                c.delta_mean.push(cyc.delta_mean);
+                c.force_mean.push(cyc.force_mean);
+                c.approx_delta_mean
+                    .push(closed_form::mean_indentation(m, a_m, w_eff));
+                c.approx_force_mean
+                    .push(closed_form::mean_force(m, a_m, w_eff));
+            }
+            Ok(c)
+        })
+        .collect()
+}
+
+/// One row of the Figs. 4–8 table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TableRow {
+    /// Frequency (Hz).
+    pub frequency: f64,
+    /// Contact-radius amplitude a_A (m).
+    pub a_amp: f64,
+    /// Exact pull-off.
+    pub exact: PullOff,
+    /// Closed form with the derived δ_A.
+    pub approx: closed_form::ApproxPullOff,
+    /// Closed-form δ_A as printed in eq. (23) (m).
+    pub approx_delta_amp_printed: f64,
+}
+
+/// Figs. 4–8 data: exact and approximate pull-off for each frequency and amplitude (the exact
+/// points in parallel).
+pub fn table(
+    m: &Material,
+    law: &GentSchultz,
+    frequencies: &[f64],
+    amplitudes: &[f64],
+    beta: f64,
+) -> Result<Vec<TableRow>, ParamError> {
+    let exact = imposed_area::pull_off_table(m, law, frequencies, amplitudes)?;
+    let mut rows = Vec::with_capacity(exact.len());
+    for (i, e) in exact.into_iter().enumerate() {
+        let f = frequencies[i / amplitudes.len()];
+        let a_amp = amplitudes[i % amplitudes.len()];
+        let omega = 2.0 * PI * f;
+        let approx =
+            closed_form::pull_off_approx(m, law, omega, a_amp, beta, DeltaAmpForm::Derived)?;
+        let printed =
+            closed_form::pull_off_approx(m, law, omega, a_amp, beta, DeltaAmpForm::Printed)?;
+        rows.push(TableRow {
+            frequency: f,
+            a_amp,
+            exact: e,
+            approx,
+            approx_delta_amp_printed: printed.delta_amp,
+        });
+    }
+    Ok(rows)
+}
+
+/// Fig. 3(b) data at `beta` over the paper's grid (n = 0.1 … 0.9, v_max/v0 = 1e-2 … 1e2, 200 Hz).
+pub fn fig3b(m: &Material, law: &GentSchultz, beta: f64) -> Result<Vec<RatioPoint>, ParamError> {
+    let cfg = BetaFitConfig {
+        material: *m,
+        v0: law.v0,
+        ..BetaFitConfig::default()
+    };
+    beta_fit::figure_3b(&cfg, beta)
+}
+
+fn mkdir(dir: &Path) -> Result<(), FiguresError> {
+    std::fs::create_dir_all(dir).map_err(|source| FiguresError::Dir {
+        path: dir.to_path_buf(),
+        source,
+    })
+}
+
+fn csv_line(out: &mut String, values: &[f64]) {
+    let cells: Vec<String> = values.iter().map(|v| format!("{v:e}")).collect();
+    let _ = writeln!(out, "{}", cells.join(","));
+}
+
+/// Write the chosen figures into `out_dir` as CSV + PNG + SVG; returns the files written.
+#[allow(clippy::float_cmp)] // series are selected by grid values copied from the grid, not computed
+pub fn write_figures(
+    out_dir: &Path,
+    which: &[FigureId],
+    m: &Material,
+    law: &GentSchultz,
+    beta: f64,
+) -> Result<Vec<PathBuf>, FiguresError> {
+    mkdir(out_dir)?;
+    let mut files = Vec::new();
+    let push_plot = |files: &mut Vec<PathBuf>, fig: &Figure, stem: &str| {
+        plot::render(fig, &out_dir.join(stem)).map(|(a, b)| {
+            files.push(a);
+            files.push(b);
+        })
+    };
+    for id in which {
+        match id {
+            FigureId::Fig2 => {
+                let curves = fig2(m, law, 721);
+                let mut csv = String::from("theta_rad");
+                for c in &curves {
+                    let _ = write!(csv, ",delta_um_at_a_m_{:.0}um", c.a_mean * 1e6);
+                }
+                csv.push('\n');
+                for i in 0..curves[0].theta.len() {
+                    let mut row = vec![curves[0].theta[i]];
+                    row.extend(curves.iter().map(|c| c.delta[i] * 1e6));
+                    csv_line(&mut csv, &row);
+                }
+                let p = out_dir.join("fig2.csv");
+                write_atomic(&p, csv.as_bytes())?;
+                files.push(p);
+                let mut fig = Figure::new(
+                    "Fig. 2: indentation over one cycle (200 Hz, a_A = 1 mm)",
+                    "ωt (rad)",
+                    "δ (µm)",
+                );
+                for (k, c) in curves.iter().enumerate() {
+                    fig = fig.with_series(
+                        Series::new(
+                            format!("a_m = {:.0} µm", c.a_mean * 1e6),
+                            c.theta.clone(),
+                            c.delta.iter().map(|d| d * 1e6).collect(),
+                            Style::Line,
+                        )
+                        .with_color(k),
+                    );
+                }
+                push_plot(&mut files, &fig, "fig2")?;
+            }
+            FigureId::Fig3a => {
+                let curves = fig3a(m, law, &FIG3A_AMPLITUDES, beta, 200)?;
+                let mut csv = String::from(
+                    "a_amp_mm,a_mean_mm,delta_mean_um,force_mean_N,approx_delta_mean_um,approx_force_mean_N\n",
+                );
+                for c in &curves {
+                    for i in 0..c.a_mean.len() {
+                        csv_line(
+                            &mut csv,
+                            &[
+                                c.a_amp * 1e3,
+                                c.a_mean[i] * 1e3,
+                                c.delta_mean[i] * 1e6,
+                                c.force_mean[i],
+                                c.approx_delta_mean[i] * 1e6,
+                                c.approx_force_mean[i],
+                            ],
+                        );
+                    }
+                }
+                let p = out_dir.join("fig3a.csv");
+                write_atomic(&p, csv.as_bytes())?;
+                files.push(p);
+                let mut fig = Figure::new(
+                    format!("Fig. 3(a): F_m vs δ_m at 400 Hz (dashed: eq. 18, β = {beta})"),
+                    "δ_m (µm)",
+                    "F_m (N)",
+                )
+                .with_legend(LegendPosition::LowerRight);
+                for (k, c) in curves.iter().enumerate() {
+                    let x: Vec<f64> = c.delta_mean.iter().map(|d| d * 1e6).collect();
+                    fig = fig
+                        .with_series(
+                            Series::new(
+                                format!("exact, a_A = {:.0} µm", c.a_amp * 1e6),
+                                x,
+                                c.force_mean.clone(),
+                                Style::Line,
+                            )
+                            .with_color(k),
+                        )
+                        .with_series(
+                            Series::new(
+                                format!("approx, a_A = {:.0} µm", c.a_amp * 1e6),
+                                c.approx_delta_mean.iter().map(|d| d * 1e6).collect(),
+                                c.approx_force_mean.clone(),
+                                Style::Dashed,
+                            )
+                            .with_color(k),
+                        );
+                }
+                push_plot(&mut files, &fig, "fig3a")?;
+            }
+            FigureId::Fig3b => {
+                let pts = fig3b(m, law, beta)?;
+                let mut csv = String::from("n,v_max_over_v0,amp_exact,amp_approx,ratio\n");
+                for p in &pts {
+                    csv_line(
+                        &mut csv,
+                        &[p.n, p.speed_ratio, p.amp_exact, p.amp_approx, p.ratio],
+                    );
+                }
+                let p = out_dir.join("fig3b.csv");
+                write_atomic(&p, csv.as_bytes())?;
+                files.push(p);
+                let mut fig = Figure::new(
+                    format!("Fig. 3(b): exact / approximate pull-off amplification (β = {beta})"),
+                    "v_max / v0",
+                    "ratio",
+                )
+                .with_log(true, false);
+                let mut ns: Vec<f64> = pts.iter().map(|p| p.n).collect();
+                ns.dedup();
+                for (k, n) in ns.iter().enumerate() {
+                    let sel: Vec<&RatioPoint> = pts.iter().filter(|p| p.n == *n).collect();
+                    fig = fig.with_series(
+                        Series::new(
+                            format!("n = {n}"),
+                            sel.iter().map(|p| p.speed_ratio).collect(),
+                            sel.iter().map(|p| p.ratio).collect(),
+                            Style::LineMarkers,
+                        )
+                        .with_color(k),
+                    );
+                }
+                push_plot(&mut files, &fig, "fig3b")?;
+            }
+            FigureId::Figs4to8 => {
+                let amps = table_amplitudes();
+                let rows = table(m, law, &TABLE_FREQUENCIES, &amps, beta)?;
+                let mut csv = String::from(
+                    "frequency_Hz,a_amp_mm,exact_a_mean_mm,exact_delta_mean_um,exact_delta_amp_um,exact_force_N,exact_amplification,exact_contact_fraction,exact_local_minima,approx_a_mean_mm,approx_delta_mean_um,approx_delta_amp_um,approx_delta_amp_printed_um,approx_force_N,approx_amplification\n",
+                );
+                for r in &rows {
+                    csv_line(
+                        &mut csv,
+                        &[
+                            r.frequency,
+                            r.a_amp * 1e3,
+                            r.exact.cycle.a_mean * 1e3,
+                            r.exact.cycle.delta_mean * 1e6,
+                            r.exact.cycle.delta_amp * 1e6,
+                            r.exact.force,
+                            r.exact.amplification,
+                            r.exact.cycle.contact_fraction,
+                            r.exact.local_minima.len() as f64,
+                            r.approx.a_mean * 1e3,
+                            r.approx.delta_mean * 1e6,
+                            r.approx.delta_amp * 1e6,
+                            r.approx_delta_amp_printed * 1e6,
+                            r.approx.force,
+                            r.approx.amplification,
+                        ],
+                    );
+                }
+                let p = out_dir.join("figs4-8.csv");
+                write_atomic(&p, csv.as_bytes())?;
+                files.push(p);
+                type Pick = fn(&TableRow) -> (f64, f64);
+                let specs: [(&str, &str, &str, Pick, Pick, bool); 5] = [
+                    (
+                        "fig4",
+                        "Fig. 4: mean contact radius at pull-off",
+                        "a_m,po (mm)",
+                        |r| (r.a_amp * 1e3, r.exact.cycle.a_mean * 1e3),
+                        |r| (r.a_amp * 1e3, r.approx.a_mean * 1e3),
+                        false,
+                    ),
+                    (
+                        "fig5",
+                        "Fig. 5: mean indentation at pull-off",
+                        "δ_m,po (µm)",
+                        |r| (r.a_amp * 1e3, r.exact.cycle.delta_mean * 1e6),
+                        |r| (r.a_amp * 1e3, r.approx.delta_mean * 1e6),
+                        false,
+                    ),
+                    (
+                        "fig6",
+                        "Fig. 6: indentation amplitude at pull-off",
+                        "δ_A,po (µm)",
+                        |r| (r.a_amp * 1e3, r.exact.cycle.delta_amp * 1e6),
+                        |r| (r.a_amp * 1e3, r.approx.delta_amp * 1e6),
+                        false,
+                    ),
+                    (
+                        "fig7",
+                        "Fig. 7: pull-off amplification F_m,po / F0",
+                        "F_m,po / F0",
+                        |r| (r.a_amp * 1e3, r.exact.amplification),
+                        |r| (r.a_amp * 1e3, r.approx.amplification),
+                        false,
+                    ),
+                    (
+                        "fig8",
+                        "Fig. 8: indentation amplitude vs mean at pull-off",
+                        "δ_A,po (µm)",
+                        |r| {
+                            (
+                                r.exact.cycle.delta_mean * 1e6,
+                                r.exact.cycle.delta_amp * 1e6,
+                            )
+                        },
+                        |r| (r.approx.delta_mean * 1e6, r.approx.delta_amp * 1e6),
+                        true,
+                    ),
+                ];
+                for (stem, title, ylabel, exact, approx, markers) in specs {
+                    let xlabel = if markers { "δ_m,po (µm)" } else { "a_A (mm)" };
+                    let mut fig =
+                        Figure::new(format!("{title} (dashed: β = {beta})"), xlabel, ylabel);
+                    for (k, &f) in TABLE_FREQUENCIES.iter().enumerate() {
+                        let sel: Vec<&TableRow> =
+                            rows.iter().filter(|r| r.frequency == f).collect();
+                        let (ex, ey): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| exact(r)).unzip();
+                        let (ax, ay): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| approx(r)).unzip();
+                        let style = if markers { Style::Markers } else { Style::Line };
+                        fig = fig
+                            .with_series(
+                                Series::new(format!("exact, {f:.0} Hz"), ex, ey, style)
+                                    .with_color(k),
+                            )
+                            .with_series(
+                                Series::new(format!("approx, {f:.0} Hz"), ax, ay, Style::Dashed)
+                                    .with_color(k),
+                            );
+                    }
+                    push_plot(&mut files, &fig, stem)?;
+                }
+            }
+        }
+    }
+    Ok(files)
+}

@@ -153,19 +153,7 @@ pub fn fmt_force(f: f64) -> String {
     }
 }
 
-/// Write a file atomically: to a hidden temporary beside it, then rename into place, so an
-/// interrupted command never leaves a file that looks complete.
+/// Write a file atomically (see [`djkr::output::write_atomic`]).
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.partial"));
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("renaming into {}", path.display()))?;
-    Ok(())
+    Ok(djkr::output::write_atomic(path, bytes)?)
 }

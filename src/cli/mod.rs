@@ -4,6 +4,7 @@
 mod accuracy;
 mod closed;
 mod common;
+mod figures;
 mod fit;
 mod imposed;
 mod run;
@@ -50,6 +51,8 @@ enum Command {
     /// Fit the Gent–Schultz constants w0, v0, n (with uncertainties) to a quasi-static unloading
     /// record (CSV: t, a, F), using eq. (28) for w and −ȧ for the crack speed.
     GsFit(fit::GsFitArgs),
+    /// Reproduce the paper's figures (Figs. 2, 3(a), 3(b), 4–8) as CSV + PNG + SVG.
+    Figures(figures::FiguresArgs),
     /// Speed vs accuracy: a work-precision study of the integrators on a scenario FILE (errors
     /// against a converged reference, median wall time, steps, RHS evaluations; CSV, table,
     /// plot), or with --imposed-area, quadrature nodes vs error and the closed form's error map.
@@ -67,6 +70,7 @@ pub fn main() -> ExitCode {
         Command::RequiredSpeed(a) => closed::required_speed(&a),
         Command::BetaFit(a) => closed::beta_fit(&a),
         Command::GsFit(a) => fit::gs_fit(&a),
+        Command::Figures(a) => figures::figures(&a),
         Command::Accuracy(a) => accuracy::accuracy(&a),
     };
     match result {

@@ -89,6 +89,26 @@ pub(crate) fn write_file_synced(path: &Path, bytes: &[u8]) -> Result<(), OutputE
     f.sync_all().map_err(io_err(path))
 }
 
+/// Write one file atomically: in full to its hidden partial name beside it, flushed to disk, then
+/// renamed into place, so an interrupted writer never leaves a file that looks complete. For
+/// single files outside a run (figures, sweeps, studies).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(partial_name(&name));
+    if let Err(e) = write_file_synced(&tmp, bytes) {
+        let _ = fs::remove_file(&tmp);
+        return Err(e);
+    }
+    fs::rename(&tmp, path).map_err(io_err(path))
+}
+
 /// Create `path`, let `fill` write it through a buffer, flush it to disk.
 fn write_with(
     path: &Path,
