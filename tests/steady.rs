@@ -24,3 +24,16 @@ fn explore() {
         }
     }
 }
+
+#[test]
+#[ignore]
+fn explore_compare() {
+    for f in [
+        "scenarios/resonance-400hz.toml",
+        "scenarios/paper-protocol-400hz.toml",
+    ] {
+        let scn = load_scenario(std::path::Path::new(f)).unwrap();
+        let c = djkr::steady::compare::compare(&scn, &Options::default()).unwrap();
+        println!("{f}: {}", serde_json::to_string_pretty(&c).unwrap());
+    }
+}

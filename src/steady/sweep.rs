@@ -1,1 +1,278 @@
-//! (in progress)
+//! Frequency response by continuation: the periodic steady state at each frequency of a list,
+//! each started from the previous frequency's steady state, so that an up sweep and a down sweep
+//! follow the branch they are on and reveal hysteresis or jumps near a nonlinear resonance.
+//!
+//! Alongside, the two predictors that need no time integration: the corrected linear transfer
+//! (MODEL.md, eqs. 36–39, with k_c = (3/2) K a_0 at the static radius a_0 of the scene's mean
+//! load) and the harmonic-balance predictor ([`crate::describing`]), itself continued along the
+//! sweep (each frequency's Newton started from the previous solution).
+//!
+//! The continuation within a sweep is sequential; the up and down sweeps are independent and
+//! run in parallel ([`sweep_both`], rayon).
+
+use super::{Options, Problem, Steady, SteadyError};
+use crate::describing::{self, HarmonicBalance, Setup, StaticState};
+use crate::scenario::{Initial, Scenario};
+use crate::transfer::{self, Oscillator, Transfer};
+use serde::Serialize;
+
+/// Sweep direction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Direction {
+    /// Increasing frequency.
+    Up,
+    /// Decreasing frequency.
+    Down,
+}
+
+impl Direction {
+    /// "up" or "down".
+    pub fn name(self) -> &'static str {
+        match self {
+            Direction::Up => "up",
+            Direction::Down => "down",
+        }
+    }
+}
+
+/// The static contact and the linear oscillator of a scene (the predictors' common ground).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Linearisation {
+    /// Harmonic-balance setup (mass, spring, damping, support).
+    pub setup: Setup,
+    /// The static contact under the scene's mean load (w0, no vibration).
+    pub static_state: StaticState,
+    /// The oscillator with k_c = (3/2) K a_0.
+    pub oscillator: Oscillator,
+}
+
+impl Linearisation {
+    /// From a scenario whose initial state sets the mean load (see
+    /// [`describing::Setup::from_scenario`]: a preload, or an explicit state's spring end).
+    pub fn new(scn: &Scenario) -> Result<Self, SteadyError> {
+        let setup = Setup::from_scenario(scn)
+            .map_err(|e| SteadyError::Setup(format!("predictors: {e}")))?;
+        let st =
+            describing::static_state(&setup.material, &setup.law, &setup.system, setup.support)
+                .map_err(|e| SteadyError::Setup(format!("predictors: {e}")))?;
+        let oscillator = Oscillator {
+            mass: setup.system.mass,
+            stiffness: setup.system.stiffness,
+            damping: setup.system.damping,
+            damping_on: setup.system.damping_on,
+            contact_stiffness: 1.5 * setup.material.k * st.a,
+        };
+        Ok(Self {
+            setup,
+            static_state: st,
+            oscillator,
+        })
+    }
+
+    /// For a steady-state problem started from `start` (the scene's initial state, or the state
+    /// its pre-vibration stages reached).
+    pub fn for_problem(problem: &Problem, start: &Initial) -> Result<Self, SteadyError> {
+        let mut s = problem.scenario().clone();
+        s.initial = *start;
+        Self::new(&s)
+    }
+
+    /// The corrected linear transfer δ1/X_b at frequency f (Hz).
+    pub fn linear(&self, frequency: f64) -> Transfer {
+        transfer::linear(&self.oscillator, 2.0 * std::f64::consts::PI * frequency)
+    }
+
+    /// The paper's eqs. (36)–(37) as printed, at frequency f (Hz).
+    pub fn paper(&self, frequency: f64) -> Transfer {
+        transfer::paper_printed(&self.oscillator, 2.0 * std::f64::consts::PI * frequency)
+    }
+
+    /// Undamped linear resonance f_r = √((k + k_c)/m)/2π (Hz).
+    pub fn resonance_frequency(&self) -> f64 {
+        transfer::resonance_frequency(&self.oscillator)
+    }
+}
+
+/// One frequency of a sweep.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepPoint {
+    /// Frequency f (Hz).
+    pub frequency: f64,
+    /// The time-domain steady state (`None` when it could not be found; see `error`).
+    pub steady: Option<Steady>,
+    /// Why the steady state is missing.
+    pub error: Option<String>,
+    /// Corrected linear transfer δ1/X_b.
+    pub linear: Option<Transfer>,
+    /// Harmonic-balance solution (continued along the sweep).
+    pub harmonic: Option<HarmonicBalance>,
+}
+
+/// A frequency sweep in one direction.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Sweep {
+    /// Direction.
+    pub direction: Direction,
+    /// Base amplitude X_b (m).
+    pub amplitude: f64,
+    /// Points in the order they were computed.
+    pub points: Vec<SweepPoint>,
+    /// Base periods integrated in total.
+    pub cycles: u64,
+    /// Wall-clock time (s).
+    pub wall_s: f64,
+}
+
+/// `count` frequencies evenly spaced from `lo` to `hi` (Hz), inclusive (`count` = 1: `lo`).
+pub fn frequencies(lo: f64, hi: f64, count: usize) -> Vec<f64> {
+    match count {
+        0 => Vec::new(),
+        1 => vec![lo],
+        n => (0..n)
+            .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+            .collect(),
+    }
+}
+
+/// Sweep `freqs` (Hz, any order; sorted ascending for `Up`, descending for `Down`) at the
+/// problem's base amplitude, starting from `start` at the first frequency and from the previous
+/// steady state after that. `lin` adds the predictors; `progress` is called after each
+/// frequency.
+pub fn sweep(
+    problem: &Problem,
+    start: &Initial,
+    freqs: &[f64],
+    direction: Direction,
+    opts: &Options,
+    lin: Option<&Linearisation>,
+    progress: &(dyn Fn(Direction, &SweepPoint) + Sync),
+) -> Sweep {
+    let t0 = std::time::Instant::now();
+    let mut fs: Vec<f64> = freqs.to_vec();
+    fs.sort_by(f64::total_cmp);
+    if direction == Direction::Down {
+        fs.reverse();
+    }
+    let mut from = *start;
+    let mut guess = None;
+    let mut cycles = 0;
+    let mut points = Vec::with_capacity(fs.len());
+    for &f in &fs {
+        let result = problem
+            .at(f, problem.amplitude)
+            .and_then(|p| p.solve(&from, opts));
+        let (steady, error) = match result {
+            Ok(s) => {
+                cycles += s.cycles;
+                from = s.state.initial();
+                (Some(s), None)
+            }
+            Err(e) => {
+                if let SteadyError::NotConverged { cycles: c, .. } = e {
+                    cycles += c;
+                }
+                (None, Some(e.to_string()))
+            }
+        };
+        let harmonic = lin.and_then(|l| {
+            let h = l.setup.solve(f, problem.amplitude, guess).ok();
+            if let Some(h) = &h {
+                guess = Some(h.guess());
+            }
+            h
+        });
+        let point = SweepPoint {
+            frequency: f,
+            steady,
+            error,
+            linear: lin.map(|l| l.linear(f)),
+            harmonic,
+        };
+        progress(direction, &point);
+        points.push(point);
+    }
+    Sweep {
+        direction,
+        amplitude: problem.amplitude,
+        points,
+        cycles,
+        wall_s: t0.elapsed().as_secs_f64(),
+    }
+}
+
+/// Up and down sweeps, run in parallel (rayon::join): (up, down).
+pub fn sweep_both(
+    problem: &Problem,
+    start: &Initial,
+    freqs: &[f64],
+    opts: &Options,
+    lin: Option<&Linearisation>,
+    progress: &(dyn Fn(Direction, &SweepPoint) + Sync),
+) -> (Sweep, Sweep) {
+    rayon::join(
+        || sweep(problem, start, freqs, Direction::Up, opts, lin, progress),
+        || sweep(problem, start, freqs, Direction::Down, opts, lin, progress),
+    )
+}
+
+/// The peak of a sweep's time-domain |δ1|/X_b: (frequency, height), refined by a parabola
+/// through the highest point and its two neighbours (when it is interior). `None` without a
+/// steady point.
+pub fn peak(points: &[SweepPoint]) -> Option<(f64, f64)> {
+    let mut v: Vec<(f64, f64)> = points
+        .iter()
+        .filter_map(|p| {
+            p.steady
+                .as_ref()
+                .map(|s| (p.frequency, s.transfer_magnitude()))
+        })
+        .collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    peak_of(&v)
+}
+
+/// Peak of sampled (x, y) data sorted by x, refined by a parabola through the maximum and its
+/// neighbours when it is interior.
+pub fn peak_of(v: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let i = (0..v.len()).max_by(|&i, &j| v[i].1.total_cmp(&v[j].1))?;
+    if i == 0 || i + 1 == v.len() {
+        return Some(v[i]);
+    }
+    let ((x0, y0), (x1, y1), (x2, y2)) = (v[i - 1], v[i], v[i + 1]);
+    // Vertex of the parabola through three points.
+    let d = (x0 - x1) * (x0 - x2) * (x1 - x2);
+    let a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d;
+    let b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / d;
+    let c = (x1 * x2 * (x1 - x2) * y0 + x2 * x0 * (x2 - x0) * y1 + x0 * x1 * (x0 - x1) * y2) / d;
+    if a.is_nan() || a >= 0.0 {
+        return Some(v[i]);
+    }
+    let xv = -b / (2.0 * a);
+    let yv = c - b * b / (4.0 * a);
+    if xv.is_finite() && yv.is_finite() && xv > x0 && xv < x2 {
+        Some((xv, yv))
+    } else {
+        Some(v[i])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parabolic_peak_recovers_a_vertex() {
+        let f = |x: f64| 3.0 - 0.5 * (x - 401.3) * (x - 401.3);
+        let v: Vec<(f64, f64)> = (0..9)
+            .map(|i| 396.0 + 2.0 * i as f64)
+            .map(|x| (x, f(x)))
+            .collect();
+        let (x, y) = peak_of(&v).unwrap_or((0.0, 0.0));
+        assert!(
+            (x - 401.3).abs() < 1e-9 && (y - 3.0).abs() < 1e-9,
+            "{x} {y}"
+        );
+        assert_eq!(frequencies(300.0, 500.0, 3), vec![300.0, 400.0, 500.0]);
+    }
+}
