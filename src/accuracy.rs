@@ -23,7 +23,8 @@
 //!
 //! Errors ([`OutputErrors`]), all dimensionless:
 //! - pull-off force: |ΔF_po| / |F_po,ref|;
-//! - last common cycle (the last base period both runs completed, matched by start time): mean
+//! - last common cycle (the last base period both runs completed, matched by stage and index
+//!   since the shaker switched on): mean
 //!   force |Δ⟨F⟩| / max(|⟨F⟩_ref|, 10⁻³ |F0|) with F0 = −(3/2)πRw0; mean indentation
 //!   |Δ⟨δ⟩| / max(|⟨δ⟩_ref|, L); first-harmonic indentation amplitude |Δδ_A| / max(δ_A,ref, 10⁻³ L),
 //!   with L = a_J²/R the jump-in indentation scale;
@@ -207,14 +208,31 @@ pub struct KeyOutputs {
     pub pull_off_force: f64,
     /// Final detachment happened.
     pub detached: bool,
-    /// Per-cycle (start time (s), ⟨F⟩ (N), ⟨δ⟩ (m), δ_A (m)).
-    pub cycles: Vec<(f64, f64, f64, f64)>,
+    /// Per-cycle outputs.
+    pub cycles: Vec<CycleOutput>,
     /// Located physical events (kind, time (s)): contact loss, impact, pull-off, preload reached.
     pub events: Vec<(EventKind, f64)>,
     /// Final state.
     pub final_state: Sample,
     /// Final time of the run (s).
     pub duration: f64,
+}
+
+/// The outputs of one base period.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CycleOutput {
+    /// Stage at the end of the cycle.
+    pub stage: usize,
+    /// Cycle index since the shaker last switched on.
+    pub index: u64,
+    /// Start time (s).
+    pub t_start: f64,
+    /// ⟨F⟩ (N).
+    pub force_mean: f64,
+    /// ⟨δ⟩ (m).
+    pub delta_mean: f64,
+    /// First-harmonic amplitude δ_A = hypot(δ_s, δ_c) (m).
+    pub delta_amp: f64,
 }
 
 /// Extract the [`KeyOutputs`] of a run.
@@ -225,13 +243,13 @@ pub fn key_outputs(r: &RunResult) -> KeyOutputs {
         cycles: r
             .cycles
             .iter()
-            .map(|c| {
-                (
-                    c.t_start,
-                    c.force_mean,
-                    c.delta_mean,
-                    c.delta_sin.hypot(c.delta_cos),
-                )
+            .map(|c| CycleOutput {
+                stage: c.stage,
+                index: c.index,
+                t_start: c.t_start,
+                force_mean: c.force_mean,
+                delta_mean: c.delta_mean,
+                delta_amp: c.delta_sin.hypot(c.delta_cos),
             })
             .collect(),
         events: r
@@ -311,20 +329,21 @@ pub fn compare(run: &KeyOutputs, reference: &KeyOutputs, sc: &Scales) -> OutputE
         reference.pull_off_force,
         1e-9 * sc.force,
     );
-    // Last cycle both runs completed, matched by start time.
-    let tol_t = 1e-9 * sc.period.unwrap_or(1.0);
+    // Last cycle both runs completed, matched by (stage, index since the shaker switched on): the
+    // switch-on time itself may follow an event (a preload reached), whose time differs a little
+    // between runs.
     let common = reference.cycles.iter().rev().find_map(|c| {
         run.cycles
             .iter()
             .rev()
-            .find(|d| (d.0 - c.0).abs() <= tol_t)
+            .find(|d| d.stage == c.stage && d.index == c.index)
             .map(|d| (*d, *c))
     });
     let (cf, cd, ca) = match common {
         Some((d, c)) => (
-            Some(rel(d.1, c.1, 1e-3 * sc.force)),
-            Some(rel(d.2, c.2, sc.length)),
-            Some(rel(d.3, c.3, 1e-3 * sc.length)),
+            Some(rel(d.force_mean, c.force_mean, 1e-3 * sc.force)),
+            Some(rel(d.delta_mean, c.delta_mean, sc.length)),
+            Some(rel(d.delta_amp, c.delta_amp, 1e-3 * sc.length)),
         ),
         None => (None, None, None),
     };
@@ -670,13 +689,13 @@ pub fn study_table(st: &Study) -> String {
         if ro.detached { " (detached)" } else { "" },
         ro.cycles
             .last()
-            .map_or("n/a".into(), |c| format!("{:.6e} N", c.1)),
+            .map_or("n/a".into(), |c| format!("{:.6e} N", c.force_mean)),
         ro.cycles
             .last()
-            .map_or("n/a".into(), |c| format!("{:.6e} m", c.2)),
+            .map_or("n/a".into(), |c| format!("{:.6e} m", c.delta_mean)),
         ro.cycles
             .last()
-            .map_or("n/a".into(), |c| format!("{:.6e} m", c.3)),
+            .map_or("n/a".into(), |c| format!("{:.6e} m", c.delta_amp)),
         ro.events.len(),
         ro.final_state.t
     );

@@ -29,11 +29,25 @@ fn sample(t: f64, x_s: f64, a: f64, force: f64) -> Sample {
     }
 }
 
+fn cyc(index: u64, t_start: f64, f: f64, d: f64, da: f64) -> CycleOutput {
+    CycleOutput {
+        stage: 0,
+        index,
+        t_start,
+        force_mean: f,
+        delta_mean: d,
+        delta_amp: da,
+    }
+}
+
 fn outputs() -> KeyOutputs {
     KeyOutputs {
         pull_off_force: -0.1,
         detached: true,
-        cycles: vec![(0.0, 0.02, 1e-5, 3e-5), (0.0025, 0.03, 2e-5, 4e-5)],
+        cycles: vec![
+            cyc(0, 0.0, 0.02, 1e-5, 3e-5),
+            cyc(1, 0.0025, 0.03, 2e-5, 4e-5),
+        ],
         events: vec![(EventKind::ContactLoss, 0.004), (EventKind::PullOff, 0.004)],
         final_state: sample(0.005, 1e-5, 1e-3, 0.01),
         duration: 0.005,
@@ -65,7 +79,8 @@ fn errors_are_normalised_as_documented() {
     let mut x = outputs();
     x.pull_off_force = -0.1 * (1.0 + 3e-6);
     // Last common cycle: ⟨F⟩ +1e-7 N on 0.03 N; ⟨δ⟩ +1e-11 m on max(2e-5, L = 1e-5); δ_A +4e-12.
-    x.cycles[1] = (0.0025, 0.03 + 1e-7, 2e-5 + 1e-11, 4e-5 + 4e-12);
+    // Its start time is shifted (an earlier event moved the switch-on): matched by index anyway.
+    x.cycles[1] = cyc(1, 0.0025 + 1e-9, 0.03 + 1e-7, 2e-5 + 1e-11, 4e-5 + 4e-12);
     x.events[1].1 += 5e-10; // Δt/T = 2e-7
     x.final_state.a += 2e-9; // 2e-6 of a_ref
     let e = compare(&x, &r, &sc());
