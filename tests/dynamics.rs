@@ -829,3 +829,74 @@ fn contact_loss_radius_has_negligible_effect() {
         assert!((f - f0).abs() < 1e-12 * f0.abs(), "{rows:?}");
     }
 }
+
+/// Work–precision study of 1 s at 400 Hz (`catalogue::vibrating_hold(5 µm, 400 Hz, 1 s)`): for
+/// each method and rtol, the final-cycle ⟨F⟩, δ_A and a_m against an implicit reference at rtol
+/// 1e-12. Opt-in: `cargo test --release --test dynamics work_precision -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn work_precision_1s_400hz() {
+    let outs = |r: &RunResult| {
+        let c = r.cycles.last().expect("cycles");
+        (c.force_mean, c.delta_sin.hypot(c.delta_cos), c.a_mean)
+    };
+    let mut s = djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
+    s.solver.method = Method::Implicit;
+    s.solver.rtol = 1e-12;
+    let t = std::time::Instant::now();
+    let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+    let (f0, d0, a0) = outs(&r);
+    println!(
+        "reference implicit 1e-12: F {f0:e} dA {d0:e} am {a0:e} {:?} {:.3} s",
+        r.stats,
+        t.elapsed().as_secs_f64()
+    );
+    for m in [
+        Method::Implicit,
+        Method::Dopri5,
+        Method::Dop853,
+        Method::Auto,
+    ] {
+        for rtol in [1e-4, 1e-6, 1e-8, 1e-10] {
+            s.solver.method = m;
+            s.solver.rtol = rtol;
+            let t = std::time::Instant::now();
+            match simulate(&s, &mut djkr::dynamics::NoObserver) {
+                Ok(r) => {
+                    let (f, d, a) = outs(&r);
+                    println!(
+                        "{m:?} rtol {rtol:e}: errF {:.2e} errdA {:.2e} erram {:.2e} steps {} rej {} rhs {} wall {:.4} s",
+                        ((f - f0) / f0).abs(),
+                        ((d - d0) / d0).abs(),
+                        ((a - a0) / a0).abs(),
+                        r.stats.steps,
+                        r.stats.rejected,
+                        r.stats.rhs_evals,
+                        t.elapsed().as_secs_f64()
+                    );
+                }
+                Err(e) => println!("{m:?} rtol {rtol:e}: error {e}"),
+            }
+        }
+    }
+}
+
+/// Minimum wall time over repeats of 1 s at 400 Hz per method at rtol 1e-8 (robust to load).
+/// Opt-in: `cargo test --release --test dynamics probe_min_wall -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn probe_min_wall() {
+    for m in [Method::Implicit, Method::Auto] {
+        let mut s = djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
+        s.solver.method = m;
+        let mut best = f64::INFINITY;
+        let mut stats = None;
+        for _ in 0..15 {
+            let t = std::time::Instant::now();
+            let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+            best = best.min(t.elapsed().as_secs_f64());
+            stats = Some(r.stats);
+        }
+        println!("{m:?}: min wall {:.2} ms {:?}", best * 1e3, stats);
+    }
+}

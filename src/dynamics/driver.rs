@@ -238,6 +238,8 @@ struct Run<'a> {
     h_inner: f64,
     /// Fall-backs taken by `auto`.
     notes: Vec<String>,
+    /// The observer uses samples (`Observer::wants_samples`).
+    wants_samples: bool,
 }
 
 impl Run<'_> {
@@ -320,7 +322,7 @@ impl Run<'_> {
 
     /// Emit time-series samples for (y0.t, y1.t].
     fn output(&mut self, y0: &State, y1: &State) {
-        if self.stopped {
+        if self.stopped || !self.wants_samples {
             return;
         }
         if self.sample_dt <= 0.0 {
@@ -879,17 +881,13 @@ impl Run<'_> {
                 y1.t = t_lim;
             }
             // Events inside the step.
-            let mut watches: Vec<Watch> = Vec::with_capacity(2);
-            if y0.contact {
-                watches.push(Watch::Loss);
-                if let Some(p) = preload {
-                    watches.push(Watch::Preload(p));
-                }
+            let watches: [Option<Watch>; 2] = if y0.contact {
+                [Some(Watch::Loss), preload.map(Watch::Preload)]
             } else {
-                watches.push(Watch::Impact);
-            }
+                [Some(Watch::Impact), None]
+            };
             let mut first: Option<(Watch, State)> = None;
-            for &w in &watches {
+            for w in watches.into_iter().flatten() {
                 let (g0, g1) = (self.watch_value(w, &y0), self.watch_value(w, &y1));
                 if Self::crossed(w, g0, g1) {
                     let ye = self.locate(w, &y0, Some(y1), h);
@@ -994,6 +992,7 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
     } else {
         0.0
     };
+    let wants_samples = obs.wants_samples();
     let mut run = Run {
         h: 1e-3 * model.t_char,
         model,
@@ -1030,6 +1029,7 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
         auto,
         h_inner: 0.0,
         notes: Vec::new(),
+        wants_samples,
     };
     if let (Engine::Explicit(_), true) = (engine, run.model.rate_independent) {
         return Err(SimError::Explicit {

@@ -18,6 +18,7 @@
 //! L-stable: the healing stiffness ∂ȧ/∂a ≈ −4aȧ/(nRu) costs no stability restriction.
 
 use super::model::{Kinematics, Mechanics, Model, NQ};
+use crate::adhesion::Law;
 use crate::jkr;
 use crate::numerics::RelativeConvergency;
 
@@ -239,6 +240,62 @@ pub fn solve_radius<F: FnMut(f64) -> f64>(
     }
 }
 
+/// Safeguarded Newton iteration for the stage radius: `rho_d(a)` returns (ρ, dρ/da) with the
+/// analytic derivative. A Newton step that leaves the bracket of the upward crossing found so
+/// far, or that does not halve |ρ|, is replaced by bisection of that bracket. Converged (step
+/// below `xtol_rel` relative) only onto an upward crossing (dρ/da > 0); `None` hands the stage to
+/// the derivative-free [`solve_radius`] (non-monotone ρ, a kink exactly at the predictor, no
+/// convergence in 12 iterations), which keeps every old guarantee.
+fn newton_radius<F: FnMut(f64) -> (f64, f64, f64, f64)>(
+    mut rho_d: F,
+    p0: f64,
+    p_floor: f64,
+    xtol_rel: f64,
+    evals: &mut u64,
+) -> Option<(f64, f64)> {
+    let mut p = p0;
+    let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
+    let mut r_prev = f64::INFINITY;
+    let mut step_prev = f64::INFINITY;
+    for _ in 0..12 {
+        let (r, d, a, dadp) = rho_d(p);
+        *evals += 1;
+        if !r.is_finite() || !(d > 0.0) || !d.is_finite() {
+            return None;
+        }
+        if r == 0.0 {
+            return Some((p, a));
+        }
+        if r < 0.0 {
+            lo = lo.max(p);
+        } else {
+            hi = hi.min(p);
+        }
+        let mut pn = p - r / d;
+        if lo.is_finite() && hi.is_finite() && (!(pn > lo && pn < hi) || r.abs() > 0.5 * r_prev) {
+            pn = 0.5 * (lo + hi);
+        }
+        r_prev = r.abs();
+        let step = (pn - p).abs();
+        let tol = xtol_rel * pn.abs().max(p_floor);
+        // Converged when this step is below tolerance, or when the measured quadratic
+        // contraction K = |Δ_k|/|Δ_{k−1}|² says the error left after it, K Δ_k², is.
+        let contraction = if step_prev.is_finite() {
+            step / (step_prev * step_prev)
+        } else {
+            f64::INFINITY
+        };
+        step_prev = step;
+        if step <= tol || contraction * step * step <= tol {
+            // The last Newton correction, carried to a to first order (its error is of the
+            // order of the square of an already negligible step).
+            return Some((pn, a + dadp * (pn - p)));
+        }
+        p = pn;
+    }
+    None
+}
+
 /// Values at one stage.
 #[derive(Debug, Clone, Copy)]
 struct Stage {
@@ -248,7 +305,8 @@ struct Stage {
     fx: f64,
     fv: f64,
     fa: f64,
-    fq: [f64; NQ],
+    /// Law variable z = sign(ȧ)(|ȧ|/v0)^n of the Gent–Schultz (n < 1) stage solve (else 0).
+    z: f64,
 }
 
 /// Evaluate the explicit derivatives at a state (used for the first stage and after resets).
@@ -267,7 +325,12 @@ pub fn derivatives(model: &Model, kin: &Kinematics, y: &State) -> (f64, [f64; NQ
 }
 
 /// Solve one implicit stage (also used alone as a backward-Euler step with `hg` = h).
-/// `xk`, `vk`, `ck` are the known parts of x, v, a; returns the stage values.
+/// `xk`, `vk`, `ck` are the known parts of x, v, a; returns the stage values and adds
+/// `wq` × (the quadrature integrands) to `qacc` (skipped for a zero weight).
+///
+/// The root is found by [`newton_radius`] with the analytic dρ/da for the laws with a closed-form
+/// slope (Gent–Schultz, constant), falling back to [`solve_radius`]. On the Newton path w(ȧ) at
+/// the root is taken as G_s (they agree to the root's residual), which saves the law's `powf`.
 #[allow(clippy::too_many_arguments)]
 fn implicit_stage(
     model: &Model,
@@ -278,31 +341,110 @@ fn implicit_stage(
     ck: f64,
     hg: f64,
     adot_guess: f64,
+    z_guess: Option<f64>,
     xtol_rel: f64,
     evals: &mut u64,
+    wq: f64,
+    qacc: &mut [f64; NQ],
 ) -> Result<Stage, StepFail> {
-    let (a, adot, w) = if contact {
+    let mut z_out = f64::NAN;
+    let (a, adot, w_known) = if contact {
         let mat = &model.mat;
         let w0 = model.w0;
-        let rho = |a: f64| {
-            if a <= 0.0 {
-                return f64::NAN;
-            }
-            let ad = (a - ck) / hg;
-            let (x, _) = model.position(kin, a, ad, true, xk, vk, hg);
-            let g = jkr::signed_energy_release_rate(mat, a, x + kin.xb);
-            (g - model.work_of_adhesion(ad)) / w0
-        };
         let mut a_p = ck + hg * adot_guess;
         if !(a_p > 0.0 && a_p.is_finite()) {
             a_p = if ck > 0.0 { ck } else { model.a_floor };
         }
-        let step0 = (1e-3 * (a_p - ck).abs()).max(1e-10 * a_p);
-        let a = solve_radius(rho, a_p, step0, xtol_rel, evals).ok_or(StepFail::NoRoot)?;
-        let ad = (a - ck) / hg;
-        (a, ad, model.work_of_adhesion(ad))
+        let inv_hg = 1.0 / hg;
+        let c3 = 3.0 * mat.k / (8.0 * std::f64::consts::PI);
+        let inv_r = 1.0 / mat.r;
+        // G_s(a, δ(a)) and its total derivative in a.
+        let g_d = |a: f64| {
+            let (x, dx) = model.position_slope(kin, a, xk, vk, hg);
+            let u = a * a * inv_r - (x + kin.xb);
+            let du = 2.0 * a * inv_r - dx;
+            let inv_a = 1.0 / a;
+            (
+                c3 * u * u.abs() * inv_a,
+                c3 * u.abs() * inv_a * (2.0 * du - u * inv_a),
+            )
+        };
+        let newton = match &model.law {
+            Law::GentSchultz(gs) if gs.n < 1.0 => {
+                // Gent–Schultz with n < 1: Newton in z = sign(ȧ)(|ȧ|/v0)^n, in which w(z) =
+                // w0(1 + |z|) (peeling) or w0/(1 + z) (healing) is C¹ with slope −w0 at z = 0
+                // and a(z) = c + hγ v0 sign(z)|z|^(1/n) is C¹: ρ(z) is regular through the kink
+                // ȧ = 0 where ρ(a) has an infinite slope. |z|^(1/n) as exp(ln|z|/n): one exp
+                // and one ln per evaluation instead of the slower `pow`.
+                let inv_n = 1.0 / gs.n;
+                let v0h = hg * gs.v0;
+                let rho_z = |z: f64| {
+                    let za = z.abs();
+                    let (pw, da) = if za > 0.0 {
+                        let pw = (za.ln() * inv_n).exp();
+                        (pw, v0h * inv_n * pw / za)
+                    } else {
+                        (0.0, 0.0)
+                    };
+                    let a = ck + v0h * pw.copysign(z);
+                    if !(a > 0.0) {
+                        return (f64::NAN, f64::NAN, a, da);
+                    }
+                    let (g, dg) = g_d(a);
+                    let (w, dw) = if z < 0.0 {
+                        (gs.w0 * (1.0 - z), -gs.w0)
+                    } else {
+                        let d = 1.0 + z;
+                        (gs.w0 / d, -gs.w0 / (d * d))
+                    };
+                    ((g - w) / w0, (dg * da - dw) / w0, a, da)
+                };
+                let z_p = match z_guess {
+                    Some(z) if z.is_finite() => z,
+                    _ => {
+                        let ad_p = (a_p - ck) * inv_hg;
+                        (ad_p.abs() / gs.v0).powf(gs.n).copysign(ad_p)
+                    }
+                };
+                newton_radius(rho_z, z_p, 1.0, xtol_rel, evals)
+            }
+            _ if model.has_law_slope() => {
+                let rho_d = |a: f64| {
+                    if !(a > 0.0) {
+                        return (f64::NAN, f64::NAN, a, 1.0);
+                    }
+                    let ad = (a - ck) * inv_hg;
+                    let (g, dg) = g_d(a);
+                    let (w, dw) = model.work_and_slope(ad).unwrap_or((w0, 0.0));
+                    ((g - w) / w0, (dg - dw * inv_hg) / w0, a, 1.0)
+                };
+                newton_radius(rho_d, a_p, 0.0, xtol_rel, evals).map(|(_, a)| (f64::NAN, a))
+            }
+            _ => None,
+        };
+        match newton {
+            Some((z, a)) => {
+                z_out = z;
+                (a, (a - ck) * inv_hg, None)
+            }
+            None => {
+                let rho = |a: f64| {
+                    if a <= 0.0 {
+                        return f64::NAN;
+                    }
+                    let ad = (a - ck) / hg;
+                    let (x, _) = model.position(kin, a, ad, true, xk, vk, hg);
+                    let g = jkr::signed_energy_release_rate(mat, a, x + kin.xb);
+                    (g - model.work_of_adhesion(ad)) / w0
+                };
+                let step0 = (1e-3 * (a_p - ck).abs()).max(1e-10 * a_p);
+                let a = solve_radius(rho, a_p, step0, xtol_rel, evals).ok_or(StepFail::NoRoot)?;
+                let ad = (a - ck) / hg;
+                (a, ad, Some(model.work_of_adhesion(ad)))
+            }
+        }
     } else {
-        (0.0, 0.0, model.w0)
+        (0.0, 0.0, Some(model.w0))
     };
     let (x, v) = model.position(kin, a, adot, contact, xk, vk, hg);
     let fv = match model.mech {
@@ -310,9 +452,19 @@ fn implicit_stage(
         _ => 0.0,
     };
     *evals += 1;
-    let fq = model.integrands(kin, x, v, a, adot, w, contact);
     if !(x.is_finite() && v.is_finite() && a.is_finite() && adot.is_finite() && fv.is_finite()) {
         return Err(StepFail::NonFinite);
+    }
+    if wq != 0.0 {
+        let w = match w_known {
+            Some(w) => w,
+            None if model.rate_independent => model.w0,
+            None => jkr::signed_energy_release_rate(&model.mat, a, x + kin.xb),
+        };
+        let fq = model.integrands(kin, x, v, a, adot, w, contact);
+        for (q, f) in qacc.iter_mut().zip(fq.iter()) {
+            *q += wq * f;
+        }
     }
     Ok(Stage {
         x,
@@ -321,7 +473,7 @@ fn implicit_stage(
         fx: v,
         fv,
         fa: adot,
-        fq,
+        z: z_out,
     })
 }
 
@@ -337,6 +489,10 @@ pub fn step(
     let kin0 = drive.at(model, y.t);
     let (acc0, fq0) = derivatives(model, &kin0, y);
     evals += 1;
+    let mut qacc = [0.0; NQ];
+    for (q, f) in qacc.iter_mut().zip(fq0.iter()) {
+        *q = B[0] * f;
+    }
     let mut st = [Stage {
         x: y.x,
         v: y.v,
@@ -344,9 +500,15 @@ pub fn step(
         fx: y.v,
         fv: acc0,
         fa: if y.contact { y.adot } else { 0.0 },
-        fq: fq0,
+        z: match &model.law {
+            Law::GentSchultz(gs) if gs.n < 1.0 && y.contact => {
+                (y.adot.abs() / gs.v0).powf(gs.n).copysign(y.adot)
+            }
+            _ => f64::NAN,
+        },
     }; S];
     let hg = h * GAMMA;
+    let xtol = (1e-2 * tol.rtol).max(1e-14);
     for i in 1..S {
         let t = y.t + C[i] * h;
         let kin = drive.at(model, t);
@@ -368,6 +530,15 @@ pub fn step(
         } else {
             st[0].fa
         };
+        // The same extrapolation in the law variable z (linear in time through a turning point
+        // ȧ = 0, where ȧ itself is not).
+        let z_guess = if i >= 2 {
+            let (c1, c2) = (C[i - 1], C[i - 2]);
+            let slope = (st[i - 1].z - st[i - 2].z) / (c1 - c2);
+            st[i - 1].z + slope * (C[i] - c1)
+        } else {
+            st[0].z
+        };
         st[i] = implicit_stage(
             model,
             &kin,
@@ -377,17 +548,16 @@ pub fn step(
             ck,
             hg,
             guess,
-            (1e-4 * tol.rtol).max(1e-14),
+            Some(z_guess),
+            xtol,
             &mut evals,
+            B[i],
+            &mut qacc,
         )?;
     }
     let last = st[S - 1];
     let mut qn = y.q;
-    for (k, qk) in qn.iter_mut().enumerate() {
-        let mut s = 0.0;
-        for (j, stj) in st.iter().enumerate() {
-            s += B[j] * stj.fq[k];
-        }
+    for (qk, s) in qn.iter_mut().zip(qacc.iter()) {
         *qk += h * s;
     }
     // Error estimate: h Σ (b − b̂) f for the integrated components.
@@ -445,12 +615,16 @@ pub fn backward_euler(
     let kin = drive.at(model, y.t + h);
     let kin0 = drive.at(model, y.t);
     let (_, fq0) = derivatives(model, &kin0, y);
+    let mut qacc = [0.0; NQ];
+    for (q, f) in qacc.iter_mut().zip(fq0.iter()) {
+        *q = 0.5 * f;
+    }
     let st = implicit_stage(
-        model, &kin, y.contact, y.x, y.v, y.a, h, 0.0, 1e-14, &mut evals,
+        model, &kin, y.contact, y.x, y.v, y.a, h, 0.0, None, 1e-14, &mut evals, 0.5, &mut qacc,
     )?;
     let mut qn = y.q;
-    for (k, qk) in qn.iter_mut().enumerate() {
-        *qk += 0.5 * h * (fq0[k] + st.fq[k]);
+    for (qk, s) in qn.iter_mut().zip(qacc.iter()) {
+        *qk += h * s;
     }
     Ok(StepOut {
         y: State {

@@ -414,6 +414,88 @@ impl Model {
         }
     }
 
+    /// w(ȧ) and its slope dw/dȧ in closed form, for the laws that have one (Gent–Schultz,
+    /// constant); `None` for the others (their stages use the derivative-free root solve).
+    /// Gent–Schultz with f = (|ȧ|/v0)^n: peeling w = w0 (1 + f), dw/dȧ = −w0 n f/|ȧ|; healing
+    /// w = w0/(1 + f), dw/dȧ = −w0 n f/(|ȧ| (1 + f)²). At ȧ = 0 the slope is −∞ for n < 1 (the
+    /// kink of the law), −w0/v0 for n = 1, 0 for n > 1. One `powf` per call.
+    #[inline]
+    pub fn work_and_slope(&self, adot: f64) -> Option<(f64, f64)> {
+        match &self.law {
+            Law::Constant(_) => Some((self.w0, 0.0)),
+            Law::GentSchultz(gs) => {
+                let s = adot.abs();
+                if s == 0.0 {
+                    let slope = if gs.n < 1.0 {
+                        f64::NEG_INFINITY
+                    } else if gs.n > 1.0 {
+                        0.0
+                    } else {
+                        -gs.w0 / gs.v0
+                    };
+                    return Some((gs.w0, slope));
+                }
+                let f = (s / gs.v0).powf(gs.n);
+                let nf = gs.n * f / s;
+                if adot < 0.0 {
+                    Some((gs.w0 * (1.0 + f), -gs.w0 * nf))
+                } else {
+                    let d = 1.0 + f;
+                    Some((gs.w0 / d, -gs.w0 * nf / (d * d)))
+                }
+            }
+            _ => None,
+        }
+    }
+
+    /// True when [`Model::work_and_slope`] has a closed form for this law.
+    #[inline]
+    pub fn has_law_slope(&self) -> bool {
+        matches!(self.law, Law::Constant(_) | Law::GentSchultz(_))
+    }
+
+    /// Sphere position at a stage with contact radius a (in contact) and its derivative dx/da,
+    /// for the implicit stage's Newton iteration: the closed forms of [`Model::position`]
+    /// differentiated in a (Dynamic: through kc = 3Ka/2 and f0 = Ka³/(2R) in the linear stage
+    /// solve; QuasiStatic: x = n/d of the force balance; Rigid: x = x_k, dx/da = 0).
+    #[inline]
+    pub fn position_slope(
+        &self,
+        kin: &Kinematics,
+        a: f64,
+        xk_known: f64,
+        vk_known: f64,
+        hg: f64,
+    ) -> (f64, f64) {
+        let kk = self.mat.k;
+        let r = self.mat.r;
+        match self.mech {
+            Mechanics::Dynamic => {
+                let kc = 1.5 * kk * a;
+                let f0 = 0.5 * kk * a * a * a / r;
+                let (cv, cb) = self.damping_terms(true);
+                let b0 = -cb * kin.vb + self.k * kin.xk - kc * kin.xb + f0 + self.m * self.g;
+                let kt = self.k + kc;
+                let den = self.m + hg * cv + hg * hg * kt;
+                let num = self.m * vk_known + hg * (b0 - kt * xk_known);
+                let v = num / den;
+                let dkc = 1.5 * kk;
+                let dnum = hg * (-dkc * kin.xb + 1.5 * kk * a * a / r - dkc * xk_known);
+                let dv = (dnum - v * hg * hg * dkc) / den;
+                (xk_known + hg * v, hg * dv)
+            }
+            Mechanics::QuasiStatic => {
+                let kc = 1.5 * kk * a;
+                let n = self.k * kin.xk - kc * kin.xb + 0.5 * kk * a * a * a / r;
+                let d = self.k + kc;
+                let x = n / d;
+                let dn = -1.5 * kk * kin.xb + 1.5 * kk * a * a / r;
+                (x, (dn - x * 1.5 * kk) / d)
+            }
+            Mechanics::Rigid => (kin.xk, 0.0),
+        }
+    }
+
     /// Integrands of the quadrature states at one instant; `w` is w(ȧ) (already known).
     #[allow(clippy::too_many_arguments)]
     #[inline]

@@ -171,6 +171,11 @@ pub trait Observer {
         let _ = s;
         true
     }
+    /// Whether this observer uses time-series samples at all. The driver skips building them
+    /// (a sin/cos, G and w per sample) when it returns `false`; events and cycles still arrive.
+    fn wants_samples(&self) -> bool {
+        true
+    }
     /// A located event.
     fn event(&mut self, e: &Event) {
         let _ = e;
@@ -184,7 +189,11 @@ pub trait Observer {
 /// An observer that ignores everything.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct NoObserver;
-impl Observer for NoObserver {}
+impl Observer for NoObserver {
+    fn wants_samples(&self) -> bool {
+        false
+    }
+}
 
 /// An observer that keeps every sample and event in memory.
 #[derive(Debug, Default, Clone)]
