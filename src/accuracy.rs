@@ -759,14 +759,31 @@ pub fn fmt_time(s: f64) -> String {
     }
 }
 
-/// The work-precision figure: pull-off-relevant error against median wall time, log axes, one
-/// series per method (points in tolerance order); the reference uncertainty as a dashed line.
-/// Errors below 1e-16 are drawn at 1e-16 (exact agreement).
-pub fn study_figure(st: &Study) -> Figure {
+/// Which error a work-precision figure shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Measure {
+    /// [`OutputErrors::pull_off_relevant`]: the largest of the pull-off and last-cycle errors.
+    PullOffRelevant,
+    /// [`OutputErrors::pull_off_force`] alone.
+    PullOffForce,
+}
+
+/// The work-precision figure: the chosen error against median wall time, log axes, one series
+/// per method (points in tolerance order); the reference uncertainty in the same measure as a
+/// dashed line. Errors below 1e-16 are drawn at 1e-16 (exact agreement).
+pub fn study_figure(st: &Study, measure: Measure) -> Figure {
+    let pick = |e: &OutputErrors| match measure {
+        Measure::PullOffRelevant => e.pull_off_relevant,
+        Measure::PullOffForce => e.pull_off_force,
+    };
+    let y_label = match measure {
+        Measure::PullOffRelevant => "max relative error: F_po, last-cycle ⟨F⟩, ⟨δ⟩, δ_A",
+        Measure::PullOffForce => "relative error of the pull-off force",
+    };
     let mut fig = Figure::new(
         format!("Work-precision: {}", short_name(&st.scene)),
         "wall time (s, median)",
-        "max relative error, pull-off relevant outputs",
+        y_label,
     )
     .with_log(true, true);
     let mut t_all = Vec::new();
@@ -776,13 +793,13 @@ pub fn study_figure(st: &Study) -> Figure {
         for r in st.rows.iter().filter(|r| r.method == name) {
             if let Ok(me) = &r.outcome {
                 x.push(me.wall_median_s);
-                y.push(me.errors.pull_off_relevant.max(1e-16));
+                y.push(pick(&me.errors).max(1e-16));
                 t_all.push(me.wall_median_s);
             }
         }
         fig = fig.with_series(Series::new(name, x, y, Style::LineMarkers).with_color(i));
     }
-    let u = st.reference_uncertainty();
+    let u = pick(&st.reference.check_errors);
     if u > 0.0 && !t_all.is_empty() {
         let lo = t_all.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = t_all.iter().copied().fold(0.0, f64::max);

@@ -161,7 +161,7 @@ fn study_of_quasi_static_jkr() {
     assert!(csv.contains(",failed,"));
     let table = study_table(&st);
     assert!(table.contains("failed: explicit Dopri5"));
-    let fig = study_figure(&st);
+    let fig = study_figure(&st, Measure::PullOffRelevant);
     assert!(fig.x_log && fig.y_log);
     assert_eq!(fig.series[0].x.len(), 2);
     assert!(fig.series[1].x.is_empty());
@@ -304,6 +304,7 @@ fn cli_writes_csv_table_and_plot() {
         "work_precision.md",
         "work_precision.png",
         "work_precision.svg",
+        "work_precision_pull_off.png",
     ] {
         assert!(out.join(f).exists(), "{f}");
     }

@@ -6,7 +6,7 @@
 use super::common::{positive_quantity, write_atomic};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::accuracy::{self, StudyConfig};
+use djkr::accuracy::{self, Measure, StudyConfig};
 use djkr::beta_fit::log_space;
 use djkr::error::ParamError;
 use djkr::plot;
@@ -120,11 +120,18 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         accuracy::study_csv(&study).as_bytes(),
     )?;
     write_atomic(&out.join("work_precision.md"), table.as_bytes())?;
-    let (png, svg) = plot::render(&accuracy::study_figure(&study), &out.join("work_precision"))?;
+    let (png, svg) = plot::render(
+        &accuracy::study_figure(&study, Measure::PullOffRelevant),
+        &out.join("work_precision"),
+    )?;
+    let (png2, svg2) = plot::render(
+        &accuracy::study_figure(&study, Measure::PullOffForce),
+        &out.join("work_precision_pull_off"),
+    )?;
     println!("{table}");
     print_written(
         &out,
-        &[png, svg],
+        &[png, svg, png2, svg2],
         &["work_precision.csv", "work_precision.md"],
     );
     Ok(())
