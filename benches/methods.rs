@@ -6,9 +6,11 @@
 //!   cargo bench --bench methods
 //!
 //! A method that cannot run a scene (an explicit method meeting G ≤ 0) is reported and skipped,
-//! not benchmarked. The 1 s / 400 Hz scene is run at rtol 1e-8 (the default) and at 2e-10, the
-//! loosest tolerance whose pull-off-relevant error is below 1e-6 in `djkr accuracy
-//! docs/accuracy/hold-400hz-1s.toml` (the target: 1e-6 in ≤ 10 ms).
+//! not benchmarked; so is one slower than 10 s (its wall-clock budget here). The 1 s / 400 Hz
+//! scene is run at rtol 1e-8 (the default) and at 4e-10, the loosest tolerance whose
+//! pull-off-relevant error is below 1e-6 for the implicit method (8.6e-7; auto 1.0e-6) in
+//! `djkr accuracy docs/accuracy/hold-400hz-1s.toml --tolerances 1e-9,4e-10,2e-10`
+//! (the target: 1e-6 in ≤ 10 ms).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::accuracy::method_name;
@@ -57,6 +59,8 @@ fn bench_scene(c: &mut Criterion, group: &str, base: &Scenario, rtols: &[f64]) {
             s.solver.method = m;
             s.solver.rtol = rtol;
             s.solver.atol = 0.01 * rtol;
+            // A run slower than 10 s (dop853 crawling) is reported and not benchmarked.
+            s.solver.max_wall_s = 10.0;
             let id = format!("{}/rtol{rtol:e}", method_name(m));
             if runs(&s, &format!("{group}/{id}")) {
                 g.bench_function(id, |b| {
@@ -79,7 +83,7 @@ fn bench(c: &mut Criterion) {
         c,
         "steady_1s_400Hz",
         &vibrating_hold(5e-6, 400.0, 1.0),
-        &[1e-8, 2e-10],
+        &[1e-8, 4e-10],
     );
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper-protocol-300hz.toml");
     match load_scenario(&path) {
