@@ -605,6 +605,7 @@ fn run_matrix(long: bool) -> Vec<String> {
     println!("| case | method | outcome | key numbers / message | wall (s) |");
     println!("|---|---|---|---|---|");
     let t0 = Instant::now();
+    let mut done: Vec<(String, &str, &str, String, f64)> = Vec::new();
     for case in &cases {
         let (out, wall) = run_case(case);
         let (word, text) = match &out {
@@ -612,6 +613,7 @@ fn run_matrix(long: bool) -> Vec<String> {
             Outcome::ClearError(m) => ("clear error", m.clone()),
             Outcome::Fail(m) => ("FAIL", m.clone()),
         };
+        done.push((case.name.clone(), case.method, word, text.clone(), wall));
         let short: String = text.chars().take(220).collect();
         println!(
             "| {} | {} | {} | {} | {:.3} |",
@@ -642,7 +644,88 @@ fn run_matrix(long: bool) -> Vec<String> {
         cases.len(),
         t0.elapsed().as_secs_f64()
     );
+    print_summary(&done);
     failures
+}
+
+/// The short reason of a clear error.
+fn reason(msg: &str) -> &'static str {
+    if msg.contains("G <= 0") {
+        "G ≤ 0"
+    } else if msg.contains("stiffness") {
+        "stiffness"
+    } else if msg.contains("rate-independent") {
+        "rate-indep. law"
+    } else if msg.contains("wall-clock budget") {
+        "wall budget"
+    } else if msg.contains("step budget") {
+        "step budget"
+    } else if msg.contains("damping is not supported") {
+        "unsupported setup"
+    } else if msg.contains("must") {
+        "invalid input"
+    } else {
+        "other"
+    }
+}
+
+/// One row per time-domain scene with the outcome of each method, and a line for the
+/// imposed-area cases: the condensed table of the README.
+fn print_summary(done: &[(String, &str, &str, String, f64)]) {
+    println!("\n| scene | auto | implicit | dopri5 | dop853 | auto: key numbers |");
+    println!("|---|---|---|---|---|---|");
+    let mut names: Vec<&str> = Vec::new();
+    for d in done.iter().filter(|d| d.1 != "imposed-area") {
+        if !names.contains(&d.0.as_str()) {
+            names.push(&d.0);
+        }
+    }
+    for name in names {
+        let cell_of = |m: &str| {
+            done.iter()
+                .find(|d| d.0 == name && d.1 == m)
+                .map_or("—".to_string(), |d| match d.2 {
+                    "ok" => format!("ok {:.3} s", d.4),
+                    "clear error" => format!("error: {}", reason(&d.3)),
+                    _ => "**FAIL**".to_string(),
+                })
+        };
+        let key = done
+            .iter()
+            .find(|d| d.0 == name && d.1 == "auto")
+            .map_or(String::new(), |d| {
+                if d.2 == "ok" {
+                    d.3.clone()
+                } else {
+                    d.3.chars().take(100).collect()
+                }
+            });
+        println!(
+            "| {} | {} | {} | {} | {} | {} |",
+            cell(name),
+            cell_of("auto"),
+            cell_of("implicit"),
+            cell_of("dopri5"),
+            cell_of("dop853"),
+            cell(&key)
+        );
+    }
+    let ia: Vec<_> = done.iter().filter(|d| d.1 == "imposed-area").collect();
+    let count = |w: &str| ia.iter().filter(|d| d.2 == w).count();
+    let wall = ia.iter().map(|d| d.4).fold(0.0, f64::max);
+    println!(
+        "\nImposed-area cases: {} — {} ok, {} clear errors ({}), {} failures; slowest {:.3} s.",
+        ia.len(),
+        count("ok"),
+        count("clear error"),
+        ia.iter()
+            .filter(|d| d.2 == "clear error")
+            .map(|d| cell(&d.0))
+            .collect::<Vec<_>>()
+            .join("; "),
+        count("FAIL"),
+        wall
+    );
 }
 
 #[test]
