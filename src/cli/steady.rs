@@ -38,10 +38,20 @@ pub struct SteadyArgs {
     method: MethodArg,
     /// Tolerance on the scaled once-per-cycle residual (x_s by the indentation amplitude, v_s by
     /// ω times it, a by the mean radius).
-    #[arg(long, default_value = "1e-8", value_name = "TOL")]
+    #[arg(
+        long,
+        default_value = "1e-8",
+        value_name = "TOL",
+        allow_hyphen_values = true
+    )]
     tol: String,
     /// Relative tolerance of the time integration (overrides the scenario's).
-    #[arg(long, default_value = "1e-10", value_name = "RTOL")]
+    #[arg(
+        long,
+        default_value = "1e-10",
+        value_name = "RTOL",
+        allow_hyphen_values = true
+    )]
     rtol: String,
     /// Cycle budget of time-stepping.
     #[arg(long, default_value = "20000", value_name = "N")]
@@ -105,13 +115,13 @@ pub struct ResonanceArgs {
     /// Scenario file (mechanics, contact, mean load, base amplitude; see `djkr validate`).
     file: PathBuf,
     /// Frequencies START:STOP:COUNT, evenly spaced, e.g. 300:500:101 or 300Hz:0.5kHz:41.
-    #[arg(long, value_name = "START:STOP:N")]
+    #[arg(long, value_name = "START:STOP:N", allow_hyphen_values = true)]
     freq: String,
     /// Sweep direction.
     #[arg(long, value_enum, default_value = "both")]
     sweep: SweepArg,
     /// Base amplitude X_b [default: the scenario's]. Units: m, mm, um, nm.
-    #[arg(long, value_name = "X_B")]
+    #[arg(long, value_name = "X_B", allow_hyphen_values = true)]
     amp: Option<String>,
     /// Output directory for resonance.csv, resonance.h5 and the plots [default:
     /// out/<scenario name>-resonance].
@@ -133,10 +143,10 @@ pub struct ShortcutMapArgs {
     /// Scenario file (mechanics, contact, mean load; see `djkr validate`).
     file: PathBuf,
     /// Frequencies START:STOP:COUNT, evenly spaced.
-    #[arg(long, value_name = "START:STOP:N")]
+    #[arg(long, value_name = "START:STOP:N", allow_hyphen_values = true)]
     freq: String,
     /// Base amplitudes START:STOP:COUNT, log-spaced, e.g. 0.05um:2um:9.
-    #[arg(long, value_name = "START:STOP:N")]
+    #[arg(long, value_name = "START:STOP:N", allow_hyphen_values = true)]
     amp: String,
     /// Output directory for shortcut-map.csv, .h5 and the maps [default:
     /// out/<scenario name>-shortcut-map].

@@ -495,30 +495,82 @@ impl Problem {
                 Some(e) => e,
                 None => SteadyError::Setup(format!("shooting failed: {}", f.reason)),
             }),
-            Strategy::Auto => match self.shoot(start, opts) {
-                Ok(s) => Ok(s),
-                Err(f) => {
-                    if let Some(SteadyError::Setup(_)) = f.error {
-                        return Err(f.error.unwrap_or(SteadyError::Setup(f.reason)));
-                    }
-                    let from = f.last.map(|s| s.initial()).unwrap_or(*start);
-                    self.time_step(&from, opts, f.cycles, &f.reason)
-                }
-            },
+            Strategy::Auto => self.hybrid(start, opts),
         }
+    }
+
+    /// Shooting, and when it fails, time-stepping in chunks of 64, 128, … (at most 4096)
+    /// periods, each followed by a new shooting attempt from where the chunk ended, until one of
+    /// them converges or `max_cycles` periods are spent. A transient far from the orbit (a jump
+    /// off the end of a branch in a sweep) is thus integrated only until Newton can take over,
+    /// instead of through the slow creep of the mean contact radius.
+    fn hybrid(&self, start: &Initial, opts: &Options) -> Result<Steady, SteadyError> {
+        let t0 = Instant::now();
+        let mut spent = 0u64;
+        let mut from = *start;
+        let mut chunk = 64u64;
+        let mut reason;
+        let (mut d, mut est) = (f64::NAN, f64::NAN);
+        loop {
+            match self.shoot(&from, opts) {
+                Ok(mut s) => {
+                    s.cycles += spent;
+                    s.wall_s = t0.elapsed().as_secs_f64();
+                    return Ok(s);
+                }
+                Err(f) => {
+                    if let Some(e @ SteadyError::Setup(_)) = f.error {
+                        return Err(e);
+                    }
+                    spent += f.cycles;
+                    reason = f.reason;
+                    if let Some(l) = f.last {
+                        from = l.initial();
+                    }
+                }
+            }
+            if spent >= opts.max_cycles {
+                break;
+            }
+            let n = chunk.min(opts.max_cycles - spent);
+            let run = self.stroboscopic(&from, opts, n)?;
+            spent += run.cycles;
+            if let Some(mut s) = run.steady {
+                s.cycles = spent;
+                s.wall_s = t0.elapsed().as_secs_f64();
+                return Ok(s);
+            }
+            if let Some(l) = run.last {
+                from = l.initial();
+            }
+            (d, est) = (run.residual, run.estimate);
+            if spent >= opts.max_cycles {
+                break;
+            }
+            chunk = (2 * chunk).min(4096);
+        }
+        Err(SteadyError::NotConverged {
+            cycles: spent,
+            residual: d,
+            estimate: est,
+            tol: opts.tol,
+            reason: format!("; shooting failed last with: {reason}"),
+        })
     }
 
     /// Newton on the one-cycle map (module doc). On failure returns why, the periods spent and
     /// the last state reached (a better start for time-stepping than the original one).
-    pub fn shoot(&self, start: &Initial, opts: &Options) -> Result<Steady, ShootFailure> {
+    pub fn shoot(&self, start: &Initial, opts: &Options) -> Result<Steady, Box<ShootFailure>> {
         opts.validate().map_err(ShootFailure::setup)?;
         let t0 = Instant::now();
         let mut spent = 0u64;
-        let fail = |reason: String, spent: u64, last: Option<OrbitState>| ShootFailure {
-            reason,
-            cycles: spent,
-            last,
-            error: None,
+        let fail = |reason: String, spent: u64, last: Option<OrbitState>| {
+            Box::new(ShootFailure {
+                reason,
+                cycles: spent,
+                last,
+                error: None,
+            })
         };
         // One period from the given start: its end is the first Newton iterate.
         let mut y = match *start {
@@ -563,6 +615,8 @@ impl Problem {
             idx.iter().map(|&i| (pv[i] - v[i]) / sc[i]).collect()
         };
         let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        // The Jacobian of P − I of the latest Newton iteration (scaled units).
+        let mut jac: Option<Vec<Vec<f64>>> = None;
         for iter in 0..=opts.max_newton {
             if let Some(why) = rough(&py) {
                 return Err(fail(why, spent, Some(y)));
@@ -575,31 +629,45 @@ impl Problem {
             if !res.is_finite() {
                 return Err(fail("non-finite residual".into(), spent, Some(y)));
             }
-            if res < opts.tol || idx.is_empty() {
-                return Ok(Steady {
-                    method: SteadyMethod::Shooting,
-                    frequency: self.frequency,
-                    amplitude: self.amplitude,
-                    state: y,
-                    cycle,
-                    residual: res,
-                    distance: res,
-                    cycles: spent,
-                    newton_iterations: iter,
-                    contact_lost: false,
-                    wall_s: t0.elapsed().as_secs_f64(),
-                    scales: sc,
-                });
+            let done = |dist: f64, spent: u64| Steady {
+                method: SteadyMethod::Shooting,
+                frequency: self.frequency,
+                amplitude: self.amplitude,
+                state: y,
+                cycle,
+                residual: res,
+                distance: dist,
+                cycles: spent,
+                newton_iterations: iter,
+                contact_lost: false,
+                wall_s: t0.elapsed().as_secs_f64(),
+                scales: sc,
+            };
+            if idx.is_empty() {
+                return Ok(done(res, spent));
+            }
+            // Distance to the fixed point: the (simplified) Newton correction −(J − I)⁻¹ r,
+            // which near a slow direction of the map (ρ → 1) is much larger than the residual.
+            let neg: Vec<f64> = r.iter().map(|x| -x).collect();
+            if res < opts.tol {
+                if let Some(dist) = jac
+                    .clone()
+                    .and_then(|m| solve_dense(m, neg.clone()))
+                    .map(|d| norm(&d))
+                {
+                    if dist < opts.tol {
+                        return Ok(done(dist, spent));
+                    }
+                }
             }
             if iter == opts.max_newton {
                 break;
             }
             // Jacobian of P − I by forward differences, in scaled units.
             let n = idx.len();
-            let mut jac = vec![vec![0.0; n]; n];
+            let mut m = vec![vec![0.0; n]; n];
             for (col, &j) in idx.iter().enumerate() {
                 let mut v = y.vector();
-                // Step towards the contact's interior for the radius.
                 v[j] += opts.fd_step * sc[j];
                 let Some(yj) = self.consistent(v[0], v[1], v[2], y.x_k) else {
                     return Err(fail("perturbed state inconsistent".into(), spent, Some(y)));
@@ -614,17 +682,25 @@ impl Problem {
                 let rj = residual(&yj, &pj.final_state);
                 let h = (yj.vector()[j] - y.vector()[j]) / sc[j];
                 for row in 0..n {
-                    jac[row][col] = (rj[row] - r[row]) / h;
+                    m[row][col] = (rj[row] - r[row]) / h;
                 }
             }
-            let rhs: Vec<f64> = r.iter().map(|x| -x).collect();
-            let Some(step) = solve_dense(jac, rhs) else {
+            jac = Some(m.clone());
+            let Some(step) = solve_dense(m.clone(), neg) else {
                 return Err(fail("singular shooting Jacobian".into(), spent, Some(y)));
             };
-            // Damped step: halve until the residual decreases.
+            let step_norm = norm(&step);
+            if res < opts.tol && step_norm < opts.tol {
+                return Ok(done(step_norm, spent));
+            }
+            // Damped step with Deuflhard's natural monotonicity test: accept when the
+            // simplified correction at the trial point, −(J − I)⁻¹ r(y_new) with the same J, is
+            // smaller than the step, ‖Δ̄‖ ≤ (1 − λ/4)‖Δ‖. Unlike a residual test it is affine
+            // invariant, so it accepts the long steps along the map's slow direction (the
+            // creeping contact radius) that a residual test refuses.
             let mut lambda = 1.0;
             let mut accepted = None;
-            for _ in 0..6 {
+            for _ in 0..8 {
                 let mut v = y.vector();
                 for (k, &j) in idx.iter().enumerate() {
                     v[j] += lambda * step[k] * sc[j];
@@ -638,8 +714,15 @@ impl Problem {
                         .map_once(&yn.initial(), opts.rtol)
                         .map_err(|e| ShootFailure::sim(e, spent + 1))?;
                     spent += 1;
-                    let rn = norm(&residual(&yn, &pn.final_state));
-                    if rough(&pn).is_none() && rn.is_finite() && rn < res {
+                    let rn = residual(&yn, &pn.final_state);
+                    let simplified = solve_dense(m.clone(), rn.iter().map(|x| -x).collect())
+                        .map(|d| norm(&d))
+                        .unwrap_or(f64::INFINITY);
+                    let ok = rough(&pn).is_none()
+                        && norm(&rn).is_finite()
+                        && (simplified <= (1.0 - 0.25 * lambda) * step_norm
+                            || norm(&rn) < opts.tol);
+                    if ok {
                         accepted = Some((yn, pn));
                         break;
                     }
@@ -676,8 +759,8 @@ impl Problem {
     }
 
     /// Time-stepping from `start` with stroboscopic detection (module doc). `spent` periods
-    /// already used (by a failed shooting attempt) are added to the count; `reason` says why
-    /// shooting was abandoned (for the error message).
+    /// already used elsewhere are added to the count; `reason` (why shooting was abandoned, if
+    /// it was) goes into the error message.
     pub fn time_step(
         &self,
         start: &Initial,
@@ -686,6 +769,37 @@ impl Problem {
         reason: &str,
     ) -> Result<Steady, SteadyError> {
         opts.validate()?;
+        let t0 = Instant::now();
+        let run = self.stroboscopic(start, opts, opts.max_cycles)?;
+        let cycles = spent + run.cycles;
+        match run.steady {
+            Some(mut s) => {
+                s.cycles = cycles;
+                s.wall_s = t0.elapsed().as_secs_f64();
+                Ok(s)
+            }
+            None => Err(SteadyError::NotConverged {
+                cycles,
+                residual: run.residual,
+                estimate: run.estimate,
+                tol: opts.tol,
+                reason: if reason.is_empty() {
+                    String::new()
+                } else {
+                    format!("; shooting was abandoned first: {reason}")
+                },
+            }),
+        }
+    }
+
+    /// At most `budget` periods of time-stepping from `start`, stopped as soon as the
+    /// stroboscopic test passes.
+    fn stroboscopic(
+        &self,
+        start: &Initial,
+        opts: &Options,
+        budget: u64,
+    ) -> Result<StrobeRun, SteadyError> {
         let t0 = Instant::now();
         let start_state = match *start {
             Initial::State {
@@ -715,48 +829,52 @@ impl Problem {
             done: None,
             history: Vec::new(),
         };
-        let r = self.run(start, opts.max_cycles, opts.rtol, &mut strobe)?;
-        let cycles = spent + r.cycles.len() as u64;
+        let r = self.run(start, budget.max(1), opts.rtol, &mut strobe)?;
+        let cycles = r.cycles.len() as u64;
         let (d, est) = strobe
             .history
             .last()
             .copied()
             .unwrap_or((f64::NAN, f64::NAN));
-        match strobe.done {
-            Some((state, cycle)) => {
-                let lost = r.events.iter().any(|e| {
-                    matches!(e.kind, EventKind::ContactLoss | EventKind::Impact)
-                        && e.time > cycle.t_start
-                        && e.time <= cycle.t_end
-                });
-                Ok(Steady {
-                    method: SteadyMethod::TimeStepping,
-                    frequency: self.frequency,
-                    amplitude: self.amplitude,
-                    state,
-                    cycle,
-                    residual: d,
-                    distance: est,
-                    cycles,
-                    newton_iterations: 0,
-                    contact_lost: lost,
-                    wall_s: t0.elapsed().as_secs_f64(),
-                    scales: strobe.scales.unwrap_or([f64::NAN; 3]),
-                })
-            }
-            None => Err(SteadyError::NotConverged {
-                cycles,
+        let steady = strobe.done.map(|(state, cycle)| {
+            let lost = r.events.iter().any(|e| {
+                matches!(e.kind, EventKind::ContactLoss | EventKind::Impact)
+                    && e.time > cycle.t_start
+                    && e.time <= cycle.t_end
+            });
+            Steady {
+                method: SteadyMethod::TimeStepping,
+                frequency: self.frequency,
+                amplitude: self.amplitude,
+                state,
+                cycle,
                 residual: d,
-                estimate: est,
-                tol: opts.tol,
-                reason: if reason.is_empty() {
-                    String::new()
-                } else {
-                    format!("; shooting was abandoned first: {reason}")
-                },
-            }),
-        }
+                distance: est,
+                cycles,
+                newton_iterations: 0,
+                contact_lost: lost,
+                wall_s: t0.elapsed().as_secs_f64(),
+                scales: strobe.scales.unwrap_or([f64::NAN; 3]),
+            }
+        });
+        Ok(StrobeRun {
+            steady,
+            last: strobe.prev,
+            cycles,
+            residual: d,
+            estimate: est,
+        })
     }
+}
+
+/// The outcome of a stroboscopic run.
+struct StrobeRun {
+    steady: Option<Steady>,
+    /// End state of the last full period.
+    last: Option<OrbitState>,
+    cycles: u64,
+    residual: f64,
+    estimate: f64,
 }
 
 /// Why shooting gave up.
@@ -773,21 +891,21 @@ pub struct ShootFailure {
 }
 
 impl ShootFailure {
-    fn setup(e: SteadyError) -> Self {
-        Self {
+    fn setup(e: SteadyError) -> Box<Self> {
+        Box::new(Self {
             reason: e.to_string(),
             cycles: 0,
             last: None,
             error: Some(e),
-        }
+        })
     }
-    fn sim(e: SimError, cycles: u64) -> Self {
-        Self {
+    fn sim(e: SimError, cycles: u64) -> Box<Self> {
+        Box::new(Self {
             reason: e.to_string(),
             cycles,
             last: None,
             error: Some(SteadyError::Sim(e)),
-        }
+        })
     }
 }
 
@@ -864,7 +982,8 @@ impl Observer for Strobe<'_> {
         let ok = (d.is_finite() && d < 0.01 * self.tol) || est < self.tol;
         self.passed = if ok { self.passed + 1 } else { 0 };
         if self.passed >= self.consecutive {
-            self.done = Some((cur, *c));
+            // The steady cycle and the state at its start (as shooting reports it).
+            self.done = Some((prev, *c));
         }
     }
 }
@@ -913,12 +1032,14 @@ fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
         }
         a.swap(col, p);
         b.swap(col, p);
-        for row in col + 1..n {
-            let f = a[row][col] / a[col][col];
-            for k in col..n {
-                a[row][k] -= f * a[col][k];
+        let (top, rest) = a.split_at_mut(col + 1);
+        let pivot = &top[col];
+        for (i, r) in rest.iter_mut().enumerate() {
+            let f = r[col] / pivot[col];
+            for (x, p) in r[col..].iter_mut().zip(&pivot[col..]) {
+                *x -= f * p;
             }
-            b[row] -= f * b[col];
+            b[col + 1 + i] -= f * b[col];
         }
     }
     let mut x = vec![0.0; n];
