@@ -240,16 +240,17 @@ pub fn peak_of(v: &[(f64, f64)]) -> Option<(f64, f64)> {
         return Some(v[i]);
     }
     let ((x0, y0), (x1, y1), (x2, y2)) = (v[i - 1], v[i], v[i + 1]);
-    // Vertex of the parabola through three points.
-    let d = (x0 - x1) * (x0 - x2) * (x1 - x2);
-    let a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / d;
-    let b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / d;
-    let c = (x1 * x2 * (x1 - x2) * y0 + x2 * x0 * (x2 - x0) * y1 + x0 * x1 * (x0 - x1) * y2) / d;
-    if a.is_nan() || a >= 0.0 {
+    // y = y1 + p t + q t² in t = x − x1 (local coordinates: no cancellation).
+    let (h0, h2) = (x0 - x1, x2 - x1);
+    let (d0, d2) = (y0 - y1, y2 - y1);
+    let det = h0 * h2 * (h2 - h0);
+    let p = (d0 * h2 * h2 - d2 * h0 * h0) / det;
+    let q = (d2 * h0 - d0 * h2) / det;
+    if q.is_nan() || q >= 0.0 {
         return Some(v[i]);
     }
-    let xv = -b / (2.0 * a);
-    let yv = c - b * b / (4.0 * a);
+    let xv = x1 - p / (2.0 * q);
+    let yv = y1 - p * p / (4.0 * q);
     if xv.is_finite() && yv.is_finite() && xv > x0 && xv < x2 {
         Some((xv, yv))
     } else {
