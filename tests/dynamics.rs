@@ -840,42 +840,50 @@ fn work_precision_1s_400hz() {
         let c = r.cycles.last().expect("cycles");
         (c.force_mean, c.delta_sin.hypot(c.delta_cos), c.a_mean)
     };
-    let mut s = djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
-    s.solver.method = Method::Implicit;
-    s.solver.rtol = 1e-12;
-    let t = std::time::Instant::now();
-    let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
-    let (f0, d0, a0) = outs(&r);
-    println!(
-        "reference implicit 1e-12: F {f0:e} dA {d0:e} am {a0:e} {:?} {:.3} s",
-        r.stats,
-        t.elapsed().as_secs_f64()
-    );
-    for m in [
-        Method::Implicit,
-        Method::Dopri5,
-        Method::Dop853,
-        Method::Auto,
-    ] {
-        for rtol in [1e-4, 1e-6, 1e-8, 1e-10] {
-            s.solver.method = m;
-            s.solver.rtol = rtol;
-            let t = std::time::Instant::now();
-            match simulate(&s, &mut djkr::dynamics::NoObserver) {
-                Ok(r) => {
-                    let (f, d, a) = outs(&r);
-                    println!(
-                        "{m:?} rtol {rtol:e}: errF {:.2e} errdA {:.2e} erram {:.2e} steps {} rej {} rhs {} wall {:.4} s",
-                        ((f - f0) / f0).abs(),
-                        ((d - d0) / d0).abs(),
-                        ((a - a0) / a0).abs(),
-                        r.stats.steps,
-                        r.stats.rejected,
-                        r.stats.rhs_evals,
-                        t.elapsed().as_secs_f64()
-                    );
+    for xb in [5e-6, 1e-6] {
+        let mut s = djkr::dynamics::catalogue::vibrating_hold(xb, 400.0, 1.0);
+        s.solver.method = Method::Implicit;
+        s.solver.rtol = 1e-12;
+        let t = std::time::Instant::now();
+        let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+        let (f0, d0, a0) = outs(&r);
+        println!(
+            "X_b {xb:e}: reference implicit 1e-12: F {f0:e} dA {d0:e} am {a0:e} {:?} {:.3} s",
+            r.stats,
+            t.elapsed().as_secs_f64()
+        );
+        for m in [
+            Method::Implicit,
+            Method::Dopri5,
+            Method::Dop853,
+            Method::Auto,
+        ] {
+            for rtol in [1e-4, 1e-6, 1e-8, 1e-10] {
+                s.solver.method = m;
+                s.solver.rtol = rtol;
+                let t = std::time::Instant::now();
+                match simulate(&s, &mut djkr::dynamics::NoObserver) {
+                    Ok(r) => {
+                        let (f, d, a) = outs(&r);
+                        println!(
+                            "X_b {xb:e} {m:?} rtol {rtol:e}: errF {:.2e} errdA {:.2e} erram {:.2e} steps {} rej {} rhs {} wall {:.4} s",
+                            ((f - f0) / f0).abs(),
+                            ((d - d0) / d0).abs(),
+                            ((a - a0) / a0).abs(),
+                            r.stats.steps,
+                            r.stats.rejected,
+                            r.stats.rhs_evals,
+                            t.elapsed().as_secs_f64()
+                        );
+                    }
+                    Err(e) => {
+                        let e = e.to_string();
+                        println!(
+                            "X_b {xb:e} {m:?} rtol {rtol:e}: fails: {}",
+                            &e[..e.len().min(120)]
+                        );
+                    }
                 }
-                Err(e) => println!("{m:?} rtol {rtol:e}: error {e}"),
             }
         }
     }
@@ -899,4 +907,91 @@ fn probe_min_wall() {
         }
         println!("{m:?}: min wall {:.2} ms {:?}", best * 1e3, stats);
     }
+}
+
+/// Method comparison per scene type (min wall over repeats; basis of the `auto` rule).
+/// Opt-in: `cargo test --release --test dynamics probe_methods_by_scene -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn probe_methods_by_scene() {
+    let mut scenes: Vec<(&str, Scenario)> = vec![];
+    let mut s = scene();
+    s.law = gs();
+    s.holder = Holder::Rigid;
+    s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
+    scenes.push(("gs_rigid_unload_0.1um_s", s));
+    let mut s = djkr::dynamics::catalogue::paper_protocol(1e-3);
+    s.base = None;
+    scenes.push(("protocol_no_shaker_1mm_s", s));
+    scenes.push((
+        "protocol_1mm_s",
+        djkr::dynamics::catalogue::paper_protocol(1e-3),
+    ));
+    scenes.push((
+        "vibrating_hold_1um_400hz_0.2s",
+        djkr::dynamics::catalogue::vibrating_hold(1e-6, 400.0, 0.2),
+    ));
+    scenes.push((
+        "vibrating_hold_5um_400hz_0.2s",
+        djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 0.2),
+    ));
+    if let Ok(s) = djkr::scenario::parse::load_scenario(std::path::Path::new(
+        "scenarios/paper-protocol-300hz.toml",
+    )) {
+        scenes.push(("paper-protocol-300hz.toml", s));
+    }
+    for (name, s0) in &scenes {
+        for m in [
+            Method::Implicit,
+            Method::Dopri5,
+            Method::Dop853,
+            Method::Auto,
+        ] {
+            let mut s = s0.clone();
+            s.solver.method = m;
+            let mut best = f64::INFINITY;
+            let mut last = None;
+            for _ in 0..3 {
+                let t = std::time::Instant::now();
+                let r = simulate(&s, &mut djkr::dynamics::NoObserver);
+                best = best.min(t.elapsed().as_secs_f64());
+                last = Some(r);
+            }
+            match last.unwrap() {
+                Ok(r) => println!(
+                    "{name} {m:?}: {:.2} ms steps {} rhs {} pull-off {:.6e}",
+                    best * 1e3,
+                    r.stats.steps,
+                    r.stats.rhs_evals,
+                    r.pull_off.force
+                ),
+                Err(e) => println!("{name} {m:?}: fails: {}", &e.to_string()[..100]),
+            }
+        }
+    }
+}
+
+/// `auto` takes the implicit method for scenes without inertia (rigid link) and Dopri5 for a
+/// sphere with mass and no vibration, and both give the same GS pull-off as the other method.
+#[test]
+fn auto_rule_by_scene() {
+    let mut s = scene();
+    s.law = gs();
+    s.holder = Holder::Rigid;
+    s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
+    s.solver.method = Method::Auto;
+    let (r, _) = run(&s);
+    assert!(r.method.starts_with("implicit"), "{}", r.method);
+    s.solver.method = Method::Dopri5;
+    let (rd, _) = run(&s);
+    let rel = (r.pull_off.force - rd.pull_off.force).abs() / rd.pull_off.force.abs();
+    assert!(rel < 1e-7, "implicit vs Dopri5 pull-off: {rel:e}");
+
+    let mut s = scene();
+    s.law = gs();
+    s.stages = vec![stage(StageKind::Unload, 1e-4, Until::PullOff, None)];
+    s.solver.method = Method::Auto;
+    let (r, _) = run(&s);
+    assert!(r.method.starts_with("explicit Dopri5"), "{}", r.method);
+    assert!(r.detached);
 }

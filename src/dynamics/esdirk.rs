@@ -260,7 +260,7 @@ fn newton_radius<F: FnMut(f64) -> (f64, f64, f64, f64)>(
     for _ in 0..12 {
         let (r, d, a, dadp) = rho_d(p);
         *evals += 1;
-        if !r.is_finite() || !(d > 0.0) || !d.is_finite() {
+        if !r.is_finite() || d.is_nan() || d <= 0.0 || !d.is_finite() {
             return None;
         }
         if r == 0.0 {
@@ -387,7 +387,7 @@ fn implicit_stage(
                         (0.0, 0.0)
                     };
                     let a = ck + v0h * pw.copysign(z);
-                    if !(a > 0.0) {
+                    if a.is_nan() || a <= 0.0 {
                         return (f64::NAN, f64::NAN, a, da);
                     }
                     let (g, dg) = g_d(a);
@@ -410,7 +410,7 @@ fn implicit_stage(
             }
             _ if model.has_law_slope() => {
                 let rho_d = |a: f64| {
-                    if !(a > 0.0) {
+                    if a.is_nan() || a <= 0.0 {
                         return (f64::NAN, f64::NAN, a, 1.0);
                     }
                     let ad = (a - ck) * inv_hg;
@@ -645,6 +645,83 @@ pub fn backward_euler(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The Newton stage solve (in z for GS n < 1, in a for GS n ≥ 1 and constant w) lands on the
+    /// same root as the derivative-free bracketing solve (Brent to 8 ε) of the plain residual
+    /// ρ(a) = (G_s − w(ȧ))/w0, over peeling, healing near G → 0, and stages at the turning point.
+    #[test]
+    fn newton_stage_matches_bracketing_solve() {
+        use crate::adhesion::{ConstantW, GentSchultz};
+        use crate::dynamics::model::{resolve, Drive};
+        let base = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
+        let laws = [
+            Law::GentSchultz(GentSchultz::PAPER),
+            Law::GentSchultz(GentSchultz {
+                n: 1.5,
+                ..GentSchultz::PAPER
+            }),
+            Law::Constant(ConstantW { w0: 0.24 }),
+        ];
+        let drive = Drive {
+            xk0: 0.0,
+            tk0: 0.0,
+            xk_speed: 0.0,
+            shaker: true,
+            t_on: 0.0,
+        };
+        let mut checked = 0;
+        for law in laws {
+            let mut sc = base.clone();
+            sc.law = law;
+            let model = match resolve(&sc) {
+                Ok(m) => m,
+                Err(e) => panic!("{e}"),
+            };
+            let a0 = 1.2e-3;
+            let d_eq = jkr::equilibrium_indentation(&model.mat, a0, model.w0);
+            for &t in &[1e-4, 7e-4] {
+                let kin = drive.at(&model, t);
+                for &dd in &[-3e-7, -1e-8, 0.0, 1e-9, 1e-8, 3e-7, 2e-6] {
+                    for &hg in &[2.5e-7, 5e-6] {
+                        for &guess in &[0.0, 1e-4, -1e-3] {
+                            let xk = d_eq + dd - kin.xb;
+                            let mut ev = 0;
+                            let mut q = [0.0; NQ];
+                            let st = implicit_stage(
+                                &model, &kin, true, xk, 0.0, a0, hg, guess, None, 1e-12, &mut ev,
+                                0.0, &mut q,
+                            );
+                            let rho = |a: f64| {
+                                if a <= 0.0 {
+                                    return f64::NAN;
+                                }
+                                let ad = (a - a0) / hg;
+                                let (x, _) = model.position(&kin, a, ad, true, xk, 0.0, hg);
+                                let g = jkr::signed_energy_release_rate(&model.mat, a, x + kin.xb);
+                                (g - model.work_of_adhesion(ad)) / model.w0
+                            };
+                            let a_p = a0 + hg * guess;
+                            let reference = solve_radius(rho, a_p, 1e-9 * a_p, 1e-15, &mut ev);
+                            match (st, reference) {
+                                (Ok(st), Some(ar)) => {
+                                    assert!(
+                                        (st.a - ar).abs() <= 1e-11 * ar,
+                                        "{:?} dd {dd:e} hg {hg:e}: {} vs {ar}",
+                                        sc.law,
+                                        st.a
+                                    );
+                                    checked += 1;
+                                }
+                                (Err(StepFail::NoRoot), None) => {}
+                                (a, b) => panic!("dd {dd:e} hg {hg:e}: {a:?} vs {b:?}"),
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 200, "{checked}");
+    }
 
     #[test]
     fn order_conditions() {
