@@ -13,7 +13,7 @@
 //! (the target: 1e-6 in ≤ 10 ms).
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::accuracy::method_name;
+use djkr::accuracy::{method_label, method_name};
 use djkr::dynamics::catalogue::vibrating_hold;
 use djkr::dynamics::{simulate, NoObserver};
 use djkr::scenario::parse::load_scenario;
@@ -33,10 +33,10 @@ fn runs(s: &Scenario, label: &str) -> bool {
     match simulate(s, &mut NoObserver) {
         Ok(r) => {
             eprintln!(
-                "{label}: {} steps, {} rhs, method {}",
+                "{label}: {} steps, {} rhs, ran {}",
                 r.stats.steps,
                 r.stats.rhs_evals,
-                r.method.split(';').next().unwrap_or("")
+                method_label(method_name(s.solver.method), &r.method)
             );
             true
         }
