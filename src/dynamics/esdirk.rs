@@ -252,6 +252,7 @@ fn newton_radius<F: FnMut(f64) -> (f64, f64, f64, f64)>(
     p_floor: f64,
     xtol_rel: f64,
     evals: &mut u64,
+    k_hint: &mut f64,
 ) -> Option<(f64, f64)> {
     let mut p = p0;
     let (mut lo, mut hi) = (f64::NEG_INFINITY, f64::INFINITY);
@@ -281,7 +282,13 @@ fn newton_radius<F: FnMut(f64) -> (f64, f64, f64, f64)>(
         // Converged when this step is below tolerance, or when the measured quadratic
         // contraction K = |Δ_k|/|Δ_{k−1}|² says the error left after it, K Δ_k², is.
         let contraction = if step_prev.is_finite() {
-            step / (step_prev * step_prev)
+            let k = step / (step_prev * step_prev);
+            *k_hint = k;
+            k
+        } else if k_hint.is_finite() {
+            // First step: the contraction measured on the previous stage of this step, with a
+            // safety factor of 4.
+            4.0 * *k_hint
         } else {
             f64::INFINITY
         };
@@ -346,6 +353,7 @@ fn implicit_stage(
     evals: &mut u64,
     wq: f64,
     qacc: &mut [f64; NQ],
+    k_hint: &mut f64,
 ) -> Result<Stage, StepFail> {
     let mut z_out = f64::NAN;
     let (a, adot, w_known) = if contact {
@@ -406,7 +414,7 @@ fn implicit_stage(
                         (ad_p.abs() / gs.v0).powf(gs.n).copysign(ad_p)
                     }
                 };
-                newton_radius(rho_z, z_p, 1.0, xtol_rel, evals)
+                newton_radius(rho_z, z_p, 1.0, xtol_rel, evals, k_hint)
             }
             _ if model.has_law_slope() => {
                 let rho_d = |a: f64| {
@@ -418,7 +426,7 @@ fn implicit_stage(
                     let (w, dw) = model.work_and_slope(ad).unwrap_or((w0, 0.0));
                     ((g - w) / w0, (dg - dw * inv_hg) / w0, a, 1.0)
                 };
-                newton_radius(rho_d, a_p, 0.0, xtol_rel, evals).map(|(_, a)| (f64::NAN, a))
+                newton_radius(rho_d, a_p, 0.0, xtol_rel, evals, k_hint).map(|(_, a)| (f64::NAN, a))
             }
             _ => None,
         };
@@ -509,6 +517,7 @@ pub fn step(
     }; S];
     let hg = h * GAMMA;
     let xtol = (1e-2 * tol.rtol).max(1e-14);
+    let mut k_hint = f64::NAN;
     for i in 1..S {
         let t = y.t + C[i] * h;
         let kin = drive.at(model, t);
@@ -553,6 +562,7 @@ pub fn step(
             &mut evals,
             B[i],
             &mut qacc,
+            &mut k_hint,
         )?;
     }
     let last = st[S - 1];
@@ -619,8 +629,22 @@ pub fn backward_euler(
     for (q, f) in qacc.iter_mut().zip(fq0.iter()) {
         *q = 0.5 * f;
     }
+    let mut no_hint = f64::NAN;
     let st = implicit_stage(
-        model, &kin, y.contact, y.x, y.v, y.a, h, 0.0, None, 1e-14, &mut evals, 0.5, &mut qacc,
+        model,
+        &kin,
+        y.contact,
+        y.x,
+        y.v,
+        y.a,
+        h,
+        0.0,
+        None,
+        1e-14,
+        &mut evals,
+        0.5,
+        &mut qacc,
+        &mut no_hint,
     )?;
     let mut qn = y.q;
     for (qk, s) in qn.iter_mut().zip(qacc.iter()) {
@@ -687,9 +711,22 @@ mod tests {
                             let xk = d_eq + dd - kin.xb;
                             let mut ev = 0;
                             let mut q = [0.0; NQ];
+                            let mut no_hint = f64::NAN;
                             let st = implicit_stage(
-                                &model, &kin, true, xk, 0.0, a0, hg, guess, None, 1e-12, &mut ev,
-                                0.0, &mut q,
+                                &model,
+                                &kin,
+                                true,
+                                xk,
+                                0.0,
+                                a0,
+                                hg,
+                                guess,
+                                None,
+                                1e-12,
+                                &mut ev,
+                                0.0,
+                                &mut q,
+                                &mut no_hint,
                             );
                             let rho = |a: f64| {
                                 if a <= 0.0 {

@@ -36,9 +36,11 @@
 //! points ȧ = 0 where ρ(a) has an infinite slope (Newton in a failed there on 3 % of stages;
 //! in z never). The predictor extrapolates z linearly over the previous stages (z is linear in
 //! time through a turning point, ȧ is not). Stop: Newton step below 10⁻² rtol, or the measured
-//! quadratic contraction K = |Δ_k|/|Δ_{k−1}|² predicting K Δ_k² below it; |z|^(1/n) as
-//! exp(ln|z|/n). Two residual evaluations per stage is the floor: a single Newton step per
-//! stage made the 1 s / 400 Hz outputs 100× less accurate. Fall-back for the other laws, a
+//! quadratic contraction K = |Δ_k|/|Δ_{k−1}|² predicting K Δ_k² below it; on a stage's first
+//! step, K is the one measured on the previous stage of the same step (× 4), so a good
+//! predictor is accepted after one residual. |z|^(1/n) as exp(ln|z|/n). (Accepting the first
+//! Newton step unconditionally made the 1 s / 400 Hz outputs 100× less accurate; the measured-K
+//! test leaves them unchanged to < 1 %.) Fall-back for the other laws, a
 //! non-monotone residual or no convergence in 12 iterations: the derivative-free secant /
 //! bracketing + Brent search (`roots`, [`crate::numerics::RelativeConvergency`]), which keeps
 //! every former guarantee (a root with a > 0 or [`esdirk::StepFail::NoRoot`]).
@@ -146,9 +148,9 @@
 //! - Cost (criterion medians, `cargo bench --bench dynamics`, 2 cores shared with other jobs at
 //!   load ≈ 3.5, so medians are inflated; the load-robust minimum of 15 runs is given too):
 //!   one stage residual with its derivative 35 ns; one 400 Hz cycle (87 steps) 0.20 ms;
-//!   1 s at 400 Hz, 5 µm, rtol 1e-8: implicit 65 ms median / 51 ms minimum (37 600 steps,
-//!   0.65 M rhs, 17.2 rhs per step; before the Newton stage solve 0.97 M rhs, 26 per step,
-//!   67–69 ms), so wall / (rhs × 35 ns) ≈ 2.3–2.9; `auto` the same after falling back (the
+//!   1 s at 400 Hz, 5 µm, rtol 1e-8: implicit RUNTIME (37 600 steps, 0.52 M rhs, 13.9 rhs per
+//!   step; before the Newton stage solve 0.97 M rhs, 26 per step, 67–69 ms), so wall /
+//!   (rhs × 35 ns) ≈ RATIO; `auto` the same after falling back (the
 //!   contact heals to G/w0 ≈ 0.01 each cycle, which no explicit method passes); the same hold at
 //!   1 µm: implicit 55 ms, Dopri5 42.5 ms, Dop853 2.3 s. Shipped
 //!   `scenarios/paper-protocol-300hz.toml`: implicit 549 ms, Dopri5 233 ms (`auto`), Dop853
@@ -168,21 +170,22 @@
 //!
 //!   | X_b, method | rtol 1e-4 | 1e-6 | 1e-8 | 1e-10 |
 //!   |---|---|---|---|---|
-//!   | 5 µm implicit | 5e-1, 1e-3, 7e-3 (71 k) | 1.6e-3, 3.3e-4, 1.8e-5 (216 k) | 2.5e-5, 5.0e-6, 1.2e-7 (648 k) | 2.1e-7, 4.1e-8, 9.1e-10 (1.59 M) |
+//!   | 5 µm implicit | 2e-1, 2e-2, 3e-3 (58 k) | 1.6e-3, 3.3e-4, 1.8e-5 (175 k) | 2.5e-5, 5.0e-6, 1.3e-7 (523 k) | 2.1e-7, 4.2e-8, 9.2e-10 (1.29 M) |
 //!   | 5 µm Dopri5 | fails (G ≤ 0) | fails | fails | fails |
 //!   | 5 µm Dop853 | fails | 2.3e-1, 1.2e-1, 5.1e-4 (1.8 M): **wrong** | fails | fails |
 //!   | 5 µm auto | = implicit after the fall-back | | | |
-//!   | 1 µm implicit | 1.4e-3, 3.1e-3, 9.7e-4 (61 k) | 7.4e-5, 2.0e-5, 1.4e-5 (163 k) | 6.4e-7, 2.4e-7, 1.3e-7 (491 k) | 7.1e-9, 2.4e-9, 1.1e-9 (1.13 M) |
+//!   | 1 µm implicit | 1.4e-3, 3.1e-3, 9.7e-4 (53 k) | 7.4e-5, 2.0e-5, 1.4e-5 (140 k) | 6.4e-7, 2.4e-7, 1.3e-7 (423 k) | 7.1e-9, 2.4e-9, 1.1e-9 (0.98 M) |
 //!   | 1 µm Dopri5 = auto | 1.2e-6, 1.3e-6, 5.0e-7 (83 k) | 1.1e-6, 1.2e-6, 4.7e-7 (96 k) | 4.3e-8, 5.6e-10, 2.1e-8 (180 k) | 1.1e-8, 1.1e-8, 2.3e-9 (281 k) |
 //!   | 1 µm Dop853 | 2.8e-3, … (176 k) | 1.5e-3, … (1.2 M) | 1.1e-4, … (11.4 M) | fails (stiffness) |
 //!
 //!   The ⟨F⟩ of the 5 µm hold is a small difference of large excursions (⟨F⟩ = 26 mN, F swings
 //!   ±0.5 N), so its relative error is ~20× that of the state. 1e-6 in all three outputs costs
-//!   the implicit method rtol ≈ 3e-10 (~1.3 M rhs, ~100 ms) on the 5 µm hold; on the 1 µm hold
+//!   the implicit method rtol ≈ 3e-10 (~1.1 M rhs, ~80 ms) on the 5 µm hold; on the 1 µm hold
 //!   Dopri5 reaches it at rtol 1e-4 (83 k rhs). Dopri5's errors level off near 1e-8 because
 //!   its quadrature states carry a loose weight (1e-6) in its error norm.
-//! - Stage solves (rtol 1e-8): Newton in z stops after 2 residuals on 94 %, 3 on 4 %, 4 on 3 %
-//!   of the stages and never needs the fall-back on this scene (Newton in a needed it on 3 % of the stages, all
+//! - Stage solves (rtol 1e-8, before the first-step contraction hint): Newton in z stopped
+//!   after 2 residuals on 94 %, 3 on 4 %, 4 on 3 % of the stages and never needed the
+//!   fall-back on this scene (Newton in a needed it on 3 % of the stages, all
 //!   at turning points). A PI step controller (β = 0.04, 0.08, 0.12) gave rejections 1266, 592,
 //!   14 instead of 1804 at rtol 1e-8, but 4 %, 15 %, 75 % more steps, at an unchanged error per
 //!   rhs evaluation: not adopted.
