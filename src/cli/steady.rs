@@ -183,6 +183,12 @@ fn range(flag: &str, text: &str, dim: Dimension) -> Result<(f64, f64, usize)> {
     Ok((lo, hi, n))
 }
 
+fn stem(file: &Path) -> String {
+    file.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scenario".into())
+}
+
 fn default_out(file: &Path, suffix: &str) -> PathBuf {
     let stem = file
         .file_stem()
@@ -815,16 +821,16 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     // Plots: magnitude and phase.
     let mut fig = Figure::new(
         format!(
-            "{}: frequency response, X_b = {:.3} µm",
-            scn.source_name,
-            problem.amplitude * 1e6
+            "frequency response, X_b = {:.3} µm ({})",
+            problem.amplitude * 1e6,
+            stem(&a.file)
         ),
         "frequency f (Hz)",
         "|δ_A / X_b|",
     )
     .with_legend(LegendPosition::UpperRight);
     let mut phase = Figure::new(
-        format!("{}: phase of δ_1", scn.source_name),
+        format!("phase of δ_1 ({})", stem(&a.file)),
         "frequency f (Hz)",
         "phase φ (rad), δ − δ_m ≈ |δ_1| sin(ωt + φ)",
     )
@@ -1182,17 +1188,26 @@ fn map_columns(m: &ShortcutMap) -> Vec<Column> {
 }
 
 fn heatmap(m: &ShortcutMap, title: String, z: Vec<f64>, log_amp: bool) -> Heatmap {
+    let z: Vec<f64> = z.iter().map(|v| v.abs()).collect();
+    let valid = z.iter().copied().filter(|v| v.is_finite() && *v > 0.0);
+    let (lo, hi) = valid.fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
+    // A logarithmic colour scale only when the errors span more than a decade.
+    let z_log = hi > 10.0 * lo;
     Heatmap {
         title,
         x_label: "base frequency f (Hz)".into(),
         y_label: "base amplitude X_b (µm)".into(),
-        z_label: "|relative error| (log10 colour)".into(),
+        z_label: if z_log {
+            "|relative error| (log colour scale)".into()
+        } else {
+            "|relative error|".into()
+        },
         x: m.frequencies.clone(),
         y: m.amplitudes.iter().map(|x| x * 1e6).collect(),
-        z: z.iter().map(|v| v.abs()).collect(),
+        z,
         x_log: false,
         y_log: log_amp,
-        z_log: true,
+        z_log,
         z_range: None,
         size: (1000, 700),
     }
@@ -1251,6 +1266,11 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
         )?,
     )?;
     let log_amp = na > 1 && ahi / alo > 4.0;
+    let name = a
+        .file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let (fp, fs) = plot::render_heatmap(
         &heatmap(
             &m,
@@ -1266,7 +1286,7 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     let (dp, ds) = plot::render_heatmap(
         &heatmap(
             &m,
-            format!("{}: imposed-area error in δ_A", scn.source_name),
+            format!("imposed-area error in δ_A ({name})"),
             m.field(|c| c.delta_amp_error),
             log_amp,
         ),

@@ -233,13 +233,19 @@ pub fn peak(points: &[SweepPoint]) -> Option<(f64, f64)> {
 }
 
 /// Peak of sampled (x, y) data sorted by x, refined by a parabola through the maximum and its
-/// neighbours when it is interior.
+/// neighbours when it is interior and both neighbours exceed half the maximum (otherwise, e.g.
+/// at the jump of a folded resonance curve, the highest sample itself).
 pub fn peak_of(v: &[(f64, f64)]) -> Option<(f64, f64)> {
     let i = (0..v.len()).max_by(|&i, &j| v[i].1.total_cmp(&v[j].1))?;
     if i == 0 || i + 1 == v.len() {
         return Some(v[i]);
     }
     let ((x0, y0), (x1, y1), (x2, y2)) = (v[i - 1], v[i], v[i + 1]);
+    // A jump (the end of a branch of a nonlinear resonance) next to the maximum is no smooth
+    // peak: refine only when both neighbours are above half the maximum.
+    if y0.is_nan() || y2.is_nan() || y0 < 0.5 * y1 || y2 < 0.5 * y1 {
+        return Some(v[i]);
+    }
     // y = y1 + p t + q t² in t = x − x1 (local coordinates: no cancellation).
     let (h0, h2) = (x0 - x1, x2 - x1);
     let (d0, d2) = (y0 - y1, y2 - y1);
@@ -264,7 +270,7 @@ mod tests {
 
     #[test]
     fn parabolic_peak_recovers_a_vertex() {
-        let f = |x: f64| 3.0 - 0.5 * (x - 401.3) * (x - 401.3);
+        let f = |x: f64| 3.0 - 0.01 * (x - 401.3) * (x - 401.3);
         let v: Vec<(f64, f64)> = (0..9)
             .map(|i| 396.0 + 2.0 * i as f64)
             .map(|x| (x, f(x)))
@@ -275,5 +281,8 @@ mod tests {
             "{x} {y}"
         );
         assert_eq!(frequencies(300.0, 500.0, 3), vec![300.0, 400.0, 500.0]);
+        // A jump right after the maximum: the highest sample.
+        let v = [(1.0, 5.0), (2.0, 9.0), (3.0, 10.0), (4.0, 3.0)];
+        assert_eq!(peak_of(&v), Some((3.0, 10.0)));
     }
 }
