@@ -336,7 +336,8 @@ fn comparison_json(c: &Comparison) -> Value {
 
 fn cell(v: Option<f64>, scale: f64) -> String {
     match v {
-        Some(x) if x.is_finite() => format!("{:>11.5}", x * scale),
+        Some(x) if x.is_finite() && (x * scale).abs() < 1e4 => format!("{:>11.5}", x * scale),
+        Some(x) if x.is_finite() => format!("{:>11.3e}", x * scale),
         _ => format!("{:>11}", "—"),
     }
 }
@@ -382,7 +383,10 @@ fn print_comparison(file: &Path, c: &Comparison) {
         }
     }
     println!("\nrelative difference from the time domain, % (δ_s, δ_c relative to δ_A):");
-    println!("{head}");
+    println!(
+        "{:<20}{:>11}{:>11}{:>11}{:>11}{:>11}{:>11}{:>11}",
+        "", "a_m", "a_A", "δ_m", "δ_s", "δ_c", "δ_A", "F_m"
+    );
     for (key, name, p) in methods(c) {
         if key == "time_domain" {
             continue;
