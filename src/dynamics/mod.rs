@@ -146,17 +146,19 @@
 //!   impact time within 8e-12 s of the closed form; per-cycle momentum balance 1e-14 and energy
 //!   balance 1e-7 relative; implicit and Dopri5 agree to 1e-9 on cycle means and on GS pull-off.
 //! - Cost (criterion medians, `cargo bench --bench dynamics`, 2 cores shared with other jobs at
-//!   load ≈ 3.5, so medians are inflated; the load-robust minimum of 15 runs is given too):
-//!   one stage residual with its derivative 35 ns; one 400 Hz cycle (87 steps) 0.20 ms;
-//!   1 s at 400 Hz, 5 µm, rtol 1e-8: implicit RUNTIME (37 600 steps, 0.52 M rhs, 13.9 rhs per
-//!   step; before the Newton stage solve 0.97 M rhs, 26 per step, 67–69 ms), so wall /
-//!   (rhs × 35 ns) ≈ RATIO; `auto` the same after falling back (the
-//!   contact heals to G/w0 ≈ 0.01 each cycle, which no explicit method passes); the same hold at
-//!   1 µm: implicit 55 ms, Dopri5 42.5 ms, Dop853 2.3 s. Shipped
-//!   `scenarios/paper-protocol-300hz.toml`: implicit 549 ms, Dopri5 233 ms (`auto`), Dop853
-//!   30 s. The 20 ms target for 1 s at 400 Hz is **not met**: at rtol 1e-8 the 4th-order
-//!   method needs ~94 steps per cycle, set by the smooth part of the motion (see the next
-//!   item), and a step costs ≥ 2 residuals per stage.
+//!   load ≈ 3): one stage residual with its derivative 36 ns; one 400 Hz cycle (87 steps)
+//!   124 µs; 1 s at 400 Hz, 5 µm, rtol 1e-8: implicit 45 ms, `auto` 42.6 ms (37 600 steps,
+//!   0.52 M rhs, 13.9 rhs per step; before the Newton stage solve 0.97 M rhs, 26 per step,
+//!   67–69 ms), so wall / (rhs × 36 ns) ≈ 2.4 (the rest: sin/cos of the drive per stage, the
+//!   mechanics and quadrature integrands per stage, error norm, event checks); Dopri5 and
+//!   Dop853 fail there (the contact heals to G/w0 ≈ 0.01 each cycle), `auto` falls back after
+//!   7 ms of simulated time. The same hold at 1 µm: implicit 34.5 ms, Dopri5 29.1 ms (`auto`
+//!   30.1 ms; 0.18 M rhs, wall / rhs ≈ 160 ns: the per-span restart of `ode_solvers` and its
+//!   21-component vectors), Dop853 1.6 s. Shipped `scenarios/paper-protocol-300hz.toml`:
+//!   implicit 366 ms, Dopri5 226 ms, `auto` 243 ms, Dop853 30 s (once). The 20 ms target for
+//!   1 s at 400 Hz is **not met** (45 ms): at rtol 1e-8 the 4th-order method needs ~94 steps
+//!   per cycle, set by the smooth part of the motion (next item), and the explicit methods
+//!   cannot pass the healing phase of this scene.
 //! - What limits the step (measured on 1 s at 400 Hz, 5 µm): not the turning points. About 1.8
 //!   accepted steps per cycle straddle a sign change of ȧ, and 0 of 1804 rejected steps (rtol
 //!   1e-8; 5 of 1022 at 1e-6) do: the GS solution is C² there (a − a_k ∝ |t − t_k|^(1+1/n)) and
@@ -180,7 +182,7 @@
 //!
 //!   The ⟨F⟩ of the 5 µm hold is a small difference of large excursions (⟨F⟩ = 26 mN, F swings
 //!   ±0.5 N), so its relative error is ~20× that of the state. 1e-6 in all three outputs costs
-//!   the implicit method rtol ≈ 3e-10 (~1.1 M rhs, ~80 ms) on the 5 µm hold; on the 1 µm hold
+//!   the implicit method rtol ≈ 3e-10 (~1.1 M rhs, ~90 ms) on the 5 µm hold; on the 1 µm hold
 //!   Dopri5 reaches it at rtol 1e-4 (83 k rhs). Dopri5's errors level off near 1e-8 because
 //!   its quadrature states carry a loose weight (1e-6) in its error norm.
 //! - Stage solves (rtol 1e-8, before the first-step contraction hint): Newton in z stopped
