@@ -464,9 +464,10 @@ impl Run<'_> {
             force_mean: m(q::F),
             force_sin: hh(q::F_SIN),
             force_cos: hh(q::F_COS),
-            delta_mean: m(q::DELTA),
-            delta_sin: hh(q::DELTA_SIN),
-            delta_cos: hh(q::DELTA_COS),
+            // δ = x_s + x_b with x_b = X_b sin θ exactly over this whole base period (see q::XS_SIN).
+            delta_mean: m(q::XS),
+            delta_sin: hh(q::XS_SIN) + self.model.xb_amp,
+            delta_cos: hh(q::XS_COS),
             a_mean: m(q::A),
             a_sin: hh(q::A_SIN),
             a_cos: hh(q::A_COS),

@@ -146,7 +146,6 @@ fn scales(model: &Model) -> [f64; N] {
             f * t,
             l * t,
             l * t,
-            l * t,
             a * t,
             a * t,
             a * t,
