@@ -1,6 +1,7 @@
 //! Time-domain simulator against independent references (closed forms, JKR limits, balance laws).
 
 use djkr::adhesion::{ConstantW, GentSchultz, Law};
+use djkr::dynamics::catalogue::stage;
 use djkr::dynamics::{simulate, EventKind, Recorder, RunResult};
 use djkr::jkr;
 use djkr::material::Material;
@@ -30,16 +31,6 @@ fn scene() -> Scenario {
         output: Output::default(),
         source_text: String::new(),
         source_name: "<test>".into(),
-    }
-}
-
-fn stage(kind: StageKind, speed: f64, until: Until, vibration: Option<bool>) -> Stage {
-    Stage {
-        kind,
-        speed,
-        until,
-        vibration,
-        max_duration: 1e7,
     }
 }
 
