@@ -264,3 +264,40 @@ fn every_bundled_scenario_runs_with_complete_output() {
     }
     assert!(n >= 4);
 }
+
+/// `--material FILE` reads the scenario's [material] and [adhesion]: the paper-protocol scene has
+/// the paper's constants, so it reproduces the default; the constant-w scene has no rate effect,
+/// so the closed form gives exactly 1 and the exact method agrees with a constant-w imposed-area
+/// pull-off computed through the library.
+#[test]
+fn material_file_sets_material_and_law() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios");
+    let gs = dir.join("paper-protocol-300hz.toml");
+    let cw = dir.join("quasi-static-jkr.toml");
+    let base = ["pulloff", "--freq", "300", "--a-amp", "0.5mm", "--json"];
+    let default = num(&json(&base), "force");
+    let mut a = base.to_vec();
+    a.extend(["--material", gs.to_str().unwrap()]);
+    assert!((num(&json(&a), "force") - default).abs() < 1e-12 * default.abs());
+    let mut a = base.to_vec();
+    a.extend(["--material", cw.to_str().unwrap(), "--method", "approx"]);
+    assert!((num(&json(&a), "amplification") - 1.0).abs() < 1e-12);
+    let mut a = base.to_vec();
+    a.extend(["--material", cw.to_str().unwrap()]);
+    let law = djkr::adhesion::ConstantW { w0: 0.240 };
+    let m = djkr::material::Material::PAPER;
+    let exact =
+        djkr::imposed_area::pull_off(&m, &law, 2.0 * std::f64::consts::PI * 300.0, 0.5e-3).unwrap();
+    assert!((num(&json(&a), "force") - exact.force).abs() < 1e-9 * exact.force.abs());
+    let o = djkr(&[
+        "pulloff",
+        "--freq",
+        "300",
+        "--a-amp",
+        "1mm",
+        "--material",
+        "no/such.toml",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--material no/such.toml"));
+}

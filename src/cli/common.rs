@@ -59,16 +59,17 @@ impl MaterialArgs {
     pub fn resolve(&self) -> Result<(Material, GentSchultz)> {
         let (mut m, mut law) = (Material::PAPER, GentSchultz::PAPER);
         if let Some(path) = &self.material {
-            let scn: djkr::scenario::Scenario =
-                Err(anyhow::anyhow!("scenario files: parser not landed yet"))
-                    .with_context(|| format!("--material {}", path.display()))?;
-            m = scn.material;
-            law = match scn.law {
+            // Only [material] and [adhesion] are read (the rest of the scenario is ignored).
+            let (file_m, file_law) = djkr::scenario::parse::material_and_law(path)
+                .with_context(|| format!("--material {}", path.display()))?;
+            m = file_m;
+            law = match file_law {
                 Law::GentSchultz(gs) => gs,
                 Law::Constant(c) => GentSchultz {
                     w0: c.w0,
-                    // A constant law is the GS law with an infinitely large reference speed.
-                    v0: f64::INFINITY,
+                    // A constant law is the GS law in the limit v0 → ∞; f64::MAX gives w = w0 to
+                    // the last bit at any representable speed and passes the laws' validation.
+                    v0: f64::MAX,
                     n: 1.0,
                 },
                 other => bail!(
