@@ -29,7 +29,16 @@ const EXAMPLES: &str = "Examples:
   djkr cycle --freq 200 --a-mean 1mm --a-amp 1mm
   djkr pulloff --freq 400Hz --a-amp 0.5mm
   djkr pulloff --freq 400 --a-amp 0.5mm --method approx --beta 2.5 --json
-  djkr figures --out out/figures";
+  djkr figures --out out/figures
+  djkr run scenarios/paper-protocol-300hz.toml --out out/paper-300hz
+  djkr check scenarios/*.toml
+  djkr validate scenarios/resonance-400hz.toml
+  djkr resonance scenarios/resonance-400hz.toml --freq 300:500:101 --out out/resonance
+  djkr accuracy scenarios/quasi-static-jkr.toml --out out/accuracy
+
+Bare numbers are SI; values with units are welcome (51mm, 9.33MPa, 240mJ/m^2, 0.0445mm/s, 1.5kHz).
+Default material: the paper's Fig. 2 set (K 9.33 MPa, R 51 mm, w0 240 mJ/m^2, v0 0.0445 mm/s, n 0.531).
+Scenario-file keys and every result are documented in README.md.";
 
 #[derive(Subcommand, Debug)]
 enum Command {
