@@ -451,7 +451,7 @@ impl Run<'_> {
     fn record_cycle(&mut self) {
         let y = self.y;
         let tt = y.t - self.cycle_t0;
-        let d: Vec<f64> = (0..NQ).map(|i| y.q[i] - self.cycle_q0[i]).collect();
+        let d: [f64; NQ] = std::array::from_fn(|i| y.q[i] - self.cycle_q0[i]);
         let kin = self.kin(y.t);
         let e1 = model::total_energy(&self.model, &kin, y.x, y.v, y.a, y.contact);
         let m = |i: usize| d[i] / tt;
