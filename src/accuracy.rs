@@ -68,21 +68,23 @@ pub fn method_name(m: Method) -> &'static str {
         Method::Auto => "auto",
         Method::Dopri5 => "dopri5",
         Method::Dop853 => "dop853",
+        Method::Dp8 => "dp8",
         Method::Implicit => "implicit",
     }
 }
 
-/// Parse a method name (`auto`, `dopri5`, `dop853`, `implicit`); `flag` names the source.
+/// Parse a method name (`auto`, `dp8`, `dopri5`, `dop853`, `implicit`); `flag` names the source.
 pub fn parse_method(flag: &str, text: &str) -> Result<Method, ParamError> {
     match text.trim() {
         "auto" => Ok(Method::Auto),
         "dopri5" => Ok(Method::Dopri5),
         "dop853" => Ok(Method::Dop853),
+        "dp8" => Ok(Method::Dp8),
         "implicit" => Ok(Method::Implicit),
         other => Err(ParamError::new(
             flag,
             other,
-            "must be one of auto, dopri5, dop853, implicit",
+            "must be one of auto, dp8, dopri5, dop853, implicit",
         )),
     }
 }
@@ -113,12 +115,13 @@ fn ser_methods<S: serde::Serializer>(m: &[Method], s: S) -> Result<S::Ok, S::Err
 }
 
 impl Default for StudyConfig {
-    /// implicit, dopri5, dop853, auto at rtol 1e-4, 1e-6, 1e-8, 1e-10; 3 repeats; reference 1e-12;
+    /// implicit, dp8, dopri5, dop853, auto at rtol 1e-4, 1e-6, 1e-8, 1e-10; 3 repeats; reference 1e-12;
     /// atol ratio 0.01; 60 s per run; runs over 5 s timed once.
     fn default() -> Self {
         Self {
             methods: vec![
                 Method::Implicit,
+                Method::Dp8,
                 Method::Dopri5,
                 Method::Dop853,
                 Method::Auto,

@@ -10,7 +10,7 @@
 //! - `reduced_matrix` (default suite): method `auto` on every time-domain scene plus a few
 //!   explicit-method runs, and the imposed-area cases, with short durations.
 //! - `full_matrix` (`cargo test --release --test extremes -- --ignored --nocapture`): every scene
-//!   with every method (auto, implicit, dopri5, dop853) for longer, and a denser imposed-area
+//!   with every method (auto, implicit, dp8, dopri5, dop853) for longer, and a denser imposed-area
 //!   grid; prints the markdown table that goes in the README.
 
 use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz, Law};
@@ -219,9 +219,9 @@ fn summarise(r: &RunResult, chk: &Checker) -> String {
     } else if let Some(c) = r.cycles.last() {
         s += &format!("; last-cycle ⟨F⟩ {:.4} mN", c.force_mean * 1e3);
     }
-    if r.method.starts_with("auto") && r.method.contains("implicit") && r.method.contains("dopri5")
-    {
-        s += "; auto fell back to implicit";
+    if let Some(i) = r.method.find(" steps taken implicitly") {
+        let n = r.method[..i].rsplit(' ').next().unwrap_or("");
+        s += &format!("; {n} steps implicit");
     }
     s
 }
@@ -563,6 +563,7 @@ fn matrix(long: bool) -> Vec<Case> {
     let methods: &[(&str, Method)] = &[
         ("auto", Method::Auto),
         ("implicit", Method::Implicit),
+        ("dp8", Method::Dp8),
         ("dopri5", Method::Dopri5),
         ("dop853", Method::Dop853),
     ];
@@ -570,7 +571,7 @@ fn matrix(long: bool) -> Vec<Case> {
         for &(mname, method) in methods {
             // An explicit method may refuse a scene (G ≤ 0, rate-independent law): a clear error.
             let expect = match (expect, method) {
-                (Expect::Ok, Method::Dopri5 | Method::Dop853) => Expect::Either,
+                (Expect::Ok, Method::Dp8 | Method::Dopri5 | Method::Dop853) => Expect::Either,
                 (e, _) => e,
             };
             cases.push(Case {
@@ -672,8 +673,8 @@ fn reason(msg: &str) -> &'static str {
 /// One row per time-domain scene with the outcome of each method, and a line for the
 /// imposed-area cases: the condensed table of the README.
 fn print_summary(done: &[(String, &str, &str, String, f64)]) {
-    println!("\n| scene | auto | implicit | dopri5 | dop853 | auto: key numbers |");
-    println!("|---|---|---|---|---|---|");
+    println!("\n| scene | auto | implicit | dp8 | dopri5 | dop853 | auto: key numbers |");
+    println!("|---|---|---|---|---|---|---|");
     let mut names: Vec<&str> = Vec::new();
     for d in done.iter().filter(|d| d.1 != "imposed-area") {
         if !names.contains(&d.0.as_str()) {
@@ -701,10 +702,11 @@ fn print_summary(done: &[(String, &str, &str, String, f64)]) {
                 }
             });
         println!(
-            "| {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} | {} | {} |",
             cell(name),
             cell_of("auto"),
             cell_of("implicit"),
+            cell_of("dp8"),
             cell_of("dopri5"),
             cell_of("dop853"),
             cell(&key)

@@ -99,6 +99,8 @@ pub enum StepFail {
     NoRoot,
     /// A stage produced a non-finite value.
     NonFinite,
+    /// An explicit stage met the healing singularity (G ≤ 0 in contact: ȧ = +∞).
+    Singular,
     /// The explicit formulation cannot continue (reason).
     Explicit(&'static str),
 }
@@ -112,6 +114,15 @@ pub struct StepOut {
     pub err: f64,
     /// Residual / right-hand-side evaluations spent.
     pub evals: u64,
+    /// Exponent of the step-size controller, 1/(p̂ + 1) for an embedded estimate of order p̂
+    /// (0 when `err` is not an estimate).
+    pub err_exp: f64,
+    /// Where within the step the contact line turns (ȧ = 0), as a fraction of h, for a stepper
+    /// whose accuracy needs the step to end there (the explicit DP8); `None` otherwise.
+    pub kink: Option<f64>,
+    /// The predicted time (s) of the next turning point after the step, within two more step
+    /// lengths (same steppers; `None` otherwise).
+    pub kink_ahead: Option<f64>,
 }
 
 /// Tolerances of the error norm.
@@ -609,6 +620,9 @@ pub fn step(
         },
         err,
         evals,
+        err_exp: 0.25,
+        kink: None,
+        kink_ahead: None,
     })
 }
 
@@ -663,6 +677,9 @@ pub fn backward_euler(
         },
         err: 0.0,
         evals,
+        err_exp: 0.0,
+        kink: None,
+        kink_ahead: None,
     })
 }
 

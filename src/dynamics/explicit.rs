@@ -41,7 +41,14 @@ pub enum ExplicitKind {
     Dop853,
 }
 
-const N: usize = 3 + NQ;
+/// The last component is the time elapsed in the span (/ t_char): the right-hand side reads the
+/// time from it rather than from the crate's argument, because `ode_solvers` 0.6.2 evaluates
+/// Dop853's 12th stage at t instead of t + h (its node c₁₂ is 0 where the row sum and Hairer's
+/// value are 1; srenevey/ode-solvers PR #42). On our time-dependent right-hand side (base
+/// motion, moving spring end) that made its steps collapse; as an autonomous system it is
+/// exact. Dopri5 gets the same treatment (the component is integrated exactly by both).
+const TI: usize = 3 + NQ;
+const N: usize = 4 + NQ;
 type Y = SVector<f64, N>;
 
 struct Rhs<'a> {
@@ -49,6 +56,7 @@ struct Rhs<'a> {
     drive: Drive,
     contact: bool,
     scale: [f64; N],
+    t0: f64,
     singular: &'a Cell<bool>,
     collapse: &'a Cell<bool>,
     evals: &'a Cell<u64>,
@@ -102,9 +110,11 @@ fn explicit_rates(
 }
 
 impl System<f64, Y> for Rhs<'_> {
-    fn system(&self, t: f64, y: &Y, dy: &mut Y) {
+    fn system(&self, _t: f64, y: &Y, dy: &mut Y) {
         self.evals.set(self.evals.get() + 1);
         let s = &self.scale;
+        let t = self.t0 + y[TI] * s[TI];
+        dy[TI] = 1.0 / s[TI];
         let (x, v, a) = (y[0] * s[0], y[1] * s[1], y[2] * s[2]);
         match explicit_rates(self.model, &self.drive, t, x, v, a, self.contact) {
             Some((_, v, acc, adot, fq)) => {
@@ -121,7 +131,7 @@ impl System<f64, Y> for Rhs<'_> {
                 } else {
                     self.singular.set(true);
                 }
-                for k in 0..N {
+                for k in 0..TI {
                     dy[k] = 0.0;
                 }
             }
@@ -163,6 +173,7 @@ fn scales(model: &Model) -> [f64; N] {
     for k in 0..NQ {
         s[3 + k] = 1e6 * qs[k];
     }
+    s[TI] = t;
     s
 }
 
@@ -194,6 +205,7 @@ pub fn macro_step(
         drive: *drive,
         contact: y.contact,
         scale,
+        t0: y.t,
         singular: &singular,
         collapse: &collapse,
         evals: &evals,
@@ -302,6 +314,9 @@ pub fn macro_step(
             },
             err: 0.0,
             evals: n_evals,
+            err_exp: 0.0,
+            kink: None,
+            kink_ahead: None,
         },
         last_h,
     ))

@@ -206,6 +206,7 @@
 
 pub mod catalogue;
 pub mod driver;
+pub mod erk;
 pub mod esdirk;
 pub mod explicit;
 pub mod model;

@@ -146,6 +146,9 @@ pub enum Method {
     Dopri5,
     /// Explicit Dormand–Prince 8(5,3) (`ode_solvers`).
     Dop853,
+    /// Explicit Dormand–Prince 8(5,3), djkr's own stepper (steps rejected at the healing
+    /// singularity, no restarts).
+    Dp8,
     /// Implicit, root-solved update of the contact radius (robust at the healing singularity).
     Implicit,
 }

@@ -1001,8 +1001,13 @@ impl Parser<'_> {
             ],
             "",
         )?;
-        match self.string(&s, "method", &["auto", "dopri5", "dop853", "implicit"])? {
+        match self.string(
+            &s,
+            "method",
+            &["auto", "dp8", "dopri5", "dop853", "implicit"],
+        )? {
             None | Some("auto") => {}
+            Some("dp8") => solver.method = Method::Dp8,
             Some("dopri5") => solver.method = Method::Dopri5,
             Some("dop853") => solver.method = Method::Dop853,
             Some(_) => solver.method = Method::Implicit,
