@@ -9,9 +9,9 @@
 //! interleaved (all pairs once, then all again, …), so a change in machine load during the study
 //! affects every method alike. The outputs users care
 //! about ([`KeyOutputs`]) are compared with those of a **reference run**: the implicit method at
-//! `reference_rtol` (default 1e-12). The reference is checked by an independent run, Dopri5 at the
-//! same tolerance (if Dopri5 cannot integrate the scene, the implicit method at 10 × the
-//! tolerance); the difference between the two is reported as the reference's own uncertainty
+//! `reference_rtol` (default 1e-12). The reference is checked by an independent run, DP8 (a
+//! different method and order) at the same tolerance (if DP8 cannot integrate the scene, e.g. a
+//! rate-independent law, the implicit method at 10 × the tolerance); the difference between the two is reported as the reference's own uncertainty
 //! ([`Study::reference_uncertainty`]): errors at or below it are not resolved.
 //!
 //! Each studied run has a wall-clock budget (`max_wall_s`, default 60 s; exceeding it is a failed
@@ -99,7 +99,7 @@ pub struct StudyConfig {
     pub tolerances: Vec<f64>,
     /// Timed runs per (method, tolerance) (≥ 1); the wall time reported is their median.
     pub repeats: usize,
-    /// Relative tolerance of the reference run (implicit) and of its check (Dopri5).
+    /// Relative tolerance of the reference run (implicit) and of its check (DP8).
     pub reference_rtol: f64,
     /// atol = atol_ratio · rtol, for the study and the reference.
     pub atol_ratio: f64,
@@ -508,13 +508,13 @@ pub fn reference(s: &Scenario, cfg: &StudyConfig) -> Result<Reference, StudyErro
         source,
     })?;
     let outputs = key_outputs(&r);
-    let check_dopri = format!("dopri5, rtol {rt:e}");
-    let (c, _) = timed(&with_solver(s, Method::Dopri5, rt, cfg.atol_ratio));
+    let check_dp8 = format!("dp8, rtol {rt:e}");
+    let (c, _) = timed(&with_solver(s, Method::Dp8, rt, cfg.atol_ratio));
     let (check, check_description) = match c {
-        Ok(c) => (c, check_dopri),
+        Ok(c) => (c, check_dp8),
         Err(e) => {
             let rt2 = (10.0 * rt).min(1e-7);
-            let d = format!("implicit, rtol {rt2:e} (dopri5 at {rt:e} failed: {e})");
+            let d = format!("implicit, rtol {rt2:e} (dp8 at {rt:e} failed: {e})");
             let (c2, _) = timed(&with_solver(s, Method::Implicit, rt2, cfg.atol_ratio));
             let c2 = c2.map_err(|source| StudyError::Reference {
                 what: format!("check: implicit, rtol {rt2:e}"),
@@ -597,17 +597,18 @@ pub fn work_precision(
 }
 
 /// A short label of what ran: the requested method, and for `auto` what it used
-/// (`auto→dopri5`, `auto→implicit`, `auto→dopri5+implicit` when it fell back within a stage).
+/// (`auto→dp8`, `auto→implicit`, `auto→dp8+implicit` when some DP8 steps were taken
+/// implicitly).
 pub fn method_label(requested: &str, used: &str) -> String {
     if requested != "auto" {
         return requested.to_string();
     }
     let u = used.to_lowercase();
-    if u.contains("fell back") {
-        "auto→dopri5+implicit".into()
-    } else if u.starts_with("explicit dopri5") || u.starts_with("dopri5") {
-        "auto→dopri5".into()
-    } else if u.contains("implicit") {
+    if u.contains("steps taken implicitly") {
+        "auto→dp8+implicit".into()
+    } else if u.starts_with("explicit dp8") {
+        "auto→dp8".into()
+    } else if u.starts_with("implicit") {
         "auto→implicit".into()
     } else {
         format!("auto→{used}")

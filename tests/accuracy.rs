@@ -141,7 +141,7 @@ fn study_of_quasi_static_jkr() {
     assert_eq!(calls, 4);
     let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
     assert!((st.reference.outputs.pull_off_force / f0 - 1.0).abs() < 1e-9);
-    assert!(st.reference.check_description.contains("dopri5 at"));
+    assert!(st.reference.check_description.contains("dp8 at"));
     assert!(st.reference_uncertainty() < 1e-9);
     assert_eq!(st.rows.len(), 4);
     for r in &st.rows {

@@ -20,8 +20,8 @@ pub struct AccuracyArgs {
     /// Scenario file (TOML) to study; not needed with --imposed-area.
     #[arg(required_unless_present = "imposed_area")]
     file: Option<PathBuf>,
-    /// Methods, comma-separated: implicit, dopri5, dop853, auto.
-    #[arg(long, default_value = "implicit,dopri5,dop853,auto")]
+    /// Methods, comma-separated: implicit, dp8, dopri5, dop853, auto.
+    #[arg(long, default_value = "implicit,dp8,dopri5,dop853,auto")]
     methods: String,
     /// Relative tolerances, comma-separated, each in (0, 1) (atol = --atol-ratio × rtol).
     #[arg(long, default_value = "1e-4,1e-6,1e-8,1e-10")]
@@ -29,7 +29,7 @@ pub struct AccuracyArgs {
     /// Timed runs per method and tolerance; the wall time reported is their median.
     #[arg(long, default_value = "3")]
     repeats: String,
-    /// Tolerance of the reference run (implicit), checked by dopri5 at the same tolerance.
+    /// Tolerance of the reference run (implicit), checked by dp8 at the same tolerance.
     #[arg(long, default_value = "1e-12")]
     ref_rtol: String,
     /// atol / rtol for every run.
@@ -106,7 +106,7 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         PathBuf::from("out").join(format!("accuracy-{stem}"))
     });
     eprintln!(
-        "reference: implicit at rtol {:e}, checked by dopri5 …",
+        "reference: implicit at rtol {:e}, checked by dp8 …",
         cfg.reference_rtol
     );
     let study = accuracy::work_precision(&scn, &cfg, |i, n, m, rtol| {

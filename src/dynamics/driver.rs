@@ -266,6 +266,9 @@ struct Run<'a> {
     rejected_last: bool,
     /// Predicted time of the next turning point of the contact line (DP8), to end a step there.
     kink_ahead: Option<f64>,
+    /// The next attempt's length when the last one was cut back to a turning point (the step
+    /// proposal `h` is kept for the step after it).
+    h_cut: Option<f64>,
 }
 
 impl Run<'_> {
@@ -858,11 +861,17 @@ impl Run<'_> {
                 // cubic Hermite interpolant, so keep them to 1/16 of a base period.
                 h = h.min(0.5 * h_max);
             }
-            if let (Engine::Dp8, Some(tk)) = (self.engine, self.kink_ahead) {
+            // Steps shortened to end on a turning point keep the step proposal for the next one.
+            let mut shortened = false;
+            if let Some(hc) = self.h_cut.take() {
+                h = h.min(hc);
+                shortened = true;
+            } else if let (Engine::Dp8, Some(tk)) = (self.engine, self.kink_ahead) {
                 // End the step at the predicted turning point rather than cut it afterwards.
                 let d = tk - y0.t;
                 if d > 0.05 * h && d < h {
                     h = d;
+                    shortened = true;
                 }
             }
             if y0.contact {
@@ -954,7 +963,7 @@ impl Run<'_> {
                 if !self.kink_cut && f > 0.02 && f < 0.98 && h * f > self.h_min() {
                     self.stats.rejected += 1;
                     self.kink_cut = true;
-                    self.h = h * f;
+                    self.h_cut = Some(h * f);
                     continue;
                 }
             }
@@ -995,7 +1004,11 @@ impl Run<'_> {
                 self.rejected_last = false;
             }
             let h_next = h * fac;
-            self.h = if hits { self.h.max(h_next) } else { h_next };
+            self.h = if hits || shortened {
+                self.h.max(h_next)
+            } else {
+                h_next
+            };
             self.kink_ahead = out.kink_ahead;
             let mut y1 = out.y;
             if hits {
@@ -1157,6 +1170,7 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
         kink_cut: false,
         rejected_last: false,
         kink_ahead: None,
+        h_cut: None,
     };
     if let (Engine::Explicit(_) | Engine::Dp8, true) = (engine, run.model.rate_independent) {
         return Err(SimError::Explicit {

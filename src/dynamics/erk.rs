@@ -22,7 +22,7 @@
 //! conditions and the observed order checked in the tests below.
 
 use super::esdirk::{State, StepFail, StepOut, Tol};
-use super::model::{Drive, Mechanics, Model, NQ};
+use super::model::{Drive, Kinematics, Mechanics, Model, NQ};
 use crate::adhesion::AdhesionLaw;
 use crate::jkr;
 
@@ -261,8 +261,7 @@ pub struct Rates {
 #[allow(clippy::too_many_arguments)]
 pub fn rates(
     model: &Model,
-    drive: &Drive,
-    t: f64,
+    kin: &Kinematics,
     x: f64,
     v: f64,
     a: f64,
@@ -271,7 +270,6 @@ pub fn rates(
     qacc: &mut [f64; NQ],
     ends: bool,
 ) -> Result<Rates, StepFail> {
-    let kin = drive.at(model, t);
     let reduced = model.mech != Mechanics::Dynamic;
     let (x, v, adot, w, gdot) = if contact {
         if a.is_nan() || a <= 0.0 {
@@ -281,7 +279,7 @@ pub fn rates(
             return Err(StepFail::Singular);
         }
         let xq = if reduced {
-            model.position(&kin, a, 0.0, true, x, v, 0.0).0
+            model.position(kin, a, 0.0, true, x, v, 0.0).0
         } else {
             x
         };
@@ -294,7 +292,7 @@ pub fn rates(
             return Err(StepFail::Singular);
         }
         let (x, v) = if reduced {
-            model.position(&kin, a, adot, true, x, v, 0.0)
+            model.position(kin, a, adot, true, x, v, 0.0)
         } else {
             (x, v)
         };
@@ -312,7 +310,7 @@ pub fn rates(
         (x, v, adot, g, gdot)
     } else {
         let (x, v) = if reduced {
-            model.position(&kin, 0.0, 0.0, false, x, v, 0.0)
+            model.position(kin, 0.0, 0.0, false, x, v, 0.0)
         } else {
             (x, v)
         };
@@ -321,13 +319,13 @@ pub fn rates(
     let acc = if reduced {
         0.0
     } else {
-        model.accel(&kin, x, v, a, contact)
+        model.accel(kin, x, v, a, contact)
     };
     if !(acc.is_finite() && x.is_finite() && v.is_finite()) {
         return Err(StepFail::NonFinite);
     }
     if wq != 0.0 {
-        let fq = model.integrands(&kin, x, v, a, adot, w, contact);
+        let fq = model.integrands(kin, x, v, a, adot, w, contact);
         for (q, f) in qacc.iter_mut().zip(fq.iter()) {
             *q += wq * f;
         }
@@ -411,9 +409,8 @@ impl GCubic {
 /// The rates at a state (the first stage of a step) and its quadrature integrands.
 pub fn rates_at(model: &Model, drive: &Drive, y: &State) -> Result<(Rates, [f64; NQ]), StepFail> {
     let mut fq = [0.0; NQ];
-    let r = rates(
-        model, drive, y.t, y.x, y.v, y.a, y.contact, 1.0, &mut fq, true,
-    )?;
+    let kin = drive.at(model, y.t);
+    let r = rates(model, &kin, y.x, y.v, y.a, y.contact, 1.0, &mut fq, true)?;
     Ok((r, fq))
 }
 
@@ -432,6 +429,8 @@ pub fn step(
     let mut k = [*k1; 12];
     let mut evals = 0u64;
     let mut qacc: [f64; NQ] = std::array::from_fn(|i| B[0] * fq1[i]);
+    // One sin_cos per step: the stages advance the base phase from the step's start.
+    let phase0 = drive.phase(model, y.t);
     for i in 1..12 {
         let (mut x, mut v, mut a) = (0.0, 0.0, 0.0);
         for (j, kj) in k.iter().enumerate().take(i) {
@@ -444,10 +443,10 @@ pub fn step(
         }
         let a_i = if y.contact { y.a + h * a } else { 0.0 };
         evals += 1;
+        let kin = drive.at_advanced(model, y.t + C[i] * h, phase0, C[i] * h);
         k[i] = rates(
             model,
-            drive,
-            y.t + C[i] * h,
+            &kin,
             y.x + h * x,
             y.v + h * v,
             a_i,
@@ -515,18 +514,8 @@ pub fn step(
     // First same as last: the rates at the end state.
     evals += 1;
     let mut fq_end = [0.0; NQ];
-    let k_end = rates(
-        model,
-        drive,
-        y.t + h,
-        x1,
-        v1,
-        a1,
-        y.contact,
-        1.0,
-        &mut fq_end,
-        true,
-    )?;
+    let kin = drive.at_advanced(model, y.t + h, phase0, h);
+    let k_end = rates(model, &kin, x1, v1, a1, y.contact, 1.0, &mut fq_end, true)?;
     // Turning points of the contact line (G = w0) inside the step and just beyond it, on the
     // cubic Hermite interpolant of G (both ends exact to the step's order); a turning point that
     // the end values miss (G touching w0 and returning) is found from the stages.
