@@ -1,15 +1,18 @@
 //! Time-domain simulator benchmarks (criterion medians are what the module docs quote).
 //!
 //! - `one_rhs`: one implicit-stage residual with its derivative (mechanical closed form, signed
-//!   G, GS law in the z variable): the unit of `Stats::rhs_evals`.
-//! - `one_cycle_400Hz`: one base period of `catalogue::vibrating_hold(5 µm, 400 Hz)`, implicit.
+//!   G, GS law in the z variable): the unit of `Stats::rhs_evals` for the implicit method.
+//! - `one_rhs_dp8`: one explicit right-hand side as a DP8 stage evaluates it (G, ȧ = law⁻¹(G),
+//!   acceleration, the 17 quadrature integrands into the stage sum; the base phase advanced from
+//!   the step start): the unit of `Stats::rhs_evals` for DP8.
+//! - `one_cycle_400Hz/{implicit,dp8}`: one base period of `catalogue::vibrating_hold(5 µm,
+//!   400 Hz)`.
 //! - `vibration_1s_400Hz/{method}`: 1 s of that hold at rtol 1e-8 (issue 3 target: ≤ 20 ms).
-//!   Dopri5 and Dop853 cannot integrate this scene (the contact heals to G/w0 ≈ 0.01 every
-//!   cycle); they are benchmarked on the same hold at 1 µm (`vibration_1um_1s_400Hz/…`), where
-//!   every method runs.
+//!   Dopri5 and Dop853 (`ode_solvers`) cannot integrate this scene (the contact heals to
+//!   G/w0 ≈ 0.01 every cycle and a trial stage meets G ≤ 0); they are benchmarked on the same
+//!   hold at 1 µm (`vibration_1um_1s_400Hz/…`), where every method runs.
 //! - `paper_protocol_300hz/{method}`: the shipped `scenarios/paper-protocol-300hz.toml`
-//!   (issue 3 target: ≤ 2 s). Dop853 takes ~30 s per run there and is left out (its time is
-//!   printed once).
+//!   (issue 3 target: ≤ 2 s).
 //!
 //! `cargo bench --bench dynamics`; each benchmark prints its `Stats` once (steps, rhs), so
 //! wall / (rhs × one_rhs) can be formed.
@@ -21,8 +24,9 @@ use djkr::scenario::{Method, Scenario};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-const METHODS: [(&str, Method); 4] = [
+const METHODS: [(&str, Method); 5] = [
     ("implicit", Method::Implicit),
+    ("dp8", Method::Dp8),
     ("dopri5", Method::Dopri5),
     ("dop853", Method::Dop853),
     ("auto", Method::Auto),
@@ -84,13 +88,41 @@ fn bench(c: &mut Criterion) {
         })
     });
 
+    // One DP8 stage evaluation, in contact and healing (G < w0), with its quadrature sum.
+    let phase0 = drive.phase(&model, 1e-4);
+    let a0 = 1.2e-3;
+    let d0 = djkr::jkr::equilibrium_indentation(&model.mat, a0, model.w0);
+    g.bench_function("one_rhs_dp8", |b| {
+        let mut qacc = [0.0; djkr::dynamics::model::NQ];
+        let mut dt = 0.0;
+        b.iter(|| {
+            dt += 1e-12;
+            let kin = drive.at_advanced(&model, 1e-4 + dt, phase0, black_box(dt));
+            let r = djkr::dynamics::erk::rates(
+                &model,
+                &kin,
+                black_box(d0 - kin.xb + 1e-7),
+                0.01,
+                a0,
+                true,
+                0.3,
+                &mut qacc,
+                false,
+            );
+            black_box(r.map(|r| r.fa))
+        })
+    });
+
     // One base period (400 Hz) of the 5 µm hold.
-    let mut one = vibrating_hold(5e-6, 400.0, 1.0 / 400.0);
-    one.solver.method = Method::Implicit;
-    if announce("one_cycle_400Hz/implicit", &one) {
-        g.bench_function("one_cycle_400Hz/implicit", |b| {
-            b.iter(|| simulate(black_box(&one), &mut NoObserver).map(|r| r.stats.steps))
-        });
+    for (name, m) in [("implicit", Method::Implicit), ("dp8", Method::Dp8)] {
+        let mut one = vibrating_hold(5e-6, 400.0, 1.0 / 400.0);
+        one.solver.method = m;
+        let id = format!("one_cycle_400Hz/{name}");
+        if announce(&id, &one) {
+            g.bench_function(id, |b| {
+                b.iter(|| simulate(black_box(&one), &mut NoObserver).map(|r| r.stats.steps))
+            });
+        }
     }
 
     for (xb, tag) in [
@@ -117,11 +149,6 @@ fn bench(c: &mut Criterion) {
                 let mut s = p.clone();
                 s.solver.method = m;
                 let id = format!("paper_protocol_300hz/{name}");
-                if m == Method::Dop853 {
-                    // ~30 s per run: timed once, not benchmarked.
-                    announce(&id, &s);
-                    continue;
-                }
                 if announce(&id, &s) {
                     g.bench_function(id, |b| {
                         b.iter(|| simulate(black_box(&s), &mut NoObserver).map(|r| r.stats.steps))

@@ -11,8 +11,9 @@
 //! Entry point: [`simulate`]`(&Scenario, &mut dyn Observer) -> Result<RunResult, SimError>`.
 //! [`types`] holds the results and the observer interface (samples, events, and per-cycle
 //! records through `Observer::cycle`), [`model`] the pure physics of one instant, [`esdirk`] the
-//! implicit stepper, [`explicit`] the `ode_solvers` methods, [`driver`] the time loop, and
-//! [`catalogue`] the reference scenes shared by tests and benchmarks.
+//! implicit stepper, [`erk`] the explicit DP8 stepper, [`explicit`] the `ode_solvers` methods,
+//! [`driver`] the time loop, and [`catalogue`] the reference scenes shared by tests and
+//! benchmarks.
 //!
 //! # Methods
 //!
@@ -53,30 +54,54 @@
 //! error norm (they do not feed back; the steps the state needs resolve them: the momentum
 //! balance over a cycle holds to 1e-14, the energy balance to 1e-8).
 //!
-//! **Explicit.** `ode_solvers` Dopri5 and Dop853 on (x_s, v_s, a, quadratures), scaled so the
-//! crate's scalar tolerances act per component (quadratures kept with a loose weight, 1e-6), with
-//! ȧ = law.crack_speed(G). The crate has no event location and its Dense output is unreliable,
-//! so it is used as a macro-step engine: the driver picks spans that never cross stage ends or
-//! base-period boundaries, scans each for events and locates them by re-integrating from the
-//! span's start. An explicit method cannot pass G ≤ 0 (ȧ = +∞) or a rate-independent law; an
-//! explicitly requested one then fails with [`SimError::Explicit`] naming time and state and
-//! suggesting `method = "implicit"`; a finite-time collapse a → 0 (step-size underflow in
-//! contact) is handed to the driver like a failed implicit stage.
+//! **DP8** ([`erk`]): Dormand & Prince's explicit 8(5,3) pair (Hairer's `DOP853` coefficients;
+//! order conditions and the observed fixed-step order 8.1 are tested), djkr's own stepper, taking
+//! one step at a time in the driver's loop like the implicit one, with ȧ = law⁻¹(G) in closed
+//! form. What makes an explicit method work on this problem:
+//! - *The healing singularity fails a step, not the run.* A trial stage with G ≤ 0 (ȧ = +∞)
+//!   rejects the step ([`esdirk::StepFail::Singular`]); the driver shortens it, or under `auto`
+//!   takes that one step with the implicit method. A stage with a ≤ 0 reports a collapsing
+//!   contact, as an implicit stage does.
+//! - *Steps end on the turning points of the contact line.* ȧ ∝ |G − w0|^(1/n) is singular where
+//!   ȧ changes sign (a − a_k ∝ |t − t_k|^(1+1/n)). The DOP853 weights integrate |τ|^1.88 with an
+//!   error up to 8.6e-3 of the integral when the turning point lies inside the step, and 1.4e-5
+//!   from one side. The turning point is located on the cubic Hermite interpolant of G (G and Ġ
+//!   at both step ends, exact to the step's order), predicted from it for the next step, and a
+//!   step that still straddles one is redone up to it.
+//! - *An error estimate that sees the contact radius.* Hairer's combination of the 5th- and
+//!   3rd-order estimates, over x_s, v_s, a with the implicit stepper's scales, and in addition the
+//!   contact radius's own 5th-order estimate. The combination alone understated a's local error
+//!   up to 70× at turning points and in deep healing (measured against 64-substep references),
+//!   and the global error then stalled near 1e-5 whatever the tolerance.
+//! - Cost: first same as last (the end evaluation starts the next step); the quadrature
+//!   integrands go straight into the stage sum (only x_s, v_s, a form stages); one `sin_cos` per
+//!   step, the stages advancing the base phase by series ([`model::Drive::at_advanced`]).
+//!   Control 0.9 err^(−1/8) in [0.2, 5], no growth right after a rejection.
 //!
-//! **Auto** ([`driver::auto_engine`]): the implicit method for a rate-independent law, for
-//! seeded contact formation and for scenes without inertia (rigid link, m = 0); Dopri5
-//! otherwise, falling back to the implicit method for the rest of a stage when the explicit form
-//! meets G ≤ 0, stiffness or its step budget (said in `RunResult::method`). Dop853 is never
-//! chosen (see "Measured").
+//! **Dopri5 and Dop853 from `ode_solvers`**, on (x_s, v_s, a, quadratures, time), scaled so the
+//! crate's scalar tolerances act per component (quadratures kept with a loose weight, 1e-6). The
+//! crate has no event location and its Dense output is unreliable, so it is used as a macro-step
+//! engine: the driver picks spans that never cross stage ends or base-period boundaries, scans
+//! each for events and locates them by re-integrating from the span's start. The time is a state
+//! component because the crate's Dop853 tableau has c₁₂ = 0 instead of 1 (its 12th stage ran at
+//! the wrong time; srenevey/ode-solvers PR #42): as an autonomous system it is exact. Neither
+//! can reject a step whose stage meets G ≤ 0: an explicitly requested one then fails with
+//! [`SimError::Explicit`] naming time and state; a finite-time collapse a → 0 (step-size
+//! underflow in contact) is handed to the driver like a failed implicit stage.
 //!
-//! **Which method when** (measured, `probe_methods_by_scene` and `benches/dynamics.rs`):
-//! - strong vibration (the contact heals to G/w0 ≈ 0.01 each cycle: 5 µm at 400 Hz near the
-//!   contact resonance): only the implicit method integrates it; `auto` gets there after one or
-//!   two cycles of Dopri5.
-//! - no or light vibration with inertia (approach, dwell, unload; 1 µm at 400 Hz): Dopri5
-//!   (`auto`): 2.5–3× fewer rhs than the implicit method, 1.4–1.9× faster.
-//! - rigid link, m = 0, constant w, seeded contact: the implicit method (`auto`).
-//! - Dop853: not recommended (see "Measured").
+//! **Auto** ([`driver::auto_engine`]): the implicit method for a rate-independent law (a is
+//! algebraic: no explicit rate), for seeded contact formation (healing from G ≈ 0 after every
+//! impact) and for scenes without inertia (rigid link, m = 0: only a is integrated, and the
+//! implicit steps are long and cheap); DP8 otherwise, taking single steps implicitly where a DP8
+//! stage meets G ≤ 0 (counted in `RunResult::method`).
+//!
+//! **Which method when** (measured: `djkr accuracy`, `benches/dynamics.rs`, `benches/methods.rs`):
+//! - inertia and the Gent–Schultz law, with or without vibration, up to healing to G/w0 ≈ 0.01
+//!   each cycle and impacts: DP8 (`auto`), 3–10× faster than the implicit method at the same
+//!   tolerance and 10–30× more accurate;
+//! - rigid link, m = 0, constant w, seeded contact: the implicit method (`auto`);
+//! - Dopri5, Dop853: only for comparison (a trial stage meeting G ≤ 0 ends the run; per-span
+//!   restarts).
 
 //! # Reduced models ("model only what a scene requires")
 //!
