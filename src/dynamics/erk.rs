@@ -23,8 +23,6 @@
 
 use super::esdirk::{State, StepFail, StepOut, Tol};
 use super::model::{Drive, Kinematics, Mechanics, Model, NQ};
-use crate::adhesion::AdhesionLaw;
-use crate::jkr;
 
 /// Stage coefficients a_ij (row i = stage i + 1 of Hairer's numbering; 12 stages).
 const A: [[f64; 12]; 12] = [
@@ -283,11 +281,11 @@ pub fn rates(
         } else {
             x
         };
-        let g = jkr::signed_energy_release_rate(&model.mat, a, xq + kin.xb);
+        let g = model.signed_g(a, xq + kin.xb);
         if g.is_nan() || g <= 0.0 {
             return Err(StepFail::Singular);
         }
-        let adot = model.law.crack_speed(g);
+        let adot = model.crack_speed(g);
         if !adot.is_finite() {
             return Err(StepFail::Singular);
         }

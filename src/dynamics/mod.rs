@@ -164,70 +164,49 @@
 //! golden section with exact re-stepping). Both are taken up to detachment, over the pull-off
 //! stage (the whole run if no stage ends at pull-off).
 //!
-//! # Measured (see `tests/dynamics.rs`, `benches/dynamics.rs`)
+//! # Measured (see `tests/dynamics.rs`, `benches/dynamics.rs`, `benches/methods.rs`)
 //!
-//! - Fixed-step order 4.00 on the free oscillator; load-controlled pull-off −3/2 πRw0 to 1e-9
-//!   (soft spring, m = 1 g and m = 0); displacement-controlled loss at a/a_dc − 1 = 7.5e-6;
-//!   impact time within 8e-12 s of the closed form; per-cycle momentum balance 1e-14 and energy
-//!   balance 1e-7 relative; implicit and Dopri5 agree to 1e-9 on cycle means and on GS pull-off.
-//! - Cost (criterion medians, `cargo bench --bench dynamics`, 2 cores shared with other jobs at
-//!   load ≈ 3): one stage residual with its derivative 36 ns; one 400 Hz cycle (87 steps)
-//!   124 µs; 1 s at 400 Hz, 5 µm, rtol 1e-8: implicit 45 ms, `auto` 42.6 ms (37 600 steps,
-//!   0.52 M rhs, 13.9 rhs per step; before the Newton stage solve 0.97 M rhs, 26 per step,
-//!   67–69 ms), so wall / (rhs × 36 ns) ≈ 2.4 (the rest: sin/cos of the drive per stage, the
-//!   mechanics and quadrature integrands per stage, error norm, event checks); Dopri5 and
-//!   Dop853 fail there (the contact heals to G/w0 ≈ 0.01 each cycle), `auto` falls back after
-//!   7 ms of simulated time. The same hold at 1 µm: implicit 34.5 ms, Dopri5 29.1 ms (`auto`
-//!   30.1 ms; 0.18 M rhs, wall / rhs ≈ 160 ns: the per-span restart of `ode_solvers` and its
-//!   21-component vectors), Dop853 1.6 s. Shipped `scenarios/paper-protocol-300hz.toml`:
-//!   implicit 366 ms, Dopri5 226 ms, `auto` 243 ms, Dop853 30 s (once). The 20 ms target for
-//!   1 s at 400 Hz is **not met** (45 ms): at rtol 1e-8 the 4th-order method needs ~94 steps
-//!   per cycle, set by the smooth part of the motion (next item), and the explicit methods
-//!   cannot pass the healing phase of this scene.
-//! - What limits the step (measured on 1 s at 400 Hz, 5 µm): not the turning points. About 1.8
-//!   accepted steps per cycle straddle a sign change of ȧ, and 0 of 1804 rejected steps (rtol
-//!   1e-8; 5 of 1022 at 1e-6) do: the GS solution is C² there (a − a_k ∝ |t − t_k|^(1+1/n)) and
-//!   the 4th-order step's error over it is below the smooth-part error at this step size, so
-//!   stepping onto the turning points as events could save < 0.3 % of the steps and was not
-//!   adopted. The global error falls as (steps)^(−5) from rtol 1e-6 to 1e-10: smooth-regime
-//!   behaviour, so fewer steps need a higher order, not kink handling.
-//! - Work–precision, 1 s at 400 Hz (`work_precision_1s_400hz`, opt-in), relative errors of the
-//!   final cycle's ⟨F⟩, δ_A, a_m against the implicit method at rtol 1e-12 (whose own error, by
-//!   the observed convergence, is ~1e-9); rhs evaluations in parentheses:
-//!
-//!   | X_b, method | rtol 1e-4 | 1e-6 | 1e-8 | 1e-10 |
-//!   |---|---|---|---|---|
-//!   | 5 µm implicit | 2e-1, 2e-2, 3e-3 (58 k) | 1.6e-3, 3.3e-4, 1.8e-5 (175 k) | 2.5e-5, 5.0e-6, 1.3e-7 (523 k) | 2.1e-7, 4.2e-8, 9.2e-10 (1.29 M) |
-//!   | 5 µm Dopri5 | fails (G ≤ 0) | fails | fails | fails |
-//!   | 5 µm Dop853 | fails | 2.3e-1, 1.2e-1, 5.1e-4 (1.8 M): **wrong** | fails | fails |
-//!   | 5 µm auto | = implicit after the fall-back | | | |
-//!   | 1 µm implicit | 1.4e-3, 3.1e-3, 9.7e-4 (53 k) | 7.4e-5, 2.0e-5, 1.4e-5 (140 k) | 6.4e-7, 2.4e-7, 1.3e-7 (423 k) | 7.1e-9, 2.4e-9, 1.1e-9 (0.98 M) |
-//!   | 1 µm Dopri5 = auto | 1.2e-6, 1.3e-6, 5.0e-7 (83 k) | 1.1e-6, 1.2e-6, 4.7e-7 (96 k) | 4.3e-8, 5.6e-10, 2.1e-8 (180 k) | 1.1e-8, 1.1e-8, 2.3e-9 (281 k) |
-//!   | 1 µm Dop853 | 2.8e-3, … (176 k) | 1.5e-3, … (1.2 M) | 1.1e-4, … (11.4 M) | fails (stiffness) |
-//!
-//!   The ⟨F⟩ of the 5 µm hold is a small difference of large excursions (⟨F⟩ = 26 mN, F swings
-//!   ±0.5 N), so its relative error is ~20× that of the state. 1e-6 in all three outputs costs
-//!   the implicit method rtol ≈ 3e-10 (~1.1 M rhs, ~90 ms) on the 5 µm hold; on the 1 µm hold
-//!   Dopri5 reaches it at rtol 1e-4 (83 k rhs). Dopri5's errors level off near 1e-8 because
-//!   its quadrature states carry a loose weight (1e-6) in its error norm.
-//! - Stage solves (rtol 1e-8, before the first-step contraction hint): Newton in z stopped
-//!   after 2 residuals on 94 %, 3 on 4 %, 4 on 3 % of the stages and never needed the
-//!   fall-back on this scene (Newton in a needed it on 3 % of the stages, all
-//!   at turning points). A PI step controller (β = 0.04, 0.08, 0.12) gave rejections 1266, 592,
-//!   14 instead of 1804 at rtol 1e-8, but 4 %, 15 %, 75 % more steps, at an unchanged error per
-//!   rhs evaluation: not adopted.
-//! - Dop853 (`ode_solvers`): on these scenes its inner step collapses (≈ 2000 rhs per macro step
-//!   of T/16 on the 1 µm hold, 190 M rhs on the 300 Hz protocol), its error stalls near 1e-4 on
-//!   the 1 µm hold, and on the 5 µm hold at rtol 1e-6 it returns a 23 % wrong ⟨F⟩ without an
-//!   error. The crate's tableau and error formula match Hairer's DOP853; the likely causes are
-//!   the non-smooth integrands (ȧ ∝ |G/w0 − 1|^(1/n), and ∫(w0 − w)2πaȧ among the quadratures,
-//!   which an 8th-order estimate resolves with tiny steps) together with the restart of the
-//!   crate's integration at every macro step; not pinned down. Never use it here.
+//! - Fixed-step order 4.00 (implicit) and 8.1 (DP8) on the ramp-driven free oscillator;
+//!   load-controlled pull-off −3/2 πRw0 to 1e-9 (soft spring, m = 1 g and m = 0);
+//!   displacement-controlled loss at a/a_dc − 1 = 7.5e-6; impact time within 8e-12 s of the
+//!   closed form; per-cycle momentum balance 1e-14 and energy balance 1e-7 relative; implicit,
+//!   DP8 and Dopri5 agree to 1e-7 on cycle means and 1e-8 on a GS pull-off.
+//! - Cost (criterion medians, `cargo bench --bench dynamics`, idle 2-core machine): one implicit
+//!   stage residual with its derivative 34 ns, one DP8 right-hand side 75 ns; one 400 Hz cycle
+//!   117 µs implicit (87 steps), 34 µs DP8 (22 steps). 1 s at 400 Hz, 5 µm, rtol 1e-8:
+//!   implicit 42.7 ms (37 600 steps, 0.52 M rhs), DP8 = `auto` 9.1 ms (6 200 steps, 93 k rhs:
+//!   wall / (rhs × 75 ns) ≈ 1.3); Dopri5 and Dop853 cannot run it (a trial stage meets G ≤ 0).
+//!   The same hold at 1 µm: implicit 34.3 ms, DP8 7.0 ms, Dopri5 30.2 ms, Dop853 24.8 ms. The
+//!   300 Hz protocol (`scenarios/paper-protocol-300hz.toml`): implicit 361 ms, DP8 112 ms,
+//!   Dopri5 231 ms, Dop853 400 ms (25 s before the time-as-state fix).
+//! - Accuracy per cost (`djkr accuracy`, tables in `docs/accuracy/`): on 1 s at 400 Hz, 5 µm,
+//!   the pull-off-relevant error (final cycle's ⟨F⟩, ⟨δ⟩, δ_A) is 2.5e-6 at rtol 1e-8 and
+//!   4.2e-7 at 5e-9 (9.5 ms) for DP8, against 2.5e-5 at 1e-8 (43 ms) and 8.6e-7 at 4e-10 (92 ms)
+//!   for the implicit method. Errors at one rtol move by ~2× with rounding-level changes (a
+//!   few-ulp change in the law's inverse took DP8 at 1e-8 from 1.0e-6 to 2.5e-6): quote an rtol
+//!   with a margin, not the edge. The ⟨F⟩ of that hold is a small difference of large excursions
+//!   (26 mN against ±0.5 N swings), so its relative error is ~20× that of the state. In long
+//!   runs the contact radius integrates its local errors (it has no restoring force: each cycle
+//!   ratchets it), so the global error grows with the number of steps; use rtol ≤ 1e-8.
+//! - What the DP8 design choices bought, on the same hold at rtol 1e-8 (error, rhs):
+//!   Hairer's estimate alone 9.2e-6 at 1e-8 but 2.6e-5 at 1e-9 (no convergence), 68 k; plus the
+//!   contact radius's own 5th-order estimate 7.0e-6, 87 k; plus steps ending on turning points
+//!   1.0e-6, 99 k; plus their prediction one step ahead 1.0e-6, 94 k. Local errors measured
+//!   against 64-substep references: at rtol 1e-9 the steps straddling a turning point carried
+//!   1e-10 m each (50× the tolerance) while the estimate said 0.5.
+//! - The implicit method's step is set by the smooth part of the motion (~94 steps per cycle at
+//!   rtol 1e-8); stepping it onto the turning points saves < 0.3 % (its steps are 6× shorter
+//!   than DP8's, and the straddle error scales as h^(2+1/n)). Its stage solves: Newton in z
+//!   stopped after 2 residuals on 94 %, 3 on 4 %, 4 on 3 % of the stages (rtol 1e-8). A PI step
+//!   controller (β = 0.04, 0.08, 0.12) gave rejections 1266, 592, 14 instead of 1804, but 4 %,
+//!   15 %, 75 % more steps, at an unchanged error per rhs evaluation: not adopted.
 //! - Near pull-off under strong vibration the detachment time is extremely sensitive: implicit
 //!   and Dopri5 agree on cycle means to 1e-10 at t = 5 s of the 1 mm/s protocol, yet the pull-off
 //!   time varies between 5.9 and 6.7 s with rtol and method (pull-off force −0.58 … −0.61 N): the
 //!   approach to dynamic pull-off amplifies perturbations, so pull-off there is reproducible
-//!   only statistically.
+//!   only statistically. On the shipped protocols the last-cycle errors of every method level
+//!   off at a few 1e-6 (DP8 5.8e-6 at rtol 1e-8 and 5.7e-6 at 1e-10 at 300 Hz, the implicit
+//!   method 9.1e-6 at 1e-10), while the pull-off force converges (4e-9).
 
 pub mod catalogue;
 pub mod driver;

@@ -104,6 +104,22 @@ pub struct Model {
     pub vel_scale: f64,
     /// Characteristic time (s): the shortest of the base period and the free contact period.
     pub t_char: f64,
+    /// The explicit right-hand side's constants, so that its chain of dependent operations
+    /// carries one division instead of four (see [`Model::signed_g`], [`Model::crack_speed`]).
+    fast: FastConstants,
+}
+
+/// Precomputed reciprocals of the explicit right-hand side.
+#[derive(Debug, Clone, Copy)]
+struct FastConstants {
+    /// 1/R (1/m).
+    inv_r: f64,
+    /// 3K/(8π) (Pa).
+    g_coef: f64,
+    /// 1/m (1/kg; 0 for m = 0).
+    inv_m: f64,
+    /// Gent–Schultz (v0, w0, 1/w0, 1/n), when that is the law.
+    gs: Option<(f64, f64, f64, f64)>,
 }
 
 /// Why a scene cannot be simulated as given.
@@ -230,6 +246,15 @@ pub fn resolve(s: &Scenario) -> Result<Model, String> {
         len_scale,
         vel_scale,
         t_char,
+        fast: FastConstants {
+            inv_r: 1.0 / mat.r,
+            g_coef: 3.0 * mat.k / (8.0 * PI),
+            inv_m: if m > 0.0 { 1.0 / m } else { 0.0 },
+            gs: match &s.law {
+                Law::GentSchultz(gs) => Some((gs.v0, gs.w0, 1.0 / gs.w0, 1.0 / gs.n)),
+                _ => None,
+            },
+        },
     })
 }
 
@@ -359,7 +384,7 @@ impl Model {
         if contact {
             (
                 1.5 * self.mat.k * a,
-                0.5 * self.mat.k * a * a * a / self.mat.r,
+                0.5 * self.mat.k * a * a * a * self.fast.inv_r,
             )
         } else {
             (0.0, 0.0)
@@ -392,7 +417,41 @@ impl Model {
     /// Acceleration (Dynamic mechanics).
     #[inline]
     pub fn accel(&self, kin: &Kinematics, x: f64, v: f64, a: f64, contact: bool) -> f64 {
-        self.net_force(kin, x, v, a, contact) / self.m
+        self.net_force(kin, x, v, a, contact) * self.fast.inv_m
+    }
+
+    /// [`jkr::signed_energy_release_rate`] with precomputed 1/R and 3K/(8π).
+    #[inline]
+    pub fn signed_g(&self, a: f64, delta: f64) -> f64 {
+        let u = a * a * self.fast.inv_r - delta;
+        self.fast.g_coef * u * u.abs() / a
+    }
+
+    /// The law's crack speed ȧ(G) ([`crate::adhesion::AdhesionLaw::crack_speed`]); for
+    /// Gent–Schultz in closed form with precomputed 1/w0 and 1/n (one division, for healing).
+    #[inline]
+    pub fn crack_speed(&self, g: f64) -> f64 {
+        match self.fast.gs {
+            Some((v0, w0, inv_w0, inv_n)) => {
+                let root = |x: f64| {
+                    if x > 0.0 {
+                        (x.log2() * inv_n).exp2()
+                    } else {
+                        0.0
+                    }
+                };
+                if g.is_nan() {
+                    f64::NAN
+                } else if g >= w0 {
+                    -v0 * root(g * inv_w0 - 1.0)
+                } else if g > 0.0 {
+                    v0 * root(w0 / g - 1.0)
+                } else {
+                    f64::INFINITY
+                }
+            }
+            None => self.law.crack_speed(g),
+        }
     }
 
     /// Sphere position and velocity at a stage with known contact radius a.
@@ -445,11 +504,9 @@ impl Model {
     /// Contact force F(a, δ) (0 out of contact).
     #[inline]
     pub fn force(&self, a: f64, delta: f64, contact: bool) -> f64 {
-        if contact {
-            jkr::contact_force(&self.mat, a, delta)
-        } else {
-            0.0
-        }
+        // = jkr::contact_force (K a/2)(3δ − a²/R), without its division.
+        let (kc, f0) = self.contact_terms(a, contact);
+        kc * delta - f0
     }
 
     /// Force of the holder on the sphere, down +: k (x_k − x_s) for a spring; for a rigid link its
@@ -636,6 +693,57 @@ pub fn total_energy(model: &Model, kin: &Kinematics, x: f64, v: f64, a: f64, con
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The precomputed hot-path forms agree with the library's: G with jkr's, ȧ(G) with the law's
+    /// (Gent–Schultz for n < 1, = 1, > 1, and a law without a closed form), over peeling, healing
+    /// and the singular edge G ≤ 0.
+    #[test]
+    fn fast_forms_match_library() {
+        use crate::adhesion::{GentSchultz, SaturatedGentSchultz};
+        let base = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
+        let laws = [
+            Law::GentSchultz(GentSchultz::PAPER),
+            Law::GentSchultz(GentSchultz {
+                n: 1.0,
+                ..GentSchultz::PAPER
+            }),
+            Law::GentSchultz(GentSchultz {
+                n: 1.5,
+                ..GentSchultz::PAPER
+            }),
+            Law::Saturated(SaturatedGentSchultz {
+                base: GentSchultz::PAPER,
+                v_sat: 1e-2,
+            }),
+        ];
+        for law in laws {
+            let mut s = base.clone();
+            s.law = law;
+            let m = resolve(&s).unwrap();
+            for &a in &[1e-5, 1.2e-3, 3e-2] {
+                for &d in &[-1e-5, 0.0, 1e-7, 2e-5, 1e-3] {
+                    let (g0, g1) = (
+                        jkr::signed_energy_release_rate(&m.mat, a, d),
+                        m.signed_g(a, d),
+                    );
+                    assert!(
+                        (g0 - g1).abs() <= 4.0 * f64::EPSILON * g0.abs(),
+                        "{g0} vs {g1}"
+                    );
+                }
+            }
+            for k in -40..=40 {
+                let g = m.w0 * (1.0 + f64::from(k) / 20.0).max(0.0) * (1.0 + 1e-3 * f64::from(k));
+                let (v0, v1) = (m.law.crack_speed(g), m.crack_speed(g));
+                let same = if v0.is_infinite() {
+                    v1.is_infinite() && v1 > 0.0 && v0 > 0.0
+                } else {
+                    (v0 - v1).abs() <= 1e-13 * v0.abs()
+                };
+                assert!(same, "{:?}, G = {g}: {v0} vs {v1}", m.law);
+            }
+        }
+    }
 
     /// The phase advance by Taylor series agrees with a direct `sin_cos` over the whole range it
     /// is used for (|ω dt| ≤ 1), and falls back to it beyond, to the rounding of the direct
