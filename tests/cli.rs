@@ -301,3 +301,13 @@ fn material_file_sets_material_and_law() {
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--material no/such.toml"));
 }
+
+/// A scenario file that cannot be read: exit 2, the file named, the OS reason said once.
+#[test]
+fn unreadable_scenario_names_the_file_and_says_why_once() {
+    let o = djkr(&["run", "no/such/scenario.toml"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no/such/scenario.toml: cannot read"), "{err}");
+    assert_eq!(err.matches("os error").count(), 1, "{err}");
+}

@@ -1017,8 +1017,9 @@ fn probe_methods_by_scene() {
     }
 }
 
-/// `auto` takes the implicit method for scenes without inertia (rigid link) and Dopri5 for a
-/// sphere with mass and no vibration, and both give the same GS pull-off as the other method.
+/// `auto` takes DP8 for GS scenes with or without inertia (rigid link) and the implicit method
+/// for a constant w and for seeded contact formation; on the rigid link it gives the same GS
+/// pull-off as Dopri5 and as the implicit method.
 #[test]
 fn auto_rule_by_scene() {
     let mut s = scene();
@@ -1027,11 +1028,21 @@ fn auto_rule_by_scene() {
     s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
     s.solver.method = Method::Auto;
     let (r, _) = run(&s);
-    assert!(r.method.starts_with("implicit"), "{}", r.method);
-    s.solver.method = Method::Dopri5;
-    let (rd, _) = run(&s);
-    let rel = (r.pull_off.force - rd.pull_off.force).abs() / rd.pull_off.force.abs();
-    assert!(rel < 1e-7, "implicit vs Dopri5 pull-off: {rel:e}");
+    assert!(r.method.starts_with("explicit DP8"), "{}", r.method);
+    for m in [Method::Dopri5, Method::Implicit] {
+        s.solver.method = m;
+        let (rd, _) = run(&s);
+        let rel = (r.pull_off.force - rd.pull_off.force).abs() / rd.pull_off.force.abs();
+        assert!(rel < 1e-7, "auto vs {m:?} pull-off: {rel:e}");
+    }
+    let mut c = s.clone();
+    c.law = Law::Constant(ConstantW { w0: M.w0 });
+    c.solver.method = Method::Auto;
+    assert!(run(&c).0.method.starts_with("implicit"));
+    let mut seeded = s.clone();
+    seeded.formation = ContactFormation::Seed(1e-5);
+    seeded.solver.method = Method::Auto;
+    assert!(run(&seeded).0.method.starts_with("implicit"));
 
     let mut s = scene();
     s.law = gs();

@@ -8,7 +8,7 @@ use super::model::{self, q, Drive, Mechanics, Model, NQ};
 use super::types::*;
 use crate::adhesion::AdhesionLaw;
 use crate::jkr;
-use crate::scenario::{ContactFormation, Holder, Initial, Method, Scenario, StageKind, Until};
+use crate::scenario::{ContactFormation, Initial, Method, Scenario, StageKind, Until};
 use std::f64::consts::PI;
 use std::time::Instant;
 use thiserror::Error;
@@ -167,28 +167,18 @@ impl Engine {
     }
 }
 
-/// The `auto` rule, from measurements per scene type (`probe_methods_by_scene` in
-/// `tests/dynamics.rs`; see the module documentation of [`crate::dynamics`]):
-/// - **implicit** when the explicit form cannot work at all: a rate-independent law (a is
-///   algebraic: ȧ = law⁻¹(G) does not exist) or contact formed from a seed (healing from G ≈ 0
-///   at ȧ ≈ ∞ after every impact);
-/// - **implicit** without inertia (rigid link, m = 0): only a is integrated, the implicit steps
-///   are long and cheap (GS rigid unload at 0.1 µm/s: 0.44 ms against 2.8 ms for Dopri5,
-///   whose per-span restarts dominate);
-/// - **Dopri5** otherwise, falling back to the implicit method for the rest of a stage when the
-///   explicit form meets G ≤ 0, stiffness or its step budget. Under strong vibration the contact
-///   heals to G/w0 ≈ 0.01 each cycle (ȧ ~ 1 m/s) and Dopri5 falls back within the first cycles,
-///   at a cost of a few ms; with light or no vibration Dopri5 needs 2.5–3× fewer rhs
-///   evaluations than the 4th-order implicit method and is 1.4–1.9× faster.
-///
-/// Dop853 is never chosen: its inner steps collapse on these scenes (measured: ~2000 rhs per
-/// macro step on a 1 µm, 400 Hz hold; 190 M rhs on the 300 Hz protocol against Dopri5's 1.4 M);
-/// the Gent–Schultz rate ∝ |G/w0 − 1|^(1/n) is not smooth where ȧ changes sign, which an 8th-order
-/// error estimate resolves with tiny steps.
+/// The `auto` rule, from measurements per scene type (`djkr accuracy` on the bundled scenes,
+/// `benches/dynamics.rs`, the extremes matrix; see the module documentation of
+/// [`crate::dynamics`]):
+/// - **implicit** for a rate-independent law (a is algebraic: ȧ = law⁻¹(G) does not exist) and
+///   for contact formed from a seed (healing from G ≈ 0 at ȧ ≈ ∞ after every impact: DP8 runs
+///   it, 20 % slower);
+/// - **DP8** otherwise, taking single steps implicitly where a DP8 stage meets G ≤ 0. At equal
+///   accuracy it is 4–20× faster than the implicit method on the vibrating scenes, and on the
+///   scenes without inertia too (GS unload at 0.1 µm/s, rtol 1e-8: rigid link 0.28 against
+///   0.32 ms, m = 0 0.46 against 0.59 ms, each with a 20–100× smaller error against rtol 1e-12).
 pub fn auto_engine(s: &Scenario) -> Engine {
-    let no_inertia = matches!(s.holder, Holder::Rigid) || s.sphere.mass == 0.0;
-    if s.law.is_rate_independent() || matches!(s.formation, ContactFormation::Seed(_)) || no_inertia
-    {
+    if s.law.is_rate_independent() || matches!(s.formation, ContactFormation::Seed(_)) {
         Engine::Implicit
     } else {
         Engine::Dp8
@@ -1221,9 +1211,9 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
             let mut m = engine.name().to_string();
             if auto {
                 m = format!(
-                    "{m}; auto: implicit for rate-independent laws, seeded contact formation and \
-                     scenes without inertia (rigid link, m = 0), DP8 otherwise, taking a step \
-                     implicitly where a DP8 stage meets G <= 0"
+                    "{m}; auto: implicit for rate-independent laws and seeded contact \
+                     formation, DP8 otherwise, taking a step implicitly where a DP8 stage meets \
+                     G <= 0"
                 );
             }
             if run.implicit_rescues > 0 {

@@ -65,13 +65,13 @@ pub const TABLE_W0_RTOL: f64 = 1e-6;
 #[derive(Debug, Error)]
 pub enum ScenarioError {
     /// The file could not be read.
-    #[error("{file}: cannot read: {source}")]
+    #[error("{file}: cannot read: {cause}")]
     Io {
         /// The file.
         file: String,
-        /// The I/O error.
-        #[source]
-        source: std::io::Error,
+        /// The I/O error (shown in the message, so not also chained as a `source`, which made
+        /// the command line print it twice).
+        cause: std::io::Error,
     },
     /// TOML syntax error.
     #[error("{file}: TOML syntax error at line {line}, column {column}: {message}")]
@@ -204,9 +204,9 @@ pub fn parse_material_and_law(
 }
 
 fn read_text(path: &Path, name: &str) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+    std::fs::read_to_string(path).map_err(|cause| ScenarioError::Io {
         file: name.to_string(),
-        source,
+        cause,
     })
 }
 
