@@ -90,17 +90,19 @@
 //! underflow in contact) is handed to the driver like a failed implicit stage.
 //!
 //! **Auto** ([`driver::auto_engine`]): the implicit method for a rate-independent law (a is
-//! algebraic: no explicit rate) and for seeded contact formation (healing from G ≈ 0 after every
-//! impact); DP8 otherwise, with or without inertia, taking single steps implicitly where a DP8
-//! stage meets G ≤ 0 (counted in `RunResult::method`).
+//! algebraic: no explicit rate), for seeded contact formation (healing from G ≈ 0 after every
+//! impact) and without inertia (rigid link, m = 0: there neither method wins everywhere); DP8
+//! otherwise, taking single steps implicitly where a DP8 stage meets G ≤ 0 (counted in
+//! `RunResult::method`).
 //!
 //! **Which method when** (measured: `djkr accuracy`, `benches/dynamics.rs`, `benches/methods.rs`):
 //! - the Gent–Schultz law, with or without vibration, up to healing to G/w0 ≈ 0.01 each cycle
 //!   and impacts: DP8 (`auto`), 4–20× faster than the implicit method at equal accuracy (at
 //!   equal rtol 3–6× faster and 10–200× more accurate; with impacts every cycle 1.3× slower but
-//!   500–3000× more accurate). Without inertia (rigid link, m = 0) too: GS unload at 0.1 µm/s,
-//!   rtol 1e-8, 0.28 against 0.32 ms (rigid) and 0.46 against 0.59 ms (m = 0), with 20–100×
-//!   smaller errors;
+//!   500–3000× more accurate);
+//! - without inertia (rigid link, m = 0) the two trade places: DP8 is 15–20 % faster on a GS
+//!   unload at 0.1 µm/s, 1.6× slower under a 2 µm, 400 Hz base (its reduced right-hand side
+//!   solves the position twice); `auto` takes the implicit method;
 //! - constant w, seeded contact: the implicit method (`auto`);
 //! - Dopri5, Dop853: only for comparison (a trial stage meeting G ≤ 0 ends the run; per-span
 //!   restarts).
