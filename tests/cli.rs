@@ -311,3 +311,26 @@ fn unreadable_scenario_names_the_file_and_says_why_once() {
     assert!(err.contains("no/such/scenario.toml: cannot read"), "{err}");
     assert_eq!(err.matches("os error").count(), 1, "{err}");
 }
+
+/// A pull-off whose contact outgrows the small-contact range of JKR (a ≪ R) is flagged, in the
+/// JSON notes and on stderr; the paper's case (a_m + a_A ≈ 4 mm against R = 51 mm) is not.
+#[test]
+fn pulloff_outside_small_contact_range_is_flagged() {
+    let args = [
+        "pulloff", "--freq", "400", "--a-amp", "0.5mm", "--n", "1.5", "--json",
+    ];
+    let o = djkr(&args);
+    assert!(o.status.success());
+    let v: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let notes = v["notes"].as_array().unwrap();
+    assert!(
+        notes
+            .iter()
+            .any(|n| n.as_str().unwrap().contains("outside the model")),
+        "{v}"
+    );
+    assert!(String::from_utf8_lossy(&o.stderr).contains("warning: outside the model"));
+    assert!(num(&v, "a_mean") > 0.2 * 0.051);
+    let v = json(&["pulloff", "--freq", "400", "--a-amp", "1.5mm", "--json"]);
+    assert!(v["notes"].as_array().unwrap().is_empty(), "{v}");
+}

@@ -216,8 +216,25 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
         }
         PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
     };
+    let mut r = r;
+    // JKR is a small-contact theory (a ≪ R, half-space substrate): say so when the answer
+    // leaves that range instead of printing it as if it were valid.
+    let a_max = r.a_mean + a_amp.unwrap_or(0.0);
+    if a_max > SMALL_CONTACT_LIMIT * m.r {
+        let w = format!(
+            "outside the model: the contact reaches a_m + a_A = {} = {:.2} R, but JKR assumes a contact small against the sphere (a ≪ R; here limited to {SMALL_CONTACT_LIMIT} R)",
+            fmt_len(a_max),
+            a_max / m.r
+        );
+        eprintln!("warning: {w}");
+        r.notes.push(w);
+    }
     report(&r, a.json)
 }
+
+/// Largest contact radius, as a fraction of R, that the small-contact (JKR) results are reported
+/// without a warning.
+const SMALL_CONTACT_LIMIT: f64 = 0.2;
 
 fn report(r: &PulloffReport, json_out: bool) -> Result<()> {
     if json_out {
@@ -228,6 +245,7 @@ fn report(r: &PulloffReport, json_out: bool) -> Result<()> {
             "delta_amp": r.delta_amp,
             "force": r.force,
             "amplification": r.amplification,
+            "notes": r.notes,
         }));
     }
     print_table(
