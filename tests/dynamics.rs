@@ -430,9 +430,7 @@ fn methods_agree_on_gs_unload() {
 }
 
 /// An explicitly requested explicit method on a rate-independent law fails with an error that
-/// names the time, the state and the remedy; and `auto` on a GS scene with impacts runs Dopri5
-/// (falling back to the implicit method where the explicit form meets a compressive edge).
-/// Dop853 is left out: see `probe_free_flight_order` (its accuracy stalls in our macro-step use).
+/// names the time, the state and the remedy; and `auto` on a GS scene with impacts runs DP8.
 #[test]
 fn explicit_errors_and_auto() {
     let mut s = scene();

@@ -240,14 +240,10 @@ struct Run<'a> {
     in_pulloff: bool,
     /// Engine in use.
     engine: Engine,
-    /// Engine chosen for the run (auto may fall back from it within a stage).
-    engine0: Engine,
     /// `method = auto`.
     auto: bool,
     /// Last inner step of the explicit engine (s).
     h_inner: f64,
-    /// Fall-backs taken by `auto`.
-    notes: Vec<String>,
     /// The observer uses samples (`Observer::wants_samples`).
     wants_samples: bool,
     /// The DP8 stepper's last evaluation: the rates at the end of its last step (first same as
@@ -767,7 +763,6 @@ impl Run<'_> {
 
     fn run_stage(&mut self, idx: usize, st: &crate::scenario::Stage) -> Result<(), SimError> {
         self.stage = idx;
-        self.engine = self.engine0;
         let t0 = self.y.t;
         let speed = match st.kind {
             StageKind::Approach => st.speed,
@@ -907,14 +902,8 @@ impl Run<'_> {
                     continue;
                 }
                 Err(StepFail::Explicit(reason)) => {
-                    if self.auto {
-                        self.notes.push(format!(
-                            "t = {:e} s: {reason}; fell back to the implicit method for the rest of stage {idx}",
-                            y0.t
-                        ));
-                        self.engine = Engine::Implicit;
-                        continue;
-                    }
+                    // Only an explicitly requested `ode_solvers` method gets here (`auto` runs
+                    // DP8 or the implicit method).
                     return Err(SimError::Explicit {
                         method: self.engine.name().into(),
                         t: y0.t,
@@ -1155,10 +1144,8 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
         collapse_at: None,
         in_pulloff: false,
         engine,
-        engine0: engine,
         auto,
         h_inner: 0.0,
-        notes: Vec::new(),
         wants_samples,
         fsal: None,
         implicit_rescues: 0,
@@ -1226,10 +1213,6 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
                     "; {} steps taken implicitly where DP8 met G <= 0",
                     run.implicit_rescues
                 ));
-            }
-            for n in &run.notes {
-                m.push_str("; ");
-                m.push_str(n);
             }
             if run.stopped {
                 m.push_str("; stopped by the observer");

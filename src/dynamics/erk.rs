@@ -297,10 +297,7 @@ pub fn rates(
         // Ġ from G = (3K/8π) u|u|/a with u = a²/R − δ: the turning points ȧ = 0 (G = w0) are
         // located on its cubic Hermite interpolant.
         let gdot = if ends {
-            let (k, r) = (model.mat.k, model.mat.r);
-            let u = a * a / r - (x + kin.xb);
-            let udot = 2.0 * a * adot / r - (v + kin.vb);
-            3.0 * k / (8.0 * std::f64::consts::PI) * u.abs() / a * (2.0 * udot - u * adot / a)
+            model.signed_g_rate(a, x + kin.xb, adot, v + kin.vb)
         } else {
             0.0
         };

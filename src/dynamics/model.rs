@@ -427,6 +427,15 @@ impl Model {
         self.fast.g_coef * u * u.abs() / a
     }
 
+    /// dG/dt of [`Model::signed_g`] along a motion with rates ȧ and δ̇:
+    /// G = c u|u|/a, u = a²/R − δ ⇒ Ġ = c (|u|/a)(2u̇ − u ȧ/a), u̇ = 2aȧ/R − δ̇.
+    #[inline]
+    pub fn signed_g_rate(&self, a: f64, delta: f64, adot: f64, delta_dot: f64) -> f64 {
+        let u = a * a * self.fast.inv_r - delta;
+        let udot = 2.0 * a * adot * self.fast.inv_r - delta_dot;
+        self.fast.g_coef * u.abs() / a * (2.0 * udot - u * adot / a)
+    }
+
     /// The law's crack speed ȧ(G) ([`crate::adhesion::AdhesionLaw::crack_speed`]); for
     /// Gent–Schultz in closed form with precomputed 1/w0 and 1/n (one division, for healing).
     #[inline]
@@ -730,6 +739,13 @@ mod tests {
                         (g0 - g1).abs() <= 4.0 * f64::EPSILON * g0.abs(),
                         "{g0} vs {g1}"
                     );
+                    // Ġ against a central difference of G along a(t) = a + ȧt, δ(t) = δ + δ̇t.
+                    let (ad, dd, dt) = (3e-3, -2e-2, 1e-9);
+                    let fd = (m.signed_g(a + ad * dt, d + dd * dt)
+                        - m.signed_g(a - ad * dt, d - dd * dt))
+                        / (2.0 * dt);
+                    let gr = m.signed_g_rate(a, d, ad, dd);
+                    assert!((gr - fd).abs() <= 1e-5 * gr.abs().max(1e-3), "{gr} vs {fd}");
                 }
             }
             for k in -40..=40 {
