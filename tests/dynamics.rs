@@ -245,6 +245,36 @@ fn vibrating(xb: f64) -> Scenario {
     s
 }
 
+/// A hold of exactly N base periods records N cycles, also where rounding puts the N-th period
+/// boundary (t_on + N·2π/ω) a few ulps after the stage end (t0 + N/f): 333.3 Hz for N = 1, 2, 5
+/// and 123.4 Hz for N = 3 are such cases (checked in the test itself).
+#[test]
+fn stage_of_whole_periods_records_every_cycle() {
+    let mut any_after = false;
+    for (f, n) in [(333.3, 1), (333.3, 2), (333.3, 5), (123.4, 3), (300.0, 4)] {
+        let mut s = vibrating(1e-6);
+        s.base = Some(BaseMotion {
+            amplitude: 1e-6,
+            frequency: f,
+        });
+        let d = n as f64 / f;
+        s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(d), Some(true))];
+        let after = n as f64 * (2.0 * std::f64::consts::PI / (2.0 * std::f64::consts::PI * f)) > d;
+        any_after |= after;
+        let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+        assert_eq!(
+            r.cycles.len(),
+            n,
+            "{f} Hz, {n} periods (boundary after the stage end by rounding: {after})"
+        );
+        assert!(first(&r, EventKind::DurationElapsed).is_some());
+    }
+    assert!(
+        any_after,
+        "no case exercises a boundary after the stage end"
+    );
+}
+
 /// Over every cycle, exactly (to integration accuracy): momentum balance
 /// ⟨F⟩ − m g − ⟨F_spring⟩ = −(m Δv + c Δx)/T, and energy balance
 /// ΔE = W_base + W_holder − D_damping − D_adhesion. In periodic steady state Δv = Δx = 0, so the

@@ -8,6 +8,7 @@ use super::model::{self, q, Drive, Mechanics, Model, NQ};
 use super::types::*;
 use crate::adhesion::AdhesionLaw;
 use crate::jkr;
+use crate::numerics;
 use crate::scenario::{ContactFormation, Holder, Initial, Method, Scenario, StageKind, Until};
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -366,7 +367,7 @@ impl Run<'_> {
     }
 
     /// Track the most tensile instantaneous force while the shaker is off, refining an interior
-    /// minimum over the step's interpolant by golden-section search.
+    /// minimum over the step's interpolant, then (if it may beat the record) by exact re-stepping.
     fn track_force(&mut self, y0: &State, y1: &State) {
         if self.drive.shaker || !y1.contact || !y0.contact {
             return;
@@ -379,7 +380,7 @@ impl Run<'_> {
             // A cheap search on the step's interpolant first; only a minimum that may beat the
             // record is refined exactly (each trial a fresh step from y0).
             let hermite_f = |run: &mut Self, t: f64| run.force_of(&hermite(y0, y1, t));
-            let (fh, th) = self.golden(y0.t, y1.t, 1e-6 * (y1.t - y0.t), hermite_f);
+            let (fh, th) = self.minimize(y0.t, y1.t, 1e-6 * (y1.t - y0.t), hermite_f);
             let scale = fh.abs().max(1e-300);
             if self.min_force.is_none_or(|(m, _)| fh < m + 1e-3 * scale) {
                 let exact = |run: &mut Self, t: f64| match run.try_step(y0, t - y0.t) {
@@ -387,7 +388,7 @@ impl Run<'_> {
                     _ => run.force_of(&hermite(y0, y1, t)),
                 };
                 let tol = self.event_tol.max(1e-15 * y1.t.abs());
-                cand.push(self.golden(y0.t, y1.t, tol, exact));
+                cand.push(self.minimize(y0.t, y1.t, tol, exact));
             } else {
                 cand.push((fh, th));
             }
@@ -399,41 +400,18 @@ impl Run<'_> {
         }
     }
 
-    /// Golden-section minimisation of `f` over [lo, hi] to a bracket of `tol`: (min, argmin).
-    fn golden(
+    /// Minimise `f` over [lo, hi] to about `tol` in t with Brent's method: (min, argmin).
+    fn minimize(
         &mut self,
-        mut lo: f64,
-        mut hi: f64,
+        lo: f64,
+        hi: f64,
         tol: f64,
         f: impl Fn(&mut Self, f64) -> f64,
     ) -> (f64, f64) {
-        let r = 0.5 * (5f64.sqrt() - 1.0);
-        let mut c = hi - r * (hi - lo);
-        let mut d = lo + r * (hi - lo);
-        let (mut fc, mut fd) = (f(self, c), f(self, d));
-        for _ in 0..80 {
-            if hi - lo <= tol {
-                break;
-            }
-            if fc < fd {
-                hi = d;
-                d = c;
-                fd = fc;
-                c = hi - r * (hi - lo);
-                fc = f(self, c);
-            } else {
-                lo = c;
-                c = d;
-                fc = fd;
-                d = lo + r * (hi - lo);
-                fd = f(self, d);
-            }
-        }
-        if fc < fd {
-            (fc, c)
-        } else {
-            (fd, d)
-        }
+        // `brent_minimize` converges to ≈ 3 (rel_tol |t| + abs_tol).
+        let (t, fmin) =
+            numerics::brent_minimize(|t| f(self, t), lo, hi, f64::EPSILON, tol / 3.0, 100);
+        (fmin, t)
     }
 
     fn next_boundary(&self) -> f64 {
@@ -832,13 +810,15 @@ impl Run<'_> {
             let snap = 16.0 * f64::EPSILON * y0.t.abs().max(self.model.t_char);
             if t_lim - y0.t <= snap {
                 // Boundaries are hit exactly; a rounding sliver between two of them (a stage end
-                // and a period boundary computed differently) is absorbed here.
-                self.y.t = self.y.t.max(t_lim);
-                let y0 = self.y;
-                if t_bound <= y0.t {
+                // and a period boundary computed differently, e.g. a stage of exactly one base
+                // period) is absorbed here, and a period boundary within it is recorded.
+                if t_bound - y0.t <= snap {
+                    self.y.t = self.y.t.max(t_bound);
                     self.record_cycle();
                     continue;
                 }
+                self.y.t = self.y.t.max(t_lim);
+                let y0 = self.y;
                 if is_duration {
                     self.event(EventKind::DurationElapsed, &y0);
                     return Ok(());
@@ -1048,7 +1028,9 @@ impl Run<'_> {
             self.output(&y0, &y1);
             self.track_force(&y0, &y1);
             self.y = y1;
-            if hits && t_bound <= t_lim {
+            // A period boundary a rounding sliver after the stage end (a stage of whole periods)
+            // still closes its cycle.
+            if hits && t_bound - t_lim <= snap {
                 self.record_cycle();
             }
             if pulloff && !self.y.contact {

@@ -165,7 +165,7 @@
 //! first harmonics and the energy balance. `pull_off.force`: if the shaker is on at detachment
 //! (without detachment: if any cycle was recorded), the most tensile cycle-mean force; otherwise
 //! the most tensile instantaneous force recorded while the shaker was off (interior minima refined by
-//! golden section with exact re-stepping). Both are taken up to detachment, over the pull-off
+//! Brent minimisation with exact re-stepping). Both are taken up to detachment, over the pull-off
 //! stage (the whole run if no stage ends at pull-off).
 //!
 //! # Measured (see `tests/dynamics.rs`, `benches/dynamics.rs`, `benches/methods.rs`)

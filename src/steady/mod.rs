@@ -351,7 +351,7 @@ impl Problem {
         s.stages = vec![Stage {
             kind: StageKind::Hold,
             speed: 0.0,
-            until: Until::Duration((1.0 + 8.0 * f64::EPSILON) / frequency),
+            until: Until::Duration(1.0 / frequency),
             vibration: Some(true),
             max_duration: f64::INFINITY,
         }];
@@ -443,11 +443,9 @@ impl Problem {
         let mut s = self.scenario.clone();
         s.initial = *start;
         s.solver.rtol = rtol;
-        // A hair longer than the periods, so the last base-period boundary (which the driver
-        // computes as k·2π/ω) is reached before the stage ends and its cycle is recorded; the
-        // driver absorbs the remaining rounding sliver (< 16 ε t) without a step.
-        s.stages[0].until =
-            Until::Duration(periods as f64 / self.frequency * (1.0 + 8.0 * f64::EPSILON));
+        // The driver records the last base-period boundary (k·2π/ω) even when rounding puts it
+        // a sliver after the stage end (periods / f).
+        s.stages[0].until = Until::Duration(periods as f64 / self.frequency);
         simulate(&s, obs)
     }
 
