@@ -33,6 +33,22 @@ pub trait AdhesionLaw {
     fn crack_speed(&self, g: f64) -> f64 {
         invert_by_root(self, g)
     }
+
+    /// The rate factor of the closed forms (eq. 24): w(−v)/w0 − 1, the relative rise of the work
+    /// of adhesion when peeling at speed v (m/s; the sign of v is ignored). (v/v0)^n for
+    /// Gent–Schultz, 0 for a constant w.
+    fn peel_rate_factor(&self, v: f64) -> f64 {
+        self.work_of_adhesion(-v.abs()) / self.w0() - 1.0
+    }
+
+    /// The inverse of [`peel_rate_factor`](Self::peel_rate_factor): the peeling speed v ≥ 0
+    /// (m/s) at which w(−v) = w0 (1 + x) for x ≥ 0 (negative x is taken as 0), or
+    /// `f64::INFINITY` where no speed reaches it (a constant w for any x > 0, a saturated law
+    /// beyond its plateau).
+    fn peel_speed_for_rate_factor(&self, x: f64) -> f64 {
+        let v = -self.crack_speed(self.w0() * (1.0 + x.max(0.0)));
+        v.max(0.0)
+    }
 }
 
 /// Invert a strictly decreasing law by bracketing and Brent's method in s = asinh(ȧ / v_scale).
@@ -158,6 +174,14 @@ impl AdhesionLaw for GentSchultz {
     }
     fn speed_scale(&self) -> f64 {
         self.v0
+    }
+    /// (v/v0)^n, without the rounding of w(−v)/w0 − 1 at small speeds.
+    fn peel_rate_factor(&self, v: f64) -> f64 {
+        self.rate_factor(v)
+    }
+    /// v0 x^(1/n).
+    fn peel_speed_for_rate_factor(&self, x: f64) -> f64 {
+        self.v0 * x.max(0.0).powf(1.0 / self.n)
     }
     /// Closed form: G ≥ w0: ȧ = −v0 (G/w0 − 1)^(1/n); 0 < G < w0: ȧ = v0 (w0/G − 1)^(1/n);
     /// G ≤ 0: +∞ (healing without bound: the contact races to the Hertz radius).
@@ -417,6 +441,22 @@ impl AdhesionLaw for Law {
             Law::GentSchultz(l) => l.crack_speed(g),
             Law::Saturated(l) => l.crack_speed(g),
             Law::Tabulated(l) => l.crack_speed(g),
+        }
+    }
+    fn peel_rate_factor(&self, v: f64) -> f64 {
+        match self {
+            Law::Constant(l) => l.peel_rate_factor(v),
+            Law::GentSchultz(l) => l.peel_rate_factor(v),
+            Law::Saturated(l) => l.peel_rate_factor(v),
+            Law::Tabulated(l) => l.peel_rate_factor(v),
+        }
+    }
+    fn peel_speed_for_rate_factor(&self, x: f64) -> f64 {
+        match self {
+            Law::Constant(l) => l.peel_speed_for_rate_factor(x),
+            Law::GentSchultz(l) => l.peel_speed_for_rate_factor(x),
+            Law::Saturated(l) => l.peel_speed_for_rate_factor(x),
+            Law::Tabulated(l) => l.peel_speed_for_rate_factor(x),
         }
     }
 }

@@ -43,7 +43,7 @@
 //! All functions are pure, allocation-free and SI. The low-level ones assume validated inputs
 //! (finite, a ≥ 0, β > 0); [`pull_off_approx`] and [`vibration_speed_for_amplification`] validate.
 
-use crate::adhesion::GentSchultz;
+use crate::adhesion::AdhesionLaw;
 use crate::error::{non_negative, positive, ParamError};
 use crate::jkr;
 use crate::material::Material;
@@ -63,18 +63,24 @@ pub enum DeltaAmpForm {
     Printed,
 }
 
-/// The rate factor C (a_A ω/β)^n = (a_A ω/(β v0))^n of eq. (24) (dimensionless).
+/// The rate factor C (a_A ω/β)^n = (a_A ω/(β v0))^n of eq. (24) (dimensionless). For any law,
+/// w(−a_A ω/β)/w0 − 1 ([`AdhesionLaw::peel_rate_factor`]): 0 for a constant w.
 #[inline]
-pub fn rate_factor(law: &GentSchultz, omega: f64, a_amp: f64, beta: f64) -> f64 {
-    law.rate_factor(a_amp * omega / beta)
+pub fn rate_factor<L: AdhesionLaw + ?Sized>(law: &L, omega: f64, a_amp: f64, beta: f64) -> f64 {
+    law.peel_rate_factor(a_amp * omega / beta)
 }
 
 /// Effective work of adhesion, eq. (24) (eq. 19 at β = 1):
-/// w_eff = (w0/4)(√(1 + C (a_A ω/β)^n) + 1)² (J/m²), with w0 = `law.w0`.
+/// w_eff = (w0/4)(√(1 + C (a_A ω/β)^n) + 1)² (J/m²), with w0 = `law.w0()`.
 #[inline]
-pub fn effective_work_of_adhesion(law: &GentSchultz, omega: f64, a_amp: f64, beta: f64) -> f64 {
+pub fn effective_work_of_adhesion<L: AdhesionLaw + ?Sized>(
+    law: &L,
+    omega: f64,
+    a_amp: f64,
+    beta: f64,
+) -> f64 {
     let x = rate_factor(law, omega, a_amp, beta);
-    0.25 * law.w0 * ((1.0 + x).sqrt() + 1.0).powi(2)
+    0.25 * law.w0() * ((1.0 + x).sqrt() + 1.0).powi(2)
 }
 
 /// Mean force against mean contact radius, eq. (18): F_m = K a_m (a_m²/R − 3√(2π w_eff a_m/(3K)))
@@ -108,17 +114,17 @@ pub fn pull_off_force(m: &Material, w_eff: f64) -> f64 {
 /// - [`DeltaAmpForm::Derived`]: a_m a_A/R + a_A²/(2R) + ½(√(S(1+X_β)) − √S);
 /// - [`DeltaAmpForm::Printed`] (eqs. 17, 23): a_m a_A/R + ½(√(S(1+X_β)) + √S);
 ///
-/// with S = 8π a_m w0/(3K), w0 = `law.w0`, X_β = C (a_A ω/β)^n.
-pub fn indentation_amplitude(
+/// with S = 8π a_m w0/(3K), w0 = `law.w0()`, X_β = C (a_A ω/β)^n.
+pub fn indentation_amplitude<L: AdhesionLaw + ?Sized>(
     m: &Material,
-    law: &GentSchultz,
+    law: &L,
     omega: f64,
     a_mean: f64,
     a_amp: f64,
     beta: f64,
     form: DeltaAmpForm,
 ) -> f64 {
-    let s = 8.0 * std::f64::consts::PI * a_mean * law.w0 / (3.0 * m.k);
+    let s = 8.0 * std::f64::consts::PI * a_mean * law.w0() / (3.0 * m.k);
     let root_s = s.sqrt();
     let x = rate_factor(law, omega, a_amp, beta);
     let root_peel = (s * (1.0 + x)).sqrt();
@@ -154,17 +160,18 @@ pub struct ApproxPullOff {
 
 /// The closed-form pull-off for vibration at angular frequency `omega` (rad/s, ≥ 0) with
 /// contact-radius amplitude `a_amp` (m, ≥ 0), corrective factor `beta` (> 0; the paper's value
-/// is [`BETA_PAPER`]) and δ_A form `form`. Errors name the offending parameter.
-pub fn pull_off_approx(
+/// is [`BETA_PAPER`]) and δ_A form `form`. Errors name the offending parameter. Any law: the
+/// rate enters through w(−a_A ω/β) ([`rate_factor`]); a constant w gives amplification 1.
+pub fn pull_off_approx<L: AdhesionLaw + ?Sized>(
     m: &Material,
-    law: &GentSchultz,
+    law: &L,
     omega: f64,
     a_amp: f64,
     beta: f64,
     form: DeltaAmpForm,
 ) -> Result<ApproxPullOff, ParamError> {
     m.validate()?;
-    GentSchultz::new(law.w0, law.v0, law.n)?;
+    positive("w0", law.w0(), "J/m^2")?;
     non_negative("omega", omega, "rad/s")?;
     non_negative("a_A", a_amp, "m")?;
     positive("beta", beta, "(dimensionless)")?;
@@ -173,7 +180,7 @@ pub fn pull_off_approx(
         return Err(ParamError::new(
             "a_A*omega",
             a_amp * omega,
-            "the rate factor (a_A omega/(beta v0))^n overflows: reduce the vibration speed",
+            "the rate factor w(-a_A omega/beta)/w0 - 1 overflows: reduce the vibration speed",
         ));
     }
     let a_mean = pull_off_radius(m, w_eff);
@@ -193,8 +200,8 @@ pub fn pull_off_approx(
 /// Amplification of the approximate pull-off, eq. (21)/(24) over the static one:
 /// A = w_eff/w0 = ¼(√(1 + (v/(β v0))^n) + 1)² with v = a_A ω (dimensionless).
 #[inline]
-pub fn amplification(law: &GentSchultz, speed: f64, beta: f64) -> f64 {
-    let x = law.rate_factor(speed / beta);
+pub fn amplification<L: AdhesionLaw + ?Sized>(law: &L, speed: f64, beta: f64) -> f64 {
+    let x = law.peel_rate_factor(speed / beta);
     0.25 * ((1.0 + x).sqrt() + 1.0).powi(2)
 }
 
@@ -206,12 +213,15 @@ pub fn amplification(law: &GentSchultz, speed: f64, beta: f64) -> f64 {
 /// β = 2.5, n = 0.531, v0 = 0.0445 mm/s. That arithmetic drops the ¼ of eq. (21): (A^½ − 1)² − 1
 /// inverts A = (√(1+X) + 1)², i.e. an amplification of 48/4 = 12 in eq. (21). The exact inversion
 /// for A = 48 gives ≈ 1.66 m/s; see [`vibration_speed_as_printed`].
-pub fn vibration_speed_for_amplification(
-    law: &GentSchultz,
+///
+/// Any law: v = β × [`AdhesionLaw::peel_speed_for_rate_factor`]; a law that never reaches the
+/// rate factor (a constant w for A > 1, a saturated law beyond its plateau) is an error.
+pub fn vibration_speed_for_amplification<L: AdhesionLaw + ?Sized>(
+    law: &L,
     target: f64,
     beta: f64,
 ) -> Result<f64, ParamError> {
-    GentSchultz::new(law.w0, law.v0, law.n)?;
+    positive("w0", law.w0(), "J/m^2")?;
     positive("beta", beta, "(dimensionless)")?;
     if !(target.is_finite() && target >= 1.0) {
         return Err(ParamError::new(
@@ -221,14 +231,31 @@ pub fn vibration_speed_for_amplification(
         ));
     }
     let x = (2.0 * target.sqrt() - 1.0).powi(2) - 1.0;
-    let v = beta * law.v0 * x.max(0.0).powf(1.0 / law.n);
+    required_speed(law, x, beta, target)
+}
+
+/// β × the peeling speed of rate factor x, or an error naming the amplification when the law
+/// never reaches it or the speed overflows.
+fn required_speed<L: AdhesionLaw + ?Sized>(
+    law: &L,
+    x: f64,
+    beta: f64,
+    target: f64,
+) -> Result<f64, ParamError> {
+    let v = beta * law.peel_speed_for_rate_factor(x);
     if v.is_finite() {
         Ok(v)
+    } else if law.is_rate_independent() {
+        Err(ParamError::new(
+            "amplification",
+            target,
+            "a rate-independent (constant w) law never amplifies pull-off: only 1 is reachable",
+        ))
     } else {
         Err(ParamError::new(
             "amplification",
             target,
-            "the required speed overflows f64 for this n",
+            "no finite peeling speed reaches it with this law (or the speed overflows f64)",
         ))
     }
 }
@@ -237,12 +264,12 @@ pub fn vibration_speed_for_amplification(
 /// reproduce its 86 mm/s. It is the inverse of A = (√(1 + (v/(βv0))^n) + 1)², without the ¼ of
 /// eq. (21), so it is not the inverse of the closed form (see
 /// [`vibration_speed_for_amplification`]). Requires A ≥ 4 (A = 4 is zero speed in this reading).
-pub fn vibration_speed_as_printed(
-    law: &GentSchultz,
+pub fn vibration_speed_as_printed<L: AdhesionLaw + ?Sized>(
+    law: &L,
     target: f64,
     beta: f64,
 ) -> Result<f64, ParamError> {
-    GentSchultz::new(law.w0, law.v0, law.n)?;
+    positive("w0", law.w0(), "J/m^2")?;
     positive("beta", beta, "(dimensionless)")?;
     if !(target.is_finite() && target >= 4.0) {
         return Err(ParamError::new(
@@ -252,7 +279,7 @@ pub fn vibration_speed_as_printed(
         ));
     }
     let x = (target.sqrt() - 1.0).powi(2) - 1.0;
-    Ok(beta * law.v0 * x.max(0.0).powf(1.0 / law.n))
+    required_speed(law, x, beta, target)
 }
 
 /// The exact imposed-area amplification in the small-amplitude limit a_A/a_m → 0 at fixed peak
@@ -289,6 +316,7 @@ pub fn small_amplitude_amplification<L: crate::adhesion::AdhesionLaw + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::adhesion::{ConstantW, GentSchultz, SaturatedGentSchultz};
 
     #[test]
     fn w_eff_at_speed_v0_beta_one() {
@@ -311,5 +339,63 @@ mod tests {
         assert_eq!(e.name, "amplification");
         let e = vibration_speed_for_amplification(&law, f64::NAN, 2.5).unwrap_err();
         assert_eq!(e.name, "amplification");
+    }
+
+    /// The closed forms take any law through w(−v): Gent–Schultz through its exact overrides and
+    /// through the trait's defaults agree; a constant w gives amplification 1 and no speed for
+    /// A > 1; a saturated law has no speed beyond its plateau.
+    #[test]
+    #[allow(clippy::float_cmp)] // a constant w: rate factor 0 and w_eff = w0 exactly
+    fn any_law_through_the_peeling_branch() {
+        struct ViaDefaults(GentSchultz);
+        impl AdhesionLaw for ViaDefaults {
+            fn w0(&self) -> f64 {
+                self.0.w0
+            }
+            fn work_of_adhesion(&self, adot: f64) -> f64 {
+                self.0.work_of_adhesion(adot)
+            }
+            fn speed_scale(&self) -> f64 {
+                self.0.v0
+            }
+        }
+        let m = Material::PAPER;
+        let gs = GentSchultz::PAPER;
+        let generic = ViaDefaults(gs);
+        let omega = 2.0 * std::f64::consts::PI * 300.0;
+        for a_amp in [1e-6, 1e-4, 1e-3] {
+            let a = pull_off_approx(&m, &gs, omega, a_amp, 2.5, DeltaAmpForm::Derived).unwrap();
+            let b =
+                pull_off_approx(&m, &generic, omega, a_amp, 2.5, DeltaAmpForm::Derived).unwrap();
+            assert!((a.force / b.force - 1.0).abs() < 1e-12, "{a:?} {b:?}");
+            assert!(
+                (a.delta_amp / b.delta_amp - 1.0).abs() < 1e-9,
+                "{a:?} {b:?}"
+            );
+        }
+        for target in [1.5, 48.0] {
+            let a = vibration_speed_for_amplification(&gs, target, 2.5).unwrap();
+            let b = vibration_speed_for_amplification(&generic, target, 2.5).unwrap();
+            assert!((a / b - 1.0).abs() < 1e-9, "{a} {b}");
+        }
+        let cw = ConstantW { w0: 0.24 };
+        let c = pull_off_approx(&m, &cw, omega, 1e-3, 2.5, DeltaAmpForm::Derived).unwrap();
+        assert_eq!(c.amplification, 1.0);
+        assert_eq!(c.w_eff, cw.w0);
+        assert_eq!(
+            vibration_speed_for_amplification(&cw, 1.0, 2.5).unwrap(),
+            0.0
+        );
+        let e = vibration_speed_for_amplification(&cw, 2.0, 2.5).unwrap_err();
+        assert!(e.to_string().contains("rate-independent"), "{e}");
+        // Plateau of the saturated law: w0 (1 + (v_sat/v0)^n), amplification < ¼(√(2 + X) + 1)².
+        let sat = SaturatedGentSchultz::new(gs.w0, gs.v0, gs.n, 100.0 * gs.v0).unwrap();
+        let x_sat = gs.rate_factor(100.0 * gs.v0);
+        let a_max = 0.25 * ((1.0 + x_sat).sqrt() + 1.0).powi(2);
+        let v = vibration_speed_for_amplification(&sat, 0.5 * (1.0 + a_max), 2.5).unwrap();
+        assert!(v.is_finite() && v > 0.0);
+        let back = amplification(&sat, v, 2.5);
+        assert!((back / (0.5 * (1.0 + a_max)) - 1.0).abs() < 1e-8, "{back}");
+        assert!(vibration_speed_for_amplification(&sat, 1.01 * a_max, 2.5).is_err());
     }
 }

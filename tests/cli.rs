@@ -302,6 +302,67 @@ fn material_file_sets_material_and_law() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--material no/such.toml"));
 }
 
+/// `--material FILE` takes any law: a saturated Gent–Schultz file gives the library's exact and
+/// closed-form pull-off for that law; commands built on the Gent–Schultz constants, and the
+/// `--v0`/`--n` flags, refuse a law without them, naming the file and the law (exit 2).
+#[test]
+fn material_file_with_any_law() {
+    use djkr::adhesion::SaturatedGentSchultz;
+    use djkr::closed_form::{pull_off_approx, DeltaAmpForm};
+    let good = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenarios/good");
+    let sat_file = good.join("saturated.toml");
+    let sat = SaturatedGentSchultz::new(0.240, 4.45e-5, 0.531, 0.1).unwrap();
+    let m = djkr::material::Material::PAPER;
+    let omega = 2.0 * std::f64::consts::PI * 300.0;
+    let base = ["pulloff", "--freq", "300", "--a-amp", "0.5mm", "--json"];
+    let mut a = base.to_vec();
+    a.extend(["--material", sat_file.to_str().unwrap()]);
+    let exact = djkr::imposed_area::pull_off(&m, &sat, omega, 0.5e-3).unwrap();
+    assert!((num(&json(&a), "force") / exact.force - 1.0).abs() < 1e-9);
+    a.extend(["--method", "approx"]);
+    let approx = pull_off_approx(&m, &sat, omega, 0.5e-3, 2.5, DeltaAmpForm::Derived).unwrap();
+    assert!((num(&json(&a), "force") / approx.force - 1.0).abs() < 1e-12);
+    // The saturation shows: a less tensile pull-off than the plain Gent–Schultz law's.
+    assert!(exact.force > 0.5 * num(&json(&base), "force"));
+
+    let cw = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/quasi-static-jkr.toml");
+    let cw = cw.to_str().unwrap();
+    for (args, want) in [
+        (
+            vec![
+                "pulloff",
+                "--freq",
+                "300",
+                "--a-amp",
+                "1mm",
+                "--material",
+                cw,
+                "--n",
+                "0.5",
+            ],
+            "--v0 and --n set Gent-Schultz constants",
+        ),
+        (
+            vec!["figures", "--out", "target/never", "--material", cw],
+            "djkr figures is built on the Gent-Schultz law",
+        ),
+        (
+            vec!["required-speed", "--amplification", "2", "--material", cw],
+            "rate-independent",
+        ),
+    ] {
+        let o = djkr(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(want), "{args:?}: {err}");
+        assert!(
+            !args.contains(&"figures") || err.contains("quasi-static-jkr.toml"),
+            "{err}"
+        );
+    }
+    assert!(!Path::new("target/never").exists());
+}
+
 /// A scenario file that cannot be read: exit 2, the file named, the OS reason said once.
 #[test]
 fn unreadable_scenario_names_the_file_and_says_why_once() {

@@ -106,7 +106,7 @@ fn range(flag: &str, text: &str) -> Result<(f64, f64, usize)> {
 
 /// Run `djkr beta-fit`.
 pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
-    let (m, law) = a.material.resolve()?;
+    let (m, law) = a.material.resolve_gent_schultz("djkr beta-fit")?;
     let n_values = a
         .n_values
         .split(',')

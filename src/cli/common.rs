@@ -31,7 +31,7 @@ pub fn non_negative_quantity(flag: &str, text: &str, dim: Dimension) -> Result<f
     })
 }
 
-/// Material and Gent–Schultz constants. Defaults: the paper's Fig. 2 set.
+/// Material and adhesion law (a scenario file, then flags). Defaults: the paper's Fig. 2 set.
 #[derive(Args, Debug, Clone, Default)]
 pub struct MaterialArgs {
     /// Scenario file whose [material] and [adhesion] sections to use (flags below override it).
@@ -55,29 +55,18 @@ pub struct MaterialArgs {
 }
 
 impl MaterialArgs {
-    /// Resolve the material and a Gent–Schultz law (file first, then flags, then the paper).
-    pub fn resolve(&self) -> Result<(Material, GentSchultz)> {
-        let (mut m, mut law) = (Material::PAPER, GentSchultz::PAPER);
+    /// Resolve the material and the adhesion law: the file's (any law) or the paper's
+    /// Gent–Schultz constants, then the flags. `--w0` sets the law's w0 too (refused for a
+    /// tabulated law, whose w(0) is its table's); `--v0` and `--n` need a Gent–Schultz law (plain
+    /// or saturated).
+    pub fn resolve(&self) -> Result<(Material, Law)> {
+        let (mut m, mut law) = (Material::PAPER, Law::GentSchultz(GentSchultz::PAPER));
+        let mut origin = "the default".to_string();
         if let Some(path) = &self.material {
             // Only [material] and [adhesion] are read (the rest of the scenario is ignored).
-            let (file_m, file_law) = djkr::scenario::parse::material_and_law(path)
+            (m, law) = djkr::scenario::parse::material_and_law(path)
                 .with_context(|| format!("--material {}", path.display()))?;
-            m = file_m;
-            law = match file_law {
-                Law::GentSchultz(gs) => gs,
-                Law::Constant(c) => GentSchultz {
-                    w0: c.w0,
-                    // A constant law is the GS law in the limit v0 → ∞; f64::MAX gives w = w0 to
-                    // the last bit at any representable speed and passes the laws' validation.
-                    v0: f64::MAX,
-                    n: 1.0,
-                },
-                other => bail!(
-                    "--material {}: this command needs a Gent-Schultz or constant law (closed forms and the imposed-area table assume eqs. 1-2); the file has {other:?}",
-                    path.display()
-                ),
-            };
-            law.w0 = m.w0;
+            origin = format!("--material {}", path.display());
         }
         if let Some(t) = &self.k {
             m.k = positive_quantity("--modulus", t, Dimension::Pressure)?;
@@ -87,15 +76,57 @@ impl MaterialArgs {
         }
         if let Some(t) = &self.w0 {
             m.w0 = positive_quantity("--w0", t, Dimension::EnergyPerArea)?;
+            match &mut law {
+                Law::Constant(c) => c.w0 = m.w0,
+                Law::GentSchultz(gs) => gs.w0 = m.w0,
+                Law::Saturated(s) => s.base.w0 = m.w0,
+                Law::Tabulated(_) => bail!(
+                    "--w0 = {t}: {origin} has a tabulated law, whose w0 is its table's w(0); edit the table instead"
+                ),
+            }
         }
-        law.w0 = m.w0;
-        if let Some(t) = &self.v0 {
-            law.v0 = positive_quantity("--v0", t, Dimension::Speed)?;
-        }
-        if let Some(t) = &self.n {
-            law.n = positive_quantity("--n", t, Dimension::Dimensionless)?;
+        if self.v0.is_some() || self.n.is_some() {
+            let gs = match &mut law {
+                Law::GentSchultz(gs) => gs,
+                Law::Saturated(s) => &mut s.base,
+                other => bail!(
+                    "--v0 and --n set Gent-Schultz constants, but {origin} has a {} law",
+                    law_name(other)
+                ),
+            };
+            if let Some(t) = &self.v0 {
+                gs.v0 = positive_quantity("--v0", t, Dimension::Speed)?;
+            }
+            if let Some(t) = &self.n {
+                gs.n = positive_quantity("--n", t, Dimension::Dimensionless)?;
+            }
         }
         Ok((m, law))
+    }
+
+    /// As [`resolve`](Self::resolve), for commands built on the Gent–Schultz constants
+    /// themselves (`command`: the paper's figures, the β refit).
+    pub fn resolve_gent_schultz(&self, command: &str) -> Result<(Material, GentSchultz)> {
+        match self.resolve()? {
+            (m, Law::GentSchultz(gs)) => Ok((m, gs)),
+            (_, other) => bail!(
+                "{command} is built on the Gent-Schultz law (v0, n), but --material {} has a {} law",
+                self.material
+                    .as_ref()
+                    .map_or("?".into(), |p| p.display().to_string()),
+                law_name(&other)
+            ),
+        }
+    }
+}
+
+/// The scenario-file name of a law (as `[adhesion] law` spells it; "constant w0" when absent).
+pub fn law_name(l: &Law) -> &'static str {
+    match l {
+        Law::Constant(_) => "constant w0",
+        Law::GentSchultz(_) => "gent-schultz",
+        Law::Saturated(_) => "gent-schultz-saturated",
+        Law::Tabulated(_) => "tabulated",
     }
 }
 

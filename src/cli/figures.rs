@@ -25,7 +25,7 @@ pub struct FiguresArgs {
 
 /// Run `djkr figures`.
 pub fn figures(a: &FiguresArgs) -> Result<()> {
-    let (m, law) = a.material.resolve()?;
+    let (m, law) = a.material.resolve_gent_schultz("djkr figures")?;
     let beta = super::common::positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
     let which: Vec<FigureId> = match &a.only {
         None => FigureId::ALL.to_vec(),

@@ -270,7 +270,7 @@ fn report(r: &PulloffReport, json_out: bool) -> Result<()> {
 fn comparators(
     a: &PulloffArgs,
     m: &djkr::material::Material,
-    law: &djkr::adhesion::GentSchultz,
+    law: &djkr::adhesion::Law,
     omega: f64,
     a_amp: Option<f64>,
 ) -> Result<()> {

@@ -1,5 +1,6 @@
 //! `djkr run FILE` and `djkr check FILE`: the time-domain simulator on a scenario file.
 
+use super::common::law_name;
 use anyhow::{Context, Result};
 use clap::Args;
 use djkr::dynamics::{self, Event, Observer, RunResult, Sample};
@@ -196,13 +197,4 @@ pub fn check(a: &CheckArgs) -> Result<()> {
         anyhow::bail!("{failed} of {} scenario file(s) invalid", a.files.len());
     }
     Ok(())
-}
-
-fn law_name(l: &djkr::adhesion::Law) -> &'static str {
-    match l {
-        djkr::adhesion::Law::Constant(_) => "constant w0",
-        djkr::adhesion::Law::GentSchultz(_) => "gent-schultz",
-        djkr::adhesion::Law::Saturated(_) => "gent-schultz-saturated",
-        djkr::adhesion::Law::Tabulated(_) => "tabulated",
-    }
 }
