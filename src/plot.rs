@@ -575,6 +575,74 @@ fn axis_formatter(log: bool, lo: f64, hi: f64) -> impl Fn(&f64) -> String {
     }
 }
 
+/// Pixel sizes for a figure of `size`, from a design at 700 px on its short side.
+fn px_scale(size: (u32, u32)) -> impl Fn(f64) -> u32 {
+    let scale = f64::from(size.0.min(size.1)) / 700.0;
+    move |v| (v * scale).round().max(1.0) as u32
+}
+
+/// A Cartesian chart over the coordinates `XS` × `YS`.
+type Chart<'a, DB, XS, YS> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<<XS as AsRangedCoord>::CoordDescType, <YS as AsRangedCoord>::CoordDescType>,
+>;
+
+/// The titled Cartesian chart shared by line figures and heat maps.
+fn titled_chart<'a, DB, XS, YS>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    px: &impl Fn(f64) -> u32,
+    xs: XS,
+    ys: YS,
+) -> Result<Chart<'a, DB, XS, YS>, String>
+where
+    DB: DrawingBackend,
+    XS: AsRangedCoord<Value = f64>,
+    YS: AsRangedCoord<Value = f64>,
+{
+    ChartBuilder::on(area)
+        .caption(title, (FONT_FAMILY, px(26.0)))
+        .margin(px(18.0))
+        .x_label_area_size(px(60.0))
+        .y_label_area_size(px(95.0))
+        .build_cartesian_2d(xs, ys)
+        .map_err(|e| e.to_string())
+}
+
+/// Axis descriptions and clean tick labels; `grid` draws the light mesh of line figures (heat
+/// maps have none).
+fn draw_axes<DB, X, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    (x_label, y_label): (&str, &str),
+    (x_log, y_log): (bool, bool),
+    px: &impl Fn(f64) -> u32,
+    grid: bool,
+) -> DrawResult
+where
+    DB: DrawingBackend,
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let (xr, yr) = (chart.x_range(), chart.y_range());
+    let x_fmt = axis_formatter(x_log, xr.start, xr.end);
+    let y_fmt = axis_formatter(y_log, yr.start, yr.end);
+    let mut mesh = chart.configure_mesh();
+    mesh.x_desc(x_label)
+        .y_desc(y_label)
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
+        .label_style((FONT_FAMILY, px(17.0)))
+        .axis_desc_style((FONT_FAMILY, px(20.0)));
+    if grid {
+        mesh.light_line_style(RGBColor(235, 235, 235))
+            .bold_line_style(RGBColor(205, 205, 205));
+    } else {
+        mesh.disable_mesh();
+    }
+    mesh.draw().map_err(|e| e.to_string())
+}
+
 fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> DrawResult {
     let xs = fig.series.iter().flat_map(|s| s.x.iter().copied());
     let ys = fig.series.iter().flat_map(|s| s.y.iter().copied());
@@ -615,31 +683,15 @@ where
 {
     let err = |e: &dyn std::fmt::Display| e.to_string();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let (w, h) = fig.size;
-    let scale = f64::from(w.min(h)) / 700.0;
-    let px = |v: f64| (v * scale).round().max(1.0) as u32;
-    let mut chart = ChartBuilder::on(root)
-        .caption(&fig.title, (FONT_FAMILY, px(26.0)))
-        .margin(px(18.0))
-        .x_label_area_size(px(60.0))
-        .y_label_area_size(px(95.0))
-        .build_cartesian_2d(xs, ys)
-        .map_err(|e| err(&e))?;
-    let (xr, yr) = (chart.x_range(), chart.y_range());
-    let x_fmt = axis_formatter(fig.x_log, xr.start, xr.end);
-    let y_fmt = axis_formatter(fig.y_log, yr.start, yr.end);
-    chart
-        .configure_mesh()
-        .x_desc(&fig.x_label)
-        .y_desc(&fig.y_label)
-        .x_label_formatter(&x_fmt)
-        .y_label_formatter(&y_fmt)
-        .label_style((FONT_FAMILY, px(17.0)))
-        .axis_desc_style((FONT_FAMILY, px(20.0)))
-        .light_line_style(RGBColor(235, 235, 235))
-        .bold_line_style(RGBColor(205, 205, 205))
-        .draw()
-        .map_err(|e| err(&e))?;
+    let px = px_scale(fig.size);
+    let mut chart = titled_chart(root, &fig.title, &px, xs, ys)?;
+    draw_axes(
+        &mut chart,
+        (&fig.x_label, &fig.y_label),
+        (fig.x_log, fig.y_log),
+        &px,
+        true,
+    )?;
 
     let stroke = px(2.0);
     let dash = px(9.0);
@@ -904,16 +956,8 @@ where
     YS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
     let err = |e: &dyn std::fmt::Display| e.to_string();
-    let (w, h) = map.size;
-    let scale = f64::from(w.min(h)) / 700.0;
-    let px = |v: f64| (v * scale).round().max(1.0) as u32;
-    let mut chart = ChartBuilder::on(area)
-        .caption(&map.title, (FONT_FAMILY, px(26.0)))
-        .margin(px(18.0))
-        .x_label_area_size(px(60.0))
-        .y_label_area_size(px(95.0))
-        .build_cartesian_2d(xs, ys)
-        .map_err(|e| err(&e))?;
+    let px = px_scale(map.size);
+    let mut chart = titled_chart(area, &map.title, &px, xs, ys)?;
     let zr = z_scale(map);
     let nx = map.x.len();
     let cells = (0..map.y.len()).flat_map(|iy| {
@@ -926,21 +970,13 @@ where
         })
     });
     chart.draw_series(cells).map_err(|e| err(&e))?;
-    let (xr, yr) = (chart.x_range(), chart.y_range());
-    let x_fmt = axis_formatter(map.x_log, xr.start, xr.end);
-    let y_fmt = axis_formatter(map.y_log, yr.start, yr.end);
-    chart
-        .configure_mesh()
-        .disable_mesh()
-        .x_desc(&map.x_label)
-        .y_desc(&map.y_label)
-        .x_label_formatter(&x_fmt)
-        .y_label_formatter(&y_fmt)
-        .label_style((FONT_FAMILY, px(17.0)))
-        .axis_desc_style((FONT_FAMILY, px(20.0)))
-        .draw()
-        .map_err(|e| err(&e))?;
-    Ok(())
+    draw_axes(
+        &mut chart,
+        (&map.x_label, &map.y_label),
+        (map.x_log, map.y_log),
+        &px,
+        false,
+    )
 }
 
 fn draw_colorbar<DB, ZS>(area: &DrawingArea<DB, Shift>, map: &Heatmap, zs: ZS) -> DrawResult
@@ -950,9 +986,7 @@ where
     ZS::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
 {
     let err = |e: &dyn std::fmt::Display| e.to_string();
-    let (w, h) = map.size;
-    let scale = f64::from(w.min(h)) / 700.0;
-    let px = |v: f64| (v * scale).round().max(1.0) as u32;
+    let px = px_scale(map.size);
     let zr = z_scale(map);
     let mut chart = ChartBuilder::on(area)
         .margin_top(px(18.0) + px(40.0))
