@@ -257,6 +257,7 @@ pub struct Rates {
 /// contact, a ≤ 0 is a collapsing contact ([`StepFail::NoRoot`]) and G ≤ 0 or an undefined rate
 /// is the healing singularity ([`StepFail::Singular`]).
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 pub fn rates(
     model: &Model,
     kin: &Kinematics,

@@ -423,8 +423,10 @@ impl Model {
     /// [`jkr::signed_energy_release_rate`] with precomputed 1/R and 3K/(8π).
     #[inline]
     pub fn signed_g(&self, a: f64, delta: f64) -> f64 {
+        // c/a does not wait for u: the division overlaps the rest of the chain.
+        let c_a = self.fast.g_coef / a;
         let u = a * a * self.fast.inv_r - delta;
-        self.fast.g_coef * u * u.abs() / a
+        c_a * (u * u.abs())
     }
 
     /// dG/dt of [`Model::signed_g`] along a motion with rates ȧ and δ̇:
