@@ -11,8 +11,10 @@
 //! is drawn to a temporary file in the target directory and renamed into place, so an interrupted
 //! run leaves no `stem.png` / `stem.svg` that looks complete but is not.
 
-use plotters::coord::combinators::IntoLogRange;
-use plotters::coord::ranged1d::{AsRangedCoord, Ranged, ValueFormatter};
+use plotters::coord::combinators::{IntoLogRange, LogCoord};
+use plotters::coord::ranged1d::{
+    AsRangedCoord, DefaultFormatting, KeyPointHint, Ranged, ValueFormatter,
+};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -575,6 +577,32 @@ fn axis_formatter(log: bool, lo: f64, hi: f64) -> impl Fn(&f64) -> String {
     }
 }
 
+/// A logarithmic axis whose key points are sorted and free of duplicates: plotters 0.3.7's
+/// `LogCoord` repeats the decade boundary (0.01 … 0.09, 0.1, 0.1 over [0.0035, 0.12]), which
+/// drew its tick label twice.
+struct LogAxis(LogCoord<f64>);
+
+fn log_axis(lo: f64, hi: f64) -> LogAxis {
+    LogAxis((lo..hi).log_scale().into())
+}
+
+impl Ranged for LogAxis {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        self.0.map(value, limit)
+    }
+    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        let mut k = self.0.key_points(hint);
+        k.sort_by(f64::total_cmp);
+        k.dedup();
+        k
+    }
+    fn range(&self) -> std::ops::Range<f64> {
+        self.0.range()
+    }
+}
+
 /// Pixel sizes for a figure of `size`, from a design at 700 px on its short side.
 fn px_scale(size: (u32, u32)) -> impl Fn(f64) -> u32 {
     let scale = f64::from(size.0.min(size.1)) / 700.0;
@@ -588,10 +616,11 @@ type Chart<'a, DB, XS, YS> = ChartContext<
     Cartesian2d<<XS as AsRangedCoord>::CoordDescType, <YS as AsRangedCoord>::CoordDescType>,
 >;
 
-/// The titled Cartesian chart shared by line figures and heat maps.
+/// The Cartesian chart shared by line figures and heat maps, with its title as a caption (heat
+/// maps title the whole figure instead, colour bar included).
 fn titled_chart<'a, DB, XS, YS>(
     area: &'a DrawingArea<DB, Shift>,
-    title: &str,
+    title: Option<&str>,
     px: &impl Fn(f64) -> u32,
     xs: XS,
     ys: YS,
@@ -601,8 +630,11 @@ where
     XS: AsRangedCoord<Value = f64>,
     YS: AsRangedCoord<Value = f64>,
 {
-    ChartBuilder::on(area)
-        .caption(title, (FONT_FAMILY, px(26.0)))
+    let mut builder = ChartBuilder::on(area);
+    if let Some(title) = title {
+        builder.caption(title, (FONT_FAMILY, px(26.0)));
+    }
+    builder
         .margin(px(18.0))
         .x_label_area_size(px(60.0))
         .y_label_area_size(px(95.0))
@@ -650,9 +682,9 @@ fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) 
     let (y0, y1) = axis_range(ys, fig.y_log, fig.y_range);
     match (fig.x_log, fig.y_log) {
         (false, false) => draw_xy(root, fig, x0..x1, y0..y1),
-        (true, false) => draw_xy(root, fig, (x0..x1).log_scale(), y0..y1),
-        (false, true) => draw_xy(root, fig, x0..x1, (y0..y1).log_scale()),
-        (true, true) => draw_xy(root, fig, (x0..x1).log_scale(), (y0..y1).log_scale()),
+        (true, false) => draw_xy(root, fig, log_axis(x0, x1), y0..y1),
+        (false, true) => draw_xy(root, fig, x0..x1, log_axis(y0, y1)),
+        (true, true) => draw_xy(root, fig, log_axis(x0, x1), log_axis(y0, y1)),
     }
 }
 
@@ -684,7 +716,7 @@ where
     let err = |e: &dyn std::fmt::Display| e.to_string();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let px = px_scale(fig.size);
-    let mut chart = titled_chart(root, &fig.title, &px, xs, ys)?;
+    let mut chart = titled_chart(root, Some(&fig.title), &px, xs, ys)?;
     draw_axes(
         &mut chart,
         (&fig.x_label, &fig.y_label),
@@ -912,29 +944,27 @@ fn z_fraction(v: f64, (lo, hi): (f64, f64), log: bool) -> Option<f64> {
 fn draw_heatmap<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, map: &Heatmap) -> DrawResult {
     let err = |e: &dyn std::fmt::Display| e.to_string();
     root.fill(&WHITE).map_err(|e| err(&e))?;
+    // The title spans the whole width: centred over the map alone, a long one ran off the left.
+    let px = px_scale(map.size);
+    let body = root
+        .titled(&map.title, (FONT_FAMILY, px(26.0)))
+        .map_err(|e| err(&e))?;
     let (w, _) = map.size;
     let bar_width = (w / 6).max(80);
-    let (main, bar) = root.split_horizontally(w.saturating_sub(bar_width));
+    let (main, bar) = body.split_horizontally(w.saturating_sub(bar_width));
     let xe = cell_edges(&map.x, map.x_log);
     let ye = cell_edges(&map.y, map.y_log);
     let (x0, x1) = (xe[0], xe[xe.len() - 1]);
     let (y0, y1) = (ye[0], ye[ye.len() - 1]);
     match (map.x_log, map.y_log) {
         (false, false) => draw_cells(&main, map, &xe, &ye, x0..x1, y0..y1)?,
-        (true, false) => draw_cells(&main, map, &xe, &ye, (x0..x1).log_scale(), y0..y1)?,
-        (false, true) => draw_cells(&main, map, &xe, &ye, x0..x1, (y0..y1).log_scale())?,
-        (true, true) => draw_cells(
-            &main,
-            map,
-            &xe,
-            &ye,
-            (x0..x1).log_scale(),
-            (y0..y1).log_scale(),
-        )?,
+        (true, false) => draw_cells(&main, map, &xe, &ye, log_axis(x0, x1), y0..y1)?,
+        (false, true) => draw_cells(&main, map, &xe, &ye, x0..x1, log_axis(y0, y1))?,
+        (true, true) => draw_cells(&main, map, &xe, &ye, log_axis(x0, x1), log_axis(y0, y1))?,
     }
     let (z0, z1) = z_scale(map);
     if map.z_log {
-        draw_colorbar(&bar, map, (z0..z1).log_scale())
+        draw_colorbar(&bar, map, log_axis(z0, z1))
     } else {
         draw_colorbar(&bar, map, z0..z1)
     }
@@ -957,7 +987,7 @@ where
 {
     let err = |e: &dyn std::fmt::Display| e.to_string();
     let px = px_scale(map.size);
-    let mut chart = titled_chart(area, &map.title, &px, xs, ys)?;
+    let mut chart = titled_chart(area, None, &px, xs, ys)?;
     let zr = z_scale(map);
     let nx = map.x.len();
     let cells = (0..map.y.len()).flat_map(|iy| {
@@ -989,7 +1019,7 @@ where
     let px = px_scale(map.size);
     let zr = z_scale(map);
     let mut chart = ChartBuilder::on(area)
-        .margin_top(px(18.0) + px(40.0))
+        .margin_top(px(18.0))
         .margin_bottom(px(18.0) + px(60.0))
         .margin_right(px(10.0))
         .y_label_area_size(px(80.0))
@@ -1166,6 +1196,20 @@ mod tests {
         let mut bad = map.clone();
         bad.z.pop();
         assert!(render_heatmap(&bad, &dir.path().join("bad")).is_err());
+    }
+
+    /// The log axis's key points are strictly increasing (plotters' own repeat the decade
+    /// boundary over this range, and misplace one at 100 points).
+    #[test]
+    fn log_axis_key_points_are_strictly_increasing() {
+        let raw: LogCoord<f64> = (0.0035..0.121).log_scale().into();
+        assert!(raw.key_points(10).windows(2).any(|w| w[1] <= w[0]));
+        let axis = log_axis(0.0035, 0.121);
+        for n in [5usize, 10, 30, 100] {
+            let k = axis.key_points(n);
+            assert!(k.windows(2).all(|w| w[1] > w[0]), "{n}: {k:?}");
+            assert!(k.iter().any(|&v| (v - 0.1).abs() < 1e-12), "{n}: {k:?}");
+        }
     }
 
     #[test]
