@@ -918,6 +918,7 @@ fn work_precision_1s_400hz() {
         );
         for m in [
             Method::Implicit,
+            Method::Dp8,
             Method::Dopri5,
             Method::Dop853,
             Method::Auto,
@@ -984,6 +985,14 @@ fn probe_methods_by_scene() {
     s.holder = Holder::Rigid;
     s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
     scenes.push(("gs_rigid_unload_0.1um_s", s));
+    let mut s = scene();
+    s.law = gs();
+    s.sphere.mass = 0.0;
+    s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
+    scenes.push(("gs_massless_unload_0.1um_s", s));
+    let mut s = djkr::dynamics::catalogue::vibrating_hold(2e-6, 400.0, 0.2);
+    s.holder = Holder::Rigid;
+    scenes.push(("rigid_hold_2um_400hz_0.2s", s));
     let mut s = djkr::dynamics::catalogue::paper_protocol(1e-3);
     s.base = None;
     scenes.push(("protocol_no_shaker_1mm_s", s));
@@ -1007,6 +1016,7 @@ fn probe_methods_by_scene() {
     for (name, s0) in &scenes {
         for m in [
             Method::Implicit,
+            Method::Dp8,
             Method::Dopri5,
             Method::Dop853,
             Method::Auto,

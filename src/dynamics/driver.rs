@@ -175,10 +175,11 @@ impl Engine {
 ///   for contact formed from a seed (healing from G ≈ 0 at ȧ ≈ ∞ after every impact: DP8 runs
 ///   it, 20 % slower);
 /// - **implicit** without inertia (rigid link, m = 0: only a is integrated). There the two
-///   methods trade places: on a GS unload at 0.1 µm/s (rtol 1e-8) DP8 is 15–20 % faster (rigid
-///   link 0.28 against 0.32 ms, m = 0 0.46 against 0.59 ms), under a 2 µm, 400 Hz base 1.6×
-///   slower (1.36 against 0.83 ms), its reduced right-hand side solving the position twice; both
-///   are within 1e-6 of the converged result at rtol 1e-8, so the simpler rule stays;
+///   methods trade places (`probe_methods_by_scene` in `tests/dynamics.rs`, rtol 1e-8): on a GS
+///   unload at 0.1 µm/s DP8 is 35–45 % faster (rigid link 0.18 against 0.32 ms, m = 0 0.39
+///   against 0.62 ms), under a 2 µm, 400 Hz base 1.3× slower (0.2 s: 0.73 against 0.56 ms), its
+///   reduced right-hand side solving the position twice; all are sub-millisecond and within
+///   1e-6 of the converged result at rtol 1e-8, so the simpler rule stays;
 /// - **DP8** otherwise, taking single steps implicitly where a DP8 stage meets G ≤ 0. At equal
 ///   accuracy it is 4–20× faster than the implicit method on the scenes with inertia.
 pub fn auto_engine(s: &Scenario) -> Engine {

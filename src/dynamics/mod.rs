@@ -175,17 +175,20 @@
 //!   displacement-controlled loss at a/a_dc − 1 = 7.5e-6; impact time within 8e-12 s of the
 //!   closed form; per-cycle momentum balance 1e-14 and energy balance 1e-7 relative; implicit,
 //!   DP8 and Dopri5 agree to 1e-7 on cycle means and 1e-8 on a GS pull-off.
-//! - Cost (criterion medians, `cargo bench --bench dynamics`, idle 2-core machine): one implicit
-//!   stage residual with its derivative 34 ns, one DP8 right-hand side 75 ns; one 400 Hz cycle
-//!   117 µs implicit (87 steps), 34 µs DP8 (22 steps). 1 s at 400 Hz, 5 µm, rtol 1e-8:
-//!   implicit 42.7 ms (37 600 steps, 0.52 M rhs), DP8 = `auto` 9.1 ms (6 200 steps, 93 k rhs:
-//!   wall / (rhs × 75 ns) ≈ 1.3); Dopri5 and Dop853 cannot run it (a trial stage meets G ≤ 0).
-//!   The same hold at 1 µm: implicit 34.3 ms, DP8 7.0 ms, Dopri5 30.2 ms, Dop853 24.8 ms. The
-//!   300 Hz protocol (`scenarios/paper-protocol-300hz.toml`): implicit 361 ms, DP8 112 ms,
-//!   Dopri5 231 ms, Dop853 400 ms (25 s before the time-as-state fix).
+//! - Cost (criterion medians, `cargo bench --bench dynamics`, idle 2-core machine, 2026-11-24;
+//!   the machine's speed varies ~20 % from day to day): one implicit stage residual with its
+//!   derivative 22 ns, one DP8 right-hand side 45 ns; one 400 Hz cycle 99 µs implicit (87 steps),
+//!   22 µs DP8 (22 steps). 1 s at 400 Hz, 5 µm, rtol 1e-8: implicit 35.5 ms (37 600 steps,
+//!   0.52 M rhs), DP8 = `auto` 6.3 ms (6 200 steps, 93 k rhs: wall / (rhs × 45 ns) ≈ 1.5);
+//!   Dopri5 and Dop853 cannot run it (a trial stage meets G ≤ 0). The same hold at 1 µm:
+//!   implicit 28.7 ms, DP8 4.5 ms, Dopri5 25.2 ms, Dop853 20.1 ms. The 300 Hz protocol
+//!   (`scenarios/paper-protocol-300hz.toml`): implicit 303 ms, DP8 73 ms, Dopri5 188 ms,
+//!   Dop853 316 ms (25 s before the time-as-state fix). `rates` is inlined into the stage loop:
+//!   out of line, reading back its stored result stalled the stepper (a store-forwarding miss);
+//!   inlining saved 11 %.
 //! - Accuracy per cost (`djkr accuracy`, tables in `docs/accuracy/`): on 1 s at 400 Hz, 5 µm,
 //!   the pull-off-relevant error (final cycle's ⟨F⟩, ⟨δ⟩, δ_A) is 2.5e-6 at rtol 1e-8 and
-//!   4.2e-7 at 5e-9 (9.5 ms) for DP8, against 2.5e-5 at 1e-8 (43 ms) and 8.6e-7 at 4e-10 (92 ms)
+//!   4.2e-7 at 5e-9 (6.4 ms) for DP8, against 2.5e-5 at 1e-8 (35 ms) and 8.6e-7 at 4e-10 (77 ms)
 //!   for the implicit method. Errors at one rtol move by ~2× with rounding-level changes (a
 //!   few-ulp change in the law's inverse took DP8 at 1e-8 from 1.0e-6 to 2.5e-6): quote an rtol
 //!   with a margin, not the edge. The ⟨F⟩ of that hold is a small difference of large excursions
@@ -206,9 +209,10 @@
 //!   15 %, 75 % more steps, at an unchanged error per rhs evaluation: not adopted.
 //! - Near pull-off under strong vibration the detachment time is extremely sensitive: implicit
 //!   and Dopri5 agree on cycle means to 1e-10 at t = 5 s of the 1 mm/s protocol, yet the pull-off
-//!   time varies between 5.9 and 6.7 s with rtol and method (pull-off force −0.58 … −0.61 N): the
-//!   approach to dynamic pull-off amplifies perturbations, so pull-off there is reproducible
-//!   only statistically. On the shipped protocols the last-cycle errors of every method level
+//!   time varies between 5.9 and 6.8 s with rtol and method (pull-off force −0.58 … −0.68 N;
+//!   implicit and DP8 at rtol 1e-8 … 1e-11 give −0.58 … −0.60 and −0.59 … −0.68 N, without
+//!   converging): the approach to dynamic pull-off amplifies perturbations, so pull-off there is
+//!   reproducible only statistically. On the shipped protocols the last-cycle errors of every method level
 //!   off at a few 1e-6 (DP8 5.8e-6 at rtol 1e-8 and 5.7e-6 at 1e-10 at 300 Hz, the implicit
 //!   method 9.1e-6 at 1e-10), while the pull-off force converges (4e-9). It is the detachment,
 //!   not the integration: the same protocol with the unload stopped after 15 s, before pull-off,
