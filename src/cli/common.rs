@@ -61,12 +61,10 @@ impl MaterialArgs {
     /// or saturated).
     pub fn resolve(&self) -> Result<(Material, Law)> {
         let (mut m, mut law) = (Material::PAPER, Law::GentSchultz(GentSchultz::PAPER));
-        let mut origin = "the default".to_string();
         if let Some(path) = &self.material {
             // Only [material] and [adhesion] are read (the rest of the scenario is ignored).
             (m, law) = djkr::scenario::parse::material_and_law(path)
                 .with_context(|| format!("--material {}", path.display()))?;
-            origin = format!("--material {}", path.display());
         }
         if let Some(t) = &self.k {
             m.k = positive_quantity("--modulus", t, Dimension::Pressure)?;
@@ -81,7 +79,8 @@ impl MaterialArgs {
                 Law::GentSchultz(gs) => gs.w0 = m.w0,
                 Law::Saturated(s) => s.base.w0 = m.w0,
                 Law::Tabulated(_) => bail!(
-                    "--w0 = {t}: {origin} has a tabulated law, whose w0 is its table's w(0); edit the table instead"
+                    "--w0 = {t}: {} has a tabulated law, whose w0 is its table's w(0); edit the table instead",
+                    self.origin()
                 ),
             }
         }
@@ -90,7 +89,8 @@ impl MaterialArgs {
                 Law::GentSchultz(gs) => gs,
                 Law::Saturated(s) => &mut s.base,
                 other => bail!(
-                    "--v0 and --n set Gent-Schultz constants, but {origin} has a {} law",
+                    "--v0 and --n set Gent-Schultz constants, but {} has a {} law",
+                    self.origin(),
                     law_name(other)
                 ),
             };
@@ -110,12 +110,18 @@ impl MaterialArgs {
         match self.resolve()? {
             (m, Law::GentSchultz(gs)) => Ok((m, gs)),
             (_, other) => bail!(
-                "{command} is built on the Gent-Schultz law (v0, n), but --material {} has a {} law",
-                self.material
-                    .as_ref()
-                    .map_or("?".into(), |p| p.display().to_string()),
+                "{command} is built on the Gent-Schultz law (v0, n), but {} has a {} law",
+                self.origin(),
                 law_name(&other)
             ),
+        }
+    }
+
+    /// Where the law comes from, for error messages.
+    fn origin(&self) -> String {
+        match &self.material {
+            Some(path) => format!("--material {}", path.display()),
+            None => "the default".into(),
         }
     }
 }
