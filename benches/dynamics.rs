@@ -61,7 +61,7 @@ fn bench(c: &mut Criterion) {
 
     // One implicit-stage residual with its derivative, as the Newton iteration evaluates it.
     let s = vibrating_hold(5e-6, 400.0, 1.0);
-    let model = match resolve(&s) {
+    let model = match resolve(&s.rig, s.run_scales()) {
         Ok(m) => m,
         Err(e) => panic!("catalogue scene does not resolve: {e}"),
     };

@@ -289,12 +289,12 @@ pub struct Scales {
 
 /// The scales of a scene (see the module documentation).
 pub fn scales(s: &Scenario) -> Scales {
-    let a_j = jkr::jump_in_radius(&s.material, s.material.w0);
+    let a_j = jkr::jump_in_radius(&s.rig.material, s.rig.material.w0);
     Scales {
-        force: s.material.static_pull_off_force().abs(),
-        length: a_j * a_j / s.material.r,
+        force: s.rig.material.static_pull_off_force().abs(),
+        length: a_j * a_j / s.rig.material.r,
         radius: a_j,
-        period: s.base.map(|b| 1.0 / b.frequency),
+        period: s.rig.base.map(|b| 1.0 / b.frequency),
     }
 }
 

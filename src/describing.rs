@@ -62,42 +62,19 @@
 //! a(t) has higher harmonics, which this predictor ignores. With damping on the contact, δ1 = 0 at
 //! ω² = k/m (an anti-resonance of this model), where ln a_A → −∞: no solution is found there.
 
-use crate::adhesion::{AdhesionLaw, Law};
+use crate::adhesion::AdhesionLaw;
+use crate::dynamics::protocol::Initial;
 use crate::error::ParamError;
 use crate::imposed_area::{self, Cycle};
 use crate::jkr;
 use crate::material::Material;
-use crate::scenario::{DampingOn, Holder, Initial, Scenario};
+use crate::rig::{DampingOn, Holder, Rig, StaticError};
+pub use crate::rig::{StaticState, Support};
 use crate::transfer::Transfer;
+use nalgebra::Complex;
 use serde::Serialize;
 use std::f64::consts::PI;
 use thiserror::Error;
-
-/// The mechanical system around the contact (eq. 30), SI.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct System {
-    /// Sphere mass m (kg), ≥ 0.
-    pub mass: f64,
-    /// Holding-spring stiffness k (N/m), ≥ 0 (0: no spring, the weight alone loads the contact).
-    pub stiffness: f64,
-    /// Viscous damping c (N s/m), ≥ 0.
-    pub damping: f64,
-    /// Where the damping acts.
-    pub damping_on: DampingOn,
-    /// Gravitational acceleration g (m/s²), towards the substrate.
-    pub gravity: f64,
-}
-
-/// How the mean load is set.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Support {
-    /// The spring's far end sits at x_k (m, down +).
-    SpringEnd(f64),
-    /// x_k is placed so that the static JKR contact (w0, no vibration) carries this compressive
-    /// force P (N): x_k = δ0 + (P − m g)/k, δ0 the static indentation under P. With k = 0 the
-    /// load must equal m g.
-    StaticLoad(f64),
-}
 
 /// A starting point for Newton: the imposed cycle a = a_m + a_A sin(ωt + ψ).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -108,19 +85,6 @@ pub struct Guess {
     pub a_amp: f64,
     /// ψ (rad).
     pub phase: f64,
-}
-
-/// The static contact (no vibration) the oscillation is built on.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct StaticState {
-    /// Contact radius a_0 (m).
-    pub a: f64,
-    /// Indentation δ_0 (m).
-    pub delta: f64,
-    /// Contact force F_0 = m g − k(δ_0 − x_k) (N).
-    pub force: f64,
-    /// Spring end x_k (m).
-    pub x_k: f64,
 }
 
 /// A harmonic-balance solution: a(t) = a_mean + a_amp sin(ωt + phase), and the indentation and
@@ -315,203 +279,44 @@ pub fn effective_contact<L: AdhesionLaw + ?Sized>(
     )
 }
 
-fn check_system(s: &System) -> Result<(), ParamError> {
-    let ok = |v: f64| v.is_finite() && v >= 0.0;
-    if !ok(s.mass) {
-        return Err(ParamError::new(
-            "mass",
-            s.mass,
-            "must be finite and >= 0 kg",
-        ));
-    }
-    if !ok(s.stiffness) {
-        return Err(ParamError::new(
-            "stiffness",
-            s.stiffness,
-            "must be finite and >= 0 N/m",
-        ));
-    }
-    if !ok(s.damping) {
-        return Err(ParamError::new(
-            "damping",
-            s.damping,
-            "must be finite and >= 0 N s/m",
-        ));
-    }
-    if !s.gravity.is_finite() {
-        return Err(ParamError::new(
-            "gravity",
-            s.gravity,
-            "must be finite (m/s^2)",
+/// Harmonic balance needs a rig whose indentation is not prescribed.
+fn check_rig(rig: &Rig) -> Result<(), DescribingError> {
+    if rig.holder == Holder::Rigid {
+        return Err(DescribingError::Unsupported(
+            "rigid holder: the indentation is prescribed, nothing to balance".into(),
         ));
     }
     Ok(())
 }
 
-/// The static contact under `support` at w0 = law.w0() (no vibration).
-///
-/// StaticLoad(P): the JKR radius for P on the stable branch, x_k = δ0 + (P − m g)/k (with k = 0, P
-/// must equal m g within 1e-9). SpringEnd(x_k): the largest root a of
-/// F_eq(a) + k(δ_eq(a) − x_k) − m g = 0 (the root on the stable branch; with k = 0 the radius for
-/// the load m g).
-pub fn static_state<L: AdhesionLaw + ?Sized>(
-    m: &Material,
-    law: &L,
-    sys: &System,
-    support: Support,
-) -> Result<StaticState, DescribingError> {
-    m.validate()?;
-    check_system(sys)?;
-    let w0 = law.w0();
-    if !(w0.is_finite() && w0 >= 0.0) {
-        return Err(ParamError::new("w0", w0, "must be finite and >= 0 J/m^2").into());
-    }
-    let weight = sys.mass * sys.gravity;
-    let radius_for = |p: f64| {
-        jkr::equilibrium_radius_for_force(m, p, w0)
-            .filter(|a| a.is_finite() && *a > 0.0)
-            .ok_or_else(|| {
-                DescribingError::NoStaticState(format!(
-                    "load {p} N is not carried by a JKR contact (pull-off force {} N)",
-                    jkr::load_controlled_pull_off_force(m, w0)
-                ))
-            })
-    };
-    let k = sys.stiffness;
-    if k <= 0.0 {
-        if let Support::StaticLoad(p) = support {
-            if !(p.is_finite() && (p - weight).abs() <= 1e-9 * p.abs().max(weight.abs())) {
-                return Err(ParamError::new(
-                    "static load",
-                    p,
-                    format!("without a spring must equal the weight m g = {weight} N"),
-                )
-                .into());
-            }
-        }
-        let a = radius_for(weight)?;
-        let x_k = match support {
-            Support::SpringEnd(x) if x.is_finite() => x,
-            _ => 0.0,
-        };
-        return Ok(StaticState {
-            a,
-            delta: jkr::equilibrium_indentation(m, a, w0),
-            force: weight,
-            x_k,
-        });
-    }
-    match support {
-        Support::StaticLoad(p) => {
-            if !p.is_finite() {
-                return Err(ParamError::new("static load", p, "must be finite (N)").into());
-            }
-            let a = radius_for(p)?;
-            let d = jkr::equilibrium_indentation(m, a, w0);
-            Ok(StaticState {
-                a,
-                delta: d,
-                force: p,
-                x_k: d + (p - weight) / k,
-            })
-        }
-        Support::SpringEnd(x_k) => {
-            if !x_k.is_finite() {
-                return Err(ParamError::new("x_k", x_k, "must be finite (m)").into());
-            }
-            let f = |a: f64| {
-                jkr::equilibrium_force(m, a, w0)
-                    + k * (jkr::equilibrium_indentation(m, a, w0) - x_k)
-                    - weight
-            };
-            // Upper end: f > 0 for large a. Scan down geometrically for the first sign change.
-            let mut hi = jkr::jump_in_radius(m, w0.max(1e-300)).max(1e-9 * m.r);
-            let mut guard = 0;
-            while f(hi) <= 0.0 {
-                hi *= 2.0;
-                guard += 1;
-                if guard > 200 || !hi.is_finite() {
-                    return Err(DescribingError::NoStaticState(format!(
-                        "no contact equilibrium for x_k = {x_k} m"
-                    )));
-                }
-            }
-            let lo_limit = 1e-12 * hi;
-            let mut lo = hi;
-            loop {
-                lo *= 0.9;
-                if lo < lo_limit {
-                    return Err(DescribingError::NoStaticState(format!(
-                        "x_k = {x_k} m: the spring does not hold the sphere in contact"
-                    )));
-                }
-                if f(lo) <= 0.0 {
-                    break;
-                }
-                hi = lo;
-            }
-            // Bisection (f is continuous; 200 halvings reach the rounding floor).
-            for _ in 0..200 {
-                let mid = 0.5 * (lo + hi);
-                if mid <= lo || mid >= hi {
-                    break;
-                }
-                if f(mid) <= 0.0 {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            let a = hi;
-            let d = jkr::equilibrium_indentation(m, a, w0);
-            Ok(StaticState {
-                a,
-                delta: d,
-                force: weight - k * (d - x_k),
-                x_k,
-            })
+impl From<StaticError> for DescribingError {
+    fn from(e: StaticError) -> Self {
+        match e {
+            StaticError::Param(p) => DescribingError::Param(p),
+            StaticError::NoContact(s) => DescribingError::NoStaticState(s),
         }
     }
 }
 
-/// Complex helpers on (re, im) pairs.
-#[derive(Debug, Clone, Copy)]
-struct C(f64, f64);
+/// The static contact under `support` at w0 (no vibration): [`Rig::static_state`], for a rig
+/// harmonic balance can describe (not a rigid link).
+pub fn static_state(rig: &Rig, support: Support) -> Result<StaticState, DescribingError> {
+    check_rig(rig)?;
+    Ok(rig.static_state(support)?)
+}
 
-impl C {
-    fn add(self, o: C) -> C {
-        C(self.0 + o.0, self.1 + o.1)
-    }
-    fn sub(self, o: C) -> C {
-        C(self.0 - o.0, self.1 - o.1)
-    }
-    fn mul(self, o: C) -> C {
-        C(self.0 * o.0 - self.1 * o.1, self.0 * o.1 + self.1 * o.0)
-    }
-    fn div(self, o: C) -> C {
-        let d = o.0 * o.0 + o.1 * o.1;
-        C(
-            (self.0 * o.0 + self.1 * o.1) / d,
-            (self.1 * o.0 - self.0 * o.1) / d,
-        )
-    }
-    fn scale(self, s: f64) -> C {
-        C(self.0 * s, self.1 * s)
-    }
-    fn abs(self) -> f64 {
-        self.0.hypot(self.1)
-    }
-    fn rot(self, psi: f64) -> C {
-        let (s, c) = psi.sin_cos();
-        self.mul(C(c, s))
-    }
+/// Phasors (re = sine part, im = cosine part; see the module doc).
+type C = Complex<f64>;
+
+/// The phasor rotated by e^{iψ}.
+fn rot(z: C, psi: f64) -> C {
+    let (s, c) = psi.sin_cos();
+    z * C::new(c, s)
 }
 
 /// One problem: everything but the unknowns.
-struct Problem<'a, L: AdhesionLaw + ?Sized> {
-    m: &'a Material,
-    law: &'a L,
-    sys: System,
+struct Problem<'a> {
+    rig: &'a Rig,
     x_k: f64,
     xb: f64,
     omega: f64,
@@ -533,47 +338,48 @@ struct Eval {
     at_floor: bool,
 }
 
-impl<L: AdhesionLaw + ?Sized> Problem<'_, L> {
+impl Problem<'_> {
     fn a_coef(&self) -> f64 {
-        self.sys.stiffness - self.sys.mass * self.omega * self.omega
+        self.rig.spring_stiffness() - self.rig.mass() * self.omega * self.omega
     }
     fn d_coef(&self) -> f64 {
-        self.sys.damping * self.omega
+        self.rig.damping_coefficient() * self.omega
     }
 
     /// First-harmonic residual and the sum of its term magnitudes, from δ1, F1 (time frame).
     fn harmonic(&self, d1: C, f1: C) -> (C, f64) {
         let (a, d) = (self.a_coef(), self.d_coef());
-        let xs = d1.sub(C(self.xb, 0.0));
-        match self.sys.damping_on {
+        let xs = d1 - C::new(self.xb, 0.0);
+        match self.rig.damping_on() {
             DampingOn::Sphere => {
-                let z = C(a, d).mul(xs);
-                (f1.add(z), f1.abs() + z.abs())
+                let z = C::new(a, d) * xs;
+                (f1 + z, f1.norm() + z.norm())
             }
             DampingOn::Contact => {
-                let z1 = xs.scale(a);
-                let z2 = C(0.0, d).mul(d1);
-                (f1.add(z1).add(z2), f1.abs() + z1.abs() + z2.abs())
+                let z1 = xs * a;
+                let z2 = C::new(0.0, d) * d1;
+                (f1 + z1 + z2, f1.norm() + z1.norm() + z2.norm())
             }
         }
     }
 
     fn eval(&self, x: [f64; 3]) -> Option<Eval> {
         let a_amp = x[1].exp();
-        let cycle = imposed_area::cycle(self.m, self.law, self.omega, x[0], a_amp).ok()?;
-        let d1 = C(cycle.delta_sin, cycle.delta_cos).rot(x[2]);
-        let f1 = C(cycle.force_sin, cycle.force_cos).rot(x[2]);
-        let k = self.sys.stiffness;
-        let weight = self.sys.mass * self.sys.gravity;
+        let cycle =
+            imposed_area::cycle(&self.rig.material, &self.rig.law, self.omega, x[0], a_amp).ok()?;
+        let d1 = rot(C::new(cycle.delta_sin, cycle.delta_cos), x[2]);
+        let f1 = rot(C::new(cycle.force_sin, cycle.force_cos), x[2]);
+        let k = self.rig.spring_stiffness();
+        let weight = self.rig.weight();
         let spring = k * (cycle.delta_mean - self.x_k);
         let r0 = cycle.force_mean + spring - weight;
         let s0 = cycle.force_mean.abs() + spring.abs() + weight.abs();
         let (r1, s1) = self.harmonic(d1, f1);
         let rel0 = r0.abs() / s0.max(f64::MIN_POSITIVE);
-        let rel = rel0.max(r1.abs() / s1.max(f64::MIN_POSITIVE));
-        let floor = ROUNDING_FLOOR * jkr::hertz_force(self.m, x[0].abs() + a_amp);
-        let at_floor = rel0 <= ACCEPT && r1.abs() <= floor;
-        let r = [r0, r1.0, r1.1];
+        let rel = rel0.max(r1.norm() / s1.max(f64::MIN_POSITIVE));
+        let floor = ROUNDING_FLOOR * jkr::hertz_force(&self.rig.material, x[0].abs() + a_amp);
+        let at_floor = rel0 <= ACCEPT && r1.norm() <= floor;
+        let r = [r0, r1.re, r1.im];
         (r.iter().all(|v| v.is_finite()) && rel.is_finite()).then_some(Eval {
             cycle,
             d1,
@@ -621,13 +427,13 @@ impl<L: AdhesionLaw + ?Sized> Problem<'_, L> {
                     row[col] = (p - q) / (2.0 * h);
                 }
             }
-            let (dr, _) = self.harmonic(cur.d1.mul(C(0.0, 1.0)), cur.f1.mul(C(0.0, 1.0)));
+            let (dr, _) = self.harmonic(cur.d1 * C::new(0.0, 1.0), cur.f1 * C::new(0.0, 1.0));
             // ∂R1/∂ψ: the X_b term does not rotate, so remove its contribution from harmonic().
-            let (r_xb, _) = self.harmonic(C(0.0, 0.0), C(0.0, 0.0));
-            let dpsi = dr.sub(r_xb);
+            let (r_xb, _) = self.harmonic(C::new(0.0, 0.0), C::new(0.0, 0.0));
+            let dpsi = dr - r_xb;
             jac[0][2] = 0.0;
-            jac[1][2] = dpsi.0;
-            jac[2][2] = dpsi.1;
+            jac[1][2] = dpsi.re;
+            jac[2][2] = dpsi.im;
             let rhs = [-cur.r[0], -cur.r[1], -cur.r[2]];
             let Some(mut dx) = solve3(jac, rhs) else {
                 return Err((cur.rel, it));
@@ -685,12 +491,12 @@ impl<L: AdhesionLaw + ?Sized> Problem<'_, L> {
 
     /// Force scales of the mean and first-harmonic equations, for the Newton line search.
     fn scales(&self, a0: f64) -> [f64; 2] {
-        let f0 = 1.5 * PI * self.m.r * self.law.w0();
-        let weight = (self.sys.mass * self.sys.gravity).abs();
-        let kc = jkr::contact_stiffness(self.m, a0);
+        let f0 = 1.5 * PI * self.rig.material.r * self.rig.w0();
+        let weight = self.rig.weight().abs();
+        let kc = jkr::contact_stiffness(&self.rig.material, a0);
         let z = self.a_coef().hypot(self.d_coef());
         [
-            (f0 + weight + kc * a0 * a0 / self.m.r).max(f64::MIN_POSITIVE),
+            (f0 + weight + kc * a0 * a0 / self.rig.material.r).max(f64::MIN_POSITIVE),
             ((z + kc) * self.xb).max(f64::MIN_POSITIVE),
         ]
     }
@@ -698,27 +504,29 @@ impl<L: AdhesionLaw + ?Sized> Problem<'_, L> {
     /// Linear transfer with complex contact stiffness κ: δ1.
     fn linear_d1(&self, kappa: C) -> Option<C> {
         let (a, d) = (self.a_coef(), self.d_coef());
-        let xb = C(self.xb, 0.0);
-        let out = match self.sys.damping_on {
+        let xb = C::new(self.xb, 0.0);
+        let out = match self.rig.damping_on() {
             DampingOn::Sphere => {
-                let z = C(a, d);
-                z.mul(xb).div(z.add(kappa))
+                let z = C::new(a, d);
+                z * xb / (z + kappa)
             }
-            DampingOn::Contact => xb.scale(a).div(C(a, d).add(kappa)),
+            DampingOn::Contact => xb * a / (C::new(a, d) + kappa),
         };
-        (out.0.is_finite() && out.1.is_finite() && out.abs() > 0.0).then_some(out)
+        (out.re.is_finite() && out.im.is_finite() && out.norm() > 0.0).then_some(out)
     }
 
     /// a_A at which the cycle's |δ1| equals `target` (safeguarded secant in log-log).
     fn match_amplitude(&self, a_m: f64, target: f64) -> Option<(f64, Cycle)> {
         let amp = |la: f64| {
-            imposed_area::cycle(self.m, self.law, self.omega, a_m, la.exp())
+            imposed_area::cycle(&self.rig.material, &self.rig.law, self.omega, a_m, la.exp())
                 .ok()
                 .filter(|c| c.delta_amp > 0.0 && c.delta_amp.is_finite())
         };
         let lt = target.ln();
         // Hertz-like start: δ_A ≈ 2 a_m a_A / R.
-        let mut x = (target * self.m.r / (2.0 * a_m)).min(0.5 * a_m).ln();
+        let mut x = (target * self.rig.material.r / (2.0 * a_m))
+            .min(0.5 * a_m)
+            .ln();
         let mut c = amp(x)?;
         let mut y = c.delta_amp.ln();
         let mut p = 1.0;
@@ -745,16 +553,16 @@ impl<L: AdhesionLaw + ?Sized> Problem<'_, L> {
 
     /// Describing-function fixed point as a starting guess.
     fn initial_guess(&self, a0: f64) -> Option<[f64; 3]> {
-        let mut kappa = C(jkr::contact_stiffness(self.m, a0), 0.0);
+        let mut kappa = C::new(jkr::contact_stiffness(&self.rig.material, a0), 0.0);
         let mut x = None;
         for _ in 0..4 {
             let d1 = self.linear_d1(kappa)?;
-            let (a_amp, c) = self.match_amplitude(a0, d1.abs())?;
-            let d_theta = C(c.delta_sin, c.delta_cos);
-            let psi = d1.1.atan2(d1.0) - d_theta.1.atan2(d_theta.0);
+            let (a_amp, c) = self.match_amplitude(a0, d1.norm())?;
+            let d_theta = C::new(c.delta_sin, c.delta_cos);
+            let psi = d1.im.atan2(d1.re) - d_theta.im.atan2(d_theta.re);
             x = Some([a0, a_amp.ln(), psi]);
-            let k_new = C(c.force_sin, c.force_cos).div(d_theta);
-            if !(k_new.0.is_finite() && k_new.1.is_finite()) {
+            let k_new = C::new(c.force_sin, c.force_cos) / d_theta;
+            if !(k_new.re.is_finite() && k_new.im.is_finite()) {
                 break;
             }
             kappa = k_new;
@@ -769,12 +577,12 @@ impl<L: AdhesionLaw + ?Sized> Problem<'_, L> {
             a_amp: x[1].exp(),
             phase: psi,
             delta_mean: e.cycle.delta_mean,
-            delta_sin: e.d1.0,
-            delta_cos: e.d1.1,
-            delta_amp: e.d1.abs(),
+            delta_sin: e.d1.re,
+            delta_cos: e.d1.im,
+            delta_amp: e.d1.norm(),
             force_mean: e.cycle.force_mean,
-            force_sin: e.f1.0,
-            force_cos: e.f1.1,
+            force_sin: e.f1.re,
+            force_cos: e.f1.im,
             contact_fraction: e.cycle.contact_fraction,
             x_k: self.x_k,
             base_amplitude: self.xb,
@@ -843,21 +651,19 @@ fn static_solution(st: &StaticState, xb: f64, omega: f64) -> HarmonicBalance {
 /// contact, no convergence to a relative residual of [`ACCEPT`], or when the only solution found
 /// loses contact ([`DescribingError::ContactLost`]).
 #[allow(clippy::too_many_arguments)]
-pub fn solve<L: AdhesionLaw + ?Sized>(
-    material: &Material,
-    law: &L,
-    system: &System,
+pub fn solve(
+    rig: &Rig,
     support: Support,
     base_amplitude: f64,
     omega: f64,
     guess: Option<Guess>,
 ) -> Result<HarmonicBalance, DescribingError> {
-    let h = solve_any(material, law, system, support, base_amplitude, omega, guess)?;
+    let h = solve_any(rig, support, base_amplitude, omega, guess)?;
     if h.contact_fraction >= 1.0 {
         return Ok(h);
     }
     // Converged to a truncated cycle: look for an in-contact solution elsewhere on the branch.
-    match solutions(material, law, system, support, base_amplitude, omega)?.first() {
+    match solutions(rig, support, base_amplitude, omega)?.first() {
         Some(g) => Ok(*g),
         None => Err(DescribingError::ContactLost {
             omega,
@@ -869,24 +675,20 @@ pub fn solve<L: AdhesionLaw + ?Sized>(
 
 /// [`solve`] without the contact-loss check.
 #[allow(clippy::too_many_arguments)]
-fn solve_any<L: AdhesionLaw + ?Sized>(
-    material: &Material,
-    law: &L,
-    system: &System,
+fn solve_any(
+    rig: &Rig,
     support: Support,
     base_amplitude: f64,
     omega: f64,
     guess: Option<Guess>,
 ) -> Result<HarmonicBalance, DescribingError> {
     check_drive(omega, base_amplitude)?;
-    let st = static_state(material, law, system, support)?;
+    let st = static_state(rig, support)?;
     if base_amplitude <= 0.0 {
         return Ok(static_solution(&st, base_amplitude, omega));
     }
     let pb = Problem {
-        m: material,
-        law,
-        sys: *system,
+        rig,
         x_k: st.x_k,
         xb: base_amplitude,
         omega,
@@ -917,7 +719,7 @@ fn solve_any<L: AdhesionLaw + ?Sized>(
     let ramp: Vec<f64> = (0..=6)
         .map(|i| base_amplitude * 10f64.powf(-3.0 + 0.5 * i as f64))
         .collect();
-    match continuation_from(material, law, system, &st, omega, &ramp) {
+    match continuation_from(rig, &st, omega, &ramp) {
         Ok(v) => match v.last() {
             Some(h) => {
                 let mut h = *h;
@@ -937,7 +739,7 @@ fn solve_any<L: AdhesionLaw + ?Sized>(
             ..
         }) => {
             // Last resort: scan the branch in a_A (passes folds in X_b).
-            let found = solutions(material, law, system, support, base_amplitude, omega)?;
+            let found = solutions(rig, support, base_amplitude, omega)?;
             match found.first() {
                 Some(h) => Ok(*h),
                 None => Err(DescribingError::NotConverged {
@@ -956,10 +758,8 @@ fn solve_any<L: AdhesionLaw + ?Sized>(
 /// from the previous one (ln a_A extrapolated linearly in ln X_b), with the step halved (up to
 /// 12 times) where Newton fails. Intermediate substeps are not returned.
 #[allow(clippy::too_many_arguments)]
-pub fn continuation<L: AdhesionLaw + ?Sized>(
-    material: &Material,
-    law: &L,
-    system: &System,
+pub fn continuation(
+    rig: &Rig,
     support: Support,
     omega: f64,
     amplitudes: &[f64],
@@ -973,14 +773,12 @@ pub fn continuation<L: AdhesionLaw + ?Sized>(
         }
         prev = xb;
     }
-    let st = static_state(material, law, system, support)?;
-    continuation_from(material, law, system, &st, omega, amplitudes)
+    let st = static_state(rig, support)?;
+    continuation_from(rig, &st, omega, amplitudes)
 }
 
-fn continuation_from<L: AdhesionLaw + ?Sized>(
-    material: &Material,
-    law: &L,
-    system: &System,
+fn continuation_from(
+    rig: &Rig,
     st: &StaticState,
     omega: f64,
     amplitudes: &[f64],
@@ -1001,9 +799,7 @@ fn continuation_from<L: AdhesionLaw + ?Sized>(
         let mut halvings = 0;
         loop {
             let pb = Problem {
-                m: material,
-                law,
-                sys: *system,
+                rig,
                 x_k: st.x_k,
                 xb: step_target,
                 omega,
@@ -1074,10 +870,8 @@ fn continuation_from<L: AdhesionLaw + ?Sized>(
 ///
 /// Errors when a_A is not finite and > 0, when the mean equation has no root with a_m ≥ −a_A,
 /// or when Z (or A) vanishes.
-pub fn at_contact_amplitude<L: AdhesionLaw + ?Sized>(
-    material: &Material,
-    law: &L,
-    system: &System,
+pub fn at_contact_amplitude(
+    rig: &Rig,
     support: Support,
     omega: f64,
     a_amp: f64,
@@ -1086,11 +880,11 @@ pub fn at_contact_amplitude<L: AdhesionLaw + ?Sized>(
     if !(a_amp.is_finite() && a_amp > 0.0) {
         return Err(ParamError::new("a_amp", a_amp, "must be finite and > 0 m").into());
     }
-    let st = static_state(material, law, system, support)?;
-    let weight = system.mass * system.gravity;
-    let k = system.stiffness;
+    let st = static_state(rig, support)?;
+    let weight = rig.weight();
+    let k = rig.spring_stiffness();
     let mean = |a_m: f64| -> Option<(f64, Cycle)> {
-        let c = imposed_area::cycle(material, law, omega, a_m, a_amp).ok()?;
+        let c = imposed_area::cycle(&rig.material, &rig.law, omega, a_m, a_amp).ok()?;
         let r = c.force_mean + k * (c.delta_mean - st.x_k) - weight;
         r.is_finite().then_some((r, c))
     };
@@ -1172,11 +966,11 @@ pub fn at_contact_amplitude<L: AdhesionLaw + ?Sized>(
         }
     }
     let (a_m, c, _) = best;
-    let a = system.stiffness - system.mass * omega * omega;
-    let d = system.damping * omega;
-    let d1 = C(c.delta_sin, c.delta_cos);
-    let f1 = C(c.force_sin, c.force_cos);
-    let q = match system.damping_on {
+    let a = rig.spring_stiffness() - rig.mass() * omega * omega;
+    let d = rig.damping_coefficient() * omega;
+    let d1 = C::new(c.delta_sin, c.delta_cos);
+    let f1 = C::new(c.force_sin, c.force_cos);
+    let q = match rig.damping_on() {
         DampingOn::Sphere => {
             if a.hypot(d) <= 0.0 {
                 return Err(ParamError::new(
@@ -1186,7 +980,7 @@ pub fn at_contact_amplitude<L: AdhesionLaw + ?Sized>(
                 )
                 .into());
             }
-            d1.add(f1.div(C(a, d)))
+            d1 + f1 / C::new(a, d)
         }
         DampingOn::Contact => {
             if a.abs() <= 0.0 {
@@ -1197,18 +991,16 @@ pub fn at_contact_amplitude<L: AdhesionLaw + ?Sized>(
                 )
                 .into());
             }
-            C(a, d).mul(d1).add(f1).scale(1.0 / a)
+            (C::new(a, d) * d1 + f1) * (1.0 / a)
         }
     };
-    let xb = q.abs();
+    let xb = q.norm();
     if !(xb.is_finite() && xb > 0.0) {
         return Err(no_root("no first harmonic"));
     }
-    let psi = -q.1.atan2(q.0);
+    let psi = -q.im.atan2(q.re);
     let pb = Problem {
-        m: material,
-        law,
-        sys: *system,
+        rig,
         x_k: st.x_k,
         xb,
         omega,
@@ -1232,21 +1024,19 @@ const SCAN_PER_DECADE: f64 = 8.0;
 /// X_b. The first entry is the branch connected to X_b = 0, the one continuation from rest
 /// follows. An empty list means no in-contact periodic solution of this form (e.g. beyond the
 /// largest X_b the contact can follow without loss). Errors on invalid inputs.
-pub fn solutions<L: AdhesionLaw + ?Sized>(
-    material: &Material,
-    law: &L,
-    system: &System,
+pub fn solutions(
+    rig: &Rig,
     support: Support,
     base_amplitude: f64,
     omega: f64,
 ) -> Result<Vec<HarmonicBalance>, DescribingError> {
     check_drive(omega, base_amplitude)?;
-    let st = static_state(material, law, system, support)?;
+    let st = static_state(rig, support)?;
     if base_amplitude <= 0.0 {
         return Ok(vec![static_solution(&st, base_amplitude, omega)]);
     }
     let at = |la: f64| {
-        at_contact_amplitude(material, law, system, support, omega, la.exp())
+        at_contact_amplitude(rig, support, omega, la.exp())
             .ok()
             .filter(|h| h.contact_fraction >= 1.0 && h.base_amplitude.is_finite())
     };
@@ -1296,9 +1086,7 @@ pub fn solutions<L: AdhesionLaw + ?Sized>(
                 }
             }
             let pb = Problem {
-                m: material,
-                law,
-                sys: *system,
+                rig,
                 x_k: st.x_k,
                 xb: target,
                 omega,
@@ -1316,39 +1104,24 @@ pub fn solutions<L: AdhesionLaw + ?Sized>(
     Ok(out)
 }
 
-/// A scenario's contact and mechanics, ready for [`Setup::solve`].
+/// A rig and its mean load, ready for [`Setup::solve`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Setup {
-    /// Contact pair.
-    pub material: Material,
-    /// Adhesion law.
-    pub law: Law,
-    /// Sphere, spring, damping, gravity.
-    pub system: System,
-    /// Mean load: the scenario's initial preload (x_k = δ0 + (P − m g)/k, as the simulator places
-    /// the spring end), or the spring end of an initial gap.
+    /// The rig (its base section is not used: frequency and amplitude are arguments).
+    pub rig: Rig,
+    /// Mean load: a run's initial preload (x_k = δ0 + (P − m g)/k, as the simulator places the
+    /// spring end), or the spring end of an explicit initial state.
     pub support: Support,
 }
 
 impl Setup {
-    /// From a scenario: material, law, sphere mass and gravity, spring (Holder::None: k = 0),
-    /// damping; the initial state sets the mean load. Errors for a rigid holder (δ is prescribed
-    /// there: no dynamics to balance) and for an initial gap (no contact to oscillate about).
-    pub fn from_scenario(s: &Scenario) -> Result<Setup, DescribingError> {
-        let stiffness = match s.holder {
-            Holder::Spring { stiffness } => stiffness,
-            Holder::None => 0.0,
-            Holder::Rigid => {
-                return Err(DescribingError::Unsupported(
-                    "rigid holder: the indentation is prescribed, nothing to balance".into(),
-                ))
-            }
-        };
-        let (damping, damping_on) = match s.damping {
-            Some(d) => (d.c, d.on),
-            None => (0.0, DampingOn::Sphere),
-        };
-        let support = match s.initial {
+    /// From a rig and the initial state of a run, which sets the mean load. Errors for a rigid
+    /// holder (δ is prescribed there: no dynamics to balance), for an initial gap (no contact to
+    /// oscillate about) and for mechanical constants out of range.
+    pub fn new(rig: &Rig, initial: &Initial) -> Result<Setup, DescribingError> {
+        check_rig(rig)?;
+        rig.check_mechanics()?;
+        let support = match *initial {
             Initial::Preload(p) => Support::StaticLoad(p),
             Initial::State { x_k, .. } => Support::SpringEnd(x_k),
             Initial::Gap(_) => {
@@ -1357,18 +1130,8 @@ impl Setup {
                 ))
             }
         };
-        let system = System {
-            mass: s.sphere.mass,
-            stiffness,
-            damping,
-            damping_on,
-            gravity: s.sphere.gravity,
-        };
-        check_system(&system)?;
         Ok(Setup {
-            material: s.material,
-            law: s.law.clone(),
-            system,
+            rig: rig.clone(),
             support,
         })
     }
@@ -1381,25 +1144,13 @@ impl Setup {
         guess: Option<Guess>,
     ) -> Result<HarmonicBalance, DescribingError> {
         solve(
-            &self.material,
-            &self.law,
-            &self.system,
+            &self.rig,
             self.support,
             amplitude,
             2.0 * PI * frequency,
             guess,
         )
     }
-}
-
-/// Harmonic balance for a scenario at frequency f (Hz) and base amplitude X_b (m) (SI): the
-/// comparison point for the time-domain steady state. See [`Setup::from_scenario`].
-pub fn from_scenario(
-    s: &Scenario,
-    frequency: f64,
-    amplitude: f64,
-) -> Result<HarmonicBalance, DescribingError> {
-    Setup::from_scenario(s)?.solve(frequency, amplitude, None)
 }
 
 #[cfg(test)]

@@ -24,6 +24,7 @@ pub mod numerics;
 pub mod output;
 pub mod plot;
 pub mod quadrature;
+pub mod rig;
 pub mod scenario;
 pub mod steady;
 pub mod transfer;

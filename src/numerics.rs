@@ -37,6 +37,36 @@ impl roots::Convergency<f64> for RelativeConvergency {
     }
 }
 
+/// Bisection of a bracket [lo, hi] on which `below` is true at the low end and false at the
+/// high end (a monotone predicate such as f(x) ≤ 0 for an increasing f), down to
+/// hi − lo ≤ `rel_tol` |hi| or to adjacent floating-point numbers (`rel_tol` = 0), at most 200
+/// halvings. Returns the final bracket (lo, hi). The one bisection of the crate: the static
+/// equilibria, the stable JKR branch and the harmonic-balance brackets use it. Hand-written
+/// rather than `roots::find_root_brent` because these callers need the bracket itself
+/// (the root on a chosen side of a discontinuity) and a predicate, not a value.
+pub fn bisect(
+    mut lo: f64,
+    mut hi: f64,
+    rel_tol: f64,
+    mut below: impl FnMut(f64) -> bool,
+) -> (f64, f64) {
+    for _ in 0..200 {
+        if hi - lo <= rel_tol * hi.abs() {
+            break;
+        }
+        let mid = 0.5 * (lo + hi);
+        if mid <= lo || mid >= hi {
+            break;
+        }
+        if below(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    (lo, hi)
+}
+
 /// Brent's local minimiser (golden section with parabolic steps; Brent 1973, "localmin") of `f`
 /// on [a, b]. Returns (x_min, f(x_min)). Converges to |Δx| ≲ 3 (rel_tol |x| + abs_tol). Pure,
 /// allocation-free, no clock: used by the pull-off searches, the β refit and the GS fit.

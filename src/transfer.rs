@@ -13,23 +13,8 @@
 //! wrong sign on X_b); [`paper_printed`] evaluates them as printed, for comparison only. The
 //! far-from-resonance limit (39), δ_s/X_b = A/B, is right.
 
-use crate::scenario::DampingOn;
+use crate::rig::{DampingOn, Rig};
 use serde::Serialize;
-
-/// The oscillator seen by the contact: sphere mass, holding spring, damping, contact stiffness.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Oscillator {
-    /// Sphere mass m (kg).
-    pub mass: f64,
-    /// Holding-spring stiffness k (N/m).
-    pub stiffness: f64,
-    /// Damping coefficient c (N s/m).
-    pub damping: f64,
-    /// Where the damping acts.
-    pub damping_on: DampingOn,
-    /// Linearised contact stiffness k_c = (3/2) K a_m (N/m).
-    pub contact_stiffness: f64,
-}
 
 /// Indentation response to a unit base amplitude: δ − δ_m = X_b (s sin ωt + c cos ωt).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -51,13 +36,21 @@ impl Transfer {
     }
 }
 
-/// The corrected linear transfer at angular frequency ω (rad/s).
-pub fn linear(o: &Oscillator, omega: f64) -> Transfer {
-    let a = o.stiffness - o.mass * omega * omega;
-    let b = a + o.contact_stiffness;
-    let d = o.damping * omega;
+/// A = k − mω² and D = cω of the rig at ω.
+fn coefficients(rig: &Rig, omega: f64) -> (f64, f64) {
+    (
+        rig.spring_stiffness() - rig.mass() * omega * omega,
+        rig.damping_coefficient() * omega,
+    )
+}
+
+/// The corrected linear transfer of the rig at angular frequency ω (rad/s), with the contact
+/// linearised as a spring of stiffness `kc` (N/m; (3/2) K a_m).
+pub fn linear(rig: &Rig, kc: f64, omega: f64) -> Transfer {
+    let (a, d) = coefficients(rig, omega);
+    let b = a + kc;
     let den = b * b + d * d;
-    match o.damping_on {
+    match rig.damping_on() {
         DampingOn::Sphere => Transfer {
             sin: (a * b + d * d) / den,
             cos: d * (b - a) / den,
@@ -71,10 +64,9 @@ pub fn linear(o: &Oscillator, omega: f64) -> Transfer {
 
 /// The paper's eqs. (37) and (36) as printed (sign typos included), for comparison: δ_s/X_b =
 /// (AB − D²)/(B² + D²) and δ_c/X_b = −(D + D δ_s/X_b)/B.
-pub fn paper_printed(o: &Oscillator, omega: f64) -> Transfer {
-    let a = o.stiffness - o.mass * omega * omega;
-    let b = a + o.contact_stiffness;
-    let d = o.damping * omega;
+pub fn paper_printed(rig: &Rig, kc: f64, omega: f64) -> Transfer {
+    let (a, d) = coefficients(rig, omega);
+    let b = a + kc;
     let s = (a * b - d * d) / (b * b + d * d);
     Transfer {
         sin: s,
@@ -83,36 +75,45 @@ pub fn paper_printed(o: &Oscillator, omega: f64) -> Transfer {
 }
 
 /// Eq. (39), the far-from-resonance limit δ_s/X_b = A/B (no damping).
-pub fn far_from_resonance(o: &Oscillator, omega: f64) -> f64 {
-    let a = o.stiffness - o.mass * omega * omega;
-    a / (a + o.contact_stiffness)
+pub fn far_from_resonance(rig: &Rig, kc: f64, omega: f64) -> f64 {
+    let (a, _) = coefficients(rig, omega);
+    a / (a + kc)
 }
 
 /// Undamped resonance frequency f_r = √((k + k_c)/m) / 2π (Hz); infinite for m = 0.
-pub fn resonance_frequency(o: &Oscillator) -> f64 {
-    ((o.stiffness + o.contact_stiffness) / o.mass).sqrt() / (2.0 * std::f64::consts::PI)
+pub fn resonance_frequency(rig: &Rig, kc: f64) -> f64 {
+    ((rig.spring_stiffness() + kc) / rig.mass()).sqrt() / (2.0 * std::f64::consts::PI)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn osc(on: DampingOn) -> Oscillator {
-        Oscillator {
-            mass: 3e-3,
-            stiffness: 200.0,
-            damping: 0.8,
-            damping_on: on,
-            contact_stiffness: 1.5 * 9.33e6 * 2e-3,
+    use crate::rig::{ContactFormation, Damping, Holder, Sphere};
+
+    const KC: f64 = 1.5 * 9.33e6 * 2e-3;
+
+    fn osc(on: DampingOn) -> Rig {
+        Rig {
+            material: crate::material::Material::PAPER,
+            law: crate::adhesion::Law::default(),
+            sphere: Sphere {
+                mass: 3e-3,
+                gravity: 0.0,
+            },
+            holder: Holder::Spring { stiffness: 200.0 },
+            damping: Some(Damping { c: 0.8, on }),
+            base: None,
+            formation: ContactFormation::JumpIn,
         }
     }
 
     /// Independent check: integrate the linear oscillator m δ̈ + c δ̇ + (k + k_c) δ = forcing
     /// (sphere damping: m ẍ_b... written in x_s) with RK4 to steady state and project on sin, cos.
-    fn simulate(o: &Oscillator, omega: f64) -> Transfer {
-        let (m, k, c, kc) = (o.mass, o.stiffness, o.damping, o.contact_stiffness);
+    fn simulate(o: &Rig, omega: f64) -> Transfer {
+        let (m, k, c, kc) = (o.mass(), o.spring_stiffness(), o.damping_coefficient(), KC);
         // State: x_s, v_s with δ = x_s + x_b; m ẍ_s + c_s ẋ_s + c_c δ̇ + k x_s = −k_c δ.
-        let (cs, cc) = match o.damping_on {
+        let (cs, cc) = match o.damping_on() {
             DampingOn::Sphere => (c, 0.0),
             DampingOn::Contact => (0.0, c),
         };
@@ -158,7 +159,7 @@ mod tests {
             let o = osc(on);
             for &f in &[100.0, 300.0, 390.0, 500.0, 900.0] {
                 let w = 2.0 * std::f64::consts::PI * f;
-                let exact = linear(&o, w);
+                let exact = linear(&o, KC, w);
                 let sim = simulate(&o, w);
                 let scale = exact.magnitude();
                 assert!(
@@ -174,11 +175,11 @@ mod tests {
     fn printed_equations_differ_but_share_the_undamped_limit() {
         let mut o = osc(DampingOn::Sphere);
         let w = 2.0 * std::f64::consts::PI * 300.0;
-        let (l, p) = (linear(&o, w), paper_printed(&o, w));
+        let (l, p) = (linear(&o, KC, w), paper_printed(&o, KC, w));
         assert!((l.sin - p.sin).abs() > 1e-6 * l.magnitude());
-        o.damping = 0.0;
-        let (l, p) = (linear(&o, w), paper_printed(&o, w));
-        assert!((l.sin - far_from_resonance(&o, w)).abs() < 1e-15);
+        o.damping = None;
+        let (l, p) = (linear(&o, KC, w), paper_printed(&o, KC, w));
+        assert!((l.sin - far_from_resonance(&o, KC, w)).abs() < 1e-15);
         assert!((p.sin - l.sin).abs() < 1e-15 && l.cos.abs() < 1e-15 && p.cos.abs() < 1e-15);
     }
 }

@@ -109,16 +109,18 @@ fn errors_are_normalised_as_documented() {
 #[test]
 fn study_of_quasi_static_jkr() {
     let s = Scenario {
-        material: M,
-        law: Law::Constant(ConstantW { w0: M.w0 }),
-        sphere: Sphere {
-            mass: 0.0,
-            gravity: 0.0,
+        rig: Rig {
+            material: M,
+            law: Law::Constant(ConstantW { w0: M.w0 }),
+            sphere: Sphere {
+                mass: 0.0,
+                gravity: 0.0,
+            },
+            holder: Holder::Rigid,
+            damping: None,
+            base: None,
+            formation: ContactFormation::JumpIn,
         },
-        holder: Holder::Rigid,
-        damping: None,
-        base: None,
-        formation: ContactFormation::JumpIn,
         initial: Initial::Preload(0.02),
         stages: vec![stage(StageKind::Unload, 1e-6, Until::PullOff, None)],
         solver: Solver::default(),

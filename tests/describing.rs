@@ -2,18 +2,28 @@
 //! harmonics in θ without folding, JKR finite differences, the linear transfer, loop areas), and
 //! a study printing numbers (`cargo test --test describing -- --ignored --nocapture`).
 
-use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz};
-use djkr::describing::{self, DescribingError, Support, System};
+use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz, Law};
+use djkr::describing::{self, DescribingError, Support};
 use djkr::imposed_area::{self, indentation_at};
 use djkr::jkr;
 use djkr::material::Material;
 use djkr::quadrature::QuadratureRule;
-use djkr::scenario::DampingOn;
-use djkr::transfer::{self, Oscillator, Transfer};
+use djkr::rig::{ContactFormation, Damping, DampingOn, Holder, Rig, Sphere};
+use djkr::transfer::{self, Transfer};
 use std::f64::consts::PI;
 
 const M: Material = Material::PAPER;
 const PRELOAD: f64 = 0.02;
+
+/// The test rig's mechanics: 3 g, 200 N/m, c = 0.02 N s/m, g = 9.81 m/s².
+#[derive(Debug, Clone, Copy)]
+struct System {
+    mass: f64,
+    stiffness: f64,
+    damping: f64,
+    damping_on: DampingOn,
+    gravity: f64,
+}
 
 fn sys(on: DampingOn) -> System {
     System {
@@ -25,13 +35,24 @@ fn sys(on: DampingOn) -> System {
     }
 }
 
-fn oscillator(s: &System, kc: f64) -> Oscillator {
-    Oscillator {
-        mass: s.mass,
-        stiffness: s.stiffness,
-        damping: s.damping,
-        damping_on: s.damping_on,
-        contact_stiffness: kc,
+/// The paper's material with `law` on the mechanics `s`.
+fn rig(law: Law, s: &System) -> Rig {
+    Rig {
+        material: M,
+        law,
+        sphere: Sphere {
+            mass: s.mass,
+            gravity: s.gravity,
+        },
+        holder: Holder::Spring {
+            stiffness: s.stiffness,
+        },
+        damping: Some(Damping {
+            c: s.damping,
+            on: s.damping_on,
+        }),
+        base: None,
+        formation: ContactFormation::JumpIn,
     }
 }
 
@@ -177,9 +198,7 @@ fn constant_w_small_amplitude_is_linear_transfer_with_jkr_tangent_stiffness() {
         for &f in &[50.0, 200.0, 400.0, 600.0] {
             let omega = 2.0 * PI * f;
             let h = describing::solve(
-                &M,
-                &cw,
-                &s,
+                &rig(Law::Constant(cw), &s),
                 Support::StaticLoad(PRELOAD),
                 1e-10,
                 omega,
@@ -187,8 +206,8 @@ fn constant_w_small_amplitude_is_linear_transfer_with_jkr_tangent_stiffness() {
             )
             .unwrap();
             let t = h.transfer();
-            let lt = transfer::linear(&oscillator(&s, kt), omega);
-            let lc = transfer::linear(&oscillator(&s, kc), omega);
+            let lt = transfer::linear(&rig(Law::default(), &s), kt, omega);
+            let lc = transfer::linear(&rig(Law::default(), &s), kc, omega);
             assert!(
                 close(&t, &lt, 1e-6),
                 "{on:?} {f} Hz: {t:?} vs k_t transfer {lt:?}"
@@ -213,12 +232,17 @@ fn gent_schultz_small_amplitude_is_eq37_with_pinned_contact_line() {
         let s = sys(on);
         for &f in &[50.0, 200.0, 400.0, 600.0] {
             let omega = 2.0 * PI * f;
-            let lc = transfer::linear(&oscillator(&s, kc), omega);
+            let lc = transfer::linear(&rig(Law::default(), &s), kc, omega);
             let mut prev_c = f64::INFINITY;
             for &xb in &[1e-6, 1e-7, 1e-8, 1e-9] {
-                let h =
-                    describing::solve(&M, &gs, &s, Support::StaticLoad(PRELOAD), xb, omega, None)
-                        .unwrap();
+                let h = describing::solve(
+                    &rig(Law::GentSchultz(gs), &s),
+                    Support::StaticLoad(PRELOAD),
+                    xb,
+                    omega,
+                    None,
+                )
+                .unwrap();
                 let e = h.effective_contact().unwrap();
                 // c_eff > 0 and vanishing with the amplitude (like a_A^(1 − n)).
                 assert!(
@@ -259,9 +283,19 @@ fn residuals_and_mean_force_identity_at_the_solution() {
     for (is_gs, on, f, xb) in cases() {
         let s = sys(on);
         let omega = 2.0 * PI * f;
-        let law: &dyn AdhesionLaw = if is_gs { &gs } else { &cw };
-        let h =
-            describing::solve(&M, law, &s, Support::StaticLoad(PRELOAD), xb, omega, None).unwrap();
+        let law = if is_gs {
+            Law::GentSchultz(gs)
+        } else {
+            Law::Constant(cw)
+        };
+        let h = describing::solve(
+            &rig(law.clone(), &s),
+            Support::StaticLoad(PRELOAD),
+            xb,
+            omega,
+            None,
+        )
+        .unwrap();
         let tag = format!("gs {is_gs} {on:?} {f} Hz X_b {xb}");
         assert!(h.residual <= 1e-10, "{tag}: {}", h.residual);
         assert!(h.contact_fraction >= 1.0, "{tag}");
@@ -364,8 +398,8 @@ fn study() {
         );
         for &f in &[50.0, 200.0, 300.0, 400.0, 600.0] {
             let omega = 2.0 * PI * f;
-            let lc = transfer::linear(&oscillator(&s, kc), omega);
-            let lt = transfer::linear(&oscillator(&s, kt), omega);
+            let lc = transfer::linear(&rig(Law::default(), &s), kc, omega);
+            let lt = transfer::linear(&rig(Law::default(), &s), kt, omega);
             println!(
                 "{f} Hz: |T| eq.37 k_c {:.4} (phase {:.4}), k_t {:.4} (phase {:.4})",
                 lc.magnitude(),
@@ -374,14 +408,9 @@ fn study() {
                 lt.phase()
             );
             for &xb in &[1e-8, 1e-7, 1e-6, 3e-6, 1e-5, 3e-5] {
-                for (name, law) in [
-                    ("cw", &cw as &dyn AdhesionLaw),
-                    ("gs", &gs as &dyn AdhesionLaw),
-                ] {
+                for (name, law) in [("cw", Law::Constant(cw)), ("gs", Law::GentSchultz(gs))] {
                     match describing::solve(
-                        &M,
-                        law,
-                        &s,
+                        &rig(law.clone(), &s),
                         Support::StaticLoad(PRELOAD),
                         xb,
                         omega,
@@ -430,9 +459,7 @@ fn gent_schultz_hysteresis_is_positive_damping() {
     for on in [DampingOn::Sphere, DampingOn::Contact] {
         for &f in &[50.0, 200.0, 600.0] {
             let v = describing::continuation(
-                &M,
-                &gs,
-                &sys(on),
+                &rig(Law::GentSchultz(gs), &sys(on)),
                 Support::StaticLoad(PRELOAD),
                 2.0 * PI * f,
                 &amps,
@@ -480,13 +507,18 @@ fn continuation_is_smooth_and_matches_independent_solves() {
         .collect();
     let a0 = static_radius();
     for (name, law, f) in [
-        ("gs", &gs as &dyn AdhesionLaw, 200.0),
-        ("cw", &cw as &dyn AdhesionLaw, 600.0),
+        ("gs", Law::GentSchultz(gs), 200.0),
+        ("cw", Law::Constant(cw), 600.0),
     ] {
         let s = sys(DampingOn::Sphere);
         let omega = 2.0 * PI * f;
-        let v = describing::continuation(&M, law, &s, Support::StaticLoad(PRELOAD), omega, &amps)
-            .unwrap();
+        let v = describing::continuation(
+            &rig(law.clone(), &s),
+            Support::StaticLoad(PRELOAD),
+            omega,
+            &amps,
+        )
+        .unwrap();
         assert_eq!(v.len(), amps.len());
         let series: Vec<[f64; 4]> = v
             .iter()
@@ -515,8 +547,14 @@ fn continuation_is_smooth_and_matches_independent_solves() {
         }
         // Same branch as solving each amplitude from scratch.
         for (h, &xb) in v.iter().zip(&amps).step_by(6) {
-            let g = describing::solve(&M, law, &s, Support::StaticLoad(PRELOAD), xb, omega, None)
-                .unwrap();
+            let g = describing::solve(
+                &rig(law.clone(), &s),
+                Support::StaticLoad(PRELOAD),
+                xb,
+                omega,
+                None,
+            )
+            .unwrap();
             let (t, u) = (h.transfer(), g.transfer());
             assert!(close(&t, &u, 1e-8), "{name} {xb}: {t:?} vs {u:?}");
         }
@@ -530,10 +568,10 @@ fn study_branches() {
     let cw = ConstantW { w0: M.w0 };
     let s = sys(DampingOn::Sphere);
     for (name, law, f) in [
-        ("gs", &gs as &dyn AdhesionLaw, 600.0),
-        ("gs", &gs as &dyn AdhesionLaw, 400.0),
-        ("cw", &cw as &dyn AdhesionLaw, 300.0),
-        ("cw", &cw as &dyn AdhesionLaw, 600.0),
+        ("gs", Law::GentSchultz(gs), 600.0),
+        ("gs", Law::GentSchultz(gs), 400.0),
+        ("cw", Law::Constant(cw), 300.0),
+        ("cw", Law::Constant(cw), 600.0),
     ] {
         println!("{name} {f} Hz: a_A -> X_b");
         let omega = 2.0 * PI * f;
@@ -541,9 +579,7 @@ fn study_branches() {
         let mut aa = if name == "gs" { 1e-12 } else { 1e-7 };
         while aa < top {
             match describing::at_contact_amplitude(
-                &M,
-                law,
-                &s,
+                &rig(law.clone(), &s),
                 Support::StaticLoad(PRELOAD),
                 omega,
                 aa,
@@ -567,17 +603,15 @@ fn amplitude_parametrised_branch_agrees_with_solve() {
     let gs = GentSchultz::PAPER;
     let cw = ConstantW { w0: M.w0 };
     for (law, f, aa) in [
-        (&gs as &dyn AdhesionLaw, 200.0, 1e-9),
-        (&gs as &dyn AdhesionLaw, 600.0, 1e-7),
-        (&cw as &dyn AdhesionLaw, 600.0, 1e-5),
+        (Law::GentSchultz(gs), 200.0, 1e-9),
+        (Law::GentSchultz(gs), 600.0, 1e-7),
+        (Law::Constant(cw), 600.0, 1e-5),
     ] {
         for on in [DampingOn::Sphere, DampingOn::Contact] {
             let s = sys(on);
             let omega = 2.0 * PI * f;
             let b = describing::at_contact_amplitude(
-                &M,
-                law,
-                &s,
+                &rig(law.clone(), &s),
                 Support::StaticLoad(PRELOAD),
                 omega,
                 aa,
@@ -585,9 +619,7 @@ fn amplitude_parametrised_branch_agrees_with_solve() {
             .unwrap();
             assert!(b.residual <= 1e-10, "{b:?}");
             let h = describing::solve(
-                &M,
-                law,
-                &s,
+                &rig(law.clone(), &s),
                 Support::StaticLoad(PRELOAD),
                 b.base_amplitude,
                 omega,
@@ -612,7 +644,13 @@ fn fold_near_the_stiffening_gent_schultz_resonance_has_three_solutions() {
     let gs = GentSchultz::PAPER;
     let s = sys(DampingOn::Sphere);
     let omega = 2.0 * PI * 400.0;
-    let v = describing::solutions(&M, &gs, &s, Support::StaticLoad(PRELOAD), 6e-7, omega).unwrap();
+    let v = describing::solutions(
+        &rig(Law::GentSchultz(gs), &s),
+        Support::StaticLoad(PRELOAD),
+        6e-7,
+        omega,
+    )
+    .unwrap();
     assert_eq!(v.len(), 3, "{v:?}");
     for w in v.windows(2) {
         assert!(w[1].a_amp > 1.5 * w[0].a_amp);
@@ -623,8 +661,14 @@ fn fold_near_the_stiffening_gent_schultz_resonance_has_three_solutions() {
     // Lower branch below resonance (in phase), upper one beyond it (out of phase).
     assert!(v[0].transfer().phase().abs() < 0.1 && v[2].transfer().phase() > 3.0);
     // Beyond the fold, solve still finds the far branch (through the scan).
-    let h =
-        describing::solve(&M, &gs, &s, Support::StaticLoad(PRELOAD), 3e-6, omega, None).unwrap();
+    let h = describing::solve(
+        &rig(Law::GentSchultz(gs), &s),
+        Support::StaticLoad(PRELOAD),
+        3e-6,
+        omega,
+        None,
+    )
+    .unwrap();
     assert!(h.residual <= 1e-10 && h.transfer().phase() > 3.0, "{h:?}");
 }
 
@@ -635,9 +679,21 @@ fn beyond_the_in_contact_range_is_an_error_not_nan() {
     let cw = ConstantW { w0: M.w0 };
     let s = sys(DampingOn::Sphere);
     let omega = 2.0 * PI * 300.0;
-    let v = describing::solutions(&M, &cw, &s, Support::StaticLoad(PRELOAD), 1e-5, omega).unwrap();
+    let v = describing::solutions(
+        &rig(Law::Constant(cw), &s),
+        Support::StaticLoad(PRELOAD),
+        1e-5,
+        omega,
+    )
+    .unwrap();
     assert!(v.is_empty(), "{v:?}");
-    match describing::solve(&M, &cw, &s, Support::StaticLoad(PRELOAD), 1e-5, omega, None) {
+    match describing::solve(
+        &rig(Law::Constant(cw), &s),
+        Support::StaticLoad(PRELOAD),
+        1e-5,
+        omega,
+        None,
+    ) {
         Err(DescribingError::NotConverged { residual, .. }) => assert!(!residual.is_nan()),
         Err(DescribingError::ContactLost { .. }) => {}
         other => panic!("{other:?}"),
@@ -651,9 +707,7 @@ fn beyond_the_in_contact_range_is_an_error_not_nan() {
         ..s
     };
     let h = describing::solve(
-        &M,
-        &cw,
-        &s4,
+        &rig(Law::Constant(cw), &s4),
         Support::StaticLoad(0.05),
         5e-6,
         2.0 * PI * 400.0,
@@ -672,15 +726,19 @@ fn beyond_the_in_contact_range_is_an_error_not_nan() {
         (1e-6, f64::INFINITY),
     ] {
         assert!(matches!(
-            describing::solve(&M, &cw, &s, Support::StaticLoad(PRELOAD), xb, om, None),
+            describing::solve(
+                &rig(Law::Constant(cw), &s),
+                Support::StaticLoad(PRELOAD),
+                xb,
+                om,
+                None
+            ),
             Err(DescribingError::Param(_))
         ));
     }
     let bad = System { mass: -1.0, ..s };
     assert!(describing::solve(
-        &M,
-        &cw,
-        &bad,
+        &rig(Law::Constant(cw), &bad),
         Support::StaticLoad(PRELOAD),
         1e-6,
         omega,
@@ -689,7 +747,13 @@ fn beyond_the_in_contact_range_is_an_error_not_nan() {
     .is_err());
     // Below the JKR pull-off load there is no static contact.
     assert!(matches!(
-        describing::solve(&M, &cw, &s, Support::StaticLoad(-1.0), 1e-6, omega, None),
+        describing::solve(
+            &rig(Law::Constant(cw), &s),
+            Support::StaticLoad(-1.0),
+            1e-6,
+            omega,
+            None
+        ),
         Err(DescribingError::NoStaticState(_))
     ));
     // Contact damping at ω² = k/m: δ1 = 0 is forced (an anti-resonance of this model); an error
@@ -697,9 +761,7 @@ fn beyond_the_in_contact_range_is_an_error_not_nan() {
     let sc = sys(DampingOn::Contact);
     let w_anti = (sc.stiffness / sc.mass).sqrt();
     match describing::solve(
-        &M,
-        &cw,
-        &sc,
+        &rig(Law::Constant(cw), &sc),
         Support::StaticLoad(PRELOAD),
         1e-6,
         w_anti,
@@ -714,21 +776,24 @@ fn beyond_the_in_contact_range_is_an_error_not_nan() {
 fn spring_end_and_static_load_agree_and_match_eq30_at_rest() {
     let cw = ConstantW { w0: M.w0 };
     let s = sys(DampingOn::Sphere);
-    let st = describing::static_state(&M, &cw, &s, Support::StaticLoad(PRELOAD)).unwrap();
+    let st = describing::static_state(&rig(Law::Constant(cw), &s), Support::StaticLoad(PRELOAD))
+        .unwrap();
     // Eq. (30) at rest: k (x_s − x_k) = −F + m g with x_s = δ0.
     let lhs = s.stiffness * (st.delta - st.x_k);
     assert!(
         (lhs - (-PRELOAD + s.mass * s.gravity)).abs() < 1e-15,
         "{lhs}"
     );
-    let st2 = describing::static_state(&M, &cw, &s, Support::SpringEnd(st.x_k)).unwrap();
+    let st2 =
+        describing::static_state(&rig(Law::Constant(cw), &s), Support::SpringEnd(st.x_k)).unwrap();
     assert!((st2.a / st.a - 1.0).abs() < 1e-12 && (st2.force - PRELOAD).abs() < 1e-12);
     // Without a spring the weight alone loads the contact.
     let free = System {
         stiffness: 0.0,
         ..s
     };
-    let st3 = describing::static_state(&M, &cw, &free, Support::SpringEnd(0.0)).unwrap();
+    let st3 =
+        describing::static_state(&rig(Law::Constant(cw), &free), Support::SpringEnd(0.0)).unwrap();
     assert!((st3.force - s.mass * s.gravity).abs() < 1e-15);
     let a3 = jkr::equilibrium_radius_for_force(&M, s.mass * s.gravity, M.w0).unwrap_or(0.0);
     assert!((st3.a / a3 - 1.0).abs() < 1e-12);
@@ -739,33 +804,33 @@ fn from_a_bundled_scenario() {
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/resonance-400hz.toml");
     let sc = djkr::scenario::parse::load_scenario(&path).unwrap();
-    let setup = describing::Setup::from_scenario(&sc).unwrap();
+    let setup = describing::Setup::new(&sc.rig, &sc.initial).unwrap();
     let p = match sc.initial {
         djkr::scenario::Initial::Preload(p) => p,
         _ => f64::NAN,
     };
-    let st = describing::static_state(&setup.material, &setup.law, &setup.system, setup.support)
-        .unwrap();
+    let st = describing::static_state(&setup.rig, setup.support).unwrap();
     assert!((st.force - p).abs() < 1e-12 * p);
     let base = sc
+        .rig
         .base
         .map_or((400.0, 0.5e-6), |b| (b.frequency, b.amplitude));
-    let h = describing::from_scenario(&sc, base.0, base.1).unwrap();
+    let h = setup.solve(base.0, base.1, None).unwrap();
     assert!(h.residual <= 1e-10 && h.contact_fraction >= 1.0);
     // Tiny amplitude: the mean force is the preload, the transfer eq. (37)'s (GS: pinned line).
-    let t = describing::from_scenario(&sc, base.0, 1e-10).unwrap();
+    let t = setup.solve(base.0, 1e-10, None).unwrap();
     assert!((t.force_mean - p).abs() < 1e-9 * p);
-    let kc = jkr::contact_stiffness(&sc.material, st.a);
-    let lin = transfer::linear(&oscillator(&setup.system, kc), 2.0 * PI * base.0);
+    let kc = jkr::contact_stiffness(&sc.rig.material, st.a);
+    let lin = transfer::linear(&setup.rig, kc, 2.0 * PI * base.0);
     assert!(
         close(&t.transfer(), &lin, 1e-4),
         "{:?} vs {lin:?}",
         t.transfer()
     );
     let mut rigid = sc.clone();
-    rigid.holder = djkr::scenario::Holder::Rigid;
+    rigid.rig.holder = djkr::scenario::Holder::Rigid;
     assert!(matches!(
-        describing::Setup::from_scenario(&rigid),
+        describing::Setup::new(&rigid.rig, &rigid.initial),
         Err(DescribingError::Unsupported(_))
     ));
 }
@@ -781,28 +846,20 @@ fn study_scenarios() {
             .join("scenarios")
             .join(file);
         let sc = djkr::scenario::parse::load_scenario(&path).unwrap();
-        let setup = describing::Setup::from_scenario(&sc).unwrap();
-        let st =
-            describing::static_state(&setup.material, &setup.law, &setup.system, setup.support)
-                .unwrap();
-        let f = sc.base.map_or(400.0, |b| b.frequency);
+        let setup = describing::Setup::new(&sc.rig, &sc.initial).unwrap();
+        let st = describing::static_state(&setup.rig, setup.support).unwrap();
+        let f = sc.rig.base.map_or(400.0, |b| b.frequency);
         let omega = 2.0 * PI * f;
-        let kc = jkr::contact_stiffness(&sc.material, st.a);
-        let kt = describing::tangent_stiffness(&sc.material, st.a, sc.material.w0);
-        let lc = transfer::linear(&oscillator(&setup.system, kc), omega);
-        let lt = transfer::linear(&oscillator(&setup.system, kt), omega);
+        let kc = jkr::contact_stiffness(&sc.rig.material, st.a);
+        let kt = describing::tangent_stiffness(&sc.rig.material, st.a, sc.rig.material.w0);
+        let lc = transfer::linear(&setup.rig, kc, omega);
+        let lt = transfer::linear(&setup.rig, kt, omega);
         println!("{file}: {f} Hz a0 {:.4e} k_c {kc:.0} k_t {kt:.0}; eq.37 |T| {:.4} ph {:.4}; k_t |T| {:.4} ph {:.4}", st.a, lc.magnitude(), lc.phase(), lt.magnitude(), lt.phase());
-        let cw = ConstantW { w0: sc.material.w0 };
+        let cw = ConstantW {
+            w0: sc.rig.material.w0,
+        };
         for xb in amps {
-            let all = describing::solutions(
-                &setup.material,
-                &setup.law,
-                &setup.system,
-                setup.support,
-                xb,
-                omega,
-            )
-            .unwrap();
+            let all = describing::solutions(&setup.rig, setup.support, xb, omega).unwrap();
             for h in &all {
                 let e = h.effective_contact().unwrap();
                 println!("  gs X_b {xb:.1e}: |T| {:.4} ph {:.4} a_m {:.4e} a_A {:.3e} delta_m {:.3e} F_m {:.5} k_eff {:.0} c_eff {:.3e}", h.transfer().magnitude(), h.transfer().phase(), h.a_mean, h.a_amp, h.delta_mean, h.force_mean, e.stiffness, e.damping);
@@ -810,15 +867,11 @@ fn study_scenarios() {
             if all.is_empty() {
                 println!("  gs X_b {xb:.1e}: no in-contact solution");
             }
-            match describing::solve(
-                &setup.material,
-                &cw,
-                &setup.system,
-                setup.support,
-                xb,
-                omega,
-                None,
-            ) {
+            let cw_rig = Rig {
+                law: Law::Constant(cw),
+                ..setup.rig.clone()
+            };
+            match describing::solve(&cw_rig, setup.support, xb, omega, None) {
                 Ok(h) => println!(
                     "  cw X_b {xb:.1e}: |T| {:.4} ph {:.4} a_m {:.4e} a_A {:.3e} F_m {:.5}",
                     h.transfer().magnitude(),

@@ -11,16 +11,18 @@ const M: Material = Material::PAPER;
 
 fn scene() -> Scenario {
     Scenario {
-        material: M,
-        law: Law::Constant(ConstantW { w0: M.w0 }),
-        sphere: Sphere {
-            mass: 1e-3,
-            gravity: 0.0,
+        rig: Rig {
+            material: M,
+            law: Law::Constant(ConstantW { w0: M.w0 }),
+            sphere: Sphere {
+                mass: 1e-3,
+                gravity: 0.0,
+            },
+            holder: Holder::Spring { stiffness: 10.0 },
+            damping: None,
+            base: None,
+            formation: ContactFormation::JumpIn,
         },
-        holder: Holder::Spring { stiffness: 10.0 },
-        damping: None,
-        base: None,
-        formation: ContactFormation::JumpIn,
         initial: Initial::Preload(0.01),
         stages: vec![],
         solver: Solver {
@@ -49,7 +51,7 @@ fn first(r: &RunResult, k: EventKind) -> Option<djkr::dynamics::Event> {
 #[test]
 fn free_flight_matches_ramp_oscillator() {
     let mut s = scene();
-    s.sphere.gravity = 9.81;
+    s.rig.sphere.gravity = 9.81;
     let g0 = 5e-3;
     s.initial = Initial::Gap(g0);
     let v = 2e-3;
@@ -74,10 +76,10 @@ fn free_flight_matches_ramp_oscillator() {
 fn probe_free_flight_order() {
     for (m, rtol) in [(Method::Dop853, 1e-10), (Method::Dop853, 1e-12)] {
         let mut s = scene();
-        s.law = gs();
+        s.rig.law = gs();
         s.solver.method = m;
         s.solver.rtol = rtol;
-        s.sphere.gravity = 9.81;
+        s.rig.sphere.gravity = 9.81;
         let g0 = 5e-3;
         s.initial = Initial::Gap(g0);
         let v = 2e-3;
@@ -127,7 +129,7 @@ fn soft_spring_pull_off_is_load_controlled() {
 #[test]
 fn rigid_link_pull_off_is_displacement_controlled() {
     let mut s = scene();
-    s.holder = Holder::Rigid;
+    s.rig.holder = Holder::Rigid;
     s.stages = vec![stage(StageKind::Unload, 1e-4, Until::PullOff, None)];
     let (r, _) = run(&s);
     let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
@@ -199,8 +201,8 @@ fn gs_rigid_unload_rate_effect_vanishes_slowly() {
     let mut amps = vec![];
     for v in [1e-7, 1e-9, 1e-11] {
         let mut s = scene();
-        s.law = gs();
-        s.holder = Holder::Rigid;
+        s.rig.law = gs();
+        s.rig.holder = Holder::Rigid;
         s.stages = vec![stage(StageKind::Unload, v, Until::PullOff, None)];
         let (r, _) = run(&s);
         assert!(r.detached);
@@ -221,17 +223,17 @@ fn gs_rigid_unload_rate_effect_vanishes_slowly() {
 /// The paper's material on a 3 g sphere, 200 N/m spring, light damping, 300 Hz shaker.
 fn vibrating(xb: f64) -> Scenario {
     let mut s = scene();
-    s.law = gs();
-    s.sphere = Sphere {
+    s.rig.law = gs();
+    s.rig.sphere = Sphere {
         mass: 3e-3,
         gravity: 9.81,
     };
-    s.holder = Holder::Spring { stiffness: 200.0 };
-    s.damping = Some(Damping {
+    s.rig.holder = Holder::Spring { stiffness: 200.0 };
+    s.rig.damping = Some(Damping {
         c: 0.02,
         on: DampingOn::Sphere,
     });
-    s.base = Some(BaseMotion {
+    s.rig.base = Some(BaseMotion {
         amplitude: xb,
         frequency: 300.0,
     });
@@ -253,7 +255,7 @@ fn stage_of_whole_periods_records_every_cycle() {
     let mut any_after = false;
     for (f, n) in [(333.3, 1), (333.3, 2), (333.3, 5), (123.4, 3), (300.0, 4)] {
         let mut s = vibrating(1e-6);
-        s.base = Some(BaseMotion {
+        s.rig.base = Some(BaseMotion {
             amplitude: 1e-6,
             frequency: f,
         });
@@ -323,7 +325,7 @@ fn cycle_balances_hold() {
 #[test]
 fn steady_state_force_balance() {
     let mut s = vibrating(2e-6);
-    s.damping = Some(Damping {
+    s.rig.damping = Some(Damping {
         c: 0.5,
         on: DampingOn::Sphere,
     });
@@ -365,8 +367,8 @@ fn repeated_impacts_stay_finite() {
     ];
     for (law, formation, xb) in cases {
         let mut s = vibrating(xb);
-        s.law = law.clone();
-        s.formation = formation;
+        s.rig.law = law.clone();
+        s.rig.formation = formation;
         s.initial = Initial::Preload(0.005);
         s.stages = vec![stage(
             StageKind::Hold,
@@ -440,8 +442,8 @@ fn methods_agree_on_gs_unload() {
         let mut row = vec![];
         for rtol in [1e-6, 1e-8, 1e-10] {
             let mut s = scene();
-            s.law = gs();
-            s.holder = Holder::Rigid;
+            s.rig.law = gs();
+            s.rig.holder = Holder::Rigid;
             s.solver.method = method;
             s.solver.rtol = rtol;
             s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
@@ -475,7 +477,7 @@ fn explicit_errors_and_auto() {
     );
 
     let mut s = vibrating(150e-6);
-    s.law = Law::GentSchultz(GentSchultz::new(M.w0, 4.45e-5, 0.531).unwrap());
+    s.rig.law = Law::GentSchultz(GentSchultz::new(M.w0, 4.45e-5, 0.531).unwrap());
     s.initial = Initial::Preload(0.005);
     s.stages = vec![stage(
         StageKind::Hold,
@@ -611,8 +613,8 @@ fn massless_sphere_quasi_static_pull_off() {
     let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
     for (k, dc) in [(10.0, false), (1e7, true)] {
         let mut s = scene();
-        s.sphere.mass = 0.0;
-        s.holder = Holder::Spring { stiffness: k };
+        s.rig.sphere.mass = 0.0;
+        s.rig.holder = Holder::Spring { stiffness: k };
         s.stages = vec![stage(StageKind::Unload, 1e-4, Until::PullOff, None)];
         let (r, _) = run(&s);
         assert!(r.detached);
@@ -642,13 +644,13 @@ fn massless_sphere_quasi_static_pull_off() {
 #[test]
 fn seeded_impact_heals_and_contact_damping_balances_energy() {
     let mut s = scene();
-    s.law = gs();
-    s.formation = ContactFormation::Seed(1e-6);
-    s.damping = Some(Damping {
+    s.rig.law = gs();
+    s.rig.formation = ContactFormation::Seed(1e-6);
+    s.rig.damping = Some(Damping {
         c: 0.05,
         on: DampingOn::Contact,
     });
-    s.base = Some(BaseMotion {
+    s.rig.base = Some(BaseMotion {
         amplitude: 1e-6,
         frequency: 200.0,
     });
@@ -708,7 +710,7 @@ fn errors_are_explicit() {
         "{e}"
     );
     let mut s = scene();
-    s.holder = Holder::None;
+    s.rig.holder = Holder::None;
     s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.01), None)];
     let e = simulate(&s, &mut Recorder::default())
         .unwrap_err()
@@ -746,7 +748,7 @@ fn ramp_oscillator_orders(
     use djkr::dynamics::model::{resolve, Drive, NQ};
     let mut s = scene();
     s.initial = Initial::Gap(-x0);
-    let model = resolve(&s).unwrap();
+    let model = resolve(&s.rig, s.run_scales()).unwrap();
     let v = 2e-3;
     let w = (10.0f64 / 1e-3).sqrt();
     let drive = Drive {
@@ -877,9 +879,9 @@ fn contact_loss_radius_has_negligible_effect() {
         ContactFormation::Seed(1e-8),
     ] {
         let mut s = scene();
-        s.law = gs();
-        s.holder = Holder::Rigid;
-        s.formation = formation;
+        s.rig.law = gs();
+        s.rig.holder = Holder::Rigid;
+        s.rig.formation = formation;
         s.solver.method = Method::Implicit;
         s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
         let (r, _) = run(&s);
@@ -981,20 +983,20 @@ fn probe_min_wall() {
 fn probe_methods_by_scene() {
     let mut scenes: Vec<(&str, Scenario)> = vec![];
     let mut s = scene();
-    s.law = gs();
-    s.holder = Holder::Rigid;
+    s.rig.law = gs();
+    s.rig.holder = Holder::Rigid;
     s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
     scenes.push(("gs_rigid_unload_0.1um_s", s));
     let mut s = scene();
-    s.law = gs();
-    s.sphere.mass = 0.0;
+    s.rig.law = gs();
+    s.rig.sphere.mass = 0.0;
     s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
     scenes.push(("gs_massless_unload_0.1um_s", s));
     let mut s = djkr::dynamics::catalogue::vibrating_hold(2e-6, 400.0, 0.2);
-    s.holder = Holder::Rigid;
+    s.rig.holder = Holder::Rigid;
     scenes.push(("rigid_hold_2um_400hz_0.2s", s));
     let mut s = djkr::dynamics::catalogue::paper_protocol(1e-3);
-    s.base = None;
+    s.rig.base = None;
     scenes.push(("protocol_no_shaker_1mm_s", s));
     scenes.push((
         "protocol_1mm_s",
@@ -1051,8 +1053,8 @@ fn probe_methods_by_scene() {
 #[test]
 fn auto_rule_by_scene() {
     let mut s = scene();
-    s.law = gs();
-    s.holder = Holder::Rigid;
+    s.rig.law = gs();
+    s.rig.holder = Holder::Rigid;
     s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
     s.solver.method = Method::Auto;
     let (r, _) = run(&s);
@@ -1064,16 +1066,16 @@ fn auto_rule_by_scene() {
         assert!(rel < 1e-7, "auto vs {m:?} pull-off: {rel:e}");
     }
     let mut c = s.clone();
-    c.law = Law::Constant(ConstantW { w0: M.w0 });
+    c.rig.law = Law::Constant(ConstantW { w0: M.w0 });
     c.solver.method = Method::Auto;
     assert!(run(&c).0.method.starts_with("implicit"));
     let mut seeded = s.clone();
-    seeded.formation = ContactFormation::Seed(1e-5);
+    seeded.rig.formation = ContactFormation::Seed(1e-5);
     seeded.solver.method = Method::Auto;
     assert!(run(&seeded).0.method.starts_with("implicit"));
 
     let mut s = scene();
-    s.law = gs();
+    s.rig.law = gs();
     s.stages = vec![stage(StageKind::Unload, 1e-4, Until::PullOff, None)];
     s.solver.method = Method::Auto;
     let (r, _) = run(&s);

@@ -353,18 +353,18 @@ fn scenes(long: bool) -> Vec<(String, Scenario, Expect)> {
     // Impacts every cycle: impacts.toml's scene (m 0.25 kg, k 2000 N/m, c 10 N s/m, 300 Hz).
     let impacts = |xb: f64, law: Law, formation: ContactFormation| {
         let mut s = vibrating_hold(xb, 300.0, (if long { 60.0 } else { 10.0 }) / 300.0);
-        s.sphere = Sphere {
+        s.rig.sphere = Sphere {
             mass: 0.25,
             gravity: 9.807,
         };
-        s.holder = Holder::Spring { stiffness: 2000.0 };
-        s.damping = Some(Damping {
+        s.rig.holder = Holder::Spring { stiffness: 2000.0 };
+        s.rig.damping = Some(Damping {
             c: 10.0,
             on: DampingOn::Sphere,
         });
         s.initial = Initial::Preload(0.05);
-        s.law = law;
-        s.formation = formation;
+        s.rig.law = law;
+        s.rig.formation = formation;
         s
     };
     let ns: &[f64] = if long {
@@ -374,12 +374,12 @@ fn scenes(long: bool) -> Vec<(String, Scenario, Expect)> {
     };
     for &n in ns {
         let mut s = hold(2e-6, 400.0);
-        s.law = gs(n);
+        s.rig.law = gs(n);
         v.push((format!("GS n = {n}, 400 Hz, X_b 2 µm"), s, Expect::Ok));
         // The same exponent with impacts every cycle.
         if long {
             let mut s = impacts(400e-6, gs(n), ContactFormation::JumpIn);
-            s.law = gs(n);
+            s.rig.law = gs(n);
             v.push((
                 format!("impacts: GS n = {n}, X_b 400 µm, 300 Hz"),
                 s,
@@ -389,7 +389,7 @@ fn scenes(long: bool) -> Vec<(String, Scenario, Expect)> {
     }
     // Peak crack speeds ~1e6 v0: the paper's law with v0 shrunk by 1e6, and a large amplitude.
     let mut s = hold(20e-6, 400.0);
-    s.law = Law::GentSchultz(GentSchultz {
+    s.rig.law = Law::GentSchultz(GentSchultz {
         w0: M.w0,
         v0: GentSchultz::PAPER.v0 * 1e-6,
         n: GentSchultz::PAPER.n,
@@ -411,14 +411,14 @@ fn scenes(long: bool) -> Vec<(String, Scenario, Expect)> {
         Expect::Ok,
     ));
     let mut s = hold(2e-6, 400.0);
-    s.damping = None;
+    s.rig.damping = None;
     v.push(("c = 0".into(), s, Expect::Ok));
     let mut s = hold(2e-6, 400.0);
-    s.holder = Holder::None;
-    s.initial = Initial::Preload(s.sphere.mass * s.sphere.gravity);
+    s.rig.holder = Holder::None;
+    s.initial = Initial::Preload(s.rig.sphere.mass * s.rig.sphere.gravity);
     v.push(("k = 0 (no holder, preload = weight)".into(), s, Expect::Ok));
     let mut s = hold(2e-6, 400.0);
-    s.holder = Holder::Spring { stiffness: 1e6 };
+    s.rig.holder = Holder::Spring { stiffness: 1e6 };
     v.push(("k = 1e6 N/m".into(), s, Expect::Ok));
     let masses: &[f64] = if long {
         &[1e-5, 1e-4, 0.1, 1.0]
@@ -427,15 +427,15 @@ fn scenes(long: bool) -> Vec<(String, Scenario, Expect)> {
     };
     for &mass in masses {
         let mut s = hold(2e-6, 400.0);
-        s.sphere.mass = mass;
+        s.rig.sphere.mass = mass;
         v.push((format!("m = {mass} kg"), s, Expect::Ok));
     }
     let mut s = hold(2e-6, 400.0);
-    s.sphere.mass = 0.0;
-    s.damping = None;
+    s.rig.sphere.mass = 0.0;
+    s.rig.damping = None;
     v.push(("m = 0 (quasi-static), c = 0".into(), s, Expect::Ok));
     let mut s = hold(2e-6, 400.0);
-    s.sphere.mass = 0.0;
+    s.rig.sphere.mass = 0.0;
     v.push(("m = 0 with damping (unsupported)".into(), s, Expect::Error));
     // Compressive edge at impact: a seed contact hit at 10 mm/s (δ ≫ a²/R just after impact).
     for (label, formation) in [
@@ -443,9 +443,9 @@ fn scenes(long: bool) -> Vec<(String, Scenario, Expect)> {
         ("jump-in", ContactFormation::JumpIn),
     ] {
         let mut s = hold(0.0, 400.0);
-        s.base = None;
+        s.rig.base = None;
         s.initial = Initial::Gap(20e-6);
-        s.formation = formation;
+        s.rig.formation = formation;
         s.stages = vec![
             stage(StageKind::Approach, 10e-3, Until::Preload(0.05), None),
             stage(StageKind::Hold, 0.0, Until::Duration(0.01), None),
@@ -457,21 +457,21 @@ fn scenes(long: bool) -> Vec<(String, Scenario, Expect)> {
         ));
     }
     let mut s = hold(2e-6, 400.0);
-    s.law = constant();
+    s.rig.law = constant();
     v.push(("constant w, 400 Hz, X_b 2 µm".into(), s, Expect::Ok));
     let mut s = vibrating_hold(10e-6, 1.0, if long { 3.0 } else { 1.0 });
-    s.law = gs(0.531);
+    s.rig.law = gs(0.531);
     v.push(("1 Hz, X_b 10 µm".into(), s, Expect::Ok));
     v.push(("10 kHz, X_b 0.2 µm".into(), hold(0.2e-6, 1e4), Expect::Ok));
     let mut s = hold(2e-6, 400.0);
-    s.damping = Some(Damping {
+    s.rig.damping = Some(Damping {
         c: 0.02,
         on: DampingOn::Contact,
     });
     v.push(("contact damping c δ̇ (eq. 3)".into(), s, Expect::Ok));
     let mut s = hold(2e-6, 400.0);
-    s.holder = Holder::Rigid;
-    s.damping = None;
+    s.rig.holder = Holder::Rigid;
+    s.rig.damping = None;
     v.push(("rigid link, base 2 µm".into(), s, Expect::Ok));
     if long {
         for f in [10.0, 100.0, 1000.0] {

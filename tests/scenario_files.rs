@@ -80,10 +80,10 @@ fn every_bad_file_fails_with_the_error_it_states() {
 fn good_files_carry_the_values_written() {
     let s = load("tests/scenarios/good/every-key.toml");
     assert_eq!(
-        s.damping.map(|d| (d.c, d.on)),
+        s.rig.damping.map(|d| (d.c, d.on)),
         Some((0.5, DampingOn::Contact))
     );
-    assert_eq!(s.formation, ContactFormation::Seed(1e-6));
+    assert_eq!(s.rig.formation, ContactFormation::Seed(1e-6));
     assert_eq!(s.solver.method, Method::Dop853);
     assert_eq!(
         (
@@ -104,21 +104,21 @@ fn good_files_carry_the_values_written() {
 
     // Units as strings give the same SI values as the bare numbers of every-key.toml.
     let u = load("tests/scenarios/good/units-as-strings.toml");
-    assert!(close(u.material.k, 9.33e6) && close(u.material.r, 0.051));
-    assert!(close(u.material.w0, 0.240));
-    match u.law {
+    assert!(close(u.rig.material.k, 9.33e6) && close(u.rig.material.r, 0.051));
+    assert!(close(u.rig.material.w0, 0.240));
+    match u.rig.law {
         Law::GentSchultz(gs) => assert!(close(gs.v0, 4.45e-5) && gs.n == 0.531),
         other => panic!("{other:?}"),
     }
-    assert!(close(u.sphere.mass, 3e-3));
-    let b = u.base.unwrap();
+    assert!(close(u.rig.sphere.mass, 3e-3));
+    let b = u.rig.base.unwrap();
     assert!(close(b.amplitude, 10e-6) && close(b.frequency, 300.0));
     assert!(close(u.stages[2].speed, 5e-6));
     assert!(matches!(u.stages[0].until, Until::Duration(d) if close(d, 0.1)));
     assert!(matches!(u.initial, Initial::Preload(p) if close(p, 0.02)));
 
     let t = load("tests/scenarios/good/tabulated.toml");
-    match &t.law {
+    match &t.rig.law {
         Law::Tabulated(l) => {
             assert_eq!(l.w0(), 0.240);
             assert_eq!(l.work_of_adhesion(1e-5), 0.15);
@@ -128,14 +128,14 @@ fn good_files_carry_the_values_written() {
     }
 
     let r = load("tests/scenarios/good/rigid-link.toml");
-    assert_eq!(r.holder, Holder::Rigid);
+    assert_eq!(r.rig.holder, Holder::Rigid);
     assert_eq!(
-        r.law,
+        r.rig.law,
         Law::Constant(djkr::adhesion::ConstantW { w0: 0.240 })
     );
 
     let w = load("tests/scenarios/good/resting-on-weight.toml");
-    assert_eq!(w.holder, Holder::None);
+    assert_eq!(w.rig.holder, Holder::None);
     assert_eq!(w.initial, Initial::Preload(3e-3 * 9.807));
 
     let g = load("tests/scenarios/good/approach-from-gap.toml");
@@ -173,8 +173,8 @@ fn transfer(m: f64, k: f64, c: f64, kc: f64, f: f64) -> f64 {
 
 /// Contact stiffness (3/2) K a_m at the static JKR radius under `force`.
 fn contact_stiffness_at(s: &Scenario, force: f64) -> f64 {
-    let a = jkr::equilibrium_radius_for_force(&s.material, force, s.material.w0).unwrap();
-    1.5 * s.material.k * a
+    let a = jkr::equilibrium_radius_for_force(&s.rig.material, force, s.rig.material.w0).unwrap();
+    1.5 * s.rig.material.k * a
 }
 
 fn stage_preload(s: &Scenario) -> f64 {
@@ -229,26 +229,29 @@ fn paper_protocol_follows_the_paper_and_stays_far_above_resonance() {
         assert_eq!(s.stages[3].until, Until::PullOff);
         assert_eq!(s.stages[1].vibration, Some(false));
         assert_eq!(s.stages[2].vibration, Some(true));
-        let base = s.base.unwrap();
+        let base = s.rig.base.unwrap();
         assert_eq!(base.frequency, f);
-        assert_eq!(s.law, Law::GentSchultz(djkr::adhesion::GentSchultz::PAPER));
-        let Holder::Spring { stiffness: k } = s.holder else {
+        assert_eq!(
+            s.rig.law,
+            Law::GentSchultz(djkr::adhesion::GentSchultz::PAPER)
+        );
+        let Holder::Spring { stiffness: k } = s.rig.holder else {
             panic!("spring expected")
         };
         let kc = contact_stiffness_at(&s, stage_preload(&s));
-        let m = s.sphere.mass;
+        let m = s.rig.sphere.mass;
         let f_r = ((k + kc) / m).sqrt() / (2.0 * PI);
         assert!(f_r < f / 4.0, "resonance {f_r} Hz too close to {f} Hz");
         // The paper: X_b and delta_A differ by a few % only.
-        let c = s.damping.unwrap().c;
+        let c = s.rig.damping.unwrap().c;
         let tr = transfer(m, k, c, kc, f);
         assert!((tr - 1.0).abs() < 0.05, "{f} Hz: |delta_A/X_b| = {tr}");
         // The spring is soft compared with the contact: close to load control.
         assert!(k < 0.2 * kc);
         // The preload lies above the compressive overshoot after jump-in, bounded by the
         // tensile jump-in force itself, K a_J^3 / (2R).
-        let a_j = jkr::jump_in_radius(&s.material, s.material.w0);
-        let f_jump = s.material.k * a_j.powi(3) / (2.0 * s.material.r);
+        let a_j = jkr::jump_in_radius(&s.rig.material, s.rig.material.w0);
+        let f_jump = s.rig.material.k * a_j.powi(3) / (2.0 * s.rig.material.r);
         assert!(stage_preload(&s) < f_jump * 1.5 && stage_preload(&s) > 0.7 * f_jump);
     }
 }
@@ -256,14 +259,14 @@ fn paper_protocol_follows_the_paper_and_stays_far_above_resonance() {
 #[test]
 fn quasi_static_jkr_is_a_rigid_unvibrated_elastic_unload() {
     let s = load("scenarios/quasi-static-jkr.toml");
-    assert_eq!(s.holder, Holder::Rigid);
-    assert_eq!(s.base, None);
-    assert!(matches!(s.law, Law::Constant(_)));
+    assert_eq!(s.rig.holder, Holder::Rigid);
+    assert_eq!(s.rig.base, None);
+    assert!(matches!(s.rig.law, Law::Constant(_)));
     assert_eq!(s.stages.len(), 1);
     assert_eq!(s.stages[0].kind, StageKind::Unload);
     assert_eq!(s.stages[0].until, Until::PullOff);
     // The numbers quoted in its comment.
-    let m = s.material;
+    let m = s.rig.material;
     let f_dc = jkr::displacement_controlled_pull_off_force(&m, m.w0);
     assert!((f_dc - -0.03204).abs() < 5e-6, "{f_dc}");
     assert!(s.source_text.contains("-0.03204 N"));
@@ -285,20 +288,21 @@ fn quasi_static_jkr_is_a_rigid_unvibrated_elastic_unload() {
 #[test]
 fn resonance_scene_resonates_at_400_hz() {
     let s = load("scenarios/resonance-400hz.toml");
-    let Holder::Spring { stiffness: k } = s.holder else {
+    let Holder::Spring { stiffness: k } = s.rig.holder else {
         panic!("spring expected")
     };
     let kc = contact_stiffness_at(&s, stage_preload(&s));
-    let f_r = ((k + kc) / s.sphere.mass).sqrt() / (2.0 * PI);
+    let f_r = ((k + kc) / s.rig.sphere.mass).sqrt() / (2.0 * PI);
     assert!((f_r - 400.0).abs() < 1.0, "f_r = {f_r} Hz");
-    let base = s.base.unwrap();
+    let base = s.rig.base.unwrap();
     assert_eq!(base.frequency, 400.0);
     // The linear response at resonance stays below the mean indentation (contact stays closed).
-    let tr = transfer(s.sphere.mass, k, s.damping.unwrap().c, kc, 400.0);
+    let tr = transfer(s.rig.sphere.mass, k, s.rig.damping.unwrap().c, kc, 400.0);
     assert!((tr - 13.5).abs() < 0.1, "{tr}");
     let a =
-        jkr::equilibrium_radius_for_force(&s.material, stage_preload(&s), s.material.w0).unwrap();
-    let delta_m = jkr::equilibrium_indentation(&s.material, a, s.material.w0);
+        jkr::equilibrium_radius_for_force(&s.rig.material, stage_preload(&s), s.rig.material.w0)
+            .unwrap();
+    let delta_m = jkr::equilibrium_indentation(&s.rig.material, a, s.rig.material.w0);
     assert!(
         tr * base.amplitude < delta_m,
         "{} vs {delta_m}",
@@ -310,8 +314,8 @@ fn resonance_scene_resonates_at_400_hz() {
 #[test]
 fn impacts_scene_loses_contact_every_cycle() {
     let s = load("scenarios/impacts.toml");
-    let m = s.material;
-    let base = s.base.unwrap();
+    let m = s.rig.material;
+    let base = s.rig.base.unwrap();
     let a = jkr::equilibrium_radius_for_force(&m, stage_preload(&s), m.w0).unwrap();
     let delta_m = jkr::equilibrium_indentation(&m, a, m.w0);
     let a_dc = jkr::displacement_controlled_pull_off_radius(&m, m.w0);
@@ -322,17 +326,17 @@ fn impacts_scene_loses_contact_every_cycle() {
         delta_m - base.amplitude < 2.0 * delta_min,
         "{delta_m} {delta_min}"
     );
-    let Holder::Spring { stiffness: k } = s.holder else {
+    let Holder::Spring { stiffness: k } = s.rig.holder else {
         panic!("spring expected")
     };
     let kc = 1.5 * m.k * a;
-    let f_r = ((k + kc) / s.sphere.mass).sqrt() / (2.0 * PI);
+    let f_r = ((k + kc) / s.rig.sphere.mass).sqrt() / (2.0 * PI);
     assert!(f_r < base.frequency / 4.0);
     assert_eq!(s.stages[0].vibration, Some(true));
-    assert_eq!(s.formation, ContactFormation::JumpIn);
+    assert_eq!(s.rig.formation, ContactFormation::JumpIn);
     // With the Gent-Schultz law the threshold is much higher: the derived delta_A of MODEL.md
     // (eq. 23 corrected) at a_A = a_m, where a(t) first touches 0, must lie below X_b.
-    let Law::GentSchultz(gs) = s.law else {
+    let Law::GentSchultz(gs) = s.rig.law else {
         panic!("Gent-Schultz law expected")
     };
     let omega = 2.0 * PI * base.frequency;
@@ -420,7 +424,7 @@ fn quasi_static_jkr_runs_to_the_jkr_numbers_and_writes_them() {
     let out = tempfile::tempdir().unwrap();
     let mut w = RunWriter::create(out.path(), &s, true).unwrap();
     let res = simulate(&s, &mut w).unwrap_or_else(|e| panic!("{e}"));
-    let m = s.material;
+    let m = s.rig.material;
     assert!(res.detached);
     // Under displacement control the unload passes through the JKR force minimum.
     let f0 = m.static_pull_off_force();
@@ -482,7 +486,7 @@ fn vibrating_scenes_respond_as_their_comments_say() {
         s.stages.truncate(hold + 1);
         let mut rec = Recorder::default();
         let res = simulate(&s, &mut rec).unwrap_or_else(|e| panic!("{file}: {e}"));
-        let x_b = s.base.unwrap().amplitude;
+        let x_b = s.rig.base.unwrap().amplitude;
         let last: Vec<f64> = res
             .cycles
             .iter()

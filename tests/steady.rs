@@ -10,7 +10,7 @@ use djkr::scenario::parse::load_scenario;
 use djkr::scenario::{Initial, Scenario};
 use djkr::steady::sweep::{self, Direction};
 use djkr::steady::{compare, Options, Problem, Steady, SteadyMethod, Strategy};
-use djkr::transfer::{self, Oscillator};
+use djkr::transfer;
 use std::path::Path;
 use std::process::Command;
 
@@ -35,11 +35,11 @@ fn solve(p: &Problem, start: &Initial, strategy: Strategy) -> Steady {
 /// (Δx ≤ r L, Δv ≤ r ωL). Returns (mismatch, bound + quadrature floor).
 fn balance(scn: &Scenario, s: &Steady) -> (f64, f64) {
     let c = &s.cycle;
-    let weight = scn.sphere.mass * scn.sphere.gravity;
+    let weight = scn.rig.sphere.mass * scn.rig.sphere.gravity;
     let mismatch = (c.force_mean - (weight + c.spring_mean)).abs();
-    let c_damp = scn.damping.map(|d| d.c).unwrap_or(0.0);
+    let c_damp = scn.rig.damping.map(|d| d.c).unwrap_or(0.0);
     let r = s.residual.max(s.distance.min(1.0));
-    let bound = (scn.sphere.mass * r * s.scales[1] + c_damp * r * s.scales[0]) * s.frequency;
+    let bound = (scn.rig.sphere.mass * r * s.scales[1] + c_damp * r * s.scales[0]) * s.frequency;
     let scale = c.force_mean.abs().max(weight).max(c.spring_mean.abs());
     (mismatch, 2.0 * bound + 1e-12 * scale)
 }
@@ -108,20 +108,12 @@ fn force_balance_holds_to_integration_accuracy() {
 /// The resonance scene with a constant work of adhesion w0 (N·m⁻¹ per m²).
 fn constant_w_scene(w0: f64) -> Scenario {
     let mut s = scene("resonance-400hz.toml");
-    s.material = Material { w0, ..s.material };
-    s.law = Law::Constant(ConstantW { w0 });
+    s.rig.material = Material {
+        w0,
+        ..s.rig.material
+    };
+    s.rig.law = Law::Constant(ConstantW { w0 });
     s
-}
-
-fn oscillator(scn: &Scenario, contact_stiffness: f64) -> Oscillator {
-    let setup = Setup::from_scenario(scn).unwrap_or_else(|e| panic!("{e}"));
-    Oscillator {
-        mass: setup.system.mass,
-        stiffness: setup.system.stiffness,
-        damping: setup.system.damping,
-        damping_on: setup.system.damping_on,
-        contact_stiffness,
-    }
 }
 
 /// |δ1/X_b − T| / |T| of the steady state at `f` against the transfer `t`.
@@ -147,15 +139,14 @@ fn small_amplitude_without_rate_dependence_matches_the_linear_transfer() {
         let p = p.at(f, xb).unwrap_or_else(|e| panic!("{e}"));
         let s = solve(&p, &start, Strategy::Auto);
         assert_eq!(s.method, SteadyMethod::Shooting);
-        let setup = Setup::from_scenario(&scn).unwrap_or_else(|e| panic!("{e}"));
+        let setup = Setup::new(&scn.rig, &scn.initial).unwrap_or_else(|e| panic!("{e}"));
         let st =
-            describing::static_state(&setup.material, &setup.law, &setup.system, setup.support)
-                .unwrap_or_else(|e| panic!("{e}"));
-        let kt = describing::tangent_stiffness(&scn.material, st.a, w0);
-        let kc = 1.5 * scn.material.k * st.a;
+            describing::static_state(&setup.rig, setup.support).unwrap_or_else(|e| panic!("{e}"));
+        let kt = describing::tangent_stiffness(&scn.rig.material, st.a, w0);
+        let kc = 1.5 * scn.rig.material.k * st.a;
         let omega = 2.0 * std::f64::consts::PI * f;
-        let tangent = transfer::linear(&oscillator(&scn, kt), omega);
-        let pinned = transfer::linear(&oscillator(&scn, kc), omega);
+        let tangent = transfer::linear(&scn.rig, kt, omega);
+        let pinned = transfer::linear(&scn.rig, kc, omega);
         let e_t = transfer_error(&s, tangent);
         let e_c = transfer_error(&s, pinned);
         eprintln!(
@@ -192,8 +183,8 @@ fn small_amplitude_gent_schultz_contact_is_pinned_and_matches_eq_37() {
         for xb in [1e-8, 1e-9] {
             let p = p0.at(f, xb).unwrap_or_else(|e| panic!("{e}"));
             let s = solve(&p, &start, Strategy::Auto);
-            let kc = 1.5 * scn.material.k * s.cycle.a_mean;
-            let t = transfer::linear(&oscillator(&scn, kc), omega);
+            let kc = 1.5 * scn.rig.material.k * s.cycle.a_mean;
+            let t = transfer::linear(&scn.rig, kc, omega);
             let e = transfer_error(&s, t);
             assert!(
                 s.a_amp() < 1e-3 * s.delta_amp(),
@@ -488,17 +479,19 @@ fn reduced_models_have_fewer_unknowns() {
     // and it balances.
     let cases: [(&str, Edit); 3] = [
         ("m = 0", |s| {
-            s.sphere.mass = 0.0;
-            s.damping = None;
+            s.rig.sphere.mass = 0.0;
+            s.rig.damping = None;
         }),
         ("rigid link", |s| {
-            s.holder = djkr::scenario::Holder::Rigid;
-            s.damping = None;
+            s.rig.holder = djkr::scenario::Holder::Rigid;
+            s.rig.damping = None;
         }),
         ("m = 0, constant w", |s| {
-            s.sphere.mass = 0.0;
-            s.damping = None;
-            s.law = Law::Constant(ConstantW { w0: s.material.w0 });
+            s.rig.sphere.mass = 0.0;
+            s.rig.damping = None;
+            s.rig.law = Law::Constant(ConstantW {
+                w0: s.rig.material.w0,
+            });
         }),
     ];
     for (name, edit) in cases {

@@ -136,13 +136,13 @@ fn print_summary(file: &std::path::Path, scn: &djkr::scenario::Scenario, r: &Run
             "  pull-off force     {:.6} mN  (amplification {:.4} over −3/2 π R w0 = {:.6} mN)",
             r.pull_off.force * 1e3,
             r.pull_off.amplification,
-            scn.material.static_pull_off_force() * 1e3
+            scn.rig.material.static_pull_off_force() * 1e3
         );
         println!("  reached at         t = {:.6} s", r.pull_off.time);
     } else {
         println!(
             "  no detachment; most tensile {} force {:.6} mN at t = {:.6} s",
-            if scn.base.is_some() {
+            if scn.rig.base.is_some() {
                 "cycle-averaged"
             } else {
                 "contact"
@@ -180,8 +180,8 @@ pub fn check(a: &CheckArgs) -> Result<()> {
                 "{}: ok ({} stage(s), law {}, {})",
                 f.display(),
                 s.stages.len(),
-                law_name(&s.law),
-                if s.base.is_some() {
+                law_name(&s.rig.law),
+                if s.rig.base.is_some() {
                     "vibrating base"
                 } else {
                     "no base motion"

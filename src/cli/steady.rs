@@ -1010,7 +1010,7 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     if let Some(l) = &lin {
         println!(
             "  linear transfer (k_c = 3/2 K a_0 = {:.1} N/m): f_r = {:.3} Hz{}",
-            l.oscillator.contact_stiffness,
+            l.contact_stiffness,
             l.resonance_frequency(),
             lin_peak
                 .map(|(f, h)| format!(", peak |δ_A/X_b| = {h:.4} at {f:.3} Hz"))

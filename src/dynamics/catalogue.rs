@@ -22,22 +22,24 @@ pub fn stage(kind: StageKind, speed: f64, until: Until, vibration: Option<bool>)
 /// shaker on; rtol 1e-8.
 pub fn vibrating_hold(xb: f64, frequency: f64, duration: f64) -> Scenario {
     Scenario {
-        material: Material::PAPER,
-        law: Law::GentSchultz(GentSchultz::PAPER),
-        sphere: Sphere {
-            mass: 3e-3,
-            gravity: 9.81,
+        rig: Rig {
+            material: Material::PAPER,
+            law: Law::GentSchultz(GentSchultz::PAPER),
+            sphere: Sphere {
+                mass: 3e-3,
+                gravity: 9.81,
+            },
+            holder: Holder::Spring { stiffness: 200.0 },
+            damping: Some(Damping {
+                c: 0.02,
+                on: DampingOn::Sphere,
+            }),
+            base: Some(BaseMotion {
+                amplitude: xb,
+                frequency,
+            }),
+            formation: ContactFormation::JumpIn,
         },
-        holder: Holder::Spring { stiffness: 200.0 },
-        damping: Some(Damping {
-            c: 0.02,
-            on: DampingOn::Sphere,
-        }),
-        base: Some(BaseMotion {
-            amplitude: xb,
-            frequency,
-        }),
-        formation: ContactFormation::JumpIn,
         initial: Initial::Preload(0.02),
         stages: vec![stage(
             StageKind::Hold,
@@ -60,7 +62,7 @@ pub fn vibrating_hold(xb: f64, frequency: f64, duration: f64) -> Scenario {
 /// `unload_speed` (m/s; the paper's is 5 µm/s) to pull-off. m = 3 g, k = 200 N/m, c = 0.05 N s/m.
 pub fn paper_protocol(unload_speed: f64) -> Scenario {
     let mut s = vibrating_hold(10e-6, 300.0, 0.5);
-    s.damping = Some(Damping {
+    s.rig.damping = Some(Damping {
         c: 0.05,
         on: DampingOn::Sphere,
     });

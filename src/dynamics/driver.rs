@@ -183,8 +183,10 @@ impl Engine {
 /// - **DP8** otherwise, taking single steps implicitly where a DP8 stage meets G ≤ 0. At equal
 ///   accuracy it is 4–20× faster than the implicit method on the scenes with inertia.
 pub fn auto_engine(s: &Scenario) -> Engine {
-    let no_inertia = matches!(s.holder, Holder::Rigid) || s.sphere.mass == 0.0;
-    if s.law.is_rate_independent() || matches!(s.formation, ContactFormation::Seed(_)) || no_inertia
+    let no_inertia = matches!(s.rig.holder, Holder::Rigid) || s.rig.sphere.mass == 0.0;
+    if s.rig.law.is_rate_independent()
+        || matches!(s.rig.formation, ContactFormation::Seed(_))
+        || no_inertia
     {
         Engine::Implicit
     } else {
@@ -1080,7 +1082,8 @@ impl Run<'_> {
 /// events and cycle records. See the module documentation of [`crate::dynamics`].
 pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
     let start = Instant::now();
-    let model = model::resolve(s).map_err(SimError::Setup)?;
+    let scales = super::protocol::run_scales(&s.initial, &s.stages);
+    let model = model::resolve(&s.rig, scales).map_err(SimError::Setup)?;
     let engine = match s.solver.method {
         Method::Auto => auto_engine(s),
         Method::Implicit => Engine::Implicit,
@@ -1107,7 +1110,7 @@ pub fn simulate(s: &Scenario, obs: &mut dyn Observer) -> Result<RunResult, SimEr
         max_steps: s.solver.max_steps,
         max_wall_s: s.solver.max_wall_s,
         event_tol: s.solver.event_tol.max(0.0),
-        formation: s.formation,
+        formation: s.rig.formation,
         obs,
         y,
         drive,

@@ -713,8 +713,8 @@ mod tests {
         let mut checked = 0;
         for law in laws {
             let mut sc = base.clone();
-            sc.law = law;
-            let model = match resolve(&sc) {
+            sc.rig.law = law;
+            let model = match resolve(&sc.rig, sc.run_scales()) {
                 Ok(m) => m,
                 Err(e) => panic!("{e}"),
             };
@@ -761,7 +761,7 @@ mod tests {
                                     assert!(
                                         (st.a - ar).abs() <= 1e-11 * ar,
                                         "{:?} dd {dd:e} hg {hg:e}: {} vs {ar}",
-                                        sc.law,
+                                        sc.rig.law,
                                         st.a
                                     );
                                     checked += 1;

@@ -224,7 +224,10 @@ pub mod erk;
 pub mod esdirk;
 pub mod explicit;
 pub mod model;
+pub mod protocol;
+pub mod stepper;
 pub mod types;
 
 pub use driver::{simulate, SimError};
+pub use stepper::{Method, Solver};
 pub use types::*;

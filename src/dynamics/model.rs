@@ -7,7 +7,7 @@
 use crate::adhesion::{AdhesionLaw, Law};
 use crate::jkr;
 use crate::material::Material;
-use crate::scenario::{DampingOn, Holder, Scenario};
+use crate::rig::{ContactFormation, DampingOn, Holder, Rig};
 use std::f64::consts::PI;
 
 /// Number of quadrature states carried along with the solution.
@@ -122,8 +122,19 @@ struct FastConstants {
     gs: Option<(f64, f64, f64, f64)>,
 }
 
-/// Why a scene cannot be simulated as given.
-pub fn resolve(s: &Scenario) -> Result<Model, String> {
+/// Scales of a run that the rig alone does not fix.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RunScales {
+    /// An initial gap (m): the length scale of a flight.
+    pub gap: Option<f64>,
+    /// The fastest spring-end speed of the protocol (m/s): the time scale of a scene without
+    /// inertia or vibration.
+    pub max_speed: f64,
+}
+
+/// Resolve a rig's constants for the simulator; the error says why the rig cannot be
+/// simulated as given.
+pub fn resolve(s: &Rig, scales: RunScales) -> Result<Model, String> {
     let mat = s.material;
     let w0 = s.law.w0();
     let ok = |v: f64| v.is_finite();
@@ -195,8 +206,8 @@ pub fn resolve(s: &Scenario) -> Result<Model, String> {
     };
     let a_jump = jkr::jump_in_radius(&mat, w0);
     let seed = match s.formation {
-        crate::scenario::ContactFormation::JumpIn => a_jump,
-        crate::scenario::ContactFormation::Seed(r) => {
+        ContactFormation::JumpIn => a_jump,
+        ContactFormation::Seed(r) => {
             if !(ok(r) && r > 0.0) {
                 return Err(format!("contact seed radius = {r} must be finite and > 0"));
             }
@@ -205,7 +216,7 @@ pub fn resolve(s: &Scenario) -> Result<Model, String> {
     };
     let a_floor = (1e-3 * a_jump).min(0.1 * seed);
     let mut len_scale = (a_jump * a_jump / mat.r).max(xb_amp);
-    if let crate::scenario::Initial::Gap(g0) = s.initial {
+    if let Some(g0) = scales.gap {
         len_scale = len_scale.max(g0.abs());
     }
     let kc = jkr::contact_stiffness(&mat, a_jump);
@@ -218,12 +229,7 @@ pub fn resolve(s: &Scenario) -> Result<Model, String> {
     }
     if !t_char.is_finite() {
         // Quasi-static scenes: the time scale of the protocol (spring-end motion).
-        let v = s
-            .stages
-            .iter()
-            .map(|st| st.speed)
-            .filter(|v| *v > 0.0)
-            .fold(0.0_f64, f64::max);
+        let v = scales.max_speed;
         t_char = if v > 0.0 { len_scale / v } else { 1.0 };
     }
     let vel_scale = len_scale * 2.0 * PI / t_char;
@@ -729,8 +735,8 @@ mod tests {
         ];
         for law in laws {
             let mut s = base.clone();
-            s.law = law;
-            let m = resolve(&s).unwrap();
+            s.rig.law = law;
+            let m = resolve(&s.rig, RunScales::default()).unwrap();
             for &a in &[1e-5, 1.2e-3, 3e-2] {
                 for &d in &[-1e-5, 0.0, 1e-7, 2e-5, 1e-3] {
                     let (g0, g1) = (
@@ -769,7 +775,7 @@ mod tests {
     #[test]
     fn advanced_kinematics_match_direct() {
         let s = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
-        let m = resolve(&s).unwrap();
+        let m = resolve(&s.rig, RunScales::default()).unwrap();
         // θ0 ≈ 10³ rad, and θ0 = 0.5 rad with t_on = 0, where the times round to far below the
         // series' error and it is tested alone (to ~1e-15).
         for (t0, t_on) in [(0.7123, 0.3), (0.5 / m.omega, 0.0)] {

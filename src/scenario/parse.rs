@@ -36,8 +36,8 @@ use thiserror::Error;
 use toml::{Table, Value};
 
 use super::{
-    BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Scenario,
-    Solver, Sphere, Stage, StageKind, Until,
+    BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
+    Scenario, Solver, Sphere, Stage, StageKind, Until,
 };
 use crate::adhesion::{
     AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw,
@@ -152,13 +152,15 @@ pub fn parse_scenario(text: &str, source_name: &str, base_dir: Option<&Path>) ->
     let solver = p.solver(&top)?;
     let output = p.output(&top)?;
     Ok(Scenario {
-        material,
-        law,
-        sphere,
-        holder,
-        damping,
-        base,
-        formation,
+        rig: Rig {
+            material,
+            law,
+            sphere,
+            holder,
+            damping,
+            base,
+            formation,
+        },
         initial,
         stages,
         solver,
@@ -1111,19 +1113,19 @@ until = "pull-off"
     #[test]
     fn minimal_scenario_gets_documented_defaults() {
         let s = parse_scenario(MINIMAL, "min.toml", None).unwrap();
-        assert_eq!(s.material, Material::PAPER);
-        assert_eq!(s.law, Law::Constant(ConstantW { w0: 0.24 }));
+        assert_eq!(s.rig.material, Material::PAPER);
+        assert_eq!(s.rig.law, Law::Constant(ConstantW { w0: 0.24 }));
         assert_eq!(
-            s.sphere,
+            s.rig.sphere,
             Sphere {
                 mass: 3e-3,
                 gravity: DEFAULT_GRAVITY
             }
         );
-        assert_eq!(s.holder, Holder::Spring { stiffness: 200.0 });
-        assert_eq!(s.damping, None);
-        assert_eq!(s.base, None);
-        assert_eq!(s.formation, ContactFormation::JumpIn);
+        assert_eq!(s.rig.holder, Holder::Spring { stiffness: 200.0 });
+        assert_eq!(s.rig.damping, None);
+        assert_eq!(s.rig.base, None);
+        assert_eq!(s.rig.formation, ContactFormation::JumpIn);
         assert_eq!(s.initial, Initial::Preload(0.02));
         assert_eq!(s.solver, Solver::default());
         assert_eq!(s.output, Output::default());
@@ -1148,8 +1150,8 @@ until = "pull-off"
             .replace("stiffness = 200", "stiffness = \"0.2N/mm\"")
             .replace("speed = 5e-6", "speed = \"5um/s\"");
         let s = parse_scenario(&text, "u.toml", None).unwrap();
-        assert!((s.material.r - 0.051).abs() < 1e-15);
-        assert_eq!(s.holder, Holder::Spring { stiffness: 200.0 });
+        assert!((s.rig.material.r - 0.051).abs() < 1e-15);
+        assert_eq!(s.rig.holder, Holder::Spring { stiffness: 200.0 });
         assert!((s.stages[0].speed - 5e-6).abs() < 1e-20);
         let e = parse_scenario(
             &MINIMAL.replace("R = 0.051", "R = \"51Hz\""),
@@ -1231,7 +1233,7 @@ until = "pull-off"
                 "kind = \"hold\"\nduration = 1.0",
             );
         let s = parse_scenario(&text, "w.toml", None).unwrap();
-        assert_eq!(s.holder, Holder::None);
+        assert_eq!(s.rig.holder, Holder::None);
         assert_eq!(s.initial, Initial::Preload(3e-3 * DEFAULT_GRAVITY));
     }
 }

@@ -155,7 +155,7 @@ pub fn imposed(scn: &Scenario, s: &Steady) -> Result<Prediction, String> {
     let c = &s.cycle;
     let a_amp = s.a_amp();
     let omega = 2.0 * std::f64::consts::PI * s.frequency;
-    let ic = imposed_area::cycle(&scn.material, &scn.law, omega, c.a_mean, a_amp)
+    let ic = imposed_area::cycle(&scn.rig.material, &scn.rig.law, omega, c.a_mean, a_amp)
         .map_err(|e| e.to_string())?;
     let phi = if a_amp > 0.0 {
         c.a_cos.atan2(c.a_sin)
@@ -191,8 +191,8 @@ fn linear_prediction(lin: &Linearisation, sin: f64, cos: f64, xb: f64) -> Predic
 /// The force-balance identity for a steady cycle of scenario `scn`.
 pub fn force_balance(scn: &Scenario, s: &Steady) -> ForceBalance {
     let c = &s.cycle;
-    let weight = scn.sphere.mass * scn.sphere.gravity;
-    let holder = match scn.holder {
+    let weight = scn.rig.sphere.mass * scn.rig.sphere.gravity;
+    let holder = match scn.rig.holder {
         Holder::None => 0.0,
         _ => c.spring_mean,
     };
@@ -245,8 +245,7 @@ pub fn compare_steady(
             linear_transfer = Some(linear_prediction(l, t.sin, t.cos, xb));
             let p = l.paper(f);
             paper_transfer = Some(linear_prediction(l, p.sin, p.cos, xb));
-            let a39 =
-                crate::transfer::far_from_resonance(&l.oscillator, 2.0 * std::f64::consts::PI * f);
+            let a39 = l.far_from_resonance(f);
             far = Some(linear_prediction(l, a39, 0.0, xb));
             linear_resonance = Some(l.resonance_frequency()).filter(|x| x.is_finite());
             match l.setup.solve(f, xb, None) {

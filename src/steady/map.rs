@@ -103,7 +103,7 @@ fn cell(problem: &Problem, from: &mut Initial, f: f64, xb: f64, opts: &Options) 
     c.time_domain = Some(td);
     match compare::imposed(p.scenario(), &s) {
         Ok(ia) => {
-            let f0 = p.scenario().material.static_pull_off_force().abs();
+            let f0 = p.scenario().rig.material.static_pull_off_force().abs();
             if let (Some(fi), Some(ft)) = (ia.force_mean, td.force_mean) {
                 c.force_error = Some((fi - ft) / ft.abs().max(f0));
             }

@@ -344,7 +344,7 @@ impl Problem {
             )));
         }
         let mut s = scn.clone();
-        s.base = Some(BaseMotion {
+        s.rig.base = Some(BaseMotion {
             amplitude,
             frequency,
         });
@@ -357,8 +357,8 @@ impl Problem {
         }];
         s.output.sample_rate = 0.0;
         s.output.csv = false;
-        let mechanics = s.sphere.mass > 0.0 && !matches!(s.holder, Holder::Rigid);
-        let radius = !s.law.is_rate_independent();
+        let mechanics = s.rig.sphere.mass > 0.0 && !matches!(s.rig.holder, Holder::Rigid);
+        let radius = !s.rig.law.is_rate_independent();
         Ok(Problem {
             scenario: s,
             frequency,
@@ -375,7 +375,7 @@ impl Problem {
     /// the vibrating stage (approach, unload) has no periodic steady state: it is held at its
     /// position at the stage start.
     pub fn from_scenario(scn: &Scenario) -> Result<(Problem, Initial), SteadyError> {
-        let base = scn.base.ok_or_else(|| {
+        let base = scn.rig.base.ok_or_else(|| {
             SteadyError::Setup(format!(
                 "{}: no [base] section: nothing vibrates, no periodic steady state",
                 scn.source_name
@@ -426,6 +426,11 @@ impl Problem {
         &self.scenario
     }
 
+    /// The rig (shaken at this problem's frequency and amplitude).
+    pub fn rig(&self) -> &crate::rig::Rig {
+        &self.scenario.rig
+    }
+
     /// Angular frequency ω = 2πf (rad/s).
     pub fn omega(&self) -> f64 {
         2.0 * PI * self.frequency
@@ -454,8 +459,8 @@ impl Problem {
     /// law gives no finite rate (a compressive edge under a Gent–Schultz law heals at an
     /// unbounded rate).
     fn consistent(&self, x_s: f64, v_s: f64, a: f64, x_k: f64) -> Option<OrbitState> {
-        let m = &self.scenario.material;
-        let law = &self.scenario.law;
+        let m = &self.scenario.rig.material;
+        let law = &self.scenario.rig.law;
         if !(x_s.is_finite() && v_s.is_finite() && a.is_finite() && x_k.is_finite()) {
             return None;
         }
@@ -489,8 +494,8 @@ impl Problem {
 
     /// The residual scales (L, ωL, a) from a cycle record.
     fn scales(&self, c: &CycleRecord) -> [f64; 3] {
-        let m = &self.scenario.material;
-        let a_j = jkr::jump_in_radius(m, self.scenario.law.w0());
+        let m = &self.scenario.rig.material;
+        let a_j = jkr::jump_in_radius(m, self.scenario.rig.law.w0());
         let floor = 1e-6 * a_j * a_j / m.r;
         let l = c
             .delta_sin

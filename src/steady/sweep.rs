@@ -12,8 +12,9 @@
 
 use super::{Options, Problem, Steady, SteadyError};
 use crate::describing::{self, HarmonicBalance, Setup, StaticState};
-use crate::scenario::{Initial, Scenario};
-use crate::transfer::{self, Oscillator, Transfer};
+use crate::dynamics::protocol::Initial;
+use crate::rig::Rig;
+use crate::transfer::{self, Transfer};
 use serde::Serialize;
 
 /// Sweep direction.
@@ -39,58 +40,65 @@ impl Direction {
 /// The static contact and the linear oscillator of a scene (the predictors' common ground).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Linearisation {
-    /// Harmonic-balance setup (mass, spring, damping, support).
+    /// Harmonic-balance setup (the rig and its mean load).
     pub setup: Setup,
     /// The static contact under the scene's mean load (w0, no vibration).
     pub static_state: StaticState,
-    /// The oscillator with k_c = (3/2) K a_0.
-    pub oscillator: Oscillator,
+    /// The linearised contact stiffness k_c = (3/2) K a_0 (N/m).
+    pub contact_stiffness: f64,
 }
 
 impl Linearisation {
-    /// From a scenario whose initial state sets the mean load (see
-    /// [`describing::Setup::from_scenario`]: a preload, or an explicit state's spring end).
-    pub fn new(scn: &Scenario) -> Result<Self, SteadyError> {
-        let setup = Setup::from_scenario(scn)
+    /// From a rig and a run's initial state, which sets the mean load (see
+    /// [`describing::Setup::new`]: a preload, or an explicit state's spring end).
+    pub fn new(rig: &Rig, initial: &Initial) -> Result<Self, SteadyError> {
+        let setup =
+            Setup::new(rig, initial).map_err(|e| SteadyError::Setup(format!("predictors: {e}")))?;
+        let st = describing::static_state(&setup.rig, setup.support)
             .map_err(|e| SteadyError::Setup(format!("predictors: {e}")))?;
-        let st =
-            describing::static_state(&setup.material, &setup.law, &setup.system, setup.support)
-                .map_err(|e| SteadyError::Setup(format!("predictors: {e}")))?;
-        let oscillator = Oscillator {
-            mass: setup.system.mass,
-            stiffness: setup.system.stiffness,
-            damping: setup.system.damping,
-            damping_on: setup.system.damping_on,
-            contact_stiffness: 1.5 * setup.material.k * st.a,
-        };
         Ok(Self {
+            contact_stiffness: 1.5 * setup.rig.material.k * st.a,
             setup,
             static_state: st,
-            oscillator,
         })
     }
 
     /// For a steady-state problem started from `start` (the scene's initial state, or the state
     /// its pre-vibration stages reached).
     pub fn for_problem(problem: &Problem, start: &Initial) -> Result<Self, SteadyError> {
-        let mut s = problem.scenario().clone();
-        s.initial = *start;
-        Self::new(&s)
+        Self::new(problem.rig(), start)
     }
 
     /// The corrected linear transfer δ1/X_b at frequency f (Hz).
     pub fn linear(&self, frequency: f64) -> Transfer {
-        transfer::linear(&self.oscillator, 2.0 * std::f64::consts::PI * frequency)
+        transfer::linear(
+            &self.setup.rig,
+            self.contact_stiffness,
+            2.0 * std::f64::consts::PI * frequency,
+        )
     }
 
     /// The paper's eqs. (36)–(37) as printed, at frequency f (Hz).
     pub fn paper(&self, frequency: f64) -> Transfer {
-        transfer::paper_printed(&self.oscillator, 2.0 * std::f64::consts::PI * frequency)
+        transfer::paper_printed(
+            &self.setup.rig,
+            self.contact_stiffness,
+            2.0 * std::f64::consts::PI * frequency,
+        )
+    }
+
+    /// Eq. (39), the far-from-resonance limit δ_s/X_b = A/B, at frequency f (Hz).
+    pub fn far_from_resonance(&self, frequency: f64) -> f64 {
+        transfer::far_from_resonance(
+            &self.setup.rig,
+            self.contact_stiffness,
+            2.0 * std::f64::consts::PI * frequency,
+        )
     }
 
     /// Undamped linear resonance f_r = √((k + k_c)/m)/2π (Hz).
     pub fn resonance_frequency(&self) -> f64 {
-        transfer::resonance_frequency(&self.oscillator)
+        transfer::resonance_frequency(&self.setup.rig, self.contact_stiffness)
     }
 }
 
