@@ -19,7 +19,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::dynamics::catalogue::vibrating_hold;
 use djkr::dynamics::model::{resolve, Drive};
-use djkr::dynamics::{simulate, NoObserver};
+use djkr::dynamics::NoObserver;
 use djkr::scenario::{Method, Scenario};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -35,7 +35,7 @@ const METHODS: [(&str, Method); 5] = [
 /// Run once and print what the benchmark will measure; `false` when the method fails there.
 fn announce(name: &str, s: &Scenario) -> bool {
     let t = Instant::now();
-    match simulate(s, &mut NoObserver) {
+    match s.simulate(&mut NoObserver) {
         Ok(r) => {
             eprintln!(
                 "{name}: {:.1} ms once; steps {} rejected {} rhs {}; {}",
@@ -98,7 +98,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             dt += 1e-12;
             let kin = drive.at_advanced(&model, 1e-4 + dt, phase0, black_box(dt));
-            let r = djkr::dynamics::erk::rates(
+            let r = djkr::dynamics::dp8::rates(
                 &model,
                 &kin,
                 black_box(d0 - kin.xb + 1e-7),
@@ -120,7 +120,11 @@ fn bench(c: &mut Criterion) {
         let id = format!("one_cycle_400Hz/{name}");
         if announce(&id, &one) {
             g.bench_function(id, |b| {
-                b.iter(|| simulate(black_box(&one), &mut NoObserver).map(|r| r.stats.steps))
+                b.iter(|| {
+                    black_box(&one)
+                        .simulate(&mut NoObserver)
+                        .map(|r| r.stats.steps)
+                })
             });
         }
     }
@@ -135,7 +139,11 @@ fn bench(c: &mut Criterion) {
             let id = format!("{tag}/{name}");
             if announce(&id, &s) {
                 g.bench_function(id, |b| {
-                    b.iter(|| simulate(black_box(&s), &mut NoObserver).map(|r| r.stats.steps))
+                    b.iter(|| {
+                        black_box(&s)
+                            .simulate(&mut NoObserver)
+                            .map(|r| r.stats.steps)
+                    })
                 });
             }
         }
@@ -151,7 +159,11 @@ fn bench(c: &mut Criterion) {
                 let id = format!("paper_protocol_300hz/{name}");
                 if announce(&id, &s) {
                     g.bench_function(id, |b| {
-                        b.iter(|| simulate(black_box(&s), &mut NoObserver).map(|r| r.stats.steps))
+                        b.iter(|| {
+                            black_box(&s)
+                                .simulate(&mut NoObserver)
+                                .map(|r| r.stats.steps)
+                        })
                     });
                 }
             }

@@ -16,7 +16,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::accuracy::{method_label, method_name};
 use djkr::dynamics::catalogue::vibrating_hold;
-use djkr::dynamics::{simulate, NoObserver};
+use djkr::dynamics::NoObserver;
 use djkr::scenario::parse::load_scenario;
 use djkr::scenario::{Method, Scenario};
 use std::hint::black_box;
@@ -32,7 +32,7 @@ const METHODS: [Method; 5] = [
 ];
 
 fn runs(s: &Scenario, label: &str) -> bool {
-    match simulate(s, &mut NoObserver) {
+    match s.simulate(&mut NoObserver) {
         Ok(r) => {
             eprintln!(
                 "{label}: {} steps, {} rhs, ran {}",
@@ -66,7 +66,7 @@ fn bench_scene(c: &mut Criterion, group: &str, base: &Scenario, rtols: &[f64]) {
             let id = format!("{}/rtol{rtol:e}", method_name(m));
             if runs(&s, &format!("{group}/{id}")) {
                 g.bench_function(id, |b| {
-                    b.iter(|| black_box(simulate(black_box(&s), &mut NoObserver)))
+                    b.iter(|| black_box(black_box(&s).simulate(&mut NoObserver)))
                 });
             }
         }

@@ -49,7 +49,7 @@
 
 use crate::adhesion::GentSchultz;
 use crate::beta_fit::{self, ExactPoint};
-use crate::dynamics::{simulate, EventKind, NoObserver, RunResult, Sample, SimError, Stats};
+use crate::dynamics::{EventKind, NoObserver, RunResult, Sample, SimError, Stats};
 use crate::error::ParamError;
 use crate::imposed_area;
 use crate::jkr;
@@ -466,7 +466,7 @@ fn with_solver(s: &Scenario, method: Method, rtol: f64, atol_ratio: f64) -> Scen
 
 fn timed(s: &Scenario) -> (Result<RunResult, SimError>, f64) {
     let start = Instant::now();
-    let r = simulate(s, &mut NoObserver);
+    let r = s.simulate(&mut NoObserver);
     (r, start.elapsed().as_secs_f64())
 }
 

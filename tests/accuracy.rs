@@ -326,7 +326,7 @@ fn probe_impacts_cycle_means() {
         s.solver.method = Method::Implicit;
         s.solver.rtol = rtol;
         s.solver.atol = rtol * 0.01;
-        djkr::dynamics::simulate(&s, &mut djkr::dynamics::NoObserver).unwrap()
+        s.simulate(&mut djkr::dynamics::NoObserver).unwrap()
     };
     let (a, r) = (run(1e-8), run(1e-12));
     let mut worst = (0.0f64, 0usize);

@@ -2,7 +2,7 @@
 
 use djkr::adhesion::{ConstantW, GentSchultz, Law};
 use djkr::dynamics::catalogue::stage;
-use djkr::dynamics::{simulate, EventKind, Recorder, RunResult};
+use djkr::dynamics::{EventKind, Recorder, RunResult};
 use djkr::jkr;
 use djkr::material::Material;
 use djkr::scenario::*;
@@ -38,7 +38,7 @@ fn scene() -> Scenario {
 
 fn run(s: &Scenario) -> (RunResult, Recorder) {
     let mut rec = Recorder::default();
-    let r = simulate(s, &mut rec).unwrap_or_else(|e| panic!("{e}"));
+    let r = s.simulate(&mut rec).unwrap_or_else(|e| panic!("{e}"));
     (r, rec)
 }
 
@@ -263,7 +263,7 @@ fn stage_of_whole_periods_records_every_cycle() {
         s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(d), Some(true))];
         let after = n as f64 * (2.0 * std::f64::consts::PI / (2.0 * std::f64::consts::PI * f)) > d;
         any_after |= after;
-        let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+        let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
         assert_eq!(
             r.cycles.len(),
             n,
@@ -468,7 +468,8 @@ fn explicit_errors_and_auto() {
     let mut s = scene();
     s.solver.method = Method::Dopri5;
     s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.01), None)];
-    let e = simulate(&s, &mut Recorder::default())
+    let e = s
+        .simulate(&mut Recorder::default())
         .unwrap_err()
         .to_string();
     assert!(
@@ -584,7 +585,7 @@ fn probe_protocol_convergence() {
             let mut s = djkr::dynamics::catalogue::paper_protocol(1e-3);
             s.solver.method = m;
             s.solver.rtol = rtol;
-            match simulate(&s, &mut djkr::dynamics::NoObserver) {
+            match s.simulate(&mut djkr::dynamics::NoObserver) {
                 Ok(r) => {
                     let last = r.cycles.last().unwrap();
                     let c5 = r.cycles.iter().find(|c| c.t_end >= 5.0).unwrap();
@@ -661,7 +662,7 @@ fn seeded_impact_heals_and_contact_damping_balances_energy() {
     ];
     s.solver.max_steps = 100_000;
     let mut rr = Recorder::default();
-    let res = simulate(&s, &mut rr);
+    let res = s.simulate(&mut rr);
     for e in rr.events.iter().take(10) {
         println!(
             "{:?} t {:e} a {:e} delta {:e} F {:e} adot {:e}",
@@ -702,7 +703,8 @@ fn errors_are_explicit() {
         max_duration: 0.01,
         ..stage(StageKind::Unload, 1e-6, Until::PullOff, None)
     }];
-    let e = simulate(&s, &mut Recorder::default())
+    let e = s
+        .simulate(&mut Recorder::default())
         .unwrap_err()
         .to_string();
     assert!(
@@ -712,7 +714,8 @@ fn errors_are_explicit() {
     let mut s = scene();
     s.rig.holder = Holder::None;
     s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.01), None)];
-    let e = simulate(&s, &mut Recorder::default())
+    let e = s
+        .simulate(&mut Recorder::default())
         .unwrap_err()
         .to_string();
     assert!(e.contains("weight"), "{e}");
@@ -724,7 +727,7 @@ fn probe_vibration_cost() {
     for m in [Method::Implicit, Method::Auto] {
         let mut s = djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
         s.solver.method = m;
-        let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+        let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
         println!("{m:?}: {:?}", r.stats);
     }
 }
@@ -739,13 +742,13 @@ fn ramp_oscillator_orders(
     steps: impl Fn(
         &djkr::dynamics::model::Model,
         &djkr::dynamics::model::Drive,
-        djkr::dynamics::esdirk::State,
+        djkr::dynamics::state::State,
         f64,
         usize,
-    ) -> djkr::dynamics::esdirk::State,
+    ) -> djkr::dynamics::state::State,
 ) -> (f64, f64) {
-    use djkr::dynamics::esdirk::State;
     use djkr::dynamics::model::{resolve, Drive, NQ};
+    use djkr::dynamics::state::State;
     let mut s = scene();
     s.initial = Initial::Gap(-x0);
     let model = resolve(&s.rig, s.run_scales()).unwrap();
@@ -781,7 +784,7 @@ fn ramp_oscillator_orders(
 }
 
 /// Fixed steps ignore the error estimate.
-const NO_CONTROL: djkr::dynamics::esdirk::Tol = djkr::dynamics::esdirk::Tol {
+const NO_CONTROL: djkr::dynamics::state::Tol = djkr::dynamics::state::Tol {
     rtol: 1.0,
     atol: 1.0,
 };
@@ -808,7 +811,7 @@ fn esdirk_fixed_step_order_is_four() {
 /// time (the `ode_solvers` Dop853 tableau's c₁₂ = 0) would show as order 1.
 #[test]
 fn dp8_fixed_step_order_is_eight() {
-    use djkr::dynamics::erk::{rates_at, step};
+    use djkr::dynamics::dp8::{rates_at, step};
     let (p1, p2) = ramp_oscillator_orders(-1e-3, 10, |model, drive, mut y, h, n| {
         let (mut k, mut fq) = rates_at(model, drive, &y).unwrap();
         for _ in 0..n {
@@ -862,7 +865,7 @@ fn sampling_shaker_off_and_observer_stop() {
             self.0 > 0
         }
     }
-    let r = simulate(&s, &mut StopAt(10)).unwrap();
+    let r = s.simulate(&mut StopAt(10)).unwrap();
     assert!(r.method.contains("stopped by the observer"));
     assert!(r.final_state.t < 2e-3);
 }
@@ -911,7 +914,7 @@ fn work_precision_1s_400hz() {
         s.solver.method = Method::Implicit;
         s.solver.rtol = 1e-12;
         let t = std::time::Instant::now();
-        let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+        let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
         let (f0, d0, a0) = outs(&r);
         println!(
             "X_b {xb:e}: reference implicit 1e-12: F {f0:e} dA {d0:e} am {a0:e} {:?} {:.3} s",
@@ -929,7 +932,7 @@ fn work_precision_1s_400hz() {
                 s.solver.method = m;
                 s.solver.rtol = rtol;
                 let t = std::time::Instant::now();
-                match simulate(&s, &mut djkr::dynamics::NoObserver) {
+                match s.simulate(&mut djkr::dynamics::NoObserver) {
                     Ok(r) => {
                         let (f, d, a) = outs(&r);
                         println!(
@@ -968,7 +971,7 @@ fn probe_min_wall() {
         let mut stats = None;
         for _ in 0..15 {
             let t = std::time::Instant::now();
-            let r = simulate(&s, &mut djkr::dynamics::NoObserver).unwrap();
+            let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
             best = best.min(t.elapsed().as_secs_f64());
             stats = Some(r.stats);
         }
@@ -1029,7 +1032,7 @@ fn probe_methods_by_scene() {
             let mut last = None;
             for _ in 0..3 {
                 let t = std::time::Instant::now();
-                let r = simulate(&s, &mut djkr::dynamics::NoObserver);
+                let r = s.simulate(&mut djkr::dynamics::NoObserver);
                 best = best.min(t.elapsed().as_secs_f64());
                 last = Some(r);
             }

@@ -15,7 +15,7 @@
 
 use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz, Law};
 use djkr::dynamics::catalogue::{stage, vibrating_hold};
-use djkr::dynamics::{simulate, CycleRecord, Event, Observer, RunResult, Sample};
+use djkr::dynamics::{CycleRecord, Event, Observer, RunResult, Sample};
 use djkr::imposed_area;
 use djkr::material::Material;
 use djkr::scenario::*;
@@ -173,7 +173,7 @@ impl Observer for Checker {
 
 fn run_time(s: &Scenario) -> Outcome {
     let mut chk = Checker::default();
-    match simulate(s, &mut chk) {
+    match s.simulate(&mut chk) {
         Ok(r) => {
             if let Some(p) = chk.bad {
                 return Outcome::Fail(format!("invalid output: {p}"));

@@ -2,7 +2,7 @@
 //! continues the same trajectory: a run split at a base-period boundary and resumed from its end
 //! state matches one unbroken run.
 
-use djkr::dynamics::{catalogue, simulate, Recorder};
+use djkr::dynamics::{catalogue, Recorder};
 use djkr::scenario::{Initial, Until};
 
 #[test]
@@ -12,11 +12,11 @@ fn split_run_matches_unbroken_run() {
     // 40 + 40 periods vs 80 periods, 5 µm base amplitude, GS law, contact never lost.
     let whole = catalogue::vibrating_hold(5e-6, freq, 80.0 * period);
     let mut rec_whole = Recorder::default();
-    let r_whole = simulate(&whole, &mut rec_whole).unwrap();
+    let r_whole = whole.simulate(&mut rec_whole).unwrap();
 
     let first = catalogue::vibrating_hold(5e-6, freq, 40.0 * period);
     let mut rec1 = Recorder::default();
-    let r1 = simulate(&first, &mut rec1).unwrap();
+    let r1 = first.simulate(&mut rec1).unwrap();
     let f = r1.final_state;
     assert!(f.a > 0.0);
     let mut second = catalogue::vibrating_hold(5e-6, freq, 40.0 * period);
@@ -29,7 +29,7 @@ fn split_run_matches_unbroken_run() {
     };
     second.stages[0].until = Until::Duration(40.0 * period);
     let mut rec2 = Recorder::default();
-    let r2 = simulate(&second, &mut rec2).unwrap();
+    let r2 = second.simulate(&mut rec2).unwrap();
 
     // Cycle records 40..80 of the unbroken run against 0..40 of the resumed one.
     assert_eq!(rec_whole.cycles.len(), 80);
@@ -69,6 +69,6 @@ fn invalid_explicit_state_is_an_error_not_a_panic() {
         a_dot: 0.0,
         x_k: 0.0,
     };
-    let e = simulate(&s, &mut Recorder::default()).unwrap_err();
+    let e = s.simulate(&mut Recorder::default()).unwrap_err();
     assert!(e.to_string().contains("initial state"), "{e}");
 }

@@ -417,13 +417,13 @@ fn mutated_files_never_panic_and_always_name_the_file() {
 /// numbers its comment promises and that run.h5 / summary.json hold that very run.
 #[test]
 fn quasi_static_jkr_runs_to_the_jkr_numbers_and_writes_them() {
-    use djkr::dynamics::{simulate, EventKind};
+    use djkr::dynamics::EventKind;
     use djkr::output::RunWriter;
 
     let s = load("scenarios/quasi-static-jkr.toml");
     let out = tempfile::tempdir().unwrap();
     let mut w = RunWriter::create(out.path(), &s, true).unwrap();
-    let res = simulate(&s, &mut w).unwrap_or_else(|e| panic!("{e}"));
+    let res = s.simulate(&mut w).unwrap_or_else(|e| panic!("{e}"));
     let m = s.rig.material;
     assert!(res.detached);
     // Under displacement control the unload passes through the JKR force minimum.
@@ -475,7 +475,7 @@ fn quasi_static_jkr_runs_to_the_jkr_numbers_and_writes_them() {
 /// should be close to exact (0.02 % seen).
 #[test]
 fn vibrating_scenes_respond_as_their_comments_say() {
-    use djkr::dynamics::{simulate, Recorder};
+    use djkr::dynamics::Recorder;
 
     for (file, hold, expect, tol) in [
         ("scenarios/resonance-400hz.toml", 0usize, 13.5, 0.01),
@@ -485,7 +485,9 @@ fn vibrating_scenes_respond_as_their_comments_say() {
         // Stop after the vibrating hold: its cycles are what is checked.
         s.stages.truncate(hold + 1);
         let mut rec = Recorder::default();
-        let res = simulate(&s, &mut rec).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let res = s
+            .simulate(&mut rec)
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
         let x_b = s.rig.base.unwrap().amplitude;
         let last: Vec<f64> = res
             .cycles

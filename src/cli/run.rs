@@ -94,7 +94,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         events: 0,
         stages: scn.stages.len(),
     };
-    let result = dynamics::simulate(&scn, &mut obs);
+    let result = scn.simulate(&mut obs);
     bar.finish_and_clear();
     let result = match result {
         Ok(r) => r,

@@ -18,6 +18,7 @@
 //! L-stable: the healing stiffness ∂ȧ/∂a ≈ −4aȧ/(nRu) costs no stability restriction.
 
 use super::model::{Kinematics, Mechanics, Model, NQ};
+use super::state::{State, StepFail, StepOut, Tol};
 use crate::adhesion::Law;
 use crate::jkr;
 use crate::numerics::RelativeConvergency;
@@ -70,69 +71,6 @@ pub const BHAT: [f64; S] = [
 ];
 /// Nodes.
 pub const C: [f64; S] = [0.0, 0.5, 83.0 / 250.0, 31.0 / 50.0, 17.0 / 20.0, 1.0];
-
-/// The integrated state at one time.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct State {
-    /// Time (s).
-    pub t: f64,
-    /// Sphere position x_s (m).
-    pub x: f64,
-    /// Sphere velocity (m/s).
-    pub v: f64,
-    /// Sphere acceleration (m/s²; derived, kept for dense output).
-    pub acc: f64,
-    /// Contact radius (m; 0 out of contact).
-    pub a: f64,
-    /// ȧ (m/s): the exact rate of this state (first stage of the next step).
-    pub adot: f64,
-    /// In contact.
-    pub contact: bool,
-    /// Quadrature states.
-    pub q: [f64; NQ],
-}
-
-/// Why a step attempt failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum StepFail {
-    /// A stage found no contact radius a > 0: the contact collapses within the step.
-    NoRoot,
-    /// A stage produced a non-finite value.
-    NonFinite,
-    /// An explicit stage met the healing singularity (G ≤ 0 in contact: ȧ = +∞).
-    Singular,
-    /// The explicit formulation cannot continue (reason).
-    Explicit(&'static str),
-}
-
-/// A completed step attempt.
-#[derive(Debug, Clone, Copy)]
-pub struct StepOut {
-    /// The state at t + h.
-    pub y: State,
-    /// Weighted RMS error estimate (accept when ≤ 1).
-    pub err: f64,
-    /// Residual / right-hand-side evaluations spent.
-    pub evals: u64,
-    /// Exponent of the step-size controller, 1/(p̂ + 1) for an embedded estimate of order p̂
-    /// (0 when `err` is not an estimate).
-    pub err_exp: f64,
-    /// Where within the step the contact line turns (ȧ = 0), as a fraction of h, for a stepper
-    /// whose accuracy needs the step to end there (the explicit DP8); `None` otherwise.
-    pub kink: Option<f64>,
-    /// The predicted time (s) of the next turning point after the step, within two more step
-    /// lengths (same steppers; `None` otherwise).
-    pub kink_ahead: Option<f64>,
-}
-
-/// Tolerances of the error norm.
-#[derive(Debug, Clone, Copy)]
-pub struct Tol {
-    /// Relative tolerance.
-    pub rtol: f64,
-    /// Absolute tolerance relative to each component's natural scale.
-    pub atol: f64,
-}
 
 /// Find the contact radius of an implicit stage: the upward zero crossing of `rho` (a function of
 /// a, increasing through its root) nearest to the predictor `a_p`, to `xtol_rel` relative in a

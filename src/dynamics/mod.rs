@@ -219,15 +219,19 @@
 //!   gives DP8 7.6e-9 at rtol 1e-8 and 4.9e-9 at 1e-10 (implicit 9.1e-7 and 9.1e-9).
 
 pub mod catalogue;
-pub mod driver;
-pub mod erk;
+pub mod control;
+pub mod dp8;
 pub mod esdirk;
-pub mod explicit;
+pub mod events;
 pub mod model;
+pub mod ode_adapter;
 pub mod protocol;
+pub mod simulator;
+pub mod state;
 pub mod stepper;
 pub mod types;
 
-pub use driver::{simulate, SimError};
-pub use stepper::{Method, Solver};
+pub use protocol::{run, Plan};
+pub use simulator::{Segment, Settings, Simulator, Stop};
+pub use stepper::{Method, Solver, Stepper};
 pub use types::*;

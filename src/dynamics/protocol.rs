@@ -1,5 +1,17 @@
 //! The stage protocol: where a run starts, and what the spring end and the shaker do, stage by
-//! stage (the paper's Sec. 3: approach, dwell, shaker on, dwell, unload to pull-off).
+//! stage (the paper's Sec. 3: approach, dwell, shaker on, dwell, unload to pull-off), above the
+//! [`Simulator`]: stage ends, the pull-off proof, the most tensile force and cycle records, and
+//! the samples handed to the observer.
+
+use super::model::{self, Drive, Mechanics, Model, NQ};
+use super::simulator::{make_sample, Segment, Settings, Simulator, Stop};
+use super::state::{hermite, State, Tol};
+use super::stepper::{self, Method, Solver};
+use super::types::*;
+use crate::jkr;
+use crate::numerics;
+use crate::rig::{Rig, Support};
+use std::f64::consts::PI;
 
 /// The state the run starts from.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -66,8 +78,8 @@ pub struct Stage {
 }
 
 /// The scales a protocol adds to a rig's model: an initial gap and the fastest spring-end speed.
-pub fn run_scales(initial: &Initial, stages: &[Stage]) -> super::model::RunScales {
-    super::model::RunScales {
+pub fn run_scales(initial: &Initial, stages: &[Stage]) -> model::RunScales {
+    model::RunScales {
         gap: match initial {
             Initial::Gap(g) => Some(*g),
             _ => None,
@@ -78,4 +90,509 @@ pub fn run_scales(initial: &Initial, stages: &[Stage]) -> super::model::RunScale
             .filter(|v| *v > 0.0)
             .fold(0.0_f64, f64::max),
     }
+}
+
+/// Everything a protocol run needs: the rig, where it starts, the stages, the solver and the
+/// output cadence (borrowed from a scenario, or built by hand).
+#[derive(Debug, Clone, Copy)]
+pub struct Plan<'a> {
+    /// The physical rig.
+    pub rig: &'a Rig,
+    /// Where the run starts.
+    pub initial: Initial,
+    /// The stages, in order.
+    pub stages: &'a [Stage],
+    /// Method, tolerances and budgets.
+    pub solver: Solver,
+    /// Time-series samples per second of simulated time (0: every accepted step).
+    pub sample_rate: f64,
+}
+
+/// Run a protocol from its initial state, feeding `obs` with samples, events and cycle records.
+/// See the module documentation of [`crate::dynamics`].
+pub fn run(plan: &Plan, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
+    let model = model::resolve(plan.rig, run_scales(&plan.initial, plan.stages))
+        .map_err(SimError::Setup)?;
+    let (y, drive) = initial_state(plan.rig, &plan.initial, &model)?;
+    let stepper = stepper::build(plan.solver.method, plan.rig);
+    if stepper.kind() != stepper::StepperKind::Embedded && model.rate_independent {
+        return Err(SimError::Explicit {
+            method: stepper.name().into(),
+            t: 0.0,
+            reason: "the adhesion law is rate-independent: the contact radius is algebraic \
+                     (G = w0) and has no explicit rate"
+                .into(),
+            state: Box::new(make_sample(&model, &drive, &y, 0)),
+        });
+    }
+    let sample_dt = if plan.sample_rate > 0.0 {
+        1.0 / plan.sample_rate
+    } else {
+        0.0
+    };
+    let wants_samples = obs.wants_samples();
+    let settings = Settings {
+        tol: Tol {
+            rtol: plan.solver.rtol,
+            atol: plan.solver.atol,
+        },
+        event_tol: plan.solver.event_tol.max(0.0),
+        max_steps: plan.solver.max_steps,
+        max_wall_s: plan.solver.max_wall_s,
+        interpolated_samples: wants_samples && sample_dt > 0.0,
+    };
+    let formation = plan.rig.formation;
+    let sim = Simulator::new(model, stepper, formation, settings, y, drive);
+    let mut run = Protocol {
+        sim,
+        obs,
+        stage: 0,
+        events: Vec::new(),
+        cycles: Vec::new(),
+        sample_dt,
+        next_sample: 0.0,
+        wants_samples,
+        stopped: false,
+        min_force: None,
+        min_cycle: None,
+        shaker_at_detach: None,
+        pending_loss: None,
+        detached: false,
+        in_pulloff: false,
+    };
+    let y0 = *run.sim.state();
+    run.output(&Segment {
+        y0,
+        y1: y0,
+        drive: *run.sim.drive(),
+    });
+    if run.sample_dt > 0.0 {
+        run.next_sample = run.sample_dt;
+    }
+    for (i, st) in plan.stages.iter().enumerate() {
+        if run.stopped {
+            break;
+        }
+        run.run_stage(i, st)?;
+    }
+    Ok(run.finish(plan.solver.method))
+}
+
+/// The initial state and drive (see the module documentation of [`crate::dynamics`]).
+pub fn initial_state(rig: &Rig, initial: &Initial, m: &Model) -> Result<(State, Drive), SimError> {
+    let mut y = State {
+        t: 0.0,
+        x: 0.0,
+        v: 0.0,
+        acc: 0.0,
+        a: 0.0,
+        adot: 0.0,
+        contact: false,
+        q: [0.0; NQ],
+    };
+    let xk;
+    match *initial {
+        Initial::Preload(p) => {
+            let st = rig
+                .static_state(Support::StaticLoad(p))
+                .map_err(|e| SimError::Setup(format!("initial preload {p} N: {e}")))?;
+            y.x = st.delta;
+            y.a = st.a;
+            y.contact = true;
+            xk = st.x_k;
+        }
+        Initial::State {
+            x_s,
+            v_s,
+            a,
+            a_dot,
+            x_k,
+        } => {
+            let vals = [x_s, v_s, a, a_dot, x_k];
+            if vals.iter().any(|v| !v.is_finite()) || a < 0.0 {
+                return Err(SimError::Setup(format!(
+                    "initial state must be finite with a >= 0: x_s = {x_s}, v_s = {v_s}, a = {a}, a_dot = {a_dot}, x_k = {x_k}"
+                )));
+            }
+            y.x = x_s;
+            y.v = v_s;
+            y.a = a;
+            y.contact = a > 0.0;
+            y.adot = if y.contact { a_dot } else { 0.0 };
+            xk = match m.mech {
+                Mechanics::Rigid => x_s,
+                _ => x_k,
+            };
+        }
+        Initial::Gap(g0) => {
+            if !(g0.is_finite() && g0 > 0.0) {
+                return Err(SimError::Setup(format!("initial gap {g0} m must be > 0")));
+            }
+            y.x = -g0;
+            xk = match m.mech {
+                Mechanics::Dynamic if !m.free_holder => y.x - m.m * m.g / m.k,
+                Mechanics::Dynamic => 0.0,
+                _ => y.x,
+            };
+        }
+    }
+    let drive = Drive {
+        xk0: xk,
+        tk0: 0.0,
+        xk_speed: 0.0,
+        shaker: false,
+        t_on: 0.0,
+    };
+    Ok((y, drive))
+}
+
+/// A protocol run in progress.
+struct Protocol<'a> {
+    sim: Simulator,
+    obs: &'a mut dyn Observer,
+    stage: usize,
+    events: Vec<Event>,
+    cycles: Vec<CycleRecord>,
+    sample_dt: f64,
+    next_sample: f64,
+    /// The observer uses samples (`Observer::wants_samples`).
+    wants_samples: bool,
+    /// The observer asked to stop.
+    stopped: bool,
+    /// Most tensile force candidate (force, time).
+    min_force: Option<(f64, f64)>,
+    /// Most tensile cycle-mean force (force, cycle end time).
+    min_cycle: Option<(f64, f64)>,
+    /// Shaker state when detachment was declared.
+    shaker_at_detach: Option<bool>,
+    /// Contact loss that may turn out to be the final detachment.
+    pending_loss: Option<Event>,
+    detached: bool,
+    /// The current stage ends at pull-off.
+    in_pulloff: bool,
+}
+
+impl Protocol<'_> {
+    fn event(&mut self, kind: EventKind, y: &State) {
+        let e = Event {
+            kind,
+            time: y.t,
+            stage: self.stage,
+            state: self.sim.sample_of(y, self.stage),
+        };
+        self.obs.event(&e);
+        self.events.push(e);
+    }
+
+    /// Emit time-series samples for (y0.t, y1.t] of a segment.
+    fn output(&mut self, seg: &Segment) {
+        if self.stopped || !self.wants_samples {
+            return;
+        }
+        let model = self.sim.model();
+        if self.sample_dt <= 0.0 {
+            let s = make_sample(model, &seg.drive, &seg.y1, self.stage);
+            if !self.obs.sample(&s) {
+                self.stopped = true;
+            }
+            return;
+        }
+        while self.next_sample <= seg.y1.t {
+            let yi = hermite(&seg.y0, &seg.y1, self.next_sample);
+            let s = make_sample(model, &seg.drive, &yi, self.stage);
+            if !self.obs.sample(&s) {
+                self.stopped = true;
+                return;
+            }
+            self.next_sample += self.sample_dt;
+        }
+    }
+
+    fn record_cycle(&mut self, rec: CycleRecord) {
+        if !self.detached && self.min_cycle.is_none_or(|(f, _)| rec.force_mean < f) {
+            self.min_cycle = Some((rec.force_mean, rec.t_end));
+        }
+        self.obs.cycle(&rec);
+        self.cycles.push(rec);
+    }
+
+    /// Track the most tensile instantaneous force while the shaker is off, refining an interior
+    /// minimum over the step's interpolant, then (if it may beat the record) by exact re-stepping.
+    fn track_force(&mut self, seg: &Segment) {
+        let (y0, y1) = (&seg.y0, &seg.y1);
+        if seg.drive.shaker || !y1.contact || !y0.contact {
+            return;
+        }
+        let sim = &mut self.sim;
+        let mut cand = vec![(sim.force_of(y1), y1.t)];
+        if self.min_force.is_none() {
+            cand.push((sim.force_of(y0), y0.t));
+        }
+        if sim.force_rate(y0) < 0.0 && sim.force_rate(y1) > 0.0 {
+            // A cheap search on the step's interpolant first; only a minimum that may beat the
+            // record is refined exactly (each trial a fresh step from y0).
+            let (fh, th) = minimize(y0.t, y1.t, 1e-6 * (y1.t - y0.t), |t| {
+                sim.force_of(&hermite(y0, y1, t))
+            });
+            let scale = fh.abs().max(1e-300);
+            if self.min_force.is_none_or(|(m, _)| fh < m + 1e-3 * scale) {
+                let tol = sim.settings().event_tol.max(1e-15 * y1.t.abs());
+                cand.push(minimize(y0.t, y1.t, tol, |t| {
+                    match sim.trial(y0, t - y0.t) {
+                        Some(y) => sim.force_of(&y),
+                        None => sim.force_of(&hermite(y0, y1, t)),
+                    }
+                }));
+            } else {
+                cand.push((fh, th));
+            }
+        }
+        for (f, t) in cand {
+            if self.min_force.is_none_or(|(m, _)| f < m) {
+                self.min_force = Some((f, t));
+            }
+        }
+    }
+
+    /// Can the sphere, now out of contact, never touch the substrate again (in this stage)?
+    fn no_return(&self, kind: StageKind, loss_t: f64) -> bool {
+        let y = self.sim.state();
+        let m = self.sim.model();
+        let drive = self.sim.drive();
+        let xb_max = if drive.shaker { m.xb_amp } else { 0.0 };
+        let moving_away = kind != StageKind::Approach;
+        let bound = match m.mech {
+            Mechanics::Rigid | Mechanics::QuasiStatic => moving_away.then(|| drive.x_k(y.t)),
+            Mechanics::Dynamic => {
+                if m.free_holder {
+                    (m.g <= 0.0 && y.v < 0.0).then_some(f64::NEG_INFINITY)
+                } else if moving_away {
+                    let cv = if m.contact_damping { 0.0 } else { m.c };
+                    let xeq = drive.x_k(y.t) + (m.m * m.g - cv * drive.xk_speed) / m.k;
+                    let xi = y.x - xeq;
+                    let vi = y.v - drive.xk_speed;
+                    Some(xeq + (xi * xi + m.m * vi * vi / m.k).sqrt())
+                } else {
+                    None
+                }
+            }
+        };
+        if let Some(b) = bound {
+            if b + xb_max < 0.0 {
+                return true;
+            }
+        }
+        // Fallback: a generous time without re-impact.
+        let wn = if m.mech == Mechanics::Dynamic && m.k > 0.0 {
+            (m.k / m.m).sqrt()
+        } else {
+            0.0
+        };
+        let t_osc = if wn > 0.0 { 2.0 * PI / wn } else { 0.0 };
+        let t_base = if m.omega > 0.0 {
+            2.0 * PI / m.omega
+        } else {
+            0.0
+        };
+        let wait = 50.0 * t_osc.max(t_base);
+        moving_away && wait > 0.0 && y.t - loss_t > wait
+    }
+
+    /// Start stage `idx`: the spring end's speed, the shaker, the stage-start event; `true` when
+    /// the stage is already over (an approach whose preload is already reached).
+    fn start_stage(&mut self, idx: usize, st: &Stage) -> bool {
+        self.stage = idx;
+        self.sim.set_stage(idx);
+        let speed = match st.kind {
+            StageKind::Approach => st.speed,
+            StageKind::Hold => 0.0,
+            StageKind::Unload => -st.speed,
+        };
+        self.sim.set_spring_end_speed(speed);
+        if let Some(on) = st.vibration {
+            self.sim.set_shaker(on);
+        }
+        self.sim.refresh();
+        let y = *self.sim.state();
+        self.event(EventKind::StageStart, &y);
+        let t_end = match st.until {
+            Until::Duration(d) => y.t + d,
+            _ => y.t + st.max_duration,
+        };
+        let preload = match st.until {
+            Until::Preload(p) => Some(p),
+            _ => None,
+        };
+        self.sim.advance_to(t_end, preload);
+        self.in_pulloff = matches!(st.until, Until::PullOff);
+        if self.in_pulloff && !self.detached {
+            // The pull-off summary describes the pull-off stage.
+            self.min_force = None;
+            self.min_cycle = None;
+        }
+        if let (Some(p), true) = (preload, y.contact) {
+            if self.sim.force_of(&y) >= p {
+                self.event(EventKind::PreloadReached, &y);
+                return true;
+            }
+        }
+        false
+    }
+
+    fn run_stage(&mut self, idx: usize, st: &Stage) -> Result<(), SimError> {
+        if self.start_stage(idx, st) {
+            return Ok(());
+        }
+        let is_duration = matches!(st.until, Until::Duration(_));
+        loop {
+            if self.stopped {
+                return Ok(());
+            }
+            match self.sim.step()? {
+                Stop::Step { period, reached } => {
+                    if let Some(seg) = self.sim.segment() {
+                        self.output(&seg);
+                        self.track_force(&seg);
+                    }
+                    if let Some(rec) = period {
+                        self.record_cycle(rec);
+                    }
+                    if self.in_pulloff && self.detach(st.kind) {
+                        return Ok(());
+                    }
+                    if reached {
+                        return self.stage_end(idx, st, is_duration);
+                    }
+                }
+                Stop::Kick => {
+                    if let Some(seg) = self.sim.segment() {
+                        self.output(&seg);
+                    }
+                }
+                Stop::Event(kind, ye) => {
+                    if let Some(seg) = self.sim.segment() {
+                        self.output(&seg);
+                        self.track_force(&seg);
+                    }
+                    self.event(kind, &ye);
+                    match kind {
+                        EventKind::ContactLoss => {
+                            self.pending_loss = if self.in_pulloff {
+                                self.events.last().copied()
+                            } else {
+                                None
+                            };
+                        }
+                        EventKind::Impact => self.pending_loss = None,
+                        EventKind::PreloadReached => return Ok(()),
+                        _ => {}
+                    }
+                }
+                Stop::Period(rec) => self.record_cycle(rec),
+                Stop::Reached => return self.stage_end(idx, st, is_duration),
+            }
+        }
+    }
+
+    /// After an accepted step out of contact in a pull-off stage: declare the final detachment
+    /// at the pending contact loss once a re-impact is proven impossible.
+    fn detach(&mut self, kind: StageKind) -> bool {
+        if self.sim.state().contact {
+            return false;
+        }
+        let Some(loss) = self.pending_loss else {
+            return false;
+        };
+        if !self.no_return(kind, loss.time) {
+            return false;
+        }
+        let e = Event {
+            kind: EventKind::PullOff,
+            ..loss
+        };
+        self.obs.event(&e);
+        self.events.push(e);
+        self.detached = true;
+        self.shaker_at_detach = Some(self.sim.drive().shaker);
+        self.pending_loss = None;
+        true
+    }
+
+    /// The stage's time is up: its duration elapsed, or its `max_duration` without its end
+    /// condition (an error).
+    fn stage_end(&mut self, idx: usize, st: &Stage, is_duration: bool) -> Result<(), SimError> {
+        let y = *self.sim.state();
+        if is_duration {
+            self.event(EventKind::DurationElapsed, &y);
+            return Ok(());
+        }
+        Err(SimError::StageTimeout {
+            stage: idx,
+            until: match st.until {
+                Until::Duration(_) => "duration".into(),
+                Until::Preload(p) => format!("until preload {p} N"),
+                Until::PullOff => "until pull-off".into(),
+            },
+            max_duration: st.max_duration,
+            t: y.t,
+            state: Box::new(self.sim.sample_of(&y, self.stage)),
+        })
+    }
+
+    fn finish(mut self, method: Method) -> RunResult {
+        let stats = self.sim.finish_stats();
+        let model = self.sim.model();
+        let f0 = jkr::load_controlled_pull_off_force(&model.mat, model.w0);
+        // The shaker state at detachment decides which minimum is the pull-off force: the most
+        // tensile cycle mean while vibrating, the most tensile instantaneous force otherwise
+        // (each taken over the pull-off stage, or the whole run without one). Without
+        // detachment: the cycle means if there are any.
+        let vibrating = self.shaker_at_detach.unwrap_or(self.min_cycle.is_some());
+        let pick = if vibrating {
+            self.min_cycle.or(self.min_force)
+        } else {
+            self.min_force.or(self.min_cycle)
+        };
+        let (force, time) = pick.unwrap_or((0.0, 0.0));
+        let y = *self.sim.state();
+        let final_state = self.sim.sample_of(&y, self.stage);
+        let stepper = self.sim.stepper();
+        let mut m = stepper.name().to_string();
+        if method == Method::Auto {
+            m = format!(
+                "{m}; auto: implicit for rate-independent laws, seeded contact formation and \
+                 scenes without inertia (rigid link, m = 0), DP8 otherwise, taking a step \
+                 implicitly where a DP8 stage meets G <= 0"
+            );
+        }
+        if stepper.rescues() > 0 {
+            m.push_str(&format!(
+                "; {} steps taken implicitly where DP8 met G <= 0",
+                stepper.rescues()
+            ));
+        }
+        if self.stopped {
+            m.push_str("; stopped by the observer");
+        }
+        RunResult {
+            pull_off: PullOffSummary {
+                force,
+                amplification: force / f0,
+                time,
+            },
+            detached: self.detached,
+            events: self.events,
+            stats,
+            method: m,
+            final_state,
+            cycles: self.cycles,
+        }
+    }
+}
+
+/// Minimise `f` over [lo, hi] to about `tol` in t with Brent's method: (min, argmin).
+fn minimize(lo: f64, hi: f64, tol: f64, f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    // `brent_minimize` converges to ≈ 3 (rel_tol |t| + abs_tol).
+    let (t, fmin) = numerics::brent_minimize(f, lo, hi, f64::EPSILON, tol / 3.0, 100);
+    (fmin, t)
 }

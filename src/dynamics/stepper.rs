@@ -45,3 +45,294 @@ impl Default for Solver {
         }
     }
 }
+
+use super::dp8;
+use super::esdirk;
+use super::model::{Drive, Model, NQ};
+use super::ode_adapter::{self, OdeMethod};
+use super::state::{State, StepFail, StepOut, Tol};
+use crate::adhesion::AdhesionLaw;
+use crate::rig::{ContactFormation, Rig};
+
+/// How the simulator drives a stepper.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StepperKind {
+    /// One step of an embedded pair, sized by its error estimate (the implicit ESDIRK).
+    Embedded,
+    /// An explicit high-order method whose accuracy needs its steps to end on the turning points
+    /// of the contact line (ȧ ∝ |G − w0|^(1/n) is not smooth there): the simulator ends steps at
+    /// the turning points the stepper reports (DP8).
+    TurningPoints,
+    /// A macro step of an integrator with its own inner step control (`ode_solvers`): kept to
+    /// 1/16 of a base period so that events can be located and samples interpolated on it.
+    Macro,
+}
+
+/// One integration method behind the simulator: a step attempt from a state, and what the
+/// simulator needs to know about it. Adding an integrator is one implementation of this trait
+/// plus one [`Method`] entry (and its line in [`build`]).
+pub trait Stepper: Send {
+    /// What ran, for the run's report.
+    fn name(&self) -> &'static str;
+    /// How the simulator sizes its steps.
+    fn kind(&self) -> StepperKind;
+    /// Attempt one step of length `h` from `y` under `drive`. `evals` receives the right-hand-side
+    /// evaluations spent beyond those the returned [`StepOut::evals`] counts (e.g. a first stage
+    /// recomputed, or a failed attempt's).
+    fn attempt(
+        &mut self,
+        model: &Model,
+        drive: &Drive,
+        y: &State,
+        h: f64,
+        tol: Tol,
+        evals: &mut u64,
+    ) -> Result<StepOut, StepFail>;
+    /// Forget what the stepper carries from one step to the next (the drive or the state changed
+    /// discontinuously: stage start, contact formed or lost, shaker switched).
+    fn reset(&mut self) {}
+    /// Steps taken by a rescue method where this one failed (reported with the run).
+    fn rescues(&self) -> u64 {
+        0
+    }
+}
+
+/// The implicit `ESDIRK4(3)6L[2]SA` with the root-solved contact radius ([`esdirk`]).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Implicit;
+
+impl Stepper for Implicit {
+    fn name(&self) -> &'static str {
+        "implicit ESDIRK4(3)6L[2]SA (root-solved contact radius)"
+    }
+    fn kind(&self) -> StepperKind {
+        StepperKind::Embedded
+    }
+    fn attempt(
+        &mut self,
+        model: &Model,
+        drive: &Drive,
+        y: &State,
+        h: f64,
+        tol: Tol,
+        _evals: &mut u64,
+    ) -> Result<StepOut, StepFail> {
+        esdirk::step(model, drive, y, h, tol)
+    }
+}
+
+/// djkr's explicit DOP853 ([`dp8`]), with its first-same-as-last evaluation carried from one
+/// step to the next.
+#[derive(Debug, Default, Clone)]
+pub struct Dp8 {
+    /// The rates at the end of the last step and the state they belong to.
+    fsal: Option<(State, dp8::Rates, [f64; NQ])>,
+}
+
+impl Stepper for Dp8 {
+    fn name(&self) -> &'static str {
+        "explicit DP8: Dormand-Prince 8(5,3), djkr's stepper"
+    }
+    fn kind(&self) -> StepperKind {
+        StepperKind::TurningPoints
+    }
+    fn attempt(
+        &mut self,
+        model: &Model,
+        drive: &Drive,
+        y: &State,
+        h: f64,
+        tol: Tol,
+        evals: &mut u64,
+    ) -> Result<StepOut, StepFail> {
+        let cached = self.fsal.as_ref().and_then(|(ys, r, fq)| {
+            let same_t = (ys.t - y.t).abs() <= 8.0 * f64::EPSILON * y.t.abs();
+            // The very state the cached rates belong to (an identity test, hence bitwise).
+            let same = |p: f64, q: f64| p.to_bits() == q.to_bits();
+            (same_t
+                && same(ys.x, y.x)
+                && same(ys.v, y.v)
+                && same(ys.a, y.a)
+                && ys.contact == y.contact)
+                .then_some((*r, *fq))
+        });
+        let mut extra = 0;
+        let k1 = match cached {
+            Some(r) => Ok(r),
+            None => {
+                extra = 1;
+                dp8::rates_at(model, drive, y)
+            }
+        };
+        match k1.and_then(|(k1, fq1)| dp8::step(model, drive, y, &k1, &fq1, h, tol)) {
+            Ok((mut o, k_end, fq_end)) => {
+                o.evals += extra;
+                self.fsal = Some((o.y, k_end, fq_end));
+                Ok(o)
+            }
+            Err(e) => {
+                *evals += extra;
+                Err(e)
+            }
+        }
+    }
+    fn reset(&mut self) {
+        self.fsal = None;
+    }
+}
+
+/// A fast method with a robust one for the steps it cannot take: where a trial stage of the
+/// primary meets the healing singularity (G ≤ 0: ȧ = +∞, [`StepFail::Singular`]), that one step
+/// is taken by the rescue; the next step tries the primary again. `auto` runs DP8 rescued by the
+/// implicit method.
+#[derive(Debug, Default, Clone)]
+pub struct Rescued<P, R> {
+    primary: P,
+    rescue: R,
+    rescues: u64,
+}
+
+impl<P: Stepper, R: Stepper> Rescued<P, R> {
+    /// `primary`, falling back to `rescue`.
+    pub fn new(primary: P, rescue: R) -> Self {
+        Self {
+            primary,
+            rescue,
+            rescues: 0,
+        }
+    }
+}
+
+impl<P: Stepper, R: Stepper> Stepper for Rescued<P, R> {
+    fn name(&self) -> &'static str {
+        self.primary.name()
+    }
+    fn kind(&self) -> StepperKind {
+        self.primary.kind()
+    }
+    fn attempt(
+        &mut self,
+        model: &Model,
+        drive: &Drive,
+        y: &State,
+        h: f64,
+        tol: Tol,
+        evals: &mut u64,
+    ) -> Result<StepOut, StepFail> {
+        match self.primary.attempt(model, drive, y, h, tol, evals) {
+            Err(StepFail::Singular) => {
+                self.rescues += 1;
+                self.rescue.attempt(model, drive, y, h, tol, evals)
+            }
+            r => r,
+        }
+    }
+    fn reset(&mut self) {
+        self.primary.reset();
+        self.rescue.reset();
+    }
+    fn rescues(&self) -> u64 {
+        self.rescues
+    }
+}
+
+/// `ode_solvers`' Dopri5 or Dop853 as a macro-step engine ([`ode_adapter`]).
+#[derive(Debug, Clone, Copy)]
+pub struct OdeSolvers {
+    method: OdeMethod,
+    /// The last inner step (s), to start the next macro step with.
+    h_inner: f64,
+}
+
+impl OdeSolvers {
+    /// The given `ode_solvers` method.
+    pub fn new(method: OdeMethod) -> Self {
+        Self {
+            method,
+            h_inner: 0.0,
+        }
+    }
+}
+
+impl Stepper for OdeSolvers {
+    fn name(&self) -> &'static str {
+        match self.method {
+            OdeMethod::Dopri5 => "explicit Dopri5 (ode_solvers)",
+            OdeMethod::Dop853 => "explicit Dop853 (ode_solvers)",
+        }
+    }
+    fn kind(&self) -> StepperKind {
+        StepperKind::Macro
+    }
+    fn attempt(
+        &mut self,
+        model: &Model,
+        drive: &Drive,
+        y: &State,
+        h: f64,
+        tol: Tol,
+        _evals: &mut u64,
+    ) -> Result<StepOut, StepFail> {
+        let (o, hi) = ode_adapter::macro_step(model, drive, y, h, tol, self.method, self.h_inner)?;
+        self.h_inner = hi;
+        Ok(o)
+    }
+}
+
+/// The `auto` rule, from measurements per scene type (`djkr accuracy` on the bundled scenes,
+/// `benches/dynamics.rs`, the extremes matrix; see the module documentation of
+/// [`crate::dynamics`]):
+/// - **implicit** for a rate-independent law (a is algebraic: ȧ = law⁻¹(G) does not exist) and
+///   for contact formed from a seed (healing from G ≈ 0 at ȧ ≈ ∞ after every impact);
+/// - **implicit** without inertia (rigid link, m = 0: only a is integrated), where neither
+///   method wins everywhere and both are sub-millisecond;
+/// - **DP8** otherwise, taking single steps implicitly where a DP8 stage meets G ≤ 0.
+pub fn auto_method(rig: &Rig) -> Method {
+    if rig.law.is_rate_independent()
+        || matches!(rig.formation, ContactFormation::Seed(_))
+        || !rig.has_inertia()
+    {
+        Method::Implicit
+    } else {
+        Method::Dp8
+    }
+}
+
+/// The stepper for a method on a rig (`auto` resolved by [`auto_method`]).
+pub fn build(method: Method, rig: &Rig) -> Box<dyn Stepper> {
+    match method {
+        Method::Auto => match auto_method(rig) {
+            Method::Dp8 => Box::new(Rescued::new(Dp8::default(), Implicit)),
+            _ => Box::new(Implicit),
+        },
+        Method::Implicit => Box::new(Implicit),
+        Method::Dp8 => Box::new(Dp8::default()),
+        Method::Dopri5 => Box::new(OdeSolvers::new(OdeMethod::Dopri5)),
+        Method::Dop853 => Box::new(OdeSolvers::new(OdeMethod::Dop853)),
+    }
+}
+
+/// The scenario-file name of a method (`[solver] method`, `--methods`).
+pub fn method_name(m: Method) -> &'static str {
+    match m {
+        Method::Auto => "auto",
+        Method::Implicit => "implicit",
+        Method::Dp8 => "dp8",
+        Method::Dopri5 => "dopri5",
+        Method::Dop853 => "dop853",
+    }
+}
+
+/// Every method, in the order the documentation lists them.
+pub const METHODS: [Method; 5] = [
+    Method::Auto,
+    Method::Dp8,
+    Method::Implicit,
+    Method::Dopri5,
+    Method::Dop853,
+];
+
+/// The method of a scenario-file or flag name; `None` for an unknown name.
+pub fn method_from_name(name: &str) -> Option<Method> {
+    METHODS.into_iter().find(|m| method_name(*m) == name)
+}

@@ -2,6 +2,7 @@
 //! detectors) watch it. These types are the contract between the driver and the output writers.
 
 use serde::Serialize;
+use thiserror::Error;
 
 /// One sample of the time series (SI).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -217,4 +218,83 @@ impl Observer for Recorder {
     fn cycle(&mut self, c: &CycleRecord) {
         self.cycles.push(*c);
     }
+}
+
+/// Why a run failed: what, when, and the state at that time.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SimError {
+    /// The scenario combines settings the simulator cannot run.
+    #[error("scenario cannot be simulated: {0}")]
+    Setup(String),
+    /// The step size fell below what the time resolves.
+    #[error("step size underflow at t = {t:e} s (h = {h:e} s); {}", describe(.state))]
+    StepSizeUnderflow {
+        /// Time (s).
+        t: f64,
+        /// Last attempted step (s).
+        h: f64,
+        /// State.
+        state: Box<Sample>,
+    },
+    /// `solver.max_steps` exhausted.
+    #[error("step budget of {max_steps} steps exhausted at t = {t:e} s; {}", describe(.state))]
+    StepBudget {
+        /// Time (s).
+        t: f64,
+        /// The budget.
+        max_steps: u64,
+        /// State.
+        state: Box<Sample>,
+    },
+    /// `solver.max_wall_s` exhausted.
+    #[error("wall-clock budget of {max_wall_s} s exhausted at t = {t:e} s; {}", describe(.state))]
+    WallBudget {
+        /// Time (s).
+        t: f64,
+        /// The budget (s).
+        max_wall_s: f64,
+        /// State.
+        state: Box<Sample>,
+    },
+    /// A stage ran for its `max_duration` without meeting its end condition.
+    #[error("stage {stage} ({until}) did not end within max_duration = {max_duration} s (t = {t:e} s); {}", describe(.state))]
+    StageTimeout {
+        /// Stage index (0-based).
+        stage: usize,
+        /// The end condition, in words.
+        until: String,
+        /// The stage's limit (s).
+        max_duration: f64,
+        /// Time (s).
+        t: f64,
+        /// State.
+        state: Box<Sample>,
+    },
+    /// The state became non-finite and no smaller step cured it.
+    #[error("non-finite state at t = {t:e} s; {}", describe(.state))]
+    NonFinite {
+        /// Time (s).
+        t: f64,
+        /// Last finite state.
+        state: Box<Sample>,
+    },
+    /// An explicitly requested explicit method met a state it cannot integrate.
+    #[error("{method} failed at t = {t:e} s: {reason}; {}; use method = \"implicit\" (or \"auto\")", describe(.state))]
+    Explicit {
+        /// The method.
+        method: String,
+        /// Time (s).
+        t: f64,
+        /// What happened.
+        reason: String,
+        /// State.
+        state: Box<Sample>,
+    },
+}
+
+fn describe(s: &Sample) -> String {
+    format!(
+        "state: stage {}, x_s = {:e} m, v_s = {:e} m/s, delta = {:e} m, a = {:e} m, a_dot = {:e} m/s, F = {:e} N, G = {:e} J/m^2",
+        s.stage, s.x_s, s.v_s, s.delta, s.a, s.a_dot, s.force, s.g
+    )
 }

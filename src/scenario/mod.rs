@@ -52,6 +52,26 @@ pub struct Scenario {
 }
 
 impl Scenario {
+    /// The runnable protocol: rig, initial state, stages, solver and the output cadence.
+    pub fn plan(&self) -> crate::dynamics::Plan<'_> {
+        crate::dynamics::Plan {
+            rig: &self.rig,
+            initial: self.initial,
+            stages: &self.stages,
+            solver: self.solver,
+            sample_rate: self.output.sample_rate,
+        }
+    }
+
+    /// Simulate the scenario ([`crate::dynamics::run`]), feeding `obs` with samples, events and
+    /// cycle records.
+    pub fn simulate(
+        &self,
+        obs: &mut dyn crate::dynamics::Observer,
+    ) -> Result<crate::dynamics::RunResult, crate::dynamics::SimError> {
+        crate::dynamics::run(&self.plan(), obs)
+    }
+
     /// The scales the protocol adds to the rig's model (initial gap, fastest spring-end speed).
     pub fn run_scales(&self) -> crate::dynamics::model::RunScales {
         crate::dynamics::protocol::run_scales(&self.initial, &self.stages)

@@ -70,7 +70,7 @@ pub mod map;
 pub mod sweep;
 
 use crate::adhesion::AdhesionLaw;
-use crate::dynamics::{simulate, CycleRecord, EventKind, Observer, RunResult, Sample, SimError};
+use crate::dynamics::{CycleRecord, EventKind, Observer, RunResult, Sample, SimError};
 use crate::jkr;
 use crate::material::Material;
 use crate::scenario::{BaseMotion, Holder, Initial, Scenario, Stage, StageKind, Until};
@@ -405,7 +405,7 @@ impl Problem {
         let mut pre = scn.clone();
         pre.stages.truncate(i);
         pre.output.sample_rate = 0.0;
-        let r = simulate(&pre, &mut crate::dynamics::NoObserver)?;
+        let r = pre.simulate(&mut crate::dynamics::NoObserver)?;
         if r.detached {
             return Err(SteadyError::Setup(format!(
                 "{}: the sphere detached before the first vibrating stage (stage {})",
@@ -451,7 +451,7 @@ impl Problem {
         // The driver records the last base-period boundary (k·2π/ω) even when rounding puts it
         // a sliver after the stage end (periods / f).
         s.stages[0].until = Until::Duration(periods as f64 / self.frequency);
-        simulate(&s, obs)
+        s.simulate(obs)
     }
 
     /// A start state consistent with the model: ȧ from the law for (a, δ = x_s) (x_b = 0 at phase

@@ -21,8 +21,8 @@
 //! Coefficients: Hairer's `dop853.f` (the same values as scipy's `DOP853`), with the order
 //! conditions and the observed order checked in the tests below.
 
-use super::esdirk::{State, StepFail, StepOut, Tol};
 use super::model::{Drive, Kinematics, Mechanics, Model, NQ};
+use super::state::{State, StepFail, StepOut, Tol};
 
 /// Stage coefficients a_ij (row i = stage i + 1 of Hairer's numbering; 12 stages).
 const A: [[f64; 12]; 12] = [

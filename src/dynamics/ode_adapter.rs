@@ -24,8 +24,8 @@
 //! (ȧ = +∞: the explicit form cannot pass it), a rate-independent law (ȧ undefined), stiffness
 //! detected by `ode_solvers`, or its step budget exhausted.
 
-use super::esdirk::{State, StepFail, StepOut, Tol};
 use super::model::{Drive, Mechanics, Model, NQ};
+use super::state::{State, StepFail, StepOut, Tol};
 use crate::adhesion::AdhesionLaw;
 use crate::jkr;
 use ode_solvers::dop_shared::{IntegrationError, OutputType};
@@ -34,7 +34,7 @@ use std::cell::Cell;
 
 /// Which explicit method.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ExplicitKind {
+pub enum OdeMethod {
     /// Dormand–Prince 5(4).
     Dopri5,
     /// Dormand–Prince 8(5,3).
@@ -186,7 +186,7 @@ pub fn macro_step(
     y: &State,
     h: f64,
     tol: Tol,
-    kind: ExplicitKind,
+    kind: OdeMethod,
     h_guess: f64,
 ) -> Result<(StepOut, f64), StepFail> {
     let scale = scales(model);
@@ -248,8 +248,8 @@ pub fn macro_step(
         }};
     }
     let (res, out, last_h) = match kind {
-        ExplicitKind::Dopri5 => run!(Dopri5, 0.04, 0.2, 10.0),
-        ExplicitKind::Dop853 => run!(Dop853, 0.0, 0.333, 6.0),
+        OdeMethod::Dopri5 => run!(Dopri5, 0.04, 0.2, 10.0),
+        OdeMethod::Dop853 => run!(Dop853, 0.0, 0.333, 6.0),
     };
     let n_evals = evals.get();
     if collapse.get() && !singular.get() {

@@ -1,0 +1,779 @@
+//! The simulator: one integrator stepping the model under a drive, with step-size control,
+//! event location, contact formation and loss, base-period records and budgets. Each
+//! [`Simulator::step`] returns why it stopped — an accepted step, an event, a base period ended,
+//! the stop time reached — in the manner of diffsol's `step()`; the caller (the stage
+//! [`protocol`](super::protocol), shooting, continuation) decides what to do next and may
+//! [`reset`](Simulator::reset) the state or move the stop time ([`Simulator::advance_to`])
+//! without building a scenario.
+
+use super::control::StepControl;
+use super::events::{self, Watch};
+use super::model::{self, q, Drive, Kinematics, Mechanics, Model, NQ};
+use super::state::{State, StepFail, StepOut, Tol};
+use super::stepper::Stepper;
+use super::types::{CycleRecord, EventKind, Sample, SimError, Stats};
+use crate::jkr;
+use crate::rig::ContactFormation;
+use std::f64::consts::PI;
+use std::time::Instant;
+
+/// Budgets and tolerances of a simulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Settings {
+    /// Error-norm tolerances.
+    pub tol: Tol,
+    /// Event location tolerance in time (s).
+    pub event_tol: f64,
+    /// Accepted-step budget.
+    pub max_steps: u64,
+    /// Wall-clock budget (s).
+    pub max_wall_s: f64,
+    /// Samples are interpolated on a time grid between step ends (DP8 then keeps its steps to
+    /// 1/16 of a base period).
+    pub interpolated_samples: bool,
+}
+
+/// A stretch of the solution between two states of one step, under the drive that held over
+/// it (a period record at its end may switch the shaker off afterwards).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Segment {
+    /// Start.
+    pub y0: State,
+    /// End.
+    pub y1: State,
+    /// The prescribed motions over it.
+    pub drive: Drive,
+}
+
+/// Why [`Simulator::step`] returned.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Stop {
+    /// An accepted step; [`Simulator::segment`] is its start and end. `period` is the record of
+    /// a base period that ended with it; `reached` says the stop time was reached.
+    Step {
+        /// The record of the base period ending at this step's end.
+        period: Option<CycleRecord>,
+        /// The step ended at the stop time.
+        reached: bool,
+    },
+    /// The short backward-Euler step that gives a newly formed contact its healing rate
+    /// (taken right after an [`EventKind::Impact`]); [`Simulator::segment`] spans it.
+    Kick,
+    /// A located event (contact loss, impact, preload reached) with the state at the event; the
+    /// step leading up to it, if any, is [`Simulator::segment`]. After a contact loss the
+    /// simulator's state is already out of contact; after an impact it is the formed contact.
+    Event(EventKind, State),
+    /// A base period ended at the current time (without a step: a boundary met by rounding).
+    Period(CycleRecord),
+    /// The stop time was reached (without a step).
+    Reached,
+}
+
+/// The base-period clock: where the current period started, and the quadratures and energy
+/// there.
+#[derive(Debug, Clone, Copy)]
+struct Cycles {
+    index: u64,
+    t0: f64,
+    q0: [f64; NQ],
+    e0: f64,
+    /// The shaker switches off at the next period boundary (x_b stays continuous).
+    off_pending: bool,
+}
+
+/// One integrator stepping the model of a rig.
+pub struct Simulator {
+    model: Model,
+    drive: Drive,
+    stepper: Box<dyn Stepper>,
+    control: StepControl,
+    settings: Settings,
+    formation: ContactFormation,
+    y: State,
+    stats: Stats,
+    start: Instant,
+    /// The stop time (s).
+    t_end: f64,
+    /// The preload whose crossing ends the current stretch (approach stages).
+    preload: Option<f64>,
+    /// Largest step (s): 1/8 of a base period and 10 characteristic times.
+    h_max: f64,
+    cycles: Cycles,
+    /// A time at which a stage solve found no root (the contact collapses before it).
+    collapse_at: Option<f64>,
+    /// A contact just formed and awaits its backward-Euler kick.
+    kick_pending: bool,
+    segment: Option<Segment>,
+    /// Stage index reported in samples, records and errors.
+    stage: usize,
+}
+
+impl Simulator {
+    /// A simulator for `model` with `stepper`, starting at `y` under `drive` (the shaker's
+    /// period records start now if it is on). The stop time is +∞ until
+    /// [`advance_to`](Self::advance_to) sets one.
+    pub fn new(
+        model: Model,
+        stepper: Box<dyn Stepper>,
+        formation: ContactFormation,
+        settings: Settings,
+        y: State,
+        drive: Drive,
+    ) -> Self {
+        let mut h_max = f64::INFINITY;
+        if model.omega > 0.0 {
+            h_max = 2.0 * PI / model.omega / 8.0;
+        }
+        h_max = h_max.min(model.t_char * 10.0);
+        let mut sim = Self {
+            control: StepControl::new(1e-3 * model.t_char),
+            model,
+            drive,
+            stepper,
+            settings,
+            formation,
+            y,
+            stats: Stats::default(),
+            start: Instant::now(),
+            t_end: f64::INFINITY,
+            preload: None,
+            h_max,
+            cycles: Cycles {
+                index: 0,
+                t0: y.t,
+                q0: y.q,
+                e0: 0.0,
+                off_pending: false,
+            },
+            collapse_at: None,
+            kick_pending: false,
+            segment: None,
+            stage: 0,
+        };
+        sim.refresh();
+        if sim.drive.shaker {
+            sim.start_cycles();
+        }
+        sim
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The prescribed motions.
+    pub fn drive(&self) -> &Drive {
+        &self.drive
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &State {
+        &self.y
+    }
+
+    /// Solver statistics so far (wall time filled in by [`Simulator::finish_stats`]).
+    pub fn stats(&self) -> Stats {
+        self.stats
+    }
+
+    /// The statistics with the wall time since the simulator was made.
+    pub fn finish_stats(&mut self) -> Stats {
+        self.stats.wall_s = self.start.elapsed().as_secs_f64();
+        self.stats
+    }
+
+    /// Budgets and tolerances.
+    pub fn settings(&self) -> &Settings {
+        &self.settings
+    }
+
+    /// The stepper (its name and rescue count are reported with the run).
+    pub fn stepper(&self) -> &dyn Stepper {
+        self.stepper.as_ref()
+    }
+
+    /// The step behind the last [`Stop::Step`], [`Stop::Kick`] or [`Stop::Event`].
+    pub fn segment(&self) -> Option<Segment> {
+        self.segment
+    }
+
+    /// Label what follows with stage index `stage` (samples in errors, period records).
+    pub fn set_stage(&mut self, stage: usize) {
+        self.stage = stage;
+    }
+
+    /// Index of the current base period since the shaker switched on.
+    pub fn period_index(&self) -> u64 {
+        self.cycles.index
+    }
+
+    /// Stop at time `t_end` (s): [`Stop::Reached`] (or a step with `reached`) when it is hit.
+    /// `preload`: also end at the first crossing of the contact force up through it (N).
+    pub fn advance_to(&mut self, t_end: f64, preload: Option<f64>) {
+        self.t_end = t_end;
+        self.preload = preload;
+    }
+
+    /// Restart from `y` under `drive` (the state need not follow from the current one): cached
+    /// evaluations are dropped, and the period records restart if the shaker is on.
+    pub fn reset(&mut self, y: State, drive: Drive) {
+        self.y = y;
+        self.drive = drive;
+        self.collapse_at = None;
+        self.kick_pending = false;
+        self.cycles.off_pending = false;
+        self.refresh();
+        if self.drive.shaker {
+            self.start_cycles();
+        }
+    }
+
+    /// Move the spring end at `speed` (m/s, + towards the substrate) from where it is now.
+    pub fn set_spring_end_speed(&mut self, speed: f64) {
+        let t0 = self.y.t;
+        self.drive.xk0 = self.drive.x_k(t0);
+        self.drive.tk0 = t0;
+        self.drive.xk_speed = speed;
+    }
+
+    /// Switch the shaker on now (at phase 0, so x_b is continuous), or off at the next base
+    /// period boundary (same reason). Call [`Simulator::refresh`] after changing the drive.
+    pub fn set_shaker(&mut self, on: bool) {
+        if on {
+            self.cycles.off_pending = false;
+            if self.model.omega > 0.0 && !self.drive.shaker {
+                self.drive.shaker = true;
+                self.drive.t_on = self.y.t;
+                self.start_cycles();
+            }
+        } else if self.drive.shaker {
+            self.cycles.off_pending = true;
+        }
+    }
+
+    /// Refresh the derived parts of the state (acceleration; x, v for the reduced mechanics)
+    /// after the drive changed, and forget what the stepper carried over.
+    pub fn refresh(&mut self) {
+        self.stepper.reset();
+        self.control.reset();
+        let kin = self.kin(self.y.t);
+        let y = &mut self.y;
+        match self.model.mech {
+            Mechanics::Dynamic => {
+                y.acc = self.model.accel(&kin, y.x, y.v, y.a, y.contact);
+            }
+            _ => {
+                let (x, v) = self
+                    .model
+                    .position(&kin, y.a, y.adot, y.contact, y.x, y.v, 0.0);
+                y.x = x;
+                y.v = v;
+                y.acc = 0.0;
+            }
+        }
+    }
+
+    /// The prescribed quantities at time t.
+    pub fn kin(&self, t: f64) -> Kinematics {
+        self.drive.at(&self.model, t)
+    }
+
+    /// The time-series sample of a state (stage index `stage`).
+    pub fn sample_of(&self, y: &State, stage: usize) -> Sample {
+        make_sample(&self.model, &self.drive, y, stage)
+    }
+
+    /// Contact force of a state (N; 0 out of contact).
+    pub fn force_of(&self, y: &State) -> f64 {
+        if !y.contact {
+            return 0.0;
+        }
+        let kin = self.kin(y.t);
+        jkr::contact_force(&self.model.mat, y.a, y.x + kin.xb)
+    }
+
+    /// dF/dt of a state (N/s; 0 out of contact).
+    pub fn force_rate(&self, y: &State) -> f64 {
+        if !y.contact {
+            return 0.0;
+        }
+        let kin = self.kin(y.t);
+        let (k, r) = (self.model.mat.k, self.model.mat.r);
+        let d = y.x + kin.xb;
+        0.5 * k * (3.0 * d - 3.0 * y.a * y.a / r) * y.adot + 1.5 * k * y.a * (y.v + kin.vb)
+    }
+
+    /// A fresh step of length `h` from `y` (exact re-stepping for searches within a step); `None`
+    /// when it fails.
+    pub fn trial(&mut self, y: &State, h: f64) -> Option<State> {
+        match self.try_step(y, h) {
+            Ok(Some(o)) => Some(o.y),
+            _ => None,
+        }
+    }
+
+    /// Smallest step (s) the time resolves.
+    pub fn h_min(&self) -> f64 {
+        8.0 * f64::EPSILON * self.y.t.abs().max(self.model.t_char)
+    }
+
+    /// Take the next step, or handle what is due: the kick of a new contact, a contact formed at
+    /// rest, a period boundary or the stop time. Rejected attempts are retried inside, each
+    /// under the budgets.
+    pub fn step(&mut self) -> Result<Stop, SimError> {
+        self.segment = None;
+        if self.kick_pending {
+            self.kick_pending = false;
+            return self.kick();
+        }
+        loop {
+            if let Some(stop) = self.attempt()? {
+                return Ok(stop);
+            }
+        }
+    }
+
+    fn err_state(&self) -> Box<Sample> {
+        Box::new(self.sample_of(&self.y, self.stage))
+    }
+
+    fn budget(&self) -> Result<(), SimError> {
+        if self.stats.steps >= self.settings.max_steps {
+            return Err(SimError::StepBudget {
+                t: self.y.t,
+                max_steps: self.settings.max_steps,
+                state: self.err_state(),
+            });
+        }
+        if (self.stats.steps + self.stats.rejected).is_multiple_of(256) {
+            let wall = self.start.elapsed().as_secs_f64();
+            if wall > self.settings.max_wall_s {
+                return Err(SimError::WallBudget {
+                    t: self.y.t,
+                    max_wall_s: self.settings.max_wall_s,
+                    state: self.err_state(),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    fn next_boundary(&self) -> f64 {
+        if self.drive.shaker && self.model.omega > 0.0 {
+            self.drive.t_on + (self.cycles.index + 1) as f64 * 2.0 * PI / self.model.omega
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn start_cycles(&mut self) {
+        let y = self.y;
+        let kin = self.kin(y.t);
+        self.cycles = Cycles {
+            index: 0,
+            t0: y.t,
+            q0: y.q,
+            e0: model::total_energy(&self.model, &kin, y.x, y.v, y.a, y.contact),
+            off_pending: self.cycles.off_pending,
+        };
+    }
+
+    fn record_cycle(&mut self) -> CycleRecord {
+        let y = self.y;
+        let c = self.cycles;
+        let tt = y.t - c.t0;
+        let d: [f64; NQ] = std::array::from_fn(|i| y.q[i] - c.q0[i]);
+        let kin = self.kin(y.t);
+        let e1 = model::total_energy(&self.model, &kin, y.x, y.v, y.a, y.contact);
+        let m = |i: usize| d[i] / tt;
+        let hh = |i: usize| 2.0 * d[i] / tt;
+        let rec = CycleRecord {
+            index: c.index,
+            stage: self.stage,
+            t_start: c.t0,
+            t_end: y.t,
+            force_mean: m(q::F),
+            force_sin: hh(q::F_SIN),
+            force_cos: hh(q::F_COS),
+            // δ = x_s + x_b with x_b = X_b sin θ exactly over this whole base period (see q::XS_SIN).
+            delta_mean: m(q::XS),
+            delta_sin: hh(q::XS_SIN) + self.model.xb_amp,
+            delta_cos: hh(q::XS_COS),
+            a_mean: m(q::A),
+            a_sin: hh(q::A_SIN),
+            a_cos: hh(q::A_COS),
+            x_s_mean: m(q::XS),
+            x_k_mean: m(q::XK),
+            spring_mean: m(q::SPRING),
+            spring_sin: hh(q::SPRING_SIN),
+            spring_cos: hh(q::SPRING_COS),
+            work_base: d[q::W_BASE],
+            work_holder: d[q::W_HOLDER],
+            dissipation_damping: d[q::D_DAMP],
+            dissipation_adhesion: d[q::D_ADH],
+            energy_start: c.e0,
+            energy_end: e1,
+        };
+        self.cycles.index += 1;
+        self.cycles.t0 = y.t;
+        self.cycles.q0 = y.q;
+        self.cycles.e0 = e1;
+        if self.cycles.off_pending {
+            self.cycles.off_pending = false;
+            self.drive.shaker = false;
+            self.refresh();
+        }
+        rec
+    }
+
+    /// Try a step; `Ok(None)` for a failed stage solve (counted as 12 evaluations).
+    fn try_step(&mut self, y: &State, h: f64) -> Result<Option<StepOut>, StepFail> {
+        let mut extra = 0;
+        let r = self.stepper.attempt(
+            &self.model,
+            &self.drive,
+            y,
+            h,
+            self.settings.tol,
+            &mut extra,
+        );
+        self.stats.rhs_evals += extra;
+        match r {
+            Ok(o) => {
+                self.stats.rhs_evals += o.evals;
+                Ok(Some(o))
+            }
+            Err(StepFail::NoRoot) => {
+                self.stats.rhs_evals += 12;
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
+    }
+
+    fn watch_value(&self, w: Watch, y: &State) -> f64 {
+        match w {
+            Watch::Loss => y.a - self.model.a_floor,
+            Watch::Impact => y.x + self.kin(y.t).xb,
+            Watch::Preload(p) => self.force_of(y) - p,
+        }
+    }
+
+    /// Locate the crossing of `w` within the step y0 → y1 (length h).
+    fn locate(&mut self, w: Watch, y0: &State, y1: Option<State>, h: f64) -> State {
+        let t_tol = self.settings.event_tol.max(4.0 * f64::EPSILON * y0.t.abs());
+        let a_floor = self.model.a_floor;
+        // The simulator is borrowed by both closures: the values are read through a copy of
+        // what they need.
+        let model = self.model.clone();
+        let drive = self.drive;
+        let g = move |y: Option<&State>| match y {
+            Some(y) => match w {
+                Watch::Loss => y.a - a_floor,
+                Watch::Impact => y.x + drive.at(&model, y.t).xb,
+                Watch::Preload(p) => {
+                    let f = if y.contact {
+                        jkr::contact_force(&model.mat, y.a, y.x + drive.at(&model, y.t).xb)
+                    } else {
+                        0.0
+                    };
+                    f - p
+                }
+            },
+            // A failed stage solve: the contact has collapsed.
+            None => -a_floor,
+        };
+        events::locate(w, y0, y1, h, t_tol, g, |th| self.trial(y0, th))
+    }
+
+    /// The contact forms now (impact): at the jump-in radius or the seed; the backward-Euler
+    /// kick that gives it its healing rate follows at the next [`Simulator::step`].
+    fn form_contact(&mut self) -> Stop {
+        let a0 = match self.formation {
+            ContactFormation::JumpIn => self.model.a_jump,
+            ContactFormation::Seed(r) => r,
+        };
+        self.y.contact = true;
+        self.y.a = a0;
+        self.y.adot = 0.0;
+        self.collapse_at = None;
+        self.refresh();
+        self.kick_pending = true;
+        Stop::Event(EventKind::Impact, self.y)
+    }
+
+    /// The kick of a newly formed contact: one backward-Euler step of 10⁻⁷ t_char, whose end
+    /// rate is the (possibly enormous, but finite) healing rate of the new state.
+    fn kick(&mut self) -> Result<Stop, SimError> {
+        let hk = 1e-7 * self.model.t_char;
+        match super::esdirk::backward_euler(&self.model, &self.drive, &self.y, hk) {
+            Ok(o) => {
+                self.stats.rhs_evals += o.evals;
+                self.segment = Some(Segment {
+                    y0: self.y,
+                    y1: o.y,
+                    drive: self.drive,
+                });
+                self.y = o.y;
+                Ok(Stop::Kick)
+            }
+            Err(StepFail::NoRoot) => {
+                let y = self.y;
+                Ok(self.lose_contact(&y))
+            }
+            Err(StepFail::NonFinite | StepFail::Explicit(_) | StepFail::Singular) => {
+                Err(SimError::NonFinite {
+                    t: self.y.t,
+                    state: self.err_state(),
+                })
+            }
+        }
+    }
+
+    /// The contact is lost at `y`: the event carries `y`; the state goes out of contact.
+    fn lose_contact(&mut self, y: &State) -> Stop {
+        self.y = *y;
+        self.y.contact = false;
+        self.y.a = 0.0;
+        self.y.adot = 0.0;
+        self.collapse_at = None;
+        self.refresh();
+        Stop::Event(EventKind::ContactLoss, *y)
+    }
+
+    /// One pass of the stepping loop: `None` when an attempt was rejected (try again).
+    fn attempt(&mut self) -> Result<Option<Stop>, SimError> {
+        self.budget()?;
+        let y0 = self.y;
+        if !y0.contact && self.watch_value(Watch::Impact, &y0) >= 0.0 {
+            // Out of contact with no gap (e.g. the spring end driven into the substrate at a
+            // stage start): contact forms now.
+            return Ok(Some(self.form_contact()));
+        }
+        let t_bound = self.next_boundary();
+        let t_lim = self.t_end.min(t_bound);
+        let snap = 16.0 * f64::EPSILON * y0.t.abs().max(self.model.t_char);
+        if t_lim - y0.t <= snap {
+            // Boundaries are hit exactly; a rounding sliver between two of them (a stage end and
+            // a period boundary computed differently, e.g. a stage of exactly one base period) is
+            // absorbed here, and a period boundary within it is recorded.
+            if t_bound - y0.t <= snap {
+                self.y.t = self.y.t.max(t_bound);
+                return Ok(Some(Stop::Period(self.record_cycle())));
+            }
+            self.y.t = self.y.t.max(t_lim);
+            return Ok(Some(Stop::Reached));
+        }
+        let kind = self.stepper.kind();
+        let prop = self
+            .control
+            .propose(y0.t, self.h_max, kind, self.settings.interpolated_samples);
+        let mut h = prop.h;
+        if y0.contact {
+            if let Some(tc) = self.collapse_at {
+                if tc - y0.t <= self.settings.event_tol.max(self.h_min()) {
+                    return Ok(Some(self.lose_contact(&y0)));
+                }
+                h = h.min(0.5 * (tc - y0.t));
+            }
+        }
+        let mut hits = false;
+        if h >= t_lim - y0.t || t_lim - y0.t - h < 1e-3 * h {
+            h = t_lim - y0.t;
+            hits = true;
+        }
+        let out = match self.try_step(&y0, h) {
+            Ok(Some(o)) => o,
+            Ok(None) => return self.no_root(&y0, h),
+            Err(e) => return self.failed(&y0, h, e),
+        };
+        if self
+            .control
+            .redo_at_turning_point(out.kink, h, self.h_min())
+        {
+            self.stats.rejected += 1;
+            return Ok(None);
+        }
+        if out.err > 1.0 {
+            self.stats.rejected += 1;
+            let h_new = self.control.reject(out.err, out.err_exp, h);
+            if y0.contact && y0.adot < 0.0 && h_new <= self.settings.event_tol.max(self.h_min()) {
+                // The radius runs into a turning point or a → 0 with unbounded speed faster
+                // than the event tolerance resolves: the contact is lost here.
+                return Ok(Some(self.lose_contact(&y0)));
+            }
+            if h_new <= self.h_min() {
+                return Err(SimError::StepSizeUnderflow {
+                    t: y0.t,
+                    h: h_new,
+                    state: self.err_state(),
+                });
+            }
+            return Ok(None);
+        }
+        self.control.accept(
+            out.err,
+            out.err_exp,
+            h,
+            hits || prop.shortened,
+            out.kink_ahead,
+        );
+        let mut y1 = out.y;
+        if hits {
+            y1.t = t_lim;
+        }
+        self.stats.steps += 1;
+        if let Some(stop) = self.event_in_step(&y0, y1, h) {
+            return Ok(Some(stop));
+        }
+        if !(y1.x.is_finite() && y1.v.is_finite() && y1.a.is_finite() && y1.a >= 0.0) {
+            return Err(SimError::NonFinite {
+                t: y0.t,
+                state: self.err_state(),
+            });
+        }
+        self.segment = Some(Segment {
+            y0,
+            y1,
+            drive: self.drive,
+        });
+        self.y = y1;
+        // A period boundary a rounding sliver after the stage end (a stage of whole periods)
+        // still closes its cycle.
+        let period = (hits && t_bound - t_lim <= snap).then(|| self.record_cycle());
+        Ok(Some(Stop::Step {
+            period,
+            reached: hits && self.t_end <= t_lim,
+        }))
+    }
+
+    /// The earliest event within the accepted step y0 → y1, located; the state moves to it.
+    fn event_in_step(&mut self, y0: &State, y1: State, h: f64) -> Option<Stop> {
+        let watches: [Option<Watch>; 2] = if y0.contact {
+            [Some(Watch::Loss), self.preload.map(Watch::Preload)]
+        } else {
+            [Some(Watch::Impact), None]
+        };
+        let mut first: Option<(Watch, State)> = None;
+        for w in watches.into_iter().flatten() {
+            let (g0, g1) = (self.watch_value(w, y0), self.watch_value(w, &y1));
+            if w.crossed(g0, g1) {
+                let ye = self.locate(w, y0, Some(y1), h);
+                if first.as_ref().is_none_or(|(_, f)| ye.t < f.t) {
+                    first = Some((w, ye));
+                }
+            }
+        }
+        let (w, ye) = first?;
+        self.segment = Some(Segment {
+            y0: *y0,
+            y1: ye,
+            drive: self.drive,
+        });
+        self.y = ye;
+        let stop = match w {
+            Watch::Loss => self.lose_contact(&ye),
+            Watch::Impact => self.form_contact(),
+            Watch::Preload(_) => Stop::Event(EventKind::PreloadReached, ye),
+        };
+        Some(stop)
+    }
+
+    /// A stage solve found no root with a > 0 for the attempt y0 + h.
+    fn no_root(&mut self, y0: &State, h: f64) -> Result<Option<Stop>, SimError> {
+        self.stats.rejected += 1;
+        if y0.contact && y0.adot < 0.0 {
+            // A shrinking contact with no stage root: it collapses before t + h.
+            let tc = y0.t + h;
+            self.collapse_at = Some(self.collapse_at.map_or(tc, |c| c.min(tc)));
+            self.control.shrink(h, 0.5);
+            return Ok(None);
+        }
+        // Healing (e.g. right after a seeded impact, ȧ huge): the step is too long for the stage
+        // rates; shorten it.
+        let h_new = self.control.shrink(h, 0.25);
+        if h_new <= self.h_min() {
+            return Err(SimError::StepSizeUnderflow {
+                t: y0.t,
+                h: h_new,
+                state: self.err_state(),
+            });
+        }
+        Ok(None)
+    }
+
+    /// An attempt failed otherwise: an explicit method's limits, the healing singularity, a
+    /// non-finite stage.
+    fn failed(&mut self, y0: &State, h: f64, e: StepFail) -> Result<Option<Stop>, SimError> {
+        match e {
+            StepFail::Explicit(reason) => {
+                // Only an explicitly requested `ode_solvers` method gets here (`auto` runs DP8
+                // or the implicit method).
+                Err(SimError::Explicit {
+                    method: self.stepper.name().into(),
+                    t: y0.t,
+                    reason: reason.into(),
+                    state: self.err_state(),
+                })
+            }
+            StepFail::Singular => {
+                // A DP8 trial stage met G ≤ 0: the step is too long for the healing rate.
+                self.stats.rejected += 1;
+                if self.control.shrink(h, 0.25) <= self.h_min() {
+                    return Err(SimError::Explicit {
+                        method: self.stepper.name().into(),
+                        t: y0.t,
+                        reason: "the contact edge is compressive or G <= 0 (infinite healing \
+                                 speed) at every step size"
+                            .into(),
+                        state: self.err_state(),
+                    });
+                }
+                Ok(None)
+            }
+            StepFail::NonFinite | StepFail::NoRoot => {
+                self.stats.rejected += 1;
+                if h <= self.h_min() {
+                    return Err(SimError::NonFinite {
+                        t: y0.t,
+                        state: self.err_state(),
+                    });
+                }
+                self.control.shrink(h, 0.25);
+                Ok(None)
+            }
+        }
+    }
+}
+
+/// Build the time-series sample of a state.
+pub fn make_sample(m: &Model, drive: &Drive, y: &State, stage: usize) -> Sample {
+    let kin = drive.at(m, y.t);
+    let delta = y.x + kin.xb;
+    let (a, adot, f, g, w) = if y.contact {
+        (
+            y.a,
+            y.adot,
+            jkr::contact_force(&m.mat, y.a, delta),
+            jkr::signed_energy_release_rate(&m.mat, y.a, delta),
+            m.work_of_adhesion(y.adot),
+        )
+    } else {
+        (0.0, 0.0, 0.0, 0.0, m.w0)
+    };
+    Sample {
+        t: y.t,
+        x_s: y.x,
+        v_s: y.v,
+        x_b: kin.xb,
+        x_k: kin.xk,
+        delta,
+        a,
+        a_dot: adot,
+        force: f,
+        g,
+        w,
+        stage,
+    }
+}
