@@ -28,7 +28,7 @@ fn bench(c: &mut Criterion) {
             return;
         }
     };
-    let (problem, start) = match Problem::from_scenario(&scn) {
+    let (problem, start) = match Problem::from_plan(&scn.plan()) {
         Ok(p) => p,
         Err(e) => {
             eprintln!("{e}");

@@ -131,6 +131,31 @@ pub fn equilibrium_radius_for_force(m: &Material, force: f64, w: f64) -> Option<
     Some(s.powf(2.0 / 3.0))
 }
 
+/// The JKR contact radius at work of adhesion w for indentation δ, on the stable
+/// (displacement-controlled) branch a ≥ a_dc, where δ_eq(a) = a²/R − √(8πaw/(3K)) increases;
+/// `None` below the branch's minimum δ (no contact). Bracketed by doubling from
+/// max(a_dc, √(R|δ|)), then bisected to 1e-15 relative.
+pub fn equilibrium_radius_for_indentation(m: &Material, delta: f64, w: f64) -> Option<f64> {
+    let a_dc = displacement_controlled_pull_off_radius(m, w);
+    let f = |a: f64| equilibrium_indentation(m, a, w) - delta;
+    if !(delta.is_finite() && a_dc.is_finite()) || f(a_dc) > 0.0 {
+        return None;
+    }
+    let (mut lo, mut hi) = (a_dc, 2.0 * a_dc.max((m.r * delta.abs()).sqrt()));
+    let mut guard = 0;
+    while f(hi) < 0.0 {
+        lo = hi;
+        hi *= 2.0;
+        guard += 1;
+        if guard > 200 {
+            return None;
+        }
+    }
+    // f is monotonic on the branch.
+    let (lo, hi) = crate::numerics::bisect(lo, hi, 1e-15, |a| f(a) < 0.0);
+    Some(0.5 * (lo + hi))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -212,5 +237,18 @@ mod tests {
             equilibrium_radius_for_force(&M, 1.01 * load_controlled_pull_off_force(&M, w), w)
                 .is_none()
         );
+    }
+
+    #[test]
+    fn equilibrium_radius_inverts_the_jkr_indentation() {
+        let m = Material::PAPER;
+        for &a in &[0.5e-3, 1.2e-3, 4e-3] {
+            let d = equilibrium_indentation(&m, a, m.w0);
+            let back = equilibrium_radius_for_indentation(&m, d, m.w0).unwrap_or(0.0);
+            assert!((back / a - 1.0).abs() < 1e-12, "{a} -> {back}");
+        }
+        let a_dc = displacement_controlled_pull_off_radius(&m, m.w0);
+        let d_min = equilibrium_indentation(&m, a_dc, m.w0);
+        assert!(equilibrium_radius_for_indentation(&m, d_min - 1e-9, m.w0).is_none());
     }
 }

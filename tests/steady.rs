@@ -49,7 +49,7 @@ fn shooting_and_long_time_stepping_agree_on_the_same_orbit() {
     // The bundled resonance scene at 400 Hz: lightly damped, and the mean contact radius creeps
     // (the Gent–Schultz rate is flat near G = w0), so plain time-stepping needs ~10⁴ periods.
     let scn = scene("resonance-400hz.toml");
-    let (p, start) = Problem::from_scenario(&scn).unwrap_or_else(|e| panic!("{e}"));
+    let (p, start) = Problem::from_plan(&scn.plan()).unwrap_or_else(|e| panic!("{e}"));
     let sh = solve(&p, &start, Strategy::Shooting);
     let ts = solve(&p, &start, Strategy::TimeStepping);
     assert_eq!(sh.method, SteadyMethod::Shooting);
@@ -90,7 +90,7 @@ fn force_balance_holds_to_integration_accuracy() {
         ("impacts.toml", SteadyMethod::TimeStepping),
     ] {
         let scn = scene(name);
-        let (p, start) = Problem::from_scenario(&scn).unwrap_or_else(|e| panic!("{e}"));
+        let (p, start) = Problem::from_plan(&scn.plan()).unwrap_or_else(|e| panic!("{e}"));
         let s = solve(&p, &start, Strategy::Auto);
         assert_eq!(s.method, method, "{name}");
         assert_eq!(s.contact_lost, name == "impacts.toml", "{name}");
@@ -100,7 +100,7 @@ fn force_balance_holds_to_integration_accuracy() {
             "{name}: <F> - (m g + <spring>) = {mismatch:e} N, bound {bound:e} N"
         );
         // The library's check agrees.
-        let fb = compare::force_balance(&scn, &s);
+        let fb = compare::force_balance(&scn.rig, &s);
         assert!(fb.holds, "{name}: {fb:?}");
     }
 }
@@ -135,7 +135,7 @@ fn small_amplitude_without_rate_dependence_matches_the_linear_transfer() {
     for (w0, f) in [(1e-6, 390.0), (1e-6, 300.0), (0.24, 380.0), (0.24, 500.0)] {
         let scn = constant_w_scene(w0);
         let xb = 1e-9; // δ1/δ_m ~ 1e-3 near resonance: nonlinear terms ~1e-3 relative
-        let (p, start) = Problem::from_scenario(&scn).unwrap_or_else(|e| panic!("{e}"));
+        let (p, start) = Problem::from_plan(&scn.plan()).unwrap_or_else(|e| panic!("{e}"));
         let p = p.at(f, xb).unwrap_or_else(|e| panic!("{e}"));
         let s = solve(&p, &start, Strategy::Auto);
         assert_eq!(s.method, SteadyMethod::Shooting);
@@ -176,7 +176,7 @@ fn small_amplitude_gent_schultz_contact_is_pinned_and_matches_eq_37() {
     // at resonance (400 Hz, most sensitive to damping) the error falls from 10 nm to 1 nm, and
     // then reaches the integration floor: rtol·δ_m ≈ 1e-15 m is ~1e-6 of δ1 at X_b = 1 nm.
     let scn = scene("resonance-400hz.toml");
-    let (p0, start) = Problem::from_scenario(&scn).unwrap_or_else(|e| panic!("{e}"));
+    let (p0, start) = Problem::from_plan(&scn.plan()).unwrap_or_else(|e| panic!("{e}"));
     for f in [300.0, 400.0] {
         let omega = 2.0 * std::f64::consts::PI * f;
         let mut errors = Vec::new();
@@ -207,7 +207,7 @@ fn sweep_through_the_nonlinear_resonance_is_reproducible_with_hysteresis() {
     // the resonance to ~447 Hz on the way up; coming down the response stays on the low branch
     // until ~440 Hz.
     let scn = scene("resonance-400hz.toml");
-    let (p, start) = Problem::from_scenario(&scn).unwrap_or_else(|e| panic!("{e}"));
+    let (p, start) = Problem::from_plan(&scn.plan()).unwrap_or_else(|e| panic!("{e}"));
     let p = p.at(400.0, 1.5e-6).unwrap_or_else(|e| panic!("{e}"));
     let freqs = sweep::frequencies(400.0, 450.0, 26);
     let o = Options::default();
@@ -263,7 +263,7 @@ fn sweep_through_the_nonlinear_resonance_is_reproducible_with_hysteresis() {
 fn bundled_resonance_scene_peaks_near_400_hz() {
     // 300–500 Hz, 41 frequencies, up only: a clear peak near the linear prediction.
     let scn = scene("resonance-400hz.toml");
-    let (p, start) = Problem::from_scenario(&scn).unwrap_or_else(|e| panic!("{e}"));
+    let (p, start) = Problem::from_plan(&scn.plan()).unwrap_or_else(|e| panic!("{e}"));
     let lin = sweep::Linearisation::for_problem(&p, &start).unwrap_or_else(|e| panic!("{e}"));
     let freqs = sweep::frequencies(300.0, 500.0, 41);
     let sw = sweep::sweep(
@@ -497,7 +497,7 @@ fn reduced_models_have_fewer_unknowns() {
     for (name, edit) in cases {
         let mut scn = catalogue::vibrating_hold(1e-6, 300.0, 1.0);
         edit(&mut scn);
-        let (p, start) = Problem::from_scenario(&scn).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let (p, start) = Problem::from_plan(&scn.plan()).unwrap_or_else(|e| panic!("{name}: {e}"));
         let s = solve(&p, &start, Strategy::Auto);
         assert_eq!(s.method, SteadyMethod::Shooting, "{name}");
         assert!(s.residual < 1e-8, "{name}: {s:?}");

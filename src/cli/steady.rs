@@ -219,7 +219,7 @@ pub fn validate(a: &ValidateArgs) -> Result<()> {
     let bar = ProgressBar::new_spinner();
     bar.set_message("finding the periodic steady state");
     bar.enable_steady_tick(Duration::from_millis(200));
-    let c = compare::compare(&scn, &opts);
+    let c = compare::compare(&scn.plan(), &opts);
     bar.finish_and_clear();
     let c = c.with_context(|| format!("{}", a.file.display()))?;
     if a.json {
@@ -738,7 +738,7 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     let (lo, hi, n) = range("--freq", &a.freq, Dimension::Frequency)?;
     let scn = load_scenario(&a.file)?;
     let (mut problem, start) =
-        Problem::from_scenario(&scn).with_context(|| format!("{}", a.file.display()))?;
+        Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     if let Some(t) = &a.amp {
         let xb = positive_quantity("--amp", t, Dimension::Length)?;
         problem = problem.at(problem.frequency, xb)?;
@@ -1224,7 +1224,7 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     let (alo, ahi, na) = range("--amp", &a.amp, Dimension::Length)?;
     let scn = load_scenario(&a.file)?;
     let (problem, start) =
-        Problem::from_scenario(&scn).with_context(|| format!("{}", a.file.display()))?;
+        Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     let freqs = sweep::frequencies(flo, fhi, nf);
     let amps = log_space(alo, ahi, na);
     let bar = progress_bar((nf * na) as u64, "map");

@@ -469,41 +469,7 @@ pub fn step(
         std::array::from_fn(|c| inc[c] - BHH[0] * f1[c] - BHH[1] * f9[c] - BHH[2] * f12[c]);
     let (x1, v1) = (y.x + h * inc[0], y.v + h * inc[1]);
     let a1 = if y.contact { y.a + h * inc[2] } else { 0.0 };
-    let (mut s5, mut s3, mut n) = (0.0, 0.0, 0usize);
-    let sa = tol.atol * model.a_jump + tol.rtol * y.a.abs().max(a1.abs());
-    if model.mech == Mechanics::Dynamic {
-        let sx = tol.atol * model.len_scale + tol.rtol * y.x.abs().max(x1.abs());
-        let sv = tol.atol * model.vel_scale + tol.rtol * y.v.abs().max(v1.abs());
-        s5 += (e5[0] / sx).powi(2) + (e5[1] / sv).powi(2);
-        s3 += (e3[0] / sx).powi(2) + (e3[1] / sv).powi(2);
-        n += 2;
-    }
-    if y.contact {
-        s5 += (e5[2] / sa).powi(2);
-        s3 += (e3[2] / sa).powi(2);
-        n += 1;
-    }
-    // Error norm: the implicit stepper's per-component scales, with Hairer's combination
-    // err = h E5² / sqrt(n (E5² + 0.01 E3²)) of the weighted sums of squares. The contact radius
-    // must in addition pass its own 5th-order estimate: the Gent–Schultz rate is not smooth where
-    // ȧ changes sign (a − a_k ∝ |t − t_k|^(1 + 1/n)) and varies steeply in deep healing, and there
-    // the combined estimate alone was measured to understate the local error in a by up to 70×
-    // (1 s at 400 Hz, 5 µm: the global error then stalls near 1e-5 instead of following rtol).
-    let err = if n > 0 {
-        let mut deno = s5 + 0.01 * s3;
-        if deno <= 0.0 {
-            deno = 1.0;
-        }
-        let combined = h.abs() * s5 * (1.0 / (deno * n as f64)).sqrt();
-        let ea = if y.contact {
-            h.abs() * (e5[2] / sa).abs()
-        } else {
-            0.0
-        };
-        combined.max(ea)
-    } else {
-        0.0
-    };
+    let err = error_norm(model, tol, y, [x1, v1, a1], &e5, &e3, h);
     if !err.is_finite() || q.iter().any(|v| !v.is_finite()) {
         return Err(StepFail::NonFinite);
     }
@@ -512,24 +478,7 @@ pub fn step(
     let mut fq_end = [0.0; NQ];
     let kin = drive.at_advanced(model, y.t + h, phase0, h);
     let k_end = rates(model, &kin, x1, v1, a1, y.contact, 1.0, &mut fq_end, true)?;
-    // Turning points of the contact line (G = w0) inside the step and just beyond it, on the
-    // cubic Hermite interpolant of G (both ends exact to the step's order); a turning point that
-    // the end values miss (G touching w0 and returning) is found from the stages.
-    let (mut kink, mut kink_ahead) = (None, None);
-    if y.contact && !model.rate_independent {
-        let g = GCubic::new(
-            k1.g - model.w0,
-            h * k1.gdot,
-            k_end.g - model.w0,
-            h * k_end.gdot,
-        );
-        kink = if (k1.g > model.w0) != (k_end.g > model.w0) {
-            g.root(0.0, 1.0, 1)
-        } else {
-            turning_point(&k, model.w0)
-        };
-        kink_ahead = g.root(1.0, 2.5, 3).map(|s| y.t + s * h);
-    }
+    let (kink, kink_ahead) = turning_points(model, y, h, k1, &k_end, &k);
     Ok((
         StepOut {
             y: State {
@@ -551,6 +500,85 @@ pub fn step(
         k_end,
         fq_end,
     ))
+}
+
+/// The step's error: the implicit stepper's per-component scales, with Hairer's combination
+/// err = h E5² / sqrt(n (E5² + 0.01 E3²)) of the weighted sums of squares over (x, v, a). The
+/// contact radius must in addition pass its own 5th-order estimate: the Gent–Schultz rate is not
+/// smooth where ȧ changes sign (a − a_k ∝ |t − t_k|^(1 + 1/n)) and varies steeply in deep
+/// healing, and there the combined estimate alone was measured to understate the local error in
+/// a by up to 70× (1 s at 400 Hz, 5 µm: the global error then stalls near 1e-5 instead of
+/// following rtol). `end` is (x, v, a) at the step's end.
+#[inline(always)]
+fn error_norm(
+    model: &Model,
+    tol: Tol,
+    y: &State,
+    end: [f64; 3],
+    e5: &[f64; 3],
+    e3: &[f64; 3],
+    h: f64,
+) -> f64 {
+    let [x1, v1, a1] = end;
+    let (mut s5, mut s3, mut n) = (0.0, 0.0, 0usize);
+    let sa = tol.atol * model.a_jump + tol.rtol * y.a.abs().max(a1.abs());
+    if model.mech == Mechanics::Dynamic {
+        let sx = tol.atol * model.len_scale + tol.rtol * y.x.abs().max(x1.abs());
+        let sv = tol.atol * model.vel_scale + tol.rtol * y.v.abs().max(v1.abs());
+        s5 += (e5[0] / sx).powi(2) + (e5[1] / sv).powi(2);
+        s3 += (e3[0] / sx).powi(2) + (e3[1] / sv).powi(2);
+        n += 2;
+    }
+    if y.contact {
+        s5 += (e5[2] / sa).powi(2);
+        s3 += (e3[2] / sa).powi(2);
+        n += 1;
+    }
+    if n > 0 {
+        let mut deno = s5 + 0.01 * s3;
+        if deno <= 0.0 {
+            deno = 1.0;
+        }
+        let combined = h.abs() * s5 * (1.0 / (deno * n as f64)).sqrt();
+        let ea = if y.contact {
+            h.abs() * (e5[2] / sa).abs()
+        } else {
+            0.0
+        };
+        combined.max(ea)
+    } else {
+        0.0
+    }
+}
+
+/// Turning points of the contact line (G = w0) inside the step (as a fraction of h) and just
+/// beyond it (as a time), on the cubic Hermite interpolant of G (both ends exact to the step's
+/// order); a turning point that the end values miss (G touching w0 and returning) is found from
+/// the stages `k`.
+#[inline(always)]
+fn turning_points(
+    model: &Model,
+    y: &State,
+    h: f64,
+    k1: &Rates,
+    k_end: &Rates,
+    k: &[Rates; 12],
+) -> (Option<f64>, Option<f64>) {
+    if !y.contact || model.rate_independent {
+        return (None, None);
+    }
+    let g = GCubic::new(
+        k1.g - model.w0,
+        h * k1.gdot,
+        k_end.g - model.w0,
+        h * k_end.gdot,
+    );
+    let kink = if (k1.g > model.w0) != (k_end.g > model.w0) {
+        g.root(0.0, 1.0, 1)
+    } else {
+        turning_point(k, model.w0)
+    };
+    (kink, g.root(1.0, 2.5, 3).map(|s| y.t + s * h))
 }
 
 #[cfg(test)]

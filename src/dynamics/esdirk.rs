@@ -280,6 +280,118 @@ pub fn derivatives(model: &Model, kin: &Kinematics, y: &State) -> (f64, [f64; NQ
     (acc, fq)
 }
 
+/// The contact radius of an implicit stage in contact: (a, ȧ, w(ȧ) when known, the law
+/// variable z of the Gent–Schultz Newton path or NaN). The root is found by [`newton_radius`]
+/// with the analytic dρ/da for the laws with a closed-form slope (Gent–Schultz, constant),
+/// falling back to [`solve_radius`]; arguments as [`implicit_stage`]'s.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn stage_radius(
+    model: &Model,
+    kin: &Kinematics,
+    xk: f64,
+    vk: f64,
+    ck: f64,
+    hg: f64,
+    adot_guess: f64,
+    z_guess: Option<f64>,
+    xtol_rel: f64,
+    evals: &mut u64,
+    k_hint: &mut f64,
+) -> Result<(f64, f64, Option<f64>, f64), StepFail> {
+    let mat = &model.mat;
+    let w0 = model.w0;
+    let mut a_p = ck + hg * adot_guess;
+    if !(a_p > 0.0 && a_p.is_finite()) {
+        a_p = if ck > 0.0 { ck } else { model.a_floor };
+    }
+    let inv_hg = 1.0 / hg;
+    let c3 = 3.0 * mat.k / (8.0 * std::f64::consts::PI);
+    let inv_r = 1.0 / mat.r;
+    // G_s(a, δ(a)) and its total derivative in a.
+    let g_d = |a: f64| {
+        let (x, dx) = model.position_slope(kin, a, xk, vk, hg);
+        let u = a * a * inv_r - (x + kin.xb);
+        let du = 2.0 * a * inv_r - dx;
+        let inv_a = 1.0 / a;
+        (
+            c3 * u * u.abs() * inv_a,
+            c3 * u.abs() * inv_a * (2.0 * du - u * inv_a),
+        )
+    };
+    let newton = match &model.law {
+        Law::GentSchultz(gs) if gs.n < 1.0 => {
+            // Gent–Schultz with n < 1: Newton in z = sign(ȧ)(|ȧ|/v0)^n, in which w(z) =
+            // w0(1 + |z|) (peeling) or w0/(1 + z) (healing) is C¹ with slope −w0 at z = 0
+            // and a(z) = c + hγ v0 sign(z)|z|^(1/n) is C¹: ρ(z) is regular through the kink
+            // ȧ = 0 where ρ(a) has an infinite slope. |z|^(1/n) as exp(ln|z|/n): one exp
+            // and one ln per evaluation instead of the slower `pow`.
+            let inv_n = 1.0 / gs.n;
+            let v0h = hg * gs.v0;
+            let rho_z = |z: f64| {
+                let za = z.abs();
+                let (pw, da) = if za > 0.0 {
+                    let pw = (za.ln() * inv_n).exp();
+                    (pw, v0h * inv_n * pw / za)
+                } else {
+                    (0.0, 0.0)
+                };
+                let a = ck + v0h * pw.copysign(z);
+                if a.is_nan() || a <= 0.0 {
+                    return (f64::NAN, f64::NAN, a, da);
+                }
+                let (g, dg) = g_d(a);
+                let (w, dw) = if z < 0.0 {
+                    (gs.w0 * (1.0 - z), -gs.w0)
+                } else {
+                    let d = 1.0 + z;
+                    (gs.w0 / d, -gs.w0 / (d * d))
+                };
+                ((g - w) / w0, (dg * da - dw) / w0, a, da)
+            };
+            let z_p = match z_guess {
+                Some(z) if z.is_finite() => z,
+                _ => {
+                    let ad_p = (a_p - ck) * inv_hg;
+                    (ad_p.abs() / gs.v0).powf(gs.n).copysign(ad_p)
+                }
+            };
+            newton_radius(rho_z, z_p, 1.0, xtol_rel, evals, k_hint)
+        }
+        _ if model.has_law_slope() => {
+            let rho_d = |a: f64| {
+                if a.is_nan() || a <= 0.0 {
+                    return (f64::NAN, f64::NAN, a, 1.0);
+                }
+                let ad = (a - ck) * inv_hg;
+                let (g, dg) = g_d(a);
+                let (w, dw) = model.work_and_slope(ad).unwrap_or((w0, 0.0));
+                ((g - w) / w0, (dg - dw * inv_hg) / w0, a, 1.0)
+            };
+            newton_radius(rho_d, a_p, 0.0, xtol_rel, evals, k_hint).map(|(_, a)| (f64::NAN, a))
+        }
+        _ => None,
+    };
+    match newton {
+        Some((z, a)) => Ok((a, (a - ck) * inv_hg, None, z)),
+        None => {
+            let rho = |a: f64| {
+                if a <= 0.0 {
+                    return f64::NAN;
+                }
+                let ad = (a - ck) / hg;
+                let (x, _) = model.position(kin, a, ad, true, xk, vk, hg);
+                let g = jkr::signed_energy_release_rate(mat, a, x + kin.xb);
+                (g - model.work_of_adhesion(ad)) / w0
+            };
+            let step0 = (1e-3 * (a_p - ck).abs()).max(1e-10 * a_p);
+            let a = solve_radius(rho, a_p, step0, xtol_rel, evals).ok_or(StepFail::NoRoot)?;
+            let ad = (a - ck) / hg;
+            Ok((a, ad, Some(model.work_of_adhesion(ad)), f64::NAN))
+        }
+    }
+}
+
 /// Solve one implicit stage (also used alone as a backward-Euler step with `hg` = h).
 /// `xk`, `vk`, `ck` are the known parts of x, v, a; returns the stage values and adds
 /// `wq` × (the quadrature integrands) to `qacc` (skipped for a zero weight).
@@ -304,104 +416,12 @@ fn implicit_stage(
     qacc: &mut [f64; NQ],
     k_hint: &mut f64,
 ) -> Result<Stage, StepFail> {
-    let mut z_out = f64::NAN;
-    let (a, adot, w_known) = if contact {
-        let mat = &model.mat;
-        let w0 = model.w0;
-        let mut a_p = ck + hg * adot_guess;
-        if !(a_p > 0.0 && a_p.is_finite()) {
-            a_p = if ck > 0.0 { ck } else { model.a_floor };
-        }
-        let inv_hg = 1.0 / hg;
-        let c3 = 3.0 * mat.k / (8.0 * std::f64::consts::PI);
-        let inv_r = 1.0 / mat.r;
-        // G_s(a, δ(a)) and its total derivative in a.
-        let g_d = |a: f64| {
-            let (x, dx) = model.position_slope(kin, a, xk, vk, hg);
-            let u = a * a * inv_r - (x + kin.xb);
-            let du = 2.0 * a * inv_r - dx;
-            let inv_a = 1.0 / a;
-            (
-                c3 * u * u.abs() * inv_a,
-                c3 * u.abs() * inv_a * (2.0 * du - u * inv_a),
-            )
-        };
-        let newton = match &model.law {
-            Law::GentSchultz(gs) if gs.n < 1.0 => {
-                // Gent–Schultz with n < 1: Newton in z = sign(ȧ)(|ȧ|/v0)^n, in which w(z) =
-                // w0(1 + |z|) (peeling) or w0/(1 + z) (healing) is C¹ with slope −w0 at z = 0
-                // and a(z) = c + hγ v0 sign(z)|z|^(1/n) is C¹: ρ(z) is regular through the kink
-                // ȧ = 0 where ρ(a) has an infinite slope. |z|^(1/n) as exp(ln|z|/n): one exp
-                // and one ln per evaluation instead of the slower `pow`.
-                let inv_n = 1.0 / gs.n;
-                let v0h = hg * gs.v0;
-                let rho_z = |z: f64| {
-                    let za = z.abs();
-                    let (pw, da) = if za > 0.0 {
-                        let pw = (za.ln() * inv_n).exp();
-                        (pw, v0h * inv_n * pw / za)
-                    } else {
-                        (0.0, 0.0)
-                    };
-                    let a = ck + v0h * pw.copysign(z);
-                    if a.is_nan() || a <= 0.0 {
-                        return (f64::NAN, f64::NAN, a, da);
-                    }
-                    let (g, dg) = g_d(a);
-                    let (w, dw) = if z < 0.0 {
-                        (gs.w0 * (1.0 - z), -gs.w0)
-                    } else {
-                        let d = 1.0 + z;
-                        (gs.w0 / d, -gs.w0 / (d * d))
-                    };
-                    ((g - w) / w0, (dg * da - dw) / w0, a, da)
-                };
-                let z_p = match z_guess {
-                    Some(z) if z.is_finite() => z,
-                    _ => {
-                        let ad_p = (a_p - ck) * inv_hg;
-                        (ad_p.abs() / gs.v0).powf(gs.n).copysign(ad_p)
-                    }
-                };
-                newton_radius(rho_z, z_p, 1.0, xtol_rel, evals, k_hint)
-            }
-            _ if model.has_law_slope() => {
-                let rho_d = |a: f64| {
-                    if a.is_nan() || a <= 0.0 {
-                        return (f64::NAN, f64::NAN, a, 1.0);
-                    }
-                    let ad = (a - ck) * inv_hg;
-                    let (g, dg) = g_d(a);
-                    let (w, dw) = model.work_and_slope(ad).unwrap_or((w0, 0.0));
-                    ((g - w) / w0, (dg - dw * inv_hg) / w0, a, 1.0)
-                };
-                newton_radius(rho_d, a_p, 0.0, xtol_rel, evals, k_hint).map(|(_, a)| (f64::NAN, a))
-            }
-            _ => None,
-        };
-        match newton {
-            Some((z, a)) => {
-                z_out = z;
-                (a, (a - ck) * inv_hg, None)
-            }
-            None => {
-                let rho = |a: f64| {
-                    if a <= 0.0 {
-                        return f64::NAN;
-                    }
-                    let ad = (a - ck) / hg;
-                    let (x, _) = model.position(kin, a, ad, true, xk, vk, hg);
-                    let g = jkr::signed_energy_release_rate(mat, a, x + kin.xb);
-                    (g - model.work_of_adhesion(ad)) / w0
-                };
-                let step0 = (1e-3 * (a_p - ck).abs()).max(1e-10 * a_p);
-                let a = solve_radius(rho, a_p, step0, xtol_rel, evals).ok_or(StepFail::NoRoot)?;
-                let ad = (a - ck) / hg;
-                (a, ad, Some(model.work_of_adhesion(ad)))
-            }
-        }
+    let (a, adot, w_known, z_out) = if contact {
+        stage_radius(
+            model, kin, xk, vk, ck, hg, adot_guess, z_guess, xtol_rel, evals, k_hint,
+        )?
     } else {
-        (0.0, 0.0, Some(model.w0))
+        (0.0, 0.0, Some(model.w0), f64::NAN)
     };
     let (x, v) = model.position(kin, a, adot, contact, xk, vk, hg);
     let fv = match model.mech {
@@ -432,6 +452,55 @@ fn implicit_stage(
         fa: adot,
         z: z_out,
     })
+}
+
+/// Predictors for stage `i`'s rate and law variable: linear extrapolation in time through the
+/// two previous stages (the first implicit stage uses the step's initial values). In the law
+/// variable z the extrapolation is linear in time through a turning point ȧ = 0, where ȧ
+/// itself is not.
+#[inline]
+fn predict(st: &[Stage; S], i: usize) -> (f64, f64) {
+    if i < 2 {
+        return (st[0].fa, st[0].z);
+    }
+    let (c1, c2) = (C[i - 1], C[i - 2]);
+    let slope = (st[i - 1].fa - st[i - 2].fa) / (c1 - c2);
+    let guess = st[i - 1].fa + slope * (C[i] - c1);
+    let slope = (st[i - 1].z - st[i - 2].z) / (c1 - c2);
+    (guess, st[i - 1].z + slope * (C[i] - c1))
+}
+
+/// The step's error: h Σ (b − b̂) f for the integrated components, as the RMS of
+/// err/(atol·scale + rtol·|y|).
+#[inline]
+fn error_norm(model: &Model, tol: Tol, y: &State, st: &[Stage; S], h: f64) -> f64 {
+    let last = st[S - 1];
+    let (mut ex, mut ev, mut ea) = (0.0, 0.0, 0.0);
+    for (j, stj) in st.iter().enumerate() {
+        let e = B[j] - BHAT[j];
+        ex += e * stj.fx;
+        ev += e * stj.fv;
+        ea += e * stj.fa;
+    }
+    let (ex, ev, ea) = (h * ex, h * ev, h * ea);
+    let mut sum = 0.0;
+    let mut n = 0;
+    if model.mech == Mechanics::Dynamic {
+        let sx = tol.atol * model.len_scale + tol.rtol * y.x.abs().max(last.x.abs());
+        let sv = tol.atol * model.vel_scale + tol.rtol * y.v.abs().max(last.v.abs());
+        sum += (ex / sx).powi(2) + (ev / sv).powi(2);
+        n += 2;
+    }
+    if y.contact {
+        let sa = tol.atol * model.a_jump + tol.rtol * y.a.abs().max(last.a.abs());
+        sum += (ea / sa).powi(2);
+        n += 1;
+    }
+    if n > 0 {
+        (sum / n as f64).sqrt()
+    } else {
+        0.0
+    }
 }
 
 /// One ESDIRK step of size h from y (the drive must not change within the step).
@@ -479,24 +548,7 @@ pub fn step(
                 ck += h * aij * st[j].fa;
             }
         }
-        // Predictor for the stage rate: linear extrapolation in time through the two previous
-        // stages (the first implicit stage uses the step's initial rate).
-        let guess = if i >= 2 {
-            let (c1, c2) = (C[i - 1], C[i - 2]);
-            let slope = (st[i - 1].fa - st[i - 2].fa) / (c1 - c2);
-            st[i - 1].fa + slope * (C[i] - c1)
-        } else {
-            st[0].fa
-        };
-        // The same extrapolation in the law variable z (linear in time through a turning point
-        // ȧ = 0, where ȧ itself is not).
-        let z_guess = if i >= 2 {
-            let (c1, c2) = (C[i - 1], C[i - 2]);
-            let slope = (st[i - 1].z - st[i - 2].z) / (c1 - c2);
-            st[i - 1].z + slope * (C[i] - c1)
-        } else {
-            st[0].z
-        };
+        let (guess, z_guess) = predict(&st, i);
         st[i] = implicit_stage(
             model,
             &kin,
@@ -519,29 +571,7 @@ pub fn step(
     for (qk, s) in qn.iter_mut().zip(qacc.iter()) {
         *qk += h * s;
     }
-    // Error estimate: h Σ (b − b̂) f for the integrated components.
-    let (mut ex, mut ev, mut ea) = (0.0, 0.0, 0.0);
-    for (j, stj) in st.iter().enumerate() {
-        let e = B[j] - BHAT[j];
-        ex += e * stj.fx;
-        ev += e * stj.fv;
-        ea += e * stj.fa;
-    }
-    let (ex, ev, ea) = (h * ex, h * ev, h * ea);
-    let mut sum = 0.0;
-    let mut n = 0;
-    if model.mech == Mechanics::Dynamic {
-        let sx = tol.atol * model.len_scale + tol.rtol * y.x.abs().max(last.x.abs());
-        let sv = tol.atol * model.vel_scale + tol.rtol * y.v.abs().max(last.v.abs());
-        sum += (ex / sx).powi(2) + (ev / sv).powi(2);
-        n += 2;
-    }
-    if y.contact {
-        let sa = tol.atol * model.a_jump + tol.rtol * y.a.abs().max(last.a.abs());
-        sum += (ea / sa).powi(2);
-        n += 1;
-    }
-    let err = if n > 0 { (sum / n as f64).sqrt() } else { 0.0 };
+    let err = error_norm(model, tol, y, &st, h);
     if !err.is_finite() || qn.iter().any(|v| !v.is_finite()) {
         return Err(StepFail::NonFinite);
     }

@@ -132,25 +132,10 @@ pub struct RunScales {
     pub max_speed: f64,
 }
 
-/// Resolve a rig's constants for the simulator; the error says why the rig cannot be
-/// simulated as given.
-pub fn resolve(s: &Rig, scales: RunScales) -> Result<Model, String> {
-    let mat = s.material;
-    let w0 = s.law.w0();
+/// The mechanical model of a rig: (mechanics, k, free holder, c, damping on the contact).
+fn mechanics(s: &Rig) -> Result<(Mechanics, f64, bool, f64, bool), String> {
     let ok = |v: f64| v.is_finite();
-    if !(ok(mat.k) && mat.k > 0.0 && ok(mat.r) && mat.r > 0.0 && ok(w0) && w0 > 0.0) {
-        return Err(format!(
-            "material K = {}, R = {} and law w0 = {} must be finite and > 0",
-            mat.k, mat.r, w0
-        ));
-    }
     let m = s.sphere.mass;
-    let g = s.sphere.gravity;
-    if !(ok(m) && m >= 0.0 && ok(g)) {
-        return Err(format!(
-            "sphere mass = {m} (>= 0) and gravity = {g} must be finite"
-        ));
-    }
     let (k, free_holder, rigid) = match s.holder {
         Holder::None => (0.0, true, false),
         Holder::Spring { stiffness } => {
@@ -192,6 +177,29 @@ pub fn resolve(s: &Rig, scales: RunScales) -> Result<Model, String> {
     } else {
         Mechanics::Dynamic
     };
+    Ok((mech, k, free_holder, c, contact_damping))
+}
+
+/// Resolve a rig's constants for the simulator; the error says why the rig cannot be
+/// simulated as given.
+pub fn resolve(s: &Rig, scales: RunScales) -> Result<Model, String> {
+    let mat = s.material;
+    let w0 = s.law.w0();
+    let ok = |v: f64| v.is_finite();
+    if !(ok(mat.k) && mat.k > 0.0 && ok(mat.r) && mat.r > 0.0 && ok(w0) && w0 > 0.0) {
+        return Err(format!(
+            "material K = {}, R = {} and law w0 = {} must be finite and > 0",
+            mat.k, mat.r, w0
+        ));
+    }
+    let m = s.sphere.mass;
+    let g = s.sphere.gravity;
+    if !(ok(m) && m >= 0.0 && ok(g)) {
+        return Err(format!(
+            "sphere mass = {m} (>= 0) and gravity = {g} must be finite"
+        ));
+    }
+    let (mech, k, free_holder, c, contact_damping) = mechanics(s)?;
     let (omega, xb_amp) = match s.base {
         Some(b) => {
             if !(ok(b.amplitude) && b.amplitude >= 0.0 && ok(b.frequency) && b.frequency > 0.0) {

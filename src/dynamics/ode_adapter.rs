@@ -177,6 +177,44 @@ fn scales(model: &Model) -> [f64; N] {
     s
 }
 
+/// What the crate's integration outcome and the right-hand side's flags mean for the macro
+/// step: a trial stage that pushed a through 0 is a collapsing contact; one that met G ≤ 0 the
+/// limit of the explicit form.
+fn check_outcome<E>(
+    res: Result<E, IntegrationError>,
+    collapse: bool,
+    singular: bool,
+    contact: bool,
+) -> Result<(), StepFail> {
+    if collapse && !singular {
+        // A trial stage pushed a through 0: the contact collapses within the macro step.
+        return Err(StepFail::NoRoot);
+    }
+    if singular {
+        return Err(StepFail::Explicit(
+            "the contact edge became compressive or G <= 0 (infinite healing speed)",
+        ));
+    }
+    match res {
+        Ok(_) => Ok(()),
+        Err(IntegrationError::StiffnessDetected { .. }) => {
+            Err(StepFail::Explicit("stiffness detected"))
+        }
+        Err(IntegrationError::MaxNumStepReached { .. }) => Err(StepFail::Explicit(
+            "step budget of the explicit method exhausted",
+        )),
+        Err(IntegrationError::StepSizeUnderflow { .. }) => {
+            // In contact this is the finite-time collapse a → 0 (ȧ → −∞) inside the macro
+            // step: report it like a failed implicit stage so that the driver closes in on it.
+            Err(if contact {
+                StepFail::NoRoot
+            } else {
+                StepFail::Explicit("step size underflow")
+            })
+        }
+    }
+}
+
 /// Integrate from `y` over [y.t, y.t + h] with an `ode_solvers` method. `h_guess` is the inner
 /// step to start with (0: the crate's own initial guess); the last inner step is returned for the
 /// next call.
@@ -252,35 +290,7 @@ pub fn macro_step(
         OdeMethod::Dop853 => run!(Dop853, 0.0, 0.333, 6.0),
     };
     let n_evals = evals.get();
-    if collapse.get() && !singular.get() {
-        // A trial stage pushed a through 0: the contact collapses within the macro step.
-        return Err(StepFail::NoRoot);
-    }
-    if singular.get() {
-        return Err(StepFail::Explicit(
-            "the contact edge became compressive or G <= 0 (infinite healing speed)",
-        ));
-    }
-    match res {
-        Ok(_) => {}
-        Err(IntegrationError::StiffnessDetected { .. }) => {
-            return Err(StepFail::Explicit("stiffness detected"))
-        }
-        Err(IntegrationError::MaxNumStepReached { .. }) => {
-            return Err(StepFail::Explicit(
-                "step budget of the explicit method exhausted",
-            ))
-        }
-        Err(IntegrationError::StepSizeUnderflow { .. }) => {
-            // In contact this is the finite-time collapse a → 0 (ȧ → −∞) inside the macro
-            // step: report it like a failed implicit stage so that the driver closes in on it.
-            return Err(if y.contact {
-                StepFail::NoRoot
-            } else {
-                StepFail::Explicit("step size underflow")
-            });
-        }
-    }
+    check_outcome(res, collapse.get(), singular.get(), y.contact)?;
     let Some((t_end, ye)) = out else {
         return Err(StepFail::Explicit("no output"));
     };

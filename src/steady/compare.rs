@@ -20,8 +20,9 @@
 
 use super::sweep::Linearisation;
 use super::{Options, Problem, Steady, SteadyError};
+use crate::dynamics::protocol::{Initial, Plan};
 use crate::imposed_area;
-use crate::scenario::{Holder, Scenario};
+use crate::rig::{Holder, Rig};
 use serde::Serialize;
 
 /// One method's predictions (SI; `None` where the method does not give the quantity).
@@ -151,11 +152,11 @@ pub fn time_domain(s: &Steady) -> Prediction {
 }
 
 /// The imposed-area cycle at the steady state's (ω, a_m, a_A), rotated into the base's frame.
-pub fn imposed(scn: &Scenario, s: &Steady) -> Result<Prediction, String> {
+pub fn imposed(rig: &Rig, s: &Steady) -> Result<Prediction, String> {
     let c = &s.cycle;
     let a_amp = s.a_amp();
     let omega = 2.0 * std::f64::consts::PI * s.frequency;
-    let ic = imposed_area::cycle(&scn.rig.material, &scn.rig.law, omega, c.a_mean, a_amp)
+    let ic = imposed_area::cycle(&rig.material, &rig.law, omega, c.a_mean, a_amp)
         .map_err(|e| e.to_string())?;
     let phi = if a_amp > 0.0 {
         c.a_cos.atan2(c.a_sin)
@@ -188,11 +189,11 @@ fn linear_prediction(lin: &Linearisation, sin: f64, cos: f64, xb: f64) -> Predic
     }
 }
 
-/// The force-balance identity for a steady cycle of scenario `scn`.
-pub fn force_balance(scn: &Scenario, s: &Steady) -> ForceBalance {
+/// The force-balance identity for a steady cycle of a rig.
+pub fn force_balance(rig: &Rig, s: &Steady) -> ForceBalance {
     let c = &s.cycle;
-    let weight = scn.rig.sphere.mass * scn.rig.sphere.gravity;
-    let holder = match scn.rig.holder {
+    let weight = rig.weight();
+    let holder = match rig.holder {
         Holder::None => 0.0,
         _ => c.spring_mean,
     };
@@ -214,23 +215,19 @@ pub fn force_balance(scn: &Scenario, s: &Steady) -> ForceBalance {
     }
 }
 
-/// Run the scene to its steady state ([`Problem::from_scenario`]) and compare.
-pub fn compare(scn: &Scenario, opts: &Options) -> Result<Comparison, SteadyError> {
-    let (problem, start) = Problem::from_scenario(scn)?;
+/// Run the protocol to its steady state ([`Problem::from_plan`]) and compare.
+pub fn compare(plan: &Plan, opts: &Options) -> Result<Comparison, SteadyError> {
+    let (problem, start) = Problem::from_plan(plan)?;
     let steady = problem.solve(&start, opts)?;
     Ok(compare_steady(&problem, &start, steady))
 }
 
 /// Compare a steady state already found for `problem` (started from `start`, which sets the
 /// predictors' mean load).
-pub fn compare_steady(
-    problem: &Problem,
-    start: &crate::scenario::Initial,
-    steady: Steady,
-) -> Comparison {
-    let scn = problem.scenario();
+pub fn compare_steady(problem: &Problem, start: &Initial, steady: Steady) -> Comparison {
+    let rig = problem.rig();
     let (f, xb) = (steady.frequency, steady.amplitude);
-    let (imposed_area, imposed_area_error) = match imposed(scn, &steady) {
+    let (imposed_area, imposed_area_error) = match imposed(rig, &steady) {
         Ok(p) => (Some(p), None),
         Err(e) => (None, Some(e)),
     };
@@ -269,7 +266,7 @@ pub fn compare_steady(
         frequency: f,
         amplitude: xb,
         time_domain: time_domain(&steady),
-        force_balance: force_balance(scn, &steady),
+        force_balance: force_balance(rig, &steady),
         steady,
         imposed_area,
         imposed_area_error,

@@ -11,7 +11,7 @@
 
 use super::compare::{self, Prediction};
 use super::{Options, Problem, SteadyMethod};
-use crate::scenario::Initial;
+use crate::dynamics::protocol::Initial;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -101,9 +101,9 @@ fn cell(problem: &Problem, from: &mut Initial, f: f64, xb: f64, opts: &Options) 
     c.contact_lost = s.contact_lost;
     let td = compare::time_domain(&s);
     c.time_domain = Some(td);
-    match compare::imposed(p.scenario(), &s) {
+    match compare::imposed(p.rig(), &s) {
         Ok(ia) => {
-            let f0 = p.scenario().rig.material.static_pull_off_force().abs();
+            let f0 = p.rig().material.static_pull_off_force().abs();
             if let (Some(fi), Some(ft)) = (ia.force_mean, td.force_mean) {
                 c.force_error = Some((fi - ft) / ft.abs().max(f0));
             }

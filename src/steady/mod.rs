@@ -70,10 +70,14 @@ pub mod map;
 pub mod sweep;
 
 use crate::adhesion::AdhesionLaw;
-use crate::dynamics::{CycleRecord, EventKind, Observer, RunResult, Sample, SimError};
+use crate::dynamics::model::{self, Model, RunScales};
+use crate::dynamics::protocol::{self, Initial, Plan};
+use crate::dynamics::state::Tol;
+use crate::dynamics::{
+    stepper, CycleRecord, EventKind, Sample, Settings, SimError, Simulator, Solver, Stop,
+};
 use crate::jkr;
-use crate::material::Material;
-use crate::scenario::{BaseMotion, Holder, Initial, Scenario, Stage, StageKind, Until};
+use crate::rig::{BaseMotion, Rig};
 use serde::Serialize;
 use std::f64::consts::PI;
 use std::time::Instant;
@@ -316,12 +320,17 @@ impl Unknowns {
     }
 }
 
-/// A steady-state problem: a scenario's contact, sphere, holder and law, shaken at one frequency
-/// and amplitude with the spring end held still.
-#[derive(Debug, Clone, PartialEq)]
+/// A steady-state problem: a rig shaken at one frequency and amplitude with the spring end held
+/// still, and the solver that integrates its one-period map.
+#[derive(Debug, Clone)]
 pub struct Problem {
-    /// The one-period template: the scenario with one vibrating hold stage of one period.
-    scenario: Scenario,
+    /// The rig, its base at this problem's frequency and amplitude.
+    rig: Rig,
+    /// The rig's model, resolved once.
+    model: Model,
+    /// Method, tolerances and budgets of the time integration (the tolerance `rtol` is set per
+    /// call by [`Options::rtol`]).
+    solver: Solver,
     /// Base frequency f (Hz).
     pub frequency: f64,
     /// Base amplitude X_b (m).
@@ -329,10 +338,44 @@ pub struct Problem {
     unknowns: Unknowns,
 }
 
+/// Whole base periods run from a state ([`Problem::run_periods`]).
+#[derive(Debug, Clone)]
+pub struct PeriodRun {
+    /// The state at the end.
+    pub end: Sample,
+    /// The record of every period completed, in order (only the last one is kept when the
+    /// watcher keeps nothing: see [`Problem::run_periods`]).
+    pub last: Option<CycleRecord>,
+    /// Periods completed.
+    pub periods: u64,
+    /// Contact losses and impacts (kind, time).
+    pub events: Vec<(EventKind, f64)>,
+}
+
+impl PeriodRun {
+    /// Why these periods are not a smooth map: contact lost or formed within them, or the
+    /// contact open at the end.
+    pub fn rough(&self) -> Option<String> {
+        if let Some((kind, t)) = self.events.first() {
+            return Some(format!("{kind:?} at t = {t:.6e} s within the period"));
+        }
+        if self.end.a <= 0.0 {
+            return Some("contact open at phase 0".into());
+        }
+        None
+    }
+}
+
 impl Problem {
-    /// The scenario's mechanics shaken at `frequency` (Hz, > 0) with amplitude `amplitude`
-    /// (m, ≥ 0), the spring end held still. The scenario's stages and base section are ignored.
-    pub fn new(scn: &Scenario, frequency: f64, amplitude: f64) -> Result<Problem, SteadyError> {
+    /// The rig shaken at `frequency` (Hz, > 0) with amplitude `amplitude` (m, ≥ 0), the spring
+    /// end held still, integrated with `solver` (its `rtol` is replaced per call). The rig's own
+    /// base section is ignored.
+    pub fn new(
+        rig: &Rig,
+        solver: Solver,
+        frequency: f64,
+        amplitude: f64,
+    ) -> Result<Problem, SteadyError> {
         if !(frequency.is_finite() && frequency > 0.0) {
             return Err(SteadyError::Setup(format!(
                 "frequency = {frequency} Hz: must be finite and > 0"
@@ -343,47 +386,41 @@ impl Problem {
                 "base amplitude = {amplitude} m: must be finite and >= 0"
             )));
         }
-        let mut s = scn.clone();
-        s.rig.base = Some(BaseMotion {
+        let mut rig = rig.clone();
+        rig.base = Some(BaseMotion {
             amplitude,
             frequency,
         });
-        s.stages = vec![Stage {
-            kind: StageKind::Hold,
-            speed: 0.0,
-            until: Until::Duration(1.0 / frequency),
-            vibration: Some(true),
-            max_duration: f64::INFINITY,
-        }];
-        s.output.sample_rate = 0.0;
-        s.output.csv = false;
-        let mechanics = s.rig.sphere.mass > 0.0 && !matches!(s.rig.holder, Holder::Rigid);
-        let radius = !s.rig.law.is_rate_independent();
+        let model = model::resolve(&rig, RunScales::default()).map_err(SteadyError::Setup)?;
+        let unknowns = Unknowns {
+            mechanics: rig.has_inertia(),
+            radius: !rig.law.is_rate_independent(),
+        };
         Ok(Problem {
-            scenario: s,
+            rig,
+            model,
+            solver,
             frequency,
             amplitude,
-            unknowns: Unknowns { mechanics, radius },
+            unknowns,
         })
     }
 
-    /// The steady-state problem a scenario file describes, and where to start: the scene's first
-    /// stage with the vibration on, at the scene's base amplitude and frequency, with the spring
-    /// end held where that stage starts. The stages before it (shaker off: approach, dwell) are
-    /// run first with the scene's own solver settings, and their end state is the start;
-    /// without such stages the start is the scene's initial state. A moving spring end during
-    /// the vibrating stage (approach, unload) has no periodic steady state: it is held at its
-    /// position at the stage start.
-    pub fn from_scenario(scn: &Scenario) -> Result<(Problem, Initial), SteadyError> {
-        let base = scn.rig.base.ok_or_else(|| {
-            SteadyError::Setup(format!(
-                "{}: no [base] section: nothing vibrates, no periodic steady state",
-                scn.source_name
-            ))
+    /// The steady-state problem a protocol describes, and where to start: the first stage with
+    /// the vibration on, at the rig's base amplitude and frequency, with the spring end held
+    /// where that stage starts. The stages before it (shaker off: approach, dwell) are run first,
+    /// and their end state is the start; without such stages the start is the initial state. A
+    /// moving spring end during the vibrating stage (approach, unload) has no periodic steady
+    /// state: it is held at its position at the stage start.
+    pub fn from_plan(plan: &Plan) -> Result<(Problem, Initial), SteadyError> {
+        let base = plan.rig.base.ok_or_else(|| {
+            SteadyError::Setup(
+                "no [base] section: nothing vibrates, no periodic steady state".into(),
+            )
         })?;
         let mut on = false;
         let mut first = None;
-        for (i, st) in scn.stages.iter().enumerate() {
+        for (i, st) in plan.stages.iter().enumerate() {
             if let Some(v) = st.vibration {
                 on = v;
             }
@@ -393,42 +430,35 @@ impl Problem {
             }
         }
         let i = first.ok_or_else(|| {
-            SteadyError::Setup(format!(
-                "{}: no stage switches the shaker on (vibration = true)",
-                scn.source_name
-            ))
+            SteadyError::Setup("no stage switches the shaker on (vibration = true)".into())
         })?;
-        let problem = Problem::new(scn, base.frequency, base.amplitude)?;
+        let problem = Problem::new(plan.rig, plan.solver, base.frequency, base.amplitude)?;
         if i == 0 {
-            return Ok((problem, scn.initial));
+            return Ok((problem, plan.initial));
         }
-        let mut pre = scn.clone();
-        pre.stages.truncate(i);
-        pre.output.sample_rate = 0.0;
-        let r = pre.simulate(&mut crate::dynamics::NoObserver)?;
+        let pre = Plan {
+            stages: &plan.stages[..i],
+            sample_rate: 0.0,
+            ..*plan
+        };
+        let r = crate::dynamics::run(&pre, &mut crate::dynamics::NoObserver)?;
         if r.detached {
             return Err(SteadyError::Setup(format!(
-                "{}: the sphere detached before the first vibrating stage (stage {})",
-                scn.source_name,
+                "the sphere detached before the first vibrating stage (stage {})",
                 i + 1
             )));
         }
         Ok((problem, OrbitState::from_sample(&r.final_state).initial()))
     }
 
-    /// The same mechanics at another frequency (Hz) and base amplitude (m).
+    /// The same rig at another frequency (Hz) and base amplitude (m).
     pub fn at(&self, frequency: f64, amplitude: f64) -> Result<Problem, SteadyError> {
-        Problem::new(&self.scenario, frequency, amplitude)
+        Problem::new(&self.rig, self.solver, frequency, amplitude)
     }
 
-    /// The scenario one period of the map runs (one vibrating hold stage of 1/f).
-    pub fn scenario(&self) -> &Scenario {
-        &self.scenario
-    }
-
-    /// The rig (shaken at this problem's frequency and amplitude).
-    pub fn rig(&self) -> &crate::rig::Rig {
-        &self.scenario.rig
+    /// The rig (its base at this problem's frequency and amplitude).
+    pub fn rig(&self) -> &Rig {
+        &self.rig
     }
 
     /// Angular frequency ω = 2πf (rad/s).
@@ -436,22 +466,74 @@ impl Problem {
         2.0 * PI * self.frequency
     }
 
-    /// Run `periods` base periods from `start` with integration tolerance `rtol`, watched by
-    /// `obs`.
-    pub fn run(
+    /// Run `periods` base periods from `start` (at phase 0) with integration tolerance `rtol`.
+    /// `watch` sees the end state and record of every completed period and may stop the run
+    /// early by returning `false`.
+    pub fn run_periods(
         &self,
         start: &Initial,
         periods: u64,
         rtol: f64,
-        obs: &mut dyn Observer,
-    ) -> Result<RunResult, SimError> {
-        let mut s = self.scenario.clone();
-        s.initial = *start;
-        s.solver.rtol = rtol;
-        // The driver records the last base-period boundary (k·2π/ω) even when rounding puts it
-        // a sliver after the stage end (periods / f).
-        s.stages[0].until = Until::Duration(periods as f64 / self.frequency);
-        s.simulate(obs)
+        mut watch: impl FnMut(&Sample, &CycleRecord) -> bool,
+    ) -> Result<PeriodRun, SimError> {
+        let (y, mut drive) = protocol::initial_state(&self.rig, start, &self.model)?;
+        drive.shaker = true;
+        drive.t_on = y.t;
+        let settings = Settings {
+            tol: Tol {
+                rtol,
+                atol: self.solver.atol,
+            },
+            event_tol: self.solver.event_tol.max(0.0),
+            max_steps: self.solver.max_steps,
+            max_wall_s: self.solver.max_wall_s,
+            interpolated_samples: false,
+        };
+        let stepper = stepper::build(self.solver.method, &self.rig);
+        let mut sim = Simulator::new(
+            self.model.clone(),
+            stepper,
+            self.rig.formation,
+            settings,
+            y,
+            drive,
+        );
+        // The simulator records the last base-period boundary (k·2π/ω) even when rounding puts
+        // it a sliver after the stop time (periods / f).
+        sim.advance_to(y.t + periods as f64 / self.frequency, None);
+        let mut run = PeriodRun {
+            end: sim.sample_of(&y, 0),
+            last: None,
+            periods: 0,
+            events: Vec::new(),
+        };
+        loop {
+            let (period, reached) = match sim.step()? {
+                Stop::Step { period, reached } => (period, reached),
+                Stop::Event(kind, ye) => {
+                    if matches!(kind, EventKind::ContactLoss | EventKind::Impact) {
+                        run.events.push((kind, ye.t));
+                    }
+                    (None, false)
+                }
+                Stop::Kick => (None, false),
+                Stop::Period(rec) => (Some(rec), false),
+                Stop::Reached => (None, true),
+            };
+            if let Some(rec) = period {
+                run.periods += 1;
+                run.last = Some(rec);
+                let end = sim.sample_of(sim.state(), 0);
+                if !watch(&end, &rec) {
+                    run.end = end;
+                    return Ok(run);
+                }
+            }
+            if reached {
+                run.end = sim.sample_of(sim.state(), 0);
+                return Ok(run);
+            }
+        }
     }
 
     /// A start state consistent with the model: ȧ from the law for (a, δ = x_s) (x_b = 0 at phase
@@ -459,8 +541,8 @@ impl Problem {
     /// law gives no finite rate (a compressive edge under a Gent–Schultz law heals at an
     /// unbounded rate).
     fn consistent(&self, x_s: f64, v_s: f64, a: f64, x_k: f64) -> Option<OrbitState> {
-        let m = &self.scenario.rig.material;
-        let law = &self.scenario.rig.law;
+        let m = &self.rig.material;
+        let law = &self.rig.law;
         if !(x_s.is_finite() && v_s.is_finite() && a.is_finite() && x_k.is_finite()) {
             return None;
         }
@@ -475,7 +557,7 @@ impl Problem {
         }
         let (a, a_dot) = if law.is_rate_independent() {
             let w = law.w0();
-            let ae = equilibrium_radius_for_indentation(m, x_s, w)?;
+            let ae = jkr::equilibrium_radius_for_indentation(m, x_s, w)?;
             let ddelta = v_s + self.amplitude * self.omega();
             let slope = 2.0 * ae / m.r - 0.5 * jkr::equilibrium_edge_opening(m, ae, w) / ae;
             (ae, ddelta / slope)
@@ -494,8 +576,8 @@ impl Problem {
 
     /// The residual scales (L, ωL, a) from a cycle record.
     fn scales(&self, c: &CycleRecord) -> [f64; 3] {
-        let m = &self.scenario.rig.material;
-        let a_j = jkr::jump_in_radius(m, self.scenario.rig.law.w0());
+        let m = &self.rig.material;
+        let a_j = jkr::jump_in_radius(m, self.rig.law.w0());
         let floor = 1e-6 * a_j * a_j / m.r;
         let l = c
             .delta_sin
@@ -579,93 +661,41 @@ impl Problem {
         })
     }
 
+    /// One period of the map from `start`.
+    fn map_once(&self, start: &Initial, rtol: f64) -> Result<PeriodRun, SimError> {
+        self.run_periods(start, 1, rtol, |_, _| true)
+    }
+
     /// Newton on the one-cycle map (module doc). On failure returns why, the periods spent and
     /// the last state reached (a better start for time-stepping than the original one).
     pub fn shoot(&self, start: &Initial, opts: &Options) -> Result<Steady, Box<ShootFailure>> {
         opts.validate().map_err(ShootFailure::setup)?;
-        let t0 = Instant::now();
-        let mut spent = 0u64;
-        let fail = |reason: String, spent: u64, last: Option<OrbitState>| {
-            Box::new(ShootFailure {
-                reason,
-                cycles: spent,
-                last,
-                error: None,
-            })
+        let mut sh = Shooting {
+            problem: self,
+            opts,
+            t0: Instant::now(),
+            spent: 0,
+            idx: self.unknowns.indices(),
+            sc: [f64::NAN; 3],
         };
-        // One period from the given start: its end is the first Newton iterate.
-        let mut y = match *start {
-            Initial::State {
-                x_s, v_s, a, x_k, ..
-            } => self.consistent(x_s, v_s, a, x_k),
-            _ => None,
-        };
-        if y.is_none() {
-            let r = self
-                .map_once(start, opts.rtol)
-                .map_err(|e| ShootFailure::sim(e, spent + 1))?;
-            spent += 1;
-            let f = r.final_state;
-            y = self.consistent(f.x_s, f.v_s, f.a, f.x_k);
-            if y.is_none() {
-                return Err(fail(
-                    "no consistent start state after one period".into(),
-                    spent,
-                    Some(OrbitState::from_sample(&f)),
-                ));
-            }
-        }
-        let Some(mut y) = y else {
-            return Err(fail("no start state".into(), spent, None));
-        };
-        let idx = self.unknowns.indices();
-        let mut py = self
-            .map_once(&y.initial(), opts.rtol)
-            .map_err(|e| ShootFailure::sim(e, spent + 1))?;
-        spent += 1;
-        let Some(first) = py.cycles.last().copied() else {
-            return Err(fail(
-                "the period produced no cycle record".into(),
-                spent,
-                Some(y),
-            ));
-        };
-        let sc = self.scales(&first);
-        let residual = |y: &OrbitState, p: &Sample| -> Vec<f64> {
-            let (v, pv) = (y.vector(), [p.x_s, p.v_s, p.a]);
-            idx.iter().map(|&i| (pv[i] - v[i]) / sc[i]).collect()
-        };
-        let norm = |r: &[f64]| r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let (mut y, mut py) = sh.first_iterate(start)?;
         // The Jacobian of P − I of the latest Newton iteration (scaled units).
         let mut jac: Option<Vec<Vec<f64>>> = None;
         for iter in 0..=opts.max_newton {
-            if let Some(why) = rough(&py) {
-                return Err(fail(why, spent, Some(y)));
+            if let Some(why) = py.rough() {
+                return Err(sh.fail(why, Some(y)));
             }
-            let r = residual(&y, &py.final_state);
+            let r = sh.residual(&y, &py.end);
             let res = norm(&r);
-            let Some(cycle) = py.cycles.last().copied() else {
-                return Err(fail("no cycle record".into(), spent, Some(y)));
+            let Some(cycle) = py.last else {
+                return Err(sh.fail("no cycle record".into(), Some(y)));
             };
             if !res.is_finite() {
-                return Err(fail("non-finite residual".into(), spent, Some(y)));
+                return Err(sh.fail("non-finite residual".into(), Some(y)));
             }
-            let done = |dist: f64, spent: u64| Steady {
-                method: SteadyMethod::Shooting,
-                frequency: self.frequency,
-                amplitude: self.amplitude,
-                state: y,
-                cycle,
-                residual: res,
-                distance: dist,
-                cycles: spent,
-                newton_iterations: iter,
-                contact_lost: false,
-                wall_s: t0.elapsed().as_secs_f64(),
-                scales: sc,
-            };
-            if idx.is_empty() {
-                return Ok(done(res, spent));
+            let done = |sh: &Shooting, dist: f64| sh.done(y, cycle, res, dist, iter);
+            if sh.idx.is_empty() {
+                return Ok(done(&sh, res));
             }
             // Distance to the fixed point: the (simplified) Newton correction −(J − I)⁻¹ r,
             // which near a slow direction of the map (ρ → 1) is much larger than the residual.
@@ -677,106 +707,40 @@ impl Problem {
                     .map(|d| norm(&d))
                 {
                     if dist < opts.tol {
-                        return Ok(done(dist, spent));
+                        return Ok(done(&sh, dist));
                     }
                 }
             }
             if iter == opts.max_newton {
                 break;
             }
-            // Jacobian of P − I by forward differences, in scaled units.
-            let n = idx.len();
-            let mut m = vec![vec![0.0; n]; n];
-            for (col, &j) in idx.iter().enumerate() {
-                let mut v = y.vector();
-                v[j] += opts.fd_step * sc[j];
-                let Some(yj) = self.consistent(v[0], v[1], v[2], y.x_k) else {
-                    return Err(fail("perturbed state inconsistent".into(), spent, Some(y)));
-                };
-                let pj = self
-                    .map_once(&yj.initial(), opts.rtol)
-                    .map_err(|e| ShootFailure::sim(e, spent + 1))?;
-                spent += 1;
-                if let Some(why) = rough(&pj) {
-                    return Err(fail(why, spent, Some(y)));
-                }
-                let rj = residual(&yj, &pj.final_state);
-                let h = (yj.vector()[j] - y.vector()[j]) / sc[j];
-                for row in 0..n {
-                    m[row][col] = (rj[row] - r[row]) / h;
-                }
-            }
+            let m = sh.jacobian(&y, &r)?;
             jac = Some(m.clone());
             let Some(step) = solve_dense(m.clone(), neg) else {
-                return Err(fail("singular shooting Jacobian".into(), spent, Some(y)));
+                return Err(sh.fail("singular shooting Jacobian".into(), Some(y)));
             };
             let step_norm = norm(&step);
             if res < opts.tol && step_norm < opts.tol {
-                return Ok(done(step_norm, spent));
+                return Ok(done(&sh, step_norm));
             }
-            // Damped step with Deuflhard's natural monotonicity test: accept when the
-            // simplified correction at the trial point, −(J − I)⁻¹ r(y_new) with the same J, is
-            // smaller than the step, ‖Δ̄‖ ≤ (1 − λ/4)‖Δ‖. Unlike a residual test it is affine
-            // invariant, so it accepts the long steps along the map's slow direction (the
-            // creeping contact radius) that a residual test refuses.
-            let mut lambda = 1.0;
-            let mut accepted = None;
-            for _ in 0..8 {
-                let mut v = y.vector();
-                for (k, &j) in idx.iter().enumerate() {
-                    v[j] += lambda * step[k] * sc[j];
-                }
-                if self.unknowns.radius && v[2] <= 0.5 * y.a {
-                    lambda *= 0.5;
-                    continue;
-                }
-                if let Some(yn) = self.consistent(v[0], v[1], v[2], y.x_k) {
-                    let pn = self
-                        .map_once(&yn.initial(), opts.rtol)
-                        .map_err(|e| ShootFailure::sim(e, spent + 1))?;
-                    spent += 1;
-                    let rn = residual(&yn, &pn.final_state);
-                    let simplified = solve_dense(m.clone(), rn.iter().map(|x| -x).collect())
-                        .map(|d| norm(&d))
-                        .unwrap_or(f64::INFINITY);
-                    let ok = rough(&pn).is_none()
-                        && norm(&rn).is_finite()
-                        && (simplified <= (1.0 - 0.25 * lambda) * step_norm
-                            || norm(&rn) < opts.tol);
-                    if ok {
-                        accepted = Some((yn, pn));
-                        break;
-                    }
-                }
-                lambda *= 0.5;
-            }
-            match accepted {
+            match sh.damped_step(&y, &m, &step)? {
                 Some((yn, pn)) => {
                     y = yn;
                     py = pn;
                 }
                 None => {
-                    return Err(fail(
-                        format!("Newton stalled at residual {res:.3e}"),
-                        spent,
-                        Some(y),
-                    ))
+                    return Err(sh.fail(format!("Newton stalled at residual {res:.3e}"), Some(y)))
                 }
             }
         }
-        let res = norm(&residual(&y, &py.final_state));
-        Err(fail(
+        let res = norm(&sh.residual(&y, &py.end));
+        Err(sh.fail(
             format!(
                 "no convergence in {} Newton iterations (residual {res:.3e})",
                 opts.max_newton
             ),
-            spent,
             Some(y),
         ))
-    }
-
-    fn map_once(&self, start: &Initial, rtol: f64) -> Result<RunResult, SimError> {
-        self.run(start, 1, rtol, &mut crate::dynamics::NoObserver)
     }
 
     /// Time-stepping from `start` with stroboscopic detection (module doc). `spent` periods
@@ -843,26 +807,26 @@ impl Problem {
             tol: opts.tol,
             consecutive: opts.consecutive,
             prev: start_state,
-            last: None,
             scales: None,
             diffs: Vec::new(),
             passed: 0,
             done: None,
             history: Vec::new(),
         };
-        let r = self.run(start, budget.max(1), opts.rtol, &mut strobe)?;
-        let cycles = r.cycles.len() as u64;
+        let r = self.run_periods(start, budget.max(1), opts.rtol, |end, c| {
+            strobe.period(end, c);
+            strobe.done.is_none()
+        })?;
         let (d, est) = strobe
             .history
             .last()
             .copied()
             .unwrap_or((f64::NAN, f64::NAN));
         let steady = strobe.done.map(|(state, cycle)| {
-            let lost = r.events.iter().any(|e| {
-                matches!(e.kind, EventKind::ContactLoss | EventKind::Impact)
-                    && e.time > cycle.t_start
-                    && e.time <= cycle.t_end
-            });
+            let lost = r
+                .events
+                .iter()
+                .any(|&(_, t)| t > cycle.t_start && t <= cycle.t_end);
             Steady {
                 method: SteadyMethod::TimeStepping,
                 frequency: self.frequency,
@@ -871,7 +835,7 @@ impl Problem {
                 cycle,
                 residual: d,
                 distance: est,
-                cycles,
+                cycles: r.periods,
                 newton_iterations: 0,
                 contact_lost: lost,
                 wall_s: t0.elapsed().as_secs_f64(),
@@ -881,10 +845,175 @@ impl Problem {
         Ok(StrobeRun {
             steady,
             last: strobe.prev,
-            cycles,
+            cycles: r.periods,
             residual: d,
             estimate: est,
         })
+    }
+}
+
+/// Largest magnitude of a vector.
+fn norm(r: &[f64]) -> f64 {
+    r.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+/// One shooting solve in progress: the problem, the periods spent, the unknowns and scales.
+struct Shooting<'a> {
+    problem: &'a Problem,
+    opts: &'a Options,
+    t0: Instant,
+    spent: u64,
+    idx: Vec<usize>,
+    sc: [f64; 3],
+}
+
+impl Shooting<'_> {
+    fn fail(&self, reason: String, last: Option<OrbitState>) -> Box<ShootFailure> {
+        Box::new(ShootFailure {
+            reason,
+            cycles: self.spent,
+            last,
+            error: None,
+        })
+    }
+
+    /// One period of the map, counted.
+    fn map(&mut self, y: &OrbitState) -> Result<PeriodRun, Box<ShootFailure>> {
+        let r = self
+            .problem
+            .map_once(&y.initial(), self.opts.rtol)
+            .map_err(|e| ShootFailure::sim(e, self.spent + 1))?;
+        self.spent += 1;
+        Ok(r)
+    }
+
+    /// The first Newton iterate and its image: the start itself when it is a consistent state,
+    /// else the end of one period from it; the scales come from the first period's record.
+    fn first_iterate(
+        &mut self,
+        start: &Initial,
+    ) -> Result<(OrbitState, PeriodRun), Box<ShootFailure>> {
+        let p = self.problem;
+        let mut y = match *start {
+            Initial::State {
+                x_s, v_s, a, x_k, ..
+            } => p.consistent(x_s, v_s, a, x_k),
+            _ => None,
+        };
+        if y.is_none() {
+            let r = p
+                .map_once(start, self.opts.rtol)
+                .map_err(|e| ShootFailure::sim(e, self.spent + 1))?;
+            self.spent += 1;
+            let f = r.end;
+            y = p.consistent(f.x_s, f.v_s, f.a, f.x_k);
+            if y.is_none() {
+                return Err(self.fail(
+                    "no consistent start state after one period".into(),
+                    Some(OrbitState::from_sample(&f)),
+                ));
+            }
+        }
+        let Some(y) = y else {
+            return Err(self.fail("no start state".into(), None));
+        };
+        let py = self.map(&y)?;
+        let Some(first) = py.last else {
+            return Err(self.fail("the period produced no cycle record".into(), Some(y)));
+        };
+        self.sc = p.scales(&first);
+        Ok((y, py))
+    }
+
+    /// The scaled residual P(y) − y over the unknowns.
+    fn residual(&self, y: &OrbitState, p: &Sample) -> Vec<f64> {
+        let (v, pv) = (y.vector(), [p.x_s, p.v_s, p.a]);
+        self.idx
+            .iter()
+            .map(|&i| (pv[i] - v[i]) / self.sc[i])
+            .collect()
+    }
+
+    fn done(&self, y: OrbitState, cycle: CycleRecord, res: f64, dist: f64, iter: usize) -> Steady {
+        Steady {
+            method: SteadyMethod::Shooting,
+            frequency: self.problem.frequency,
+            amplitude: self.problem.amplitude,
+            state: y,
+            cycle,
+            residual: res,
+            distance: dist,
+            cycles: self.spent,
+            newton_iterations: iter,
+            contact_lost: false,
+            wall_s: self.t0.elapsed().as_secs_f64(),
+            scales: self.sc,
+        }
+    }
+
+    /// The Jacobian of P − I at `y` (residual `r`) by forward differences, in scaled units.
+    fn jacobian(&mut self, y: &OrbitState, r: &[f64]) -> Result<Vec<Vec<f64>>, Box<ShootFailure>> {
+        let n = self.idx.len();
+        let mut m = vec![vec![0.0; n]; n];
+        for (col, j) in self.idx.clone().into_iter().enumerate() {
+            let mut v = y.vector();
+            v[j] += self.opts.fd_step * self.sc[j];
+            let Some(yj) = self.problem.consistent(v[0], v[1], v[2], y.x_k) else {
+                return Err(self.fail("perturbed state inconsistent".into(), Some(*y)));
+            };
+            let pj = self.map(&yj)?;
+            if let Some(why) = pj.rough() {
+                return Err(self.fail(why, Some(*y)));
+            }
+            let rj = self.residual(&yj, &pj.end);
+            let h = (yj.vector()[j] - y.vector()[j]) / self.sc[j];
+            for row in 0..n {
+                m[row][col] = (rj[row] - r[row]) / h;
+            }
+        }
+        Ok(m)
+    }
+
+    /// Damped step with Deuflhard's natural monotonicity test: accept when the simplified
+    /// correction at the trial point, −(J − I)⁻¹ r(y_new) with the same J, is smaller than the
+    /// step, ‖Δ̄‖ ≤ (1 − λ/4)‖Δ‖. Unlike a residual test it is affine invariant, so it accepts
+    /// the long steps along the map's slow direction (the creeping contact radius) that a
+    /// residual test refuses. `None` when no λ ≥ 1/128 passes.
+    #[allow(clippy::type_complexity)]
+    fn damped_step(
+        &mut self,
+        y: &OrbitState,
+        m: &[Vec<f64>],
+        step: &[f64],
+    ) -> Result<Option<(OrbitState, PeriodRun)>, Box<ShootFailure>> {
+        let step_norm = norm(step);
+        let mut lambda = 1.0;
+        for _ in 0..8 {
+            let mut v = y.vector();
+            for (k, &j) in self.idx.iter().enumerate() {
+                v[j] += lambda * step[k] * self.sc[j];
+            }
+            if self.problem.unknowns.radius && v[2] <= 0.5 * y.a {
+                lambda *= 0.5;
+                continue;
+            }
+            if let Some(yn) = self.problem.consistent(v[0], v[1], v[2], y.x_k) {
+                let pn = self.map(&yn)?;
+                let rn = self.residual(&yn, &pn.end);
+                let simplified = solve_dense(m.to_vec(), rn.iter().map(|x| -x).collect())
+                    .map(|d| norm(&d))
+                    .unwrap_or(f64::INFINITY);
+                let ok = pn.rough().is_none()
+                    && norm(&rn).is_finite()
+                    && (simplified <= (1.0 - 0.25 * lambda) * step_norm
+                        || norm(&rn) < self.opts.tol);
+                if ok {
+                    return Ok(Some((yn, pn)));
+                }
+            }
+            lambda *= 0.5;
+        }
+        Ok(None)
     }
 }
 
@@ -930,32 +1059,12 @@ impl ShootFailure {
     }
 }
 
-/// Why a one-period run is not a smooth map: contact lost or formed within it, or the contact
-/// open at its end.
-fn rough(r: &RunResult) -> Option<String> {
-    if let Some(e) = r
-        .events
-        .iter()
-        .find(|e| matches!(e.kind, EventKind::ContactLoss | EventKind::Impact))
-    {
-        return Some(format!(
-            "{:?} at t = {:.6e} s within the period",
-            e.kind, e.time
-        ));
-    }
-    if r.final_state.a <= 0.0 {
-        return Some("contact open at phase 0".into());
-    }
-    None
-}
-
-/// Watches a long run: end state of every period, the stroboscopic test, and a stop request.
+/// Watches a long run: end state of every period and the stroboscopic test.
 struct Strobe<'a> {
     problem: &'a Problem,
     tol: f64,
     consecutive: usize,
     prev: Option<OrbitState>,
-    last: Option<Sample>,
     scales: Option<[f64; 3]>,
     diffs: Vec<f64>,
     passed: usize,
@@ -964,28 +1073,17 @@ struct Strobe<'a> {
     history: Vec<(f64, f64)>,
 }
 
-impl Observer for Strobe<'_> {
-    fn sample(&mut self, s: &Sample) -> bool {
-        self.last = Some(*s);
-        self.done.is_none()
-    }
-
-    fn cycle(&mut self, c: &CycleRecord) {
-        let Some(end) = self.last else { return };
-        // The driver emits the boundary step's sample before the cycle record.
-        if (end.t - c.t_end).abs() > 1e-9 * c.t_end.abs().max(1e-300) {
-            return;
-        }
+impl Strobe<'_> {
+    /// A period ended in state `end` with record `c`.
+    fn period(&mut self, end: &Sample, c: &CycleRecord) {
         let sc = *self.scales.get_or_insert_with(|| self.problem.scales(c));
-        let cur = OrbitState::from_sample(&end);
+        let cur = OrbitState::from_sample(end);
         let Some(prev) = self.prev.replace(cur) else {
             return;
         };
-        let idx = [0usize, 1, 2];
         let (v0, v1) = (prev.vector(), cur.vector());
-        let d = idx
-            .iter()
-            .map(|&i| ((v1[i] - v0[i]) / sc[i]).abs())
+        let d = (0..3)
+            .map(|i| ((v1[i] - v0[i]) / sc[i]).abs())
             .fold(0.0f64, f64::max);
         self.diffs.push(d);
         let k = self.diffs.len();
@@ -1007,40 +1105,6 @@ impl Observer for Strobe<'_> {
             self.done = Some((prev, *c));
         }
     }
-}
-
-/// The JKR contact radius at work of adhesion w for indentation δ, on the stable
-/// (displacement-controlled) branch a ≥ a_dc, where δ_eq(a) = a²/R − √(8πaw/(3K)) increases;
-/// `None` below the branch's minimum δ (no contact).
-pub fn equilibrium_radius_for_indentation(m: &Material, delta: f64, w: f64) -> Option<f64> {
-    let a_dc = jkr::displacement_controlled_pull_off_radius(m, w);
-    let f = |a: f64| jkr::equilibrium_indentation(m, a, w) - delta;
-    if !(delta.is_finite() && a_dc.is_finite()) || f(a_dc) > 0.0 {
-        return None;
-    }
-    let (mut lo, mut hi) = (a_dc, 2.0 * a_dc.max((m.r * delta.abs()).sqrt()));
-    let mut guard = 0;
-    while f(hi) < 0.0 {
-        lo = hi;
-        hi *= 2.0;
-        guard += 1;
-        if guard > 200 {
-            return None;
-        }
-    }
-    // Bisection to a relative bracket of 1e-15 (f is monotonic on the branch).
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if f(mid) < 0.0 {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-        if hi - lo <= 1e-15 * hi {
-            break;
-        }
-    }
-    Some(0.5 * (lo + hi))
 }
 
 /// Gaussian elimination with partial pivoting on a small dense system; `None` if singular.
@@ -1092,18 +1156,5 @@ mod tests {
             assert!((s[i] - x[i]).abs() < 1e-14);
         }
         assert!(solve_dense(vec![vec![1.0, 2.0], vec![2.0, 4.0]], vec![1.0, 2.0]).is_none());
-    }
-
-    #[test]
-    fn equilibrium_radius_inverts_the_jkr_indentation() {
-        let m = Material::PAPER;
-        for &a in &[0.5e-3, 1.2e-3, 4e-3] {
-            let d = jkr::equilibrium_indentation(&m, a, m.w0);
-            let back = equilibrium_radius_for_indentation(&m, d, m.w0).unwrap_or(0.0);
-            assert!((back / a - 1.0).abs() < 1e-12, "{a} -> {back}");
-        }
-        let a_dc = jkr::displacement_controlled_pull_off_radius(&m, m.w0);
-        let d_min = jkr::equilibrium_indentation(&m, a_dc, m.w0);
-        assert!(equilibrium_radius_for_indentation(&m, d_min - 1e-9, m.w0).is_none());
     }
 }
