@@ -62,31 +62,20 @@ use serde::Serialize;
 use std::f64::consts::PI;
 use std::time::Instant;
 
-/// The lowercase name of a method as scenario files and flags spell it.
-pub fn method_name(m: Method) -> &'static str {
-    match m {
-        Method::Auto => "auto",
-        Method::Dopri5 => "dopri5",
-        Method::Dop853 => "dop853",
-        Method::Dp8 => "dp8",
-        Method::Implicit => "implicit",
-    }
-}
+pub use crate::dynamics::stepper::method_name;
 
-/// Parse a method name (`auto`, `dp8`, `dopri5`, `dop853`, `implicit`); `flag` names the source.
+/// Parse a method name ([`crate::dynamics::stepper::METHOD_NAMES`]); `flag` names the source.
 pub fn parse_method(flag: &str, text: &str) -> Result<Method, ParamError> {
-    match text.trim() {
-        "auto" => Ok(Method::Auto),
-        "dopri5" => Ok(Method::Dopri5),
-        "dop853" => Ok(Method::Dop853),
-        "dp8" => Ok(Method::Dp8),
-        "implicit" => Ok(Method::Implicit),
-        other => Err(ParamError::new(
+    crate::dynamics::stepper::method_from_name(text.trim()).ok_or_else(|| {
+        ParamError::new(
             flag,
-            other,
-            "must be one of auto, dp8, dopri5, dop853, implicit",
-        )),
-    }
+            text.trim(),
+            format!(
+                "must be one of {}",
+                crate::dynamics::stepper::METHOD_NAMES.join(", ")
+            ),
+        )
+    })
 }
 
 /// Settings of a work-precision study.

@@ -405,6 +405,26 @@ impl Default for Law {
     }
 }
 
+/// The names of the laws as `[adhesion] law` spells them, in the order errors list them.
+pub const LAW_NAMES: [&str; 4] = [
+    "constant",
+    "gent-schultz",
+    "gent-schultz-saturated",
+    "tabulated",
+];
+
+impl Law {
+    /// The law's name as `[adhesion] law` spells it ([`LAW_NAMES`]).
+    pub fn name(&self) -> &'static str {
+        match self {
+            Law::Constant(_) => LAW_NAMES[0],
+            Law::GentSchultz(_) => LAW_NAMES[1],
+            Law::Saturated(_) => LAW_NAMES[2],
+            Law::Tabulated(_) => LAW_NAMES[3],
+        }
+    }
+}
+
 impl AdhesionLaw for Law {
     fn w0(&self) -> f64 {
         match self {

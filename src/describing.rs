@@ -315,7 +315,7 @@ fn rot(z: C, psi: f64) -> C {
 }
 
 /// One problem: everything but the unknowns.
-struct Problem<'a> {
+struct Balance<'a> {
     rig: &'a Rig,
     x_k: f64,
     xb: f64,
@@ -338,7 +338,7 @@ struct Eval {
     at_floor: bool,
 }
 
-impl Problem<'_> {
+impl Balance<'_> {
     fn a_coef(&self) -> f64 {
         self.rig.spring_stiffness() - self.rig.mass() * self.omega * self.omega
     }
@@ -593,13 +593,10 @@ impl Problem<'_> {
     }
 }
 
-/// Solve a dense 3×3 system (nalgebra LU with partial pivoting); `None` when singular or not
-/// finite.
+/// Solve the 3×3 Newton system.
 fn solve3(a: [[f64; 3]; 3], b: [f64; 3]) -> Option<[f64; 3]> {
-    let m = nalgebra::Matrix3::from_fn(|i, j| a[i][j]);
-    let x = m.lu().solve(&nalgebra::Vector3::from(b))?;
-    let x = [x[0], x[1], x[2]];
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    let x = crate::numerics::solve_dense(3, |i, j| a[i][j], &b)?;
+    Some([x[0], x[1], x[2]])
 }
 
 fn check_drive(omega: f64, xb: f64) -> Result<(), ParamError> {
@@ -687,7 +684,7 @@ fn solve_any(
     if base_amplitude <= 0.0 {
         return Ok(static_solution(&st, base_amplitude, omega));
     }
-    let pb = Problem {
+    let pb = Balance {
         rig,
         x_k: st.x_k,
         xb: base_amplitude,
@@ -798,7 +795,7 @@ fn continuation_from(
         let mut step_target = target;
         let mut halvings = 0;
         loop {
-            let pb = Problem {
+            let pb = Balance {
                 rig,
                 x_k: st.x_k,
                 xb: step_target,
@@ -999,7 +996,7 @@ pub fn at_contact_amplitude(
         return Err(no_root("no first harmonic"));
     }
     let psi = -q.im.atan2(q.re);
-    let pb = Problem {
+    let pb = Balance {
         rig,
         x_k: st.x_k,
         xb,
@@ -1085,7 +1082,7 @@ pub fn solutions(
                     break;
                 }
             }
-            let pb = Problem {
+            let pb = Balance {
                 rig,
                 x_k: st.x_k,
                 xb: target,

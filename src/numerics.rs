@@ -67,6 +67,17 @@ pub fn bisect(
     (lo, hi)
 }
 
+/// Solve the dense n × n system A x = b (A given element-wise by `a(i, j)`) by nalgebra's LU
+/// with partial pivoting; `None` when A is singular or the solution not finite. The one dense
+/// solver of the crate (shooting's Newton, harmonic balance's Newton).
+pub fn solve_dense(n: usize, a: impl Fn(usize, usize) -> f64, b: &[f64]) -> Option<Vec<f64>> {
+    let m = nalgebra::DMatrix::from_fn(n, n, a);
+    let x = m.lu().solve(&nalgebra::DVector::from_column_slice(b))?;
+    x.iter()
+        .all(|v| v.is_finite())
+        .then(|| x.iter().copied().collect())
+}
+
 /// Brent's local minimiser (golden section with parabolic steps; Brent 1973, "localmin") of `f`
 /// on [a, b]. Returns (x_min, f(x_min)). Converges to |Δx| ≲ 3 (rel_tol |x| + abs_tol). Pure,
 /// allocation-free, no clock: used by the pull-off searches, the β refit and the GS fit.

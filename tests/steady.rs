@@ -9,7 +9,7 @@ use djkr::material::Material;
 use djkr::scenario::parse::load_scenario;
 use djkr::scenario::{Initial, Scenario};
 use djkr::steady::sweep::{self, Direction};
-use djkr::steady::{compare, Options, Problem, Steady, SteadyMethod, Strategy};
+use djkr::steady::{crosscheck, Options, Problem, Steady, SteadyMethod, Strategy};
 use djkr::transfer;
 use std::path::Path;
 use std::process::Command;
@@ -100,7 +100,7 @@ fn force_balance_holds_to_integration_accuracy() {
             "{name}: <F> - (m g + <spring>) = {mismatch:e} N, bound {bound:e} N"
         );
         // The library's check agrees.
-        let fb = compare::force_balance(&scn.rig, &s);
+        let fb = crosscheck::force_balance(&scn.rig, &s);
         assert!(fb.holds, "{name}: {fb:?}");
     }
 }

@@ -130,9 +130,7 @@ impl MaterialArgs {
 pub fn law_name(l: &Law) -> &'static str {
     match l {
         Law::Constant(_) => "constant w0",
-        Law::GentSchultz(_) => "gent-schultz",
-        Law::Saturated(_) => "gent-schultz-saturated",
-        Law::Tabulated(_) => "tabulated",
+        other => other.name(),
     }
 }
 

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use djkr::plot::{self, Figure, Heatmap, LegendPosition, Series, Style};
 use djkr::scenario::parse::load_scenario;
-use djkr::steady::compare::{self, Comparison, Prediction};
+use djkr::steady::crosscheck::{self, Comparison, Prediction};
 use djkr::steady::map::{self as smap, MapCell, ShortcutMap};
 use djkr::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
 use djkr::steady::{Options, Problem, Strategy};
@@ -219,7 +219,7 @@ pub fn validate(a: &ValidateArgs) -> Result<()> {
     let bar = ProgressBar::new_spinner();
     bar.set_message("finding the periodic steady state");
     bar.enable_steady_tick(Duration::from_millis(200));
-    let c = compare::compare(&scn.plan(), &opts);
+    let c = crosscheck::compare(&scn.plan(), &opts);
     bar.finish_and_clear();
     let c = c.with_context(|| format!("{}", a.file.display()))?;
     if a.json {

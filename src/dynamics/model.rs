@@ -76,16 +76,17 @@ pub struct Model {
     pub w0: f64,
     /// True for a rate-independent law (a algebraic: G = w0).
     pub rate_independent: bool,
-    /// Mass (kg).
-    pub m: f64,
-    /// Gravity (m/s²).
-    pub g: f64,
-    /// Spring stiffness (N/m; 0 without a holder or for a rigid link).
-    pub k: f64,
+    /// Sphere mass m (kg).
+    pub mass: f64,
+    /// Gravitational acceleration g (m/s²).
+    pub gravity: f64,
+    /// Holding-spring stiffness k (N/m; 0 without a holder or for a rigid link): not the JKR
+    /// constant K, which is `mat.k`.
+    pub spring: f64,
     /// True without a holder (k = 0).
     pub free_holder: bool,
-    /// Damping coefficient (N s/m).
-    pub c: f64,
+    /// Damping coefficient c (N s/m).
+    pub damping: f64,
     /// Damping acts on δ̇ while in contact (otherwise on ẋ_s).
     pub contact_damping: bool,
     /// Mechanical model.
@@ -246,11 +247,11 @@ pub fn resolve(s: &Rig, scales: RunScales) -> Result<Model, String> {
         law: s.law.clone(),
         w0,
         rate_independent: s.law.is_rate_independent(),
-        m,
-        g,
-        k,
+        mass: m,
+        gravity: g,
+        spring: k,
         free_holder,
-        c,
+        damping: c,
         contact_damping,
         mech,
         omega,
@@ -411,12 +412,12 @@ impl Model {
     fn damping_terms(&self, contact: bool) -> (f64, f64) {
         if self.contact_damping {
             if contact {
-                (self.c, self.c)
+                (self.damping, self.damping)
             } else {
                 (0.0, 0.0)
             }
         } else {
-            (self.c, 0.0)
+            (self.damping, 0.0)
         }
     }
 
@@ -425,7 +426,8 @@ impl Model {
     pub fn net_force(&self, kin: &Kinematics, x: f64, v: f64, a: f64, contact: bool) -> f64 {
         let (kc, f0) = self.contact_terms(a, contact);
         let (cv, cb) = self.damping_terms(contact);
-        -cv * v - cb * kin.vb - self.k * (x - kin.xk) - (kc * (x + kin.xb) - f0) + self.m * self.g
+        -cv * v - cb * kin.vb - self.spring * (x - kin.xk) - (kc * (x + kin.xb) - f0)
+            + self.mass * self.gravity
     }
 
     /// Acceleration (Dynamic mechanics).
@@ -500,10 +502,12 @@ impl Model {
             Mechanics::Dynamic => {
                 let (kc, f0) = self.contact_terms(a, contact);
                 let (cv, cb) = self.damping_terms(contact);
-                let b0 = -cb * kin.vb + self.k * kin.xk - kc * kin.xb + f0 + self.m * self.g;
-                let kt = self.k + kc;
-                let den = self.m + hg * cv + hg * hg * kt;
-                let v = (self.m * vk_known + hg * (b0 - kt * xk_known)) / den;
+                let b0 = -cb * kin.vb + self.spring * kin.xk - kc * kin.xb
+                    + f0
+                    + self.mass * self.gravity;
+                let kt = self.spring + kc;
+                let den = self.mass + hg * cv + hg * hg * kt;
+                let v = (self.mass * vk_known + hg * (b0 - kt * xk_known)) / den;
                 (xk_known + hg * v, v)
             }
             Mechanics::QuasiStatic => {
@@ -511,10 +515,10 @@ impl Model {
                     let kk = self.mat.k;
                     let r = self.mat.r;
                     let kc = 1.5 * kk * a;
-                    let n = self.k * kin.xk - kc * kin.xb + 0.5 * kk * a * a * a / r;
-                    let d = self.k + kc;
+                    let n = self.spring * kin.xk - kc * kin.xb + 0.5 * kk * a * a * a / r;
+                    let d = self.spring + kc;
                     let x = n / d;
-                    let dn = self.k * kin.vk - kc * kin.vb
+                    let dn = self.spring * kin.vk - kc * kin.vb
                         + adot * (-1.5 * kk * kin.xb + 1.5 * kk * a * a / r);
                     let dd = 1.5 * kk * adot;
                     (x, (dn - x * dd) / d)
@@ -539,8 +543,8 @@ impl Model {
     #[inline]
     pub fn holder_force(&self, kin: &Kinematics, x: f64, force: f64) -> f64 {
         match self.mech {
-            Mechanics::Rigid => force - self.m * self.g,
-            _ => self.k * (kin.xk - x),
+            Mechanics::Rigid => force - self.mass * self.gravity,
+            _ => self.spring * (kin.xk - x),
         }
     }
 
@@ -614,10 +618,12 @@ impl Model {
                 let kc = 1.5 * kk * a;
                 let f0 = 0.5 * kk * a * a * a / r;
                 let (cv, cb) = self.damping_terms(true);
-                let b0 = -cb * kin.vb + self.k * kin.xk - kc * kin.xb + f0 + self.m * self.g;
-                let kt = self.k + kc;
-                let den = self.m + hg * cv + hg * hg * kt;
-                let num = self.m * vk_known + hg * (b0 - kt * xk_known);
+                let b0 = -cb * kin.vb + self.spring * kin.xk - kc * kin.xb
+                    + f0
+                    + self.mass * self.gravity;
+                let kt = self.spring + kc;
+                let den = self.mass + hg * cv + hg * hg * kt;
+                let num = self.mass * vk_known + hg * (b0 - kt * xk_known);
                 let v = num / den;
                 let dkc = 1.5 * kk;
                 let dnum = hg * (-dkc * kin.xb + 1.5 * kk * a * a / r - dkc * xk_known);
@@ -626,8 +632,8 @@ impl Model {
             }
             Mechanics::QuasiStatic => {
                 let kc = 1.5 * kk * a;
-                let n = self.k * kin.xk - kc * kin.xb + 0.5 * kk * a * a * a / r;
-                let d = self.k + kc;
+                let n = self.spring * kin.xk - kc * kin.xb + 0.5 * kk * a * a * a / r;
+                let d = self.spring + kc;
                 let x = n / d;
                 let dn = -1.5 * kk * kin.xb + 1.5 * kk * a * a / r;
                 (x, (dn - x * 1.5 * kk) / d)
@@ -656,12 +662,12 @@ impl Model {
         let ddot = v + kin.vb;
         let (fb, diss) = if self.contact_damping {
             if contact {
-                (f + self.c * ddot, self.c * ddot * ddot)
+                (f + self.damping * ddot, self.damping * ddot * ddot)
             } else {
                 (0.0, 0.0)
             }
         } else {
-            (f, self.c * v * v)
+            (f, self.damping * v * v)
         };
         let dadh = if contact && !self.rate_independent {
             (self.w0 - w) * 2.0 * PI * a * adot
@@ -707,8 +713,8 @@ pub fn elastic_energy(m: &Material, a: f64, delta: f64) -> f64 {
 /// (base work) + (spring-end work) − (viscous dissipation) − (adhesive dissipation), which the
 /// quadrature states integrate (see [`q`]).
 pub fn total_energy(model: &Model, kin: &Kinematics, x: f64, v: f64, a: f64, contact: bool) -> f64 {
-    let mut e =
-        0.5 * model.m * v * v + 0.5 * model.k * (x - kin.xk).powi(2) - model.m * model.g * x;
+    let mut e = 0.5 * model.mass * v * v + 0.5 * model.spring * (x - kin.xk).powi(2)
+        - model.mass * model.gravity * x;
     if contact {
         e += elastic_energy(&model.mat, a, x + kin.xb) - model.w0 * PI * a * a;
     }

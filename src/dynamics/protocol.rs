@@ -230,7 +230,7 @@ pub fn initial_state(rig: &Rig, initial: &Initial, m: &Model) -> Result<(State, 
             }
             y.x = -g0;
             xk = match m.mech {
-                Mechanics::Dynamic if !m.free_holder => y.x - m.m * m.g / m.k,
+                Mechanics::Dynamic if !m.free_holder => y.x - m.mass * m.gravity / m.spring,
                 Mechanics::Dynamic => 0.0,
                 _ => y.x,
             };
@@ -365,13 +365,14 @@ impl Protocol<'_> {
             Mechanics::Rigid | Mechanics::QuasiStatic => moving_away.then(|| drive.x_k(y.t)),
             Mechanics::Dynamic => {
                 if m.free_holder {
-                    (m.g <= 0.0 && y.v < 0.0).then_some(f64::NEG_INFINITY)
+                    (m.gravity <= 0.0 && y.v < 0.0).then_some(f64::NEG_INFINITY)
                 } else if moving_away {
-                    let cv = if m.contact_damping { 0.0 } else { m.c };
-                    let xeq = drive.x_k(y.t) + (m.m * m.g - cv * drive.xk_speed) / m.k;
+                    let cv = if m.contact_damping { 0.0 } else { m.damping };
+                    let xeq =
+                        drive.x_k(y.t) + (m.mass * m.gravity - cv * drive.xk_speed) / m.spring;
                     let xi = y.x - xeq;
                     let vi = y.v - drive.xk_speed;
-                    Some(xeq + (xi * xi + m.m * vi * vi / m.k).sqrt())
+                    Some(xeq + (xi * xi + m.mass * vi * vi / m.spring).sqrt())
                 } else {
                     None
                 }
@@ -383,8 +384,8 @@ impl Protocol<'_> {
             }
         }
         // Fallback: a generous time without re-impact.
-        let wn = if m.mech == Mechanics::Dynamic && m.k > 0.0 {
-            (m.k / m.m).sqrt()
+        let wn = if m.mech == Mechanics::Dynamic && m.spring > 0.0 {
+            (m.spring / m.mass).sqrt()
         } else {
             0.0
         };

@@ -338,6 +338,15 @@ impl Simulator {
         Box::new(self.sample_of(&self.y, self.stage))
     }
 
+    /// The step size fell below what the time resolves at `t`.
+    fn underflow(&self, t: f64, h: f64) -> SimError {
+        SimError::StepSizeUnderflow {
+            t,
+            h,
+            state: self.err_state(),
+        }
+    }
+
     fn budget(&self) -> Result<(), SimError> {
         if self.stats.steps >= self.settings.max_steps {
             return Err(SimError::StepBudget {
@@ -604,11 +613,7 @@ impl Simulator {
                 return Ok(Some(self.lose_contact(&y0)));
             }
             if h_new <= self.h_min() {
-                return Err(SimError::StepSizeUnderflow {
-                    t: y0.t,
-                    h: h_new,
-                    state: self.err_state(),
-                });
+                return Err(self.underflow(y0.t, h_new));
             }
             return Ok(None);
         }
@@ -694,11 +699,7 @@ impl Simulator {
         // rates; shorten it.
         let h_new = self.control.shrink(h, 0.25);
         if h_new <= self.h_min() {
-            return Err(SimError::StepSizeUnderflow {
-                t: y0.t,
-                h: h_new,
-                state: self.err_state(),
-            });
+            return Err(self.underflow(y0.t, h_new));
         }
         Ok(None)
     }

@@ -312,27 +312,29 @@ pub fn build(method: Method, rig: &Rig) -> Box<dyn Stepper> {
     }
 }
 
-/// The scenario-file name of a method (`[solver] method`, `--methods`).
-pub fn method_name(m: Method) -> &'static str {
-    match m {
-        Method::Auto => "auto",
-        Method::Implicit => "implicit",
-        Method::Dp8 => "dp8",
-        Method::Dopri5 => "dopri5",
-        Method::Dop853 => "dop853",
-    }
-}
-
-/// Every method, in the order the documentation lists them.
+/// Every method, in the order files and flags list them.
 pub const METHODS: [Method; 5] = [
     Method::Auto,
     Method::Dp8,
-    Method::Implicit,
     Method::Dopri5,
     Method::Dop853,
+    Method::Implicit,
 ];
 
-/// The method of a scenario-file or flag name; `None` for an unknown name.
+/// The names of [`METHODS`] as scenario files (`[solver] method`) and flags (`--methods`)
+/// spell them: the one mapping between methods and names.
+pub const METHOD_NAMES: [&str; 5] = ["auto", "dp8", "dopri5", "dop853", "implicit"];
+
+/// The name of a method ([`METHOD_NAMES`]).
+pub fn method_name(m: Method) -> &'static str {
+    let i = METHODS.iter().position(|x| *x == m).unwrap_or(0);
+    METHOD_NAMES[i]
+}
+
+/// The method of a name; `None` for an unknown name.
 pub fn method_from_name(name: &str) -> Option<Method> {
-    METHODS.into_iter().find(|m| method_name(*m) == name)
+    METHOD_NAMES
+        .iter()
+        .position(|n| *n == name)
+        .map(|i| METHODS[i])
 }

@@ -39,9 +39,11 @@ use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
     Scenario, Solver, Sphere, Stage, StageKind, Until,
 };
+use crate::adhesion::LAW_NAMES;
 use crate::adhesion::{
     AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw,
 };
+use crate::dynamics::stepper::{method_from_name, METHOD_NAMES};
 use crate::error::ParamError;
 use crate::jkr;
 use crate::material::Material;
@@ -573,13 +575,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "adhesion")? else {
             return Ok(Law::Constant(ConstantW { w0: m.w0 }));
         };
-        const LAWS: &[&str] = &[
-            "constant",
-            "gent-schultz",
-            "gent-schultz-saturated",
-            "tabulated",
-        ];
-        let law = self.string(&s, "law", LAWS)?.ok_or_else(|| {
+        let law = self.string(&s, "law", &LAW_NAMES)?.ok_or_else(|| {
             self.key_err(
                 &s.key("law"),
                 "missing: one of \"constant\", \"gent-schultz\", \"gent-schultz-saturated\", \"tabulated\"",
@@ -1003,16 +999,8 @@ impl Parser<'_> {
             ],
             "",
         )?;
-        match self.string(
-            &s,
-            "method",
-            &["auto", "dp8", "dopri5", "dop853", "implicit"],
-        )? {
-            None | Some("auto") => {}
-            Some("dp8") => solver.method = Method::Dp8,
-            Some("dopri5") => solver.method = Method::Dopri5,
-            Some("dop853") => solver.method = Method::Dop853,
-            Some(_) => solver.method = Method::Implicit,
+        if let Some(name) = self.string(&s, "method", &METHOD_NAMES)? {
+            solver.method = method_from_name(name).unwrap_or(Method::Auto);
         }
         if let Some(n) = self.number(&s, "rtol", DIMENSIONLESS)? {
             if !(n.v.is_finite() && (MIN_RTOL..=MAX_RTOL).contains(&n.v)) {

@@ -1,6 +1,6 @@
 //! Where does the imposed-area shortcut hold? Over a grid of base frequency × base amplitude,
 //! the time-domain steady state is compared with the imposed-area cycle at the simulated
-//! (ω, a_m, a_A) ([`super::compare::imposed`]): the relative error of the mean force and of δ_A.
+//! (ω, a_m, a_A) ([`super::crosscheck::imposed`]): the relative error of the mean force and of δ_A.
 //!
 //! - force error: (F_m,imposed − F_m,time) / max(|F_m,time|, |F0|), F0 = −(3/2)πRw0 (the static
 //!   pull-off force; the floor keeps the measure finite where the mean force crosses zero);
@@ -9,7 +9,7 @@
 //! Columns (one frequency each) run in parallel (rayon); within a column the amplitudes are
 //! visited in increasing order, each started from the previous amplitude's steady state.
 
-use super::compare::{self, Prediction};
+use super::crosscheck::{self, Prediction};
 use super::{Options, Problem, SteadyMethod};
 use crate::dynamics::protocol::Initial;
 use rayon::prelude::*;
@@ -99,9 +99,9 @@ fn cell(problem: &Problem, from: &mut Initial, f: f64, xb: f64, opts: &Options) 
     c.method = Some(s.method);
     c.cycles = s.cycles;
     c.contact_lost = s.contact_lost;
-    let td = compare::time_domain(&s);
+    let td = crosscheck::time_domain(&s);
     c.time_domain = Some(td);
-    match compare::imposed(p.rig(), &s) {
+    match crosscheck::imposed(p.rig(), &s) {
         Ok(ia) => {
             let f0 = p.rig().material.static_pull_off_force().abs();
             if let (Some(fi), Some(ft)) = (ia.force_mean, td.force_mean) {

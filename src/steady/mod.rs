@@ -60,12 +60,12 @@
 //! quadratures integrated with the solution ([`crate::dynamics::CycleRecord`]), not from output
 //! samples.
 //!
-//! Submodules: [`compare`] (the time-domain steady state side by side with the imposed-area
+//! Submodules: [`crosscheck`] (the time-domain steady state side by side with the imposed-area
 //! method, the linear transfer, the paper's printed eqs. (37)–(39) and harmonic balance),
 //! [`sweep`] (frequency response with continuation, up and down), [`map`] (where the
 //! imposed-area shortcut holds, over a frequency × amplitude grid).
 
-pub mod compare;
+pub mod crosscheck;
 pub mod map;
 pub mod sweep;
 
@@ -1107,32 +1107,9 @@ impl Strobe<'_> {
     }
 }
 
-/// Gaussian elimination with partial pivoting on a small dense system; `None` if singular.
-fn solve_dense(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
-    let n = b.len();
-    for col in 0..n {
-        let p = (col..n).max_by(|&i, &j| a[i][col].abs().total_cmp(&a[j][col].abs()))?;
-        if !(a[p][col].abs() > 0.0 && a[p][col].is_finite()) {
-            return None;
-        }
-        a.swap(col, p);
-        b.swap(col, p);
-        let (top, rest) = a.split_at_mut(col + 1);
-        let pivot = &top[col];
-        for (i, r) in rest.iter_mut().enumerate() {
-            let f = r[col] / pivot[col];
-            for (x, p) in r[col..].iter_mut().zip(&pivot[col..]) {
-                *x -= f * p;
-            }
-            b[col + 1 + i] -= f * b[col];
-        }
-    }
-    let mut x = vec![0.0; n];
-    for row in (0..n).rev() {
-        let s: f64 = (row + 1..n).map(|k| a[row][k] * x[k]).sum();
-        x[row] = (b[row] - s) / a[row][row];
-    }
-    x.iter().all(|v| v.is_finite()).then_some(x)
+/// Solve the scaled Newton system M x = b (nalgebra's LU, [`crate::numerics::solve_dense`]).
+fn solve_dense(m: Vec<Vec<f64>>, b: Vec<f64>) -> Option<Vec<f64>> {
+    crate::numerics::solve_dense(b.len(), |i, j| m[i][j], &b)
 }
 
 #[cfg(test)]
