@@ -1,7 +1,9 @@
 //! TOML parsing and validation of scenario files.
 //!
 //! The file is first parsed into a generic TOML table (syntax errors carry the line and column
-//! TOML reports), then walked section by section. Walking the table by hand, rather than through
+//! TOML reports), then walked section by section. Overrides (`--set KEY=VALUE`,
+//! [`super::overrides`]) are written into that table between the two steps, so they meet the
+//! same checks; [`ScenarioSource`] keeps the parsed table for many override sets. Walking the table by hand, rather than through
 //! `#[serde(deny_unknown_fields)]` structs, is what lets every error name the file, the dotted key
 //! (`stage[2].speed`, `material.K`), the value as written and the allowed range with its unit:
 //! serde's messages know the field name but not the section path or the range.
