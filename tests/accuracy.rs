@@ -127,6 +127,7 @@ fn study_of_quasi_static_jkr() {
         output: Output::default(),
         source_text: String::new(),
         source_name: "<test>".into(),
+        overrides: Vec::new(),
     };
     let cfg = StudyConfig {
         methods: vec![Method::Implicit, Method::Dopri5],

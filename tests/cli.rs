@@ -3,7 +3,7 @@
 //! through `djkr run` with complete output.
 
 use serde_json::Value;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn djkr(args: &[&str]) -> Output {
@@ -394,4 +394,428 @@ fn pulloff_outside_small_contact_range_is_flagged() {
     assert!(num(&v, "a_mean") > 0.2 * 0.051);
     let v = json(&["pulloff", "--freq", "400", "--a-amp", "1.5mm", "--json"]);
     assert!(v["notes"].as_array().unwrap().is_empty(), "{v}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// `--set KEY=VALUE`: on every command that reads a scenario, equal to the edited file; bad
+// overrides named as such.
+
+fn scenario(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenarios")
+        .join(name)
+}
+
+/// A copy of `src` named `name` in `dir`, with `from` replaced by `to` (which must occur once).
+fn edited_copy(src: &Path, dir: &Path, name: &str, from: &str, to: &str) -> PathBuf {
+    let text = std::fs::read_to_string(src).unwrap();
+    assert_eq!(text.matches(from).count(), 1, "{from} in {}", src.display());
+    let p = dir.join(name);
+    std::fs::write(&p, text.replace(from, to)).unwrap();
+    p
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// `v` without its wall-clock times (`wall_s` at any depth).
+fn without_wall_times(mut v: Value) -> Value {
+    fn strip(v: &mut Value) {
+        match v {
+            Value::Object(m) => {
+                m.remove("wall_s");
+                m.values_mut().for_each(strip);
+            }
+            Value::Array(a) => a.iter_mut().for_each(strip),
+            _ => {}
+        }
+    }
+    strip(&mut v);
+    v
+}
+
+fn ok(args: &[&str]) -> Output {
+    let o = djkr(args);
+    assert!(
+        o.status.success(),
+        "djkr {args:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+/// Each dataset of an HDF5 file (root, events/, cycles/), bit-exactly: f64 as bits, else i64,
+/// else strings.
+fn h5_datasets(path: &Path) -> Vec<(String, Vec<String>)> {
+    let f = hdf5_pure::File::open(path).unwrap();
+    let mut names: Vec<String> = f.root().datasets().unwrap();
+    for g in f.root().groups().unwrap() {
+        let group = f.group(&g).unwrap();
+        names.extend(
+            group
+                .datasets()
+                .unwrap()
+                .into_iter()
+                .map(|d| format!("{g}/{d}")),
+        );
+    }
+    names.sort();
+    names
+        .into_iter()
+        .map(|n| {
+            let ds = f.dataset(&n).unwrap();
+            let v: Vec<String> = if let Ok(x) = ds.read_f64() {
+                x.iter().map(|x| format!("{:016x}", x.to_bits())).collect()
+            } else if let Ok(x) = ds.read_i64() {
+                x.iter().map(i64::to_string).collect()
+            } else {
+                ds.read_string().unwrap()
+            };
+            (n, v)
+        })
+        .collect()
+}
+
+/// `djkr run FILE --set base.amplitude=30um` is the file with `amplitude = "30um"` in it: the same
+/// summary (but for the wall time and the record of the override) and bit-identical HDF5 data.
+/// Both run as `x.toml` from their own directory, so the summaries name the same file.
+#[test]
+fn set_on_run_equals_the_edited_file() {
+    let src = scenario("paper-protocol-300hz.toml");
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    std::fs::copy(&src, a.path().join("x.toml")).unwrap();
+    edited_copy(
+        &src,
+        b.path(),
+        "x.toml",
+        "amplitude = 10e-6 ",
+        "amplitude = \"30um\" ",
+    );
+    let run_in = |dir: &Path, extra: &[&str]| {
+        let mut args = vec!["run", "x.toml", "--out", "out", "--json"];
+        args.extend_from_slice(extra);
+        let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
+            .args(&args)
+            .current_dir(dir)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let printed: Value = serde_json::from_slice(&o.stdout).unwrap();
+        let written: Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("out/summary.json")).unwrap())
+                .unwrap();
+        assert_eq!(printed, written);
+        written
+    };
+    let mut set = run_in(a.path(), &["--set", "base.amplitude=30um"]);
+    let mut edited = run_in(b.path(), &[]);
+    assert_eq!(set["scenario"], "x.toml --set base.amplitude=30um");
+    assert_eq!(set["overrides"], serde_json::json!(["base.amplitude=30um"]));
+    assert_eq!(edited["scenario"], "x.toml");
+    assert_eq!(edited["overrides"], serde_json::json!([]));
+    // The README's amplification at 30 µm.
+    let amp = set["pull_off"]["amplification"].as_f64().unwrap();
+    assert!((amp - 4.81).abs() < 0.01, "{amp}");
+    for v in [&mut set, &mut edited] {
+        let m = v.as_object_mut().unwrap();
+        m.remove("scenario");
+        m.remove("overrides");
+        m["stats"].as_object_mut().unwrap().remove("wall_s");
+    }
+    assert_eq!(set, edited);
+    let (hs, he) = (
+        h5_datasets(&a.path().join("out/run.h5")),
+        h5_datasets(&b.path().join("out/run.h5")),
+    );
+    assert!(
+        hs.len() > 20,
+        "{:?}",
+        hs.iter().map(|d| &d.0).collect::<Vec<_>>()
+    );
+    assert!(hs.iter().any(|(n, v)| n == "t" && v.len() > 1000));
+    assert!(hs == he, "HDF5 datasets differ");
+}
+
+/// `validate` and `resonance` with `--set base.amplitude=0.3um` give the JSON and CSV of the file
+/// edited to say so; the override changes the result.
+#[test]
+fn set_on_validate_and_resonance_equals_the_edited_file() {
+    let src = scenario("resonance-400hz.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let edited = edited_copy(
+        &src,
+        dir.path(),
+        "edited.toml",
+        "amplitude = 0.5e-6 ",
+        "amplitude = \"0.3um\" ",
+    );
+    let set = ["--set", "base.amplitude=0.3um"];
+    let mut args = vec!["validate", s(&src), "--json"];
+    let plain = json(&args);
+    args.extend(set);
+    let v = without_wall_times(json(&args));
+    assert_eq!(
+        v,
+        without_wall_times(json(&["validate", s(&edited), "--json"]))
+    );
+    assert_eq!(num(&v, "amplitude"), 3e-7);
+    assert_ne!(v, without_wall_times(plain));
+
+    let resonance = |file: &Path, out: &Path, extra: &[&str]| {
+        let mut args = vec![
+            "resonance",
+            s(file),
+            "--freq",
+            "395:405:3",
+            "--sweep",
+            "up",
+            "--no-harmonic-balance",
+            "--out",
+            s(out),
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let v = json(&args);
+        assert_eq!(num(&v, "amplitude"), 3e-7);
+        std::fs::read_to_string(out.join("resonance.csv")).unwrap()
+    };
+    let a = resonance(&src, &dir.path().join("set"), &set);
+    let b = resonance(&edited, &dir.path().join("edited"), &[]);
+    assert_eq!(a, b);
+    assert_eq!(a.lines().count(), 4);
+}
+
+/// `shortcut-map` (whose amplitudes come from `--amp`) with an override of the damping, and
+/// `accuracy` with an override of the unload speed, equal the edited files.
+#[test]
+fn set_on_shortcut_map_and_accuracy_equals_the_edited_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = scenario("resonance-400hz.toml");
+    let edited = edited_copy(
+        &src,
+        dir.path(),
+        "c.toml",
+        "\nc = 0.5 ",
+        "\nc = \"0.6Ns/m\" ",
+    );
+    let map = |file: &Path, out: &str, extra: &[&str]| {
+        let out = dir.path().join(out);
+        let mut args = vec![
+            "shortcut-map",
+            s(file),
+            "--freq",
+            "400:400:1",
+            "--amp",
+            "0.3um:0.3um:1",
+            "--out",
+            s(&out),
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        json(&args);
+        std::fs::read_to_string(out.join("shortcut-map.csv")).unwrap()
+    };
+    let a = map(&src, "set", &["--set", "damping.c=0.6Ns/m"]);
+    assert_eq!(a, map(&edited, "edited", &[]));
+    assert_ne!(a, map(&src, "plain", &[]));
+
+    let src = scenario("quasi-static-jkr.toml");
+    let edited = edited_copy(
+        &src,
+        dir.path(),
+        "q.toml",
+        "speed = 1e-6 ",
+        "speed = \"2um/s\" ",
+    );
+    // The study's errors and counts (not its wall times).
+    let study = |file: &Path, out: &str, extra: &[&str]| {
+        let out = dir.path().join(out);
+        let mut args = vec![
+            "accuracy",
+            s(file),
+            "--methods",
+            "implicit",
+            "--tolerances",
+            "1e-6",
+            "--repeats",
+            "1",
+            "--out",
+            s(&out),
+        ];
+        args.extend_from_slice(extra);
+        ok(&args);
+        let mut r = csv::Reader::from_path(out.join("work_precision.csv")).unwrap();
+        let head = r.headers().unwrap().clone();
+        let rows: Vec<Vec<(String, String)>> = r
+            .records()
+            .map(|rec| {
+                head.iter()
+                    .zip(rec.unwrap().iter())
+                    .filter(|(h, _)| !h.starts_with("wall_"))
+                    .map(|(h, v)| (h.to_string(), v.to_string()))
+                    .collect()
+            })
+            .collect();
+        assert_eq!(rows.len(), 1);
+        rows
+    };
+    let a = study(&src, "acc-set", &["--set", "stage[0].speed=2um/s"]);
+    assert_eq!(a, study(&edited, "acc-edited", &[]));
+    assert!(
+        a[0].iter().any(|(h, v)| h == "status" && v == "ok"),
+        "{a:?}"
+    );
+}
+
+/// `check FILE... --set` applies the overrides to every file and names the result.
+#[test]
+fn set_on_check_applies_to_every_file() {
+    let (r, q) = (
+        scenario("resonance-400hz.toml"),
+        scenario("quasi-static-jkr.toml"),
+    );
+    // The resonance scene's stage[0] is a hold, the quasi-static one's an unload to pull-off:
+    // a duration ends either.
+    let o = ok(&["check", s(&r), s(&q), "--set", "stage[0].duration=0.2s"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(
+        out.matches("--set stage[0].duration=0.2s: ok").count(),
+        2,
+        "{out}"
+    );
+    // A speed: the hold refuses it, the unload refuses it negative; each error names its file.
+    let o = djkr(&["check", s(&r), s(&q), "--set", "stage[0].speed=-1"]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    for want in [
+        format!(
+            "error: {}: --set stage[0].speed=-1: a hold keeps the spring end still",
+            r.display()
+        ),
+        format!(
+            "error: {}: --set stage[0].speed=-1: must be a finite number > 0 (m/s)",
+            q.display()
+        ),
+        "2 of 2 scenario file(s) invalid".to_string(),
+    ] {
+        assert!(err.contains(&want), "'{want}' missing from: {err}");
+    }
+}
+
+/// Bad overrides on every command that takes `--set`: exit 2, one message naming the override
+/// (not the file's key), never a panic, nothing written.
+#[test]
+fn bad_overrides_are_named_on_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("never");
+    let (res, qs) = (
+        scenario("resonance-400hz.toml"),
+        scenario("quasi-static-jkr.toml"),
+    );
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["run", s(&res), "--out", s(&out)],
+        vec!["check", s(&res)],
+        vec!["validate", s(&res), "--json"],
+        vec![
+            "resonance",
+            s(&res),
+            "--freq",
+            "395:405:3",
+            "--out",
+            s(&out),
+        ],
+        vec![
+            "shortcut-map",
+            s(&res),
+            "--freq",
+            "400:400:1",
+            "--amp",
+            "0.3um:0.3um:1",
+            "--out",
+            s(&out),
+        ],
+        vec![
+            "accuracy",
+            s(&qs),
+            "--methods",
+            "implicit",
+            "--tolerances",
+            "1e-6",
+            "--repeats",
+            "1",
+            "--out",
+            s(&out),
+        ],
+    ];
+    let cases: &[(&str, &str)] = &[
+        (
+            "base.amplitude=-1um",
+            "--set base.amplitude=-1um: must be a finite number >= 0 (m)",
+        ),
+        (
+            "base.amplitude=1furlong",
+            "--set base.amplitude=1furlong: unknown unit 'furlong'",
+        ),
+        (
+            "base.amplitud=30um",
+            "--set base.amplitud=30um: unknown key; [base] takes amplitude, frequency",
+        ),
+        (
+            "bse.amplitude=30um",
+            "--set bse.amplitude=30um: unknown section 'bse'; the sections are material, adhesion,",
+        ),
+        (
+            "stage[7].speed=1mm/s",
+            "--set stage[7].speed=1mm/s: no such stage:",
+        ),
+        ("base.amplitude", "--set base.amplitude: expected KEY=VALUE"),
+        ("=30um", "--set =30um: empty key"),
+        ("stage[x].speed=1", "--set stage[x].speed=1: bad index 'x'"),
+        ("stage.speed=1", "--set stage.speed=1: [[stage]] is a list"),
+        (
+            "solver.rtol=1",
+            "--set solver.rtol=1: must lie in [1e-14, 1e-2]",
+        ),
+    ];
+    for cmd in &commands {
+        for (set, want) in cases {
+            // The quasi-static scene has no [base]: its amplitude cases fail on the override's
+            // value first, as the file would, or on the missing frequency.
+            let mut args = cmd.clone();
+            args.extend(["--set", set]);
+            let o = djkr(&args);
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "djkr {args:?}: {err}");
+            assert!(!err.contains("panicked"), "djkr {args:?}: {err}");
+            // One line; `check` adds its count of invalid files after a file's error.
+            assert!(
+                err.lines().count() <= 1 + usize::from(cmd[0] == "check"),
+                "{err}"
+            );
+            assert!(
+                err.contains(want),
+                "djkr {args:?}: '{want}' missing from: {err}"
+            );
+            assert!(!out.exists(), "djkr {args:?} wrote {}", out.display());
+        }
+    }
+    // A section created by an override is then validated as a whole: the frequency is missing.
+    let o = djkr(&[
+        "run",
+        s(&qs),
+        "--out",
+        s(&out),
+        "--set",
+        "base.amplitude=30um",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("quasi-static-jkr.toml --set base.amplitude=30um: base.frequency: missing"),
+        "{err}"
+    );
+    // --set needs a scenario.
+    let o = djkr(&["accuracy", "--imposed-area", "--set", "base.amplitude=1um"]);
+    assert_eq!(o.status.code(), Some(2));
 }

@@ -33,6 +33,7 @@ fn scene() -> Scenario {
         output: Output::default(),
         source_text: String::new(),
         source_name: "<test>".into(),
+        overrides: Vec::new(),
     }
 }
 

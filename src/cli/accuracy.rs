@@ -3,14 +3,13 @@
 //! imposed-area cycle and the closed form's error map. Writes CSV, a markdown table and plots
 //! into `--out`; prints the table.
 
-use super::common::{positive_quantity, write_atomic};
+use super::common::{load_scenario, positive_quantity, write_atomic, SetArgs};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::accuracy::{self, Measure, StudyConfig};
 use djkr::beta_fit::log_space;
 use djkr::error::ParamError;
 use djkr::plot;
-use djkr::scenario::parse::load_scenario;
 use djkr::units::Dimension;
 use std::path::{Path, PathBuf};
 
@@ -53,6 +52,8 @@ pub struct AccuracyArgs {
     /// With --imposed-area: speed correction β of eq. (24) for the closed form.
     #[arg(long, default_value = "2.5")]
     beta: String,
+    #[command(flatten)]
+    set: SetArgs,
 }
 
 fn list<T>(flag: &str, text: &str, f: impl Fn(&str) -> Result<T, ParamError>) -> Result<Vec<T>> {
@@ -78,6 +79,9 @@ fn count(flag: &str, text: &str, lo: usize, hi: usize) -> Result<usize, ParamErr
 /// Run `djkr accuracy`.
 pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
     if a.imposed_area {
+        if !a.set.set.is_empty() {
+            bail!("--set changes a scenario FILE's values; --imposed-area reads no scenario");
+        }
         return imposed_area(a);
     }
     let Some(file) = &a.file else {
@@ -97,7 +101,7 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         ..StudyConfig::default()
     };
     cfg.validate()?;
-    let scn = load_scenario(file)?;
+    let scn = load_scenario(file, &a.set)?;
     let out = a.out.clone().unwrap_or_else(|| {
         let stem = file
             .file_stem()

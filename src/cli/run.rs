@@ -1,11 +1,11 @@
 //! `djkr run FILE` and `djkr check FILE`: the time-domain simulator on a scenario file.
 
-use super::common::law_name;
+use super::common::{law_name, load_scenario, SetArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use djkr::dynamics::{self, Event, Observer, RunResult, Sample};
 use djkr::output::RunWriter;
-use djkr::scenario::parse::load_scenario;
+use djkr::scenario::parse::{ScenarioError, ScenarioSource};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -24,14 +24,18 @@ pub struct RunArgs {
     /// Print the summary as JSON (SI values) instead of a table.
     #[arg(long)]
     json: bool,
+    #[command(flatten)]
+    set: SetArgs,
 }
 
 /// Flags of `djkr check`.
 #[derive(Args, Debug)]
 pub struct CheckArgs {
-    /// Scenario file(s) to validate without running.
+    /// Scenario file(s) to validate without running (--set applies to each).
     #[arg(required = true)]
     files: Vec<PathBuf>,
+    #[command(flatten)]
+    set: SetArgs,
 }
 
 /// Shows progress on a terminal (indicatif hides itself otherwise) and forwards to the writer.
@@ -70,7 +74,7 @@ impl Observer for Progress<'_> {
 
 /// Run `djkr run`.
 pub fn run(a: &RunArgs) -> Result<()> {
-    let scn = load_scenario(&a.file)?;
+    let scn = load_scenario(&a.file, &a.set)?;
     let out = a.out.clone().unwrap_or_else(|| {
         let stem = a
             .file
@@ -102,7 +106,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
             writer.abort();
             return Err(anyhow::Error::new(e).context(format!(
                 "{}: run failed (no output written)",
-                a.file.display()
+                scn.source_name
             )));
         }
     };
@@ -116,7 +120,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         println!("{}", text.trim_end());
         return Ok(());
     }
-    print_summary(&a.file, &scn, &result);
+    print_summary(&scn, &result);
     println!("\nwrote:");
     for p in paths.all() {
         println!("  {}", p.display());
@@ -124,10 +128,10 @@ pub fn run(a: &RunArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(file: &std::path::Path, scn: &djkr::scenario::Scenario, r: &RunResult) {
+fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult) {
     println!(
         "{}: {} stage(s), method {}",
-        file.display(),
+        scn.source_name,
         scn.stages.len(),
         r.method
     );
@@ -173,12 +177,13 @@ fn print_summary(file: &std::path::Path, scn: &djkr::scenario::Scenario, r: &Run
 
 /// Run `djkr check`.
 pub fn check(a: &CheckArgs) -> Result<()> {
+    let overrides = a.set.overrides()?;
     let mut failed = 0;
     for f in &a.files {
-        match load_scenario(f) {
+        match ScenarioSource::read(f).and_then(|src| src.scenario(&overrides)) {
             Ok(s) => println!(
                 "{}: ok ({} stage(s), law {}, {})",
-                f.display(),
+                s.source_name,
                 s.stages.len(),
                 law_name(&s.rig.law),
                 if s.rig.base.is_some() {
@@ -189,7 +194,11 @@ pub fn check(a: &CheckArgs) -> Result<()> {
             ),
             Err(e) => {
                 failed += 1;
-                eprintln!("error: {e}");
+                match e {
+                    // An override's error names the override, not the file: say which file.
+                    ScenarioError::Override { .. } => eprintln!("error: {}: {e}", f.display()),
+                    _ => eprintln!("error: {e}"),
+                }
             }
         }
     }

@@ -3,11 +3,10 @@
 //! the linear transfer, the paper's printed equations and harmonic balance; frequency sweeps;
 //! a map of where the imposed-area shortcut holds.
 
-use super::common::{positive_quantity, print_json, write_atomic};
+use super::common::{load_scenario, positive_quantity, print_json, write_atomic, SetArgs};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use djkr::plot::{self, Figure, Heatmap, LegendPosition, Series, Style};
-use djkr::scenario::parse::load_scenario;
 use djkr::steady::crosscheck::{self, Comparison, Prediction};
 use djkr::steady::map::{self as smap, MapCell, ShortcutMap};
 use djkr::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
@@ -56,6 +55,8 @@ pub struct SteadyArgs {
     /// Cycle budget of time-stepping.
     #[arg(long, default_value = "20000", value_name = "N")]
     max_cycles: u64,
+    #[command(flatten)]
+    set: SetArgs,
 }
 
 impl SteadyArgs {
@@ -215,7 +216,7 @@ fn progress_bar(len: u64, what: &str) -> ProgressBar {
 /// Run `djkr validate`.
 pub fn validate(a: &ValidateArgs) -> Result<()> {
     let opts = a.steady.options()?;
-    let scn = load_scenario(&a.file)?;
+    let scn = load_scenario(&a.file, &a.steady.set)?;
     let bar = ProgressBar::new_spinner();
     bar.set_message("finding the periodic steady state");
     bar.enable_steady_tick(Duration::from_millis(200));
@@ -736,7 +737,7 @@ fn linear_peak(lin: &Linearisation, lo: f64, hi: f64) -> Option<(f64, f64)> {
 pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     let opts = a.steady.options()?;
     let (lo, hi, n) = range("--freq", &a.freq, Dimension::Frequency)?;
-    let scn = load_scenario(&a.file)?;
+    let scn = load_scenario(&a.file, &a.steady.set)?;
     let (mut problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     if let Some(t) = &a.amp {
@@ -1222,7 +1223,7 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     let opts = a.steady.options()?;
     let (flo, fhi, nf) = range("--freq", &a.freq, Dimension::Frequency)?;
     let (alo, ahi, na) = range("--amp", &a.amp, Dimension::Length)?;
-    let scn = load_scenario(&a.file)?;
+    let scn = load_scenario(&a.file, &a.steady.set)?;
     let (problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     let freqs = sweep::frequencies(flo, fhi, nf);

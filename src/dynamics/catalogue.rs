@@ -54,6 +54,7 @@ pub fn vibrating_hold(xb: f64, frequency: f64, duration: f64) -> Scenario {
         output: Output::default(),
         source_text: String::new(),
         source_name: "<catalogue>".into(),
+        overrides: Vec::new(),
     }
 }
 

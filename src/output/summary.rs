@@ -4,7 +4,8 @@
 //! {
 //!   "format_version": 1,
 //!   "djkr_version": "0.1.0",
-//!   "scenario": "scenarios/paper-protocol-300hz.toml",
+//!   "scenario": "scenarios/paper-protocol-300hz.toml --set base.amplitude=30um",
+//!   "overrides": ["base.amplitude=30um"],
 //!   "method": "dopri5 (auto: ...)",
 //!   "detached": true,
 //!   "pull_off": {"amplification": 1.7, "force": -0.098, "time": 12.3},
@@ -22,6 +23,9 @@
 //!   ]
 //! }
 //! ```
+//!
+//! `scenario` names the file and its `--set` overrides; `overrides` lists them (`KEY=VALUE` as
+//! given; always present, empty when the file ran as written).
 //!
 //! Top-level keys come one per line in this order, and events one per line, so the file diffs
 //! and greps well even with thousands of impacts.
@@ -203,6 +207,7 @@ pub fn summary_json(
         ("format_version", Value::from(SUMMARY_VERSION)),
         ("djkr_version", Value::from(env!("CARGO_PKG_VERSION"))),
         ("scenario", Value::from(scenario.source_name.as_str())),
+        ("overrides", Value::from(scenario.overrides.clone())),
         ("method", Value::from(result.method.as_str())),
         ("detached", Value::Bool(result.detached)),
         ("pull_off", Value::Object(pull_off)),

@@ -8,6 +8,7 @@
 //! Coordinates (MODEL.md): x_s sphere position (down +), x_b base displacement (up +), x_k the far
 //! end of the holding spring (down +), δ = x_s + x_b the indentation (> 0 compresses).
 
+pub mod overrides;
 pub mod parse;
 
 pub use crate::dynamics::protocol::{Initial, Stage, StageKind, Until};
@@ -45,10 +46,15 @@ pub struct Scenario {
     pub solver: Solver,
     /// Output settings.
     pub output: Output,
-    /// The scenario file's text, stored with the results.
+    /// The scenario file's text, stored with the results (as in the file: without the
+    /// overrides, which `overrides` lists).
     pub source_text: String,
-    /// Where it came from (path, or `<string>`).
+    /// Where it came from (path, or `<string>`), followed by its overrides as on the command
+    /// line: `scenarios/x.toml --set base.amplitude=30um`.
     pub source_name: String,
+    /// The overrides applied to the file's values (`KEY=VALUE`, as given to `--set`), in order;
+    /// empty when the file is used as written.
+    pub overrides: Vec<String>,
 }
 
 impl Scenario {

@@ -1,7 +1,9 @@
 //! TOML parsing and validation of scenario files.
 //!
 //! The file is first parsed into a generic TOML table (syntax errors carry the line and column
-//! TOML reports), then walked section by section. Walking the table by hand, rather than through
+//! TOML reports), then walked section by section. Overrides (`--set KEY=VALUE`,
+//! [`super::overrides`]) are written into that table between the two steps, so they meet the
+//! same checks; [`ScenarioSource`] keeps the parsed table for many override sets. Walking the table by hand, rather than through
 //! `#[serde(deny_unknown_fields)]` structs, is what lets every error name the file, the dotted key
 //! (`stage[2].speed`, `material.K`), the value as written and the allowed range with its unit:
 //! serde's messages know the field name but not the section path or the range.
@@ -35,6 +37,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 use toml::{Table, Value};
 
+use super::overrides::{self, Override};
 use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
     Scenario, Solver, Sphere, Stage, StageKind, Until,
@@ -109,6 +112,20 @@ pub enum ScenarioError {
         /// What is wrong and what is expected.
         message: String,
     },
+    /// A `--set KEY=VALUE` override that does not fit the file (a stage it does not have), or
+    /// whose value the file's rules reject: named by the override rather than by the file's key
+    /// and value.
+    #[error("--set {set}: {message}")]
+    Override {
+        /// The file the override was applied to.
+        file: String,
+        /// The override, `KEY=VALUE`.
+        set: String,
+        /// Its dotted key.
+        key: String,
+        /// What is wrong, and what is allowed.
+        message: String,
+    },
 }
 
 impl ScenarioError {
@@ -118,14 +135,17 @@ impl ScenarioError {
             ScenarioError::Io { file, .. }
             | ScenarioError::Syntax { file, .. }
             | ScenarioError::Value { file, .. }
-            | ScenarioError::Key { file, .. } => file,
+            | ScenarioError::Key { file, .. }
+            | ScenarioError::Override { file, .. } => file,
         }
     }
 
     /// The dotted key the error is about, when there is one.
     pub fn key(&self) -> Option<&str> {
         match self {
-            ScenarioError::Value { key, .. } | ScenarioError::Key { key, .. } => Some(key),
+            ScenarioError::Value { key, .. }
+            | ScenarioError::Key { key, .. }
+            | ScenarioError::Override { key, .. } => Some(key),
             _ => None,
         }
     }
@@ -137,9 +157,92 @@ type Result<T> = std::result::Result<T, ScenarioError>;
 /// path); `base_dir` is where a tabulated law's `file` is looked up when relative (`None`: the
 /// current directory).
 pub fn parse_scenario(text: &str, source_name: &str, base_dir: Option<&Path>) -> Result<Scenario> {
+    ScenarioSource::parse(text, source_name, base_dir)?.scenario(&[])
+}
+
+/// Read, parse and validate a scenario file. A tabulated law's `file` is resolved relative to
+/// the scenario file's directory.
+pub fn load_scenario(path: &Path) -> Result<Scenario> {
+    ScenarioSource::read(path)?.scenario(&[])
+}
+
+/// [`load_scenario`] with overrides applied (`djkr run FILE --set KEY=VALUE`): the result is that
+/// of the file with the overridden keys edited in it.
+pub fn load_scenario_with(path: &Path, overrides: &[Override]) -> Result<Scenario> {
+    ScenarioSource::read(path)?.scenario(overrides)
+}
+
+/// A scenario file read and parsed (TOML syntax only) once, to be validated with any number of
+/// override sets: each [`scenario`](Self::scenario) call clones the parsed table, not the file
+/// (a sweep applies thousands of override sets to one file).
+#[derive(Debug, Clone)]
+pub struct ScenarioSource {
+    text: String,
+    name: String,
+    base_dir: Option<PathBuf>,
+    table: Table,
+}
+
+impl ScenarioSource {
+    /// Read a scenario file and parse its TOML. A tabulated law's `file` is resolved relative to
+    /// the scenario file's directory.
+    pub fn read(path: &Path) -> Result<Self> {
+        let name = path.display().to_string();
+        let text = read_text(path, &name)?;
+        Self::parse(&text, &name, Some(&parent_dir(path)))
+    }
+
+    /// Parse a scenario's TOML from its text (`source_name` and `base_dir` as in
+    /// [`parse_scenario`]). Only the syntax is checked here.
+    pub fn parse(text: &str, source_name: &str, base_dir: Option<&Path>) -> Result<Self> {
+        let table = Parser { file: source_name }.parse_toml(text)?;
+        Ok(Self {
+            text: text.to_string(),
+            name: source_name.to_string(),
+            base_dir: base_dir.map(Path::to_path_buf),
+            table,
+        })
+    }
+
+    /// The name errors give the file (usually its path).
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The file's text.
+    pub fn text(&self) -> &str {
+        &self.text
+    }
+
+    /// Validate the scenario with `overrides` applied to the file's table before the section
+    /// walk, so each override is range-checked as the file's own value would be. An error about
+    /// an overridden key names the override ([`ScenarioError::Override`]); other errors name
+    /// the file and its overrides (`FILE --set K=V: key: ...`), which is also the scenario's
+    /// `source_name`.
+    pub fn scenario(&self, overrides: &[Override]) -> Result<Scenario> {
+        let base_dir = self.base_dir.as_deref();
+        if overrides.is_empty() {
+            return build(&self.table, &self.text, &self.name, base_dir, Vec::new());
+        }
+        let mut table = self.table.clone();
+        overrides::apply(&mut table, overrides, &self.name)?;
+        let name = overrides::describe(&self.name, overrides);
+        let list = overrides.iter().map(ToString::to_string).collect();
+        build(&table, &self.text, &name, base_dir, list)
+            .map_err(|e| overrides::attribute(e, overrides, &self.name))
+    }
+}
+
+/// The section walk: validate a parsed table into a scenario.
+fn build(
+    root: &Table,
+    text: &str,
+    source_name: &str,
+    base_dir: Option<&Path>,
+    overrides: Vec<String>,
+) -> Result<Scenario> {
     let p = Parser { file: source_name };
-    let root = p.parse_toml(text)?;
-    let top = Section::root(&root);
+    let top = Section::root(root);
     p.check_top_level(&top)?;
     p.version(&top, true)?;
     let material = p.material(&top)?;
@@ -169,15 +272,8 @@ pub fn parse_scenario(text: &str, source_name: &str, base_dir: Option<&Path>) ->
         output,
         source_text: text.to_string(),
         source_name: source_name.to_string(),
+        overrides,
     })
-}
-
-/// Read, parse and validate a scenario file. A tabulated law's `file` is resolved relative to
-/// the scenario file's directory.
-pub fn load_scenario(path: &Path) -> Result<Scenario> {
-    let name = path.display().to_string();
-    let text = read_text(path, &name)?;
-    parse_scenario(&text, &name, Some(&parent_dir(path)))
 }
 
 /// Only the `[material]` and `[adhesion]` sections of a file, for commands that need nothing else
@@ -221,11 +317,95 @@ fn parent_dir(path: &Path) -> PathBuf {
     }
 }
 
-/// The top-level keys and sections, in the order the README lists them.
-const TOP_KEYS: &[&str] = &[
-    "version", "material", "adhesion", "sphere", "spring", "damping", "base", "contact", "initial",
-    "stage", "solver", "output",
+/// Keys of the top level that are not sections.
+pub const TOP_LEVEL_KEYS: &[&str] = &["version"];
+/// Keys of `[material]`.
+pub const MATERIAL_KEYS: &[&str] = &["K", "R", "w0"];
+/// Keys of `[adhesion]` with `law = "constant"`.
+const CONSTANT_LAW_KEYS: &[&str] = &["law"];
+/// Keys of `[adhesion]` with `law = "gent-schultz"`.
+const GS_LAW_KEYS: &[&str] = &["law", "v0", "n"];
+/// Keys of `[adhesion]` with `law = "gent-schultz-saturated"`.
+const SATURATED_LAW_KEYS: &[&str] = &["law", "v0", "n", "v_sat"];
+/// Keys of `[adhesion]` with `law = "tabulated"`.
+const TABULATED_LAW_KEYS: &[&str] = &["law", "file"];
+/// Keys of `[adhesion]`, all laws together (each law takes the subset its own list names).
+pub const ADHESION_KEYS: &[&str] = &["law", "v0", "n", "v_sat", "file"];
+/// Keys of `[sphere]`.
+pub const SPHERE_KEYS: &[&str] = &["mass", "gravity"];
+/// Keys of `[spring]`.
+pub const SPRING_KEYS: &[&str] = &["stiffness", "rigid"];
+/// Keys of `[damping]`.
+pub const DAMPING_KEYS: &[&str] = &["c", "on"];
+/// Keys of `[base]`.
+pub const BASE_KEYS: &[&str] = &["amplitude", "frequency"];
+/// Keys of `[contact]`.
+pub const CONTACT_KEYS: &[&str] = &["formation", "seed_radius"];
+/// Keys of `[initial]`.
+pub const INITIAL_KEYS: &[&str] = &["preload", "gap"];
+/// Keys of each `[[stage]]`.
+pub const STAGE_KEYS: &[&str] = &[
+    "kind",
+    "speed",
+    "duration",
+    "preload",
+    "until",
+    "vibration",
+    "max_duration",
 ];
+/// The end conditions of a stage, of which exactly one is given.
+pub const STAGE_END_KEYS: &[&str] = &["duration", "preload", "until"];
+/// Keys of `[solver]`.
+pub const SOLVER_KEYS: &[&str] = &[
+    "method",
+    "rtol",
+    "atol",
+    "max_steps",
+    "max_wall_s",
+    "event_tol",
+];
+/// Keys of `[output]`.
+pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv"];
+
+/// The name of the one section that is a list of tables (`[[stage]]`, keys `stage[N].KEY`).
+pub const STAGE_SECTION: &str = "stage";
+
+/// The sections of a scenario file and the keys each takes, in the order the README lists them:
+/// the one list that both the parser's unknown-key checks and `--set` read, so a key added to a
+/// section's list is at once accepted in files and settable from the command line.
+pub const SECTIONS: &[(&str, &[&str])] = &[
+    ("material", MATERIAL_KEYS),
+    ("adhesion", ADHESION_KEYS),
+    ("sphere", SPHERE_KEYS),
+    ("spring", SPRING_KEYS),
+    ("damping", DAMPING_KEYS),
+    ("base", BASE_KEYS),
+    ("contact", CONTACT_KEYS),
+    ("initial", INITIAL_KEYS),
+    (STAGE_SECTION, STAGE_KEYS),
+    ("solver", SOLVER_KEYS),
+    ("output", OUTPUT_KEYS),
+];
+
+/// The keys section `name` takes (`None`: no such section).
+pub fn section_keys(name: &str) -> Option<&'static [&'static str]> {
+    SECTIONS.iter().find(|(s, _)| *s == name).map(|(_, k)| *k)
+}
+
+/// The sections as a file writes them: `[material], ..., [[stage]], ...`.
+fn section_list() -> String {
+    SECTIONS
+        .iter()
+        .map(|(s, _)| {
+            if *s == STAGE_SECTION {
+                format!("[[{s}]]")
+            } else {
+                format!("[{s}]")
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
 
 /// A physical quantity kind: the units a string may carry and the SI unit shown in errors.
 #[derive(Clone, Copy)]
@@ -289,7 +469,7 @@ impl<'a> Section<'a> {
 
 /// Shows a float as a user would write it: shortest round-trip digits, exponent form outside
 /// [1e-3, 1e9), TOML's spelling of non-finite values.
-fn show_float(x: f64) -> String {
+pub(crate) fn show_float(x: f64) -> String {
     if x.is_nan() {
         "nan".to_string()
     } else if x.is_infinite() {
@@ -302,7 +482,7 @@ fn show_float(x: f64) -> String {
 }
 
 /// Shows a TOML value as it would be written (strings quoted).
-fn show(v: &Value) -> String {
+pub(crate) fn show(v: &Value) -> String {
     match v {
         Value::Table(_) => "(a table)".to_string(),
         Value::Float(f) => show_float(*f),
@@ -368,13 +548,11 @@ impl Parser<'_> {
 
     fn check_top_level(&self, top: &Section) -> Result<()> {
         for (k, v) in top.table {
-            if !TOP_KEYS.contains(&k.as_str()) {
+            if !TOP_LEVEL_KEYS.contains(&k.as_str()) && section_keys(k).is_none() {
                 return Err(match v {
                     Value::Table(_) => self.key_err(
                         &format!("[{k}]"),
-                        "unknown section; allowed sections: [material], [adhesion], [sphere], \
-                         [spring], [damping], [base], [contact], [initial], [[stage]], \
-                         [solver], [output]",
+                        format!("unknown section; allowed sections: {}", section_list()),
                     ),
                     _ => self.key_err(
                         k,
@@ -554,7 +732,7 @@ impl Parser<'_> {
                 "missing section: give [material] with K (Pa), R (m) and w0 (J/m^2)",
             )
         })?;
-        self.check_keys(&s, &["K", "R", "w0"], "")?;
+        self.check_keys(&s, MATERIAL_KEYS, "")?;
         let k = self.req_positive(
             &s,
             "K",
@@ -585,15 +763,15 @@ impl Parser<'_> {
         let param = |e: ParamError| self.value_err(&s.key(&e.name), e.value, e.allowed);
         match law {
             "constant" => {
-                self.check_keys(&s, &["law"], &context)?;
+                self.check_keys(&s, CONSTANT_LAW_KEYS, &context)?;
                 Ok(Law::Constant(ConstantW { w0: m.w0 }))
             }
             "gent-schultz" | "gent-schultz-saturated" => {
                 let saturated = law == "gent-schultz-saturated";
-                let keys: &[&str] = if saturated {
-                    &["law", "v0", "n", "v_sat"]
+                let keys = if saturated {
+                    SATURATED_LAW_KEYS
                 } else {
-                    &["law", "v0", "n"]
+                    GS_LAW_KEYS
                 };
                 self.check_keys(&s, keys, &context)?;
                 let v0 = self.req_positive(
@@ -617,7 +795,7 @@ impl Parser<'_> {
                 }
             }
             _ => {
-                self.check_keys(&s, &["law", "file"], &context)?;
+                self.check_keys(&s, TABULATED_LAW_KEYS, &context)?;
                 let file = self.string(&s, "file", &[])?.ok_or_else(|| {
                     self.key_err(
                         &s.key("file"),
@@ -655,7 +833,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "spring")? else {
             return Ok(Holder::None);
         };
-        self.check_keys(&s, &["stiffness", "rigid"], "")?;
+        self.check_keys(&s, SPRING_KEYS, "")?;
         let rigid = self.boolean(&s, "rigid")?;
         let stiffness = self.number(&s, "stiffness", STIFFNESS)?;
         match (rigid, stiffness) {
@@ -689,7 +867,7 @@ impl Parser<'_> {
                  only a rigid link ([spring] rigid = true) needs no mass",
             ));
         };
-        self.check_keys(&s, &["mass", "gravity"], "")?;
+        self.check_keys(&s, SPHERE_KEYS, "")?;
         let mass = match self.number(&s, "mass", MASS)? {
             Some(n) => self.non_negative(&s, "mass", &n, MASS.unit)?,
             None if rigid => 0.0,
@@ -711,7 +889,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "damping")? else {
             return Ok(None);
         };
-        self.check_keys(&s, &["c", "on"], "")?;
+        self.check_keys(&s, DAMPING_KEYS, "")?;
         let n = self.required(&s, "c", DAMPING, "damping coefficient c (N s/m, >= 0)")?;
         let c = self.non_negative(&s, "c", &n, DAMPING.unit)?;
         let on = match self.string(&s, "on", &["sphere", "contact"])? {
@@ -725,7 +903,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "base")? else {
             return Ok(None);
         };
-        self.check_keys(&s, &["amplitude", "frequency"], "")?;
+        self.check_keys(&s, BASE_KEYS, "")?;
         let n = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
         let amplitude = self.non_negative(&s, "amplitude", &n, LENGTH.unit)?;
         let frequency =
@@ -740,7 +918,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "contact")? else {
             return Ok(ContactFormation::JumpIn);
         };
-        self.check_keys(&s, &["formation", "seed_radius"], "")?;
+        self.check_keys(&s, CONTACT_KEYS, "")?;
         match self.string(&s, "formation", &["jump-in", "seed"])? {
             Some("seed") => {
                 let n = self.required(
@@ -786,7 +964,7 @@ impl Parser<'_> {
                 "missing section: give [initial] with preload (N, > 0: static JKR equilibrium under this force) or gap (m, > 0)",
             ));
         };
-        self.check_keys(&s, &["preload", "gap"], "")?;
+        self.check_keys(&s, INITIAL_KEYS, "")?;
         let preload = self.opt_positive(&s, "preload", FORCE)?;
         let gap = self.opt_positive(&s, "gap", LENGTH)?;
         match (preload, gap) {
@@ -852,19 +1030,7 @@ impl Parser<'_> {
     }
 
     fn stage(&self, s: &Section, holder: Holder, has_base: bool) -> Result<Stage> {
-        self.check_keys(
-            s,
-            &[
-                "kind",
-                "speed",
-                "duration",
-                "preload",
-                "until",
-                "vibration",
-                "max_duration",
-            ],
-            "",
-        )?;
+        self.check_keys(s, STAGE_KEYS, "")?;
         let kind = match self.string(s, "kind", &["approach", "hold", "unload"])? {
             Some("approach") => StageKind::Approach,
             Some("hold") => StageKind::Hold,
@@ -911,8 +1077,9 @@ impl Parser<'_> {
             }
         };
         // End condition: exactly one of duration, preload, until.
-        let given: Vec<&str> = ["duration", "preload", "until"]
-            .into_iter()
+        let given: Vec<&str> = STAGE_END_KEYS
+            .iter()
+            .copied()
             .filter(|k| s.has(k))
             .collect();
         if given.len() > 1 {
@@ -987,18 +1154,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "solver")? else {
             return Ok(solver);
         };
-        self.check_keys(
-            &s,
-            &[
-                "method",
-                "rtol",
-                "atol",
-                "max_steps",
-                "max_wall_s",
-                "event_tol",
-            ],
-            "",
-        )?;
+        self.check_keys(&s, SOLVER_KEYS, "")?;
         if let Some(name) = self.string(&s, "method", &METHOD_NAMES)? {
             solver.method = method_from_name(name).unwrap_or(Method::Auto);
         }
@@ -1054,7 +1210,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "output")? else {
             return Ok(out);
         };
-        self.check_keys(&s, &["sample_rate", "csv"], "")?;
+        self.check_keys(&s, OUTPUT_KEYS, "")?;
         if let Some(n) = self.number(&s, "sample_rate", RATE)? {
             out.sample_rate =
                 self.non_negative(&s, "sample_rate", &n, "samples per second; 0 = every step")?;
@@ -1099,6 +1255,32 @@ until = "pull-off"
 "#;
 
     #[test]
+    fn the_section_key_lists_agree_with_the_laws() {
+        let mut union: Vec<&str> = [
+            CONSTANT_LAW_KEYS,
+            GS_LAW_KEYS,
+            SATURATED_LAW_KEYS,
+            TABULATED_LAW_KEYS,
+        ]
+        .concat();
+        union.sort_unstable();
+        union.dedup();
+        let mut all = ADHESION_KEYS.to_vec();
+        all.sort_unstable();
+        assert_eq!(union, all);
+        assert!(STAGE_END_KEYS.iter().all(|k| STAGE_KEYS.contains(k)));
+        assert_eq!(section_keys("base"), Some(BASE_KEYS));
+        assert_eq!(section_keys("version"), None);
+        let e = parse_scenario(&format!("{MINIMAL}[bogus]\nx = 1\n"), "m.toml", None)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.ends_with("allowed sections: [material], [adhesion], [sphere], [spring], [damping], [base], [contact], [initial], [[stage]], [solver], [output]"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn minimal_scenario_gets_documented_defaults() {
         let s = parse_scenario(MINIMAL, "min.toml", None).unwrap();
         assert_eq!(s.rig.material, Material::PAPER);
@@ -1129,6 +1311,7 @@ until = "pull-off"
         );
         assert_eq!(s.source_text, MINIMAL);
         assert_eq!(s.source_name, "min.toml");
+        assert!(s.overrides.is_empty());
     }
 
     #[test]
