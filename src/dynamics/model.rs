@@ -481,6 +481,26 @@ impl Model {
         }
     }
 
+    /// The stiffness −∂ȧ/∂a (1/s, at fixed δ) of the contact-radius equation of a healing
+    /// contact (0 < G < w0, ȧ > 0) under the Gent–Schultz law, from the state's G and ȧ:
+    /// ∂ȧ/∂G = −ȧ w0/(n G (w0 − G)) and ∂G/∂a = 4c|u|/R − G/a with |u| = √(G a/c),
+    /// c = 3K/(8π). It grows without bound as G → 0 (deep healing: ȧ ∝ G^(−1/n)); 0 for other
+    /// laws, peeling, and where it is not defined.
+    #[inline]
+    pub fn healing_stiffness(&self, a: f64, g: f64, adot: f64) -> f64 {
+        let Some((_, w0, _, inv_n)) = self.fast.gs else {
+            return 0.0;
+        };
+        if !(adot > 0.0 && g > 0.0 && g < w0 && a > 0.0) {
+            return 0.0;
+        }
+        let c = self.fast.g_coef;
+        let u = (g * a / c).sqrt();
+        let dg_da = 4.0 * c * u * self.fast.inv_r - g / a;
+        let dadot_dg = adot * w0 * inv_n / (g * (w0 - g));
+        (dadot_dg * dg_da).max(0.0)
+    }
+
     /// Sphere position and velocity at a stage with known contact radius a.
     ///
     /// Dynamic: the implicit stage x = X + hγ v, m v = m V + hγ f(x, v) is linear in (x, v) at

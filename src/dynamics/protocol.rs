@@ -566,10 +566,15 @@ impl Protocol<'_> {
                  implicitly where a DP8 stage meets G <= 0"
             );
         }
-        if stepper.rescues() > 0 {
+        let r = stepper.rescues();
+        if r.total() > 0 {
             m.push_str(&format!(
-                "; {} steps taken implicitly where DP8 met G <= 0",
-                stepper.rescues()
+                "; {} steps taken implicitly ({} in deep healing, {} where a DP8 stage met \
+                 G <= 0, {} after the DP8 step size collapsed)",
+                r.total(),
+                r.stiff,
+                r.singular,
+                r.fallback
             ));
         }
         if self.stopped {

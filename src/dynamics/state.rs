@@ -33,6 +33,9 @@ pub enum StepFail {
     NonFinite,
     /// An explicit stage met the healing singularity (G ≤ 0 in contact: ȧ = +∞).
     Singular,
+    /// The step lies in deep healing, where the contact-radius equation is too stiff for an
+    /// explicit method at this step length (|∂ȧ/∂a| h beyond its stability interval).
+    Stiff,
     /// The explicit formulation cannot continue (reason).
     Explicit(&'static str),
 }

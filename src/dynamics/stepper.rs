@@ -91,9 +91,33 @@ pub trait Stepper: Send {
     /// Forget what the stepper carries from one step to the next (the drive or the state changed
     /// discontinuously: stage start, contact formed or lost, shaker switched).
     fn reset(&mut self) {}
-    /// Steps taken by a rescue method where this one failed (reported with the run).
-    fn rescues(&self) -> u64 {
-        0
+    /// Steps taken by a rescue method where this one could not take them (reported with the
+    /// run).
+    fn rescues(&self) -> Rescues {
+        Rescues::default()
+    }
+    /// The step size is collapsing: hand the next attempts to a more robust method, if there is
+    /// one (`false` otherwise, and the run fails with a step-size underflow).
+    fn fallback(&mut self) -> bool {
+        false
+    }
+}
+
+/// Steps a [`Rescued`] stepper's rescue took, by cause.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
+pub struct Rescues {
+    /// Refused by the primary as too stiff (deep healing).
+    pub stiff: u64,
+    /// A trial stage of the primary met G ≤ 0.
+    pub singular: u64,
+    /// Taken after the primary's step size collapsed.
+    pub fallback: u64,
+}
+
+impl Rescues {
+    /// All of them.
+    pub fn total(&self) -> u64 {
+        self.stiff + self.singular + self.fallback
     }
 }
 
@@ -127,6 +151,25 @@ impl Stepper for Implicit {
 pub struct Dp8 {
     /// The rates at the end of the last step and the state they belong to.
     fsal: Option<(State, dp8::Rates, [f64; NQ])>,
+    /// Refuse steps in deep healing ([`StepFail::Stiff`]) for a rescue method to take.
+    stiffness_switch: bool,
+}
+
+/// |∂ȧ/∂a| h beyond which DP8 hands a healing step to the implicit method. DOP853's stability
+/// interval on the negative real axis reaches about −6; at the switch the explicit steps are
+/// stability-limited, not accuracy-limited, and in deep healing (G ≈ 1e-6 w0, ∂ȧ/∂a ≈ −1e13/s)
+/// they would fall below what the time resolves late in a long run (h < 8 ε t).
+pub const DP8_STIFFNESS_LIMIT: f64 = 3.0;
+
+impl Dp8 {
+    /// DP8 that refuses deep-healing steps (for [`Rescued`]): `attempt` fails with
+    /// [`StepFail::Stiff`] where |∂ȧ/∂a| h > [`DP8_STIFFNESS_LIMIT`] at the step's start.
+    pub fn with_stiffness_switch() -> Self {
+        Self {
+            fsal: None,
+            stiffness_switch: true,
+        }
+    }
 }
 
 impl Stepper for Dp8 {
@@ -164,6 +207,16 @@ impl Stepper for Dp8 {
                 dp8::rates_at(model, drive, y)
             }
         };
+        let k1 = k1.and_then(|(k1, fq1)| {
+            if self.stiffness_switch
+                && y.contact
+                && model.healing_stiffness(y.a, k1.g, k1.fa) * h > DP8_STIFFNESS_LIMIT
+            {
+                Err(StepFail::Stiff)
+            } else {
+                Ok((k1, fq1))
+            }
+        });
         match k1.and_then(|(k1, fq1)| dp8::step(model, drive, y, &k1, &fq1, h, tol)) {
             Ok((mut o, k_end, fq_end)) => {
                 o.evals += extra;
@@ -181,16 +234,27 @@ impl Stepper for Dp8 {
     }
 }
 
-/// A fast method with a robust one for the steps it cannot take: where a trial stage of the
-/// primary meets the healing singularity (G ≤ 0: ȧ = +∞, [`StepFail::Singular`]), that one step
-/// is taken by the rescue; the next step tries the primary again. `auto` runs DP8 rescued by the
-/// implicit method.
+/// A fast method with a robust one for the steps it cannot take: where the primary refuses a
+/// step in deep healing ([`StepFail::Stiff`]) or a trial stage meets the healing singularity
+/// (G ≤ 0: ȧ = +∞, [`StepFail::Singular`]), that one step is taken by the rescue; the next step
+/// tries the primary again. After [`Stepper::fallback`] the rescue takes every attempt for a
+/// while. `auto` runs DP8 rescued by the implicit method.
 #[derive(Debug, Default, Clone)]
 pub struct Rescued<P, R> {
     primary: P,
     rescue: R,
-    rescues: u64,
+    /// Steps the primary refused as too stiff.
+    stiff: u64,
+    /// Steps where a trial stage of the primary met G ≤ 0.
+    singular: u64,
+    /// Attempts still to be taken by the rescue after a fallback.
+    forced: u32,
+    /// Attempts taken by the rescue after fallbacks.
+    fallbacks: u64,
 }
+
+/// Attempts the rescue takes after a [`Stepper::fallback`].
+const FALLBACK_ATTEMPTS: u32 = 64;
 
 impl<P: Stepper, R: Stepper> Rescued<P, R> {
     /// `primary`, falling back to `rescue`.
@@ -198,7 +262,10 @@ impl<P: Stepper, R: Stepper> Rescued<P, R> {
         Self {
             primary,
             rescue,
-            rescues: 0,
+            stiff: 0,
+            singular: 0,
+            forced: 0,
+            fallbacks: 0,
         }
     }
 }
@@ -219,9 +286,18 @@ impl<P: Stepper, R: Stepper> Stepper for Rescued<P, R> {
         tol: Tol,
         evals: &mut u64,
     ) -> Result<StepOut, StepFail> {
+        if self.forced > 0 {
+            self.forced -= 1;
+            self.fallbacks += 1;
+            return self.rescue.attempt(model, drive, y, h, tol, evals);
+        }
         match self.primary.attempt(model, drive, y, h, tol, evals) {
             Err(StepFail::Singular) => {
-                self.rescues += 1;
+                self.singular += 1;
+                self.rescue.attempt(model, drive, y, h, tol, evals)
+            }
+            Err(StepFail::Stiff) => {
+                self.stiff += 1;
                 self.rescue.attempt(model, drive, y, h, tol, evals)
             }
             r => r,
@@ -231,8 +307,20 @@ impl<P: Stepper, R: Stepper> Stepper for Rescued<P, R> {
         self.primary.reset();
         self.rescue.reset();
     }
-    fn rescues(&self) -> u64 {
-        self.rescues
+    fn rescues(&self) -> Rescues {
+        Rescues {
+            stiff: self.stiff,
+            singular: self.singular,
+            fallback: self.fallbacks,
+        }
+    }
+    fn fallback(&mut self) -> bool {
+        if self.forced > 0 {
+            // Already on the rescue: it failed too.
+            return false;
+        }
+        self.forced = FALLBACK_ATTEMPTS;
+        true
     }
 }
 
@@ -302,7 +390,7 @@ pub fn auto_method(rig: &Rig) -> Method {
 pub fn build(method: Method, rig: &Rig) -> Box<dyn Stepper> {
     match method {
         Method::Auto => match auto_method(rig) {
-            Method::Dp8 => Box::new(Rescued::new(Dp8::default(), Implicit)),
+            Method::Dp8 => Box::new(Rescued::new(Dp8::with_stiffness_switch(), Implicit)),
             _ => Box::new(Implicit),
         },
         Method::Implicit => Box::new(Implicit),
