@@ -255,8 +255,8 @@ fn every_bundled_scenario_runs_with_complete_output() {
         let csv = std::fs::read_to_string(od.join("timeseries.csv")).unwrap();
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let ia = header.iter().position(|h| *h == "a_m").unwrap();
-        let iff = header.iter().position(|h| *h == "F_N").unwrap();
+        let ia = header.iter().position(|h| *h == "a [m]").unwrap();
+        let iff = header.iter().position(|h| *h == "F [N]").unwrap();
         for l in lines {
             let c: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
             assert!(c[ia] >= 0.0 && c[iff].is_finite(), "{name}: {l}");

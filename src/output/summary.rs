@@ -37,9 +37,9 @@ use std::collections::BTreeMap;
 
 use serde_json::{Map, Value};
 
-use super::cycles::{cycle_table, cycle_unit, CycleColumn};
-use super::hdf5_file::kind_name;
-use super::timeseries::{stage_index, SERIES, STAGE, STAGE_UNIT};
+use super::cycles::cycle_table;
+use super::table::Data;
+use super::timeseries::{kind_name, stage_index, SERIES, STAGE, STAGE_UNIT};
 use crate::dynamics::types::{RunResult, Sample};
 use crate::scenario::Scenario;
 
@@ -169,20 +169,30 @@ pub fn summary_json(
 
     let table = cycle_table(&result.cycles);
     let mut cycles = Map::new();
-    cycles.insert("count".into(), Value::from(table.len() as u64));
+    cycles.insert("count".into(), Value::from(table.rows() as u64));
     let mut cycle_units = BTreeMap::new();
     if !table.is_empty() {
         let mut m = Map::new();
-        for (name, col) in table.names.iter().zip(&table.columns) {
-            match col {
-                CycleColumn::F64(v) => {
-                    b.put(&mut m, "cycles.last.", name, v[v.len() - 1]);
+        for col in table.columns() {
+            let name = &col.name;
+            match &col.data {
+                Data::F64(v) => {
+                    if let Some(&x) = v.last() {
+                        b.put(&mut m, "cycles.last.", name, x);
+                    }
                 }
-                CycleColumn::I64(v) => {
-                    m.insert(name.clone(), Value::from(v[v.len() - 1]));
+                Data::I64(v) => {
+                    if let Some(&x) = v.last() {
+                        m.insert(name.clone(), Value::from(x));
+                    }
+                }
+                Data::Text(v) => {
+                    if let Some(x) = v.last() {
+                        m.insert(name.clone(), Value::from(x.as_str()));
+                    }
                 }
             }
-            cycle_units.insert(format!("cycles.last.{name}"), cycle_unit(name).to_string());
+            cycle_units.insert(format!("cycles.last.{name}"), col.unit.clone());
         }
         cycles.insert("last".into(), Value::Object(m));
     }
