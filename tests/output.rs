@@ -744,7 +744,7 @@ fn an_empty_run_writes_valid_files() {
     // Without cycles (a scene without vibration) cycles.csv is its header alone.
     let cycles = std::fs::read_to_string(dir.path().join("cycles.csv")).unwrap();
     assert_eq!(cycles.lines().count(), 1, "{cycles}");
-    assert!(cycles.starts_with("index [1],stage [1],t_start [s],t_end [s],force_mean [N]"));
+    assert!(cycles.starts_with("index [1],stage [1],t_start [s],t_end [s],a_cos [m]"));
     let (header, rows) = read_csv(&dir.path().join("timeseries.csv"));
     assert_eq!((header.len(), rows.len()), (12, 0));
     let j = read_json(&dir.path().join("summary.json"));

@@ -1,10 +1,10 @@
 //! Per-cycle records ([`CycleRecord`]: exact averages and first harmonics over each base period)
 //! as a table, for the HDF5 `/cycles` group, `cycles.csv` and summary.json.
 //!
-//! The schema is [`CYCLE_FIELDS`], one entry per field of [`CycleRecord`] in declaration order
-//! (`index`, `stage`, `t_start`, `t_end`, then the averages, harmonics, work and energies): its
-//! names are the record's serde names, which a unit test checks, so a field added to the record
-//! fails that test until it is listed here with its unit. `index` and `stage` are int64 columns,
+//! The schema is [`CYCLE_FIELDS`], one entry per field of [`CycleRecord`]: `index`, `stage`,
+//! `t_start`, `t_end`, then the other fields in alphabetical order (the column order of the files
+//! since the first release). Its names are the record's serde names, which a unit test checks, so
+//! a field added to the record fails that test until it is listed here with its unit. `index` and `stage` are int64 columns,
 //! the rest f64. The HDF5 `description` of each dataset is its name.
 
 use super::table::{Column, Data, Field, Table};
@@ -54,7 +54,7 @@ const fn f(name: &'static str, unit: &'static str, g: fn(&CycleRecord) -> f64) -
     }
 }
 
-/// The cycle table's fields, in file order (the record's declaration order).
+/// The cycle table's fields, in file order: identification and times first, then alphabetical.
 pub const CYCLE_FIELDS: [CycleField; 24] = [
     CycleField {
         name: "index",
@@ -68,26 +68,26 @@ pub const CYCLE_FIELDS: [CycleField; 24] = [
     },
     f("t_start", "s", |c| c.t_start),
     f("t_end", "s", |c| c.t_end),
-    f("force_mean", "N", |c| c.force_mean),
-    f("force_sin", "N", |c| c.force_sin),
-    f("force_cos", "N", |c| c.force_cos),
-    f("delta_mean", "m", |c| c.delta_mean),
-    f("delta_sin", "m", |c| c.delta_sin),
-    f("delta_cos", "m", |c| c.delta_cos),
+    f("a_cos", "m", |c| c.a_cos),
     f("a_mean", "m", |c| c.a_mean),
     f("a_sin", "m", |c| c.a_sin),
-    f("a_cos", "m", |c| c.a_cos),
-    f("x_s_mean", "m", |c| c.x_s_mean),
-    f("x_k_mean", "m", |c| c.x_k_mean),
+    f("delta_cos", "m", |c| c.delta_cos),
+    f("delta_mean", "m", |c| c.delta_mean),
+    f("delta_sin", "m", |c| c.delta_sin),
+    f("dissipation_adhesion", "J", |c| c.dissipation_adhesion),
+    f("dissipation_damping", "J", |c| c.dissipation_damping),
+    f("energy_end", "J", |c| c.energy_end),
+    f("energy_start", "J", |c| c.energy_start),
+    f("force_cos", "N", |c| c.force_cos),
+    f("force_mean", "N", |c| c.force_mean),
+    f("force_sin", "N", |c| c.force_sin),
+    f("spring_cos", "N", |c| c.spring_cos),
     f("spring_mean", "N", |c| c.spring_mean),
     f("spring_sin", "N", |c| c.spring_sin),
-    f("spring_cos", "N", |c| c.spring_cos),
     f("work_base", "J", |c| c.work_base),
     f("work_holder", "J", |c| c.work_holder),
-    f("dissipation_damping", "J", |c| c.dissipation_damping),
-    f("dissipation_adhesion", "J", |c| c.dissipation_adhesion),
-    f("energy_start", "J", |c| c.energy_start),
-    f("energy_end", "J", |c| c.energy_end),
+    f("x_k_mean", "m", |c| c.x_k_mean),
+    f("x_s_mean", "m", |c| c.x_s_mean),
 ];
 
 /// The cycle table's schema.
@@ -151,6 +151,8 @@ mod tests {
         };
         let names: Vec<&str> = m.keys().map(String::as_str).collect();
         let mut ours: Vec<&str> = CYCLE_FIELDS.iter().map(|c| c.name).collect();
+        assert_eq!(ours[..4], ["index", "stage", "t_start", "t_end"]);
+        assert!(ours[4..].is_sorted(), "{ours:?}");
         ours.sort_unstable();
         assert_eq!(
             ours, names,
