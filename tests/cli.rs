@@ -395,3 +395,35 @@ fn pulloff_outside_small_contact_range_is_flagged() {
     let v = json(&["pulloff", "--freq", "400", "--a-amp", "1.5mm", "--json"]);
     assert!(v["notes"].as_array().unwrap().is_empty(), "{v}");
 }
+
+/// `djkr gs-fit` reads a run's own `timeseries.csv` (units in the header, other columns, a row
+/// after the contact is lost), end to end; its help names the example record, which fits too.
+#[test]
+fn gs_fit_reads_a_runs_timeseries() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("unload");
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/gs-fit/unload-record.toml");
+    let o = djkr(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let record = out.join("timeseries.csv");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/gs-fit/unload-record.csv");
+    for path in [&record, &example] {
+        let v = json(&["gs-fit", path.to_str().unwrap(), "--json"]);
+        assert!((num(&v, "w0") / 0.240 - 1.0).abs() < 2e-3, "{v}");
+        assert!((num(&v, "n") / 0.531 - 1.0).abs() < 2e-3, "{v}");
+        assert!(
+            v["rows_out_of_contact"].as_u64().is_some_and(|n| n >= 1),
+            "{v}"
+        );
+    }
+    let text = djkr(&["gs-fit", record.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(text.contains("left out 1 row out of contact"), "{text}");
+    let help = djkr(&["gs-fit", "--help"]);
+    assert!(String::from_utf8_lossy(&help.stdout).contains("docs/gs-fit/unload-record.csv"));
+}

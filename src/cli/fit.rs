@@ -93,12 +93,13 @@ pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
     );
     if out_of_contact > 0 {
         println!(
-            "  note: fitted data rows {}..{} of {}, the last stretch in contact; {} rows out of \
-             contact (a = 0, e.g. after pull-off) or before it were left out",
+            "  note: fitted the last stretch in contact, data rows {}..{} of {}; left out {} {} \
+             out of contact (a = 0, e.g. after pull-off)",
             span.start + 1,
             span.end,
             all.len(),
-            out_of_contact
+            out_of_contact,
+            if out_of_contact == 1 { "row" } else { "rows" }
         );
     }
     if fit.n_at_bound {
