@@ -414,24 +414,7 @@ pub fn up_down_difference(up: &Sweep, down: &Sweep) -> Option<UpDownDifference> 
 /// time-domain steady state, the linear transfer and harmonic balance; NaN where missing.
 pub fn sweep_table(sw: &Sweep) -> Table {
     let p = &sw.points;
-    let st = |name: &str, unit: &str, description: &str, f: &dyn Fn(&Steady) -> f64| {
-        Column::f64_opt(
-            name,
-            unit,
-            format!("time domain: {description}"),
-            p.iter().map(|x| x.steady.as_ref().map(f)),
-        )
-    };
-    let hb = |name: &str, unit: &str, description: &str, f: &dyn Fn(&HarmonicBalance) -> f64| {
-        Column::f64_opt(
-            name,
-            unit,
-            description,
-            p.iter().map(|x| x.harmonic.as_ref().map(f)),
-        )
-    };
-    let xb = sw.amplitude;
-    Table::from_fixed(vec![
+    let mut columns = vec![
         Column::text(
             "direction",
             "sweep direction",
@@ -443,6 +426,38 @@ pub fn sweep_table(sw: &Sweep) -> Table {
             "base frequency",
             p.iter().map(|x| x.frequency).collect(),
         ),
+    ];
+    columns.extend(time_domain_columns(p));
+    columns.extend(predictor_columns(p, sw.amplitude));
+    columns.push(Column::text(
+        "error",
+        "why the time-domain steady state is missing (empty when found)",
+        p.iter()
+            .map(|x| x.error.clone().unwrap_or_default())
+            .collect(),
+    ));
+    Table::from_fixed(columns)
+}
+
+/// The time-domain steady state's columns of [`sweep_table`].
+fn time_domain_columns(p: &[SweepPoint]) -> Vec<Column> {
+    let st = |name: &str, unit: &str, description: &str, f: &dyn Fn(&Steady) -> f64| {
+        Column::f64_opt(
+            name,
+            unit,
+            format!("time domain: {description}"),
+            p.iter().map(|x| x.steady.as_ref().map(f)),
+        )
+    };
+    let plain = |name: &str, description: &str, f: &dyn Fn(&Steady) -> f64| {
+        Column::f64_opt(
+            name,
+            "1",
+            description,
+            p.iter().map(|x| x.steady.as_ref().map(f)),
+        )
+    };
+    vec![
         st(
             "delta_amp_over_xb",
             "1",
@@ -482,27 +497,20 @@ pub fn sweep_table(sw: &Sweep) -> Table {
             "first-harmonic contact-radius amplitude",
             &|s| s.a_amp(),
         ),
-        Column::f64_opt(
+        plain(
             "cycles",
-            "1",
             "base periods integrated for this frequency",
-            p.iter().map(|x| x.steady.as_ref().map(|s| s.cycles as f64)),
+            &|s| s.cycles as f64,
         ),
-        Column::f64_opt(
+        plain(
             "residual",
-            "1",
             "scaled once-per-cycle residual at the steady state",
-            p.iter().map(|x| x.steady.as_ref().map(|s| s.residual)),
+            &|s| s.residual,
         ),
-        Column::f64_opt(
+        plain(
             "contact_lost",
-            "1",
             "1 when the steady cycle loses contact",
-            p.iter().map(|x| {
-                x.steady
-                    .as_ref()
-                    .map(|s| f64::from(u8::from(s.contact_lost)))
-            }),
+            &|s| f64::from(u8::from(s.contact_lost)),
         ),
         Column::text(
             "method",
@@ -516,6 +524,20 @@ pub fn sweep_table(sw: &Sweep) -> Table {
                 })
                 .collect(),
         ),
+    ]
+}
+
+/// The linear-transfer and harmonic-balance columns of [`sweep_table`] (X_b = `xb`).
+fn predictor_columns(p: &[SweepPoint], xb: f64) -> Vec<Column> {
+    let hb = |name: &str, unit: &str, description: &str, f: &dyn Fn(&HarmonicBalance) -> f64| {
+        Column::f64_opt(
+            name,
+            unit,
+            description,
+            p.iter().map(|x| x.harmonic.as_ref().map(f)),
+        )
+    };
+    vec![
         Column::f64_opt(
             "linear_delta_amp_over_xb",
             "1",
@@ -558,14 +580,7 @@ pub fn sweep_table(sw: &Sweep) -> Table {
             "harmonic balance: contact-radius amplitude",
             &|h| h.a_amp,
         ),
-        Column::text(
-            "error",
-            "why the time-domain steady state is missing (empty when found)",
-            p.iter()
-                .map(|x| x.error.clone().unwrap_or_default())
-                .collect(),
-        ),
-    ])
+    ]
 }
 
 /// Several sweeps in one table (`resonance.csv`), in order.
