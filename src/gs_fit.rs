@@ -545,6 +545,67 @@ pub struct GsFit {
     pub points: Vec<PeelingPoint>,
 }
 
+/// Standard errors of the fitted constants, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Sigma {
+    /// σ of w0 (J/m²).
+    pub w0: f64,
+    /// σ of v0 (m/s).
+    pub v0: f64,
+    /// σ of n.
+    pub n: f64,
+}
+
+/// What `djkr gs-fit --json` prints: the fit's headline numbers (SI) and the record's rows.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GsFitReport {
+    /// Quasi-static work of adhesion w0 (J/m²).
+    pub w0: f64,
+    /// Reference speed v0 (m/s).
+    pub v0: f64,
+    /// Exponent n.
+    pub n: f64,
+    /// Standard errors.
+    pub sigma: Sigma,
+    /// Points used in the fit.
+    pub points_used: usize,
+    /// Rows given to the fit (the record's last stretch in contact).
+    pub rows: usize,
+    /// Rows of the record left out, out of contact ([`contact_span`]).
+    pub rows_out_of_contact: usize,
+    /// RMS of the residuals (J/m²).
+    pub residual_rms: f64,
+    /// Reduced χ².
+    pub chi2_reduced: f64,
+    /// Smallest and largest crack speed used (m/s).
+    pub speed_range: [f64; 2],
+    /// n at an end of its search range.
+    pub n_at_bound: bool,
+}
+
+impl GsFitReport {
+    /// The report of `fit`, which left out `rows_out_of_contact` rows of the record.
+    pub fn new(fit: &GsFit, rows_out_of_contact: usize) -> Self {
+        Self {
+            w0: fit.w0,
+            v0: fit.v0,
+            n: fit.n,
+            sigma: Sigma {
+                w0: fit.sigma[0],
+                v0: fit.sigma[1],
+                n: fit.sigma[2],
+            },
+            points_used: fit.points_used,
+            rows: fit.rows,
+            rows_out_of_contact,
+            residual_rms: fit.residual_rms,
+            chi2_reduced: fit.chi2_reduced,
+            speed_range: [fit.speed_range.0, fit.speed_range.1],
+            n_at_bound: fit.n_at_bound,
+        }
+    }
+}
+
 impl GsFit {
     /// The fitted law.
     pub fn law(&self) -> Result<GentSchultz, ParamError> {

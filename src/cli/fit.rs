@@ -3,8 +3,7 @@
 use super::common::{print_json, print_table, MaterialArgs};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::gs_fit::{self, GsFitOptions};
-use serde_json::json;
+use djkr::gs_fit::{self, GsFitOptions, GsFitReport};
 use std::path::PathBuf;
 
 /// Flags of `djkr gs-fit`.
@@ -51,15 +50,7 @@ pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
     };
     let fit = gs_fit::fit_gent_schultz(&m, rows, &opts)?;
     if a.json {
-        return print_json(&json!({
-            "w0": fit.w0, "v0": fit.v0, "n": fit.n,
-            "sigma": {"w0": fit.sigma[0], "v0": fit.sigma[1], "n": fit.sigma[2]},
-            "points_used": fit.points_used, "rows": fit.rows,
-            "rows_out_of_contact": out_of_contact,
-            "residual_rms": fit.residual_rms, "chi2_reduced": fit.chi2_reduced,
-            "speed_range": [fit.speed_range.0, fit.speed_range.1],
-            "n_at_bound": fit.n_at_bound,
-        }));
+        return print_json(&GsFitReport::new(&fit, out_of_contact));
     }
     print_table(
         &format!(
