@@ -1,4 +1,6 @@
-//! Output writers for `djkr run`: the HDF5 run file, `summary.json` and, on request, CSV.
+//! Output: the one table writer ([`table`]: CSV and HDF5) and the one atomic writer ([`atomic`])
+//! every command uses, and the writers of `djkr run`: the HDF5 run file, `summary.json` and, on
+//! request, CSV.
 //!
 //! [`RunWriter`] is an [`Observer`]: hand it to the driver, which streams samples and events into
 //! it, then call [`RunWriter::finish`] with the [`RunResult`]. It buffers the run in memory
@@ -11,8 +13,8 @@
 //! dropped without [`RunWriter::finish`] (or given up with [`RunWriter::abort`]) leaves no
 //! `run.h5`/`summary.json` of its own: partials are removed, and files of an earlier complete run
 //! in the same directory stay untouched. A successful finish replaces the earlier run's files and,
-//! when this run writes no CSV, removes an earlier run's `timeseries.csv`/`events.csv`/`cycles.csv`, so the
-//! directory always describes one run. Two runs writing to the same directory at the same time are
+//! when this run writes no CSV, removes an earlier run's `timeseries.csv`/`events.csv`/
+//! `cycles.csv`, so the directory always describes one run. Two runs writing to the same directory at the same time are
 //! not supported.
 //!
 //! The event lists in all files come from [`RunResult::events`], the driver's complete log (events
