@@ -157,7 +157,7 @@ fn write_tables(
         })
         .collect();
     let attrs = [
-        ("missing", text_attr(MISSING)),
+        ("missing", text_attr(report::MISSING)),
         ("source", text_attr(&scn.source_name)),
         ("scenario", text_attr(&scn.source_text)),
         (
@@ -172,10 +172,6 @@ fn write_tables(
     write_atomic(&h5_path, &bytes)?;
     Ok(vec![csv_path, h5_path])
 }
-
-/// The root attribute `missing` of the steady-state HDF5 files.
-pub const MISSING: &str =
-    "NaN in a numeric dataset marks a value the method did not produce (see `error`)";
 
 /// The magnitude and phase plots.
 fn figures(

@@ -3,7 +3,6 @@
 //! `shortcut-map.h5` and colour maps, prints a summary.
 
 use super::common::{print_json, write_atomic};
-use super::resonance::MISSING;
 use super::steady::{default_out, progress_bar, range, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -99,7 +98,7 @@ fn write_tables(out: &Path, scn: &Scenario, m: &ShortcutMap) -> Result<Vec<PathB
     let csv_path = out.join("shortcut-map.csv");
     table.save_csv(&csv_path)?;
     let attrs = [
-        ("missing", text_attr(MISSING)),
+        ("missing", text_attr(report::MISSING)),
         ("source", text_attr(&scn.source_name)),
         ("scenario", text_attr(&scn.source_text)),
         (

@@ -16,6 +16,10 @@ use super::{Steady, SteadyMethod};
 use crate::describing::HarmonicBalance;
 use crate::output::{Column, Table};
 
+/// The root attribute `missing` of `resonance.h5` and `shortcut-map.h5`.
+pub const MISSING: &str =
+    "NaN in a numeric dataset marks a value the method did not produce (see `error`)";
+
 // ---------------------------------------------------------------------------------------------
 // validate
 
