@@ -54,6 +54,7 @@ use crate::error::ParamError;
 use crate::imposed_area;
 use crate::jkr;
 use crate::material::Material;
+use crate::output::{Column, Table};
 use crate::plot::{Figure, Heatmap, LegendPosition, Series, Style};
 use crate::quadrature::QuadratureRule;
 use crate::scenario::{Method, Scenario};
@@ -608,56 +609,191 @@ fn opt(x: Option<f64>) -> String {
     x.map_or_else(|| "n/a".into(), |v| format!("{v:.2e}"))
 }
 
-/// The study as CSV: one line per (method, tolerance); a failed run has `failed` in `status`
-/// and its message in `message`, with empty numbers.
+/// The study as a table (`work_precision.csv`): one row per (method, tolerance), SI values. A
+/// failed run has `failed` in `status`, its message in `message`, and NaN numbers.
+pub fn work_precision_table(st: &Study) -> Table {
+    let ok = |f: &dyn Fn(&Measured) -> f64| -> Vec<f64> {
+        st.rows
+            .iter()
+            .map(|r| r.outcome.as_ref().map_or(f64::NAN, f))
+            .collect()
+    };
+    let opt = |f: &dyn Fn(&OutputErrors) -> Option<f64>| -> Vec<f64> {
+        ok(&|m| f(&m.errors).unwrap_or(f64::NAN))
+    };
+    let text = |f: &dyn Fn(&StudyRow) -> String| -> Vec<String> { st.rows.iter().map(f).collect() };
+    let n = |name: &str, unit: &str, description: &str, v: Vec<f64>| {
+        Column::f64(name, unit, description, v)
+    };
+    let e = "relative error against the reference (see `djkr::accuracy`)";
+    table_of(vec![
+        Column::text(
+            "method",
+            "requested method",
+            text(&|r| r.method.to_string()),
+        ),
+        n(
+            "rtol",
+            "1",
+            "relative tolerance",
+            st.rows.iter().map(|r| r.rtol).collect(),
+        ),
+        n(
+            "atol",
+            "1",
+            "absolute tolerance (scaled states)",
+            st.rows.iter().map(|r| r.atol).collect(),
+        ),
+        Column::text(
+            "status",
+            "ok or failed",
+            text(&|r| if r.outcome.is_ok() { "ok" } else { "failed" }.into()),
+        ),
+        Column::text(
+            "method_used",
+            "what the run reports it ran",
+            text(&|r| {
+                r.outcome
+                    .as_ref()
+                    .map_or(String::new(), |m| m.method_used.clone())
+            }),
+        ),
+        n(
+            "wall_median",
+            "s",
+            "median wall time over the repeats",
+            ok(&|m| m.wall_median_s),
+        ),
+        n("wall_min", "s", "fastest repeat", ok(&|m| m.wall_min_s)),
+        n(
+            "steps",
+            "1",
+            "accepted steps",
+            ok(&|m| m.stats.steps as f64),
+        ),
+        n(
+            "rejected",
+            "1",
+            "rejected steps",
+            ok(&|m| m.stats.rejected as f64),
+        ),
+        n(
+            "rhs_evals",
+            "1",
+            "right-hand-side evaluations",
+            ok(&|m| m.stats.rhs_evals as f64),
+        ),
+        n(
+            "err_pull_off_relevant",
+            "1",
+            e,
+            ok(&|m| m.errors.pull_off_relevant),
+        ),
+        n(
+            "err_pull_off_force",
+            "1",
+            e,
+            ok(&|m| m.errors.pull_off_force),
+        ),
+        n("err_cycle_force_mean", "1", e, opt(&|x| x.cycle_force_mean)),
+        n("err_cycle_delta_mean", "1", e, opt(&|x| x.cycle_delta_mean)),
+        n("err_cycle_delta_amp", "1", e, opt(&|x| x.cycle_delta_amp)),
+        n(
+            "err_event_time",
+            "1",
+            "max |Δt| / T over the events",
+            opt(&|x| x.event_time),
+        ),
+        n(
+            "events_run",
+            "1",
+            "events of the run",
+            ok(&|m| m.errors.event_counts.0 as f64),
+        ),
+        n(
+            "events_ref",
+            "1",
+            "events of the reference",
+            ok(&|m| m.errors.event_counts.1 as f64),
+        ),
+        Column::text(
+            "detached_agrees",
+            "true when run and reference agree on detachment",
+            text(&|r| {
+                r.outcome
+                    .as_ref()
+                    .map_or(String::new(), |m| m.errors.detached_agrees.to_string())
+            }),
+        ),
+        n("err_final_state", "1", e, ok(&|m| m.errors.final_state)),
+        Column::text(
+            "message",
+            "why the run failed",
+            text(&|r| r.outcome.as_ref().err().cloned().unwrap_or_default()),
+        ),
+    ])
+}
+
+/// The study as CSV text ([`work_precision_table`]).
 pub fn study_csv(st: &Study) -> String {
-    let mut out = String::from(
-        "method,rtol,atol,status,method_used,wall_median_s,wall_min_s,steps,rejected,rhs_evals,\
-         err_pull_off_relevant,err_pull_off_force,err_cycle_force_mean,err_cycle_delta_mean,\
-         err_cycle_delta_amp,err_event_time,events_run,events_ref,detached_agrees,err_final_state,\
-         message\n",
-    );
-    let csv_opt = |x: Option<f64>| x.map_or_else(String::new, |v| format!("{v:e}"));
-    let quote = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
-    for r in &st.rows {
-        match &r.outcome {
-            Ok(m) => {
-                let e = &m.errors;
-                out += &format!(
-                    "{},{:e},{:e},ok,{},{:e},{:e},{},{},{},{:e},{:e},{},{},{},{},{},{},{},{:e},\n",
-                    r.method,
-                    r.rtol,
-                    r.atol,
-                    quote(&m.method_used),
-                    m.wall_median_s,
-                    m.wall_min_s,
-                    m.stats.steps,
-                    m.stats.rejected,
-                    m.stats.rhs_evals,
-                    e.pull_off_relevant,
-                    e.pull_off_force,
-                    csv_opt(e.cycle_force_mean),
-                    csv_opt(e.cycle_delta_mean),
-                    csv_opt(e.cycle_delta_amp),
-                    csv_opt(e.event_time),
-                    e.event_counts.0,
-                    e.event_counts.1,
-                    e.detached_agrees,
-                    e.final_state,
-                );
-            }
-            Err(msg) => {
-                out += &format!(
-                    "{},{:e},{:e},failed,,,,,,,,,,,,,,,,,{}\n",
-                    r.method,
-                    r.rtol,
-                    r.atol,
-                    quote(msg)
-                );
-            }
-        }
-    }
-    out
+    work_precision_table(st).to_csv()
+}
+
+fn table_of(columns: Vec<Column>) -> Table {
+    Table::from_fixed(columns)
+}
+
+/// The quadrature study as a table (`quadrature.csv`).
+pub fn quadrature_table(q: &QuadratureStudy) -> Table {
+    let r = &q.rows;
+    table_of(vec![
+        Column::i64(
+            "nodes",
+            "1",
+            "tanh-sinh nodes",
+            r.iter().map(|x| x.nodes as i64).collect(),
+        ),
+        Column::f64(
+            "worst_force_rel",
+            "1",
+            "worst relative error of F_m over the cases",
+            r.iter().map(|x| x.worst_force_rel).collect(),
+        ),
+        Column::f64(
+            "worst_delta_scaled",
+            "1",
+            "worst error of delta_m and delta_A over the JKR indentation scale",
+            r.iter().map(|x| x.worst_delta_scaled).collect(),
+        ),
+        Column::f64(
+            "time_per_cycle",
+            "s",
+            "median wall time of one cycle",
+            r.iter().map(|x| x.time_per_cycle_s).collect(),
+        ),
+        Column::text(
+            "worst_case",
+            "the case of the worst F_m error",
+            r.iter().map(|x| x.worst_case.clone()).collect(),
+        ),
+    ])
+}
+
+/// The closed-form error map as a table (`closed_form_map.csv`; NaN where the exact pull-off
+/// failed).
+pub fn closed_form_map_table(map: &[MapPoint]) -> Table {
+    let col = |name: &str, description: &str, f: fn(&MapPoint) -> Option<f64>| {
+        Column::f64_opt(name, "1", description, map.iter().map(f))
+    };
+    table_of(vec![
+        col("n", "Gent–Schultz exponent", |p| Some(p.n)),
+        col("speed_ratio", "v_max / v0", |p| Some(p.speed_ratio)),
+        col("amp_exact", "exact pull-off amplification", |p| p.amp_exact),
+        col("amp_approx", "closed-form pull-off amplification", |p| {
+            p.amp_approx
+        }),
+        col("ln_ratio", "ln(amp_exact / amp_approx)", |p| p.ln_ratio),
+    ])
 }
 
 /// The study as a markdown table, with the reference and its uncertainty above it.

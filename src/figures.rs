@@ -2,8 +2,9 @@
 //! indentation), Fig. 3(b) (exact/approximate pull-off ratio, via [`crate::beta_fit`]) and
 //! Figs. 4–8 (pull-off quantities vs a_A at 200, 300, 400 Hz, exact and approximate).
 //!
-//! The data functions are pure; [`write_figures`] writes each figure as CSV (headers carry units)
-//! plus PNG and SVG, atomically. Differences from the paper's captions, kept deliberately:
+//! The data functions are pure; [`write_figures`] writes each figure as CSV (SI values, headers
+//! `name [unit]`: [`crate::output::table`]) plus PNG and SVG, atomically. The tables are
+//! [`fig2_table`], [`fig3a_table`], [`fig3b_table`] and [`figs4to8_table`]. Differences from the paper's captions, kept deliberately:
 //! - Fig. 3(a): the caption says a_A = 3/10, 3/5, 9/10 mm, the text 250, 500, 750 µm; the text's
 //!   values are the default ([`FIG3A_AMPLITUDES`]), the caption's are [`FIG3A_AMPLITUDES_CAPTION`].
 //! - Fig. 7: the caption's F0 = −3/2 π R v0 is a misprint for w0 (MODEL.md).
@@ -16,10 +17,9 @@ use crate::closed_form::{self, DeltaAmpForm};
 use crate::error::ParamError;
 use crate::imposed_area::{self, PullOff};
 use crate::material::Material;
-use crate::output::{write_atomic, OutputError};
+use crate::output::{Column, OutputError, Table};
 use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style};
 use std::f64::consts::PI;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
 
@@ -239,9 +239,173 @@ fn mkdir(dir: &Path) -> Result<(), FiguresError> {
     })
 }
 
-fn csv_line(out: &mut String, values: &[f64]) {
-    let cells: Vec<String> = values.iter().map(|v| format!("{v:e}")).collect();
-    let _ = writeln!(out, "{}", cells.join(","));
+fn table_of(columns: Vec<Column>) -> Table {
+    Table::from_fixed(columns)
+}
+
+/// Fig. 2 as a table: `theta [rad]`, then δ for each imposed a_m (`delta_at_a_m_33um [m]`, …).
+pub fn fig2_table(curves: &[Fig2Curve]) -> Table {
+    let mut cols = vec![Column::f64(
+        "theta",
+        "rad",
+        "phase ωt over one cycle",
+        curves.first().map(|c| c.theta.clone()).unwrap_or_default(),
+    )];
+    for c in curves {
+        let label = format!("{:.0}um", c.a_mean * 1e6);
+        cols.push(Column::f64(
+            format!("delta_at_a_m_{label}"),
+            "m",
+            format!("indentation δ at imposed a_m = {label}, a_A = 1 mm, 200 Hz"),
+            c.delta.clone(),
+        ));
+    }
+    table_of(cols)
+}
+
+/// Fig. 3(a) as a table: one row per (a_A, a_m) point, exact and closed-form means.
+pub fn fig3a_table(curves: &[Fig3aCurve]) -> Table {
+    let all = |f: &dyn Fn(&Fig3aCurve) -> &Vec<f64>| -> Vec<f64> {
+        curves.iter().flat_map(|c| f(c).iter().copied()).collect()
+    };
+    table_of(vec![
+        Column::f64(
+            "a_amp",
+            "m",
+            "contact-radius amplitude a_A",
+            curves
+                .iter()
+                .flat_map(|c| std::iter::repeat_n(c.a_amp, c.a_mean.len()))
+                .collect(),
+        ),
+        Column::f64(
+            "a_mean",
+            "m",
+            "mean contact radius a_m",
+            all(&|c| &c.a_mean),
+        ),
+        Column::f64(
+            "delta_mean",
+            "m",
+            "exact mean indentation δ_m",
+            all(&|c| &c.delta_mean),
+        ),
+        Column::f64(
+            "force_mean",
+            "N",
+            "exact mean force F_m",
+            all(&|c| &c.force_mean),
+        ),
+        Column::f64(
+            "approx_delta_mean",
+            "m",
+            "closed-form mean indentation, eq. (22) with eq. (24)",
+            all(&|c| &c.approx_delta_mean),
+        ),
+        Column::f64(
+            "approx_force_mean",
+            "N",
+            "closed-form mean force, eq. (18) with eq. (24)",
+            all(&|c| &c.approx_force_mean),
+        ),
+    ])
+}
+
+/// Fig. 3(b) as a table: exact / approximate amplification per (n, v_max/v0).
+pub fn fig3b_table(points: &[RatioPoint]) -> Table {
+    let col = |name: &str, description: &str, f: fn(&RatioPoint) -> f64| {
+        Column::f64(name, "1", description, points.iter().map(f).collect())
+    };
+    table_of(vec![
+        col("n", "Gent–Schultz exponent", |p| p.n),
+        col(
+            "v_max_over_v0",
+            "peak contact-line speed a_A ω / v0",
+            |p| p.speed_ratio,
+        ),
+        col("amp_exact", "exact pull-off amplification", |p| p.amp_exact),
+        col("amp_approx", "closed-form pull-off amplification", |p| {
+            p.amp_approx
+        }),
+        col("ratio", "amp_exact / amp_approx", |p| p.ratio),
+    ])
+}
+
+/// Figs. 4–8 as a table: exact and closed-form pull-off per (frequency, a_A).
+pub fn figs4to8_table(rows: &[TableRow]) -> Table {
+    let col = |name: &str, unit: &str, description: &str, f: fn(&TableRow) -> f64| {
+        Column::f64(name, unit, description, rows.iter().map(f).collect())
+    };
+    table_of(vec![
+        col("frequency", "Hz", "vibration frequency", |r| r.frequency),
+        col("a_amp", "m", "contact-radius amplitude a_A", |r| r.a_amp),
+        col("exact_a_mean", "m", "exact: mean radius at pull-off", |r| {
+            r.exact.cycle.a_mean
+        }),
+        col(
+            "exact_delta_mean",
+            "m",
+            "exact: mean indentation at pull-off",
+            |r| r.exact.cycle.delta_mean,
+        ),
+        col(
+            "exact_delta_amp",
+            "m",
+            "exact: indentation amplitude at pull-off",
+            |r| r.exact.cycle.delta_amp,
+        ),
+        col("exact_force", "N", "exact: pull-off force", |r| {
+            r.exact.force
+        }),
+        col(
+            "exact_amplification",
+            "1",
+            "exact: pull-off amplification over -3/2 pi R w0",
+            |r| r.exact.amplification,
+        ),
+        col(
+            "exact_contact_fraction",
+            "1",
+            "exact: fraction of the cycle in contact",
+            |r| r.exact.cycle.contact_fraction,
+        ),
+        col(
+            "exact_local_minima",
+            "1",
+            "exact: local minima of F_m(a_m)",
+            |r| r.exact.local_minima.len() as f64,
+        ),
+        col("approx_a_mean", "m", "closed form: mean radius", |r| {
+            r.approx.a_mean
+        }),
+        col(
+            "approx_delta_mean",
+            "m",
+            "closed form: mean indentation",
+            |r| r.approx.delta_mean,
+        ),
+        col(
+            "approx_delta_amp",
+            "m",
+            "closed form: indentation amplitude (derived from eqs. 14-15)",
+            |r| r.approx.delta_amp,
+        ),
+        col(
+            "approx_delta_amp_printed",
+            "m",
+            "closed form: indentation amplitude, eq. (23) as printed",
+            |r| r.approx_delta_amp_printed,
+        ),
+        col("approx_force", "N", "closed form: pull-off force", |r| {
+            r.approx.force
+        }),
+        col(
+            "approx_amplification",
+            "1",
+            "closed form: pull-off amplification",
+            |r| r.approx.amplification,
+        ),
+    ])
 }
 
 /// Write the chosen figures into `out_dir` as CSV + PNG + SVG; returns the files written.
@@ -265,18 +429,8 @@ pub fn write_figures(
         match id {
             FigureId::Fig2 => {
                 let curves = fig2(m, law, 721);
-                let mut csv = String::from("theta_rad");
-                for c in &curves {
-                    let _ = write!(csv, ",delta_um_at_a_m_{:.0}um", c.a_mean * 1e6);
-                }
-                csv.push('\n');
-                for i in 0..curves[0].theta.len() {
-                    let mut row = vec![curves[0].theta[i]];
-                    row.extend(curves.iter().map(|c| c.delta[i] * 1e6));
-                    csv_line(&mut csv, &row);
-                }
                 let p = out_dir.join("fig2.csv");
-                write_atomic(&p, csv.as_bytes())?;
+                fig2_table(&curves).save_csv(&p)?;
                 files.push(p);
                 let mut fig = Figure::new(
                     "Fig. 2: indentation over one cycle (200 Hz, a_A = 1 mm)",
@@ -298,26 +452,8 @@ pub fn write_figures(
             }
             FigureId::Fig3a => {
                 let curves = fig3a(m, law, &FIG3A_AMPLITUDES, beta, 200)?;
-                let mut csv = String::from(
-                    "a_amp_mm,a_mean_mm,delta_mean_um,force_mean_N,approx_delta_mean_um,approx_force_mean_N\n",
-                );
-                for c in &curves {
-                    for i in 0..c.a_mean.len() {
-                        csv_line(
-                            &mut csv,
-                            &[
-                                c.a_amp * 1e3,
-                                c.a_mean[i] * 1e3,
-                                c.delta_mean[i] * 1e6,
-                                c.force_mean[i],
-                                c.approx_delta_mean[i] * 1e6,
-                                c.approx_force_mean[i],
-                            ],
-                        );
-                    }
-                }
                 let p = out_dir.join("fig3a.csv");
-                write_atomic(&p, csv.as_bytes())?;
+                fig3a_table(&curves).save_csv(&p)?;
                 files.push(p);
                 let mut fig = Figure::new(
                     format!("Fig. 3(a): F_m vs δ_m at 400 Hz (dashed: eq. 18, β = {beta})"),
@@ -351,15 +487,8 @@ pub fn write_figures(
             }
             FigureId::Fig3b => {
                 let pts = fig3b(m, law, beta)?;
-                let mut csv = String::from("n,v_max_over_v0,amp_exact,amp_approx,ratio\n");
-                for p in &pts {
-                    csv_line(
-                        &mut csv,
-                        &[p.n, p.speed_ratio, p.amp_exact, p.amp_approx, p.ratio],
-                    );
-                }
                 let p = out_dir.join("fig3b.csv");
-                write_atomic(&p, csv.as_bytes())?;
+                fig3b_table(&pts).save_csv(&p)?;
                 files.push(p);
                 let mut fig = Figure::new(
                     format!("Fig. 3(b): exact / approximate pull-off amplification (β = {beta})"),
@@ -386,33 +515,8 @@ pub fn write_figures(
             FigureId::Figs4to8 => {
                 let amps = table_amplitudes();
                 let rows = table(m, law, &TABLE_FREQUENCIES, &amps, beta)?;
-                let mut csv = String::from(
-                    "frequency_Hz,a_amp_mm,exact_a_mean_mm,exact_delta_mean_um,exact_delta_amp_um,exact_force_N,exact_amplification,exact_contact_fraction,exact_local_minima,approx_a_mean_mm,approx_delta_mean_um,approx_delta_amp_um,approx_delta_amp_printed_um,approx_force_N,approx_amplification\n",
-                );
-                for r in &rows {
-                    csv_line(
-                        &mut csv,
-                        &[
-                            r.frequency,
-                            r.a_amp * 1e3,
-                            r.exact.cycle.a_mean * 1e3,
-                            r.exact.cycle.delta_mean * 1e6,
-                            r.exact.cycle.delta_amp * 1e6,
-                            r.exact.force,
-                            r.exact.amplification,
-                            r.exact.cycle.contact_fraction,
-                            r.exact.local_minima.len() as f64,
-                            r.approx.a_mean * 1e3,
-                            r.approx.delta_mean * 1e6,
-                            r.approx.delta_amp * 1e6,
-                            r.approx_delta_amp_printed * 1e6,
-                            r.approx.force,
-                            r.approx.amplification,
-                        ],
-                    );
-                }
                 let p = out_dir.join("figs4-8.csv");
-                write_atomic(&p, csv.as_bytes())?;
+                figs4to8_table(&rows).save_csv(&p)?;
                 files.push(p);
                 type Pick = fn(&TableRow) -> (f64, f64);
                 let specs: [(&str, &str, &str, Pick, Pick, bool); 5] = [

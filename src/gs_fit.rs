@@ -49,6 +49,7 @@ use crate::error::{non_negative, positive, ParamError};
 use crate::jkr;
 use crate::material::Material;
 use crate::numerics::brent_minimize;
+use crate::units::Dimension;
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 use serde::Serialize;
 
@@ -63,11 +64,15 @@ pub struct UnloadingRow {
     pub force: f64,
 }
 
-/// Parse a CSV text of rows (t s, a m, F N). The first non-comment line must be a header; if it
-/// names the columns (`t`/`time`, `a`/`radius`/`contact_radius`, `F`/`force`, any case, optional
-/// unit suffix in brackets or after an underscore such as `t_s`) they may come in any order,
-/// otherwise the order t, a, F is assumed. Separators: `,` `;` tab or spaces; `#` starts a
-/// comment. Errors name `source` and the line.
+/// Parse a CSV text of rows (t, a, F). The first non-comment line must be a header. If it names
+/// the columns (`t`/`time`, `a`/`radius`/`contact_radius`/`contact`, `F`/`force`/`load`, any
+/// case) they may come in any order among other columns, which are ignored, so a run's own
+/// `timeseries.csv` is a record. A unit in the header is honoured and converted to SI: in
+/// brackets or parentheses (`t [ms]`, `a (um)`, the style of djkr's CSV files), or as an
+/// underscore suffix that is a unit of the column (`t_s`, `a_mm`, `F_mN`; `a_dot` is not `a`).
+/// Without units the values are SI. A header naming none of the columns means the order
+/// t (s), a (m), F (N). Separators: `,` `;` tab or spaces; `#` starts a comment. Errors name
+/// `source` and the line.
 pub fn parse_csv(text: &str, source: &str) -> Result<Vec<UnloadingRow>, ParamError> {
     // Split on `,` `;` or tab when the line has one (so a header like "t [s], a [m]" keeps its
     // units with its names), otherwise on whitespace.
@@ -84,44 +89,38 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<UnloadingRow>, ParamErr
             .map(str::to_string)
             .collect()
     };
-    let mut order: Option<[usize; 3]> = None;
+    let mut columns: Option<[RecordColumn; 3]> = None;
     let mut rows = Vec::new();
     for (i, raw) in text.lines().enumerate() {
         let line = raw.split('#').next().unwrap_or("").trim();
         if line.is_empty() {
             continue;
         }
+        let where_ = || format!("{source}: line {}", i + 1);
         let cols = split(line);
-        let Some(idx) = order else {
+        let Some(idx) = &columns else {
             let nums: Vec<Option<f64>> = cols.iter().map(|c| c.parse().ok()).collect();
             if nums.iter().all(Option::is_some) {
                 return Err(ParamError::new(
-                    format!("{source}: line {}", i + 1),
+                    where_(),
                     line,
                     "expected a header line naming the columns t, a, F before the data",
                 ));
             }
-            order = Some(header_order(&cols).unwrap_or([0, 1, 2]));
+            columns = Some(header_columns(&cols).map_err(|m| ParamError::new(where_(), line, m))?);
             continue;
         };
-        let parsed: Option<Vec<f64>> = cols.iter().map(|c| c.parse::<f64>().ok()).collect();
-        match parsed {
-            Some(v)
-                if v.len() >= 3
-                    && idx.iter().all(|&j| j < v.len())
-                    && v.iter().all(|x| x.is_finite()) =>
-            {
-                rows.push(UnloadingRow {
-                    t: v[idx[0]],
-                    a: v[idx[1]],
-                    force: v[idx[2]],
-                })
-            }
+        let value = |c: &RecordColumn| -> Option<f64> {
+            let x: f64 = cols.get(c.index)?.parse().ok()?;
+            Some(x * c.to_si).filter(|v| v.is_finite())
+        };
+        match (value(&idx[0]), value(&idx[1]), value(&idx[2])) {
+            (Some(t), Some(a), Some(force)) => rows.push(UnloadingRow { t, a, force }),
             _ => {
                 return Err(ParamError::new(
-                    format!("{source}: line {}", i + 1),
+                    where_(),
                     line,
-                    "expected three finite numbers: t (s), a (m), F (N)",
+                    "expected finite numbers in the columns t, a and F",
                 ))
             }
         }
@@ -129,22 +128,103 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<UnloadingRow>, ParamErr
     Ok(rows)
 }
 
-/// Column positions of (t, a, F) from header names, if all three are recognised.
-fn header_order(cols: &[String]) -> Option<[usize; 3]> {
-    let base = |c: &str| -> String {
-        let c = c.trim_matches('"').to_ascii_lowercase();
-        let c = c.split(['[', '(']).next().unwrap_or("").trim().to_string();
-        match c.rsplit_once('_') {
-            Some((head, _unit)) if !matches!(c.as_str(), "contact_radius") => head.to_string(),
-            _ => c,
+/// Where a record's quantity is, and the factor to SI of its unit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct RecordColumn {
+    index: usize,
+    to_si: f64,
+}
+
+/// Name and unit of a header cell: `name [unit]`, `name (unit)`, or the bare name.
+fn name_and_unit(cell: &str) -> (String, Option<String>) {
+    let c = cell.trim().trim_matches('"').trim();
+    match c.find(['[', '(']) {
+        Some(open) => {
+            let unit = c[open + 1..].trim_end_matches([']', ')']).trim();
+            (
+                c[..open].trim().to_ascii_lowercase(),
+                Some(unit.to_string()),
+            )
         }
+        None => (c.to_ascii_lowercase(), None),
+    }
+}
+
+/// The columns of (t, a, F) from a header with units (see [`parse_csv`]). A header that names
+/// none of them gives t, a, F in that order, SI; one that names only some is an error, as is a
+/// unit that is not one of the quantity's.
+fn header_columns(cells: &[String]) -> Result<[RecordColumn; 3], String> {
+    const QUANTITIES: [(&str, &[&str], Dimension); 3] = [
+        ("t", &["t", "time"], Dimension::Time),
+        (
+            "a",
+            &["a", "radius", "contact_radius", "contact"],
+            Dimension::Length,
+        ),
+        ("F", &["f", "force", "load"], Dimension::Force),
+    ];
+    let factor = |dim: Dimension, unit: &str| {
+        dim.units()
+            .iter()
+            .find(|(u, _)| *u == unit)
+            .map(|(_, f)| *f)
     };
-    let find = |names: &[&str]| cols.iter().position(|c| names.contains(&base(c).as_str()));
-    Some([
-        find(&["t", "time"])?,
-        find(&["a", "radius", "contact_radius", "contact"])?,
-        find(&["f", "force", "load"])?,
-    ])
+    let mut found = [None; 3];
+    for (q, (label, names, dim)) in QUANTITIES.iter().enumerate() {
+        for (index, cell) in cells.iter().enumerate() {
+            let (name, unit) = name_and_unit(cell);
+            let unit = match unit {
+                Some(u) if names.contains(&name.as_str()) => u,
+                Some(_) => continue,
+                None if names.contains(&name.as_str()) => dim.si().to_string(),
+                None => match (cell.rsplit_once('_'), name.rsplit_once('_')) {
+                    (Some((_, u)), Some((head, _)))
+                        if names.contains(&head) && factor(*dim, u).is_some() =>
+                    {
+                        u.to_string()
+                    }
+                    _ => continue,
+                },
+            };
+            let to_si = factor(*dim, &unit).ok_or_else(|| {
+                let allowed: Vec<&str> = dim.units().iter().map(|(u, _)| *u).collect();
+                format!(
+                    "column '{cell}': unknown unit '{unit}' for {label}: expected one of {}",
+                    allowed.join(", ")
+                )
+            })?;
+            found[q] = Some(RecordColumn { index, to_si });
+            break;
+        }
+    }
+    match found {
+        [Some(t), Some(a), Some(f)] => Ok([t, a, f]),
+        [None, None, None] => Ok([0, 1, 2].map(|index| RecordColumn { index, to_si: 1.0 })),
+        _ => {
+            let missing: Vec<&str> = QUANTITIES
+                .iter()
+                .zip(found)
+                .filter(|(_, f)| f.is_none())
+                .map(|((label, _, _), _)| *label)
+                .collect();
+            Err(format!(
+                "the header names some of the columns t, a, F but not {}",
+                missing.join(", ")
+            ))
+        }
+    }
+}
+
+/// The rows of a record to fit: the last unbroken stretch with a > 0, as `start..end`. A run's
+/// `timeseries.csv` goes on after pull-off with a = 0 (and may start out of contact); those rows
+/// are no unloading record. `None` when no row is in contact.
+pub fn contact_span(rows: &[UnloadingRow]) -> Option<std::ops::Range<usize>> {
+    let end = rows.iter().rposition(|r| r.a > 0.0)? + 1;
+    let start = rows[..end]
+        .iter()
+        .rposition(|r| r.a <= 0.0 || r.a.is_nan())
+        .map_or(0, |i| i + 1);
+    Some(start..end)
 }
 
 /// Options of the fit.
@@ -465,6 +545,67 @@ pub struct GsFit {
     pub points: Vec<PeelingPoint>,
 }
 
+/// Standard errors of the fitted constants, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Sigma {
+    /// σ of w0 (J/m²).
+    pub w0: f64,
+    /// σ of v0 (m/s).
+    pub v0: f64,
+    /// σ of n.
+    pub n: f64,
+}
+
+/// What `djkr gs-fit --json` prints: the fit's headline numbers (SI) and the record's rows.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GsFitReport {
+    /// Quasi-static work of adhesion w0 (J/m²).
+    pub w0: f64,
+    /// Reference speed v0 (m/s).
+    pub v0: f64,
+    /// Exponent n.
+    pub n: f64,
+    /// Standard errors.
+    pub sigma: Sigma,
+    /// Points used in the fit.
+    pub points_used: usize,
+    /// Rows given to the fit (the record's last stretch in contact).
+    pub rows: usize,
+    /// Rows of the record left out, out of contact ([`contact_span`]).
+    pub rows_out_of_contact: usize,
+    /// RMS of the residuals (J/m²).
+    pub residual_rms: f64,
+    /// Reduced χ².
+    pub chi2_reduced: f64,
+    /// Smallest and largest crack speed used (m/s).
+    pub speed_range: [f64; 2],
+    /// n at an end of its search range.
+    pub n_at_bound: bool,
+}
+
+impl GsFitReport {
+    /// The report of `fit`, which left out `rows_out_of_contact` rows of the record.
+    pub fn new(fit: &GsFit, rows_out_of_contact: usize) -> Self {
+        Self {
+            w0: fit.w0,
+            v0: fit.v0,
+            n: fit.n,
+            sigma: Sigma {
+                w0: fit.sigma[0],
+                v0: fit.sigma[1],
+                n: fit.sigma[2],
+            },
+            points_used: fit.points_used,
+            rows: fit.rows,
+            rows_out_of_contact,
+            residual_rms: fit.residual_rms,
+            chi2_reduced: fit.chi2_reduced,
+            speed_range: [fit.speed_range.0, fit.speed_range.1],
+            n_at_bound: fit.n_at_bound,
+        }
+    }
+}
+
 impl GsFit {
     /// The fitted law.
     pub fn law(&self) -> Result<GentSchultz, ParamError> {
@@ -657,6 +798,52 @@ mod tests {
         assert_eq!(e.name, "rec.csv: line 3");
         let e = parse_csv("0,1e-3,0.1\n", "rec.csv").unwrap_err();
         assert_eq!(e.name, "rec.csv: line 1");
+    }
+
+    #[test]
+    fn header_units_are_converted_and_other_columns_ignored() {
+        // djkr's own timeseries.csv style, with a = 0 after pull-off.
+        let text = "t [s],x_s [m],a [m],a_dot [m/s],F [N],stage [1]\n\
+                    0.5,1e-6,1e-3,-1e-6,0.01,0\n\
+                    1,2e-6,0.9e-3,NaN,0.005,1\n\
+                    1.5,3e-6,0,0,0,1\n";
+        let rows = parse_csv(text, "ts.csv").unwrap();
+        assert_eq!(rows.len(), 3);
+        assert_eq!(rows[1].a.to_bits(), 0.9e-3f64.to_bits());
+        assert_eq!(rows[1].force.to_bits(), 0.005f64.to_bits());
+        assert_eq!(contact_span(&rows), Some(0..2));
+        // Units other than SI are converted.
+        let rows = parse_csv("a [mm]; time (ms); F_mN\n2; 500; 30\n", "x.csv").unwrap();
+        let r = rows[0];
+        assert!((r.t - 0.5).abs() < 1e-15 && (r.a - 2e-3).abs() < 1e-18);
+        assert!((r.force - 0.03).abs() < 1e-15);
+        // Legacy suffixes that are units; `a_dot` is not `a`.
+        let rows = parse_csv("t_s,a_dot,a_m,F_N\n1,5,2e-3,0.1\n", "y.csv").unwrap();
+        assert_eq!(rows[0].a.to_bits(), 2e-3f64.to_bits());
+        // An unknown unit or a missing column is named.
+        let e = parse_csv("t [s],a [furlong],F [N]\n1,2,3\n", "z.csv").unwrap_err();
+        assert!(
+            e.to_string().contains("furlong") && e.name == "z.csv: line 1",
+            "{e}"
+        );
+        let e = parse_csv("t [s],F [N]\n1,2\n", "z.csv").unwrap_err();
+        assert!(e.to_string().contains("not a"), "{e}");
+    }
+
+    #[test]
+    fn contact_span_is_the_last_stretch_in_contact() {
+        let row = |a: f64| UnloadingRow {
+            t: 0.0,
+            a,
+            force: 0.0,
+        };
+        let rows: Vec<UnloadingRow> = [0.0, 1.0, 0.0, 2.0, 3.0, 0.0, 0.0]
+            .into_iter()
+            .map(row)
+            .collect();
+        assert_eq!(contact_span(&rows), Some(3..5));
+        assert_eq!(contact_span(&rows[..1]), None);
+        assert_eq!(contact_span(&rows[3..5]), Some(0..2));
     }
 
     #[test]

@@ -8,8 +8,9 @@
 //! Robustness rules: non-finite points (and, on a log axis, non-positive ones) are skipped and
 //! split a line into separate pieces — they never panic and never reach the drawing; a series whose
 //! x and y lengths differ is an error, not a silent truncation. Files are written atomically: each
-//! is drawn to a temporary file in the target directory and renamed into place, so an interrupted
-//! run leaves no `stem.png` / `stem.svg` that looks complete but is not.
+//! is drawn and encoded in memory, then written by [`crate::output::write_atomic`] (partial name,
+//! renamed into place), so an interrupted run leaves no `stem.png` / `stem.svg` that looks
+//! complete but is not.
 
 use plotters::coord::combinators::{IntoLogRange, LogCoord};
 use plotters::coord::ranged1d::{
@@ -19,9 +20,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 use thiserror::Error;
 
@@ -304,52 +303,48 @@ fn output_paths(stem: &Path) -> Result<(PathBuf, PathBuf), PlotError> {
     Ok((stem.with_extension("png"), stem.with_extension("svg")))
 }
 
-/// A temporary sibling of `target` that keeps its extension (the PNG encoder picks the format
-/// from the extension): `dir/.name.<pid>.<n>.partial.ext`.
-fn temp_sibling(target: &Path) -> PathBuf {
-    static COUNTER: AtomicU64 = AtomicU64::new(0);
-    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let name = target
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let ext = target
-        .extension()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    target.with_file_name(format!(".{name}.{}.{n}.partial.{ext}", std::process::id()))
-}
+type DrawResult = Result<(), String>;
 
-fn rename_into_place(tmp: &Path, target: &Path) -> Result<(), PlotError> {
-    fs::rename(tmp, target).map_err(|source| {
-        let _ = fs::remove_file(tmp);
-        PlotError::Io {
-            path: target.to_path_buf(),
-            source,
-        }
+/// Write `bytes` to `path` with the project's atomic writer ([`crate::output::write_atomic`]).
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), PlotError> {
+    crate::output::write_atomic(path, bytes).map_err(|e| match e {
+        crate::output::OutputError::Io { path, source } => PlotError::Io { path, source },
+        other => PlotError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(other.to_string()),
+        },
     })
 }
 
-type DrawResult = Result<(), String>;
-
+/// Draw into an RGB buffer and encode it as PNG in memory, then write it atomically.
 fn write_png<F>(path: &Path, size: (u32, u32), draw: F) -> Result<(), PlotError>
 where
     F: for<'a> Fn(&DrawingArea<BitMapBackend<'a>, Shift>) -> DrawResult,
 {
-    let tmp = temp_sibling(path);
-    let result = (|| {
-        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
-        draw(&root)?;
-        root.present().map_err(|e| e.to_string())
-    })();
-    if let Err(message) = result {
-        let _ = fs::remove_file(&tmp);
-        return Err(PlotError::Draw {
-            path: path.to_path_buf(),
-            message,
-        });
+    let draw_err = |message: String| PlotError::Draw {
+        path: path.to_path_buf(),
+        message,
+    };
+    let (w, h) = size;
+    let mut rgb = vec![0u8; 3 * w as usize * h as usize];
+    {
+        let backend = BitMapBackend::with_buffer_and_format(&mut rgb, size)
+            .map_err(|e| draw_err(e.to_string()))?;
+        let root = backend.into_drawing_area();
+        draw(&root).map_err(draw_err)?;
+        root.present().map_err(|e| draw_err(e.to_string()))?;
     }
-    rename_into_place(&tmp, path)
+    let mut png = std::io::Cursor::new(Vec::new());
+    image::write_buffer_with_format(
+        &mut png,
+        &rgb,
+        w,
+        h,
+        image::ColorType::Rgb8,
+        image::ImageOutputFormat::Png,
+    )
+    .map_err(|e| draw_err(format!("PNG encoding: {e}")))?;
+    write_file(path, png.get_ref())
 }
 
 fn write_svg<F>(path: &Path, size: (u32, u32), draw: F) -> Result<(), PlotError>
@@ -365,21 +360,7 @@ where
             message,
         })?;
     }
-    let tmp = temp_sibling(path);
-    let io = |source| PlotError::Io {
-        path: tmp.clone(),
-        source,
-    };
-    let written = (|| {
-        let mut f = fs::File::create(&tmp).map_err(io)?;
-        f.write_all(text.as_bytes()).map_err(io)?;
-        f.sync_all().map_err(io)
-    })();
-    if let Err(e) = written {
-        let _ = fs::remove_file(&tmp);
-        return Err(e);
-    }
-    rename_into_place(&tmp, path)
+    write_file(path, text.as_bytes())
 }
 
 fn validate_figure(fig: &Figure) -> Result<(), PlotError> {

@@ -255,8 +255,8 @@ fn every_bundled_scenario_runs_with_complete_output() {
         let csv = std::fs::read_to_string(od.join("timeseries.csv")).unwrap();
         let mut lines = csv.lines();
         let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-        let ia = header.iter().position(|h| *h == "a_m").unwrap();
-        let iff = header.iter().position(|h| *h == "F_N").unwrap();
+        let ia = header.iter().position(|h| *h == "a [m]").unwrap();
+        let iff = header.iter().position(|h| *h == "F [N]").unwrap();
         for l in lines {
             let c: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
             assert!(c[ia] >= 0.0 && c[iff].is_finite(), "{name}: {l}");
@@ -818,4 +818,36 @@ fn bad_overrides_are_named_on_every_command() {
     // --set needs a scenario.
     let o = djkr(&["accuracy", "--imposed-area", "--set", "base.amplitude=1um"]);
     assert_eq!(o.status.code(), Some(2));
+}
+
+/// `djkr gs-fit` reads a run's own `timeseries.csv` (units in the header, other columns, a row
+/// after the contact is lost), end to end; its help names the example record, which fits too.
+#[test]
+fn gs_fit_reads_a_runs_timeseries() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("unload");
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/gs-fit/unload-record.toml");
+    let o = djkr(&[
+        "run",
+        scenario.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let record = out.join("timeseries.csv");
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/gs-fit/unload-record.csv");
+    for path in [&record, &example] {
+        let v = json(&["gs-fit", path.to_str().unwrap(), "--json"]);
+        assert!((num(&v, "w0") / 0.240 - 1.0).abs() < 2e-3, "{v}");
+        assert!((num(&v, "n") / 0.531 - 1.0).abs() < 2e-3, "{v}");
+        assert!(
+            v["rows_out_of_contact"].as_u64().is_some_and(|n| n >= 1),
+            "{v}"
+        );
+    }
+    let text = djkr(&["gs-fit", record.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(text.contains("left out 1 row out of contact"), "{text}");
+    let help = djkr(&["gs-fit", "--help"]);
+    assert!(String::from_utf8_lossy(&help.stdout).contains("docs/gs-fit/unload-record.csv"));
 }

@@ -189,6 +189,25 @@ fn csv_round_trip_and_bad_records() {
     assert!(gs_fit::fit_gent_schultz(&M, &flat, &GsFitOptions::default()).is_err());
 }
 
+/// The example record of `djkr gs-fit --help`: a run's own timeseries.csv (docs/gs-fit, made by
+/// `djkr run docs/gs-fit/unload-record.toml`), with units in its header, nine other columns and
+/// a last row out of contact. Its constants come back to a few 1e-3.
+#[test]
+fn the_example_record_is_a_runs_timeseries_and_fits() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/gs-fit/unload-record.csv");
+    let text = std::fs::read_to_string(path).unwrap();
+    assert!(text.starts_with("t [s],x_s [m],"), "not a timeseries.csv");
+    let rows = gs_fit::parse_csv(&text, path).unwrap();
+    let span = gs_fit::contact_span(&rows).unwrap();
+    assert_eq!(span, 0..rows.len() - 1, "the last row is out of contact");
+    assert!(rows[span.end].a.abs() < f64::MIN_POSITIVE);
+    let law = GentSchultz::PAPER;
+    let fit = gs_fit::fit_gent_schultz(&M, &rows[span], &GsFitOptions::default()).unwrap();
+    assert!((fit.w0 / law.w0 - 1.0).abs() < 2e-3, "w0 {}", fit.w0);
+    assert!((fit.v0 / law.v0 - 1.0).abs() < 1e-2, "v0 {}", fit.v0);
+    assert!((fit.n / law.n - 1.0).abs() < 2e-3, "n {}", fit.n);
+}
+
 /// Fit quality against sampling, window and noise (prints a table). Run with
 /// `cargo test --test gs_fit gs_fit_study -- --ignored --nocapture`.
 #[test]

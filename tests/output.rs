@@ -633,7 +633,7 @@ fn csv_has_units_in_the_header_and_exact_values() {
     let (header, rows) = read_csv(&dir.path().join("timeseries.csv"));
     assert_eq!(
         header.join(","),
-        "t_s,x_s_m,v_s_m_per_s,x_b_m,x_k_m,delta_m,a_m,a_dot_m_per_s,F_N,G_J_per_m2,w_J_per_m2,stage"
+        "t [s],x_s [m],v_s [m/s],x_b [m],x_k [m],delta [m],a [m],a_dot [m/s],F [N],G [J/m^2],w [J/m^2],stage [1]"
     );
     assert_eq!(rows.len(), samples.len());
     for (row, s) in rows.iter().zip(&samples) {
@@ -650,21 +650,24 @@ fn csv_has_units_in_the_header_and_exact_values() {
         assert_eq!(row[11], s.stage.to_string());
     }
     let (header, rows) = read_csv(&dir.path().join("events.csv"));
-    assert_eq!(&header[..4], &["kind", "time_s", "stage", "x_s_m"]);
+    assert_eq!(&header[..4], &["kind", "time [s]", "stage [1]", "x_s [m]"]);
     assert_eq!(header.len(), 13);
     assert_eq!(rows.len(), res.events.len());
     assert_eq!(rows[1][0], "contact-loss");
-    let f_col = header.iter().position(|h| h == "F_N").unwrap();
+    let f_col = header.iter().position(|h| h == "F [N]").unwrap();
     let f: f64 = rows[1][f_col].parse().unwrap();
     assert_eq!(f.to_bits(), res.events[1].state.force.to_bits());
 
     let (header, rows) = read_csv(&dir.path().join("cycles.csv"));
     assert_eq!(rows.len(), 3);
-    let col = header.iter().position(|h| h == "force_sin_N").unwrap();
+    let col = header.iter().position(|h| h == "force_sin [N]").unwrap();
     let v: f64 = rows[2][col].parse().unwrap();
     assert_eq!(v.to_bits(), res.cycles[2].force_sin.to_bits());
-    assert_eq!(&header[..4], &["index", "stage", "t_start_s", "t_end_s"]);
-    assert!(header.iter().any(|h| h == "work_base_J"));
+    assert_eq!(
+        &header[..4],
+        &["index [1]", "stage [1]", "t_start [s]", "t_end [s]"]
+    );
+    assert!(header.iter().any(|h| h == "work_base [J]"));
 }
 
 #[test]
@@ -738,6 +741,12 @@ fn an_empty_run_writes_valid_files() {
         .unwrap()
         .is_empty());
     assert!(f.dataset("stage").unwrap().read_i64().unwrap().is_empty());
+    // Without cycles (a scene without vibration) cycles.csv is its header alone.
+    let cycles = std::fs::read_to_string(dir.path().join("cycles.csv")).unwrap();
+    assert_eq!(cycles.lines().count(), 1, "{cycles}");
+    assert!(cycles.starts_with("index [1],stage [1],t_start [s],t_end [s],a_cos [m]"));
+    let (header, rows) = read_csv(&dir.path().join("timeseries.csv"));
+    assert_eq!((header.len(), rows.len()), (12, 0));
     let j = read_json(&dir.path().join("summary.json"));
     assert_eq!(j["samples"], 0);
     assert_eq!(j["events"], serde_json::json!([]));

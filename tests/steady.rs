@@ -290,6 +290,39 @@ fn bundled_resonance_scene_peaks_near_400_hz() {
     assert!(sw.points.iter().all(|p| p.harmonic.is_some()));
 }
 
+/// The harmonic-balance curve of the resonance scene at X_b = 1.5 µm, continued downwards on
+/// the 101-frequency grid of the README, folds between 432 and 434 Hz: its peak is the highest
+/// sample, not the 15.18 at 431 Hz a parabola across the jump made up (`resonance --amp 1.5um`).
+#[test]
+fn harmonic_balance_peak_of_a_folded_curve_is_in_its_data() {
+    let scn = scene("resonance-400hz.toml");
+    let (p, start) = Problem::from_plan(&scn.plan()).unwrap_or_else(|e| panic!("{e}"));
+    let p = p.at(p.frequency, 1.5e-6).unwrap_or_else(|e| panic!("{e}"));
+    let lin = sweep::Linearisation::for_problem(&p, &start).unwrap_or_else(|e| panic!("{e}"));
+    let mut guess = None;
+    let mut curve = Vec::new();
+    for f in sweep::frequencies(300.0, 500.0, 101).into_iter().rev() {
+        if let Ok(h) = lin.setup.solve(f, p.amplitude, guess) {
+            guess = Some(h.guess());
+            curve.push((f, h.delta_amp / p.amplitude));
+        }
+    }
+    curve.reverse();
+    let top = curve.iter().map(|c| c.1).fold(f64::MIN, f64::max);
+    let (f, h) = sweep::peak_of(&curve).unwrap_or((0.0, 0.0));
+    assert!(
+        h <= top && curve.iter().any(|c| c.0 == f && c.1 == h),
+        "{h} at {f}, top {top}"
+    );
+    assert!(
+        (14.0..15.0).contains(&h) && (430.0..435.0).contains(&f),
+        "{h} at {f}"
+    );
+    // The samples either side of the fold: a drop of a third from one step to the next.
+    let i = curve.iter().position(|c| c.0 == f).unwrap_or(0);
+    assert!(curve[i + 1].1 < 0.7 * h, "{:?}", &curve[i - 1..i + 3]);
+}
+
 fn djkr(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_djkr"))
         .current_dir(env!("CARGO_MANIFEST_DIR"))

@@ -119,10 +119,7 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
     .with_context(|| format!("{}", file.display()))?;
     let table = accuracy::study_table(&study);
     std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
-    write_atomic(
-        &out.join("work_precision.csv"),
-        accuracy::study_csv(&study).as_bytes(),
-    )?;
+    accuracy::work_precision_table(&study).save_csv(&out.join("work_precision.csv"))?;
     write_atomic(&out.join("work_precision.md"), table.as_bytes())?;
     let (png, svg) = plot::render(
         &accuracy::study_figure(&study, Measure::PullOffRelevant),
@@ -170,8 +167,6 @@ fn imposed_area(a: &AccuracyArgs) -> Result<()> {
          error / JKR scale | time per cycle | worst case |\n|---|---|---|---|---|\n",
         q.cases, q.reference_uncertainty
     );
-    let mut csv =
-        String::from("nodes,worst_force_rel,worst_delta_scaled,time_per_cycle_s,worst_case\n");
     for r in &q.rows {
         table += &format!(
             "| {} | {:.1e} | {:.1e} | {} | {} |\n",
@@ -181,31 +176,15 @@ fn imposed_area(a: &AccuracyArgs) -> Result<()> {
             accuracy::fmt_time(r.time_per_cycle_s),
             r.worst_case
         );
-        csv += &format!(
-            "{},{:e},{:e},{:e},\"{}\"\n",
-            r.nodes, r.worst_force_rel, r.worst_delta_scaled, r.time_per_cycle_s, r.worst_case
-        );
     }
-    write_atomic(&out.join("quadrature.csv"), csv.as_bytes())?;
+    accuracy::quadrature_table(&q).save_csv(&out.join("quadrature.csv"))?;
     let (qp, qs) = plot::render(&accuracy::quadrature_figure(&q), &out.join("quadrature"))?;
 
     eprintln!("closed-form map …");
     let n_values: Vec<f64> = (1..=30).map(|i| 0.05 * i as f64).collect();
     let ratios = log_space(1e-2, 1e6, 33);
     let map = accuracy::closed_form_map(&n_values, &ratios, freq, beta)?;
-    let mut mcsv = String::from("n,speed_ratio,amp_exact,amp_approx,ln_ratio\n");
-    let f = |x: Option<f64>| x.map_or_else(String::new, |v| format!("{v:e}"));
-    for p in &map {
-        mcsv += &format!(
-            "{},{:e},{},{},{}\n",
-            p.n,
-            p.speed_ratio,
-            f(p.amp_exact),
-            f(p.amp_approx),
-            f(p.ln_ratio)
-        );
-    }
-    write_atomic(&out.join("closed_form_map.csv"), mcsv.as_bytes())?;
+    accuracy::closed_form_map_table(&map).save_csv(&out.join("closed_form_map.csv"))?;
     let (mp, ms) = plot::render_heatmap(
         &accuracy::closed_form_heatmap(&map, &n_values, &ratios, freq, beta),
         &out.join("closed_form_map"),

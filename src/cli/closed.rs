@@ -179,21 +179,9 @@ pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
 fn write_beta_outputs(dir: &std::path::Path, fit: &beta_fit::BetaFit) -> Result<()> {
     use djkr::plot::{render, Figure, Series, Style};
     std::fs::create_dir_all(dir)?;
-    let mut curve = String::from("beta,error_rms_ln_ratio\n");
-    for (b, e) in &fit.error_curve {
-        curve.push_str(&format!("{b:e},{e:e}\n"));
-    }
-    super::common::write_atomic(&dir.join("beta_error_curve.csv"), curve.as_bytes())?;
-    let mut table = String::from(
-        "n,v_max_over_v0,amp_exact,amp_approx_best_beta,ratio_best_beta,ratio_beta_2_5\n",
-    );
-    for (b, p) in fit.ratios_best.iter().zip(&fit.ratios_paper) {
-        table.push_str(&format!(
-            "{},{:e},{:e},{:e},{:e},{:e}\n",
-            b.n, b.speed_ratio, b.amp_exact, b.amp_approx, b.ratio, p.ratio
-        ));
-    }
-    super::common::write_atomic(&dir.join("beta_ratios.csv"), table.as_bytes())?;
+    fit.error_curve_table()
+        .save_csv(&dir.join("beta_error_curve.csv"))?;
+    fit.ratios_table().save_csv(&dir.join("beta_ratios.csv"))?;
     let fig = Figure::new(
         "β refit: error of the closed form",
         "β",

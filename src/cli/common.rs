@@ -177,8 +177,9 @@ pub fn omega_from(flag: &str, text: &str) -> Result<f64, ParamError> {
     Ok(2.0 * std::f64::consts::PI * positive_quantity(flag, text, Dimension::Frequency)?)
 }
 
-/// Print a JSON value (pretty), refusing non-finite numbers (serde_json would write `null`).
-pub fn print_json(v: &serde_json::Value) -> Result<()> {
+/// Print a report as JSON (pretty, keys sorted), refusing non-finite numbers (serde_json would
+/// write `null`): the report is turned into a `serde_json::Value` for that check only.
+pub fn print_json(report: &impl serde::Serialize) -> Result<()> {
     fn check(v: &serde_json::Value, path: &str) -> Result<()> {
         match v {
             serde_json::Value::Null => bail!("internal error: non-finite value at {path}"),
@@ -192,8 +193,9 @@ pub fn print_json(v: &serde_json::Value) -> Result<()> {
             _ => Ok(()),
         }
     }
-    check(v, "$")?;
-    println!("{}", serde_json::to_string_pretty(v)?);
+    let v = serde_json::to_value(report)?;
+    check(&v, "$")?;
+    println!("{}", serde_json::to_string_pretty(&v)?);
     Ok(())
 }
 

@@ -1,16 +1,18 @@
 //! `djkr gs-fit FILE`: Gent–Schultz constants from a quasi-static unloading record (Sec. 3).
 
 use super::common::{print_json, print_table, MaterialArgs};
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::gs_fit::{self, GsFitOptions};
-use serde_json::json;
+use djkr::gs_fit::{self, GsFitOptions, GsFitReport};
 use std::path::PathBuf;
 
 /// Flags of `djkr gs-fit`.
 #[derive(Args, Debug)]
+#[command(after_help = GS_FIT_HELP)]
 pub struct GsFitArgs {
-    /// CSV record with columns t (s), a (m), F (N, compressive +) and a header naming them.
+    /// CSV record with a header naming the columns t, a, F (compressive +), with units in the
+    /// header or SI (`t [s]`, `a [mm]`, `F [N]`; other columns are ignored). A run's own
+    /// timeseries.csv is a record; only its last stretch in contact (a > 0) is fitted.
     file: PathBuf,
     /// Half-width (rows) of the local polynomial window used to differentiate a(t).
     #[arg(long, default_value_t = GsFitOptions::default().half_window)]
@@ -23,26 +25,32 @@ pub struct GsFitArgs {
     material: MaterialArgs,
 }
 
+const GS_FIT_HELP: &str = "Example record: docs/gs-fit/unload-record.csv, the timeseries.csv of
+`djkr run docs/gs-fit/unload-record.toml --csv` (rigid-link unloading at 10 um/s of the paper's
+material; it goes on after pull-off with a = 0, rows that are left out):
+  djkr gs-fit docs/gs-fit/unload-record.csv";
+
 /// Run `djkr gs-fit`.
 pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
     let (m, _) = a.material.resolve()?;
     let text = std::fs::read_to_string(&a.file)
         .with_context(|| format!("reading {}", a.file.display()))?;
-    let rows = gs_fit::parse_csv(&text, &a.file.display().to_string())?;
+    let all = gs_fit::parse_csv(&text, &a.file.display().to_string())?;
+    let Some(span) = gs_fit::contact_span(&all) else {
+        bail!(
+            "{}: no row is in contact (a > 0): nothing to fit",
+            a.file.display()
+        );
+    };
+    let out_of_contact = all.len() - span.len();
+    let rows = &all[span.clone()];
     let opts = GsFitOptions {
         half_window: a.half_window,
         ..GsFitOptions::default()
     };
-    let fit = gs_fit::fit_gent_schultz(&m, &rows, &opts)?;
+    let fit = gs_fit::fit_gent_schultz(&m, rows, &opts)?;
     if a.json {
-        return print_json(&json!({
-            "w0": fit.w0, "v0": fit.v0, "n": fit.n,
-            "sigma": {"w0": fit.sigma[0], "v0": fit.sigma[1], "n": fit.sigma[2]},
-            "points_used": fit.points_used, "rows": fit.rows,
-            "residual_rms": fit.residual_rms, "chi2_reduced": fit.chi2_reduced,
-            "speed_range": [fit.speed_range.0, fit.speed_range.1],
-            "n_at_bound": fit.n_at_bound,
-        }));
+        return print_json(&GsFitReport::new(&fit, out_of_contact));
     }
     print_table(
         &format!(
@@ -60,7 +68,7 @@ pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
             ),
             ("n", format!("{:.4} ± {:.4}", fit.n, fit.sigma[2])),
             (
-                "points used / rows",
+                "points used / rows in contact",
                 format!("{} / {}", fit.points_used, fit.rows),
             ),
             (
@@ -74,6 +82,17 @@ pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
             ("reduced χ²", format!("{:.3}", fit.chi2_reduced)),
         ],
     );
+    if out_of_contact > 0 {
+        println!(
+            "  note: fitted the last stretch in contact, data rows {}..{} of {}; left out {} {} \
+             out of contact (a = 0, e.g. after pull-off)",
+            span.start + 1,
+            span.end,
+            all.len(),
+            out_of_contact,
+            if out_of_contact == 1 { "row" } else { "rows" }
+        );
+    }
     if fit.n_at_bound {
         println!("  note: n sits at the edge of its search range: the data may not constrain it");
     }

@@ -7,8 +7,11 @@ mod common;
 mod figures;
 mod fit;
 mod imposed;
+mod resonance;
 mod run;
+mod shortcut_map;
 mod steady;
+mod validate;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -66,13 +69,13 @@ enum Command {
     /// Run a scenario to its periodic steady state (shooting, time-stepping as the fallback) and
     /// compare it with the imposed-area method, the linear transfer, the paper's printed
     /// eqs. (37)-(39) and harmonic balance; checks the force balance (exit code 2 if violated).
-    Validate(steady::ValidateArgs),
+    Validate(validate::ValidateArgs),
     /// Frequency response by continuation (up and down sweeps): |δ_A/X_b|, phase, F_m, a_m, a_A
     /// per frequency with the linear transfer and harmonic balance; CSV, HDF5 and plots.
-    Resonance(steady::ResonanceArgs),
+    Resonance(resonance::ResonanceArgs),
     /// Map the error of the imposed-area shortcut against the time-domain steady state over a
     /// grid of frequency and base amplitude (mean force, δ_A); CSV, HDF5 and colour maps.
-    ShortcutMap(steady::ShortcutMapArgs),
+    ShortcutMap(shortcut_map::ShortcutMapArgs),
     /// Speed vs accuracy: a work-precision study of the integrators on a scenario FILE (errors
     /// against a converged reference, median wall time, steps, RHS evaluations; CSV, table,
     /// plot), or with --imposed-area, quadrature nodes vs error and the closed form's error map.
@@ -91,9 +94,9 @@ pub fn main() -> ExitCode {
         Command::BetaFit(a) => closed::beta_fit(&a),
         Command::GsFit(a) => fit::gs_fit(&a),
         Command::Figures(a) => figures::figures(&a),
-        Command::Validate(a) => steady::validate(&a),
-        Command::Resonance(a) => steady::resonance(&a),
-        Command::ShortcutMap(a) => steady::shortcut_map(&a),
+        Command::Validate(a) => validate::validate(&a),
+        Command::Resonance(a) => resonance::resonance(&a),
+        Command::ShortcutMap(a) => shortcut_map::shortcut_map(&a),
         Command::Accuracy(a) => accuracy::accuracy(&a),
     };
     match result {

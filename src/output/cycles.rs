@@ -1,115 +1,170 @@
 //! Per-cycle records ([`CycleRecord`]: exact averages and first harmonics over each base period)
-//! as columns, for the HDF5 `/cycles` group, `cycles.csv` and summary.json.
+//! as a table, for the HDF5 `/cycles` group, `cycles.csv` and summary.json.
 //!
-//! The columns are taken from the record's serde serialisation, so a field added to
-//! [`CycleRecord`] reaches every file without touching the writers; its unit then comes from
-//! [`cycle_unit`] (by name pattern), which answers `""` for a name it does not know. Integer
-//! fields (`index`, `stage`) become int64 columns, the rest f64. Column order: `index`, `stage`,
-//! `t_start`, `t_end`, then the other fields in serialisation order. A non-finite f64 (which serde
-//! turns into `null`) is stored as NaN.
+//! The schema is [`CYCLE_FIELDS`], one entry per field of [`CycleRecord`]: `index`, `stage`,
+//! `t_start`, `t_end`, then the other fields in alphabetical order (the column order of the files
+//! since the first release). Its names are the record's serde names, which a unit test checks, so
+//! a field added to the record fails that test until it is listed here with its unit. `index` and `stage` are int64 columns,
+//! the rest f64. The HDF5 `description` of each dataset is its name.
 
-use serde_json::Value;
-
+use super::table::{Column, Data, Field, Table};
+use super::timeseries::stage_index;
 use crate::dynamics::types::CycleRecord;
 
-/// One column of the cycle table.
-#[derive(Debug, Clone, PartialEq)]
-pub enum CycleColumn {
-    /// Floating-point values.
-    F64(Vec<f64>),
-    /// Integer values (indices).
-    I64(Vec<i64>),
+/// How a cycle field is read from a record.
+#[derive(Debug, Clone, Copy)]
+enum Get {
+    F64(fn(&CycleRecord) -> f64),
+    I64(fn(&CycleRecord) -> i64),
 }
 
-/// The cycle records as named columns (empty when there are no records: the field names are
-/// only known from a record).
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct CycleTable {
-    /// Column names (the record's field names).
-    pub names: Vec<String>,
-    /// Columns, parallel to `names`.
-    pub columns: Vec<CycleColumn>,
+/// One field of the cycle table.
+#[derive(Debug, Clone, Copy)]
+pub struct CycleField {
+    /// Name: the record's field, the HDF5 dataset, the CSV header's name.
+    pub name: &'static str,
+    /// SI unit (`1` for indices).
+    pub unit: &'static str,
+    get: Get,
 }
 
-impl CycleTable {
-    /// Number of records.
-    pub fn len(&self) -> usize {
-        match self.columns.first() {
-            Some(CycleColumn::F64(v)) => v.len(),
-            Some(CycleColumn::I64(v)) => v.len(),
-            None => 0,
+impl CycleField {
+    /// This field's schema (its description is its name).
+    pub fn field(&self) -> Field {
+        match self.get {
+            Get::F64(_) => Field::f64(self.name, self.unit, self.name),
+            Get::I64(_) => Field::i64(self.name, self.unit, self.name),
         }
     }
 
-    /// True when there are no records.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
+    /// The value in a record, as f64 (indices converted).
+    pub fn value(&self, c: &CycleRecord) -> f64 {
+        match self.get {
+            Get::F64(g) => g(c),
+            Get::I64(g) => g(c) as f64,
+        }
     }
 }
 
-/// The unit of a cycle-record field, by name: `index`, `stage` → `1`; `t_*` → `s`; `force_*`,
-/// `spring_*` → `N`; `delta_*`, `a_*`, `x_*` → `m`; `work_*`, `dissipation_*`, `energy_*` → `J`;
-/// anything else `""` (unknown to this writer).
-pub fn cycle_unit(name: &str) -> &'static str {
-    let prefix = |p: &str| name.starts_with(p);
-    if name == "index" || name == "stage" {
-        "1"
-    } else if prefix("t_") {
-        "s"
-    } else if prefix("force_") || prefix("spring_") {
-        "N"
-    } else if prefix("delta_") || prefix("a_") || prefix("x_") {
-        "m"
-    } else if prefix("work_") || prefix("dissipation_") || prefix("energy_") {
-        "J"
-    } else {
-        ""
+const fn f(name: &'static str, unit: &'static str, g: fn(&CycleRecord) -> f64) -> CycleField {
+    CycleField {
+        name,
+        unit,
+        get: Get::F64(g),
     }
 }
 
-/// Columns put first, in this order, when the record has them.
-const LEADING: [&str; 4] = ["index", "stage", "t_start", "t_end"];
+/// The cycle table's fields, in file order: identification and times first, then alphabetical.
+pub const CYCLE_FIELDS: [CycleField; 24] = [
+    CycleField {
+        name: "index",
+        unit: "1",
+        get: Get::I64(|c| i64::try_from(c.index).unwrap_or(i64::MAX)),
+    },
+    CycleField {
+        name: "stage",
+        unit: "1",
+        get: Get::I64(|c| stage_index(c.stage)),
+    },
+    f("t_start", "s", |c| c.t_start),
+    f("t_end", "s", |c| c.t_end),
+    f("a_cos", "m", |c| c.a_cos),
+    f("a_mean", "m", |c| c.a_mean),
+    f("a_sin", "m", |c| c.a_sin),
+    f("delta_cos", "m", |c| c.delta_cos),
+    f("delta_mean", "m", |c| c.delta_mean),
+    f("delta_sin", "m", |c| c.delta_sin),
+    f("dissipation_adhesion", "J", |c| c.dissipation_adhesion),
+    f("dissipation_damping", "J", |c| c.dissipation_damping),
+    f("energy_end", "J", |c| c.energy_end),
+    f("energy_start", "J", |c| c.energy_start),
+    f("force_cos", "N", |c| c.force_cos),
+    f("force_mean", "N", |c| c.force_mean),
+    f("force_sin", "N", |c| c.force_sin),
+    f("spring_cos", "N", |c| c.spring_cos),
+    f("spring_mean", "N", |c| c.spring_mean),
+    f("spring_sin", "N", |c| c.spring_sin),
+    f("work_base", "J", |c| c.work_base),
+    f("work_holder", "J", |c| c.work_holder),
+    f("x_k_mean", "m", |c| c.x_k_mean),
+    f("x_s_mean", "m", |c| c.x_s_mean),
+];
 
-/// Fields of one record, in serialisation order.
-fn fields(c: &CycleRecord) -> Vec<(String, Value)> {
-    match serde_json::to_value(c) {
-        Ok(Value::Object(m)) => m.into_iter().collect(),
-        _ => Vec::new(),
-    }
+/// The cycle table's schema.
+pub fn cycle_schema() -> Vec<Field> {
+    CYCLE_FIELDS.iter().map(CycleField::field).collect()
 }
 
-/// The records as columns.
-pub fn cycle_table(cycles: &[CycleRecord]) -> CycleTable {
-    let Some(first) = cycles.first() else {
-        return CycleTable::default();
-    };
-    let mut proto = fields(first);
-    // Identification columns first, then the rest in serialisation order.
-    proto.sort_by_key(|(k, _)| LEADING.iter().position(|l| l == k).unwrap_or(LEADING.len()));
-    let names: Vec<String> = proto.iter().map(|(k, _)| k.clone()).collect();
-    let mut columns: Vec<CycleColumn> = proto
+/// The records as a table of [`cycle_schema`] (its header alone when there are none).
+pub fn cycle_table(cycles: &[CycleRecord]) -> Table {
+    let columns = CYCLE_FIELDS
         .iter()
-        .map(|(_, v)| match v {
-            Value::Number(n) if n.is_i64() || n.is_u64() => {
-                CycleColumn::I64(Vec::with_capacity(cycles.len()))
+        .map(|def| {
+            let field = def.field();
+            match def.get {
+                Get::F64(g) => Column::of(field, Data::F64(cycles.iter().map(g).collect())),
+                Get::I64(g) => Column::of(field, Data::I64(cycles.iter().map(g).collect())),
             }
-            _ => CycleColumn::F64(Vec::with_capacity(cycles.len())),
         })
         .collect();
-    for c in cycles {
-        let values = fields(c);
-        for (col, name) in columns.iter_mut().zip(&names) {
-            let v = values.iter().find(|(k, _)| k == name).map(|(_, v)| v);
-            match col {
-                CycleColumn::F64(data) => {
-                    data.push(v.and_then(Value::as_f64).unwrap_or(f64::NAN));
-                }
-                CycleColumn::I64(data) => data.push(
-                    v.and_then(|v| v.as_i64().or_else(|| v.as_u64().map(|_| i64::MAX)))
-                        .unwrap_or(-1),
-                ),
-            }
+    Table::from_fixed(columns)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record() -> CycleRecord {
+        CycleRecord {
+            index: 7,
+            stage: 2,
+            t_start: 1.0,
+            t_end: 2.0,
+            force_mean: 3.0,
+            force_sin: 4.0,
+            force_cos: 5.0,
+            delta_mean: 6.0,
+            delta_sin: 7.0,
+            delta_cos: 8.0,
+            a_mean: 9.0,
+            a_sin: 10.0,
+            a_cos: 11.0,
+            x_s_mean: 12.0,
+            x_k_mean: 13.0,
+            spring_mean: 14.0,
+            spring_sin: 15.0,
+            spring_cos: 16.0,
+            work_base: 17.0,
+            work_holder: 18.0,
+            dissipation_damping: 19.0,
+            dissipation_adhesion: 20.0,
+            energy_start: 21.0,
+            energy_end: 22.0,
         }
     }
-    CycleTable { names, columns }
+
+    #[test]
+    fn schema_follows_the_record_field_by_field() {
+        let r = record();
+        let serde_json::Value::Object(m) = serde_json::to_value(r).unwrap() else {
+            panic!("a record serialises to an object");
+        };
+        let names: Vec<&str> = m.keys().map(String::as_str).collect();
+        let mut ours: Vec<&str> = CYCLE_FIELDS.iter().map(|c| c.name).collect();
+        assert_eq!(ours[..4], ["index", "stage", "t_start", "t_end"]);
+        assert!(ours[4..].is_sorted(), "{ours:?}");
+        ours.sort_unstable();
+        assert_eq!(
+            ours, names,
+            "CYCLE_FIELDS must list every CycleRecord field"
+        );
+        for def in &CYCLE_FIELDS {
+            let v = m[def.name].as_f64().unwrap();
+            assert_eq!(def.value(&r).to_bits(), v.to_bits(), "{}", def.name);
+        }
+        let t = cycle_table(&[r, r]);
+        assert_eq!(t.rows(), 2);
+        assert_eq!(t.columns().len(), CYCLE_FIELDS.len());
+        assert!(cycle_table(&[]).columns().len() == CYCLE_FIELDS.len());
+    }
 }

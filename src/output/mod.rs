@@ -1,4 +1,6 @@
-//! Output writers for `djkr run`: the HDF5 run file, `summary.json` and, on request, CSV.
+//! Output: the one table writer ([`table`]: CSV and HDF5) and the one atomic writer ([`atomic`])
+//! every command uses, and the writers of `djkr run`: the HDF5 run file, `summary.json` and, on
+//! request, CSV.
 //!
 //! [`RunWriter`] is an [`Observer`]: hand it to the driver, which streams samples and events into
 //! it, then call [`RunWriter::finish`] with the [`RunResult`]. It buffers the run in memory
@@ -11,32 +13,36 @@
 //! dropped without [`RunWriter::finish`] (or given up with [`RunWriter::abort`]) leaves no
 //! `run.h5`/`summary.json` of its own: partials are removed, and files of an earlier complete run
 //! in the same directory stay untouched. A successful finish replaces the earlier run's files and,
-//! when this run writes no CSV, removes an earlier run's `timeseries.csv`/`events.csv`/`cycles.csv`, so the
-//! directory always describes one run. Two runs writing to the same directory at the same time are
+//! when this run writes no CSV, removes an earlier run's `timeseries.csv`/`events.csv`/
+//! `cycles.csv`, so the directory always describes one run. Two runs writing to the same directory at the same time are
 //! not supported.
 //!
 //! The event lists in all files come from [`RunResult::events`], the driver's complete log (events
 //! streamed to the observer are also buffered, see [`TimeSeriesWriter::events`]); the per-cycle
 //! records from [`RunResult::cycles`] ([`cycles`]).
 //!
-//! File layouts: [`hdf5_file`] (HDF5), [`summary`] (JSON and its non-finite rule),
-//! [`csv_files`] (CSV).
+//! File layouts: [`hdf5_file`] (HDF5), [`summary`] (JSON and its non-finite rule); the three CSV
+//! files are the tables of the HDF5 file ([`timeseries`], [`timeseries::events_table`],
+//! [`cycles`]) written by [`table`], which writes every table of djkr (runs, resonance sweeps,
+//! shortcut maps, accuracy studies, figures), and every file goes to disk through [`atomic`].
 
-pub mod csv_files;
+pub mod atomic;
 pub mod cycles;
 pub mod hdf5_file;
 pub mod summary;
+pub mod table;
 pub mod timeseries;
 
 use std::fs::{self, File};
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
 use crate::dynamics::types::{Event, Observer, RunResult, Sample};
 use crate::scenario::Scenario;
+pub use atomic::{write_atomic, AtomicFile};
 pub use summary::SummaryFiles;
+pub use table::{Column, Field, Table};
 pub use timeseries::TimeSeriesWriter;
 
 /// File name of the HDF5 run file.
@@ -82,48 +88,6 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
     }
 }
 
-/// Write `bytes` to `path` and flush them to disk.
-pub(crate) fn write_file_synced(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    let mut f = File::create(path).map_err(io_err(path))?;
-    f.write_all(bytes).map_err(io_err(path))?;
-    f.sync_all().map_err(io_err(path))
-}
-
-/// Write one file atomically: in full to its hidden partial name beside it, flushed to disk, then
-/// renamed into place, so an interrupted writer never leaves a file that looks complete. For
-/// single files outside a run (figures, sweeps, studies).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(partial_name(&name));
-    if let Err(e) = write_file_synced(&tmp, bytes) {
-        let _ = fs::remove_file(&tmp);
-        return Err(e);
-    }
-    fs::rename(&tmp, path).map_err(io_err(path))
-}
-
-/// Create `path`, let `fill` write it through a buffer, flush it to disk.
-fn write_with(
-    path: &Path,
-    fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
-) -> Result<(), OutputError> {
-    let f = File::create(path).map_err(io_err(path))?;
-    let mut w = BufWriter::new(f);
-    fill(&mut w).map_err(io_err(path))?;
-    let f = w.into_inner().map_err(|e| OutputError::Io {
-        path: path.to_path_buf(),
-        source: e.into_error(),
-    })?;
-    f.sync_all().map_err(io_err(path))
-}
-
 /// The files a finished run wrote.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct OutputPaths {
@@ -152,11 +116,6 @@ impl OutputPaths {
         v.push(self.summary.as_path());
         v
     }
-}
-
-/// The hidden partial name of an output file.
-fn partial_name(name: &str) -> String {
-    format!(".{name}.partial")
 }
 
 /// Writes one run into an output directory (atomic: see the module doc).
@@ -200,16 +159,11 @@ impl RunWriter {
     }
 
     fn partial(&self, name: &str) -> PathBuf {
-        self.dir.join(partial_name(name))
+        atomic::partial_path(&self.dir.join(name))
     }
 
     fn remove_partials(&self) {
-        for name in [
-            HDF5_NAME,
-            SUMMARY_NAME,
-            TIMESERIES_CSV_NAME,
-            EVENTS_CSV_NAME,
-        ] {
+        for name in [HDF5_NAME, SUMMARY_NAME].into_iter().chain(CSV_NAMES) {
             let p = self.partial(name);
             if p.exists() {
                 let _ = fs::remove_file(p);
@@ -228,44 +182,44 @@ impl RunWriter {
     }
 
     fn write_all(&self, result: &RunResult) -> Result<OutputPaths, OutputError> {
-        let mut staged: Vec<&str> = Vec::new();
+        // Every file is staged under its partial name first; an error drops the staged files,
+        // which removes their partials.
+        let mut staged: Vec<AtomicFile> = Vec::new();
+        let target = |name: &str| self.dir.join(name);
 
-        hdf5_file::write_hdf5(
-            &self.partial(HDF5_NAME),
+        staged.push(hdf5_file::write_hdf5(
+            &target(HDF5_NAME),
             &self.series,
             &self.scenario,
             result,
-        )?;
-        staged.push(HDF5_NAME);
+        )?);
 
         let mut files = SummaryFiles {
             hdf5: HDF5_NAME.to_string(),
             ..SummaryFiles::default()
         };
         if self.csv {
-            write_with(&self.partial(TIMESERIES_CSV_NAME), |w| {
-                csv_files::write_timeseries(w, &self.series)
-            })?;
-            write_with(&self.partial(EVENTS_CSV_NAME), |w| {
-                csv_files::write_events(w, &result.events)
-            })?;
-            let table = cycles::cycle_table(&result.cycles);
-            write_with(&self.partial(CYCLES_CSV_NAME), |w| {
-                csv_files::write_cycles(w, &table)
-            })?;
-            staged.extend(CSV_NAMES);
+            let tables = [
+                self.series.table(),
+                &timeseries::events_table(&result.events),
+                &cycles::cycle_table(&result.cycles),
+            ];
+            for (name, table) in CSV_NAMES.into_iter().zip(tables) {
+                staged.push(AtomicFile::write_with(&target(name), |w| {
+                    table.write_csv(w)
+                })?);
+            }
             files.timeseries_csv = Some(TIMESERIES_CSV_NAME.to_string());
             files.events_csv = Some(EVENTS_CSV_NAME.to_string());
             files.cycles_csv = Some(CYCLES_CSV_NAME.to_string());
         }
 
         let json = summary::summary_json(&self.scenario, result, self.series.len(), &files);
-        write_file_synced(&self.partial(SUMMARY_NAME), json.as_bytes())?;
-        staged.push(SUMMARY_NAME); // last: its presence marks a complete run
+        // Last: its presence marks a complete run.
+        staged.push(AtomicFile::write(&target(SUMMARY_NAME), json.as_bytes())?);
 
-        for name in staged {
-            let to = self.dir.join(name);
-            fs::rename(self.partial(name), &to).map_err(io_err(&to))?;
+        for file in staged {
+            file.commit()?;
         }
         if !self.csv {
             for name in CSV_NAMES {
@@ -275,10 +229,7 @@ impl RunWriter {
                 }
             }
         }
-        // Make the renames durable (best effort: not every file system can sync a directory).
-        if let Ok(d) = File::open(&self.dir) {
-            let _ = d.sync_all();
-        }
+        atomic::sync_dir(&self.dir);
         let csv = |name: &str| self.csv.then(|| self.dir.join(name));
         Ok(OutputPaths {
             hdf5: self.dir.join(HDF5_NAME),

@@ -41,10 +41,10 @@ use std::collections::BTreeMap;
 
 use serde_json::{Map, Value};
 
-use super::cycles::{cycle_table, cycle_unit, CycleColumn};
-use super::hdf5_file::kind_name;
-use super::timeseries::{stage_index, SERIES, STAGE, STAGE_UNIT};
-use crate::dynamics::types::{RunResult, Sample};
+use super::cycles::cycle_table;
+use super::table::Data;
+use super::timeseries::{kind_name, stage_index, SERIES, STAGE, STAGE_UNIT};
+use crate::dynamics::types::{CycleRecord, RunResult, Sample};
 use crate::scenario::Scenario;
 
 /// Version of the summary layout, stored as `format_version`.
@@ -87,6 +87,35 @@ impl Builder {
                     .insert(format!("{prefix}{key}"), Value::String(text.to_string()));
             }
         }
+    }
+
+    /// `cycles`: the count and the last record (as in the cycle table), with the units of the
+    /// latter (`cycles.last.<field>`).
+    fn cycles(&mut self, records: &[CycleRecord]) -> (Value, BTreeMap<String, String>) {
+        let mut cycles = Map::new();
+        cycles.insert("count".into(), Value::from(records.len() as u64));
+        let mut units = BTreeMap::new();
+        let Some(last) = records.last() else {
+            return (Value::Object(cycles), units);
+        };
+        let mut m = Map::new();
+        for col in cycle_table(std::slice::from_ref(last)).columns() {
+            let name = &col.name;
+            match &col.data {
+                Data::F64(v) => v
+                    .iter()
+                    .for_each(|&x| self.put(&mut m, "cycles.last.", name, x)),
+                Data::I64(v) => v.iter().for_each(|&x| {
+                    m.insert(name.clone(), Value::from(x));
+                }),
+                Data::Text(v) => v.iter().for_each(|x| {
+                    m.insert(name.clone(), Value::from(x.as_str()));
+                }),
+            }
+            units.insert(format!("cycles.last.{name}"), col.unit.clone());
+        }
+        cycles.insert("last".into(), Value::Object(m));
+        (Value::Object(cycles), units)
     }
 
     fn state(&mut self, prefix: &str, s: &Sample) -> Value {
@@ -171,25 +200,7 @@ pub fn summary_json(
         })
         .collect();
 
-    let table = cycle_table(&result.cycles);
-    let mut cycles = Map::new();
-    cycles.insert("count".into(), Value::from(table.len() as u64));
-    let mut cycle_units = BTreeMap::new();
-    if !table.is_empty() {
-        let mut m = Map::new();
-        for (name, col) in table.names.iter().zip(&table.columns) {
-            match col {
-                CycleColumn::F64(v) => {
-                    b.put(&mut m, "cycles.last.", name, v[v.len() - 1]);
-                }
-                CycleColumn::I64(v) => {
-                    m.insert(name.clone(), Value::from(v[v.len() - 1]));
-                }
-            }
-            cycle_units.insert(format!("cycles.last.{name}"), cycle_unit(name).to_string());
-        }
-        cycles.insert("last".into(), Value::Object(m));
-    }
+    let (cycles, cycle_units) = b.cycles(&result.cycles);
 
     let mut file_map = Map::new();
     file_map.insert("hdf5".into(), Value::String(files.hdf5.clone()));
@@ -214,7 +225,7 @@ pub fn summary_json(
         ("stats", Value::Object(stats)),
         ("samples", Value::from(samples as u64)),
         ("final_state", final_state),
-        ("cycles", Value::Object(cycles)),
+        ("cycles", cycles),
         (
             "event_counts",
             Value::Object(

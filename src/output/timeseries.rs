@@ -1,5 +1,6 @@
-//! The time-series columns (names, units, descriptions: one table shared by the HDF5, CSV and JSON
-//! writers) and [`TimeSeriesWriter`], the observer that buffers a run's samples and events.
+//! The time-series columns (names, units, descriptions: one schema shared by the HDF5, CSV and JSON
+//! writers), [`TimeSeriesWriter`], the observer that buffers a run's samples and events as a
+//! [`Table`], and the events as a table ([`events_table`]).
 //!
 //! Buffering in memory, column by column, and writing once at the end is a deliberate choice over
 //! hdf5-pure's extendable datasets: a run of 10⁶ samples is 12 columns × 8 bytes × 10⁶ ≈ 96 MB, far
@@ -8,24 +9,23 @@
 //! output atomic (see [`super::RunWriter`]). A run sampled at every step of a very long
 //! integration (`output.sample_rate = 0`, 10⁸ steps) would need ~10 GB: set a sample rate.
 
-use crate::dynamics::types::{Event, Observer, Sample};
+use super::table::{Cell, Column, Data, Field, Table};
+use crate::dynamics::types::{Event, EventKind, Observer, Sample};
 
 /// One f64 time-series column: the same name in HDF5 (dataset), JSON (key) and, with its unit,
-/// in the CSV header.
+/// in the CSV header (`F [N]`).
 #[derive(Debug, Clone, Copy)]
-pub struct Column {
+pub struct SeriesColumn {
     /// Dataset / JSON key name (`t`, `x_s`, `F`, ...).
     pub name: &'static str,
     /// SI unit, as stored in the HDF5 `units` attribute (`1` for dimensionless).
     pub unit: &'static str,
-    /// CSV header: name and unit (`F_N`, `v_s_m_per_s`).
-    pub csv_header: &'static str,
     /// One-line description (HDF5 `description` attribute).
     pub description: &'static str,
     get: fn(&Sample) -> f64,
 }
 
-impl Column {
+impl SeriesColumn {
     /// This column's value in a sample.
     pub fn value(&self, s: &Sample) -> f64 {
         (self.get)(s)
@@ -35,85 +35,57 @@ impl Column {
 const fn col(
     name: &'static str,
     unit: &'static str,
-    csv_header: &'static str,
     description: &'static str,
     get: fn(&Sample) -> f64,
-) -> Column {
-    Column {
+) -> SeriesColumn {
+    SeriesColumn {
         name,
         unit,
-        csv_header,
         description,
         get,
     }
 }
 
 /// The f64 columns of the time series, in file order. The stage index ([`STAGE`]) follows them.
-pub const SERIES: [Column; 11] = [
-    col("t", "s", "t_s", "time", |s| s.t),
-    col(
-        "x_s",
-        "m",
-        "x_s_m",
-        "sphere position (down positive)",
-        |s| s.x_s,
-    ),
-    col(
-        "v_s",
-        "m/s",
-        "v_s_m_per_s",
-        "sphere velocity (down positive)",
-        |s| s.v_s,
-    ),
-    col(
-        "x_b",
-        "m",
-        "x_b_m",
-        "base displacement (up positive)",
-        |s| s.x_b,
-    ),
+pub const SERIES: [SeriesColumn; 11] = [
+    col("t", "s", "time", |s| s.t),
+    col("x_s", "m", "sphere position (down positive)", |s| s.x_s),
+    col("v_s", "m/s", "sphere velocity (down positive)", |s| s.v_s),
+    col("x_b", "m", "base displacement (up positive)", |s| s.x_b),
     col(
         "x_k",
         "m",
-        "x_k_m",
         "far end of the holding spring (down positive)",
         |s| s.x_k,
     ),
     col(
         "delta",
         "m",
-        "delta_m",
         "indentation x_s + x_b (positive compresses; negative: gap or tensile contact)",
         |s| s.delta,
     ),
-    col("a", "m", "a_m", "contact radius (0 out of contact)", |s| {
-        s.a
-    }),
+    col("a", "m", "contact radius (0 out of contact)", |s| s.a),
     col(
         "a_dot",
         "m/s",
-        "a_dot_m_per_s",
         "contact-radius rate (positive healing, 0 out of contact)",
         |s| s.a_dot,
     ),
     col(
         "F",
         "N",
-        "F_N",
         "contact force on the sphere (compressive positive)",
         |s| s.force,
     ),
     col(
         "G",
         "J/m^2",
-        "G_J_per_m2",
         "energy release rate (signed: negative for a compressive edge; 0 out of contact)",
         |s| s.g,
     ),
     col(
         "w",
         "J/m^2",
-        "w_J_per_m2",
         "work of adhesion w(a_dot) (w0 out of contact)",
         |s| s.w,
     ),
@@ -127,12 +99,43 @@ pub const STAGE_UNIT: &str = "1";
 pub const STAGE_DESCRIPTION: &str =
     "index of the protocol stage ([[stage]] in the scenario, 0-based)";
 
-/// Buffers a run's samples (column-wise) and events; the writers read them at the end.
-#[derive(Debug, Clone, Default)]
+impl SeriesColumn {
+    /// This column's schema.
+    pub fn field(&self) -> Field {
+        Field::f64(self.name, self.unit, self.description)
+    }
+}
+
+/// The time-series schema: [`SERIES`], then the stage index (int64).
+pub fn series_schema() -> Vec<Field> {
+    let mut s: Vec<Field> = SERIES.iter().map(SeriesColumn::field).collect();
+    s.push(Field::i64(STAGE, STAGE_UNIT, STAGE_DESCRIPTION));
+    s
+}
+
+/// Buffers a run's samples (as a table of [`series_schema`]) and events; the writers read them
+/// at the end.
+#[derive(Debug, Clone)]
 pub struct TimeSeriesWriter {
-    columns: [Vec<f64>; 11],
-    stage: Vec<i64>,
+    table: Table,
     events: Vec<Event>,
+}
+
+impl Default for TimeSeriesWriter {
+    fn default() -> Self {
+        Self {
+            table: Table::from_fixed(
+                series_schema()
+                    .into_iter()
+                    .map(|f| {
+                        let data = Data::empty(f.kind);
+                        Column::of(f, data)
+                    })
+                    .collect(),
+            ),
+            events: Vec::new(),
+        }
+    }
 }
 
 impl TimeSeriesWriter {
@@ -143,30 +146,30 @@ impl TimeSeriesWriter {
 
     /// Number of samples buffered.
     pub fn len(&self) -> usize {
-        self.stage.len()
+        self.table.rows()
     }
 
     /// True when no sample has been buffered.
     pub fn is_empty(&self) -> bool {
-        self.stage.is_empty()
+        self.table.is_empty()
     }
 
     /// The values of f64 column `name` (one of [`SERIES`]), or `None` for an unknown name.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
-        SERIES
-            .iter()
-            .position(|c| c.name == name)
-            .map(|i| self.columns[i].as_slice())
+        self.table.column(name).and_then(|c| c.data.as_f64())
     }
 
-    /// The f64 columns, in the order of [`SERIES`].
-    pub fn columns(&self) -> &[Vec<f64>; 11] {
-        &self.columns
+    /// The samples as a table: the columns of [`SERIES`], then [`STAGE`].
+    pub fn table(&self) -> &Table {
+        &self.table
     }
 
     /// The stage index of each sample.
     pub fn stages(&self) -> &[i64] {
-        &self.stage
+        self.table
+            .column(STAGE)
+            .and_then(|c| c.data.as_i64())
+            .unwrap_or_default()
     }
 
     /// The events seen, in the order they arrived.
@@ -176,10 +179,14 @@ impl TimeSeriesWriter {
 
     /// Buffer one sample.
     pub fn push(&mut self, s: &Sample) {
-        for (col, def) in self.columns.iter_mut().zip(SERIES.iter()) {
-            col.push(def.value(s));
+        let mut row = [Cell::F64(0.0); 12];
+        for (cell, def) in row.iter_mut().zip(SERIES.iter()) {
+            *cell = Cell::F64(def.value(s));
         }
-        self.stage.push(stage_index(s.stage));
+        row[11] = Cell::I64(stage_index(s.stage));
+        // The row is built from the schema itself, so it always matches.
+        let pushed = self.table.push_row(&row);
+        debug_assert!(pushed.is_ok(), "{pushed:?}");
     }
 }
 
@@ -196,4 +203,53 @@ impl Observer for TimeSeriesWriter {
 /// A stage index as stored in files (int64; indices never come near 2^63).
 pub(crate) fn stage_index(stage: usize) -> i64 {
     i64::try_from(stage).unwrap_or(i64::MAX)
+}
+
+/// The kebab-case name of an event kind, as in summary.json.
+pub(crate) fn kind_name(kind: EventKind) -> String {
+    match serde_json::to_value(kind) {
+        Ok(serde_json::Value::String(s)) => s,
+        _ => format!("{kind:?}"),
+    }
+}
+
+/// The events as a table: `kind` (text), `time`, `stage`, then the state at the event (the
+/// columns of [`SERIES`] without `t`). The HDF5 `/events` group and `events.csv`.
+pub fn events_table(events: &[Event]) -> Table {
+    let mut columns = vec![
+        Column::text(
+            "kind",
+            "event kind: stage-start, impact, contact-loss, preload-reached, duration-elapsed, pull-off",
+            events.iter().map(|e| kind_name(e.kind)).collect(),
+        ),
+        Column::f64("time", "s", "event time", events.iter().map(|e| e.time).collect()),
+        Column::i64(
+            STAGE,
+            STAGE_UNIT,
+            STAGE_DESCRIPTION,
+            events.iter().map(|e| stage_index(e.stage)).collect(),
+        ),
+    ];
+    columns.extend(SERIES.iter().filter(|c| c.name != "t").map(|def| {
+        Column::f64(
+            def.name,
+            def.unit,
+            def.description,
+            events.iter().map(|e| def.value(&e.state)).collect(),
+        )
+    }));
+    Table::from_fixed(columns)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn schemas_are_valid_tables() {
+        assert!(Table::from_schema(&series_schema()).is_ok());
+        let t = TimeSeriesWriter::new();
+        assert_eq!(t.table().columns().len(), 12);
+        assert_eq!(events_table(&[]).columns().len(), 13);
+    }
 }

@@ -240,20 +240,18 @@ pub fn peak(points: &[SweepPoint]) -> Option<(f64, f64)> {
     peak_of(&v)
 }
 
-/// Peak of sampled (x, y) data sorted by x, refined by a parabola through the maximum and its
-/// neighbours when it is interior and both neighbours exceed half the maximum (otherwise, e.g.
-/// at the jump of a folded resonance curve, the highest sample itself).
+/// Peak of sampled (x, y) data sorted by x: the highest sample, refined by a parabola through it
+/// and its two neighbours only when those three lie on one smooth branch. That needs a sample
+/// beyond each neighbour, and the five points must be concave (the secant slopes decrease): at
+/// the jump of a folded resonance curve the step down to the other branch is followed by a
+/// flatter one, which concavity refuses, so the parabola is never fitted across a jump (it would
+/// invent a peak above the data). Otherwise, and when a value is NaN, the highest sample itself.
 pub fn peak_of(v: &[(f64, f64)]) -> Option<(f64, f64)> {
     let i = (0..v.len()).max_by(|&i, &j| v[i].1.total_cmp(&v[j].1))?;
-    if i == 0 || i + 1 == v.len() {
+    if i < 2 || i + 2 >= v.len() || !concave(&v[i - 2..=i + 2]) {
         return Some(v[i]);
     }
     let ((x0, y0), (x1, y1), (x2, y2)) = (v[i - 1], v[i], v[i + 1]);
-    // A jump (the end of a branch of a nonlinear resonance) next to the maximum is no smooth
-    // peak: refine only when both neighbours are above half the maximum.
-    if y0.is_nan() || y2.is_nan() || y0 < 0.5 * y1 || y2 < 0.5 * y1 {
-        return Some(v[i]);
-    }
     // y = y1 + p t + q t² in t = x − x1 (local coordinates: no cancellation).
     let (h0, h2) = (x0 - x1, x2 - x1);
     let (d0, d2) = (y0 - y1, y2 - y1);
@@ -270,6 +268,16 @@ pub fn peak_of(v: &[(f64, f64)]) -> Option<(f64, f64)> {
     } else {
         Some(v[i])
     }
+}
+
+/// True when the secant slopes of the points (sorted by x) never increase: one concave branch,
+/// no jump. False for NaN or repeated x.
+fn concave(v: &[(f64, f64)]) -> bool {
+    let slopes: Vec<f64> = v
+        .windows(2)
+        .map(|w| (w[1].1 - w[0].1) / (w[1].0 - w[0].0))
+        .collect();
+    slopes.iter().all(|s| s.is_finite()) && slopes.windows(2).all(|s| s[1] <= s[0])
 }
 
 #[cfg(test)]
@@ -292,5 +300,36 @@ mod tests {
         // A jump right after the maximum: the highest sample.
         let v = [(1.0, 5.0), (2.0, 9.0), (3.0, 10.0), (4.0, 3.0)];
         assert_eq!(peak_of(&v), Some((3.0, 10.0)));
+    }
+
+    /// A folded resonance curve sampled across its jump: the upper branch rises steeply to the
+    /// fold, the next sample is on the lower branch. The neighbours are both above half the
+    /// maximum, so a parabola through the three highest points would put a peak above every
+    /// sample (the harmonic-balance "15.18 at 431 Hz" of `resonance --amp 1.5um`); the peak is
+    /// the highest sample instead.
+    #[test]
+    fn no_parabola_across_a_fold_jump() {
+        let upper = |f: f64| 15.0 - 2.0 * (434.0 - f).sqrt();
+        let mut v: Vec<(f64, f64)> = (0..8)
+            .map(|k| 420.0 + 2.0 * k as f64)
+            .map(|f| (f, upper(f)))
+            .collect();
+        v.extend([(436.0, 9.0), (438.0, 8.6), (440.0, 8.2)]);
+        let top = v.iter().map(|p| p.1).fold(f64::MIN, f64::max);
+        let (f, h) = peak_of(&v).unwrap_or((0.0, 0.0));
+        assert_eq!((f, h), (434.0, top), "peak {h} at {f}");
+        // The old rule (neighbours above half the maximum) would have refined it above the data.
+        let (x0, y0, y1, y2) = (432.0, upper(432.0), upper(434.0), 9.0);
+        assert!(y0 > 0.5 * y1 && y2 > 0.5 * y1 && x0 < 434.0);
+        // A smooth peak on the same grid is still refined between the samples.
+        let smooth: Vec<(f64, f64)> = (0..11)
+            .map(|k| 420.0 + 2.0 * k as f64)
+            .map(|f| (f, 15.0 - 0.02 * (f - 433.1) * (f - 433.1)))
+            .collect();
+        let (f, h) = peak_of(&smooth).unwrap_or((0.0, 0.0));
+        assert!(
+            (f - 433.1).abs() < 1e-9 && (h - 15.0).abs() < 1e-9,
+            "{f} {h}"
+        );
     }
 }

@@ -1,0 +1,291 @@
+//! `djkr resonance`: the frequency response by continuation (up and down sweeps of the periodic
+//! steady state), with the linear transfer and harmonic balance alongside; writes
+//! `resonance.csv`, `resonance.h5` and plots, prints a summary.
+
+use super::common::{load_scenario, positive_quantity, print_json, write_atomic};
+use super::steady::{default_out, progress_bar, range, stem, SteadyArgs};
+use anyhow::{Context, Result};
+use clap::{Args, ValueEnum};
+use djkr::output::table::{hdf5_tables, text_attr};
+use djkr::plot::{self, Figure, LegendPosition, Series, Style};
+use djkr::scenario::{Initial, Scenario};
+use djkr::steady::report::{self, ResonanceReport};
+use djkr::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
+use djkr::steady::{Options, Problem};
+use djkr::units::Dimension;
+use hdf5_pure::AttrValue;
+use std::path::{Path, PathBuf};
+
+/// Sweep direction(s).
+#[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SweepArg {
+    /// Increasing frequency.
+    Up,
+    /// Decreasing frequency.
+    Down,
+    /// Both, in parallel.
+    Both,
+}
+
+/// Flags of `djkr resonance`.
+#[derive(Args, Debug)]
+pub struct ResonanceArgs {
+    /// Scenario file (mechanics, contact, mean load, base amplitude; see `djkr validate`).
+    file: PathBuf,
+    /// Frequencies START:STOP:COUNT, evenly spaced, e.g. 300:500:101 or 300Hz:0.5kHz:41.
+    #[arg(long, value_name = "START:STOP:N", allow_hyphen_values = true)]
+    freq: String,
+    /// Sweep direction.
+    #[arg(long, value_enum, default_value = "both")]
+    sweep: SweepArg,
+    /// Base amplitude X_b [default: the scenario's]. Units: m, mm, um, nm.
+    #[arg(long, value_name = "X_B", allow_hyphen_values = true)]
+    amp: Option<String>,
+    /// Output directory for resonance.csv, resonance.h5 and the plots [default:
+    /// out/<scenario name>-resonance].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Skip the harmonic-balance predictor.
+    #[arg(long)]
+    no_harmonic_balance: bool,
+    /// Print a JSON summary (SI values) instead of a table.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    steady: SteadyArgs,
+}
+
+/// Run `djkr resonance`.
+pub fn resonance(a: &ResonanceArgs) -> Result<()> {
+    let opts = a.steady.options()?;
+    let (lo, hi, n) = range("--freq", &a.freq, Dimension::Frequency)?;
+    let scn = load_scenario(&a.file, &a.steady.set)?;
+    let (mut problem, start) =
+        Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
+    if let Some(t) = &a.amp {
+        let xb = positive_quantity("--amp", t, Dimension::Length)?;
+        problem = problem.at(problem.frequency, xb)?;
+    }
+    let lin = Linearisation::for_problem(&problem, &start).map_err(|e| e.to_string());
+    let hb_lin = lin.as_ref().ok().filter(|_| !a.no_harmonic_balance);
+    let freqs = sweep::frequencies(lo, hi, n);
+    let t0 = std::time::Instant::now();
+    let sweeps = run_sweeps(a.sweep, &problem, &start, &freqs, &opts, hb_lin);
+    let wall = t0.elapsed().as_secs_f64();
+
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| default_out(&a.file, "resonance"));
+    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
+    let mut files = write_tables(&out, &scn, &sweeps, &opts)?;
+    let (fig, phase) = figures(
+        &a.file,
+        &sweeps,
+        hb_lin.is_some(),
+        lin.as_ref().ok(),
+        lo,
+        hi,
+    );
+    let (png, svg) = plot::render(&fig, &out.join("resonance"))?;
+    let (ppng, psvg) = plot::render(&phase, &out.join("resonance-phase"))?;
+    files.extend([png, svg, ppng, psvg]);
+
+    let mut report = ResonanceReport::new(
+        &sweeps,
+        (lo, hi, n),
+        lin.as_ref().map_err(String::as_str),
+        wall,
+    );
+    report.files = files.iter().map(|p| p.display().to_string()).collect();
+    if a.json {
+        print_json(&report)
+    } else {
+        print_report(&a.file, &report);
+        Ok(())
+    }
+}
+
+/// The sweeps the flag asks for, with a progress bar: up, down, or both in parallel (up first).
+fn run_sweeps(
+    which: SweepArg,
+    problem: &Problem,
+    start: &Initial,
+    freqs: &[f64],
+    opts: &Options,
+    hb_lin: Option<&Linearisation>,
+) -> Vec<Sweep> {
+    let dirs = if which == SweepArg::Both { 2 } else { 1 };
+    let bar = progress_bar((freqs.len() * dirs) as u64, "sweep");
+    let progress = |d: Direction, p: &SweepPoint| {
+        bar.inc(1);
+        bar.set_message(format!("{} {:.2} Hz", d.name(), p.frequency));
+    };
+    let one = |d| sweep::sweep(problem, start, freqs, d, opts, hb_lin, &progress);
+    let sweeps = match which {
+        SweepArg::Up => vec![one(Direction::Up)],
+        SweepArg::Down => vec![one(Direction::Down)],
+        SweepArg::Both => {
+            let (u, d) = sweep::sweep_both(problem, start, freqs, opts, hb_lin, &progress);
+            vec![u, d]
+        }
+    };
+    bar.finish_and_clear();
+    sweeps
+}
+
+/// `resonance.csv` (all sweeps in one table) and `resonance.h5` (one group per direction).
+fn write_tables(
+    out: &Path,
+    scn: &Scenario,
+    sweeps: &[Sweep],
+    opts: &Options,
+) -> Result<Vec<PathBuf>> {
+    let csv_path = out.join("resonance.csv");
+    report::sweeps_table(sweeps).save_csv(&csv_path)?;
+    let tables: Vec<_> = sweeps.iter().map(report::sweep_table).collect();
+    let groups: Vec<(&str, &str, &djkr::output::Table)> = sweeps
+        .iter()
+        .zip(&tables)
+        .map(|(sw, t)| {
+            (
+                sw.direction.name(),
+                "frequency sweep: time-domain steady state per frequency, started from the previous one",
+                t,
+            )
+        })
+        .collect();
+    let attrs = [
+        ("missing", text_attr(report::MISSING)),
+        ("source", text_attr(&scn.source_name)),
+        ("scenario", text_attr(&scn.source_text)),
+        (
+            "base_amplitude",
+            AttrValue::F64(sweeps.first().map_or(f64::NAN, |s| s.amplitude)),
+        ),
+        ("tolerance", AttrValue::F64(opts.tol)),
+        ("rtol", AttrValue::F64(opts.rtol)),
+    ];
+    let h5_path = out.join("resonance.h5");
+    let bytes = hdf5_tables(&attrs, &groups).map_err(|e| anyhow::anyhow!("HDF5: {e}"))?;
+    write_atomic(&h5_path, &bytes)?;
+    Ok(vec![csv_path, h5_path])
+}
+
+/// The magnitude and phase plots.
+fn figures(
+    file: &Path,
+    sweeps: &[Sweep],
+    harmonic: bool,
+    lin: Option<&Linearisation>,
+    lo: f64,
+    hi: f64,
+) -> (Figure, Figure) {
+    let amplitude = sweeps.first().map_or(f64::NAN, |s| s.amplitude);
+    let mut fig = Figure::new(
+        format!(
+            "frequency response, X_b = {:.3} µm ({})",
+            amplitude * 1e6,
+            stem(file)
+        ),
+        "frequency f (Hz)",
+        "|δ_A / X_b|",
+    )
+    .with_legend(LegendPosition::UpperRight);
+    let mut phase = Figure::new(
+        format!("phase of δ_1 ({})", stem(file)),
+        "frequency f (Hz)",
+        "phase φ (rad), δ − δ_m ≈ |δ_1| sin(ωt + φ)",
+    )
+    .with_legend(LegendPosition::UpperRight);
+    for (i, sw) in sweeps.iter().enumerate() {
+        let style = if i == 0 {
+            Style::LineMarkers
+        } else {
+            Style::Markers
+        };
+        let label = format!("time domain, sweep {}", sw.direction.name());
+        let series = |f: &dyn Fn(&SweepPoint) -> Option<f64>| {
+            let (x, y) = report::sorted_by_frequency(&sw.points, f);
+            Series::new(label.clone(), x, y, style).with_color(i)
+        };
+        fig = fig.with_series(series(&|p| {
+            p.steady.as_ref().map(|s| s.transfer_magnitude())
+        }));
+        phase = phase.with_series(series(&|p| p.steady.as_ref().map(|s| s.transfer_phase())));
+        if harmonic {
+            let (x, y) = report::sorted_by_frequency(&sw.points, |p| {
+                p.harmonic.map(|h| h.delta_amp / amplitude)
+            });
+            let name = format!("harmonic balance, {}", sw.direction.name());
+            fig = fig.with_series(Series::new(name, x, y, Style::Dashed).with_color(3 + i));
+        }
+    }
+    if let Some(l) = lin {
+        let fd = sweep::frequencies(lo, hi, 801);
+        let y: Vec<f64> = fd.iter().map(|&f| l.linear(f).magnitude()).collect();
+        let yp: Vec<f64> = fd.iter().map(|&f| l.linear(f).phase()).collect();
+        let name = "linear transfer, k_c = 3/2 K a_0";
+        fig = fig.with_series(Series::new(name, fd.clone(), y, Style::Line).with_color(2));
+        phase =
+            phase.with_series(Series::new("linear transfer", fd, yp, Style::Line).with_color(2));
+    }
+    (fig, phase)
+}
+
+fn print_report(file: &Path, r: &ResonanceReport) {
+    let (lo, hi) = r.range;
+    println!(
+        "{}: frequency response {lo}–{hi} Hz ({} frequencies), X_b = {:.4} µm, {:.2} s",
+        file.display(),
+        r.frequencies,
+        r.amplitude * 1e6,
+        r.wall_s
+    );
+    if let (Some(k), Some(f)) = (r.contact_stiffness, r.linear_resonance_frequency) {
+        println!(
+            "  linear transfer (k_c = 3/2 K a_0 = {k:.1} N/m): f_r = {f:.3} Hz{}",
+            r.linear_peak
+                .map(|p| format!(
+                    ", peak |δ_A/X_b| = {:.4} at {:.3} Hz",
+                    p.height, p.frequency
+                ))
+                .unwrap_or_default()
+        );
+    }
+    for sw in r.sweeps() {
+        print!(
+            "  sweep {:<4}: {}/{} steady states ({} by shooting), {} periods, {:.2} s",
+            sw.direction, sw.found, r.frequencies, sw.by_shooting, sw.cycles, sw.wall_s
+        );
+        if let Some(p) = sw.peak {
+            print!(
+                "; peak |δ_A/X_b| = {:.4} at {:.3} Hz",
+                p.height, p.frequency
+            );
+            if let (Some(s), Some(h)) = (p.shift_from_linear, p.height_over_linear) {
+                print!(" (shift {s:+.3} Hz, height ×{h:.4} of linear)");
+            }
+        }
+        println!();
+        if let Some(p) = sw.harmonic_balance_peak {
+            println!(
+                "              harmonic balance peak {:.4} at {:.3} Hz",
+                p.height, p.frequency
+            );
+        }
+    }
+    if let Some(d) = r.max_up_down_difference {
+        println!(
+            "  largest up/down difference in |δ_A/X_b|: {:.3e} at {:.3} Hz",
+            d.delta_amp_over_xb, d.frequency
+        );
+    }
+    for note in &r.notes {
+        println!("  {note}");
+    }
+    println!("\nwrote:");
+    for p in &r.files {
+        println!("  {p}");
+    }
+}

@@ -1,0 +1,133 @@
+//! Atomic file output: the one way djkr puts a file on disk.
+//!
+//! A file is written in full under its hidden partial name beside the target (`DIR/.NAME.partial`),
+//! flushed to disk, and only then renamed into place, so an interrupted or failed writer never
+//! leaves a file that looks complete. [`write_atomic`] does this for one file; a writer that
+//! must commit several files together (the run writer: `summary.json` last, see
+//! [`super::RunWriter`]) stages each as an [`AtomicFile`] and commits them in order once all are
+//! written. An [`AtomicFile`] dropped without [`AtomicFile::commit`] removes its partial.
+//!
+//! Partial names are fixed (not per process), so a later writer can clear what a killed one left
+//! behind; two writers of the same file at the same time are not supported.
+
+use std::fs::{self, File};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use super::OutputError;
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
+    move |source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// The hidden partial name under which `target` is written: `DIR/.NAME.partial`.
+pub fn partial_path(target: &Path) -> PathBuf {
+    let name = target
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    target.with_file_name(format!(".{name}.partial"))
+}
+
+/// A file being written atomically: its content goes to the partial name until [`commit`]
+/// renames it into place. Dropped uncommitted, it removes the partial.
+///
+/// [`commit`]: AtomicFile::commit
+#[derive(Debug)]
+pub struct AtomicFile {
+    target: PathBuf,
+    partial: PathBuf,
+    committed: bool,
+}
+
+impl AtomicFile {
+    /// Write `bytes` as the content of `target` (under its partial name, flushed to disk).
+    pub fn write(target: &Path, bytes: &[u8]) -> Result<Self, OutputError> {
+        Self::write_with(target, |w| w.write_all(bytes))
+    }
+
+    /// Let `fill` write the content of `target` through a buffer (under its partial name,
+    /// flushed to disk). For content too large to build in memory first.
+    pub fn write_with(
+        target: &Path,
+        fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+    ) -> Result<Self, OutputError> {
+        let staged = Self {
+            target: target.to_path_buf(),
+            partial: partial_path(target),
+            committed: false,
+        };
+        // On error `staged` is dropped here, which removes the partial.
+        let p = staged.partial.as_path();
+        let f = File::create(p).map_err(io_err(p))?;
+        let mut w = BufWriter::new(f);
+        fill(&mut w).map_err(io_err(p))?;
+        let f = w.into_inner().map_err(|e| OutputError::Io {
+            path: p.to_path_buf(),
+            source: e.into_error(),
+        })?;
+        f.sync_all().map_err(io_err(p))?;
+        Ok(staged)
+    }
+
+    /// The file this will become.
+    pub fn target(&self) -> &Path {
+        &self.target
+    }
+
+    /// Rename the partial into place (replacing an earlier file of that name).
+    pub fn commit(mut self) -> Result<PathBuf, OutputError> {
+        fs::rename(&self.partial, &self.target).map_err(io_err(&self.target))?;
+        self.committed = true;
+        Ok(self.target.clone())
+    }
+}
+
+impl Drop for AtomicFile {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = fs::remove_file(&self.partial);
+        }
+    }
+}
+
+/// Write one file atomically (see the module doc): figures, tables, sweeps, studies.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    AtomicFile::write(path, bytes)?.commit().map(|_| ())
+}
+
+/// Make the renames in `dir` durable (best effort: not every file system can sync a directory).
+pub fn sync_dir(dir: &Path) {
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commit_replaces_and_drop_cleans_up() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.txt");
+        write_atomic(&p, b"one").unwrap();
+        write_atomic(&p, b"two").unwrap();
+        assert_eq!(fs::read(&p).unwrap(), b"two");
+        {
+            let staged = AtomicFile::write(&p, b"three").unwrap();
+            assert!(partial_path(&p).exists());
+            assert_eq!(staged.target(), p);
+        }
+        assert!(!partial_path(&p).exists());
+        assert_eq!(fs::read(&p).unwrap(), b"two");
+        let failed = AtomicFile::write_with(&p, |_| Err(std::io::Error::other("boom")));
+        assert!(failed.unwrap_err().to_string().contains("boom"));
+        assert!(!partial_path(&p).exists());
+        let names: Vec<_> = fs::read_dir(dir.path()).unwrap().flatten().collect();
+        assert_eq!(names.len(), 1);
+    }
+}
