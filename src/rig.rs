@@ -67,6 +67,11 @@ pub struct BaseMotion {
     pub amplitude: f64,
     /// Frequency f (Hz).
     pub frequency: f64,
+    /// Phase φ (rad, [0, 2π)) of the base motion relative to the protocol's clock: the shaker
+    /// starts φ/ω after the stage that switches it on begins, at phase 0 of its own motion, so
+    /// that x_b stays continuous (0 until then). Ensembles draw it to sample the relation
+    /// between the vibration and the protocol.
+    pub phase: f64,
 }
 
 /// How contact forms when the gap closes (impact).

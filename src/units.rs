@@ -27,6 +27,8 @@ pub enum Dimension {
     Stiffness,
     /// Newton seconds per metre.
     Damping,
+    /// Radians (angles).
+    Angle,
     /// Dimensionless.
     Dimensionless,
 }
@@ -65,6 +67,7 @@ impl Dimension {
             Dimension::Force => &[("N", 1.0), ("mN", 1e-3), ("uN", 1e-6), ("µN", 1e-6)],
             Dimension::Stiffness => &[("N/m", 1.0), ("N/mm", 1e3), ("kN/m", 1e3)],
             Dimension::Damping => &[("Ns/m", 1.0), ("N*s/m", 1.0), ("kg/s", 1.0)],
+            Dimension::Angle => &[("rad", 1.0), ("deg", std::f64::consts::PI / 180.0)],
             Dimension::Dimensionless => &[],
         }
     }
@@ -82,6 +85,7 @@ impl Dimension {
             Dimension::Force => "N",
             Dimension::Stiffness => "N/m",
             Dimension::Damping => "N s/m",
+            Dimension::Angle => "rad",
             Dimension::Dimensionless => "",
         }
     }

@@ -237,6 +237,7 @@ fn vibrating(xb: f64) -> Scenario {
     s.rig.base = Some(BaseMotion {
         amplitude: xb,
         frequency: 300.0,
+        phase: 0.0,
     });
     s.initial = Initial::Preload(0.02);
     s.stages = vec![stage(
@@ -259,6 +260,7 @@ fn stage_of_whole_periods_records_every_cycle() {
         s.rig.base = Some(BaseMotion {
             amplitude: 1e-6,
             frequency: f,
+            phase: 0.0,
         });
         let d = n as f64 / f;
         s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(d), Some(true))];
@@ -655,6 +657,7 @@ fn seeded_impact_heals_and_contact_damping_balances_energy() {
     s.rig.base = Some(BaseMotion {
         amplitude: 1e-6,
         frequency: 200.0,
+        phase: 0.0,
     });
     s.initial = Initial::Gap(5e-6);
     s.stages = vec![

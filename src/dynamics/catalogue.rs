@@ -37,6 +37,7 @@ pub fn vibrating_hold(xb: f64, frequency: f64, duration: f64) -> Scenario {
             base: Some(BaseMotion {
                 amplitude: xb,
                 frequency,
+                phase: 0.0,
             }),
             formation: ContactFormation::JumpIn,
         },

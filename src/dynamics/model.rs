@@ -95,6 +95,9 @@ pub struct Model {
     pub omega: f64,
     /// Base amplitude X_b (m; 0 without base motion).
     pub xb_amp: f64,
+    /// Delay φ/ω (s) from the stage that switches the shaker on to the start of the base motion
+    /// (the base phase relative to the protocol's clock; 0 without base motion).
+    pub shaker_delay: f64,
     /// JKR jump-in radius at w0 (m): the radius scale.
     pub a_jump: f64,
     /// Contact-loss radius (m): contact is lost when a falls to this value.
@@ -256,6 +259,9 @@ pub fn resolve(s: &Rig, scales: RunScales) -> Result<Model, String> {
         mech,
         omega,
         xb_amp,
+        shaker_delay: s
+            .base
+            .map_or(0.0, |b| if omega > 0.0 { b.phase / omega } else { 0.0 }),
         a_jump,
         a_floor,
         len_scale,

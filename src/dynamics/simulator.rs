@@ -79,6 +79,8 @@ struct Cycles {
     e0: f64,
     /// The shaker switches off at the next period boundary (x_b stays continuous).
     off_pending: bool,
+    /// The shaker starts at this time (a base phase delays it after the switching stage starts).
+    armed_at: Option<f64>,
 }
 
 /// One integrator stepping the model of a rig.
@@ -144,6 +146,7 @@ impl Simulator {
                 q0: y.q,
                 e0: 0.0,
                 off_pending: false,
+                armed_at: None,
             },
             collapse_at: None,
             kick_pending: false,
@@ -223,6 +226,7 @@ impl Simulator {
         self.collapse_at = None;
         self.kick_pending = false;
         self.cycles.off_pending = false;
+        self.cycles.armed_at = None;
         self.refresh();
         if self.drive.shaker {
             self.start_cycles();
@@ -239,17 +243,40 @@ impl Simulator {
 
     /// Switch the shaker on now (at phase 0, so x_b is continuous), or off at the next base
     /// period boundary (same reason). Call [`Simulator::refresh`] after changing the drive.
+    /// With a base phase φ the shaker starts φ/ω later, at phase 0 of its own motion.
     pub fn set_shaker(&mut self, on: bool) {
         if on {
             self.cycles.off_pending = false;
-            if self.model.omega > 0.0 && !self.drive.shaker {
-                self.drive.shaker = true;
-                self.drive.t_on = self.y.t;
-                self.start_cycles();
+            if self.model.omega > 0.0 && !self.drive.shaker && self.cycles.armed_at.is_none() {
+                if self.model.shaker_delay > 0.0 {
+                    self.cycles.armed_at = Some(self.y.t + self.model.shaker_delay);
+                } else {
+                    self.switch_on();
+                }
             }
         } else if self.drive.shaker {
             self.cycles.off_pending = true;
+        } else {
+            self.cycles.armed_at = None;
         }
+    }
+
+    /// The shaker starts now, at phase 0.
+    fn switch_on(&mut self) {
+        self.drive.shaker = true;
+        self.drive.t_on = self.y.t;
+        self.start_cycles();
+    }
+
+    /// A boundary at the current time was reached: the armed shaker starts, or a base period
+    /// ends (its record).
+    fn at_boundary(&mut self) -> Option<CycleRecord> {
+        if self.cycles.armed_at.take().is_some() {
+            self.switch_on();
+            self.refresh();
+            return None;
+        }
+        Some(self.record_cycle())
     }
 
     /// Refresh the derived parts of the state (acceleration; x, v for the reduced mechanics)
@@ -380,7 +407,9 @@ impl Simulator {
     }
 
     fn next_boundary(&self) -> f64 {
-        if self.drive.shaker && self.model.omega > 0.0 {
+        if let Some(t) = self.cycles.armed_at {
+            t
+        } else if self.drive.shaker && self.model.omega > 0.0 {
             self.drive.t_on + (self.cycles.index + 1) as f64 * 2.0 * PI / self.model.omega
         } else {
             f64::INFINITY
@@ -396,6 +425,7 @@ impl Simulator {
             q0: y.q,
             e0: model::total_energy(&self.model, &kin, y.x, y.v, y.a, y.contact),
             off_pending: self.cycles.off_pending,
+            armed_at: None,
         };
     }
 
@@ -580,7 +610,7 @@ impl Simulator {
             // absorbed here, and a period boundary within it is recorded.
             if t_bound - y0.t <= snap {
                 self.y.t = self.y.t.max(t_bound);
-                return Ok(Some(Stop::Period(self.record_cycle())));
+                return Ok(self.at_boundary().map(Stop::Period));
             }
             self.y.t = self.y.t.max(t_lim);
             return Ok(Some(Stop::Reached));
@@ -664,7 +694,11 @@ impl Simulator {
         }
         // A period boundary a rounding sliver after the stage end (a stage of whole periods)
         // still closes its cycle.
-        let period = (hits && t_bound - t_lim <= snap).then(|| self.record_cycle());
+        let period = if hits && t_bound - t_lim <= snap {
+            self.at_boundary()
+        } else {
+            None
+        };
         Ok(Some(Stop::Step {
             period,
             reached: hits && self.t_end <= t_lim,

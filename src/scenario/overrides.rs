@@ -793,7 +793,8 @@ until = "pull-off"
             s.rig.base,
             Some(BaseMotion {
                 amplitude: 30.0 * 1e-6,
-                frequency: 300.0
+                frequency: 300.0,
+                phase: 0.0,
             })
         );
     }

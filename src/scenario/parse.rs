@@ -338,7 +338,7 @@ pub const SPRING_KEYS: &[&str] = &["stiffness", "rigid"];
 /// Keys of `[damping]`.
 pub const DAMPING_KEYS: &[&str] = &["c", "on"];
 /// Keys of `[base]`.
-pub const BASE_KEYS: &[&str] = &["amplitude", "frequency"];
+pub const BASE_KEYS: &[&str] = &["amplitude", "frequency", "phase"];
 /// Keys of `[contact]`.
 pub const CONTACT_KEYS: &[&str] = &["formation", "seed_radius"];
 /// Keys of `[initial]`.
@@ -428,6 +428,7 @@ const STIFFNESS: Quantity = q(Some(Dimension::Stiffness), "N/m");
 const DAMPING: Quantity = q(Some(Dimension::Damping), "N s/m");
 const ACCELERATION: Quantity = q(None, "m/s^2");
 const DIMENSIONLESS: Quantity = q(None, "dimensionless");
+const ANGLE: Quantity = q(Some(Dimension::Angle), "rad");
 const RATE: Quantity = q(Some(Dimension::Frequency), "samples per second");
 
 const fn q(dim: Option<Dimension>, unit: &'static str) -> Quantity {
@@ -908,9 +909,23 @@ impl Parser<'_> {
         let amplitude = self.non_negative(&s, "amplitude", &n, LENGTH.unit)?;
         let frequency =
             self.req_positive(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
+        let mut phase = 0.0;
+        if let Some(n) = self.number(&s, "phase", ANGLE)? {
+            if !(n.v.is_finite() && (0.0..2.0 * std::f64::consts::PI).contains(&n.v)) {
+                return Err(self.value_err(
+                    &s.key("phase"),
+                    &n.shown,
+                    "must lie in [0, 2 pi) (rad; the shaker starts phase/omega after its stage \
+                     begins)"
+                        .to_string(),
+                ));
+            }
+            phase = n.v;
+        }
         Ok(Some(BaseMotion {
             amplitude,
             frequency,
+            phase,
         }))
     }
 

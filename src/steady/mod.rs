@@ -391,6 +391,7 @@ impl Problem {
         rig.base = Some(BaseMotion {
             amplitude,
             frequency,
+            phase: 0.0,
         });
         let model = model::resolve(&rig, RunScales::default()).map_err(SteadyError::Setup)?;
         let unknowns = Unknowns {
