@@ -4,7 +4,3 @@
 
 pub use crate::catalogue::*;
 
-/// The light-rig protocol under its old name ([`crate::catalogue::light_protocol`]).
-pub fn paper_protocol(unload_speed: f64) -> crate::scenario::Scenario {
-    crate::catalogue::light_protocol(unload_speed)
-}
