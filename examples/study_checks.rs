@@ -224,6 +224,53 @@ fn main() {
     doc += &t.markdown();
 
     // ---------------------------------------------------------------------------------------
+    doc += "\n## The contact-loss radius\n\n";
+    doc += "Contact loss is declared at a_floor = min(10⁻³ a_J, seed/10); the seed only sets \
+            a_floor here (no impact happens). `gs_rigid_unload(0.1 µm/s)`, implicit method \
+            (`contact_loss_radius_has_negligible_effect`):\n\n";
+    let mut t = Table::new(&[
+        "formation",
+        "a_floor (m)",
+        "loss time (s)",
+        "Δ loss time (s)",
+        "Δ pull-off force (rel.)",
+    ]);
+    let a_j = jkr::jump_in_radius(&M, M.w0);
+    let mut base: Option<(f64, f64)> = None;
+    for (label, formation, floor) in [
+        (
+            "jump-in",
+            djkr::scenario::ContactFormation::JumpIn,
+            1e-3 * a_j,
+        ),
+        (
+            "seed 1 µm",
+            djkr::scenario::ContactFormation::Seed(1e-6),
+            1e-7,
+        ),
+        (
+            "seed 10 nm",
+            djkr::scenario::ContactFormation::Seed(1e-8),
+            1e-9,
+        ),
+    ] {
+        let mut s = catalogue::gs_rigid_unload(1e-7);
+        s.rig.formation = formation;
+        s.solver.method = Method::Implicit;
+        let (r, _) = run(&s);
+        let loss = first(&r, EventKind::ContactLoss).expect("contact loss");
+        let (t0, f0) = *base.get_or_insert((loss.time, r.pull_off.force));
+        t.row([
+            label.to_string(),
+            sci(floor),
+            format!("{:.6}", loss.time),
+            sci(loss.time - t0),
+            sci((r.pull_off.force - f0) / f0.abs()),
+        ]);
+    }
+    doc += &t.markdown();
+
+    // ---------------------------------------------------------------------------------------
     doc += "\n## Agreement between methods\n\n";
     let methods = [Method::Implicit, Method::Dp8, Method::Dopri5];
     let mut cyc = Vec::new();

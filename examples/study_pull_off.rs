@@ -11,7 +11,7 @@
 mod common;
 
 use common::{sci, Args, Table};
-use djkr::accuracy::method_name;
+use djkr::accuracy::{self, method_name};
 use djkr::catalogue::{self, Bundled};
 use djkr::dynamics::{simulate, EventKind, NoObserver, RunResult};
 use djkr::scenario::Method;
@@ -158,6 +158,84 @@ fn main() {
         }
     }
     doc += &t.markdown();
+
+    doc += "\n## The 300 Hz protocol: with and without its detachment\n\n";
+    doc += "`scenarios/paper-protocol-300hz.toml` as shipped, and with the unload stopped after \
+            15 s, before pull-off: the pull-off-relevant error of `djkr::accuracy` (pull-off force \
+            and the last cycle's ⟨F⟩, ⟨δ⟩, δ_A) against the implicit method at rtol 1e-12, and \
+            the pull-off force's own error.\n\n";
+    match Bundled::PaperProtocol300.scenario() {
+        Ok(full) => {
+            let mut stopped = full.clone();
+            if let Some(last) = stopped.stages.last_mut() {
+                last.until = djkr::scenario::Until::Duration(15.0);
+            }
+            let cfg = accuracy::StudyConfig::default();
+            let mut t = Table::new(&[
+                "scene",
+                "method",
+                "rtol",
+                "pull-off-relevant error",
+                "pull-off force error",
+                "reference uncertainty",
+            ]);
+            for (name, s0) in [("as shipped", &full), ("unload stopped at 15 s", &stopped)] {
+                eprintln!("protocol {name}: reference");
+                let reference = match accuracy::reference(s0, &cfg) {
+                    Ok(r) => r,
+                    Err(e) => {
+                        t.row([
+                            name.to_string(),
+                            format!("no reference: {e}"),
+                            String::new(),
+                            String::new(),
+                            String::new(),
+                            String::new(),
+                        ]);
+                        continue;
+                    }
+                };
+                let sc = accuracy::scales(s0);
+                for m in [Method::Dp8, Method::Implicit] {
+                    for rtol in [1e-8, 1e-10] {
+                        let mut s = s0.clone();
+                        s.solver.method = m;
+                        s.solver.rtol = rtol;
+                        s.solver.atol = 0.01 * rtol;
+                        let cell = match simulate(&s, &mut NoObserver) {
+                            Ok(r) => {
+                                let e = accuracy::compare(
+                                    &accuracy::key_outputs(&r),
+                                    &reference.outputs,
+                                    &sc,
+                                );
+                                (sci(e.pull_off_relevant), sci(e.pull_off_force))
+                            }
+                            Err(e) => (
+                                format!(
+                                    "fails: {}",
+                                    e.to_string().chars().take(80).collect::<String>()
+                                ),
+                                String::new(),
+                            ),
+                        };
+                        t.row([
+                            name.to_string(),
+                            method_name(m).to_string(),
+                            sci(rtol),
+                            cell.0,
+                            cell.1,
+                            sci(reference.check_errors.pull_off_relevant),
+                        ]);
+                    }
+                }
+            }
+            doc += &t.markdown();
+        }
+        Err(e) => {
+            let _ = writeln!(doc, "cannot load: {e}");
+        }
+    }
 
     doc += "\n## `scenarios/impacts.toml`: cycle means at rtol 1e-8 against 1e-12 (implicit)\n\n";
     doc += "Contact lost and regained every cycle. ⟨x_b⟩ vanishes over a whole period, so \
