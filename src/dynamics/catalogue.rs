@@ -3,4 +3,3 @@
 //! `djkr::dynamics::catalogue` working.
 
 pub use crate::catalogue::*;
-
