@@ -98,11 +98,17 @@ fn usage(name: &str, about: &str, err: &str) -> ! {
     std::process::exit(if err.is_empty() { 0 } else { 2 })
 }
 
-/// Today's date (UTC), yyyy-mm-dd, from the system clock (civil-from-days, H. Hinnant).
+/// Today's date (UTC), yyyy-mm-dd, from the system clock.
 pub fn today() -> String {
-    let secs = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
+    date_of(
+        SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| d.as_secs()),
+    )
+}
+
+/// The UTC date yyyy-mm-dd of a Unix time in seconds (civil-from-days, H. Hinnant).
+pub fn date_of(secs: u64) -> String {
     let z = (secs / 86_400) as i64 + 719_468;
     let era = z.div_euclid(146_097);
     let doe = z - era * 146_097;
