@@ -196,7 +196,7 @@
 //! What they show, as guidance that does not depend on a day's timings:
 //! - Momentum balances to rounding. The energy quadratures are outside the error norm: with DP8
 //!   the per-cycle energy residual stays below rtol of the run's energy scale, with the implicit
-//!   method it reaches about ten times that.
+//!   method (seeded contact) it reaches a few tens of times that.
 //! - Errors at one rtol move by ~2× with rounding-level changes (a few-ulp change in the law's
 //!   inverse did that to DP8 at 1e-8): quote an rtol with a margin, not the edge. The ⟨F⟩ of a
 //!   vibrating hold is a small difference of large excursions, so its relative error is much
