@@ -7,17 +7,20 @@
 //!   the step start): the unit of `Stats::rhs_evals` for DP8.
 //! - `one_cycle_400Hz/{implicit,dp8}`: one base period of `catalogue::vibrating_hold(5 µm,
 //!   400 Hz)`.
-//! - `vibration_1s_400Hz/{method}`: 1 s of that hold at rtol 1e-8 (issue 3 target: ≤ 20 ms).
+//! - `vibration_1s_400Hz/{method}`: 1 s of that hold at rtol 1e-8, `catalogue::hold_400hz_1s`
+//!   (issue 3 target: ≤ 20 ms).
 //!   Dopri5 and Dop853 (`ode_solvers`) cannot integrate this scene (the contact heals to
 //!   G/w0 ≈ 0.01 every cycle and a trial stage meets G ≤ 0); they are benchmarked on the same
 //!   hold at 1 µm (`vibration_1um_1s_400Hz/…`), where every method runs.
 //! - `paper_protocol_300hz/{method}`: the shipped `scenarios/paper-protocol-300hz.toml`
-//!   (issue 3 target: ≤ 2 s).
+//!   (`catalogue::Bundled::PaperProtocol300`; issue 3 target: ≤ 2 s).
+//!
+//! Every scene comes from `djkr::catalogue`, the scenes the tests prove correct.
 //!
 //! `cargo bench --bench dynamics`; each benchmark prints its `Stats` once (steps, rhs), so
 //! wall / (rhs × one_rhs) can be formed.
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::dynamics::catalogue::vibrating_hold;
+use djkr::catalogue::{hold_400hz_1s, vibrating_hold, Bundled};
 use djkr::dynamics::model::{resolve, Drive};
 use djkr::dynamics::NoObserver;
 use djkr::scenario::{Method, Scenario};
@@ -60,7 +63,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(5));
 
     // One implicit-stage residual with its derivative, as the Newton iteration evaluates it.
-    let s = vibrating_hold(5e-6, 400.0, 1.0);
+    let s = hold_400hz_1s();
     let model = match resolve(&s.rig, s.run_scales()) {
         Ok(m) => m,
         Err(e) => panic!("catalogue scene does not resolve: {e}"),
@@ -149,9 +152,7 @@ fn bench(c: &mut Criterion) {
         }
     }
 
-    match djkr::scenario::parse::load_scenario(std::path::Path::new(
-        "scenarios/paper-protocol-300hz.toml",
-    )) {
+    match Bundled::PaperProtocol300.scenario() {
         Ok(p) => {
             for (name, m) in METHODS {
                 let mut s = p.clone();

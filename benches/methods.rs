@@ -1,5 +1,6 @@
 //! Per-method comparison (issue 5): one base cycle, a steady 1 s at 400 Hz, and the paper's
-//! protocol at 300 Hz (scenarios/paper-protocol-300hz.toml), for each integrator. The RHS and the
+//! protocol at 300 Hz (scenarios/paper-protocol-300hz.toml), for each integrator; the scenes
+//! come from `djkr::catalogue`. The RHS and the
 //! hot path are benchmarked in benches/dynamics.rs; the accuracy of each (method, tolerance) is
 //! measured by `djkr accuracy` (src/accuracy.rs) on the same scenes.
 //!
@@ -15,12 +16,10 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::accuracy::{method_label, method_name};
-use djkr::dynamics::catalogue::vibrating_hold;
+use djkr::catalogue::{hold_400hz_1s, vibrating_hold, Bundled};
 use djkr::dynamics::NoObserver;
-use djkr::scenario::parse::load_scenario;
 use djkr::scenario::{Method, Scenario};
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Duration;
 
 const METHODS: [Method; 5] = [
@@ -81,19 +80,13 @@ fn bench(c: &mut Criterion) {
         &vibrating_hold(5e-6, 400.0, 1.0 / 400.0),
         &[1e-8],
     );
-    bench_scene(
-        c,
-        "steady_1s_400Hz",
-        &vibrating_hold(5e-6, 400.0, 1.0),
-        &[1e-8, 5e-9, 4e-10],
-    );
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper-protocol-300hz.toml");
-    match load_scenario(&path) {
+    bench_scene(c, "steady_1s_400Hz", &hold_400hz_1s(), &[1e-8, 5e-9, 4e-10]);
+    match Bundled::PaperProtocol300.scenario() {
         Ok(s) => {
             let rtol = s.solver.rtol;
             bench_scene(c, "paper_protocol_300Hz", &s, &[rtol]);
         }
-        Err(e) => eprintln!("paper protocol: cannot load {}: {e}", path.display()),
+        Err(e) => eprintln!("paper protocol: cannot load: {e}"),
     }
 }
 

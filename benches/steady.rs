@@ -1,5 +1,5 @@
-//! Steady-state benchmarks on the bundled `scenarios/resonance-400hz.toml` (the scene the tests
-//! check):
+//! Steady-state benchmarks on the bundled `scenarios/resonance-400hz.toml`
+//! (`catalogue::Bundled::Resonance400`, the scene the tests check):
 //!
 //! - `steady_400Hz/shooting`, `steady_400Hz/time-stepping`: the periodic steady state at 400 Hz
 //!   from the scene's initial state (JKR equilibrium under the 50 mN preload), by Newton on the
@@ -12,19 +12,17 @@
 //!
 //! `cargo bench --bench steady`.
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::scenario::parse::load_scenario;
+use djkr::catalogue::Bundled;
 use djkr::steady::sweep::{self, Direction, Linearisation};
 use djkr::steady::{Options, Problem, Strategy};
 use std::hint::black_box;
-use std::path::Path;
 use std::time::{Duration, Instant};
 
 fn bench(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/resonance-400hz.toml");
-    let scn = match load_scenario(&path) {
+    let scn = match Bundled::Resonance400.scenario() {
         Ok(s) => s,
         Err(e) => {
-            eprintln!("{}: {e}", path.display());
+            eprintln!("{e}");
             return;
         }
     };

@@ -10,6 +10,7 @@
 pub mod accuracy;
 pub mod adhesion;
 pub mod beta_fit;
+pub mod catalogue;
 pub mod closed_form;
 pub mod comparators;
 pub mod describing;

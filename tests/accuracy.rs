@@ -2,8 +2,6 @@
 //! reference against closed forms, failures reported as rows, the imposed-area studies, the CLI.
 
 use djkr::accuracy::*;
-use djkr::adhesion::{ConstantW, Law};
-use djkr::dynamics::catalogue::stage;
 use djkr::dynamics::{EventKind, Sample};
 use djkr::jkr;
 use djkr::material::Material;
@@ -108,27 +106,7 @@ fn errors_are_normalised_as_documented() {
 /// rate-independent law) is a failed row with its message, not a crash.
 #[test]
 fn study_of_quasi_static_jkr() {
-    let s = Scenario {
-        rig: Rig {
-            material: M,
-            law: Law::Constant(ConstantW { w0: M.w0 }),
-            sphere: Sphere {
-                mass: 0.0,
-                gravity: 0.0,
-            },
-            holder: Holder::Rigid,
-            damping: None,
-            base: None,
-            formation: ContactFormation::JumpIn,
-        },
-        initial: Initial::Preload(0.02),
-        stages: vec![stage(StageKind::Unload, 1e-6, Until::PullOff, None)],
-        solver: Solver::default(),
-        output: Output::default(),
-        source_text: String::new(),
-        source_name: "<test>".into(),
-        overrides: Vec::new(),
-    };
+    let s = djkr::catalogue::quasi_static_jkr();
     let cfg = StudyConfig {
         methods: vec![Method::Implicit, Method::Dopri5],
         tolerances: vec![1e-6, 1e-9],
@@ -312,40 +290,4 @@ fn cli_writes_csv_table_and_plot() {
         assert!(out.join(f).exists(), "{f}");
     }
     assert!(String::from_utf8_lossy(&o.stdout).contains("| implicit | 1e-6 |"));
-}
-
-/// Diagnostic (prints): per-cycle ⟨δ⟩, ⟨x_s⟩ and ⟨F⟩ of scenarios/impacts.toml at rtol 1e-8
-/// against 1e-12 (implicit). ⟨x_b⟩ vanishes over a whole period, so ⟨δ⟩ − ⟨x_s⟩ must be ~0 in
-/// both runs.
-#[test]
-#[ignore]
-fn probe_impacts_cycle_means() {
-    let base = djkr::scenario::parse::load_scenario(std::path::Path::new("scenarios/impacts.toml"))
-        .unwrap();
-    let run = |rtol: f64| {
-        let mut s = base.clone();
-        s.solver.method = Method::Implicit;
-        s.solver.rtol = rtol;
-        s.solver.atol = rtol * 0.01;
-        s.simulate(&mut djkr::dynamics::NoObserver).unwrap()
-    };
-    let (a, r) = (run(1e-8), run(1e-12));
-    let mut worst = (0.0f64, 0usize);
-    for (i, (c, d)) in a.cycles.iter().zip(&r.cycles).enumerate() {
-        let e = (c.delta_mean - d.delta_mean).abs();
-        if e > worst.0 {
-            worst = (e, i);
-        }
-        if i % 15 == 0 || i + 1 == r.cycles.len() {
-            println!(
-                "cycle {i:3}: Δ⟨δ⟩ {:9.2e} m  Δ⟨x_s⟩ {:9.2e} m  Δ⟨F⟩ {:9.2e} N  ⟨δ⟩−⟨x_s⟩ {:9.2e} / {:9.2e} m",
-                c.delta_mean - d.delta_mean,
-                c.x_s_mean - d.x_s_mean,
-                c.force_mean - d.force_mean,
-                c.delta_mean - c.x_s_mean,
-                d.delta_mean - d.x_s_mean
-            );
-        }
-    }
-    println!("worst Δ⟨δ⟩ {:e} m at cycle {}", worst.0, worst.1);
 }

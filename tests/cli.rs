@@ -759,7 +759,7 @@ fn bad_overrides_are_named_on_every_command() {
         ),
         (
             "base.amplitud=30um",
-            "--set base.amplitud=30um: unknown key; [base] takes amplitude, frequency",
+            "--set base.amplitud=30um: unknown key; [base] takes amplitude, frequency, phase",
         ),
         (
             "bse.amplitude=30um",

@@ -1,21 +1,23 @@
 //! Describing-function predictor: tests against independent references (brute-force cycle
-//! harmonics in θ without folding, JKR finite differences, the linear transfer, loop areas), and
-//! a study printing numbers (`cargo test --test describing -- --ignored --nocapture`).
+//! harmonics in θ without folding, JKR finite differences, the linear transfer, loop areas). The
+//! measured tables are `examples/study_harmonic_balance.rs` → `docs/studies/harmonic-balance.md`.
 
 use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz, Law};
+use djkr::catalogue;
 use djkr::describing::{self, DescribingError, Support};
 use djkr::imposed_area::{self, indentation_at};
 use djkr::jkr;
 use djkr::material::Material;
 use djkr::quadrature::QuadratureRule;
-use djkr::rig::{ContactFormation, Damping, DampingOn, Holder, Rig, Sphere};
+use djkr::rig::{Damping, DampingOn, Holder, Rig, Sphere};
 use djkr::transfer::{self, Transfer};
 use std::f64::consts::PI;
 
 const M: Material = Material::PAPER;
 const PRELOAD: f64 = 0.02;
 
-/// The test rig's mechanics: 3 g, 200 N/m, c = 0.02 N s/m, g = 9.81 m/s².
+/// The test rig's mechanics: those of `catalogue::light_rig` (3 g, 200 N/m, c = 0.02 N s/m,
+/// g = 9.81 m/s²), with the damping acting on the sphere or the contact.
 #[derive(Debug, Clone, Copy)]
 struct System {
     mass: f64,
@@ -26,20 +28,19 @@ struct System {
 }
 
 fn sys(on: DampingOn) -> System {
+    let r = catalogue::light_rig(Law::default());
     System {
-        mass: 3e-3,
-        stiffness: 200.0,
-        damping: 0.02,
+        mass: r.sphere.mass,
+        stiffness: r.spring_stiffness(),
+        damping: r.damping_coefficient(),
         damping_on: on,
-        gravity: 9.81,
+        gravity: r.sphere.gravity,
     }
 }
 
-/// The paper's material with `law` on the mechanics `s`.
+/// `catalogue::light_rig` with `law` and the mechanics `s`.
 fn rig(law: Law, s: &System) -> Rig {
     Rig {
-        material: M,
-        law,
         sphere: Sphere {
             mass: s.mass,
             gravity: s.gravity,
@@ -51,8 +52,7 @@ fn rig(law: Law, s: &System) -> Rig {
             c: s.damping,
             on: s.damping_on,
         }),
-        base: None,
-        formation: ContactFormation::JumpIn,
+        ..catalogue::light_rig(law)
     }
 }
 
@@ -378,79 +378,6 @@ fn loop_area<L: AdhesionLaw>(law: &L, omega: f64, a_m: f64, a_a: f64) -> f64 {
 }
 
 #[test]
-#[ignore]
-fn study() {
-    let gs = GentSchultz::PAPER;
-    let cw = ConstantW { w0: M.w0 };
-    let a0 = static_radius();
-    let kc = jkr::contact_stiffness(&M, a0);
-    let kt = describing::tangent_stiffness(&M, a0, M.w0);
-    println!("P {PRELOAD} N: a0 {a0:.4e} m, k_c {kc:.1} N/m, k_t {kt:.1} N/m");
-    for on in [DampingOn::Sphere] {
-        let s = sys(on);
-        println!(
-            "m {} k {} c {} {on:?}: f_r(k_c) {:.1} Hz, f_r(k_t) {:.1} Hz",
-            s.mass,
-            s.stiffness,
-            s.damping,
-            ((s.stiffness + kc) / s.mass).sqrt() / 2.0 / PI,
-            ((s.stiffness + kt) / s.mass).sqrt() / 2.0 / PI
-        );
-        for &f in &[50.0, 200.0, 300.0, 400.0, 600.0] {
-            let omega = 2.0 * PI * f;
-            let lc = transfer::linear(&rig(Law::default(), &s), kc, omega);
-            let lt = transfer::linear(&rig(Law::default(), &s), kt, omega);
-            println!(
-                "{f} Hz: |T| eq.37 k_c {:.4} (phase {:.4}), k_t {:.4} (phase {:.4})",
-                lc.magnitude(),
-                lc.phase(),
-                lt.magnitude(),
-                lt.phase()
-            );
-            for &xb in &[1e-8, 1e-7, 1e-6, 3e-6, 1e-5, 3e-5] {
-                for (name, law) in [("cw", Law::Constant(cw)), ("gs", Law::GentSchultz(gs))] {
-                    match describing::solve(
-                        &rig(law.clone(), &s),
-                        Support::StaticLoad(PRELOAD),
-                        xb,
-                        omega,
-                        None,
-                    ) {
-                        Ok(h) => {
-                            let t = h.transfer();
-                            let e = h.effective_contact().unwrap();
-                            println!(
-                                "  {name} X_b {xb:.0e}: |T| {:.4} ph {:.4} a_m {:.4e} a_A {:.3e} k_eff {:.1} c_eff {:.3e} F_m {:.5} res {:.0e} it {} cf {:.3}",
-                                t.magnitude(), t.phase(), h.a_mean, h.a_amp, e.stiffness, e.damping, h.force_mean, h.residual, h.iterations, h.contact_fraction
-                            );
-                        }
-                        Err(e) => println!("  {name} X_b {xb:.0e}: {e}"),
-                    }
-                }
-            }
-        }
-    }
-    println!("GS effective contact at a_m = a0, vs a_A and f; loop area (all harmonics) vs pi Im(F1 conj d1)");
-    for &f in &[100.0, 300.0, 1000.0] {
-        let omega = 2.0 * PI * f;
-        for &aa in &[1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4] {
-            let e = describing::effective_contact(&M, &gs, omega, a0, aa).unwrap();
-            let c = imposed_area::cycle(&M, &gs, omega, a0, aa).unwrap();
-            let w1 = PI * omega * e.damping * c.delta_amp * c.delta_amp;
-            let la = if aa >= 1e-7 {
-                loop_area(&gs, omega, a0, aa)
-            } else {
-                f64::NAN
-            };
-            println!(
-                "  {f} Hz a_A {aa:.0e}: k_eff {:.1} c_eff {:.4e} |d1| {:.3e} W1 {:.3e} loop {:.3e}",
-                e.stiffness, e.damping, c.delta_amp, w1, la
-            );
-        }
-    }
-}
-
-#[test]
 fn gent_schultz_hysteresis_is_positive_damping() {
     let gs = GentSchultz::PAPER;
     let a0 = static_radius();
@@ -557,43 +484,6 @@ fn continuation_is_smooth_and_matches_independent_solves() {
             .unwrap();
             let (t, u) = (h.transfer(), g.transfer());
             assert!(close(&t, &u, 1e-8), "{name} {xb}: {t:?} vs {u:?}");
-        }
-    }
-}
-
-#[test]
-#[ignore]
-fn study_branches() {
-    let gs = GentSchultz::PAPER;
-    let cw = ConstantW { w0: M.w0 };
-    let s = sys(DampingOn::Sphere);
-    for (name, law, f) in [
-        ("gs", Law::GentSchultz(gs), 600.0),
-        ("gs", Law::GentSchultz(gs), 400.0),
-        ("cw", Law::Constant(cw), 300.0),
-        ("cw", Law::Constant(cw), 600.0),
-    ] {
-        println!("{name} {f} Hz: a_A -> X_b");
-        let omega = 2.0 * PI * f;
-        let top = if name == "gs" { 2e-5 } else { 1.1e-3 };
-        let mut aa = if name == "gs" { 1e-12 } else { 1e-7 };
-        while aa < top {
-            match describing::at_contact_amplitude(
-                &rig(law.clone(), &s),
-                Support::StaticLoad(PRELOAD),
-                omega,
-                aa,
-            ) {
-                Ok(h) => {
-                    let e = h.effective_contact().unwrap();
-                    println!(
-                        "  a_A {aa:.2e}: X_b {:.4e} |T| {:.4} ph {:.4} a_m {:.4e} k_eff {:.1} c_eff {:.3e} cf {:.3} res {:.0e}",
-                        h.base_amplitude, h.transfer().magnitude(), h.transfer().phase(), h.a_mean, e.stiffness, e.damping, h.contact_fraction, h.residual
-                    );
-                }
-                Err(e) => println!("  a_A {aa:.2e}: {e}"),
-            }
-            aa *= 10f64.powf(0.25);
         }
     }
 }
@@ -801,9 +691,7 @@ fn spring_end_and_static_load_agree_and_match_eq30_at_rest() {
 
 #[test]
 fn from_a_bundled_scenario() {
-    let path =
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/resonance-400hz.toml");
-    let sc = djkr::scenario::parse::load_scenario(&path).unwrap();
+    let sc = catalogue::Bundled::Resonance400.scenario().unwrap();
     let setup = describing::Setup::new(&sc.rig, &sc.initial).unwrap();
     let p = match sc.initial {
         djkr::scenario::Initial::Preload(p) => p,
@@ -833,55 +721,4 @@ fn from_a_bundled_scenario() {
         describing::Setup::new(&rigid.rig, &rigid.initial),
         Err(DescribingError::Unsupported(_))
     ));
-}
-
-#[test]
-#[ignore]
-fn study_scenarios() {
-    for (file, amps) in [
-        ("resonance-400hz.toml", vec![1e-7, 5e-7, 1e-6, 2e-6, 5e-6]),
-        ("impacts.toml", vec![1e-5, 5e-5, 1e-4, 2e-4, 3e-4, 4e-4]),
-    ] {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("scenarios")
-            .join(file);
-        let sc = djkr::scenario::parse::load_scenario(&path).unwrap();
-        let setup = describing::Setup::new(&sc.rig, &sc.initial).unwrap();
-        let st = describing::static_state(&setup.rig, setup.support).unwrap();
-        let f = sc.rig.base.map_or(400.0, |b| b.frequency);
-        let omega = 2.0 * PI * f;
-        let kc = jkr::contact_stiffness(&sc.rig.material, st.a);
-        let kt = describing::tangent_stiffness(&sc.rig.material, st.a, sc.rig.material.w0);
-        let lc = transfer::linear(&setup.rig, kc, omega);
-        let lt = transfer::linear(&setup.rig, kt, omega);
-        println!("{file}: {f} Hz a0 {:.4e} k_c {kc:.0} k_t {kt:.0}; eq.37 |T| {:.4} ph {:.4}; k_t |T| {:.4} ph {:.4}", st.a, lc.magnitude(), lc.phase(), lt.magnitude(), lt.phase());
-        let cw = ConstantW {
-            w0: sc.rig.material.w0,
-        };
-        for xb in amps {
-            let all = describing::solutions(&setup.rig, setup.support, xb, omega).unwrap();
-            for h in &all {
-                let e = h.effective_contact().unwrap();
-                println!("  gs X_b {xb:.1e}: |T| {:.4} ph {:.4} a_m {:.4e} a_A {:.3e} delta_m {:.3e} F_m {:.5} k_eff {:.0} c_eff {:.3e}", h.transfer().magnitude(), h.transfer().phase(), h.a_mean, h.a_amp, h.delta_mean, h.force_mean, e.stiffness, e.damping);
-            }
-            if all.is_empty() {
-                println!("  gs X_b {xb:.1e}: no in-contact solution");
-            }
-            let cw_rig = Rig {
-                law: Law::Constant(cw),
-                ..setup.rig.clone()
-            };
-            match describing::solve(&cw_rig, setup.support, xb, omega, None) {
-                Ok(h) => println!(
-                    "  cw X_b {xb:.1e}: |T| {:.4} ph {:.4} a_m {:.4e} a_A {:.3e} F_m {:.5}",
-                    h.transfer().magnitude(),
-                    h.transfer().phase(),
-                    h.a_mean,
-                    h.a_amp,
-                    h.force_mean
-                ),
-                Err(e) => println!("  cw X_b {xb:.1e}: {e}"),
-            }
-        }
-    }
 }

@@ -1,41 +1,16 @@
-//! Time-domain simulator against independent references (closed forms, JKR limits, balance laws).
+//! Time-domain simulator against independent references (closed forms, JKR limits, balance laws,
+//! fixed-step orders, agreement between methods), on the scenes of `djkr::catalogue`. The
+//! tolerances are the values measured by `examples/study_checks.rs` (`docs/studies/checks.md`)
+//! with a margin.
 
 use djkr::adhesion::{ConstantW, GentSchultz, Law};
-use djkr::dynamics::catalogue::stage;
+use djkr::catalogue::{self, stage};
 use djkr::dynamics::{EventKind, Recorder, RunResult};
 use djkr::jkr;
 use djkr::material::Material;
 use djkr::scenario::*;
 
 const M: Material = Material::PAPER;
-
-fn scene() -> Scenario {
-    Scenario {
-        rig: Rig {
-            material: M,
-            law: Law::Constant(ConstantW { w0: M.w0 }),
-            sphere: Sphere {
-                mass: 1e-3,
-                gravity: 0.0,
-            },
-            holder: Holder::Spring { stiffness: 10.0 },
-            damping: None,
-            base: None,
-            formation: ContactFormation::JumpIn,
-        },
-        initial: Initial::Preload(0.01),
-        stages: vec![],
-        solver: Solver {
-            rtol: 1e-9,
-            atol: 1e-10,
-            ..Solver::default()
-        },
-        output: Output::default(),
-        source_text: String::new(),
-        source_name: "<test>".into(),
-        overrides: Vec::new(),
-    }
-}
 
 fn run(s: &Scenario) -> (RunResult, Recorder) {
     let mut rec = Recorder::default();
@@ -48,70 +23,33 @@ fn first(r: &RunResult, k: EventKind) -> Option<djkr::dynamics::Event> {
 }
 
 /// Free flight of the sphere on its spring, the spring end moving at constant speed V from rest
-/// in equilibrium: x(t) = x0 + V t − (V/ω) sin ωt.
+/// in equilibrium: x(t) = x0 + V t − (V/ω) sin ωt (`catalogue::RampOscillator`).
 #[test]
 fn free_flight_matches_ramp_oscillator() {
-    let mut s = scene();
-    s.rig.sphere.gravity = 9.81;
-    let g0 = 5e-3;
-    s.initial = Initial::Gap(g0);
-    let v = 2e-3;
+    let (mut s, osc) = catalogue::free_flight(5e-3, 2e-3, 0.5);
     s.solver.rtol = 1e-10;
-    s.stages = vec![stage(StageKind::Approach, v, Until::Duration(0.5), None)];
     let (r, rec) = run(&s);
     assert!(first(&r, EventKind::Impact).is_none());
-    let w = (10.0f64 / 1e-3).sqrt();
-    let mut worst = 0.0f64;
-    for smp in &rec.samples {
-        let t = smp.t;
-        let x = -g0 + v * t - v / w * (w * t).sin();
-        worst = worst.max((smp.x_s - x).abs());
-    }
-    // Global error ≈ (steps) × rtol × |x| (|x| ~ 5 mm): ~4e-10 m at rtol 1e-10.
+    let worst = rec
+        .samples
+        .iter()
+        .map(|smp| (smp.x_s - osc.position(smp.t)).abs())
+        .fold(0.0, f64::max);
+    // Measured 3.4e-10 m (global error ≈ steps × rtol × |x|, |x| ~ 5 mm).
     assert!(worst < 1e-9, "worst error {worst:e} m");
     assert!(rec.samples.len() > 10);
-}
-
-#[test]
-#[ignore]
-fn probe_free_flight_order() {
-    for (m, rtol) in [(Method::Dop853, 1e-10), (Method::Dop853, 1e-12)] {
-        let mut s = scene();
-        s.rig.law = gs();
-        s.solver.method = m;
-        s.solver.rtol = rtol;
-        s.rig.sphere.gravity = 9.81;
-        let g0 = 5e-3;
-        s.initial = Initial::Gap(g0);
-        let v = 2e-3;
-        s.stages = vec![stage(StageKind::Approach, v, Until::Duration(0.5), None)];
-        let (r, rec) = run(&s);
-        let w = (10.0f64 / 1e-3).sqrt();
-        let mut worst = 0.0f64;
-        for smp in &rec.samples {
-            let t = smp.t;
-            let x = -g0 + v * t - v / w * (w * t).sin();
-            worst = worst.max((smp.x_s - x).abs());
-        }
-        println!(
-            "rtol {rtol:e}: steps {} rej {} worst {worst:e}",
-            r.stats.steps, r.stats.rejected
-        );
-    }
 }
 
 /// Elastic JKR (constant w) unloaded through a soft spring: load control. The most tensile force
 /// is the load-controlled pull-off force −3/2 πRw0, and detachment follows right after.
 #[test]
 fn soft_spring_pull_off_is_load_controlled() {
-    let mut s = scene();
-    s.stages = vec![stage(StageKind::Unload, 1e-3, Until::PullOff, None)];
-    let (r, _) = run(&s);
+    let (r, _) = run(&catalogue::load_controlled_unload());
     let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
-    println!("{:?} {:?}", r.pull_off, r.stats);
     assert!(r.detached);
+    // Measured 1.6e-15.
     assert!(
-        (r.pull_off.force / f0 - 1.0).abs() < 1e-7,
+        (r.pull_off.force / f0 - 1.0).abs() < 1e-12,
         "{} vs {f0}",
         r.pull_off.force
     );
@@ -129,25 +67,25 @@ fn soft_spring_pull_off_is_load_controlled() {
 /// force minimum and jumps off where dδ/da = 0: a³ = πwR²/(6K), F = −5/6 πRw.
 #[test]
 fn rigid_link_pull_off_is_displacement_controlled() {
-    let mut s = scene();
-    s.rig.holder = Holder::Rigid;
-    s.stages = vec![stage(StageKind::Unload, 1e-4, Until::PullOff, None)];
-    let (r, _) = run(&s);
+    let (r, _) = run(&catalogue::displacement_controlled_unload());
     let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
+    // Measured 4.4e-16.
     assert!(
-        (r.pull_off.force / f0 - 1.0).abs() < 1e-7,
+        (r.pull_off.force / f0 - 1.0).abs() < 1e-12,
         "{} vs {f0}",
         r.pull_off.force
     );
     let loss = first(&r, EventKind::ContactLoss).expect("contact loss");
     let a_dc = jkr::displacement_controlled_pull_off_radius(&M, M.w0);
     let f_dc = jkr::displacement_controlled_pull_off_force(&M, M.w0);
-    println!(
-        "{:?} a {} vs {a_dc}, F {} vs {f_dc}",
-        r.stats, loss.state.a, loss.state.force
+    // Measured 7.5e-6 and 9.1e-6: the loss is declared where the collapse outruns the time
+    // resolution, just past the turning point.
+    assert!((loss.state.a / a_dc - 1.0).abs() < 3e-5, "{}", loss.state.a);
+    assert!(
+        (loss.state.force / f_dc - 1.0).abs() < 3e-5,
+        "{}",
+        loss.state.force
     );
-    assert!((loss.state.a / a_dc - 1.0).abs() < 1e-4);
-    assert!((loss.state.force / f_dc - 1.0).abs() < 1e-4);
     assert!(r.detached);
 }
 
@@ -155,39 +93,23 @@ fn rigid_link_pull_off_is_displacement_controlled() {
 /// root of x(t) = 0 (bisection on the closed form), and its convergence with the tolerances.
 #[test]
 fn impact_time_converges_to_closed_form() {
-    let g0 = 2e-5;
-    let v = 2e-3;
-    let w = (10.0f64 / 1e-3).sqrt();
-    let x = |t: f64| -g0 + v * t - v / w * (w * t).sin();
-    // First root: scan, then bisect.
-    let mut t = 0.0;
-    while x(t) < 0.0 {
-        t += 1e-4;
-    }
-    let (mut lo, mut hi): (f64, f64) = (t - 1e-4, t);
-    for _ in 0..200 {
-        let m = 0.5 * (lo + hi);
-        if x(m) < 0.0 {
-            lo = m
-        } else {
-            hi = m
-        }
-    }
-    let t_ref = 0.5 * (lo + hi);
+    let (s0, osc) = catalogue::free_flight(2e-5, 2e-3, 0.1);
+    let t_ref = osc.impact_time();
     let mut errs = vec![];
     for (rtol, etol) in [(1e-6, 1e-8), (1e-8, 1e-10), (1e-10, 1e-13)] {
-        let mut s = scene();
-        s.initial = Initial::Gap(g0);
+        let mut s = s0.clone();
         s.solver.rtol = rtol;
         s.solver.event_tol = etol;
-        s.stages = vec![stage(StageKind::Approach, v, Until::Duration(0.1), None)];
         let (r, _) = run(&s);
         let imp = first(&r, EventKind::Impact).expect("impact");
         errs.push((imp.time - t_ref).abs());
     }
-    println!("t_ref {t_ref}, errors {errs:?}");
-    assert!(errs[2] < 1e-11, "{errs:?}");
-    assert!(errs[2] < errs[0]);
+    // Measured 8.1e-9, 9.8e-11, 8.0e-12 s.
+    assert!(
+        errs[2] < 3e-11 && errs[1] < 3e-10 && errs[0] < 3e-8,
+        "{errs:?}"
+    );
+    assert!(errs[2] < errs[1] && errs[1] < errs[0], "{errs:?}");
 }
 
 fn gs() -> Law {
@@ -201,18 +123,9 @@ fn gs_rigid_unload_rate_effect_vanishes_slowly() {
     let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
     let mut amps = vec![];
     for v in [1e-7, 1e-9, 1e-11] {
-        let mut s = scene();
-        s.rig.law = gs();
-        s.rig.holder = Holder::Rigid;
-        s.stages = vec![stage(StageKind::Unload, v, Until::PullOff, None)];
-        let (r, _) = run(&s);
+        let (r, _) = run(&catalogue::gs_rigid_unload(v));
         assert!(r.detached);
         amps.push(r.pull_off.force / f0);
-        println!(
-            "v {v:e}: amplification {} {:?}",
-            r.pull_off.force / f0,
-            r.stats
-        );
     }
     assert!(
         amps[0] > amps[1] && amps[1] > amps[2] && amps[2] > 1.0,
@@ -221,31 +134,10 @@ fn gs_rigid_unload_rate_effect_vanishes_slowly() {
     assert!(amps[2] - 1.0 < 0.02, "{amps:?}");
 }
 
-/// The paper's material on a 3 g sphere, 200 N/m spring, light damping, 300 Hz shaker.
+/// The catalogue's light rig shaken at 300 Hz with amplitude `xb` for 0.05 s, at rtol 1e-9.
 fn vibrating(xb: f64) -> Scenario {
-    let mut s = scene();
-    s.rig.law = gs();
-    s.rig.sphere = Sphere {
-        mass: 3e-3,
-        gravity: 9.81,
-    };
-    s.rig.holder = Holder::Spring { stiffness: 200.0 };
-    s.rig.damping = Some(Damping {
-        c: 0.02,
-        on: DampingOn::Sphere,
-    });
-    s.rig.base = Some(BaseMotion {
-        amplitude: xb,
-        frequency: 300.0,
-        phase: 0.0,
-    });
-    s.initial = Initial::Preload(0.02);
-    s.stages = vec![stage(
-        StageKind::Hold,
-        0.0,
-        Until::Duration(0.05),
-        Some(true),
-    )];
+    let mut s = catalogue::vibrating_hold(xb, 300.0, 0.05);
+    s.solver.rtol = 1e-9;
     s
 }
 
@@ -280,47 +172,66 @@ fn stage_of_whole_periods_records_every_cycle() {
     );
 }
 
-/// Over every cycle, exactly (to integration accuracy): momentum balance
-/// ⟨F⟩ − m g − ⟨F_spring⟩ = −(m Δv + c Δx)/T, and energy balance
-/// ΔE = W_base + W_holder − D_damping − D_adhesion. In periodic steady state Δv = Δx = 0, so the
-/// first is ⟨F⟩ = m g − k(⟨x_s⟩ − x_k).
+/// Over every cycle, to integration accuracy (`catalogue::cycle_balances`): momentum balance
+/// ⟨F⟩ − m g − ⟨F_holder⟩ = −(m Δv + c Δx)/T, and energy balance
+/// ΔE = W_base + W_holder − D_damping − D_adhesion + the contact-energy steps at impacts and
+/// losses, on every scene of `catalogue::cycle_balance_scenes` at its own tolerances. Each bound
+/// is the worst residual measured by `examples/study_checks.rs` (`docs/studies/checks.md`) with a
+/// margin of 3–10×: at rtol 1e-8 the explicit DP8 integrates the energy quadratures to ~1e-8 of
+/// the run's energy scale, the implicit method (seeded contact) to ~1e-7; momentum holds to
+/// rounding.
 #[test]
 fn cycle_balances_hold() {
-    let s = vibrating(2e-6);
-    let (r, rec) = run(&s);
-    assert!(r.cycles.len() >= 14, "{}", r.cycles.len());
-    assert_eq!(rec.cycles.len(), r.cycles.len());
-    let at = |t: f64| {
-        rec.samples
+    // (scene, bound on the worst momentum residual, on the worst energy residual); measured
+    // values in the comments.
+    let bounds = [
+        ("light rig, 300 Hz, X_b 2 µm", 1e-13, 2e-8), // 1.1e-15, 4.0e-9
+        ("resonance-400hz hold", 5e-13, 3e-8),        // 4.6e-14, 6.0e-9
+        ("seeded impact, contact damping", 5e-11, 1e-7), // 4.9e-12, 3.2e-8
+        // Energy 2.0e-9 since auto hands the deep-healing steps after each jump-in to the
+        // implicit method (1.2e-11 when DP8 took them all, with 30 % more steps).
+        ("impacts, jump-in", 5e-13, 1e-8),    // 2.6e-14, 2.0e-9
+        ("impacts, seed 10 µm", 5e-13, 3e-7), // 1.8e-14, 8.9e-8
+        ("light protocol, unload 1 mm/s", 5e-12, 3e-8), // 2.4e-13, 8.4e-9
+    ];
+    let scenes = catalogue::cycle_balance_scenes().unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scenes.len(), bounds.len());
+    for (name, s) in &scenes {
+        let &(_, mom, en) = bounds
             .iter()
-            .find(|x| x.t == t)
-            .copied()
-            .expect("sample at cycle boundary")
-    };
-    let (m, g, c) = (3e-3, 9.81, 0.02);
-    let mut worst_mom = 0.0f64;
-    let mut worst_en = 0.0f64;
-    for cy in &r.cycles {
-        let (s0, s1) = (at(cy.t_start), at(cy.t_end));
-        let tt = cy.t_end - cy.t_start;
-        let lhs = cy.force_mean - m * g - cy.spring_mean;
-        let rhs = -(m * (s1.v_s - s0.v_s) + c * (s1.x_s - s0.x_s)) / tt;
-        worst_mom = worst_mom.max((lhs - rhs).abs() / cy.force_sin.hypot(cy.force_cos));
-        let de = cy.energy_end - cy.energy_start;
-        let budget =
-            cy.work_base + cy.work_holder - cy.dissipation_damping - cy.dissipation_adhesion;
-        worst_en = worst_en.max((de - budget).abs() / cy.work_base.abs());
+            .find(|b| b.0 == *name)
+            .unwrap_or_else(|| panic!("no bound for {name}"));
+        let (r, rec) = run(s);
+        let b = catalogue::cycle_balances(&s.rig, &r.cycles, &rec.samples, &r.events);
+        let w = catalogue::summarise_balances(&b);
+        assert!(w.cycles >= 10, "{name}: {} cycles", w.cycles);
+        let m = w.momentum.expect("every balance scene has inertia");
+        assert!(m < mom, "{name}: momentum residual {m:e} (bound {mom:e})");
+        assert!(
+            w.energy < en,
+            "{name}: energy residual {:e} (bound {en:e})",
+            w.energy
+        );
+        if name.starts_with("impacts") {
+            // Contact lost and regained every cycle: the jump terms are exercised.
+            let impacts = r
+                .events
+                .iter()
+                .filter(|e| e.kind == EventKind::Impact)
+                .count();
+            assert!(impacts + 2 >= r.cycles.len(), "{name}: {impacts} impacts");
+        }
     }
-    let last = r.cycles.last().unwrap();
-    let ss =
-        (last.force_mean - (m * g + last.spring_mean)).abs() / last.force_sin.hypot(last.force_cos);
-    println!(
-        "momentum {worst_mom:e}, energy {worst_en:e}, steady-state residual {ss:e}, {:?}",
-        r.stats
-    );
-    assert!(worst_mom < 1e-7);
-    assert!(worst_en < 1e-6);
-    assert!(last.dissipation_adhesion > 0.0 && last.dissipation_damping > 0.0);
+}
+
+/// The contact energy of the JKR jump-in state is −0.6 π w0 a_J² (from U(a_J, 0) =
+/// (3K/20) a_J⁵/R² with a_J³ = 8πw0R²/(3K)).
+#[test]
+fn jump_in_contact_energy_closed_form() {
+    let a_j = jkr::jump_in_radius(&M, M.w0);
+    let e = catalogue::contact_energy(&M, a_j, 0.0);
+    let expected = -0.6 * std::f64::consts::PI * M.w0 * a_j * a_j;
+    assert!((e / expected - 1.0).abs() < 1e-12, "{e} vs {expected}");
 }
 
 /// In periodic steady state (heavier damping so the transient dies within the run) the
@@ -405,38 +316,29 @@ fn repeated_impacts_stay_finite() {
     }
 }
 
-/// DP8, Dopri5 and the implicit method agree on a vibrating scene as rtol → 0.
+/// DP8, Dopri5 and the implicit method agree on the last cycle's means and first harmonics of
+/// `vibrating_hold(2 µm, 300 Hz, 0.02 s)` at rtol 1e-10.
 #[test]
 fn methods_agree_under_vibration() {
     let mut res = vec![];
     for method in [Method::Implicit, Method::Dopri5, Method::Dp8] {
-        let mut s = vibrating(2e-6);
+        let mut s = catalogue::vibrating_hold(2e-6, 300.0, 0.02);
         s.solver.method = method;
         s.solver.rtol = 1e-10;
-        s.stages = vec![stage(
-            StageKind::Hold,
-            0.0,
-            Until::Duration(0.02),
-            Some(true),
-        )];
         let (r, _) = run(&s);
-        let c = *r.cycles.last().unwrap();
-        println!(
-            "{method:?}: <F> {:e} delta_s {:e} a_s {:e} {:?} {}",
-            c.force_mean, c.delta_sin, c.a_sin, r.stats, r.method
-        );
-        res.push(c);
+        res.push(*r.cycles.last().unwrap());
     }
+    // Measured (`docs/studies/checks.md`): Δ⟨F⟩/|F_s| 2.9e-9, δ_s 6.0e-8, a_s 1.2e-6.
     for b in &res[1..] {
         let a = res[0];
-        assert!((a.force_mean - b.force_mean).abs() < 1e-7 * a.force_sin.abs());
-        assert!((a.delta_sin / b.delta_sin - 1.0).abs() < 1e-7);
-        assert!((a.a_sin / b.a_sin - 1.0).abs() < 1e-5);
+        assert!((a.force_mean - b.force_mean).abs() < 2e-8 * a.force_sin.abs());
+        assert!((a.delta_sin / b.delta_sin - 1.0).abs() < 2e-7);
+        assert!((a.a_sin / b.a_sin - 1.0).abs() < 5e-6);
     }
 }
 
-/// DP8, Dopri5 and the implicit method agree on a Gent–Schultz rigid-link unload, and each
-/// converges as rtol → 0.
+/// DP8, Dopri5 and the implicit method agree on the pull-off of a Gent–Schultz rigid-link
+/// unload (`gs_rigid_unload(0.1 µm/s)`), and each converges as rtol → 0.
 #[test]
 fn methods_agree_on_gs_unload() {
     let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
@@ -444,31 +346,28 @@ fn methods_agree_on_gs_unload() {
     for method in [Method::Implicit, Method::Dopri5, Method::Dp8] {
         let mut row = vec![];
         for rtol in [1e-6, 1e-8, 1e-10] {
-            let mut s = scene();
-            s.rig.law = gs();
-            s.rig.holder = Holder::Rigid;
+            let mut s = catalogue::gs_rigid_unload(1e-7);
             s.solver.method = method;
             s.solver.rtol = rtol;
-            s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
             let (r, _) = run(&s);
             row.push(r.pull_off.force / f0);
         }
-        println!("{method:?}: {row:?}");
         assert!(
             (row[2] - row[1]).abs() <= (row[1] - row[0]).abs() + 1e-12,
-            "{row:?}"
+            "{method:?}: {row:?}"
         );
         amp.push(row[2]);
     }
-    assert!((amp[1] - amp[0]).abs() < 1e-8, "{amp:?}");
-    assert!((amp[2] - amp[0]).abs() < 1e-8, "{amp:?}");
+    // Measured at rtol 1e-10: Dopri5 3.4e-10, DP8 8.1e-11 from the implicit method.
+    assert!((amp[1] - amp[0]).abs() < 2e-9, "{amp:?}");
+    assert!((amp[2] - amp[0]).abs() < 2e-9, "{amp:?}");
 }
 
 /// An explicitly requested explicit method on a rate-independent law fails with an error that
 /// names the time, the state and the remedy; and `auto` on a GS scene with impacts runs DP8.
 #[test]
 fn explicit_errors_and_auto() {
-    let mut s = scene();
+    let mut s = catalogue::soft_spring_jkr();
     s.solver.method = Method::Dopri5;
     s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.01), None)];
     let e = s
@@ -490,123 +389,7 @@ fn explicit_errors_and_auto() {
         Some(true),
     )];
     let (r, _) = run(&s);
-    println!("{}", r.method);
     assert!(r.method.starts_with("explicit DP8"), "{}", r.method);
-}
-
-/// Probe of `ode_solvers` Dop853 alone on y'' = −y over [0, 10] with h_max = 0.5: error vs rtol.
-#[test]
-#[ignore]
-fn probe_ode_solvers_dop853() {
-    use ode_solvers::{dop_shared::OutputType, Dop853, Dopri5, System, Vector2};
-    struct Osc;
-    impl System<f64, Vector2<f64>> for Osc {
-        fn system(&self, _t: f64, y: &Vector2<f64>, dy: &mut Vector2<f64>) {
-            dy[0] = y[1];
-            dy[1] = -y[0];
-        }
-    }
-    for rtol in [1e-6, 1e-9, 1e-12] {
-        let y0 = Vector2::new(1.0, 0.0);
-        let mut s = Dop853::from_param(
-            Osc,
-            0.0,
-            10.0,
-            0.5,
-            y0,
-            rtol,
-            rtol,
-            0.9,
-            0.0,
-            0.333,
-            6.0,
-            0.5,
-            0.0,
-            100000,
-            1000,
-            OutputType::Sparse,
-        );
-        s.integrate().unwrap();
-        let (x, y) = s.results().get();
-        let e853 = (y.last().unwrap()[0] - 10f64.cos()).abs();
-        let n853 = x.len();
-        let mut s = Dopri5::from_param(
-            Osc,
-            0.0,
-            10.0,
-            0.5,
-            y0,
-            rtol,
-            rtol,
-            0.9,
-            0.04,
-            0.2,
-            10.0,
-            0.5,
-            0.0,
-            100000,
-            1000,
-            OutputType::Sparse,
-        );
-        s.integrate().unwrap();
-        let (x, y) = s.results().get();
-        println!(
-            "rtol {rtol:e}: dop853 err {e853:e} ({n853} pts), dopri5 err {:e} ({} pts)",
-            (y.last().unwrap()[0] - 10f64.cos()).abs(),
-            x.len()
-        );
-    }
-}
-
-#[test]
-#[ignore]
-fn probe_paper_protocol() {
-    for m in [Method::Auto, Method::Implicit] {
-        let mut s = djkr::dynamics::catalogue::paper_protocol(5e-6);
-        s.solver.method = m;
-        let (r, _) = run(&s);
-        println!("{:?} {} {:?}", r.pull_off, r.detached, r.stats);
-        for e in &r.events {
-            if e.kind != EventKind::Impact && e.kind != EventKind::ContactLoss {
-                println!("  {:?} t {:e} F {:e}", e.kind, e.time, e.state.force);
-            }
-        }
-        println!(
-            "  {} cycles, {} events; {}",
-            r.cycles.len(),
-            r.events.len(),
-            r.method
-        );
-    }
-}
-
-#[test]
-#[ignore]
-fn probe_protocol_convergence() {
-    for m in [Method::Implicit, Method::Dopri5] {
-        for rtol in [1e-7, 1e-8, 1e-9, 1e-10] {
-            let mut s = djkr::dynamics::catalogue::paper_protocol(1e-3);
-            s.solver.method = m;
-            s.solver.rtol = rtol;
-            match s.simulate(&mut djkr::dynamics::NoObserver) {
-                Ok(r) => {
-                    let last = r.cycles.last().unwrap();
-                    let c5 = r.cycles.iter().find(|c| c.t_end >= 5.0).unwrap();
-                    let loss = r
-                        .events
-                        .iter()
-                        .find(|e| e.kind == EventKind::ContactLoss && e.time > 1.0)
-                        .map(|e| e.time);
-                    println!(
-                        "   cycle at {:.6}: <F> {:.10e} delta_s {:.8e}; first loss {loss:?}",
-                        c5.t_end, c5.force_mean, c5.delta_sin
-                    );
-                    println!("{m:?} {rtol:e}: pull-off {:.6e} at {:.6}, detach t {:.6}, last-cycle <F> {:.6e}, steps {} ; {}", r.pull_off.force, r.pull_off.time, first(&r, EventKind::PullOff).map(|e| e.time).unwrap_or(-1.0), last.force_mean, r.stats.steps, r.method.len());
-                }
-                Err(e) => println!("{m:?} {rtol:e}: {e}"),
-            }
-        }
-    }
 }
 
 /// m = 0 (quasi-static balance through the spring): elastic JKR unloaded through a soft spring
@@ -616,70 +399,38 @@ fn probe_protocol_convergence() {
 fn massless_sphere_quasi_static_pull_off() {
     let f0 = jkr::load_controlled_pull_off_force(&M, M.w0);
     for (k, dc) in [(10.0, false), (1e7, true)] {
-        let mut s = scene();
-        s.rig.sphere.mass = 0.0;
-        s.rig.holder = Holder::Spring { stiffness: k };
-        s.stages = vec![stage(StageKind::Unload, 1e-4, Until::PullOff, None)];
-        let (r, _) = run(&s);
+        let (r, _) = run(&catalogue::massless_unload(k));
         assert!(r.detached);
+        // Measured 4.4e-16.
         assert!(
-            (r.pull_off.force / f0 - 1.0).abs() < 1e-7,
+            (r.pull_off.force / f0 - 1.0).abs() < 1e-12,
             "k {k}: {}",
             r.pull_off.force
         );
         let loss = first(&r, EventKind::ContactLoss).unwrap();
         let f_dc = jkr::displacement_controlled_pull_off_force(&M, M.w0);
-        println!(
-            "k {k}: loss at F = {} (dc {f_dc}), a = {}",
-            loss.state.force, loss.state.a
-        );
         if dc {
+            // Measured 7.4e-4.
             assert!((loss.state.force / f_dc - 1.0).abs() < 1e-3);
         } else {
-            // Load control: the contact is lost at the force minimum itself.
-            assert!((loss.state.force / f0 - 1.0).abs() < 1e-3);
+            // Load control: the contact is lost at the force minimum itself (measured 4.9e-7).
+            assert!((loss.state.force / f0 - 1.0).abs() < 2e-6);
         }
     }
 }
 
 /// Gent–Schultz contact formed from a small seed at impact heals at a finite (large) rate
-/// towards the JKR radius, through the compressive-edge state that the explicit form cannot
-/// pass; the energy balance holds with contact damping too.
+/// towards the JKR radius, through the compressive-edge state that the explicit form cannot pass
+/// (`catalogue::seeded_impact_with_contact_damping`; its energy balance with contact damping is
+/// checked in `cycle_balances_hold`).
 #[test]
-fn seeded_impact_heals_and_contact_damping_balances_energy() {
-    let mut s = scene();
-    s.rig.law = gs();
-    s.rig.formation = ContactFormation::Seed(1e-6);
-    s.rig.damping = Some(Damping {
-        c: 0.05,
-        on: DampingOn::Contact,
-    });
-    s.rig.base = Some(BaseMotion {
-        amplitude: 1e-6,
-        frequency: 200.0,
-        phase: 0.0,
-    });
-    s.initial = Initial::Gap(5e-6);
-    s.stages = vec![
-        stage(StageKind::Approach, 1e-3, Until::Preload(0.01), Some(false)),
-        stage(StageKind::Hold, 0.0, Until::Duration(0.05), Some(true)),
-    ];
-    s.solver.max_steps = 100_000;
-    let mut rr = Recorder::default();
-    let res = s.simulate(&mut rr);
-    for e in rr.events.iter().take(10) {
-        println!(
-            "{:?} t {:e} a {:e} delta {:e} F {:e} adot {:e}",
-            e.kind, e.time, e.state.a, e.state.delta, e.state.force, e.state.a_dot
-        );
-    }
-    let (r, rec) = (res.unwrap_or_else(|e| panic!("{e}")), rr);
+fn seeded_impact_heals_at_a_finite_rate() {
+    let (r, rec) = run(&catalogue::seeded_impact_with_contact_damping());
     assert!(r.method.contains("implicit"));
     let imp = first(&r, EventKind::Impact).expect("impact");
     assert!((imp.state.a - 1e-6).abs() < 1e-12);
     assert!(first(&r, EventKind::PreloadReached).is_some());
     let a_max_rate = rec.samples.iter().map(|x| x.a_dot).fold(0.0, f64::max);
-    println!("max healing rate {a_max_rate:e} m/s, {:?}", r.stats);
     assert!(a_max_rate > 1e-2 && a_max_rate.is_finite());
     let a_eq = jkr::equilibrium_radius_for_force(&M, 0.01, M.w0).unwrap();
     let at_preload = first(&r, EventKind::PreloadReached).unwrap().state.a;
@@ -688,21 +439,12 @@ fn seeded_impact_heals_and_contact_damping_balances_energy() {
         at_preload < a_eq && at_preload > 0.5 * a_eq,
         "{at_preload} vs {a_eq}"
     );
-    for cy in &r.cycles {
-        let de = cy.energy_end - cy.energy_start;
-        let budget =
-            cy.work_base + cy.work_holder - cy.dissipation_damping - cy.dissipation_adhesion;
-        assert!(
-            (de - budget).abs() < 1e-6 * cy.work_base.abs().max(cy.dissipation_damping),
-            "{de} vs {budget}"
-        );
-    }
 }
 
 /// Errors name the stage, the time and the state.
 #[test]
 fn errors_are_explicit() {
-    let mut s = scene();
+    let mut s = catalogue::soft_spring_jkr();
     s.stages = vec![Stage {
         max_duration: 0.01,
         ..stage(StageKind::Unload, 1e-6, Until::PullOff, None)
@@ -715,7 +457,7 @@ fn errors_are_explicit() {
         e.contains("stage 0") && e.contains("max_duration") && e.contains("F = "),
         "{e}"
     );
-    let mut s = scene();
+    let mut s = catalogue::soft_spring_jkr();
     s.rig.holder = Holder::None;
     s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(0.01), None)];
     let e = s
@@ -723,17 +465,6 @@ fn errors_are_explicit() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("weight"), "{e}");
-}
-
-#[test]
-#[ignore]
-fn probe_vibration_cost() {
-    for m in [Method::Implicit, Method::Auto] {
-        let mut s = djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
-        s.solver.method = m;
-        let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
-        println!("{m:?}: {:?}", r.stats);
-    }
 }
 
 /// Observed orders of a fixed-step stepper on the free ramp-driven oscillator (closed form
@@ -753,11 +484,16 @@ fn ramp_oscillator_orders(
 ) -> (f64, f64) {
     use djkr::dynamics::model::{resolve, Drive, NQ};
     use djkr::dynamics::state::State;
-    let mut s = scene();
+    // Without gravity, so that the spring end starts at the sphere (the drive below).
+    let mut s = catalogue::soft_spring_jkr();
     s.initial = Initial::Gap(-x0);
     let model = resolve(&s.rig, s.run_scales()).unwrap();
     let v = 2e-3;
-    let w = (10.0f64 / 1e-3).sqrt();
+    let osc = catalogue::RampOscillator {
+        gap: -x0,
+        speed: v,
+        omega: (s.rig.spring_stiffness() / s.rig.sphere.mass).sqrt(),
+    };
     let drive = Drive {
         xk0: x0,
         tk0: 0.0,
@@ -778,8 +514,7 @@ fn ramp_oscillator_orders(
             q: [0.0; NQ],
         };
         let y = steps(&model, &drive, y0, t_end / n as f64, n);
-        let x = x0 + v * t_end - v / w * (w * t_end).sin();
-        (y.x - x).abs()
+        (y.x - osc.position(t_end)).abs()
     };
     let (e1, e2, e3) = (err(n), err(2 * n), err(4 * n));
     let (p1, p2) = ((e1 / e2).log2(), (e2 / e3).log2());
@@ -885,17 +620,13 @@ fn contact_loss_radius_has_negligible_effect() {
         ContactFormation::Seed(1e-6),
         ContactFormation::Seed(1e-8),
     ] {
-        let mut s = scene();
-        s.rig.law = gs();
-        s.rig.holder = Holder::Rigid;
+        let mut s = catalogue::gs_rigid_unload(1e-7);
         s.rig.formation = formation;
         s.solver.method = Method::Implicit;
-        s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
         let (r, _) = run(&s);
         let loss = first(&r, EventKind::ContactLoss).unwrap();
         rows.push((loss.time, loss.state.a, r.pull_off.force));
     }
-    println!("{rows:?}");
     let (t0, _, f0) = rows[0];
     for &(t, _, f) in &rows[1..] {
         assert!((t - t0).abs() < 1e-6 * t0, "{rows:?}");
@@ -903,189 +634,28 @@ fn contact_loss_radius_has_negligible_effect() {
     }
 }
 
-/// Work–precision study of 1 s at 400 Hz (`catalogue::vibrating_hold(5 µm, 400 Hz, 1 s)`): for
-/// each method and rtol, the final-cycle ⟨F⟩, δ_A and a_m against an implicit reference at rtol
-/// 1e-12. Opt-in: `cargo test --release --test dynamics work_precision -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn work_precision_1s_400hz() {
-    let outs = |r: &RunResult| {
-        let c = r.cycles.last().expect("cycles");
-        (c.force_mean, c.delta_sin.hypot(c.delta_cos), c.a_mean)
-    };
-    for xb in [5e-6, 1e-6] {
-        let mut s = djkr::dynamics::catalogue::vibrating_hold(xb, 400.0, 1.0);
-        s.solver.method = Method::Implicit;
-        s.solver.rtol = 1e-12;
-        let t = std::time::Instant::now();
-        let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
-        let (f0, d0, a0) = outs(&r);
-        println!(
-            "X_b {xb:e}: reference implicit 1e-12: F {f0:e} dA {d0:e} am {a0:e} {:?} {:.3} s",
-            r.stats,
-            t.elapsed().as_secs_f64()
-        );
-        for m in [
-            Method::Implicit,
-            Method::Dp8,
-            Method::Dopri5,
-            Method::Dop853,
-            Method::Auto,
-        ] {
-            for rtol in [1e-4, 1e-6, 1e-8, 1e-10] {
-                s.solver.method = m;
-                s.solver.rtol = rtol;
-                let t = std::time::Instant::now();
-                match s.simulate(&mut djkr::dynamics::NoObserver) {
-                    Ok(r) => {
-                        let (f, d, a) = outs(&r);
-                        println!(
-                            "X_b {xb:e} {m:?} rtol {rtol:e}: errF {:.2e} errdA {:.2e} erram {:.2e} steps {} rej {} rhs {} wall {:.4} s",
-                            ((f - f0) / f0).abs(),
-                            ((d - d0) / d0).abs(),
-                            ((a - a0) / a0).abs(),
-                            r.stats.steps,
-                            r.stats.rejected,
-                            r.stats.rhs_evals,
-                            t.elapsed().as_secs_f64()
-                        );
-                    }
-                    Err(e) => {
-                        let e = e.to_string();
-                        println!(
-                            "X_b {xb:e} {m:?} rtol {rtol:e}: fails: {}",
-                            &e[..e.len().min(120)]
-                        );
-                    }
-                }
-            }
-        }
-    }
-}
-
-/// Minimum wall time over repeats of 1 s at 400 Hz per method at rtol 1e-8 (robust to load).
-/// Opt-in: `cargo test --release --test dynamics probe_min_wall -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn probe_min_wall() {
-    for m in [Method::Implicit, Method::Auto] {
-        let mut s = djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
-        s.solver.method = m;
-        let mut best = f64::INFINITY;
-        let mut stats = None;
-        for _ in 0..15 {
-            let t = std::time::Instant::now();
-            let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
-            best = best.min(t.elapsed().as_secs_f64());
-            stats = Some(r.stats);
-        }
-        println!("{m:?}: min wall {:.2} ms {:?}", best * 1e3, stats);
-    }
-}
-
-/// Method comparison per scene type (min wall over repeats; basis of the `auto` rule).
-/// Opt-in: `cargo test --release --test dynamics probe_methods_by_scene -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn probe_methods_by_scene() {
-    let mut scenes: Vec<(&str, Scenario)> = vec![];
-    let mut s = scene();
-    s.rig.law = gs();
-    s.rig.holder = Holder::Rigid;
-    s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
-    scenes.push(("gs_rigid_unload_0.1um_s", s));
-    let mut s = scene();
-    s.rig.law = gs();
-    s.rig.sphere.mass = 0.0;
-    s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
-    scenes.push(("gs_massless_unload_0.1um_s", s));
-    let mut s = djkr::dynamics::catalogue::vibrating_hold(2e-6, 400.0, 0.2);
-    s.rig.holder = Holder::Rigid;
-    scenes.push(("rigid_hold_2um_400hz_0.2s", s));
-    let mut s = djkr::dynamics::catalogue::paper_protocol(1e-3);
-    s.rig.base = None;
-    scenes.push(("protocol_no_shaker_1mm_s", s));
-    scenes.push((
-        "protocol_1mm_s",
-        djkr::dynamics::catalogue::paper_protocol(1e-3),
-    ));
-    scenes.push((
-        "vibrating_hold_1um_400hz_0.2s",
-        djkr::dynamics::catalogue::vibrating_hold(1e-6, 400.0, 0.2),
-    ));
-    scenes.push((
-        "vibrating_hold_5um_400hz_0.2s",
-        djkr::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 0.2),
-    ));
-    if let Ok(s) = djkr::scenario::parse::load_scenario(std::path::Path::new(
-        "scenarios/paper-protocol-300hz.toml",
-    )) {
-        scenes.push(("paper-protocol-300hz.toml", s));
-    }
-    for (name, s0) in &scenes {
-        for m in [
-            Method::Implicit,
-            Method::Dp8,
-            Method::Dopri5,
-            Method::Dop853,
-            Method::Auto,
-        ] {
-            let mut s = s0.clone();
-            s.solver.method = m;
-            let mut best = f64::INFINITY;
-            let mut last = None;
-            for _ in 0..3 {
-                let t = std::time::Instant::now();
-                let r = s.simulate(&mut djkr::dynamics::NoObserver);
-                best = best.min(t.elapsed().as_secs_f64());
-                last = Some(r);
-            }
-            match last.unwrap() {
-                Ok(r) => println!(
-                    "{name} {m:?}: {:.2} ms steps {} rhs {} pull-off {:.6e}",
-                    best * 1e3,
-                    r.stats.steps,
-                    r.stats.rhs_evals,
-                    r.pull_off.force
-                ),
-                Err(e) => println!("{name} {m:?}: fails: {}", &e.to_string()[..100]),
-            }
-        }
-    }
-}
-
 /// `auto` takes the implicit method without inertia (rigid link), for a constant w and for
-/// seeded contact formation, and DP8 for a GS sphere with mass; on the rigid link it gives the
-/// same GS pull-off as Dopri5 and DP8.
+/// seeded contact formation, and DP8 for a GS sphere with mass (the rule of
+/// `dynamics::driver::auto_engine`; its basis is measured in `docs/studies/methods.md`). That
+/// the methods agree on these scenes is `methods_agree_on_gs_unload`.
 #[test]
 fn auto_rule_by_scene() {
-    let mut s = scene();
-    s.rig.law = gs();
-    s.rig.holder = Holder::Rigid;
-    s.stages = vec![stage(StageKind::Unload, 1e-7, Until::PullOff, None)];
-    s.solver.method = Method::Auto;
+    let s = catalogue::gs_rigid_unload(1e-7);
+    assert_eq!(s.solver.method, Method::Auto);
     let (r, _) = run(&s);
     assert!(r.method.starts_with("implicit"), "{}", r.method);
-    for m in [Method::Dopri5, Method::Dp8] {
-        s.solver.method = m;
-        let (rd, _) = run(&s);
-        let rel = (r.pull_off.force - rd.pull_off.force).abs() / rd.pull_off.force.abs();
-        assert!(rel < 1e-7, "auto vs {m:?} pull-off: {rel:e}");
-    }
+    assert!(r.detached);
     let mut c = s.clone();
     c.rig.law = Law::Constant(ConstantW { w0: M.w0 });
-    c.solver.method = Method::Auto;
     assert!(run(&c).0.method.starts_with("implicit"));
     let mut seeded = s.clone();
     seeded.rig.formation = ContactFormation::Seed(1e-5);
-    seeded.solver.method = Method::Auto;
     assert!(run(&seeded).0.method.starts_with("implicit"));
+    let mut massless = catalogue::gs_massless_unload(1e-7);
+    massless.stages[0].speed = 1e-4;
+    assert!(run(&massless).0.method.starts_with("implicit"));
 
-    let mut s = scene();
-    s.rig.law = gs();
-    s.stages = vec![stage(StageKind::Unload, 1e-4, Until::PullOff, None)];
-    s.solver.method = Method::Auto;
-    let (r, _) = run(&s);
+    let (r, _) = run(&catalogue::gs_soft_spring_unload(1e-4));
     assert!(r.method.starts_with("explicit DP8"), "{}", r.method);
     assert!(r.detached);
 }

@@ -2,7 +2,8 @@
 //! continues the same trajectory: a run split at a base-period boundary and resumed from its end
 //! state matches one unbroken run.
 
-use djkr::dynamics::{catalogue, Recorder};
+use djkr::catalogue;
+use djkr::dynamics::Recorder;
 use djkr::scenario::{Initial, Until};
 
 #[test]
@@ -44,14 +45,16 @@ fn split_run_matches_unbroken_run() {
         .iter()
         .map(|c| c.delta_sin.hypot(c.delta_cos))
         .fold(0.0, f64::max);
+    // The resumed run chooses its own steps, so the two differ by the integration error: measured
+    // (`docs/studies/checks.md`) 1.0e-9 of the largest |F1| in ⟨F⟩ and 9.2e-11 in ⟨a⟩.
     for (cw, c2) in rec_whole.cycles[40..].iter().zip(&rec2.cycles) {
         assert!(
-            (cw.force_mean - c2.force_mean).abs() < 1e-6 * fscale,
+            (cw.force_mean - c2.force_mean).abs() < 1e-8 * fscale,
             "{cw:?}\n{c2:?}"
         );
         assert!((cw.delta_sin - c2.delta_sin).abs() < 1e-6 * dscale);
         assert!((cw.delta_cos - c2.delta_cos).abs() < 1e-6 * dscale);
-        assert!((cw.a_mean - c2.a_mean).abs() < 1e-6 * cw.a_mean);
+        assert!((cw.a_mean - c2.a_mean).abs() < 1e-9 * cw.a_mean);
     }
     let (a, b) = (r_whole.final_state, r2.final_state);
     assert!((a.a - b.a).abs() < 1e-6 * a.a, "{a:?}\n{b:?}");

@@ -3,22 +3,22 @@
 //! through a nonlinear resonance, and the `validate` / `resonance` / `shortcut-map` commands.
 
 use djkr::adhesion::{ConstantW, Law};
+use djkr::catalogue::{self, Bundled};
 use djkr::describing::{self, Setup};
-use djkr::dynamics::catalogue;
 use djkr::material::Material;
-use djkr::scenario::parse::load_scenario;
 use djkr::scenario::{Initial, Scenario};
 use djkr::steady::sweep::{self, Direction};
 use djkr::steady::{crosscheck, Options, Problem, Steady, SteadyMethod, Strategy};
 use djkr::transfer;
-use std::path::Path;
 use std::process::Command;
 
+/// A bundled scenario, by file name, through the catalogue (`djkr::catalogue::Bundled`).
 fn scene(name: &str) -> Scenario {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("scenarios")
-        .join(name);
-    load_scenario(&p).unwrap_or_else(|e| panic!("{name}: {e}"))
+    let b = Bundled::ALL
+        .into_iter()
+        .find(|b| b.path().ends_with(name))
+        .unwrap_or_else(|| panic!("{name} is not a bundled scenario"));
+    b.scenario().unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 fn solve(p: &Problem, start: &Initial, strategy: Strategy) -> Steady {

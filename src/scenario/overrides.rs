@@ -594,7 +594,7 @@ mod tests {
     fn unknown_keys_list_the_allowed_ones() {
         assert_eq!(
             key_err("base.amplitud"),
-            "--set base.amplitud: unknown key; [base] takes amplitude, frequency"
+            "--set base.amplitud: unknown key; [base] takes amplitude, frequency, phase"
         );
         let e = key_err("bse.amplitude");
         assert!(
@@ -712,7 +712,7 @@ mod tests {
             .to_string();
         assert_eq!(
             e,
-            "--set base.amplitud=30um: unknown key; [base] takes amplitude, frequency"
+            "--set base.amplitud=30um: unknown key; [base] takes amplitude, frequency, phase"
         );
         // The value may hold '='; the key is what precedes the first one.
         assert_eq!(

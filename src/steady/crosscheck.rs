@@ -103,7 +103,7 @@ pub struct ForceBalance {
 /// Relative tolerance of the force-balance check. At a converged orbit the imbalance is
 /// (m Δv + c Δx)/T with Δ the state's change over the cycle, which the steady-state tolerance
 /// bounds by ~tol·(k + k_c)L: far below this; the quadratures themselves balance momentum to
-/// ~1e-14 ([`crate::dynamics`]).
+/// rounding (measured in `docs/studies/checks.md`).
 pub const FORCE_BALANCE_TOLERANCE: f64 = 1e-6;
 
 /// Everything `djkr validate` reports.

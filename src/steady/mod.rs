@@ -28,8 +28,9 @@
 //! - the step is damped (λ = 1, ½, ¼, …) by Deuflhard's *natural monotonicity* test, which is
 //!   affine invariant: accept when the simplified correction at the trial point,
 //!   ‖(J − I)⁻¹ r(y + λΔ)‖ with the same Jacobian, is ≤ (1 − λ/4)‖Δ‖. A residual test refuses
-//!   exactly the long steps along the slow direction that are needed (measured: 40 iterations
-//!   instead of 8 past the fold at 427 Hz, X_b = 1 µm);
+//!   exactly the long steps along the slow direction that are needed (measured when this test
+//!   was chosen, against the residual test that no longer exists: 40 iterations instead of 8
+//!   past the fold at 427 Hz, X_b = 1 µm);
 //! - converged when the residual ‖P(y) − y‖∞ < `tol` **and** the Newton correction (the
 //!   estimated distance to the fixed point, reported as [`Steady::distance`]) < `tol`.
 //!
