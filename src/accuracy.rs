@@ -446,11 +446,14 @@ impl Study {
     }
 }
 
+/// The scene with a method and tolerances; envelope following off, so that the study measures
+/// the integrators (and the reference integrates every period).
 fn with_solver(s: &Scenario, method: Method, rtol: f64, atol_ratio: f64) -> Scenario {
     let mut t = s.clone();
     t.solver.method = method;
     t.solver.rtol = rtol;
     t.solver.atol = rtol * atol_ratio;
+    t.solver.envelope = crate::dynamics::EnvelopeMode::Off;
     t
 }
 

@@ -63,3 +63,174 @@ fn base_phase_delays_the_shaker_start() {
     }
     assert!(sa.events.iter().all(|e| e.kind != EventKind::ContactLoss));
 }
+
+use djkr::catalogue::Bundled;
+use djkr::dynamics::{CycleRecord, EnvelopeMode, RunResult};
+use djkr::scenario::Scenario;
+
+/// A bundled paper protocol with the base amplitude `xb` (m), the unload's time limit raised
+/// to 400 s, no time series, envelope following as given.
+fn protocol(b: Bundled, xb: f64, envelope: EnvelopeMode) -> Scenario {
+    let mut s = b.scenario().unwrap_or_else(|e| panic!("{e}"));
+    if let Some(base) = s.rig.base.as_mut() {
+        base.amplitude = xb;
+    }
+    s.stages[3].max_duration = 400.0;
+    s.output.sample_rate = 0.0;
+    s.solver.envelope = envelope;
+    s
+}
+
+fn run_with_cycles(s: &Scenario) -> (RunResult, Vec<CycleRecord>) {
+    let mut rec = Recorder::default();
+    let r = s
+        .simulate(&mut rec)
+        .unwrap_or_else(|e| panic!("{}: {e}", s.source_name));
+    (r, rec.cycles)
+}
+
+/// The strong-vibration issue's failing points (200 and 300 Hz protocols, X_b = 100 µm, rtol
+/// 1e-8, `auto`): the step size underflowed at t ≈ 120 s in deep healing. They run to pull-off
+/// with direct integration, and envelope following agrees with it. (The cause was a contact
+/// collapse predicted while the contact peeled and kept after it began to heal.)
+#[test]
+fn deep_healing_points_run_to_pull_off() {
+    for b in [Bundled::PaperProtocol200, Bundled::PaperProtocol300] {
+        let direct = protocol(b, 100e-6, EnvelopeMode::Off);
+        let r = direct
+            .simulate(&mut djkr::dynamics::NoObserver)
+            .unwrap_or_else(|e| panic!("{}: {e}", b.path()));
+        assert!(r.detached, "{}", b.path());
+        assert!(
+            r.pull_off.amplification > 20.0 && r.pull_off.amplification < 30.0,
+            "{}: {}",
+            b.path(),
+            r.pull_off.amplification
+        );
+        let env = protocol(b, 100e-6, EnvelopeMode::Auto)
+            .simulate(&mut djkr::dynamics::NoObserver)
+            .unwrap_or_else(|e| panic!("{}: {e}", b.path()));
+        let rel = (env.pull_off.force / r.pull_off.force - 1.0).abs();
+        assert!(rel < 1e-4, "{}: envelope vs direct {rel:e}", b.path());
+    }
+}
+
+/// The gentle rig (3 g, 200 N/m, c = 0.5 N s/m on the sphere, 20 mN preload), 3 s of
+/// 400 Hz / 10 µm vibration, then unloading at 100 µm/s: failed with a step-size underflow in
+/// deep healing at rtol 1e-8 (ran at 1e-10); now runs to pull-off at both.
+#[test]
+fn gentle_rig_unload_runs_at_both_tolerances() {
+    for rtol in [1e-8, 1e-10] {
+        let mut s = catalogue::vibrating_hold(10e-6, 400.0, 3.0);
+        s.rig.damping = Some(djkr::rig::Damping {
+            c: 0.5,
+            on: djkr::rig::DampingOn::Sphere,
+        });
+        s.stages.push(catalogue::stage(
+            StageKind::Unload,
+            100e-6,
+            Until::PullOff,
+            None,
+        ));
+        s.solver.rtol = rtol;
+        s.solver.envelope = EnvelopeMode::Off;
+        let r = s
+            .simulate(&mut djkr::dynamics::NoObserver)
+            .unwrap_or_else(|e| panic!("rtol {rtol:e}: {e}"));
+        assert!(r.detached, "rtol {rtol:e}");
+        assert!(
+            r.pull_off.amplification > 1.0,
+            "{}",
+            r.pull_off.amplification
+        );
+    }
+}
+
+/// Envelope following against direct integration: the pull-off force within 1e-4 and the cycle
+/// means of every period both integrate, up to the pull-off, within 1e-5 (of the force scale
+/// 3/2 πRw0 for ⟨F⟩, of the indentation's mean or amplitude for ⟨δ⟩, of the radius for ⟨a⟩).
+/// On the bundled protocols as shipped (X_b = 10 µm, where the contact radius creeps with a
+/// multiplier within 0.3 % of 1 and the error estimate allows few jumps) and on two of them in
+/// the strong regime, where envelope following must skip most periods.
+#[test]
+fn envelope_following_matches_direct_integration() {
+    for (b, xb, min_skipped) in [
+        (Bundled::PaperProtocol200, None, 0.0),
+        (Bundled::PaperProtocol300, None, 0.0),
+        (Bundled::PaperProtocol400, None, 0.0),
+        (Bundled::PaperProtocol200, Some(60e-6), 0.8),
+        (Bundled::PaperProtocol400, Some(80e-6), 0.8),
+    ] {
+        let xb = xb.unwrap_or_else(|| b.scenario().unwrap().rig.base.unwrap().amplitude);
+        let name = format!("{} at X_b = {xb:e} m", b.path());
+        let (rd, cd) = run_with_cycles(&protocol(b, xb, EnvelopeMode::Off));
+        let (re, ce) = run_with_cycles(&protocol(b, xb, EnvelopeMode::Auto));
+        assert!(rd.detached && re.detached, "{name}");
+        let skipped = 1.0 - ce.len() as f64 / cd.len() as f64;
+        assert!(skipped >= min_skipped, "{name}: skipped {skipped}");
+        let rel = (re.pull_off.force / rd.pull_off.force - 1.0).abs();
+        assert!(rel < 1e-4, "{name}: pull-off {rel:e}");
+        let f0 = 1.5 * PI * 0.051 * 0.240;
+        let mut compared = 0;
+        // Up to the pull-off (the most tensile cycle mean): past it the contact runs away to
+        // detachment within a few periods, and every method's cycles there differ by more.
+        for e in ce.iter().filter(|c| c.t_end <= rd.pull_off.time + 1e-9) {
+            let Some(d) = cd.iter().find(|d| d.index == e.index && d.stage == e.stage) else {
+                continue;
+            };
+            let da = d.delta_sin.hypot(d.delta_cos).max(d.delta_mean.abs());
+            for (what, x, y, scale) in [
+                ("F", e.force_mean, d.force_mean, f0),
+                ("delta", e.delta_mean, d.delta_mean, da),
+                ("a", e.a_mean, d.a_mean, d.a_mean),
+            ] {
+                assert!(
+                    (x - y).abs() <= 1e-5 * scale,
+                    "{name}, period {} (stage {}): <{what}> {x} vs {y}",
+                    e.index,
+                    e.stage
+                );
+            }
+            compared += 1;
+        }
+        assert!(compared > 100, "{name}: {compared} periods compared");
+    }
+}
+
+/// Opt-in (`cargo test --release --test strong_vibration -- --ignored --nocapture`): the
+/// paper protocols at 200, 300 and 400 Hz over base amplitudes up to 400 µm run to pull-off
+/// under `auto`, with and without envelope following, and agree.
+#[test]
+#[ignore]
+fn scan_of_base_amplitudes() {
+    for b in [
+        Bundled::PaperProtocol200,
+        Bundled::PaperProtocol300,
+        Bundled::PaperProtocol400,
+    ] {
+        for xb_um in [
+            10.0, 20.0, 40.0, 60.0, 80.0, 100.0, 150.0, 200.0, 250.0, 300.0, 400.0,
+        ] {
+            let xb = xb_um * 1e-6;
+            let t = std::time::Instant::now();
+            let env = protocol(b, xb, EnvelopeMode::Auto)
+                .simulate(&mut djkr::dynamics::NoObserver)
+                .unwrap_or_else(|e| panic!("{} X_b {xb_um} um, envelope: {e}", b.path()));
+            let t_env = t.elapsed().as_secs_f64();
+            let t = std::time::Instant::now();
+            let direct = protocol(b, xb, EnvelopeMode::Off)
+                .simulate(&mut djkr::dynamics::NoObserver)
+                .unwrap_or_else(|e| panic!("{} X_b {xb_um} um, direct: {e}", b.path()));
+            let t_dir = t.elapsed().as_secs_f64();
+            let rel = (env.pull_off.force / direct.pull_off.force - 1.0).abs();
+            println!(
+                "{} X_b {xb_um:5.0} um: A {:.5} (direct {:.5}, rel {rel:.1e}), detached {}, {t_env:.3} s vs {t_dir:.3} s",
+                b.path(),
+                env.pull_off.amplification,
+                direct.pull_off.amplification,
+                direct.detached
+            );
+            assert!(direct.detached && env.detached);
+        }
+    }
+}

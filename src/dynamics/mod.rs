@@ -221,6 +221,7 @@
 pub mod catalogue;
 pub mod control;
 pub mod dp8;
+pub mod envelope;
 pub mod esdirk;
 pub mod events;
 pub mod model;
@@ -233,5 +234,5 @@ pub mod types;
 
 pub use protocol::{run, Plan};
 pub use simulator::{Segment, Settings, Simulator, Stop};
-pub use stepper::{Method, Solver, Stepper};
+pub use stepper::{EnvelopeMode, Method, Solver, Stepper};
 pub use types::*;

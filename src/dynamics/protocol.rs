@@ -3,10 +3,11 @@
 //! [`Simulator`]: stage ends, the pull-off proof, the most tensile force and cycle records, and
 //! the samples handed to the observer.
 
+use super::envelope::{Envelope, EnvelopeSettings};
 use super::model::{self, Drive, Mechanics, Model, NQ};
 use super::simulator::{make_sample, Segment, Settings, Simulator, Stop};
 use super::state::{hermite, State, Tol};
-use super::stepper::{self, Method, Solver};
+use super::stepper::{self, EnvelopeMode, Method, Solver};
 use super::types::*;
 use crate::jkr;
 use crate::numerics;
@@ -159,6 +160,12 @@ pub fn run(plan: &Plan, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
         pending_loss: None,
         detached: false,
         in_pulloff: false,
+        envelope: (plan.solver.envelope == EnvelopeMode::Auto).then(|| {
+            Envelope::new(EnvelopeSettings {
+                tol: plan.solver.envelope_tol,
+                ..EnvelopeSettings::default()
+            })
+        }),
     };
     let y0 = *run.sim.state();
     run.output(&Segment {
@@ -270,6 +277,8 @@ struct Protocol<'a> {
     detached: bool,
     /// The current stage ends at pull-off.
     in_pulloff: bool,
+    /// Envelope following, when the solver allows it.
+    envelope: Option<Envelope>,
 }
 
 impl Protocol<'_> {
@@ -402,6 +411,9 @@ impl Protocol<'_> {
     /// Start stage `idx`: the spring end's speed, the shaker, the stage-start event; `true` when
     /// the stage is already over (an approach whose preload is already reached).
     fn start_stage(&mut self, idx: usize, st: &Stage) -> bool {
+        if let Some(e) = self.envelope.as_mut() {
+            e.new_stage();
+        }
         self.stage = idx;
         self.sim.set_stage(idx);
         let speed = match st.kind {
@@ -457,6 +469,9 @@ impl Protocol<'_> {
                     }
                     if let Some(rec) = period {
                         self.record_cycle(rec);
+                        if !reached {
+                            self.follow_envelope(st, &rec)?;
+                        }
                     }
                     if self.in_pulloff && self.detach(st.kind) {
                         return Ok(());
@@ -471,6 +486,9 @@ impl Protocol<'_> {
                     }
                 }
                 Stop::Event(kind, ye) => {
+                    if let Some(e) = self.envelope.as_mut() {
+                        e.forget();
+                    }
                     if let Some(seg) = self.sim.segment() {
                         self.output(&seg);
                         self.track_force(&seg);
@@ -489,10 +507,51 @@ impl Protocol<'_> {
                         _ => {}
                     }
                 }
-                Stop::Period(rec) => self.record_cycle(rec),
+                Stop::Period(rec) => {
+                    self.record_cycle(rec);
+                    self.follow_envelope(st, &rec)?;
+                }
                 Stop::Reached => return self.stage_end(idx, st, is_duration),
             }
         }
+    }
+
+    /// At an exact period boundary: let envelope following jump over periods where the shaker
+    /// runs steadily (not in a stage that ends on a preload, which a jump could step over), and
+    /// move the sample grid past the jump.
+    fn follow_envelope(&mut self, st: &Stage, rec: &CycleRecord) -> Result<(), SimError> {
+        let Some(env) = self.envelope.as_mut() else {
+            return Ok(());
+        };
+        if matches!(st.until, Until::Preload(_)) || !self.sim.vibrating_steadily() {
+            env.forget();
+            return Ok(());
+        }
+        let t = self.sim.state().t;
+        let periods_left = (self.sim.stop_time() - t) / self.sim.period();
+        let room = if periods_left.is_finite() && periods_left > 3.0 {
+            (periods_left - 2.0).floor() as u64
+        } else {
+            0
+        };
+        if env.at_boundary(&mut self.sim, rec, room)? == 0 {
+            return Ok(());
+        }
+        let z = *self.sim.state();
+        if self.sample_dt > 0.0 {
+            // The time grid resumes after the jump.
+            if self.next_sample <= z.t {
+                self.next_sample = ((z.t / self.sample_dt).floor() + 1.0) * self.sample_dt;
+            }
+        } else {
+            // Every step is a sample: so is the state the jump lands on.
+            self.output(&Segment {
+                y0: z,
+                y1: z,
+                drive: *self.sim.drive(),
+            });
+        }
+        Ok(())
     }
 
     /// After an accepted step out of contact in a pull-off stage: declare the final detachment
@@ -576,6 +635,14 @@ impl Protocol<'_> {
                 r.singular,
                 r.fallback
             ));
+        }
+        if let Some(e) = self.envelope.as_ref().map(|e| e.stats()) {
+            if e.jumps > 0 {
+                m.push_str(&format!(
+                    "; envelope following skipped {} periods in {} jumps ({} trial periods)",
+                    e.periods_skipped, e.jumps, e.trial_periods
+                ));
+            }
         }
         if self.stopped {
             m.push_str("; stopped by the observer");

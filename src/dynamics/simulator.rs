@@ -45,6 +45,17 @@ pub struct Segment {
     pub drive: Drive,
 }
 
+/// One base period integrated on a scratch simulator ([`Simulator::trial_period`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrialPeriod {
+    /// The state at the end of the period.
+    pub end: State,
+    /// The period's record.
+    pub record: CycleRecord,
+    /// A contact loss or an impact happened within it.
+    pub rough: bool,
+}
+
 /// Why [`Simulator::step`] returned.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Stop {
@@ -209,6 +220,147 @@ impl Simulator {
     /// Index of the current base period since the shaker switched on.
     pub fn period_index(&self) -> u64 {
         self.cycles.index
+    }
+
+    /// The base period T = 2π/ω (s; +∞ without base motion).
+    pub fn period(&self) -> f64 {
+        if self.model.omega > 0.0 {
+            2.0 * PI / self.model.omega
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// The time (s) at which base period `k` (since the shaker switched on) starts.
+    pub fn boundary_time(&self, k: u64) -> f64 {
+        self.drive.t_on + k as f64 * 2.0 * PI / self.model.omega
+    }
+
+    /// The stop time (s).
+    pub fn stop_time(&self) -> f64 {
+        self.t_end
+    }
+
+    /// True while the shaker runs periods and will not switch off at the next boundary.
+    pub fn vibrating_steadily(&self) -> bool {
+        self.drive.shaker
+            && self.model.omega > 0.0
+            && !self.cycles.off_pending
+            && self.cycles.armed_at.is_none()
+    }
+
+    /// A state at the start of base period `k` with sphere position `x`, velocity `v` and
+    /// contact radius `a` (in contact), its rate ȧ from the law: the start of a trial period or
+    /// of a jump. `q` (the quadratures, whose differences make period records) is carried over.
+    pub fn state_at_boundary(&self, k: u64, x: f64, v: f64, a: f64, q: [f64; NQ]) -> State {
+        let t = self.boundary_time(k);
+        let kin = self.kin(t);
+        let g = self.model.signed_g(a, x + kin.xb);
+        let adot = self.model.crack_speed(g);
+        State {
+            t,
+            x,
+            v,
+            acc: self.model.accel(&kin, x, v, a, true),
+            a,
+            adot,
+            contact: true,
+            q,
+        }
+    }
+
+    /// Jump to `z`, the state at the start of base period `period_index() + periods` (envelope
+    /// following: the periods between are not integrated). Period records resume from there.
+    pub fn jump(&mut self, z: State, periods: u64) {
+        self.y = z;
+        self.collapse_at = None;
+        self.kick_pending = false;
+        self.refresh();
+        let kin = self.kin(z.t);
+        self.cycles.index += periods;
+        self.cycles.t0 = z.t;
+        self.cycles.q0 = z.q;
+        self.cycles.e0 = model::total_energy(&self.model, &kin, z.x, z.v, z.a, z.contact);
+    }
+
+    /// Integrate one whole base period from `z` (at the start of period `k`) on a scratch copy
+    /// of this simulator (same model, drive, method and settings; nothing carried over): the end
+    /// state, the period's record, and whether a contact loss or impact happened within it. Its
+    /// work is added to this simulator's statistics and budgets.
+    /// `tol_factor` scales the tolerances of the trial (envelope following integrates its trial
+    /// periods more tightly than the run: an integration error in one period is multiplied by
+    /// the number of periods a jump covers).
+    pub fn trial_period(
+        &mut self,
+        z: State,
+        k: u64,
+        tol_factor: f64,
+    ) -> Result<TrialPeriod, SimError> {
+        let mut settings = self.settings;
+        settings.tol.rtol = (settings.tol.rtol * tol_factor).max(1e-14);
+        settings.tol.atol = (settings.tol.atol * tol_factor).max(1e-300);
+        settings.max_steps = settings.max_steps.saturating_sub(self.stats.steps).max(1);
+        let wall_left = settings.max_wall_s - self.start.elapsed().as_secs_f64();
+        if wall_left <= 0.0 {
+            return Err(SimError::WallBudget {
+                t: self.y.t,
+                max_wall_s: self.settings.max_wall_s,
+                state: self.err_state(),
+            });
+        }
+        settings.max_wall_s = wall_left;
+        let mut trial = Simulator {
+            control: StepControl::new(self.control.h),
+            model: self.model.clone(),
+            drive: self.drive,
+            stepper: self.stepper.fresh(),
+            settings,
+            formation: self.formation,
+            y: z,
+            stats: Stats::default(),
+            start: Instant::now(),
+            t_end: f64::INFINITY,
+            preload: None,
+            h_max: self.h_max,
+            cycles: Cycles {
+                index: k,
+                t0: z.t,
+                q0: z.q,
+                e0: 0.0,
+                off_pending: false,
+                armed_at: None,
+            },
+            collapse_at: None,
+            kick_pending: false,
+            segment: None,
+            stage: self.stage,
+        };
+        trial.refresh();
+        let kin = trial.kin(z.t);
+        trial.cycles.e0 = model::total_energy(&trial.model, &kin, z.x, z.v, z.a, z.contact);
+        trial.advance_to(trial.boundary_time(k + 1), None);
+        let mut rough = false;
+        let out = loop {
+            match trial.step() {
+                Ok(Stop::Step {
+                    period: Some(rec), ..
+                })
+                | Ok(Stop::Period(rec)) => break Ok((rec, trial.y)),
+                Ok(Stop::Event(..)) => rough = true,
+                Ok(Stop::Reached) => {
+                    break Err(SimError::Setup(
+                        "a trial period ended without its period record".into(),
+                    ))
+                }
+                Ok(_) => {}
+                Err(e) => break Err(e),
+            }
+        };
+        self.stats.steps += trial.stats.steps;
+        self.stats.rejected += trial.stats.rejected;
+        self.stats.rhs_evals += trial.stats.rhs_evals;
+        let (record, end) = out?;
+        Ok(TrialPeriod { end, record, rough })
     }
 
     /// Stop at time `t_end` (s): [`Stop::Reached`] (or a step with `reached`) when it is hit.

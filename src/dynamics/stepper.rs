@@ -16,6 +16,15 @@ pub enum Method {
     Implicit,
 }
 
+/// Whether envelope following may skip periods ([`super::envelope`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EnvelopeMode {
+    /// Where the shaker runs steadily and the error estimate allows.
+    Auto,
+    /// Never: every period is integrated (a complete time series).
+    Off,
+}
+
 /// Solver settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Solver {
@@ -31,6 +40,10 @@ pub struct Solver {
     pub max_wall_s: f64,
     /// Event location tolerance in time (s).
     pub event_tol: f64,
+    /// Envelope following.
+    pub envelope: EnvelopeMode,
+    /// Local error tolerance of an envelope step (scaled, dimensionless).
+    pub envelope_tol: f64,
 }
 
 impl Default for Solver {
@@ -42,6 +55,8 @@ impl Default for Solver {
             max_steps: 50_000_000,
             max_wall_s: 600.0,
             event_tol: 1e-12,
+            envelope: EnvelopeMode::Auto,
+            envelope_tol: 1e-6,
         }
     }
 }
@@ -91,6 +106,8 @@ pub trait Stepper: Send {
     /// Forget what the stepper carries from one step to the next (the drive or the state changed
     /// discontinuously: stage start, contact formed or lost, shaker switched).
     fn reset(&mut self) {}
+    /// A fresh stepper of the same method (nothing carried over), e.g. for trial periods.
+    fn fresh(&self) -> Box<dyn Stepper>;
     /// Steps taken by a rescue method where this one could not take them (reported with the
     /// run).
     fn rescues(&self) -> Rescues {
@@ -126,6 +143,9 @@ impl Rescues {
 pub struct Implicit;
 
 impl Stepper for Implicit {
+    fn fresh(&self) -> Box<dyn Stepper> {
+        Box::new(Implicit)
+    }
     fn name(&self) -> &'static str {
         "implicit ESDIRK4(3)6L[2]SA (root-solved contact radius)"
     }
@@ -173,6 +193,12 @@ impl Dp8 {
 }
 
 impl Stepper for Dp8 {
+    fn fresh(&self) -> Box<dyn Stepper> {
+        Box::new(Dp8 {
+            fsal: None,
+            stiffness_switch: self.stiffness_switch,
+        })
+    }
     fn name(&self) -> &'static str {
         "explicit DP8: Dormand-Prince 8(5,3), djkr's stepper"
     }
@@ -270,7 +296,14 @@ impl<P: Stepper, R: Stepper> Rescued<P, R> {
     }
 }
 
-impl<P: Stepper, R: Stepper> Stepper for Rescued<P, R> {
+impl<P: Stepper + Clone + 'static, R: Stepper + Clone + 'static> Stepper for Rescued<P, R> {
+    fn fresh(&self) -> Box<dyn Stepper> {
+        let mut p = self.primary.clone();
+        let mut r = self.rescue.clone();
+        p.reset();
+        r.reset();
+        Box::new(Rescued::new(p, r))
+    }
     fn name(&self) -> &'static str {
         self.primary.name()
     }
@@ -343,6 +376,9 @@ impl OdeSolvers {
 }
 
 impl Stepper for OdeSolvers {
+    fn fresh(&self) -> Box<dyn Stepper> {
+        Box::new(OdeSolvers::new(self.method))
+    }
     fn name(&self) -> &'static str {
         match self.method {
             OdeMethod::Dopri5 => "explicit Dopri5 (ode_solvers)",

@@ -46,7 +46,7 @@ use crate::adhesion::LAW_NAMES;
 use crate::adhesion::{
     AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw,
 };
-use crate::dynamics::stepper::{method_from_name, METHOD_NAMES};
+use crate::dynamics::stepper::{method_from_name, EnvelopeMode, METHOD_NAMES};
 use crate::error::ParamError;
 use crate::jkr;
 use crate::material::Material;
@@ -363,6 +363,8 @@ pub const SOLVER_KEYS: &[&str] = &[
     "max_steps",
     "max_wall_s",
     "event_tol",
+    "envelope",
+    "envelope_tol",
 ];
 /// Keys of `[output]`.
 pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv"];
@@ -1216,6 +1218,22 @@ impl Parser<'_> {
         }
         if let Some(t) = self.opt_positive(&s, "event_tol", TIME)? {
             solver.event_tol = t;
+        }
+        match self.string(&s, "envelope", &["auto", "off"])? {
+            Some("off") => solver.envelope = EnvelopeMode::Off,
+            Some(_) => solver.envelope = EnvelopeMode::Auto,
+            None => {}
+        }
+        if let Some(n) = self.number(&s, "envelope_tol", DIMENSIONLESS)? {
+            if !(n.v.is_finite() && (1e-12..=1e-2).contains(&n.v)) {
+                return Err(self.value_err(
+                    &s.key("envelope_tol"),
+                    &n.shown,
+                    "must lie in [1e-12, 1e-2] (local error of an envelope step in the scaled \
+                     norm, dimensionless)",
+                ));
+            }
+            solver.envelope_tol = n.v;
         }
         Ok(solver)
     }

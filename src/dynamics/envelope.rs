@@ -1,0 +1,564 @@
+//! Envelope following: under a steady vibration the state at the start of each base period
+//! (the stroboscopic state) drifts slowly — the dwell settles, the spring end creeps at a few
+//! µm/s, the mean contact radius ratchets — while the state within each period repeats. Instead
+//! of integrating every period, the envelope method integrates single periods exactly and
+//! advances the stroboscopic state over many periods at once with a step-size-controlled
+//! method in slow time, as circuit simulators do for oscillators (Petzold, SIAM J. Sci. Stat.
+//! Comput. 2 (1981) 85; Kundert, White & Sangiovanni-Vincentelli, 1990).
+//!
+//! # The envelope equation
+//! With P_k the one-period map from the start of period k (the spring end and the base phase
+//! are those of period k), the stroboscopic states satisfy y_{k+1} − y_k = P_k(y_k) − y_k. The
+//! envelope z(τ) is the smooth curve through them (τ in periods); it satisfies
+//! dz/dτ ≈ g(z, τ) = P_τ(z) − z, where one evaluation of g is one period integrated exactly
+//! ([`Simulator::trial_period`]).
+//!
+//! # The integrator in slow time
+//! Variable-step BDF2 on (x_s, v_s, a): from the envelope points z_n, z_{n−1} (τ_n, τ_{n−1}),
+//! the new point z at τ_n + m (m whole periods) solves ℓ₀′ z + ℓ₁′ z_n + ℓ₂′ z_{n−1} = P(z) − z,
+//! with ℓⱼ′ the derivatives at τ_n + m of the Lagrange basis on (τ_n + m, τ_n, τ_{n−1}). The
+//! fast mechanical modes (the sphere's ring-down, multipliers ~0.9 e^{±i ω_r T} per period) are
+//! stiff in slow time: an explicit step over many periods would blow them up; BDF2 damps them.
+//! Consecutive steps may grow at most 2× (variable-step BDF2 is zero-stable below 1 + √2).
+//! The envelope points are the exact boundaries while the run integrates directly and the jump
+//! targets while it jumps (the boundary one period after a jump target, integrated for the
+//! output, is not one: its spacing would make the steps too uneven). Newton on the corrector
+//! with J = ∂P/∂y by forward differences (one trial period per unknown), kept for four jumps or
+//! while Newton converges in ≤ 2 iterations. Predictor: the quadratic through the last three
+//! envelope points. Trial periods run at 1/100 of the run's tolerances: an error of one trial
+//! period enters a jump m times, and it is systematic (every trial starts alike).
+//!
+//! # Error control
+//! The local error of the corrector is estimated from its distance to the predictor (Milne's
+//! device for variable steps: e_c = (1/ℓ₀′)/(1/ℓ₀′ + τ_new − τ_oldest) (z_c − z_p)), in the
+//! scales of the steady-state module (x_s by the indentation amplitude, v_s by ω times it, a by
+//! the mean radius). A jump of m periods may use m (1 − μ) of the tolerance (at most all of it),
+//! μ the largest Floquet multiplier of the map (the eigenvalues of J): the creeping contact
+//! radius forgets an error only over 1/(1 − μ) periods, so the jumps within that memory add up
+//! their errors (measured on the 10 µm paper protocols, μ ≈ 0.997: without this share the
+//! contact radius drifted 1e-4 from direct integration by the pull-off, whatever the local
+//! tolerance; with it 2e-7). The next skip is m (tol/err)^(1/3) within [m/5, 4m]. A step whose
+//! trial period loses or regains contact, whose Newton iteration fails, or whose error is too
+//! large is retried with a smaller m; below two periods the run integrates directly for 16
+//! periods and tries again.
+//!
+//! # Where it stops
+//! Once μ reaches 0.999 the stage is integrated directly to its end: perturbations no longer
+//! decay there — the approach to pull-off under vibration, a fold of the periodic orbit — and
+//! the envelope's errors would grow. Where the drift is slow and strongly damped (the strong
+//! vibration of the paper's regime) the skips grow to hundreds of periods; where the radius
+//! barely forgets (μ within 0.3 % of 1) the error share leaves little to skip, and `auto`
+//! integrates most periods directly, as it should.
+//!
+//! # What is not produced for skipped periods
+//! The periods jumped over have no time-series samples and no period records; the record
+//! indices in the output show which periods were integrated. Events cannot happen in them
+//! (the trial periods at both ends are smooth). The quadrature states are carried across a jump
+//! unchanged (only their differences within a period are used).
+
+use super::simulator::Simulator;
+use super::state::State;
+use super::types::{CycleRecord, SimError};
+use crate::jkr;
+use serde::Serialize;
+
+/// Settings of envelope following.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnvelopeSettings {
+    /// Local error tolerance per envelope step, in the scaled norm (dimensionless).
+    pub tol: f64,
+    /// Largest skip (periods).
+    pub max_skip: u64,
+    /// Envelope following stops for the rest of the stage once the largest Floquet multiplier of
+    /// the one-period map reaches this: perturbations (and the envelope's errors) no longer decay.
+    pub max_multiplier: f64,
+}
+
+impl Default for EnvelopeSettings {
+    fn default() -> Self {
+        Self {
+            tol: 1e-6,
+            max_skip: 100_000,
+            max_multiplier: 0.999,
+        }
+    }
+}
+
+/// What envelope following did in a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct EnvelopeStats {
+    /// Accepted envelope steps (jumps).
+    pub jumps: u64,
+    /// Base periods jumped over (not integrated).
+    pub periods_skipped: u64,
+    /// Trial periods integrated (Newton iterations and Jacobians).
+    pub trial_periods: u64,
+    /// Rejected envelope steps.
+    pub rejected: u64,
+}
+
+/// An exact envelope point: the stroboscopic state (x_s, v_s, a) at the start of period τ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Point {
+    tau: f64,
+    y: [f64; 3],
+}
+
+/// Envelope following along one run.
+#[derive(Debug, Clone)]
+pub struct Envelope {
+    settings: EnvelopeSettings,
+    /// The last exact envelope points, oldest first (at most 3).
+    history: Vec<Point>,
+    /// ∂P/∂y in scaled units, and the period index it was taken at.
+    jac: Option<[[f64; 3]; 3]>,
+    /// The next skip to try (periods).
+    skip: f64,
+    /// Periods of direct integration left before the next attempt.
+    cooldown: u64,
+    /// Residual scales (L, ωL, a).
+    scales: [f64; 3],
+    /// The map lost its stability margin: no more jumps in this stage.
+    stop: bool,
+    /// Jumps taken with the current Jacobian.
+    jac_age: u32,
+    /// The largest Floquet multiplier at the last Jacobian.
+    multiplier: f64,
+    /// The last boundary was a jump target (the next one is not an envelope point).
+    jumped: bool,
+    stats: EnvelopeStats,
+}
+
+/// How many direct periods follow a failed attempt.
+const COOLDOWN: u64 = 16;
+/// Trial periods run at this fraction of the run's tolerances. An integration error e of one
+/// trial period enters a jump of m periods m times over, and it is systematic (every trial
+/// starts the same way), so it accumulates along the unload like m e per jump instead of
+/// averaging out like the errors of directly integrated periods: measured on the 400 Hz paper
+/// protocol at the run's own tolerance, the contact radius drifted by 1e-7 per jump of 5
+/// periods, 1e-4 over the unload, whatever the envelope tolerance.
+const TRIAL_TOLERANCE: f64 = 1e-2;
+/// Order of the BDF in slow time (its predictor uses one point more).
+const ORDER: usize = 2;
+/// Jumps a Jacobian serves before it is recomputed.
+const MAX_JAC_AGE: u32 = 4;
+/// Largest ratio of consecutive envelope steps (variable-step BDF2 is zero-stable below 1 + √2).
+const MAX_RATIO: f64 = 2.0;
+/// Newton iterations per corrector solve.
+const MAX_NEWTON: usize = 4;
+/// Largest Newton correction, in the scaled norm (the orbit's amplitudes).
+const MAX_NEWTON_STEP: f64 = 1.0;
+
+impl Envelope {
+    /// Envelope following with `settings`.
+    pub fn new(settings: EnvelopeSettings) -> Self {
+        Self {
+            settings,
+            history: Vec::new(),
+            jac: None,
+            skip: 4.0,
+            cooldown: 0,
+            scales: [f64::NAN; 3],
+            stop: false,
+            jac_age: 0,
+            multiplier: 1.0,
+            jumped: false,
+            stats: EnvelopeStats::default(),
+        }
+    }
+
+    /// What it did so far.
+    pub fn stats(&self) -> EnvelopeStats {
+        self.stats
+    }
+
+    /// Forget the history (an event happened, the drive changed).
+    pub fn forget(&mut self) {
+        self.jumped = false;
+        self.history.clear();
+        self.jac = None;
+        self.skip = 4.0;
+    }
+
+    /// A new stage: forget the history and allow jumps again.
+    pub fn new_stage(&mut self) {
+        self.forget();
+        self.stop = false;
+    }
+
+    /// At an exact period boundary of `sim` (`rec` the period that just ended): record the
+    /// envelope point and, when the history and the error estimate allow, jump over whole
+    /// periods. `room` is how many periods may be jumped before the stop time must be
+    /// approached directly. Returns the number of periods jumped (0: integrate directly).
+    pub fn at_boundary(
+        &mut self,
+        sim: &mut Simulator,
+        rec: &CycleRecord,
+        room: u64,
+    ) -> Result<u64, SimError> {
+        let y = *sim.state();
+        let k = sim.period_index();
+        if !y.contact {
+            self.forget();
+            return Ok(0);
+        }
+        if self.stop {
+            return Ok(0);
+        }
+        self.scales = scales(sim, rec);
+        // The envelope points are the exact boundaries while integrating directly, and the jump
+        // targets while jumping: the boundary one period after a jump target is not one (its
+        // spacing of one period after a long jump would make the BDF's steps too uneven).
+        if std::mem::take(&mut self.jumped) {
+            if self.history.last().is_none_or(|p| p.tau as u64 + 1 != k) {
+                self.forget();
+            }
+        } else {
+            self.push(Point {
+                tau: k as f64,
+                y: [y.x, y.v, y.a],
+            });
+        }
+        if self.cooldown > 0 {
+            self.cooldown -= 1;
+            return Ok(0);
+        }
+        if self.history.len() < ORDER + 1 {
+            return Ok(0);
+        }
+        let n = self.history.len();
+        let base = self.history[n - 1].tau as u64;
+        let h_prev = self.history[n - 1].tau - self.history[n - 2].tau;
+        // The farthest target: the stop time's margin, the largest skip.
+        let far = k + room.min(self.settings.max_skip);
+        loop {
+            if self.stop {
+                return Ok(0);
+            }
+            // The BDF step from the newest envelope point, its growth bounded for stability.
+            let m = self.skip.min(MAX_RATIO * h_prev).floor() as u64;
+            let target = (base + m).min(far);
+            if target < k + 2 {
+                self.cooldown = COOLDOWN;
+                self.skip = 4.0;
+                return Ok(0);
+            }
+            match self.attempt(sim, &y, target - base)? {
+                Some((z, err)) => {
+                    let skipped = target - k;
+                    self.stats.jumps += 1;
+                    self.stats.periods_skipped += skipped;
+                    let grow = if err > 0.0 {
+                        (0.9 * err.powf(-1.0 / (ORDER as f64 + 1.0))).clamp(0.2, 4.0)
+                    } else {
+                        4.0
+                    };
+                    self.skip = (target - base) as f64 * grow;
+                    self.push(Point {
+                        tau: target as f64,
+                        y: [z.x, z.v, z.a],
+                    });
+                    self.jumped = true;
+                    sim.jump(z, skipped);
+                    return Ok(skipped);
+                }
+                None => {
+                    self.stats.rejected += 1;
+                }
+            }
+        }
+    }
+
+    fn push(&mut self, p: Point) {
+        if self.history.last().is_some_and(|l| l.tau >= p.tau) {
+            self.history.clear();
+        }
+        self.history.push(p);
+        if self.history.len() > ORDER + 1 {
+            self.history.remove(0);
+        }
+    }
+
+    /// One envelope step of `m` periods from the current boundary state `y`: the corrected
+    /// state and its scaled error estimate, or `None` (the skip was reduced) when the step is
+    /// refused.
+    fn attempt(
+        &mut self,
+        sim: &mut Simulator,
+        y: &State,
+        m: u64,
+    ) -> Result<Option<(State, f64)>, SimError> {
+        // History, newest last: the predictor uses all ORDER + 1 points, the corrector the newest
+        // ORDER of them and the new point.
+        let hist: Vec<Point> = self.history.clone();
+        let newest = hist[hist.len() - 1];
+        let tau = newest.tau + m as f64;
+        let taus: Vec<f64> = hist.iter().map(|p| p.tau).collect();
+        let ys: Vec<[f64; 3]> = hist.iter().map(|p| p.y).collect();
+        let zp = lagrange(&taus, &ys, tau);
+        // BDF of order ORDER on (tau, the newest ORDER points): Σ ℓⱼ' yⱼ = g(z).
+        let mut nodes = vec![tau];
+        nodes.extend(taus.iter().rev().take(ORDER));
+        let l = lagrange_derivatives(&nodes);
+        let l0 = l[0];
+        let known: [f64; 3] = std::array::from_fn(|c| {
+            (1..=ORDER)
+                .map(|j| l[j] * hist[hist.len() - j].y[c])
+                .sum::<f64>()
+        });
+        let k = newest.tau as u64 + m;
+        let sc = self.scales;
+        let mut z = zp;
+        let mut converged = false;
+        let mut iterations = 0;
+        let mut fresh_jac = false;
+        while iterations < MAX_NEWTON {
+            let mut g_known = None;
+            if self.jac.is_none() {
+                let Some((jac, g0)) = self.jacobian(sim, &z, k, y)? else {
+                    return Ok(self.refuse());
+                };
+                self.multiplier = slow_multiplier(&jac);
+                if self.multiplier >= self.settings.max_multiplier {
+                    // The approach to a loss of stability (pull-off, a fold of the orbit):
+                    // perturbations stop decaying and the envelope's errors would grow; the
+                    // stage is integrated directly from here.
+                    self.stop = true;
+                    return Ok(None);
+                }
+                self.jac = Some(jac);
+                self.jac_age = 0;
+                g_known = Some(g0);
+                fresh_jac = true;
+            }
+            let g = match g_known {
+                Some(g) => g,
+                None => match self.map(sim, &z, k, y)? {
+                    Some(g) => g,
+                    None => return Ok(self.refuse()),
+                },
+            };
+            iterations += 1;
+            // F(z) = ℓ0' z + ℓ1' y_n + ℓ2' y_{n−1} − g(z), scaled.
+            let f: [f64; 3] = std::array::from_fn(|i| (l0 * z[i] + known[i] - g[i]) / sc[i]);
+            let Some(jac) = self.jac else {
+                return Ok(self.refuse());
+            };
+            // J_F = (ℓ0' + 1) I − J_P in scaled units.
+            let dz = crate::numerics::solve_dense(
+                3,
+                |i, j| {
+                    let d = if i == j { l0 + 1.0 } else { 0.0 };
+                    d - jac[i][j]
+                },
+                &f,
+            );
+            let Some(dz) = dz else {
+                self.jac = None;
+                return Ok(self.refuse());
+            };
+            let step = dz.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+            if step.is_nan() || step > MAX_NEWTON_STEP {
+                // Far outside the region the predictor and the Jacobian describe.
+                self.jac = None;
+                return Ok(self.refuse());
+            }
+            for i in 0..3 {
+                z[i] -= dz[i] * sc[i];
+            }
+            if step <= 0.01 * self.settings.tol {
+                converged = true;
+                break;
+            }
+        }
+        if !converged {
+            if fresh_jac {
+                self.jac = None;
+                return Ok(self.refuse());
+            }
+            // A stale Jacobian: take a fresh one next time at a shorter skip.
+            self.jac = None;
+            return Ok(self.refuse());
+        }
+        self.jac_age += 1;
+        if iterations > 2 || self.jac_age >= MAX_JAC_AGE {
+            // A fresh Jacobian next time: also a fresh look at the multipliers, which move as
+            // the run drifts towards a loss of stability.
+            self.jac = None;
+        }
+        // Milne's device for the corrector's local error.
+        // e_c = (1/ℓ0')/(1/ℓ0' + τ − τ_oldest) (z_c − z_p): the corrector's error against the
+        // predictor's, both proportional to the same derivative of the envelope.
+        let span = tau - taus[0];
+        let ratio = (1.0 / l0) / (1.0 / l0 + span);
+        let err = (0..3)
+            .map(|i| (ratio * (z[i] - zp[i]) / sc[i]).abs())
+            .fold(0.0f64, f64::max)
+            / (self.settings.tol * self.memory_share(m));
+        if !(err.is_finite() && err <= 1.0) {
+            let shrink = if err.is_finite() {
+                (0.9 * err.powf(-1.0 / (ORDER as f64 + 1.0))).clamp(0.2, 0.9)
+            } else {
+                0.25
+            };
+            self.skip = m as f64 * shrink;
+            return Ok(None);
+        }
+        if z[2].is_nan() || z[2] <= 0.0 {
+            return Ok(self.refuse());
+        }
+        Ok(Some((sim.state_at_boundary(k, z[0], z[1], z[2], y.q), err)))
+    }
+
+    /// The share of the envelope tolerance one jump of `m` periods may use. The slowest mode of
+    /// the map (the creeping contact radius, multiplier μ close to 1) forgets an error only over
+    /// 1/(1 − μ) periods, so the errors of the jumps within that memory add up: a jump may use
+    /// m (1 − μ) of the tolerance (at most all of it), which keeps their sum near the tolerance.
+    fn memory_share(&self, m: u64) -> f64 {
+        (m as f64 * (1.0 - self.multiplier)).clamp(1e-3, 1.0)
+    }
+
+    /// A refused step: try a quarter of the skip.
+    fn refuse(&mut self) -> Option<(State, f64)> {
+        self.skip *= 0.25;
+        None
+    }
+
+    /// g(z) = P(z) − z at period k (unscaled); `None` when the period is not smooth.
+    fn map(
+        &mut self,
+        sim: &mut Simulator,
+        z: &[f64; 3],
+        k: u64,
+        y: &State,
+    ) -> Result<Option<[f64; 3]>, SimError> {
+        if !(z[2] > 0.0 && z.iter().all(|v| v.is_finite())) {
+            return Ok(None);
+        }
+        let s = sim.state_at_boundary(k, z[0], z[1], z[2], y.q);
+        if !s.adot.is_finite() {
+            return Ok(None);
+        }
+        self.stats.trial_periods += 1;
+        let t = match sim.trial_period(s, k, TRIAL_TOLERANCE) {
+            Ok(t) => t,
+            // The run's budgets hold across trial periods too.
+            Err(e @ (SimError::StepBudget { .. } | SimError::WallBudget { .. })) => return Err(e),
+            // A trial from a poor iterate that cannot be integrated only refuses the step.
+            Err(_) => return Ok(None),
+        };
+        if t.rough || !t.end.contact {
+            return Ok(None);
+        }
+        Ok(Some([t.end.x - z[0], t.end.v - z[1], t.end.a - z[2]]))
+    }
+
+    /// ∂P/∂y at z by forward differences, in scaled units, and g(z); `None` when a period is
+    /// not smooth.
+    #[allow(clippy::type_complexity)]
+    fn jacobian(
+        &mut self,
+        sim: &mut Simulator,
+        z: &[f64; 3],
+        k: u64,
+        y: &State,
+    ) -> Result<Option<([[f64; 3]; 3], [f64; 3])>, SimError> {
+        let sc = self.scales;
+        let Some(g0) = self.map(sim, z, k, y)? else {
+            return Ok(None);
+        };
+        let mut jac = [[0.0; 3]; 3];
+        for j in 0..3 {
+            let mut zj = *z;
+            let h = 1e-6 * sc[j];
+            zj[j] += h;
+            let Some(gj) = self.map(sim, &zj, k, y)? else {
+                return Ok(None);
+            };
+            for i in 0..3 {
+                // P = g + z: ∂P_i/∂z_j = ∂g_i/∂z_j + δ_ij.
+                let dg = (gj[i] - g0[i]) / sc[i] / (h / sc[j]);
+                jac[i][j] = dg + if i == j { 1.0 } else { 0.0 };
+            }
+        }
+        Ok(Some((jac, g0)))
+    }
+}
+
+/// The largest modulus among the eigenvalues of the one-period map's Jacobian (its Floquet
+/// multipliers; the scaling is a similarity transform and does not change them).
+fn slow_multiplier(jac: &[[f64; 3]; 3]) -> f64 {
+    let m = nalgebra::Matrix3::from_fn(|i, j| jac[i][j]);
+    m.complex_eigenvalues()
+        .iter()
+        .map(|e| e.norm())
+        .fold(0.0f64, f64::max)
+}
+
+/// The residual scales (L, ωL, a) from a period record: L the larger of the indentation's first
+/// harmonic and X_b, a the mean radius (floored at 1e-3 of the jump-in radius).
+fn scales(sim: &Simulator, c: &CycleRecord) -> [f64; 3] {
+    let m = sim.model();
+    let a_j = jkr::jump_in_radius(&m.mat, m.w0);
+    let floor = 1e-6 * a_j * a_j / m.mat.r;
+    let l = c.delta_sin.hypot(c.delta_cos).max(m.xb_amp).max(floor);
+    [l, m.omega * l, c.a_mean.max(1e-3 * a_j)]
+}
+
+/// The interpolating polynomial through (tᵢ, yᵢ) evaluated at `at` (Lagrange form).
+fn lagrange(t: &[f64], y: &[[f64; 3]], at: f64) -> [f64; 3] {
+    let w: Vec<f64> = (0..t.len())
+        .map(|i| {
+            (0..t.len())
+                .filter(|&j| j != i)
+                .map(|j| (at - t[j]) / (t[i] - t[j]))
+                .product()
+        })
+        .collect();
+    std::array::from_fn(|c| w.iter().zip(y).map(|(wi, yi)| wi * yi[c]).sum())
+}
+
+/// Derivatives at t₀ of the Lagrange basis on the nodes t₀, t₁, …: the coefficients of the
+/// variable-step BDF whose new point is t₀.
+fn lagrange_derivatives(t: &[f64]) -> Vec<f64> {
+    let n = t.len();
+    (0..n)
+        .map(|i| {
+            if i == 0 {
+                (1..n).map(|j| 1.0 / (t[0] - t[j])).sum()
+            } else {
+                // ℓᵢ'(t₀) = Π_{j≠i, j≠0} (t₀ − tⱼ)/(tᵢ − tⱼ) / (tᵢ − t₀).
+                let p: f64 = (1..n)
+                    .filter(|&j| j != i)
+                    .map(|j| (t[0] - t[j]) / (t[i] - t[j]))
+                    .product();
+                p / (t[i] - t[0])
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The variable-step BDF coefficients differentiate cubics exactly at the new node, for any
+    /// spacing, and the Lagrange predictor reproduces them.
+    #[test]
+    fn bdf_and_predictor_are_exact_on_cubics() {
+        let q = |t: f64| 3.0 - 2.0 * t + 0.5 * t * t - 0.01 * t * t * t;
+        let dq = |t: f64| -2.0 + t - 0.03 * t * t;
+        for nodes in [
+            [10.0, 7.0, 6.0, 5.0],
+            [5.0, 4.0, 3.0, 2.0],
+            [100.0, 3.0, 2.0, 0.5],
+        ] {
+            let l = lagrange_derivatives(&nodes);
+            let d: f64 = l.iter().zip(nodes).map(|(li, t)| li * q(t)).sum();
+            assert!((d - dq(nodes[0])).abs() < 1e-9, "{d} vs {}", dq(nodes[0]));
+            let ys: Vec<[f64; 3]> = nodes.iter().map(|&t| [q(t); 3]).collect();
+            let p = lagrange(&nodes, &ys, nodes[0] + 7.0);
+            assert!((p[0] - q(nodes[0] + 7.0)).abs() < 1e-9);
+        }
+    }
+}
