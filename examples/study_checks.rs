@@ -72,7 +72,12 @@ fn main() {
             let mut s = s0.clone();
             s.solver.rtol = rtol;
             let (r, rec) = run(&s);
-            let b = summarise_balances(&cycle_balances(&s.rig, &r.cycles, &rec.samples, &r.events));
+            let b = summarise_balances(&cycle_balances(
+                &s.rig,
+                &rec.cycles,
+                &rec.samples,
+                &rec.events,
+            ));
             if rtol == s0.solver.rtol {
                 worst_all.0 = worst_all.0.max(b.momentum.unwrap_or(0.0));
                 worst_all.1 = worst_all.1.max(b.energy);
@@ -93,7 +98,7 @@ fn main() {
                 name.to_string(),
                 sci(rtol),
                 method,
-                r.cycles.len().to_string(),
+                rec.cycles.len().to_string(),
                 impacts.to_string(),
                 b.momentum.map_or("n/a".into(), sci),
                 sci(b.energy),
@@ -278,8 +283,8 @@ fn main() {
         let mut s = catalogue::vibrating_hold(2e-6, 300.0, 0.02);
         s.solver.method = m;
         s.solver.rtol = 1e-10;
-        let (r, _) = run(&s);
-        cyc.push(*r.cycles.last().expect("cycles"));
+        let (_, rec) = run(&s);
+        cyc.push(*rec.cycles.last().expect("cycles"));
     }
     let mut t = Table::new(&[
         "method vs implicit",

@@ -117,12 +117,12 @@ fn main() {
         for m in METHODS {
             let mut s = s0.clone();
             s.solver.method = m;
-            let (wall, r) = common::min_wall(repeats, || s.simulate(&mut NoObserver));
+            let (wall, r) = common::min_wall(repeats, || accuracy::simulate_key_outputs(&s));
             match r {
-                Ok(r) => {
+                Ok((r, k)) => {
                     let (err, unc) = match &reference {
                         Ok(rf) => {
-                            let e = accuracy::compare(&accuracy::key_outputs(&r), &rf.outputs, &sc);
+                            let e = accuracy::compare(&k, &rf.outputs, &sc);
                             (
                                 sci(e.pull_off_relevant),
                                 sci(rf.check_errors.pull_off_relevant),

@@ -13,7 +13,7 @@ mod common;
 use common::{sci, Args, Table};
 use djkr::accuracy::{self, method_name};
 use djkr::catalogue::{self, Bundled};
-use djkr::dynamics::{EventKind, NoObserver, RunResult};
+use djkr::dynamics::{EventKind, RunResult};
 use djkr::scenario::Method;
 use std::fmt::Write as _;
 
@@ -59,9 +59,9 @@ fn main() {
             let mut s = catalogue::light_protocol(1e-3);
             s.solver.method = m;
             s.solver.rtol = rtol;
-            match s.simulate(&mut NoObserver) {
-                Ok(r) => {
-                    let c5 = r.cycles.iter().find(|c| c.t_end >= 5.0);
+            match common::with_cycles(&s) {
+                Ok((r, cycles)) => {
+                    let c5 = cycles.iter().find(|c| c.t_end >= 5.0);
                     if let Some(c) = c5 {
                         at5.push(c.force_mean);
                     }
@@ -126,14 +126,14 @@ fn main() {
         eprintln!("5 µm/s {}", method_name(m));
         let mut s = catalogue::light_protocol(5e-6);
         s.solver.method = m;
-        match s.simulate(&mut NoObserver) {
-            Ok(r) => t.row([
+        match common::with_cycles(&s) {
+            Ok((r, cycles)) => t.row([
                 method_name(m).to_string(),
                 format!("{:.5}", r.pull_off.force),
                 format!("{:.3}", r.pull_off.amplification),
                 format!("{:.3}", r.pull_off.time),
                 detach_time(&r).map_or("no".into(), |x| format!("at {x:.3} s")),
-                r.cycles.len().to_string(),
+                cycles.len().to_string(),
                 r.stats.steps.to_string(),
                 r.method
                     .split(['(', ':', ';'])
@@ -202,13 +202,9 @@ fn main() {
                         s.solver.method = m;
                         s.solver.rtol = rtol;
                         s.solver.atol = 0.01 * rtol;
-                        let cell = match s.simulate(&mut NoObserver) {
-                            Ok(r) => {
-                                let e = accuracy::compare(
-                                    &accuracy::key_outputs(&r),
-                                    &reference.outputs,
-                                    &sc,
-                                );
+                        let cell = match accuracy::simulate_key_outputs(&s) {
+                            Ok((_, k)) => {
+                                let e = accuracy::compare(&k, &reference.outputs, &sc);
                                 (sci(e.pull_off_relevant), sci(e.pull_off_force))
                             }
                             Err(e) => (
@@ -247,7 +243,7 @@ fn main() {
                 s.solver.method = Method::Implicit;
                 s.solver.rtol = rtol;
                 s.solver.atol = 0.01 * rtol;
-                s.simulate(&mut NoObserver)
+                common::with_cycles(&s).map(|(_, c)| c)
             };
             match (run(1e-8), run(1e-12)) {
                 (Ok(a), Ok(r)) => {
@@ -259,9 +255,9 @@ fn main() {
                         "⟨δ⟩ − ⟨x_s⟩ at 1e-8 (m)",
                         "at 1e-12 (m)",
                     ]);
-                    let n = r.cycles.len().min(a.cycles.len());
+                    let n = r.len().min(a.len());
                     let mut worst = (0.0f64, 0usize);
-                    for (i, (c, d)) in a.cycles.iter().zip(&r.cycles).enumerate() {
+                    for (i, (c, d)) in a.iter().zip(&r).enumerate() {
                         let e = (c.delta_mean - d.delta_mean).abs();
                         if e > worst.0 {
                             worst = (e, i);

@@ -4,7 +4,7 @@
 //! # Time domain ([`work_precision`])
 //!
 //! For each method and relative tolerance the scene is run `repeats` times; the wall time is the
-//! median over the repeats (measured around [`simulate`], setup included), the solver statistics
+//! median over the repeats (measured around [`Scenario::simulate`], setup included), the solver statistics
 //! and the outputs come from the first repeat (runs are deterministic). The repeats are
 //! interleaved (all pairs once, then all again, …), so a change in machine load during the study
 //! affects every method alike. The outputs users care
@@ -49,7 +49,7 @@
 
 use crate::adhesion::GentSchultz;
 use crate::beta_fit::{self, ExactPoint};
-use crate::dynamics::{EventKind, NoObserver, RunResult, Sample, SimError, Stats};
+use crate::dynamics::{CycleRecord, EventKind, Observer, RunResult, Sample, SimError, Stats};
 use crate::error::ParamError;
 use crate::imposed_area;
 use crate::jkr;
@@ -228,23 +228,38 @@ pub struct CycleOutput {
     pub delta_amp: f64,
 }
 
-/// Extract the [`KeyOutputs`] of a run.
-pub fn key_outputs(r: &RunResult) -> KeyOutputs {
+impl From<&CycleRecord> for CycleOutput {
+    fn from(c: &CycleRecord) -> Self {
+        Self {
+            stage: c.stage,
+            index: c.index,
+            t_start: c.t_start,
+            force_mean: c.force_mean,
+            delta_mean: c.delta_mean,
+            delta_amp: c.delta_sin.hypot(c.delta_cos),
+        }
+    }
+}
+
+/// Keeps the per-cycle outputs of a run (its result holds only the last period record).
+#[derive(Debug, Default)]
+struct CycleOutputs(Vec<CycleOutput>);
+
+impl Observer for CycleOutputs {
+    fn wants_samples(&self) -> bool {
+        false
+    }
+    fn cycle(&mut self, c: &CycleRecord) {
+        self.0.push(c.into());
+    }
+}
+
+/// Extract the [`KeyOutputs`] of a run from its result and its period records.
+pub fn key_outputs(r: &RunResult, cycles: Vec<CycleOutput>) -> KeyOutputs {
     KeyOutputs {
         pull_off_force: r.pull_off.force,
         detached: r.detached,
-        cycles: r
-            .cycles
-            .iter()
-            .map(|c| CycleOutput {
-                stage: c.stage,
-                index: c.index,
-                t_start: c.t_start,
-                force_mean: c.force_mean,
-                delta_mean: c.delta_mean,
-                delta_amp: c.delta_sin.hypot(c.delta_cos),
-            })
-            .collect(),
+        cycles,
         events: r
             .events
             .iter()
@@ -262,6 +277,14 @@ pub fn key_outputs(r: &RunResult) -> KeyOutputs {
         final_state: r.final_state,
         duration: r.final_state.t,
     }
+}
+
+/// Run `s` and extract its [`KeyOutputs`].
+pub fn simulate_key_outputs(s: &Scenario) -> Result<(RunResult, KeyOutputs), SimError> {
+    let mut cycles = CycleOutputs::default();
+    let r = s.simulate(&mut cycles)?;
+    let k = key_outputs(&r, cycles.0);
+    Ok((r, k))
 }
 
 /// Natural scales of a scene used to normalise errors.
@@ -457,9 +480,11 @@ fn with_solver(s: &Scenario, method: Method, rtol: f64, atol_ratio: f64) -> Scen
     t
 }
 
-fn timed(s: &Scenario) -> (Result<RunResult, SimError>, f64) {
+type Outcome = Result<(RunResult, KeyOutputs), SimError>;
+
+fn timed(s: &Scenario) -> (Outcome, f64) {
     let start = Instant::now();
-    let r = s.simulate(&mut NoObserver);
+    let r = simulate_key_outputs(s);
     (r, start.elapsed().as_secs_f64())
 }
 
@@ -500,7 +525,7 @@ pub fn reference(s: &Scenario, cfg: &StudyConfig) -> Result<Reference, StudyErro
         what: what.clone(),
         source,
     })?;
-    let outputs = key_outputs(&r);
+    let (_, outputs) = r;
     let check_dp8 = format!("dp8, rtol {rt:e}");
     let (c, _) = timed(&with_solver(s, Method::Dp8, rt, cfg.atol_ratio));
     let (check, check_description) = match c {
@@ -516,7 +541,7 @@ pub fn reference(s: &Scenario, cfg: &StudyConfig) -> Result<Reference, StudyErro
             (c2, d)
         }
     };
-    let check_errors = compare(&key_outputs(&check), &outputs, &sc);
+    let check_errors = compare(&check.1, &outputs, &sc);
     Ok(Reference {
         outputs,
         description: what,
@@ -546,8 +571,8 @@ pub fn work_precision(
             scene.solver.max_wall_s = cfg.max_wall_s;
             let (first, w0) = timed(&scene);
             let outcome = first
-                .map(|r| Measured {
-                    errors: compare(&key_outputs(&r), &reference.outputs, &sc),
+                .map(|(r, k)| Measured {
+                    errors: compare(&k, &reference.outputs, &sc),
                     wall_median_s: w0,
                     wall_min_s: w0,
                     timed_runs: 1,

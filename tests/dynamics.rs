@@ -160,8 +160,7 @@ fn stage_of_whole_periods_records_every_cycle() {
         any_after |= after;
         let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
         assert_eq!(
-            r.cycles.len(),
-            n,
+            r.cycle_count, n as u64,
             "{f} Hz, {n} periods (boundary after the stage end by rounding: {after})"
         );
         assert!(first(&r, EventKind::DurationElapsed).is_some());
@@ -202,7 +201,7 @@ fn cycle_balances_hold() {
             .find(|b| b.0 == *name)
             .unwrap_or_else(|| panic!("no bound for {name}"));
         let (r, rec) = run(s);
-        let b = catalogue::cycle_balances(&s.rig, &r.cycles, &rec.samples, &r.events);
+        let b = catalogue::cycle_balances(&s.rig, &rec.cycles, &rec.samples, &rec.events);
         let w = catalogue::summarise_balances(&b);
         assert!(w.cycles >= 10, "{name}: {} cycles", w.cycles);
         let m = w.momentum.expect("every balance scene has inertia");
@@ -219,7 +218,7 @@ fn cycle_balances_hold() {
                 .iter()
                 .filter(|e| e.kind == EventKind::Impact)
                 .count();
-            assert!(impacts + 2 >= r.cycles.len(), "{name}: {impacts} impacts");
+            assert!(impacts + 2 >= rec.cycles.len(), "{name}: {impacts} impacts");
         }
     }
 }
@@ -249,8 +248,8 @@ fn steady_state_force_balance() {
         Until::Duration(0.15),
         Some(true),
     )];
-    let (r, _) = run(&s);
-    let last = r.cycles.last().unwrap();
+    let (r, rec) = run(&s);
+    let last = rec.cycles.last().unwrap();
     let k = 200.0;
     let balance = 3e-3 * 9.81 - k * (last.x_s_mean - last.x_k_mean);
     let amp = last.force_sin.hypot(last.force_cos);
@@ -325,8 +324,8 @@ fn methods_agree_under_vibration() {
         let mut s = catalogue::vibrating_hold(2e-6, 300.0, 0.02);
         s.solver.method = method;
         s.solver.rtol = 1e-10;
-        let (r, _) = run(&s);
-        res.push(*r.cycles.last().unwrap());
+        let (_, rec) = run(&s);
+        res.push(*rec.cycles.last().unwrap());
     }
     // Measured (`docs/studies/checks.md`): Δ⟨F⟩/|F_s| 2.9e-9, δ_s 6.0e-8, a_s 1.2e-6.
     for b in &res[1..] {
@@ -582,8 +581,10 @@ fn sampling_shaker_off_and_observer_stop() {
     }
     assert_eq!(rec.samples.len(), 202);
     // 300 Hz: the shaker runs until the boundary after 0.0101 s, i.e. 4 whole periods (0.01333 s).
-    assert_eq!(r.cycles.len(), 4);
-    let t_off = r.cycles.last().unwrap().t_end;
+    assert_eq!(rec.cycles.len(), 4);
+    assert_eq!(r.cycle_count, 4);
+    assert_eq!(r.last_cycle, rec.cycles.last().copied());
+    let t_off = rec.cycles.last().unwrap().t_end;
     assert!((t_off - 4.0 / 300.0).abs() < 1e-12);
     assert!(rec
         .samples

@@ -11,10 +11,12 @@ use std::process::Command;
 use std::sync::OnceLock;
 
 use djkr::dynamics::types::{
-    CycleRecord, Event, EventKind, Observer, PullOffSummary, RunResult, Sample, Stats,
+    CycleRecord, Event, EventCounts, EventKind, Observer, PullOffSummary, RunResult, Sample, Stats,
 };
-use djkr::output::timeseries::SERIES;
-use djkr::output::{OutputError, RunWriter};
+use djkr::output::hdf5_file::{hdf5_bytes, RunTables};
+use djkr::output::timeseries::{events_table, SERIES};
+use djkr::output::{cycles::cycle_table, OutputError, RunWriter, TimeSeriesWriter};
+use djkr::output::{FLUSH_ROWS, LOCK_NAME, SPILL_ROWS};
 use djkr::scenario::parse::parse_scenario;
 use djkr::scenario::Scenario;
 use serde_json::Value;
@@ -78,7 +80,8 @@ fn sample(i: usize) -> Sample {
     }
 }
 
-fn events() -> Vec<Event> {
+/// Six events spread over a run of `n` samples.
+fn events(n: usize) -> Vec<Event> {
     let kinds = [
         EventKind::StageStart,
         EventKind::ContactLoss,
@@ -91,7 +94,7 @@ fn events() -> Vec<Event> {
         .iter()
         .enumerate()
         .map(|(j, &kind)| {
-            let s = sample(j * 211 + 7);
+            let s = sample(j * (n / 6).max(1) + 7);
             Event {
                 kind,
                 time: s.t,
@@ -110,7 +113,6 @@ fn result(events: Vec<Event>, final_state: Sample) -> RunResult {
             time: 12.345_678_901,
         },
         detached: true,
-        events,
         stats: Stats {
             steps: 123_456,
             rejected: 789,
@@ -119,8 +121,23 @@ fn result(events: Vec<Event>, final_state: Sample) -> RunResult {
         },
         method: "dopri5 (auto: \"no stiffness\")".to_string(),
         final_state,
-        cycles: (0..3).map(cycle).collect(),
+        event_counts: {
+            let mut c = EventCounts::default();
+            for e in &events {
+                c.add(e.kind);
+            }
+            c
+        },
+        events,
+        cycle_count: 3,
+        last_cycle: Some(cycle(2)),
+        envelope: Default::default(),
     }
+}
+
+/// The three period records of the synthetic run.
+fn cycles() -> Vec<CycleRecord> {
+    (0..3).map(cycle).collect()
 }
 
 fn cycle(i: u64) -> CycleRecord {
@@ -154,36 +171,53 @@ fn cycle(i: u64) -> CycleRecord {
 }
 
 // Several 32768-element chunks, the last one partial; 65536 and more is where hdf5-pure 0.47 once
-// wrote chunk dimensions libhdf5 could not read.
+// wrote chunk dimensions libhdf5 could not read. Below SPILL_ROWS: written at the end.
 const N: usize = 70_000;
+// Long enough to be streamed: the first spill, two appends and a partial last batch.
+const N_STREAMED: usize = SPILL_ROWS + 2 * FLUSH_ROWS + 12_345;
 
-/// Write the synthetic run into `dir`; returns the samples and the result.
+/// Write the synthetic run of `n` samples into `dir` (its three period records arrive in the
+/// last samples, after a streamed run's first spill); returns the samples and the result.
 fn write_run(dir: &Path, csv: bool, n: usize) -> (Vec<Sample>, RunResult) {
+    let (samples, res, _) = write_run_with_id(dir, csv, n);
+    (samples, res)
+}
+
+/// As [`write_run`], also returning the run id.
+fn write_run_with_id(dir: &Path, csv: bool, n: usize) -> (Vec<Sample>, RunResult, String) {
     let scn = scenario();
     let mut w = RunWriter::create(dir, &scn, csv).unwrap();
+    let run_id = w.run_id().to_string();
     let samples: Vec<Sample> = (0..n).map(sample).collect();
-    let evs = events();
+    let evs = events(n);
+    let cyc = cycles();
     let mut next_event = 0;
-    for s in &samples {
+    for (i, s) in samples.iter().enumerate() {
         while next_event < evs.len() && evs[next_event].time <= s.t {
             w.event(&evs[next_event]);
             next_event += 1;
         }
+        if i + cyc.len() >= n {
+            w.cycle(&cyc[i + cyc.len() - n]);
+        }
         assert!(w.sample(s));
     }
+    assert_eq!(w.is_streaming(), n >= SPILL_ROWS);
     let final_state = samples.last().copied().unwrap_or(sample(0));
     let res = result(evs, final_state);
     let paths = w.finish(&res).unwrap();
     assert_eq!(paths.hdf5, dir.join("run.h5"));
     assert_eq!(paths.summary, dir.join("summary.json"));
     assert_eq!(paths.timeseries_csv.is_some(), csv);
-    (samples, res)
+    (samples, res, run_id)
 }
 
+/// The files in `dir`, but the lock file every run writer leaves.
 fn names_in(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n != LOCK_NAME)
         .collect();
     v.sort();
     v
@@ -200,8 +234,17 @@ fn expected_column(samples: &[Sample], name: &str) -> Vec<f64> {
 
 #[test]
 fn hdf5_reads_back_bit_exactly_with_hdf5_pure() {
+    check_with_hdf5_pure(N);
+}
+
+#[test]
+fn streamed_hdf5_reads_back_bit_exactly_with_hdf5_pure() {
+    check_with_hdf5_pure(N_STREAMED);
+}
+
+fn check_with_hdf5_pure(n: usize) {
     let dir = tempfile::tempdir().unwrap();
-    let (samples, res) = write_run(dir.path(), false, N);
+    let (samples, res) = write_run(dir.path(), false, n);
     assert_eq!(names_in(dir.path()), vec!["run.h5", "summary.json"]);
 
     let f = hdf5_pure::File::open(dir.path().join("run.h5")).unwrap();
@@ -220,7 +263,7 @@ fn hdf5_reads_back_bit_exactly_with_hdf5_pure() {
     ];
     for (name, unit) in expected_units {
         let ds = f.dataset(name).unwrap();
-        assert_eq!(ds.shape().unwrap(), vec![N as u64], "{name}");
+        assert_eq!(ds.shape().unwrap(), vec![n as u64], "{name}");
         let got = ds.read_f64().unwrap();
         assert_eq!(bits(&got), bits(&expected_column(&samples, name)), "{name}");
         let attrs = ds.attrs().unwrap();
@@ -278,7 +321,7 @@ fn hdf5_reads_back_bit_exactly_with_hdf5_pure() {
     let fm = f.dataset("cycles/force_mean").unwrap();
     assert_eq!(
         bits(&fm.read_f64().unwrap()),
-        bits(&res.cycles.iter().map(|c| c.force_mean).collect::<Vec<_>>())
+        bits(&cycles().iter().map(|c| c.force_mean).collect::<Vec<_>>())
     );
     assert_eq!(fm.attrs().unwrap()["units"].as_str(), Some("N"));
     let idx = f.dataset("cycles/index").unwrap().read_i64().unwrap();
@@ -365,8 +408,17 @@ fn json_bits(v: &Value) -> Vec<u64> {
 
 #[test]
 fn hdf5_reads_back_bit_exactly_with_h5py() {
+    check_with_h5py(N);
+}
+
+#[test]
+fn streamed_hdf5_reads_back_bit_exactly_with_h5py() {
+    check_with_h5py(N_STREAMED);
+}
+
+fn check_with_h5py(n: usize) {
     let dir = tempfile::tempdir().unwrap();
-    let (samples, res) = write_run(dir.path(), false, N);
+    let (samples, res) = write_run(dir.path(), false, n);
     let Some(dump) = h5py_dump(&dir.path().join("run.h5")) else {
         return;
     };
@@ -374,7 +426,7 @@ fn hdf5_reads_back_bit_exactly_with_h5py() {
     for def in SERIES.iter() {
         let d = &ds[format!("/{}", def.name)];
         assert_eq!(d["dtype"], "float64", "{}", def.name);
-        assert_eq!(d["shape"], serde_json::json!([N]));
+        assert_eq!(d["shape"], serde_json::json!([n]));
         assert_eq!(
             json_bits(&d["f64_bits"]),
             bits(&expected_column(&samples, def.name)),
@@ -406,7 +458,7 @@ fn hdf5_reads_back_bit_exactly_with_h5py() {
     assert_eq!(dump["groups"], serde_json::json!(["/cycles", "/events"]));
     assert_eq!(
         json_bits(&ds["/cycles/a_sin"]["f64_bits"]),
-        bits(&res.cycles.iter().map(|c| c.a_sin).collect::<Vec<_>>())
+        bits(&cycles().iter().map(|c| c.a_sin).collect::<Vec<_>>())
     );
     assert_eq!(ds["/cycles/a_sin"]["attrs"]["units"]["str"], "m");
     assert_eq!(ds["/cycles/stage"]["int"], serde_json::json!([1, 1, 1]));
@@ -422,6 +474,53 @@ fn hdf5_reads_back_bit_exactly_with_h5py() {
         json_bits(&ds["/events/delta"]["f64_bits"]),
         bits(&res.events.iter().map(|e| e.state.delta).collect::<Vec<_>>())
     );
+}
+
+/// A streamed run file holds what the file written at once from the same rows holds: every
+/// attribute, dataset, unit and value (h5py's view; chunking and compression aside); so do the
+/// CSV files.
+#[test]
+fn streamed_file_has_the_content_of_the_file_written_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let (samples, res, run_id) = write_run_with_id(dir.path(), true, N_STREAMED);
+    let mut series = TimeSeriesWriter::new();
+    for s in &samples {
+        series.push(s);
+    }
+    let tables = RunTables {
+        series: series.table(),
+        events: &events_table(&res.events),
+        cycles: &cycle_table(&cycles()),
+    };
+    // The streamed CSV files are those written at once, byte for byte.
+    for (name, table) in [
+        ("timeseries.csv", tables.series),
+        ("events.csv", tables.events),
+        ("cycles.csv", tables.cycles),
+    ] {
+        let text = std::fs::read_to_string(dir.path().join(name)).unwrap();
+        assert!(text == table.to_csv(), "{name} differs");
+    }
+    let whole = hdf5_bytes(tables, &scenario(), &run_id, &res, false).unwrap();
+    let whole_path = dir.path().join("whole.h5");
+    std::fs::write(&whole_path, whole).unwrap();
+    let layout_free = |mut v: Value| {
+        for d in v["datasets"].as_object_mut().unwrap().values_mut() {
+            let d = d.as_object_mut().unwrap();
+            d.remove("chunks");
+            d.remove("compression");
+        }
+        v
+    };
+    let Some(streamed) = h5py_dump(&dir.path().join("run.h5")) else {
+        return;
+    };
+    let whole = h5py_dump(&whole_path).unwrap();
+    assert_eq!(
+        streamed["datasets"]["/t"]["chunks"],
+        serde_json::json!([32768])
+    );
+    assert_eq!(layout_free(streamed), layout_free(whole));
 }
 
 #[test]
@@ -548,7 +647,7 @@ fn summary_json_has_the_headline_numbers_and_units() {
     assert_eq!(j["cycles"]["count"], 3);
     assert_eq!(
         exact_number(&text, "\"cycles\":", "delta_mean").to_bits(),
-        res.cycles[2].delta_mean.to_bits()
+        cycles()[2].delta_mean.to_bits()
     );
     assert_eq!(j["cycles"]["last"]["index"], 2);
     assert_eq!(j["units"]["cycles.last.delta_mean"], "m");
@@ -559,18 +658,17 @@ fn summary_json_has_the_headline_numbers_and_units() {
 fn non_finite_numbers_are_omitted_from_json_and_listed() {
     let dir = tempfile::tempdir().unwrap();
     let scn = scenario();
-    let w = RunWriter::create(dir.path(), &scn, false).unwrap();
+    let mut w = RunWriter::create(dir.path(), &scn, false).unwrap();
     let mut s = sample(3);
     s.g = f64::NAN;
-    let mut res = result(
-        vec![Event {
-            kind: EventKind::Impact,
-            time: 0.5,
-            stage: 0,
-            state: s,
-        }],
-        s,
-    );
+    let event = Event {
+        kind: EventKind::Impact,
+        time: 0.5,
+        stage: 0,
+        state: s,
+    };
+    w.event(&event);
+    let mut res = result(vec![event], s);
     res.detached = false;
     res.pull_off.force = f64::NAN;
     res.pull_off.amplification = f64::NAN;
@@ -662,7 +760,7 @@ fn csv_has_units_in_the_header_and_exact_values() {
     assert_eq!(rows.len(), 3);
     let col = header.iter().position(|h| h == "force_sin [N]").unwrap();
     let v: f64 = rows[2][col].parse().unwrap();
-    assert_eq!(v.to_bits(), res.cycles[2].force_sin.to_bits());
+    assert_eq!(v.to_bits(), cycles()[2].force_sin.to_bits());
     assert_eq!(
         &header[..4],
         &["index [1]", "stage [1]", "t_start [s]", "t_end [s]"]
@@ -681,10 +779,23 @@ fn a_writer_dropped_or_aborted_leaves_no_output_and_keeps_an_earlier_run() {
         for i in 0..100 {
             w.sample(&sample(i));
         }
-        // A partial exists while the run is in progress (the writability probe) ...
-        assert!(names_in(&out).iter().all(|n| n.ends_with(".partial")));
+        // A short run is buffered: nothing but the lock while it is in progress ...
+        assert!(names_in(&out).is_empty(), "{:?}", names_in(&out));
     }
     // ... and nothing at all once the writer is gone.
+    assert!(names_in(&out).is_empty(), "{:?}", names_in(&out));
+    assert!(out.join(LOCK_NAME).exists());
+    // A streamed run has its partials while in progress, and none after it is dropped.
+    {
+        let mut w = RunWriter::create(&out, &scn, true).unwrap();
+        for i in 0..SPILL_ROWS + 10 {
+            w.sample(&sample(i));
+        }
+        assert!(w.is_streaming());
+        let names = names_in(&out);
+        assert_eq!(names.len(), 4, "{names:?}");
+        assert!(names.iter().all(|n| n.ends_with(".partial")), "{names:?}");
+    }
     assert!(names_in(&out).is_empty(), "{:?}", names_in(&out));
 
     // An earlier complete run survives a later aborted one, byte for byte.
@@ -712,15 +823,63 @@ fn a_writer_dropped_or_aborted_leaves_no_output_and_keeps_an_earlier_run() {
 }
 
 #[test]
-fn stale_partials_are_cleared_and_stale_csv_removed_on_finish() {
+fn stale_partials_are_cleared_and_other_files_kept() {
     let dir = tempfile::tempdir().unwrap();
     write_run(dir.path(), true, 100);
-    // A killed run left a partial behind.
+    // Killed runs left partials behind (untagged from older versions, tagged from this one) ...
     std::fs::write(dir.path().join(".summary.json.partial"), b"{garbage").unwrap();
+    std::fs::write(dir.path().join(".run.h5.1764-99.partial"), b"half").unwrap();
+    // ... next to files that are not djkr's.
+    std::fs::write(dir.path().join(".notes.partial"), b"mine").unwrap();
+    std::fs::write(dir.path().join("run.h5.bak"), b"mine").unwrap();
     write_run(dir.path(), false, 100);
-    assert_eq!(names_in(dir.path()), vec!["run.h5", "summary.json"]);
+    assert_eq!(
+        names_in(dir.path()),
+        vec![
+            ".notes.partial",
+            "cycles.csv",
+            "events.csv",
+            "run.h5",
+            "run.h5.bak",
+            "summary.json",
+            "timeseries.csv"
+        ]
+    );
+    // The earlier run's CSV files stay (djkr never deletes what a user may hold); summary.json
+    // lists the files of this run only, with their sizes.
     let j = read_json(&dir.path().join("summary.json"));
     assert!(j["files"].get("timeseries_csv").is_none());
+    let size = std::fs::metadata(dir.path().join("run.h5")).unwrap().len();
+    assert_eq!(j["file_bytes"], serde_json::json!({ "run.h5": size }));
+}
+
+#[test]
+fn a_second_writer_into_a_busy_directory_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scn = scenario();
+    let first = RunWriter::create(dir.path(), &scn, false).unwrap();
+    let err = RunWriter::create(dir.path(), &scn, false).unwrap_err();
+    assert!(matches!(err, OutputError::Busy { .. }), "{err}");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("another djkr run") && msg.contains(".djkr.lock"),
+        "{msg}"
+    );
+    drop(first);
+    RunWriter::create(dir.path(), &scn, false).unwrap();
+}
+
+#[test]
+fn a_run_that_would_not_fit_the_disk_is_refused_up_front() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut scn = scenario();
+    // 1e15 samples per second over the 0.1 s hold and the unload's max_duration: exabytes.
+    scn.output.sample_rate = 1e15;
+    let err = RunWriter::create(dir.path(), &scn, true).unwrap_err();
+    assert!(matches!(err, OutputError::DiskSpace { .. }), "{err}");
+    let msg = err.to_string();
+    assert!(msg.contains("sample_rate") && msg.contains("free"), "{msg}");
+    assert!(names_in(dir.path()).is_empty());
 }
 
 #[test]
@@ -729,7 +888,8 @@ fn an_empty_run_writes_valid_files() {
     let scn = scenario();
     let w = RunWriter::create(dir.path(), &scn, true).unwrap();
     let mut res = result(Vec::new(), sample(0));
-    res.cycles.clear();
+    res.cycle_count = 0;
+    res.last_cycle = None;
     w.finish(&res).unwrap();
     let f = hdf5_pure::File::open(dir.path().join("run.h5")).unwrap();
     assert_eq!(f.dataset("t").unwrap().shape().unwrap(), vec![0]);

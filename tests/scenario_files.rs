@@ -485,11 +485,10 @@ fn vibrating_scenes_respond_as_their_comments_say() {
         // Stop after the vibrating hold: its cycles are what is checked.
         s.stages.truncate(hold + 1);
         let mut rec = Recorder::default();
-        let res = s
-            .simulate(&mut rec)
+        s.simulate(&mut rec)
             .unwrap_or_else(|e| panic!("{file}: {e}"));
         let x_b = s.rig.base.unwrap().amplitude;
-        let held: Vec<_> = res.cycles.iter().filter(|c| c.stage == hold).collect();
+        let held: Vec<_> = rec.cycles.iter().filter(|c| c.stage == hold).collect();
         let last: Vec<f64> = held
             .iter()
             .map(|c| c.delta_sin.hypot(c.delta_cos) / x_b)

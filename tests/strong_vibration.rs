@@ -32,7 +32,7 @@ fn base_phase_delays_the_shaker_start() {
     let (mut ra, mut rb) = (Recorder::default(), Recorder::default());
     let sa = a.simulate(&mut ra).unwrap();
     let sb = b.simulate(&mut rb).unwrap();
-    let (ca, cb) = (&sa.cycles, &sb.cycles);
+    let (ca, cb) = (&ra.cycles, &rb.cycles);
     assert_eq!(ca.len(), cb.len());
     assert!(
         (ca[0].t_start - (0.01 + delay)).abs() < 1e-12,

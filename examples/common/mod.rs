@@ -261,3 +261,26 @@ pub fn min_wall<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
     }
     (best, last.expect("at least one run"))
 }
+
+/// Keeps a run's period records (the run result holds only the last).
+#[derive(Debug, Default)]
+pub struct Cycles(pub Vec<djkr::dynamics::CycleRecord>);
+
+impl djkr::dynamics::Observer for Cycles {
+    fn wants_samples(&self) -> bool {
+        false
+    }
+    fn cycle(&mut self, c: &djkr::dynamics::CycleRecord) {
+        self.0.push(*c);
+    }
+}
+
+/// Run `s`, keeping its period records.
+pub fn with_cycles(
+    s: &djkr::scenario::Scenario,
+) -> Result<(djkr::dynamics::RunResult, Vec<djkr::dynamics::CycleRecord>), djkr::dynamics::SimError>
+{
+    let mut c = Cycles::default();
+    let r = s.simulate(&mut c)?;
+    Ok((r, c.0))
+}

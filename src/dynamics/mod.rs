@@ -8,11 +8,17 @@
 //! contact radius:  G_s(a, δ) = w(ȧ),  G_s = 3K u|u|/(8πa),  u = a²/R − δ
 //! ```
 //!
-//! Entry point: [`simulate`]`(&Scenario, &mut dyn Observer) -> Result<RunResult, SimError>`.
+//! Entry points: [`crate::scenario::Scenario::simulate`]`(&mut dyn Observer) -> Result<RunResult,
+//! SimError>` for a whole protocol ([`protocol::run`] on a [`protocol::Plan`]), and
+//! [`simulator::Simulator`], whose `step()` advances one accepted step (or to the next event,
+//! period boundary or target) for callers that drive the time loop themselves (steady-state
+//! shooting, continuation, envelope following).
 //! [`types`] holds the results and the observer interface (samples, events, and per-cycle
-//! records through `Observer::cycle`), [`model`] the pure physics of one instant, [`esdirk`] the
-//! implicit stepper, [`erk`] the explicit DP8 stepper, [`explicit`] the `ode_solvers` methods,
-//! [`driver`] the time loop, and [`catalogue`] the reference scenes shared by tests and
+//! records through `Observer::cycle`), [`model`] the pure physics of one instant, [`state`] the
+//! integrated state, [`stepper`] the one interface of the methods ([`esdirk`] the implicit
+//! stepper, [`dp8`] the explicit DP8 stepper, [`ode_adapter`] the `ode_solvers` methods, and
+//! `auto`'s choice and rescues), [`control`] step-size control, [`events`] event location,
+//! [`envelope`] envelope following, and [`catalogue`] the reference scenes shared by tests and
 //! benchmarks.
 //!
 //! # Methods
@@ -44,7 +50,7 @@
 //! test leaves them unchanged to < 1 %.) Fall-back for the other laws, a
 //! non-monotone residual or no convergence in 12 iterations: the derivative-free secant /
 //! bracketing + Brent search (`roots`, [`crate::numerics::RelativeConvergency`]), which keeps
-//! every former guarantee (a root with a > 0 or [`esdirk::StepFail::NoRoot`]).
+//! every former guarantee (a root with a > 0 or [`state::StepFail::NoRoot`]).
 //!
 //! Error norm: x_s, v_s, a (RMS of err/(atol·scale + rtol·|y|), scales: the larger of the jump-in
 //! indentation a_J²/R, X_b and the initial gap; that length × 2π/t_char; a_J); elementary step
@@ -54,12 +60,12 @@
 //! error norm (they do not feed back; the steps the state needs resolve them: the per-cycle
 //! momentum and energy balances they carry hold to integration accuracy, `docs/studies/checks.md`).
 //!
-//! **DP8** ([`erk`]): Dormand & Prince's explicit 8(5,3) pair (Hairer's `DOP853` coefficients;
+//! **DP8** ([`dp8`]): Dormand & Prince's explicit 8(5,3) pair (Hairer's `DOP853` coefficients;
 //! order conditions and the fixed-step order 8 are tested), djkr's own stepper, taking
-//! one step at a time in the driver's loop like the implicit one, with ȧ = law⁻¹(G) in closed
+//! one step at a time in the simulator's loop like the implicit one, with ȧ = law⁻¹(G) in closed
 //! form. What makes an explicit method work on this problem:
 //! - *The healing singularity fails a step, not the run.* A trial stage with G ≤ 0 (ȧ = +∞)
-//!   rejects the step ([`esdirk::StepFail::Singular`]); the driver shortens it, or under `auto`
+//!   rejects the step ([`state::StepFail::Singular`]); the simulator shortens it, or under `auto`
 //!   takes that one step with the implicit method. A stage with a ≤ 0 reports a collapsing
 //!   contact, as an implicit stage does.
 //! - *Steps end on the turning points of the contact line.* ȧ ∝ |G − w0|^(1/n) is singular where
@@ -81,15 +87,15 @@
 //! **Dopri5 and Dop853 from `ode_solvers`**, on (x_s, v_s, a, quadratures, time), scaled so the
 //! crate's scalar tolerances act per component (quadratures kept with a loose weight, 1e-6). The
 //! crate has no event location and its Dense output is unreliable, so it is used as a macro-step
-//! engine: the driver picks spans that never cross stage ends or base-period boundaries, scans
+//! engine: the adapter picks spans that never cross stage ends or base-period boundaries, scans
 //! each for events and locates them by re-integrating from the span's start. The time is a state
 //! component because the crate's Dop853 tableau has c₁₂ = 0 instead of 1 (its 12th stage ran at
 //! the wrong time; srenevey/ode-solvers PR #42): as an autonomous system it is exact. Neither
 //! can reject a step whose stage meets G ≤ 0: an explicitly requested one then fails with
 //! [`SimError::Explicit`] naming time and state; a finite-time collapse a → 0 (step-size
-//! underflow in contact) is handed to the driver like a failed implicit stage.
+//! underflow in contact) is handed to the simulator like a failed implicit stage.
 //!
-//! **Auto** ([`driver::auto_engine`]): the implicit method for a rate-independent law (a is
+//! **Auto** ([`stepper::auto_method`]): the implicit method for a rate-independent law (a is
 //! algebraic: no explicit rate), for seeded contact formation (healing from G ≈ 0 after every
 //! impact) and without inertia (rigid link, m = 0: there neither method wins everywhere); DP8
 //! otherwise, taking single steps implicitly where a DP8 stage meets G ≤ 0 (counted in
@@ -104,7 +110,7 @@
 //!   cycle about as fast and far more accurate);
 //! - without inertia (rigid link, m = 0) the two trade places: DP8 is faster on a slow GS unload,
 //!   slower under a 400 Hz base (its reduced right-hand side solves the position twice); `auto`
-//!   takes the implicit method ([`driver::auto_engine`] quotes the measured ratios);
+//!   takes the implicit method ([`stepper::auto_method`] quotes the measured ratios);
 //! - constant w, seeded contact: the implicit method (`auto`);
 //! - Dopri5, Dop853: only for comparison (a trial stage meeting G ≤ 0 ends the run; per-span
 //!   restarts).

@@ -1,8 +1,8 @@
 //! The resolved model of a scene and the pure physics of one instant: positions of the drive
 //! (spring end, base), the mechanical balance, quadrature integrands and the total energy.
 //!
-//! Everything here is allocation-free and SI. The driver ([`super::driver`]) owns the time loop;
-//! the stepper ([`super::esdirk`]) calls these functions at its stages.
+//! Everything here is allocation-free and SI. The simulator ([`super::simulator`]) owns the time loop;
+//! the steppers ([`super::stepper`]) call these functions at their stages.
 
 use crate::adhesion::{AdhesionLaw, Law};
 use crate::jkr;
@@ -65,7 +65,7 @@ pub enum Mechanics {
     Rigid,
 }
 
-/// The scene's constants, resolved from a [`Scenario`].
+/// The scene's constants, resolved from a [`Rig`] and a protocol's scales.
 #[derive(Debug, Clone)]
 pub struct Model {
     /// Contact pair.

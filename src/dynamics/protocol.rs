@@ -78,6 +78,16 @@ pub struct Stage {
     pub max_duration: f64,
 }
 
+impl Stage {
+    /// The longest this stage can last (s): its duration, or its `max_duration`.
+    pub fn longest_duration(&self) -> f64 {
+        match self.until {
+            Until::Duration(d) => d,
+            _ => self.max_duration,
+        }
+    }
+}
+
 /// The scales a protocol adds to a rig's model: an initial gap and the fastest spring-end speed.
 pub fn run_scales(initial: &Initial, stages: &[Stage]) -> model::RunScales {
     model::RunScales {
@@ -140,6 +150,7 @@ pub fn run(plan: &Plan, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
         event_tol: plan.solver.event_tol.max(0.0),
         max_steps: plan.solver.max_steps,
         max_wall_s: plan.solver.max_wall_s,
+        max_events: plan.solver.max_events,
         interpolated_samples: wants_samples && sample_dt > 0.0,
     };
     let formation = plan.rig.formation;
@@ -149,7 +160,10 @@ pub fn run(plan: &Plan, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
         obs,
         stage: 0,
         events: Vec::new(),
-        cycles: Vec::new(),
+        event_counts: EventCounts::default(),
+        last_event: None,
+        cycle_count: 0,
+        last_cycle: None,
         sample_dt,
         next_sample: 0.0,
         wants_samples,
@@ -258,8 +272,13 @@ struct Protocol<'a> {
     sim: Simulator,
     obs: &'a mut dyn Observer,
     stage: usize,
+    /// The first [`EVENT_LOG_LIMIT`] events.
     events: Vec<Event>,
-    cycles: Vec<CycleRecord>,
+    event_counts: EventCounts,
+    /// The last event (the pending contact loss refers to it).
+    last_event: Option<Event>,
+    cycle_count: u64,
+    last_cycle: Option<CycleRecord>,
     sample_dt: f64,
     next_sample: f64,
     /// The observer uses samples (`Observer::wants_samples`).
@@ -289,8 +308,17 @@ impl Protocol<'_> {
             stage: self.stage,
             state: self.sim.sample_of(y, self.stage),
         };
+        self.log(e);
+    }
+
+    /// Hand an event to the observer and keep it (the first [`EVENT_LOG_LIMIT`] of them).
+    fn log(&mut self, e: Event) {
         self.obs.event(&e);
-        self.events.push(e);
+        self.event_counts.add(e.kind);
+        self.last_event = Some(e);
+        if self.events.len() < EVENT_LOG_LIMIT {
+            self.events.push(e);
+        }
     }
 
     /// Emit time-series samples for (y0.t, y1.t] of a segment.
@@ -322,7 +350,8 @@ impl Protocol<'_> {
             self.min_cycle = Some((rec.force_mean, rec.t_end));
         }
         self.obs.cycle(&rec);
-        self.cycles.push(rec);
+        self.cycle_count += 1;
+        self.last_cycle = Some(rec);
     }
 
     /// Track the most tensile instantaneous force while the shaker is off, refining an interior
@@ -497,7 +526,7 @@ impl Protocol<'_> {
                     match kind {
                         EventKind::ContactLoss => {
                             self.pending_loss = if self.in_pulloff {
-                                self.events.last().copied()
+                                self.last_event
                             } else {
                                 None
                             };
@@ -570,8 +599,7 @@ impl Protocol<'_> {
             kind: EventKind::PullOff,
             ..loss
         };
-        self.obs.event(&e);
-        self.events.push(e);
+        self.log(e);
         self.detached = true;
         self.shaker_at_detach = Some(self.sim.drive().shaker);
         self.pending_loss = None;
@@ -655,10 +683,17 @@ impl Protocol<'_> {
             },
             detached: self.detached,
             events: self.events,
+            event_counts: self.event_counts,
             stats,
             method: m,
             final_state,
-            cycles: self.cycles,
+            cycle_count: self.cycle_count,
+            last_cycle: self.last_cycle,
+            envelope: self
+                .envelope
+                .as_ref()
+                .map(|e| e.stats())
+                .unwrap_or_default(),
         }
     }
 }

@@ -28,6 +28,8 @@ pub struct Settings {
     pub max_steps: u64,
     /// Wall-clock budget (s).
     pub max_wall_s: f64,
+    /// Event budget (contact losses, impacts, preloads reached).
+    pub max_events: u64,
     /// Samples are interpolated on a time grid between step ends (DP8 then keeps its steps to
     /// 1/16 of a base period).
     pub interpolated_samples: bool,
@@ -119,7 +121,16 @@ pub struct Simulator {
     segment: Option<Segment>,
     /// Stage index reported in samples, records and errors.
     stage: usize,
+    /// Units of work done (attempts and events), for the wall-clock cadence.
+    work: u64,
+    /// Contact events so far (losses, impacts, preloads).
+    events: u64,
+    /// Time of the last contact event and how many happened at it (no-progress guard).
+    event_time: (f64, u64),
 }
+
+/// Contact events at one time (within what it resolves) after which a run is declared stuck.
+const EVENT_LOOP_LIMIT: u64 = 64;
 
 impl Simulator {
     /// A simulator for `model` with `stepper`, starting at `y` under `drive` (the shaker's
@@ -163,6 +174,9 @@ impl Simulator {
             kick_pending: false,
             segment: None,
             stage: 0,
+            work: 0,
+            events: 0,
+            event_time: (f64::NAN, 0),
         };
         sim.refresh();
         if sim.drive.shaker {
@@ -334,6 +348,9 @@ impl Simulator {
             kick_pending: false,
             segment: None,
             stage: self.stage,
+            work: 0,
+            events: 0,
+            event_time: (f64::NAN, 0),
         };
         trial.refresh();
         let kin = trial.kin(z.t);
@@ -502,15 +519,40 @@ impl Simulator {
     /// under the budgets.
     pub fn step(&mut self) -> Result<Stop, SimError> {
         self.segment = None;
-        if self.kick_pending {
+        let stop = if self.kick_pending {
             self.kick_pending = false;
-            return self.kick();
-        }
-        loop {
-            if let Some(stop) = self.attempt()? {
-                return Ok(stop);
+            self.budget()?;
+            self.kick()?
+        } else {
+            loop {
+                if let Some(stop) = self.attempt()? {
+                    break stop;
+                }
             }
+        };
+        if let Stop::Event(_, ye) = stop {
+            self.count_event(ye.t)?;
         }
+        Ok(stop)
+    }
+
+    /// Count a contact event at time `t`; error when they repeat without time advancing.
+    fn count_event(&mut self, t: f64) -> Result<(), SimError> {
+        self.events += 1;
+        let (t0, n) = self.event_time;
+        if (t - t0).abs() <= 4.0 * self.h_min() {
+            self.event_time.1 = n + 1;
+            if n + 1 >= EVENT_LOOP_LIMIT {
+                return Err(SimError::EventLoop {
+                    t,
+                    count: n + 1,
+                    state: self.err_state(),
+                });
+            }
+        } else {
+            self.event_time = (t, 1);
+        }
+        Ok(())
     }
 
     fn err_state(&self) -> Box<Sample> {
@@ -537,7 +579,10 @@ impl Simulator {
         }
     }
 
-    fn budget(&self) -> Result<(), SimError> {
+    /// Check the budgets; every unit of work (a step attempt, an event) passes here, so they
+    /// hold in every loop.
+    fn budget(&mut self) -> Result<(), SimError> {
+        self.work += 1;
         if self.stats.steps >= self.settings.max_steps {
             return Err(SimError::StepBudget {
                 t: self.y.t,
@@ -545,7 +590,15 @@ impl Simulator {
                 state: self.err_state(),
             });
         }
-        if (self.stats.steps + self.stats.rejected).is_multiple_of(256) {
+        if self.events >= self.settings.max_events {
+            return Err(SimError::EventBudget {
+                t: self.y.t,
+                max_events: self.settings.max_events,
+                state: self.err_state(),
+            });
+        }
+        // The clock costs ~20 ns; a unit of work ~1 µs.
+        if self.work.is_multiple_of(64) {
             let wall = self.start.elapsed().as_secs_f64();
             if wall > self.settings.max_wall_s {
                 return Err(SimError::WallBudget {

@@ -38,6 +38,8 @@ pub struct Solver {
     pub max_steps: u64,
     /// Wall-clock budget for the whole run (s).
     pub max_wall_s: f64,
+    /// Contact events (losses, impacts) for the whole run.
+    pub max_events: u64,
     /// Event location tolerance in time (s).
     pub event_tol: f64,
     /// Envelope following.
@@ -54,6 +56,7 @@ impl Default for Solver {
             atol: 1e-10,
             max_steps: 50_000_000,
             max_wall_s: 600.0,
+            max_events: 10_000_000,
             event_tol: 1e-12,
             envelope: EnvelopeMode::Auto,
             envelope_tol: 1e-6,

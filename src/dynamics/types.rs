@@ -89,23 +89,87 @@ pub struct PullOffSummary {
     pub time: f64,
 }
 
-/// Everything a run returns (the time series goes to observers, not here).
+/// Everything a run returns, in memory that does not grow with the run's length: the time
+/// series, every period record and every event go to observers (a writer streams them to
+/// disk; [`Recorder`] keeps them in memory when that is wanted).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RunResult {
     /// Pull-off summary.
     pub pull_off: PullOffSummary,
     /// True when final detachment happened.
     pub detached: bool,
-    /// Event log.
+    /// The event log, its first [`EVENT_LOG_LIMIT`] events (observers see them all).
     pub events: Vec<Event>,
+    /// Events in the whole run, by kind (complete even when the log is cut).
+    pub event_counts: EventCounts,
     /// Solver statistics.
     pub stats: Stats,
     /// The method actually used, and why when `auto` chose it.
     pub method: String,
     /// Final state.
     pub final_state: Sample,
-    /// Per-cycle records (exact quadratures over each base period while the shaker is on).
-    pub cycles: Vec<CycleRecord>,
+    /// Base periods recorded (integrated exactly; envelope following skips others).
+    pub cycle_count: u64,
+    /// The last period record.
+    pub last_cycle: Option<CycleRecord>,
+    /// What envelope following did.
+    pub envelope: crate::dynamics::envelope::EnvelopeStats,
+}
+
+/// Events kept in [`RunResult::events`].
+pub const EVENT_LOG_LIMIT: usize = 10_000;
+
+/// How many events of each kind a run had.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct EventCounts {
+    /// Contact losses.
+    pub contact_loss: u64,
+    /// Impacts.
+    pub impact: u64,
+    /// Final detachments.
+    pub pull_off: u64,
+    /// Preloads reached.
+    pub preload_reached: u64,
+    /// Stage durations elapsed.
+    pub duration_elapsed: u64,
+    /// Stage starts.
+    pub stage_start: u64,
+}
+
+impl EventCounts {
+    /// Count one event.
+    pub fn add(&mut self, kind: EventKind) {
+        match kind {
+            EventKind::ContactLoss => self.contact_loss += 1,
+            EventKind::Impact => self.impact += 1,
+            EventKind::PullOff => self.pull_off += 1,
+            EventKind::PreloadReached => self.preload_reached += 1,
+            EventKind::DurationElapsed => self.duration_elapsed += 1,
+            EventKind::StageStart => self.stage_start += 1,
+        }
+    }
+
+    /// All events.
+    pub fn total(&self) -> u64 {
+        self.contact_loss
+            + self.impact
+            + self.pull_off
+            + self.preload_reached
+            + self.duration_elapsed
+            + self.stage_start
+    }
+
+    /// (kind, count) for every kind, in a fixed order.
+    pub fn by_kind(&self) -> [(EventKind, u64); 6] {
+        [
+            (EventKind::ContactLoss, self.contact_loss),
+            (EventKind::DurationElapsed, self.duration_elapsed),
+            (EventKind::Impact, self.impact),
+            (EventKind::PreloadReached, self.preload_reached),
+            (EventKind::PullOff, self.pull_off),
+            (EventKind::StageStart, self.stage_start),
+        ]
+    }
 }
 
 /// Exact averages over one base period, from quadrature states integrated with the solution
@@ -243,6 +307,31 @@ pub enum SimError {
         t: f64,
         /// The budget.
         max_steps: u64,
+        /// State.
+        state: Box<Sample>,
+    },
+    /// `solver.max_events` exhausted.
+    #[error("event budget of {max_events} events exhausted at t = {t:e} s; {}", describe(.state))]
+    EventBudget {
+        /// Time (s).
+        t: f64,
+        /// The budget.
+        max_events: u64,
+        /// State.
+        state: Box<Sample>,
+    },
+    /// Events repeat without time advancing: the run cannot make progress.
+    #[error(
+        "no progress: {count} contact events at t = {t:e} s without time advancing (the contact \
+         forms and is lost again at once; e.g. a work of adhesion too small for the contact to \
+         form at the jump-in radius); {}",
+        describe(.state)
+    )]
+    EventLoop {
+        /// Time (s).
+        t: f64,
+        /// Events at that time.
+        count: u64,
         /// State.
         state: Box<Sample>,
     },

@@ -7,8 +7,9 @@
 //! [`super::RunWriter`]) stages each as an [`AtomicFile`] and commits them in order once all are
 //! written. An [`AtomicFile`] dropped without [`AtomicFile::commit`] removes its partial.
 //!
-//! Partial names are fixed (not per process), so a later writer can clear what a killed one left
-//! behind; two writers of the same file at the same time are not supported.
+//! Single files ([`write_atomic`]) use the fixed partial name `.NAME.partial`; the run writer tags
+//! its partials with the run id (`.NAME.<run_id>.partial`, [`tagged_partial_path`]) and holds the
+//! directory's lock, under which it clears what killed runs left behind.
 
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
@@ -32,6 +33,16 @@ pub fn partial_path(target: &Path) -> PathBuf {
     target.with_file_name(format!(".{name}.partial"))
 }
 
+/// The hidden partial name of `target` for one writer: `DIR/.NAME.TAG.partial` (a run writer
+/// tags its partials with its run id, so two writers never share one).
+pub fn tagged_partial_path(target: &Path, tag: &str) -> PathBuf {
+    let name = target
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    target.with_file_name(format!(".{name}.{tag}.partial"))
+}
+
 /// A file being written atomically: its content goes to the partial name until [`commit`]
 /// renames it into place. Dropped uncommitted, it removes the partial.
 ///
@@ -44,6 +55,21 @@ pub struct AtomicFile {
 }
 
 impl AtomicFile {
+    /// Reserve `target` under its partial name tagged `tag`, to be written by the caller (e.g.
+    /// streamed during a run) at [`AtomicFile::partial`]; nothing is created yet.
+    pub fn reserve(target: &Path, tag: &str) -> Self {
+        Self {
+            target: target.to_path_buf(),
+            partial: tagged_partial_path(target, tag),
+            committed: false,
+        }
+    }
+
+    /// Where the content is written until the commit.
+    pub fn partial(&self) -> &Path {
+        &self.partial
+    }
+
     /// Write `bytes` as the content of `target` (under its partial name, flushed to disk).
     pub fn write(target: &Path, bytes: &[u8]) -> Result<Self, OutputError> {
         Self::write_with(target, |w| w.write_all(bytes))
@@ -55,21 +81,43 @@ impl AtomicFile {
         target: &Path,
         fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
     ) -> Result<Self, OutputError> {
+        Self::fill(target, partial_path(target), true, fill)
+    }
+
+    /// As [`AtomicFile::write_with`], under the partial name tagged `tag`, flushed to disk only
+    /// when `sync` (the run writer's choice: README, "Output").
+    pub fn write_tagged(
+        target: &Path,
+        tag: &str,
+        sync: bool,
+        fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+    ) -> Result<Self, OutputError> {
+        Self::fill(target, tagged_partial_path(target, tag), sync, fill)
+    }
+
+    fn fill(
+        target: &Path,
+        partial: PathBuf,
+        sync: bool,
+        fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+    ) -> Result<Self, OutputError> {
         let staged = Self {
             target: target.to_path_buf(),
-            partial: partial_path(target),
+            partial,
             committed: false,
         };
         // On error `staged` is dropped here, which removes the partial.
         let p = staged.partial.as_path();
         let f = File::create(p).map_err(io_err(p))?;
-        let mut w = BufWriter::new(f);
+        let mut w = BufWriter::with_capacity(1 << 16, f);
         fill(&mut w).map_err(io_err(p))?;
         let f = w.into_inner().map_err(|e| OutputError::Io {
             path: p.to_path_buf(),
             source: e.into_error(),
         })?;
-        f.sync_all().map_err(io_err(p))?;
+        if sync {
+            f.sync_all().map_err(io_err(p))?;
+        }
         Ok(staged)
     }
 

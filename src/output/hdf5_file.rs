@@ -5,14 +5,21 @@
 //! then must exist at run time, or build it from source with cmake ≥ 3.26). Its files are read
 //! bit-exactly by h5py and by h5dump (tests/output.rs checks with both when they are installed).
 //! It is young and has one maintainer; the file layout below uses only its well-trodden parts
-//! (1-D f64/i64 datasets, chunked with shuffle + deflate, variable-length string attributes and one
-//! variable-length string dataset). Every group of datasets is a [`super::table::Table`] written
-//! by [`super::table::Table::write_hdf5`], the writer (and chunking rule) of every djkr table.
+//! (1-D f64/i64 datasets, contiguous or chunked, optionally with shuffle + deflate, appends to
+//! chunked datasets, variable-length string attributes and one variable-length string dataset).
+//! Every group of datasets is a [`super::table::Table`] written by
+//! [`super::table::Table::write_hdf5_with`], the writer of every djkr table.
+//!
+//! Storage: a run written at the end ([`hdf5_bytes`]) has contiguous datasets, or chunked and
+//! deflated ones with `[output] compress = true`; a streamed run ([`H5Stream`]) has extendable
+//! datasets chunked by [`HDF5_CHUNK`] (time series) and [`RECORD_CHUNK`] (events, periods)
+//! elements. Readers see the same content either way (tests/output.rs checks with h5py).
 //!
 //! Layout:
 //!
 //! ```text
-//! /                 attrs: layout_version (i64), djkr_version, source, scenario (the file's text),
+//! /                 attrs: layout_version (i64), djkr_version, run_id (as in summary.json),
+//!                          source, scenario (the file's text),
 //!                          method, detached (i64 0/1), pull_off_force (N),
 //!                          pull_off_amplification (1), pull_off_time (s),
 //!                          steps, rejected, rhs_evals (u64), wall_s (s)
@@ -29,14 +36,12 @@
 //! All strings are variable-length UTF-8 (`AttrValue::VarLenString`): fixed-length ones come back
 //! as `bytes` in h5py.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-use hdf5_pure::{AttrValue, FileBuilder};
+use hdf5_pure::{AttrValue, File, FileAccessProperties, FileBuilder, SyncPolicy};
 
-use super::atomic::AtomicFile;
-use super::cycles::cycle_table;
-use super::table::text_attr as vstr;
-use super::timeseries::{events_table, TimeSeriesWriter};
+use super::table::{text_attr as vstr, Storage, Table, HDF5_CHUNK};
+use super::timeseries::EVENT_KIND_DESCRIPTION;
 use super::OutputError;
 use crate::dynamics::types::RunResult;
 use crate::scenario::Scenario;
@@ -44,66 +49,223 @@ use crate::scenario::Scenario;
 /// Version of the layout above, stored as the root attribute `layout_version`.
 pub const LAYOUT_VERSION: i64 = 1;
 
-/// Serialise the run to HDF5 bytes (layout in the module doc).
+/// Elements per chunk of the extendable event and cycle datasets of a streamed file (the time
+/// series uses [`HDF5_CHUNK`]).
+pub const RECORD_CHUNK: usize = 1024;
+
+const EVENTS_DESCRIPTION: &str = "located events: kind, time, stage and the state at the event";
+const CYCLES_DESCRIPTION: &str =
+    "exact averages and first harmonics over each base period while the shaker is on";
+
+/// Root attributes known when the run starts.
+fn start_attrs(scenario: &Scenario, run_id: &str) -> Vec<(&'static str, AttrValue)> {
+    vec![
+        ("layout_version", AttrValue::I64(LAYOUT_VERSION)),
+        ("djkr_version", vstr(env!("CARGO_PKG_VERSION"))),
+        ("run_id", vstr(run_id)),
+        ("source", vstr(&scenario.source_name)),
+        ("scenario", vstr(&scenario.source_text)),
+    ]
+}
+
+/// Root attributes of the finished run.
+fn result_attrs(result: &RunResult) -> Vec<(&'static str, AttrValue)> {
+    vec![
+        ("method", vstr(&result.method)),
+        ("detached", AttrValue::I64(i64::from(result.detached))),
+        ("pull_off_force", AttrValue::F64(result.pull_off.force)),
+        (
+            "pull_off_amplification",
+            AttrValue::F64(result.pull_off.amplification),
+        ),
+        ("pull_off_time", AttrValue::F64(result.pull_off.time)),
+        ("steps", AttrValue::U64(result.stats.steps)),
+        ("rejected", AttrValue::U64(result.stats.rejected)),
+        ("rhs_evals", AttrValue::U64(result.stats.rhs_evals)),
+        ("wall_s", AttrValue::F64(result.stats.wall_s)),
+    ]
+}
+
+/// The tables of a run: the time series, the events (with their `kind` text column) and the
+/// period records.
+#[derive(Debug, Clone, Copy)]
+pub struct RunTables<'a> {
+    /// Samples.
+    pub series: &'a Table,
+    /// Events.
+    pub events: &'a Table,
+    /// Period records.
+    pub cycles: &'a Table,
+}
+
+/// Serialise a whole run at once (layout in the module doc).
 pub fn hdf5_bytes(
-    series: &TimeSeriesWriter,
+    tables: RunTables,
     scenario: &Scenario,
+    run_id: &str,
     result: &RunResult,
+    compress: bool,
 ) -> Result<Vec<u8>, String> {
     let mut b = FileBuilder::new();
-    b.set_attr("layout_version", AttrValue::I64(LAYOUT_VERSION));
-    b.set_attr("djkr_version", vstr(env!("CARGO_PKG_VERSION")));
-    b.set_attr("source", vstr(&scenario.source_name));
-    b.set_attr("scenario", vstr(&scenario.source_text));
-    b.set_attr("method", vstr(&result.method));
-    b.set_attr("detached", AttrValue::I64(i64::from(result.detached)));
-    b.set_attr("pull_off_force", AttrValue::F64(result.pull_off.force));
-    b.set_attr(
-        "pull_off_amplification",
-        AttrValue::F64(result.pull_off.amplification),
-    );
-    b.set_attr("pull_off_time", AttrValue::F64(result.pull_off.time));
-    b.set_attr("steps", AttrValue::U64(result.stats.steps));
-    b.set_attr("rejected", AttrValue::U64(result.stats.rejected));
-    b.set_attr("rhs_evals", AttrValue::U64(result.stats.rhs_evals));
-    b.set_attr("wall_s", AttrValue::F64(result.stats.wall_s));
-
-    // Datasets at the root: the time series (chunking and compression: `output::table`).
-    series.table().write_hdf5(&mut b);
-
+    for (k, v) in start_attrs(scenario, run_id)
+        .into_iter()
+        .chain(result_attrs(result))
+    {
+        b.set_attr(k, v);
+    }
+    let storage = Storage {
+        compress,
+        extendable: None,
+    };
+    tables.series.write_hdf5_with(&mut b, storage);
     let mut g = b.create_group("events");
-    g.set_attr(
-        "description",
-        vstr("located events: kind, time, stage and the state at the event"),
-    );
-    events_table(&result.events).write_hdf5(&mut g);
+    g.set_attr("description", vstr(EVENTS_DESCRIPTION));
+    tables.events.write_hdf5_with(&mut g, storage);
     b.add_group(g.finish());
-
-    let table = cycle_table(&result.cycles);
     let mut g = b.create_group("cycles");
-    g.set_attr(
-        "description",
-        vstr("exact averages and first harmonics over each base period while the shaker is on"),
-    );
-    g.set_attr("count", AttrValue::I64(table.rows() as i64));
-    if !table.is_empty() {
-        table.write_hdf5(&mut g);
+    g.set_attr("description", vstr(CYCLES_DESCRIPTION));
+    g.set_attr("count", AttrValue::I64(tables.cycles.rows() as i64));
+    if !tables.cycles.is_empty() {
+        tables.cycles.write_hdf5_with(&mut g, storage);
     }
     b.add_group(g.finish());
     b.finish().map_err(|e| e.to_string())
 }
 
-/// Stage the run's HDF5 file as `path` (written under its partial name; [`super::RunWriter`]
-/// commits it with the other files).
-pub fn write_hdf5(
-    path: &Path,
-    series: &TimeSeriesWriter,
-    scenario: &Scenario,
-    result: &RunResult,
-) -> Result<AtomicFile, OutputError> {
-    let bytes = hdf5_bytes(series, scenario, result).map_err(|message| OutputError::Hdf5 {
-        path: path.to_path_buf(),
-        message,
-    })?;
-    AtomicFile::write(path, &bytes)
+/// A run file written while the run goes on: created with the rows seen so far in extendable
+/// datasets, then appended to, and finished with the event kinds and the results. Its content is
+/// that of [`hdf5_bytes`] for the same rows (the period datasets appear with the first period,
+/// the event kinds at the end).
+pub struct H5Stream {
+    file: File,
+    path: PathBuf,
+    compress: bool,
+    cycles_created: bool,
+}
+
+impl std::fmt::Debug for H5Stream {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("H5Stream")
+            .field("path", &self.path)
+            .finish()
+    }
+}
+
+fn extendable(compress: bool, chunk: usize) -> Storage {
+    Storage {
+        compress,
+        extendable: Some(chunk),
+    }
+}
+
+impl H5Stream {
+    /// Create the file at `path` with the rows of `tables` and open it for appending. hdf5-pure
+    /// syncs it once, when it is finished (`SyncPolicy::OnClose`).
+    pub fn create(
+        path: &Path,
+        tables: RunTables,
+        scenario: &Scenario,
+        run_id: &str,
+        compress: bool,
+    ) -> Result<Self, OutputError> {
+        let err = |message: String| OutputError::Hdf5 {
+            path: path.to_path_buf(),
+            message,
+        };
+        let mut b = FileBuilder::new();
+        for (k, v) in start_attrs(scenario, run_id) {
+            b.set_attr(k, v);
+        }
+        tables
+            .series
+            .write_hdf5_with(&mut b, extendable(compress, HDF5_CHUNK));
+        let mut g = b.create_group("events");
+        g.set_attr("description", vstr(EVENTS_DESCRIPTION));
+        tables
+            .events
+            .write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
+        b.add_group(g.finish());
+        let mut g = b.create_group("cycles");
+        g.set_attr("description", vstr(CYCLES_DESCRIPTION));
+        let cycles_created = !tables.cycles.is_empty();
+        if cycles_created {
+            tables
+                .cycles
+                .write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
+        }
+        b.add_group(g.finish());
+        b.write(path).map_err(|e| err(e.to_string()))?;
+        let file = File::open_rw_with_options(
+            path,
+            FileAccessProperties::new().with_sync_policy(SyncPolicy::OnClose),
+        )
+        .map_err(|e| err(e.to_string()))?;
+        Ok(Self {
+            file,
+            path: path.to_path_buf(),
+            compress,
+            cycles_created,
+        })
+    }
+
+    /// Append the rows of `tables`.
+    pub fn append(&mut self, tables: RunTables) -> Result<(), OutputError> {
+        let err = |message: String| OutputError::Hdf5 {
+            path: self.path.clone(),
+            message,
+        };
+        tables.series.append_hdf5(&self.file, "").map_err(err)?;
+        tables
+            .events
+            .append_hdf5(&self.file, "events/")
+            .map_err(err)?;
+        if tables.cycles.is_empty() {
+            return Ok(());
+        }
+        if self.cycles_created {
+            return tables
+                .cycles
+                .append_hdf5(&self.file, "cycles/")
+                .map_err(err);
+        }
+        let group = self.file.group("cycles").map_err(|e| err(e.to_string()))?;
+        tables
+            .cycles
+            .create_hdf5_in(&group, extendable(self.compress, RECORD_CHUNK))
+            .map_err(err)?;
+        self.cycles_created = true;
+        Ok(())
+    }
+
+    /// Write the event kinds (`kinds`, one per event), the period count and the results, and
+    /// close the file.
+    pub fn finish(
+        self,
+        kinds: &[&str],
+        cycle_count: u64,
+        result: &RunResult,
+    ) -> Result<(), OutputError> {
+        let err = |e: hdf5_pure::Error| OutputError::Hdf5 {
+            path: self.path.clone(),
+            message: e.to_string(),
+        };
+        let events = self.file.group("events").map_err(err)?;
+        events
+            .create_dataset("kind", |d| {
+                d.with_vlen_strings(kinds);
+                d.set_attr("units", vstr(""));
+                d.set_attr("description", vstr(EVENT_KIND_DESCRIPTION));
+            })
+            .map_err(err)?;
+        let root = self.file.root();
+        for (k, v) in result_attrs(result) {
+            root.set_attr(k, v).map_err(err)?;
+        }
+        self.file
+            .group("cycles")
+            .and_then(|g| g.set_attr("count", AttrValue::I64(cycle_count as i64)))
+            .map_err(err)?;
+        self.file.commit().map_err(err)?;
+        self.file.close().map_err(err)
+    }
 }

@@ -4,6 +4,7 @@
 //! {
 //!   "format_version": 1,
 //!   "djkr_version": "0.1.0",
+//!   "run_id": "20261124T063900-4f2a-1c9e8b",
 //!   "scenario": "scenarios/paper-protocol-300hz.toml --set base.amplitude=30um",
 //!   "overrides": ["base.amplitude=30um"],
 //!   "method": "dopri5 (auto: ...)",
@@ -11,6 +12,8 @@
 //!   "pull_off": {"amplification": 1.7, "force": -0.098, "time": 12.3},
 //!   "stats": {"rejected": 12, "rhs_evals": 7000, "steps": 1000, "wall_s": 0.4},
 //!   "samples": 1000,
+//!   "envelope": {"jumps": 12, "periods_skipped": 3400, "trial_periods": 40, "rejected": 2},
+//!   "events_listed": 12,
 //!   "final_state": {"F": 0.0, "G": 0.0, "a": 0.0, ..., "stage": 3, "t": 12.4, ...},
 //!   "cycles": {"count": 3600, "last": {"force_mean": -0.05, "index": 3599, ...}},
 //!   "event_counts": {"impact": 3, "pull-off": 1, ...},
@@ -25,7 +28,11 @@
 //! ```
 //!
 //! `scenario` names the file and its `--set` overrides; `overrides` lists them (`KEY=VALUE` as
-//! given; always present, empty when the file ran as written).
+//! given; always present, empty when the file ran as written). `run_id` is the same string as
+//! the root attribute `run_id` of `run.h5`: files of one run carry one id. `event_counts` counts
+//! every event of the run; `events` lists the first `events_listed` of them (at most 10 000; the
+//! HDF5 file has them all). `envelope` says how many periods envelope following jumped over
+//! (they have no samples and no records).
 //!
 //! Top-level keys come one per line in this order, and events one per line, so the file diffs
 //! and greps well even with thousands of impacts.
@@ -61,6 +68,9 @@ pub struct SummaryFiles {
     pub events_csv: Option<String>,
     /// The cycles CSV, when written.
     pub cycles_csv: Option<String>,
+    /// The size in bytes of each file above (`file_bytes`): a reader can tell a file that a
+    /// machine crash truncated after the run from a complete one.
+    pub bytes: Vec<(String, u64)>,
 }
 
 /// Builds JSON objects while applying the non-finite rule.
@@ -91,11 +101,15 @@ impl Builder {
 
     /// `cycles`: the count and the last record (as in the cycle table), with the units of the
     /// latter (`cycles.last.<field>`).
-    fn cycles(&mut self, records: &[CycleRecord]) -> (Value, BTreeMap<String, String>) {
+    fn cycles(
+        &mut self,
+        count: u64,
+        last: Option<&CycleRecord>,
+    ) -> (Value, BTreeMap<String, String>) {
         let mut cycles = Map::new();
-        cycles.insert("count".into(), Value::from(records.len() as u64));
+        cycles.insert("count".into(), Value::from(count));
         let mut units = BTreeMap::new();
-        let Some(last) = records.last() else {
+        let Some(last) = last else {
             return (Value::Object(cycles), units);
         };
         let mut m = Map::new();
@@ -152,12 +166,13 @@ pub fn units() -> BTreeMap<String, String> {
 }
 
 /// The summary as JSON text (layout and non-finite rule in the module doc). `samples` is the
-/// number of time-series samples written.
+/// number of time-series samples written, `run_id` the identity shared with the run's HDF5 file.
 pub fn summary_json(
     scenario: &Scenario,
     result: &RunResult,
-    samples: usize,
+    samples: u64,
     files: &SummaryFiles,
+    run_id: &str,
 ) -> String {
     let mut b = Builder::default();
 
@@ -179,14 +194,19 @@ pub fn summary_json(
 
     let final_state = b.state("final_state.", &result.final_state);
 
-    let mut counts: BTreeMap<String, u64> = BTreeMap::new();
+    let counts: BTreeMap<String, u64> = result
+        .event_counts
+        .by_kind()
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(k, n)| (kind_name(k), n))
+        .collect();
     let events: Vec<Value> = result
         .events
         .iter()
         .enumerate()
         .map(|(i, e)| {
             let kind = kind_name(e.kind);
-            *counts.entry(kind.clone()).or_default() += 1;
             let prefix = format!("events[{i}].");
             let mut m = Map::new();
             m.insert("kind".into(), Value::String(kind));
@@ -200,7 +220,7 @@ pub fn summary_json(
         })
         .collect();
 
-    let (cycles, cycle_units) = b.cycles(&result.cycles);
+    let (cycles, cycle_units) = b.cycles(result.cycle_count, result.last_cycle.as_ref());
 
     let mut file_map = Map::new();
     file_map.insert("hdf5".into(), Value::String(files.hdf5.clone()));
@@ -217,13 +237,19 @@ pub fn summary_json(
     let top: Vec<(&str, Value)> = vec![
         ("format_version", Value::from(SUMMARY_VERSION)),
         ("djkr_version", Value::from(env!("CARGO_PKG_VERSION"))),
+        ("run_id", Value::from(run_id)),
         ("scenario", Value::from(scenario.source_name.as_str())),
         ("overrides", Value::from(scenario.overrides.clone())),
         ("method", Value::from(result.method.as_str())),
         ("detached", Value::Bool(result.detached)),
         ("pull_off", Value::Object(pull_off)),
         ("stats", Value::Object(stats)),
-        ("samples", Value::from(samples as u64)),
+        ("samples", Value::from(samples)),
+        (
+            "envelope",
+            serde_json::to_value(result.envelope).unwrap_or(Value::Null),
+        ),
+        ("events_listed", Value::from(result.events.len() as u64)),
         ("final_state", final_state),
         ("cycles", cycles),
         (
@@ -246,6 +272,16 @@ pub fn summary_json(
             ),
         ),
         ("files", Value::Object(file_map)),
+        (
+            "file_bytes",
+            Value::Object(
+                files
+                    .bytes
+                    .iter()
+                    .map(|(k, v)| (k.clone(), Value::from(*v)))
+                    .collect(),
+            ),
+        ),
         (
             "non_finite",
             Value::Object(b.non_finite.into_iter().collect()),

@@ -511,30 +511,130 @@ impl Table {
     /// Write every column as a dataset of `group` (a file's root or a group), with `units` and
     /// `description` attributes (chunking and compression in the module doc).
     pub fn write_hdf5(&self, group: &mut impl Hdf5Group) {
-        for c in &self.columns {
-            let ds = group.create_dataset(&c.name);
-            match &c.data {
-                Data::F64(v) if v.is_empty() => {
-                    ds.with_dtype(make_f64_type()).with_shape(&[0]);
-                }
-                Data::F64(v) => {
-                    ds.with_f64_data(v);
-                    compress(ds, v.len());
-                }
-                Data::I64(v) if v.is_empty() => {
-                    ds.with_dtype(make_i64_type()).with_shape(&[0]);
-                }
-                Data::I64(v) => {
-                    ds.with_i64_data(v);
-                    compress(ds, v.len());
-                }
-                Data::Text(v) => {
-                    let refs: Vec<&str> = v.iter().map(String::as_str).collect();
-                    ds.with_vlen_strings(&refs);
-                }
+        self.write_hdf5_with(group, Storage::default());
+    }
+
+    /// Empty the table (its schema stays): the rows went to disk.
+    pub fn clear(&mut self) {
+        for c in &mut self.columns {
+            match &mut c.data {
+                Data::F64(v) => v.clear(),
+                Data::I64(v) => v.clear(),
+                Data::Text(v) => v.clear(),
             }
-            ds.set_attr("units", text_attr(&c.unit));
-            ds.set_attr("description", text_attr(&c.description));
+        }
+    }
+
+    /// As [`Table::write_hdf5`], with a storage choice: compressed or not, and extendable (every
+    /// numeric dataset chunked, unlimited, so that rows can be appended: [`Table::append_hdf5`];
+    /// text columns are then left out, to be written whole at the end).
+    pub fn write_hdf5_with(&self, group: &mut impl Hdf5Group, storage: Storage) {
+        for c in self.stored_columns(storage) {
+            configure_dataset(group.create_dataset(&c.name), c, storage);
+        }
+    }
+
+    /// As [`Table::write_hdf5_with`], into a group of a file open for editing (a table whose
+    /// first rows arrive after the file was created).
+    pub fn create_hdf5_in(&self, group: &hdf5_pure::Group, storage: Storage) -> Result<(), String> {
+        for c in self.stored_columns(storage) {
+            group
+                .create_dataset(&c.name, |ds| configure_dataset(ds, c, storage))
+                .map_err(|e| format!("creating {}: {e}", c.name))?;
+        }
+        Ok(())
+    }
+
+    fn stored_columns(&self, storage: Storage) -> impl Iterator<Item = &Column> {
+        self.columns
+            .iter()
+            .filter(move |c| storage.extendable.is_none() || c.data.kind() != Kind::Text)
+    }
+
+    /// Append the rows to the extendable datasets of the open file `file` under `prefix` (`""`
+    /// for the root, `"events/"`, ...), one dataset per numeric column (text columns are skipped).
+    pub fn append_hdf5(&self, file: &hdf5_pure::File, prefix: &str) -> Result<(), String> {
+        for c in &self.columns {
+            let name = format!("{prefix}{}", c.name);
+            let result = match &c.data {
+                Data::F64(v) if !v.is_empty() => file.dataset(&name).and_then(|mut d| d.append(v)),
+                Data::I64(v) if !v.is_empty() => file.dataset(&name).and_then(|mut d| d.append(v)),
+                _ => Ok(()),
+            };
+            result.map_err(|e| format!("appending to {name}: {e}"))?;
+        }
+        Ok(())
+    }
+}
+
+/// How a table's numeric columns are stored in HDF5.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Storage {
+    /// Shuffle + deflate ([`DEFLATE_LEVEL`]).
+    pub compress: bool,
+    /// Extendable (unlimited, chunked with this many elements per chunk) so that rows can be
+    /// appended during a run; `None`: written once.
+    pub extendable: Option<usize>,
+}
+
+impl Default for Storage {
+    fn default() -> Self {
+        Self {
+            compress: true,
+            extendable: None,
+        }
+    }
+}
+
+/// One column's dataset: data, layout (written once, or extendable) and attributes.
+fn configure_dataset(ds: &mut DatasetBuilder, c: &Column, storage: Storage) {
+    match (&c.data, storage.extendable) {
+        (Data::F64(v), Some(chunk)) => {
+            ds.with_f64_data(v).with_shape(&[v.len() as u64]);
+            extendable(ds, chunk, storage.compress);
+        }
+        (Data::I64(v), Some(chunk)) => {
+            ds.with_i64_data(v).with_shape(&[v.len() as u64]);
+            extendable(ds, chunk, storage.compress);
+        }
+        _ => write_fixed(ds, &c.data, storage.compress),
+    }
+    ds.set_attr("units", text_attr(&c.unit));
+    ds.set_attr("description", text_attr(&c.description));
+}
+
+fn extendable(ds: &mut DatasetBuilder, chunk: usize, compressed: bool) {
+    ds.with_maxshape(&[hdf5_pure::MaxExtent::Unlimited])
+        .with_chunks(&[chunk as u64]);
+    if compressed {
+        ds.with_shuffle().with_deflate(DEFLATE_LEVEL);
+    }
+}
+
+/// A column written once: the module doc's layout.
+fn write_fixed(ds: &mut DatasetBuilder, data: &Data, compressed: bool) {
+    match data {
+        Data::F64(v) if v.is_empty() => {
+            ds.with_dtype(make_f64_type()).with_shape(&[0]);
+        }
+        Data::F64(v) => {
+            ds.with_f64_data(v);
+            if compressed {
+                compress(ds, v.len());
+            }
+        }
+        Data::I64(v) if v.is_empty() => {
+            ds.with_dtype(make_i64_type()).with_shape(&[0]);
+        }
+        Data::I64(v) => {
+            ds.with_i64_data(v);
+            if compressed {
+                compress(ds, v.len());
+            }
+        }
+        Data::Text(v) => {
+            let refs: Vec<&str> = v.iter().map(String::as_str).collect();
+            ds.with_vlen_strings(&refs);
         }
     }
 }

@@ -2,12 +2,8 @@
 //! writers), [`TimeSeriesWriter`], the observer that buffers a run's samples and events as a
 //! [`Table`], and the events as a table ([`events_table`]).
 //!
-//! Buffering in memory, column by column, and writing once at the end is a deliberate choice over
-//! hdf5-pure's extendable datasets: a run of 10⁶ samples is 12 columns × 8 bytes × 10⁶ ≈ 96 MB, far
-//! below the machine's memory; writing once yields plain chunked datasets every HDF5 reader
-//! handles; and nothing reaches the disk before the run has succeeded, which is what makes the
-//! output atomic (see [`super::RunWriter`]). A run sampled at every step of a very long
-//! integration (`output.sample_rate = 0`, 10⁸ steps) would need ~10 GB: set a sample rate.
+//! The run writer buffers samples here column by column and, once a run is long, appends them
+//! to the HDF5 file in batches ([`super::RunWriter`]: memory independent of run length).
 
 use super::table::{Cell, Column, Data, Field, Table};
 use crate::dynamics::types::{Event, EventKind, Observer, Sample};
@@ -177,6 +173,12 @@ impl TimeSeriesWriter {
         &self.events
     }
 
+    /// Forget the buffered samples and events (they went to disk).
+    pub fn clear(&mut self) {
+        self.table.clear();
+        self.events.clear();
+    }
+
     /// Buffer one sample.
     pub fn push(&mut self, s: &Sample) {
         let mut row = [Cell::F64(0.0); 12];
@@ -213,16 +215,25 @@ pub(crate) fn kind_name(kind: EventKind) -> String {
     }
 }
 
+/// Description of the event `kind` column.
+pub const EVENT_KIND_DESCRIPTION: &str =
+    "event kind: stage-start, impact, contact-loss, preload-reached, duration-elapsed, pull-off";
+
 /// The events as a table: `kind` (text), `time`, `stage`, then the state at the event (the
 /// columns of [`SERIES`] without `t`). The HDF5 `/events` group and `events.csv`.
 pub fn events_table(events: &[Event]) -> Table {
     let mut columns = vec![
         Column::text(
             "kind",
-            "event kind: stage-start, impact, contact-loss, preload-reached, duration-elapsed, pull-off",
+            EVENT_KIND_DESCRIPTION,
             events.iter().map(|e| kind_name(e.kind)).collect(),
         ),
-        Column::f64("time", "s", "event time", events.iter().map(|e| e.time).collect()),
+        Column::f64(
+            "time",
+            "s",
+            "event time",
+            events.iter().map(|e| e.time).collect(),
+        ),
         Column::i64(
             STAGE,
             STAGE_UNIT,

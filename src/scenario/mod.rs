@@ -22,6 +22,11 @@ pub struct Output {
     pub sample_rate: f64,
     /// Also write CSV.
     pub csv: bool,
+    /// Shuffle + deflate the HDF5 datasets (smaller files, slower writes).
+    pub compress: bool,
+    /// `fsync` every file and the directory before the run counts as written (survives a power
+    /// loss, not only a killed process; README, "Output").
+    pub fsync: bool,
 }
 
 impl Default for Output {
@@ -29,6 +34,8 @@ impl Default for Output {
         Self {
             sample_rate: 0.0,
             csv: false,
+            compress: false,
+            fsync: false,
         }
     }
 }

@@ -361,13 +361,14 @@ pub const SOLVER_KEYS: &[&str] = &[
     "rtol",
     "atol",
     "max_steps",
+    "max_events",
     "max_wall_s",
     "event_tol",
     "envelope",
     "envelope_tol",
 ];
 /// Keys of `[output]`.
-pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv"];
+pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv", "compress", "fsync"];
 
 /// The name of the one section that is a list of tables (`[[stage]]`, keys `stage[N].KEY`).
 pub const STAGE_SECTION: &str = "stage";
@@ -1213,6 +1214,24 @@ impl Parser<'_> {
                 )
             })?;
         }
+        if let Some(v) = s.table.get("max_events") {
+            let ok = match v {
+                Value::Integer(i) if *i >= 1 => Some(*i as u64),
+                Value::Float(f)
+                    if f.is_finite() && *f >= 1.0 && f.fract() == 0.0 && *f <= 9.0e15 =>
+                {
+                    Some(*f as u64)
+                }
+                _ => None,
+            };
+            solver.max_events = ok.ok_or_else(|| {
+                self.value_err(
+                    &s.key("max_events"),
+                    show(v),
+                    "must be a whole number >= 1 (contact events)",
+                )
+            })?;
+        }
         if let Some(w) = self.opt_positive(&s, "max_wall_s", TIME)? {
             solver.max_wall_s = w;
         }
@@ -1250,6 +1269,12 @@ impl Parser<'_> {
         }
         if let Some(b) = self.boolean(&s, "csv")? {
             out.csv = b;
+        }
+        if let Some(b) = self.boolean(&s, "compress")? {
+            out.compress = b;
+        }
+        if let Some(b) = self.boolean(&s, "fsync")? {
+            out.fsync = b;
         }
         Ok(out)
     }

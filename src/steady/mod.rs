@@ -490,6 +490,7 @@ impl Problem {
             event_tol: self.solver.event_tol.max(0.0),
             max_steps: self.solver.max_steps,
             max_wall_s: self.solver.max_wall_s,
+            max_events: self.solver.max_events,
             interpolated_samples: false,
         };
         let stepper = stepper::build(self.solver.method, &self.rig);

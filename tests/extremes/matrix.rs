@@ -212,7 +212,7 @@ pub fn summarise(r: &RunResult, chk: &Checker) -> String {
     }
     if r.detached {
         s += &format!("; pull-off {:.4} mN", r.pull_off.force * 1e3);
-    } else if let Some(c) = r.cycles.last() {
+    } else if let Some(c) = r.last_cycle.as_ref() {
         s += &format!("; last-cycle ⟨F⟩ {:.4} mN", c.force_mean * 1e3);
     }
     if let Some(i) = r.method.find(" steps taken implicitly") {
