@@ -22,6 +22,8 @@ pub struct Output {
     pub sample_rate: f64,
     /// Also write CSV.
     pub csv: bool,
+    /// Also draw the run's figure (`run.png`, `run.svg`; same as `run --plot`).
+    pub plot: bool,
 }
 
 impl Default for Output {
@@ -29,6 +31,7 @@ impl Default for Output {
         Self {
             sample_rate: 0.0,
             csv: false,
+            plot: false,
         }
     }
 }
