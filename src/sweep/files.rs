@@ -431,12 +431,9 @@ pub fn open(dir: &Path, manifest: Manifest, resume: bool) -> Result<Opened, File
     };
     let path = dir.join(PROGRESS_NAME);
     let keys = manifest.key_columns();
-    let header = {
-        let h = crate::output::table::Table::from_schema(&row_schema(&keys))
-            .map(|t| t.to_csv())
-            .unwrap_or_default();
-        h
-    };
+    let header = crate::output::table::Table::from_schema(&row_schema(&keys))
+        .map(|t| t.to_csv())
+        .unwrap_or_default();
     if path.exists() {
         // Cut a torn last line (a writer killed mid-line) before appending.
         let text = fs::read(&path).map_err(io(&path))?;

@@ -134,15 +134,12 @@ const STATS: [&str; 7] = ["mean", "std", "min", "max", "q05", "q50", "q95"];
 
 /// The points as the `points.csv` table.
 pub fn points_table(keys: &[KeyColumn], points: &[PointStats]) -> Table {
-    let mut cols = vec![
-        Column::i64(
-            "point",
-            "1",
-            "point index (grid order, from 0)",
-            points.iter().map(|p| p.point as i64).collect(),
-        ),
-        // Placeholder order fixed below: keys come right after `point`.
-    ];
+    let mut cols = vec![Column::i64(
+        "point",
+        "1",
+        "point index (grid order, from 0)",
+        points.iter().map(|p| p.point as i64).collect(),
+    )];
     for (j, k) in keys.iter().enumerate() {
         cols.push(match &k.unit {
             Some(u) => Column::f64(
