@@ -1,6 +1,6 @@
 //! A sweep's figures (PNG + SVG, through [`crate::plot`]):
-//! - `amplification`: the pull-off amplification against the first swept numeric key that takes
-//!   more than one value, one line per value of the other swept keys; with an ensemble the
+//! - `amplification`: the pull-off amplification against the swept numeric key with the most
+//!   values (the first given on a tie), one line per value of the other swept keys; with an ensemble the
 //!   point's mean with bars of ± one standard deviation of the members;
 //! - `amplification-map`: with exactly two swept keys, both numeric, a heat map of the (mean)
 //!   amplification;
@@ -72,7 +72,29 @@ pub fn sweep_plots(
     let ensemble = manifest.ensemble.is_some();
     let mut files = Vec::new();
     let numeric = |j: usize| keys[j].unit.is_some();
-    if let Some(&xj) = vary.iter().find(|&&j| numeric(j)) {
+    // The x axis: the numeric key with the most distinct values (the first given on a tie).
+    let distinct = |j: usize| {
+        let mut v: Vec<u64> = points
+            .iter()
+            .filter_map(|p| p.keys[j].num().map(f64::to_bits))
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v.len()
+    };
+    let x_key = vary
+        .iter()
+        .copied()
+        .filter(|&j| numeric(j))
+        .fold(None, |best: Option<(usize, usize)>, j| {
+            let n = distinct(j);
+            match best {
+                Some((_, m)) if m >= n => best,
+                _ => Some((j, n)),
+            }
+        })
+        .map(|(j, _)| j);
+    if let Some(xj) = x_key {
         let others: Vec<usize> = vary.iter().copied().filter(|&j| j != xj).collect();
         let mut groups: Vec<(String, Vec<&PointStats>)> = Vec::new();
         for p in points {
