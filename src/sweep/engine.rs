@@ -418,3 +418,15 @@ pub fn run_sweep(
     });
     runs.len() - done
 }
+
+/// Run every run of `sweep` and return the rows sorted by (point, member), as `sweep.csv`
+/// holds them ([`super::row::rows_table`] makes the table): the whole sweep in one call, for
+/// programs (and a Python binding) that want the columns rather than the files. Runs abandoned
+/// because `opts.stop` was raised are left out.
+pub fn run_all(sweep: &Sweep, opts: &RunOptions) -> Vec<Row> {
+    let runs: Vec<usize> = (0..sweep.runs()).collect();
+    let mut rows = Vec::with_capacity(runs.len());
+    run_sweep(sweep, &runs, opts, |r| rows.push(r));
+    rows.sort_by_key(|r| (r.point, r.member));
+    rows
+}

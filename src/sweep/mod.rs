@@ -4,7 +4,7 @@
 //!
 //! ```no_run
 //! use djkr::scenario::parse::ScenarioSource;
-//! use djkr::sweep::{run_sweep, Axis, Ensemble, Grid, RunOptions, Sweep};
+//! use djkr::sweep::{rows_table, run_all, Axis, Ensemble, Grid, RunOptions, Sweep};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let source = ScenarioSource::read("scenarios/paper-protocol-300hz.toml".as_ref())?;
 //! let grid = Grid::new(
@@ -12,9 +12,9 @@
 //!     false,
 //! )?;
 //! let sweep = Sweep::new(source, grid, Some(Ensemble { members: 8, seed: 1 }))?;
-//! let runs: Vec<usize> = (0..sweep.runs()).collect();
-//! let mut rows = Vec::new();
-//! run_sweep(&sweep, &runs, &RunOptions::default(), |row| rows.push(row));
+//! let rows = run_all(&sweep, &RunOptions { jobs: 2, ..RunOptions::default() });
+//! let table = rows_table(&sweep.key_columns(), &rows); // the columns of sweep.csv
+//! # let _ = table;
 //! # Ok(()) }
 //! ```
 //!
@@ -49,9 +49,11 @@ pub mod slurm;
 pub mod spec;
 pub mod stats;
 
-pub use engine::{run_folder_name, run_sweep, Ensemble, RunId, RunOptions, Sweep, SweepError};
+pub use engine::{
+    run_all, run_folder_name, run_sweep, Ensemble, RunId, RunOptions, Sweep, SweepError,
+};
 pub use files::{Manifest, Shard};
 pub use grid::{Axis, Grid};
-pub use row::{Row, RunNumbers};
+pub use row::{rows_table, KeyColumn, Row, RunNumbers};
 pub use spec::{KeyCell, SpecError};
 pub use stats::{PointStats, Summary};
