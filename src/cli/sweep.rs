@@ -68,7 +68,8 @@ pub struct SweepRunArgs {
     /// Runs at a time [default: one per core].
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
-    /// Continue the sweep in --out: skip the runs already done.
+    /// Continue the sweep in --out, skipping the runs already done (a folder without a sweep
+    /// starts one).
     #[arg(long)]
     resume: bool,
     /// Also keep each run's own folder (DIR/runs/pPPPP-mMM: run.h5, summary.json).
