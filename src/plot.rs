@@ -287,6 +287,47 @@ pub fn render_heatmap(map: &Heatmap, path_stem: &Path) -> Result<(PathBuf, PathB
     Ok((png, svg))
 }
 
+/// Render `panels` side by side in `columns` columns (as many rows as needed) on one image of
+/// `size` pixels, to `stem.png` and `stem.svg`; each panel is a [`Figure`] drawn in its cell
+/// (its own `size` is replaced by the cell's).
+pub fn render_panels(
+    panels: &[Figure],
+    columns: usize,
+    size: (u32, u32),
+    path_stem: &Path,
+) -> Result<(PathBuf, PathBuf), PlotError> {
+    let cols = columns.max(1);
+    let rows = panels.len().div_ceil(cols).max(1);
+    let cell = (size.0 / cols as u32, size.1 / rows as u32);
+    let panels: Vec<Figure> = panels
+        .iter()
+        .map(|f| Figure {
+            size: cell,
+            ..f.clone()
+        })
+        .collect();
+    for f in &panels {
+        validate_figure(f)?;
+    }
+    ensure_font()?;
+    let (png, svg) = output_paths(path_stem)?;
+    write_png(&png, size, |area| draw_panels(area, &panels, (rows, cols)))?;
+    write_svg(&svg, size, |area| draw_panels(area, &panels, (rows, cols)))?;
+    Ok((png, svg))
+}
+
+fn draw_panels<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    panels: &[Figure],
+    grid: (usize, usize),
+) -> DrawResult {
+    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    for (area, fig) in root.split_evenly(grid).iter().zip(panels) {
+        draw_figure(area, fig)?;
+    }
+    Ok(())
+}
+
 fn output_paths(stem: &Path) -> Result<(PathBuf, PathBuf), PlotError> {
     if stem.file_name().is_none() {
         return Err(PlotError::Io {

@@ -7,10 +7,12 @@ mod common;
 mod figures;
 mod fit;
 mod imposed;
+mod plot;
 mod resonance;
 mod run;
 mod shortcut_map;
 mod steady;
+mod sweep;
 mod validate;
 
 use clap::{Parser, Subcommand};
@@ -33,7 +35,9 @@ const EXAMPLES: &str = "Examples:
   djkr pulloff --freq 400Hz --a-amp 0.5mm
   djkr pulloff --freq 400 --a-amp 0.5mm --method approx --beta 2.5 --json
   djkr figures --out out/figures
-  djkr run scenarios/paper-protocol-300hz.toml --out out/paper-300hz
+  djkr run scenarios/paper-protocol-300hz.toml --out out/paper-300hz --plot
+  djkr sweep scenarios/paper-protocol-300hz.toml --set base.frequency=200,300,400 --set base.amplitude=10um:60um:6 --out out/study
+  djkr sweep scenarios/paper-protocol-300hz.toml --ensemble 32 --seed 1 --out out/phase-spread
   djkr check scenarios/*.toml
   djkr validate scenarios/resonance-400hz.toml
   djkr resonance scenarios/resonance-400hz.toml --freq 300:500:101 --out out/resonance
@@ -50,6 +54,12 @@ enum Command {
     Run(run::RunArgs),
     /// Validate scenario files without running them.
     Check(run::CheckArgs),
+    /// Sweeps and ensembles over any scenario key (--set KEY=SPEC), in parallel and resumable:
+    /// sweep.csv, sweep.h5 (one row per run), points.csv (statistics per point) and plots;
+    /// --shard K/N, `djkr sweep merge` and --slurm for clusters.
+    Sweep(sweep::SweepArgs),
+    /// Draw the figures of an existing run folder (run.png/.svg) or sweep folder.
+    Plot(plot::PlotArgs),
     /// One imposed-area cycle (paper Sec. 2.1): a(t) = a_m + a_A sin ωt → δ(t), its mean and
     /// first harmonics (eqs. 25–27), the mean force and the contact fraction.
     Cycle(imposed::CycleArgs),
@@ -88,6 +98,8 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(a) => run::run(&a),
         Command::Check(a) => run::check(&a),
+        Command::Sweep(a) => sweep::sweep(&a),
+        Command::Plot(a) => plot::plot(&a),
         Command::Cycle(a) => imposed::cycle(&a),
         Command::Pulloff(a) => imposed::pulloff(&a),
         Command::RequiredSpeed(a) => closed::required_speed(&a),
@@ -101,6 +113,8 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // A sweep stopped by Ctrl-C has said how to resume; 130 is the shell's code for SIGINT.
+        Err(e) if e.is::<sweep::Interrupted>() => ExitCode::from(130),
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::from(2)

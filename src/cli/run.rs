@@ -24,6 +24,10 @@ pub struct RunArgs {
     /// Print the summary as JSON (SI values) instead of a table.
     #[arg(long)]
     json: bool,
+    /// Also draw run.png and run.svg: F(t), a(t), δ(t), per-cycle means, the last F–δ loops
+    /// (same as `[output] plot = true`).
+    #[arg(long)]
+    plot: bool,
     #[command(flatten)]
     set: SetArgs,
 }
@@ -113,6 +117,13 @@ pub fn run(a: &RunArgs) -> Result<()> {
     let paths = writer
         .finish(&result)
         .with_context(|| format!("writing results into {}", out.display()))?;
+    let plots = if a.plot || scn.output.plot {
+        let (png, svg) = djkr::run_plot::plot_run_dir(&out)
+            .with_context(|| format!("drawing the run's figure into {}", out.display()))?;
+        vec![png, svg]
+    } else {
+        Vec::new()
+    };
     if a.json {
         // Exactly the summary.json just written (its non-finite rule included).
         let text = std::fs::read_to_string(&paths.summary)
@@ -122,7 +133,11 @@ pub fn run(a: &RunArgs) -> Result<()> {
     }
     print_summary(&scn, &result);
     println!("\nwrote:");
-    for p in paths.all() {
+    for p in paths
+        .all()
+        .into_iter()
+        .chain(plots.iter().map(PathBuf::as_path))
+    {
         println!("  {}", p.display());
     }
     Ok(())

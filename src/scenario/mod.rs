@@ -27,6 +27,8 @@ pub struct Output {
     /// `fsync` every file and the directory before the run counts as written (survives a power
     /// loss, not only a killed process; README, "Output").
     pub fsync: bool,
+    /// Also draw the run's figure (`run.png`, `run.svg`; same as `run --plot`).
+    pub plot: bool,
 }
 
 impl Default for Output {
@@ -36,6 +38,7 @@ impl Default for Output {
             csv: false,
             compress: false,
             fsync: false,
+            plot: false,
         }
     }
 }

@@ -29,7 +29,7 @@
 //! | `[initial]` | `preload` (N, > 0) or `gap` (m, > 0); absent without a spring: the sphere's weight |
 //! | `[[stage]]` (≥ 1) | `kind`, `speed` (m/s), one of `duration` (s) / `preload` (N) / `until = "pull-off"`, `vibration` (bool), `max_duration` (s, 1e4) |
 //! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `event_tol` (s, > 0) |
-//! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool) |
+//! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool), `plot` (bool) |
 
 use std::fmt::Display;
 use std::path::{Path, PathBuf};
@@ -368,7 +368,7 @@ pub const SOLVER_KEYS: &[&str] = &[
     "envelope_tol",
 ];
 /// Keys of `[output]`.
-pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv", "compress", "fsync"];
+pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv", "compress", "fsync", "plot"];
 
 /// The name of the one section that is a list of tables (`[[stage]]`, keys `stage[N].KEY`).
 pub const STAGE_SECTION: &str = "stage";
@@ -1275,6 +1275,9 @@ impl Parser<'_> {
         }
         if let Some(b) = self.boolean(&s, "fsync")? {
             out.fsync = b;
+        }
+        if let Some(b) = self.boolean(&s, "plot")? {
+            out.plot = b;
         }
         Ok(out)
     }

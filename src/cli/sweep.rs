@@ -1,0 +1,435 @@
+//! `djkr sweep FILE --set KEY=SPEC ... --out DIR` and `djkr sweep merge DIR... --out DIR`: thin
+//! over [`djkr::sweep`].
+
+use super::common::fmt_force;
+use anyhow::{bail, Context, Result};
+use clap::{Args, Subcommand};
+use djkr::scenario::parse::ScenarioSource;
+use djkr::sweep::files::{self, Manifest, Shard};
+use djkr::sweep::slurm::{default_shards, SlurmScript};
+use djkr::sweep::{run_sweep, Axis, Ensemble, Grid, Row, RunOptions, Sweep};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// Flags of `djkr sweep`.
+#[derive(Args, Debug)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct SweepArgs {
+    #[command(subcommand)]
+    command: Option<SweepCommand>,
+    #[command(flatten)]
+    run: SweepRunArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum SweepCommand {
+    /// Merge the shard folders of one sweep (--shard K/N) into the files of the unsharded sweep.
+    Merge(MergeArgs),
+}
+
+/// Flags of `djkr sweep merge`.
+#[derive(Args, Debug)]
+pub struct MergeArgs {
+    /// The shard folders (each written by `djkr sweep ... --shard K/N --out DIR`).
+    #[arg(required = true)]
+    dirs: Vec<PathBuf>,
+    /// Folder for the merged sweep.csv, sweep.h5, points.csv and plots.
+    #[arg(long, value_name = "DIR")]
+    out: PathBuf,
+}
+
+/// Flags of a sweep.
+#[derive(Args, Debug)]
+pub struct SweepRunArgs {
+    /// Scenario file (TOML; see README, "Scenario files").
+    #[arg(required = true)]
+    file: Option<PathBuf>,
+    /// A swept key and its values (repeatable; several make the Cartesian grid, first key
+    /// slowest): KEY=A,B,C (a list, units welcome: base.amplitude=10um,30um,60um),
+    /// KEY=START:STOP:N (linear, ends included) or KEY=START:STOP:Nlog (log-spaced). KEY is any
+    /// `--set` key (base.frequency, stage[3].speed, adhesion.n, solver.method, ...).
+    #[arg(long = "set", value_name = "KEY=SPEC")]
+    set: Vec<String>,
+    /// Pair the keys' values (the i-th point takes the i-th value of each) instead of the grid.
+    #[arg(long)]
+    zip: bool,
+    /// Run N members per point, each with the base phase at shaker-on ([base] phase) drawn
+    /// uniformly in [0, 2π) from (seed, point, member).
+    #[arg(long, value_name = "N")]
+    ensemble: Option<usize>,
+    /// Seed of the ensemble's phases [default: 0].
+    #[arg(long, value_name = "S")]
+    seed: Option<u64>,
+    /// Output folder [default: out/<scenario name>-sweep].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Runs at a time [default: one per core].
+    #[arg(long, value_name = "J")]
+    jobs: Option<usize>,
+    /// Continue the sweep in --out, skipping the runs already done (a folder without a sweep
+    /// starts one).
+    #[arg(long)]
+    resume: bool,
+    /// Also keep each run's own folder (DIR/runs/pPPPP-mMM: run.h5, summary.json).
+    #[arg(long)]
+    keep_runs: bool,
+    /// Run only the K-th of N disjoint slices of the runs (K from 1), or `slurm` to take them
+    /// from SLURM_ARRAY_TASK_ID and SLURM_ARRAY_TASK_COUNT; merge with `djkr sweep merge`.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<String>,
+    /// Run nothing: write DIR/sweep.sbatch, a Slurm array job (one task per shard) with a
+    /// dependent merge step, and say how to submit it.
+    #[arg(long)]
+    slurm: bool,
+    /// With --slurm: array tasks [default: one per 64 runs, at most 1000].
+    #[arg(long, value_name = "N", requires = "slurm")]
+    shards: Option<usize>,
+    /// With --slurm: the tasks' time limit (#SBATCH --time), e.g. 2:00:00.
+    #[arg(long, value_name = "TIME", requires = "slurm")]
+    slurm_time: Option<String>,
+    /// With --slurm: the partition (#SBATCH --partition).
+    #[arg(long, value_name = "NAME", requires = "slurm")]
+    slurm_partition: Option<String>,
+}
+
+/// A sweep stopped by Ctrl-C (exit status 130).
+#[derive(Debug)]
+pub struct Interrupted;
+
+impl std::fmt::Display for Interrupted {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("interrupted")
+    }
+}
+
+impl std::error::Error for Interrupted {}
+
+/// Run `djkr sweep`.
+pub fn sweep(a: &SweepArgs) -> Result<()> {
+    match &a.command {
+        Some(SweepCommand::Merge(m)) => merge(m),
+        None => run(&a.run),
+    }
+}
+
+fn build(a: &SweepRunArgs, file: &Path) -> Result<Sweep> {
+    let axes = a
+        .set
+        .iter()
+        .map(|s| Axis::parse(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let grid = Grid::new(axes, a.zip)?;
+    if a.zip && grid.axes().len() < 2 {
+        bail!("--zip pairs the values of two or more --set keys; give at least two");
+    }
+    let ensemble = match (a.ensemble, a.seed) {
+        (Some(members), seed) => {
+            if members == 0 {
+                bail!("--ensemble 0: must be a whole number >= 1 (members per point)");
+            }
+            Some(Ensemble {
+                members,
+                seed: seed.unwrap_or(0),
+            })
+        }
+        (None, Some(s)) => bail!("--seed {s}: seeds the ensemble's phases; add --ensemble N"),
+        (None, None) => None,
+    };
+    let source = ScenarioSource::read(file)?;
+    Ok(Sweep::new(source, grid, ensemble)?)
+}
+
+fn run(a: &SweepRunArgs) -> Result<()> {
+    let Some(file) = a.file.as_deref() else {
+        bail!("give a scenario FILE (or `djkr sweep merge DIR... --out DIR`)");
+    };
+    if a.jobs == Some(0) {
+        bail!("--jobs 0: must be a whole number >= 1 (runs at a time)");
+    }
+    let sweep = build(a, file)?;
+    let out = a.out.clone().unwrap_or_else(|| {
+        let stem = file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "scenario".into());
+        PathBuf::from("out").join(format!("{stem}-sweep"))
+    });
+    if a.slurm {
+        return slurm(a, file, &sweep, &out);
+    }
+    let shard = match a.shard.as_deref() {
+        None => None,
+        Some("slurm") => {
+            Some(Shard::from_slurm(|k| std::env::var(k).ok()).map_err(anyhow::Error::msg)?)
+        }
+        Some(t) => Some(Shard::parse(t).map_err(anyhow::Error::msg)?),
+    };
+    let manifest = Manifest::of(&sweep, shard);
+    let opened = files::open(&out, manifest, a.resume).context("--out")?;
+    let manifest = opened.manifest;
+    let mut progress = opened.progress;
+    let mut rows: Vec<Row> = opened.done;
+    let todo = files::remaining(&sweep, &manifest, &rows);
+    let owned = rows.len() + todo.len();
+    let jobs = a
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+
+    static STOP: AtomicBool = AtomicBool::new(false);
+    // A second Ctrl-C ends the process at once (the progress file is intact line by line).
+    let handler = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!("\nstopping: no new runs start, running ones are abandoned (Ctrl-C again to quit at once)");
+    });
+    if let Err(e) = handler {
+        eprintln!(
+            "warning: Ctrl-C handler not installed ({e}): an interrupt will lose the running runs"
+        );
+    }
+
+    if !rows.is_empty() {
+        eprintln!(
+            "resuming {}: {} of {owned} runs already done",
+            out.display(),
+            rows.len()
+        );
+    }
+    let bar = ProgressBar::new(todo.len() as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed}] {bar:30} {pos}/{len} runs, ETA {eta} {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(200));
+    let t0 = Instant::now();
+    let mut failed = 0usize;
+    let mut write_error: Option<anyhow::Error> = None;
+    let keep_runs = a.keep_runs.then(|| out.join(files::RUNS_DIR));
+    let opts = RunOptions {
+        jobs,
+        stop: Some(&STOP),
+        keep_runs,
+    };
+    let not_run = run_sweep(&sweep, &todo, &opts, |row| {
+        if row.result.is_err() {
+            failed += 1;
+            bar.set_message(format!("({failed} failed)"));
+        }
+        if write_error.is_none() {
+            if let Err(e) = progress.append(&row) {
+                write_error = Some(e.into());
+                STOP.store(true, Ordering::SeqCst);
+            }
+        }
+        rows.push(row);
+        bar.inc(1);
+    });
+    bar.finish_and_clear();
+    let wall = t0.elapsed().as_secs_f64();
+    let new_wall: f64 = rows
+        .iter()
+        .rev()
+        .take(todo.len() - not_run)
+        .map(|r| r.wall_s)
+        .sum();
+    let complete = rows.len() == owned;
+    let written = files::write_results(&out, &manifest, &mut rows, complete)
+        .with_context(|| format!("writing the sweep's files into {}", out.display()))?;
+    if let Some(e) = write_error {
+        return Err(e.context(format!(
+            "{}: the progress file could not be written; the sweep stopped",
+            out.display()
+        )));
+    }
+    report(
+        &sweep,
+        &manifest,
+        &rows,
+        todo.len() - not_run,
+        wall,
+        new_wall,
+        jobs,
+    );
+    println!("\nwrote:");
+    for p in &written {
+        println!("  {}", p.display());
+    }
+    if !complete {
+        let shard = manifest
+            .shard
+            .map(|s| format!(" --shard {}/{}", s.index, s.count))
+            .unwrap_or_default();
+        eprintln!(
+            "\nstopped: {} of {owned} runs done (the tables hold those). Continue with:\n  {}{shard} --resume --out {}",
+            rows.len(),
+            manifest.command(),
+            files::shell_quote(&out.display().to_string())
+        );
+        return Err(Interrupted.into());
+    }
+    Ok(())
+}
+
+/// Print what ran and the points' amplifications.
+fn report(
+    sweep: &Sweep,
+    manifest: &Manifest,
+    rows: &[Row],
+    ran: usize,
+    wall: f64,
+    runs_wall: f64,
+    jobs: usize,
+) {
+    let failed = rows.iter().filter(|r| r.result.is_err()).count();
+    println!(
+        "{}: {} point(s) x {} member(s){}; {} run(s) in this folder, {failed} failed",
+        manifest.scenario,
+        sweep.grid().points(),
+        sweep.members(),
+        manifest
+            .shard
+            .map(|s| format!(", shard {}/{}", s.index, s.count))
+            .unwrap_or_default(),
+        rows.len()
+    );
+    if ran > 0 {
+        println!(
+            "  ran {ran} in {wall:.3} s on {jobs} thread(s); the runs' own wall time adds up to \
+             {runs_wall:.3} s ({:.2} runs' seconds per second)",
+            runs_wall / wall.max(1e-9)
+        );
+    }
+    let points = djkr::sweep::stats::point_stats(rows);
+    if points.len() <= 40 {
+        let names: Vec<String> = manifest.keys.iter().map(|k| k.name.clone()).collect();
+        println!(
+            "  point  {}  amplification  pull-off force",
+            names.join("  ")
+        );
+        for p in &points {
+            let keys: Vec<String> = p.keys.iter().map(ToString::to_string).collect();
+            let amp = if p.amplification.n >= 2 {
+                format!(
+                    "{:.4} ± {:.4} (std, n = {})",
+                    p.amplification.mean, p.amplification.std, p.amplification.n
+                )
+            } else {
+                format!("{:.4}", p.amplification.mean)
+            };
+            println!(
+                "  {:>5}  {}  {amp}  {}{}",
+                p.point,
+                keys.join("  "),
+                fmt_force(p.force.mean),
+                if p.failed > 0 {
+                    format!("  ({} failed)", p.failed)
+                } else {
+                    String::new()
+                }
+            );
+        }
+    }
+    if let Some(r) = rows.iter().find(|r| r.result.is_err()) {
+        if let Err(e) = &r.result {
+            println!(
+                "  first failure: point {} member {}: {e}",
+                r.point, r.member
+            );
+        }
+    }
+}
+
+fn absolute(p: &Path) -> Result<PathBuf> {
+    std::path::absolute(p)
+        .with_context(|| format!("{}: cannot make the path absolute", p.display()))
+}
+
+/// `--slurm`: write the manifest and DIR/sweep.sbatch; run nothing.
+fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()> {
+    if a.shard.is_some() {
+        bail!("--slurm writes a job whose tasks take --shard K/N themselves: drop --shard");
+    }
+    let shards = a.shards.unwrap_or_else(|| default_shards(sweep.runs()));
+    if shards == 0 || shards > sweep.runs() {
+        bail!(
+            "--shards {shards}: must lie in [1, {}] (the sweep's runs)",
+            sweep.runs()
+        );
+    }
+    std::fs::create_dir_all(out.join("slurm"))
+        .with_context(|| format!("--out {}", out.display()))?;
+    let manifest = Manifest::of(sweep, None);
+    let path = out.join(files::MANIFEST_NAME);
+    if path.exists() {
+        let old: Manifest = serde_json::from_str(&std::fs::read_to_string(&path)?)
+            .with_context(|| format!("{}", path.display()))?;
+        if let Some(what) = old.difference(&manifest) {
+            bail!(
+                "--out {}: already holds another sweep (its {what} differs): choose another --out",
+                out.display()
+            );
+        }
+    } else {
+        djkr::output::write_atomic(
+            &path,
+            format!("{}\n", serde_json::to_string_pretty(&manifest)?).as_bytes(),
+        )?;
+    }
+    let exe = std::env::current_exe().context("locating the djkr binary")?;
+    let script = SlurmScript {
+        djkr: exe.display().to_string(),
+        scenario: absolute(file)?.display().to_string(),
+        set: a.set.iter().map(|s| s.trim().to_string()).collect(),
+        zip: a.zip,
+        ensemble: sweep.ensemble().map(|e| (e.members, e.seed)),
+        keep_runs: a.keep_runs,
+        out: absolute(out)?.display().to_string(),
+        shards,
+        cpus_per_task: a.jobs.unwrap_or(1),
+        time: a.slurm_time.clone(),
+        partition: a.slurm_partition.clone(),
+        runs: sweep.runs(),
+    };
+    let sbatch = out.join("sweep.sbatch");
+    djkr::output::write_atomic(&sbatch, script.text().as_bytes())?;
+    println!(
+        "{}: {} run(s) in {shards} Slurm array task(s) of about {} run(s), {} thread(s) each.",
+        file.display(),
+        sweep.runs(),
+        sweep.runs().div_ceil(shards),
+        script.cpus_per_task
+    );
+    println!(
+        "wrote {}\n\nsubmit it with:\n  sbatch {}",
+        sbatch.display(),
+        sbatch.display()
+    );
+    println!(
+        "\nEach task writes {}/shards/K; the first submits the merge step, which runs when every \
+         task has succeeded and writes sweep.csv, points.csv, sweep.h5 and the plots into {}.",
+        out.display(),
+        out.display()
+    );
+    Ok(())
+}
+
+/// Run `djkr sweep merge`.
+fn merge(m: &MergeArgs) -> Result<()> {
+    let merged = files::merge(&m.dirs, &m.out)?;
+    println!(
+        "merged {} folder(s): {} run(s), {} failed",
+        m.dirs.len(),
+        merged.rows,
+        merged.failed
+    );
+    println!("wrote:");
+    for p in &merged.files {
+        println!("  {}", p.display());
+    }
+    Ok(())
+}

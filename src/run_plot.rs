@@ -1,0 +1,340 @@
+//! The figure of one run (`run.png`, `run.svg`), drawn from its folder's `run.h5`
+//! (`djkr run --plot`, `[output] plot = true`, `djkr plot DIR`):
+//!
+//! | | |
+//! |---|---|
+//! | F(t) | per-cycle mean force ⟨F⟩ |
+//! | a(t) | F–δ loop of the last cycles before pull-off |
+//! | δ(t) | per-cycle ⟨δ⟩ and δ_A |
+//!
+//! The time panels mark the stage starts (dashed) and the events (impact, contact loss,
+//! pull-off). Long series are thinned for drawing by keeping each pixel column's extremes (so
+//! the envelope of a vibration is drawn as it is), never averaged.
+
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+
+use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style};
+
+/// The figure's file stem in a run folder.
+pub const RUN_PLOT_STEM: &str = "run";
+/// Image size (width, height) in pixels.
+pub const RUN_PLOT_SIZE: (u32, u32) = (1600, 1500);
+/// Points per drawn series at most (about two per pixel column).
+const MAX_POINTS: usize = 3000;
+/// Cycles in the F–δ loop.
+const LOOP_CYCLES: usize = 3;
+/// Markers per event kind at most (impacts can happen every cycle).
+const MAX_EVENT_MARKERS: usize = 300;
+
+/// Why a run's figure could not be made.
+#[derive(Debug, Error)]
+pub enum RunPlotError {
+    /// The run file could not be read.
+    #[error("{}: {message}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+    /// Drawing failed.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+}
+
+/// What the figure shows, read from a run's `run.h5`.
+#[derive(Debug, Clone, Default)]
+pub struct RunSeries {
+    /// Where the run came from (the `source` attribute).
+    pub source: String,
+    /// Time (s).
+    pub t: Vec<f64>,
+    /// Contact force (N).
+    pub force: Vec<f64>,
+    /// Contact radius (m).
+    pub a: Vec<f64>,
+    /// Indentation (m).
+    pub delta: Vec<f64>,
+    /// Events: kind, time (s), F (N), a (m), δ (m).
+    pub events: Vec<(String, f64, f64, f64, f64)>,
+    /// Per cycle: t_start, t_end (s), ⟨F⟩ (N), ⟨δ⟩ (m), δ_A (m).
+    pub cycles: Vec<[f64; 5]>,
+}
+
+/// Read the series of a run file.
+pub fn read_run(path: &Path) -> Result<RunSeries, RunPlotError> {
+    let err = |message: String| RunPlotError::Read {
+        path: path.to_path_buf(),
+        message,
+    };
+    let f =
+        hdf5_pure::File::open(path).map_err(|e| err(format!("not a readable HDF5 file: {e}")))?;
+    let f64s = |name: &str| -> Result<Vec<f64>, RunPlotError> {
+        f.dataset(name)
+            .and_then(|d| d.read_f64())
+            .map_err(|e| err(format!("dataset {name}: {e}")))
+    };
+    let source = f
+        .root()
+        .attrs()
+        .ok()
+        .and_then(|a| a.get("source").and_then(|v| v.as_str().map(str::to_string)))
+        .unwrap_or_default();
+    let mut s = RunSeries {
+        source,
+        t: f64s("t")?,
+        force: f64s("F")?,
+        a: f64s("a")?,
+        delta: f64s("delta")?,
+        ..RunSeries::default()
+    };
+    let kinds = f
+        .dataset("events/kind")
+        .and_then(|d| d.read_string())
+        .map_err(|e| err(format!("dataset events/kind: {e}")))?;
+    let (et, ef, ea, ed) = (
+        f64s("events/time")?,
+        f64s("events/F")?,
+        f64s("events/a")?,
+        f64s("events/delta")?,
+    );
+    s.events = kinds
+        .into_iter()
+        .enumerate()
+        .filter_map(|(i, k)| Some((k, *et.get(i)?, *ef.get(i)?, *ea.get(i)?, *ed.get(i)?)))
+        .collect();
+    if f.dataset("cycles/t_end").is_ok() {
+        let (t0, t1, fm, dm, ds, dc) = (
+            f64s("cycles/t_start")?,
+            f64s("cycles/t_end")?,
+            f64s("cycles/force_mean")?,
+            f64s("cycles/delta_mean")?,
+            f64s("cycles/delta_sin")?,
+            f64s("cycles/delta_cos")?,
+        );
+        s.cycles = (0..t1.len().min(t0.len()).min(fm.len()))
+            .filter_map(|i| {
+                Some([
+                    t0[i],
+                    t1[i],
+                    fm[i],
+                    *dm.get(i)?,
+                    ds.get(i)?.hypot(*dc.get(i)?),
+                ])
+            })
+            .collect();
+    }
+    Ok(s)
+}
+
+/// Keep at most `MAX_POINTS` of (x, y): the extremes of y in each of `MAX_POINTS / 2` buckets,
+/// in order.
+fn thin(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let n = x.len().min(y.len());
+    if n <= MAX_POINTS {
+        return (x[..n].to_vec(), y[..n].to_vec());
+    }
+    let buckets = MAX_POINTS / 2;
+    let (mut xo, mut yo) = (
+        Vec::with_capacity(MAX_POINTS),
+        Vec::with_capacity(MAX_POINTS),
+    );
+    for b in 0..buckets {
+        let (lo, hi) = (
+            b * n / buckets,
+            ((b + 1) * n / buckets).max(b * n / buckets + 1),
+        );
+        let (mut imin, mut imax) = (lo, lo);
+        for i in lo..hi.min(n) {
+            if y[i] < y[imin] {
+                imin = i;
+            }
+            if y[i] > y[imax] {
+                imax = i;
+            }
+        }
+        for i in if imin <= imax {
+            [imin, imax]
+        } else {
+            [imax, imin]
+        } {
+            xo.push(x[i]);
+            yo.push(y[i]);
+        }
+    }
+    (xo, yo)
+}
+
+/// One time panel: the series, the stage starts and the events.
+fn time_panel(
+    s: &RunSeries,
+    title: &str,
+    y_label: &str,
+    y: &[f64],
+    scale: f64,
+    event_value: fn(&(String, f64, f64, f64, f64)) -> f64,
+) -> Figure {
+    let (tx, ty) = thin(&s.t, y);
+    let ty: Vec<f64> = ty.iter().map(|v| v * scale).collect();
+    let (lo, hi) = ty
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(*v), b.max(*v))
+        });
+    let mut fig = Figure::new(title, "t (s)", y_label).with_legend(LegendPosition::LowerLeft);
+    fig.series
+        .push(Series::new("", tx, ty, Style::Line).with_color(0));
+    if lo.is_finite() && hi.is_finite() {
+        let (mut bx, mut by) = (Vec::new(), Vec::new());
+        for e in s
+            .events
+            .iter()
+            .filter(|e| e.0 == "stage-start" && e.1 > 0.0)
+        {
+            bx.extend([e.1, e.1, f64::NAN]);
+            by.extend([lo, hi, f64::NAN]);
+        }
+        if !bx.is_empty() {
+            fig.series
+                .push(Series::new("stage start", bx, by, Style::Dashed).with_color(9));
+        }
+    }
+    for (kind, color) in [("impact", 3), ("contact-loss", 2), ("pull-off", 1)] {
+        let (ex, ey): (Vec<f64>, Vec<f64>) = s
+            .events
+            .iter()
+            .filter(|e| e.0 == kind)
+            .take(MAX_EVENT_MARKERS)
+            .map(|e| (e.1, event_value(e) * scale))
+            .unzip();
+        if !ex.is_empty() {
+            fig.series
+                .push(Series::new(kind, ex, ey, Style::Markers).with_color(color));
+        }
+    }
+    fig
+}
+
+/// The six panels of a run's figure.
+pub fn run_panels(s: &RunSeries) -> Vec<Figure> {
+    let f = time_panel(
+        s,
+        "contact force F(t)",
+        "F (mN, compressive +)",
+        &s.force,
+        1e3,
+        |e| e.2,
+    );
+    let a = time_panel(s, "contact radius a(t)", "a (mm)", &s.a, 1e3, |e| e.3);
+    let d = time_panel(
+        s,
+        "indentation δ(t)",
+        "δ (µm, compressive +)",
+        &s.delta,
+        1e6,
+        |e| e.4,
+    );
+    let mut fm = Figure::new(
+        if s.cycles.is_empty() {
+            "per-cycle mean force: no cycles (the shaker never ran)"
+        } else {
+            "per-cycle mean force ⟨F⟩"
+        },
+        "t at the cycle's end (s)",
+        "⟨F⟩ (mN)",
+    );
+    let (cx, cy) = thin(
+        &s.cycles.iter().map(|c| c[1]).collect::<Vec<_>>(),
+        &s.cycles.iter().map(|c| c[2] * 1e3).collect::<Vec<_>>(),
+    );
+    fm.series
+        .push(Series::new("", cx, cy, Style::Line).with_color(1));
+    if let Some(po) = s.events.iter().find(|e| e.0 == "pull-off") {
+        if let Some(best) = s
+            .cycles
+            .iter()
+            .filter(|c| c[1] <= po.1)
+            .min_by(|a, b| a[2].total_cmp(&b[2]))
+        {
+            fm.series.push(
+                Series::new(
+                    "pull-off force",
+                    vec![best[1]],
+                    vec![best[2] * 1e3],
+                    Style::Markers,
+                )
+                .with_color(2),
+            );
+        }
+    }
+    // The F–δ loop: the last cycles that end before pull-off (or the run's end); without
+    // cycles, the whole run.
+    let end = s
+        .events
+        .iter()
+        .find(|e| e.0 == "pull-off")
+        .map_or(f64::INFINITY, |e| e.1);
+    let before: Vec<&[f64; 5]> = s.cycles.iter().filter(|c| c[1] <= end).collect();
+    let (t0, t1, loop_title) = match before.len() {
+        0 => (
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            "F–δ over the whole run".to_string(),
+        ),
+        n => {
+            let first = before[n.saturating_sub(LOOP_CYCLES)];
+            let k = n.min(LOOP_CYCLES);
+            (
+                first[0],
+                before[n - 1][1],
+                format!("F–δ loop: the last {k} cycle(s) before pull-off"),
+            )
+        }
+    };
+    let (lx, ly): (Vec<f64>, Vec<f64>) =
+        s.t.iter()
+            .zip(s.delta.iter().zip(&s.force))
+            .filter(|(t, _)| **t >= t0 && **t <= t1)
+            .map(|(_, (d, f))| (d * 1e6, f * 1e3))
+            .unzip();
+    let stride = lx.len().div_ceil(MAX_POINTS).max(1);
+    let lx: Vec<f64> = lx.into_iter().step_by(stride).collect();
+    let ly: Vec<f64> = ly.into_iter().step_by(stride).collect();
+    let mut lp = Figure::new(loop_title, "δ (µm)", "F (mN)");
+    lp.series
+        .push(Series::new("", lx, ly, Style::Line).with_color(4));
+    let mut dp = Figure::new("per-cycle ⟨δ⟩ and δ_A", "t at the cycle's end (s)", "µm")
+        .with_legend(LegendPosition::UpperRight);
+    let te: Vec<f64> = s.cycles.iter().map(|c| c[1]).collect();
+    for (name, idx, color) in [("⟨δ⟩", 3, 0), ("δ_A", 4, 2)] {
+        let (x, y) = thin(
+            &te,
+            &s.cycles.iter().map(|c| c[idx] * 1e6).collect::<Vec<_>>(),
+        );
+        dp.series
+            .push(Series::new(name, x, y, Style::Line).with_color(color));
+    }
+    vec![f, fm, a, lp, d, dp]
+}
+
+/// Draw `run.png` and `run.svg` into a run folder from its `run.h5`.
+pub fn plot_run_dir(dir: &Path) -> Result<(PathBuf, PathBuf), RunPlotError> {
+    let h5 = dir.join(crate::output::HDF5_NAME);
+    if !h5.exists() {
+        return Err(RunPlotError::Read {
+            path: h5,
+            message: "missing: not a run folder (djkr run writes run.h5 and summary.json)".into(),
+        });
+    }
+    let s = read_run(&h5)?;
+    let panels = run_panels(&s);
+    Ok(plot::render_panels(
+        &panels,
+        2,
+        RUN_PLOT_SIZE,
+        &dir.join(RUN_PLOT_STEM),
+    )?)
+}

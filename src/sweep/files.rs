@@ -1,0 +1,735 @@
+//! A sweep's folder: what is written while it runs, what `--resume` reads, what the end writes,
+//! and the merge of Slurm shards.
+//!
+//! ```text
+//! DIR/sweep.json      the sweep's description (scenario text, KEY=SPEC list, zip, ensemble, seed,
+//!                     shard, counts), written first; --resume and merge check against it
+//! DIR/progress.csv    the rows in the order their runs end, each appended and flushed as it ends
+//!                     (`tail -f` works; same columns as sweep.csv); removed once the sweep is
+//!                     complete. A killed sweep leaves it for --resume (a torn last line is
+//!                     ignored)
+//! DIR/sweep.csv       one row per run, sorted by (point, member)        } written atomically
+//! DIR/sweep.h5        the same rows at the root, group points/           } at the end (and on
+//! DIR/points.csv      one row per point: members' statistics             } Ctrl-C: what is done)
+//! DIR/amplification.png/.svg, amplification-map.png/.svg, phase.png/.svg
+//! DIR/runs/p0003-m07/ each run's own folder, with --keep-runs
+//! ```
+//!
+//! The rows already done are those of `sweep.csv` and `progress.csv` together; `--resume` skips
+//! them and appends the rest to `progress.csv`. Two sweeps writing into one folder at the same
+//! time are not supported.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use hdf5_pure::{AttrValue, FileBuilder};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::output::atomic::{sync_dir, write_atomic};
+use crate::output::table::text_attr;
+use crate::output::OutputError;
+use crate::plot::PlotError;
+
+use super::engine::{RunId, Sweep};
+use super::row::{parse_rows_csv, row_schema, rows_table, KeyColumn, Row};
+use super::spec::SpecForm;
+use super::stats::{point_stats, points_table};
+
+/// `sweep.json`.
+pub const MANIFEST_NAME: &str = "sweep.json";
+/// `progress.csv`.
+pub const PROGRESS_NAME: &str = "progress.csv";
+/// `sweep.csv`.
+pub const ROWS_CSV_NAME: &str = "sweep.csv";
+/// `sweep.h5`.
+pub const ROWS_H5_NAME: &str = "sweep.h5";
+/// `points.csv`.
+pub const POINTS_CSV_NAME: &str = "points.csv";
+/// The folder of kept runs.
+pub const RUNS_DIR: &str = "runs";
+/// Version of the folder's layout (`sweep.json` `format_version`).
+pub const FORMAT_VERSION: i64 = 1;
+
+/// Why a sweep folder cannot be used or written.
+#[derive(Debug, Error)]
+pub enum FilesError {
+    /// A file-system operation failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A table or file could not be written.
+    #[error(transparent)]
+    Output(#[from] OutputError),
+    /// A plot could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// The folder does not hold what this sweep or merge needs.
+    #[error("{}: {message}", path.display())]
+    Invalid {
+        /// The folder or file.
+        path: PathBuf,
+        /// What is wrong, and what to do.
+        message: String,
+    },
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> FilesError + '_ {
+    move |source| FilesError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+fn invalid(path: &Path, message: impl Into<String>) -> FilesError {
+    FilesError::Invalid {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+/// One of N fixed, disjoint slices of a sweep's runs: run i belongs to shard (i mod N) + 1, so
+/// every shard gets runs from all over the grid (cheap and expensive points alike).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    /// K, from 1.
+    pub index: usize,
+    /// N.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Parse `K/N` (1 ≤ K ≤ N).
+    pub fn parse(text: &str) -> Result<Shard, String> {
+        let bad = || {
+            format!("--shard {text}: expected K/N with 1 <= K <= N, e.g. 3/10 (or 'slurm' in a Slurm array job)")
+        };
+        let (k, n) = text.trim().split_once('/').ok_or_else(bad)?;
+        let (k, n) = (
+            k.trim().parse::<usize>().map_err(|_| bad())?,
+            n.trim().parse::<usize>().map_err(|_| bad())?,
+        );
+        if k == 0 || k > n {
+            return Err(bad());
+        }
+        Ok(Shard { index: k, count: n })
+    }
+
+    /// From a Slurm array job's environment: K = SLURM_ARRAY_TASK_ID − SLURM_ARRAY_TASK_MIN + 1,
+    /// N = SLURM_ARRAY_TASK_COUNT (the array must be contiguous).
+    pub fn from_slurm(env: impl Fn(&str) -> Option<String>) -> Result<Shard, String> {
+        let get = |k: &str| -> Result<usize, String> {
+            let v = env(k).ok_or_else(|| {
+                format!("--shard slurm: {k} is not set: not in a Slurm array job (use --shard K/N)")
+            })?;
+            v.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("--shard slurm: {k} = {v}: not a whole number"))
+        };
+        let (id, count) = (get("SLURM_ARRAY_TASK_ID")?, get("SLURM_ARRAY_TASK_COUNT")?);
+        let min = get("SLURM_ARRAY_TASK_MIN").unwrap_or(1);
+        let max = get("SLURM_ARRAY_TASK_MAX").unwrap_or(min + count.saturating_sub(1));
+        if max + 1 != min + count || id < min || id > max {
+            return Err(format!(
+                "--shard slurm: the array {min}-{max} with {count} tasks is not contiguous: \
+                 submit it as --array={min}-{} or use --shard K/N",
+                min + count.saturating_sub(1)
+            ));
+        }
+        Ok(Shard {
+            index: id - min + 1,
+            count,
+        })
+    }
+
+    /// Whether run `index` belongs to this shard.
+    pub fn contains(&self, index: usize) -> bool {
+        index % self.count == self.index - 1
+    }
+}
+
+/// A swept key as `sweep.json` describes it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct KeyInfo {
+    /// The key.
+    pub name: String,
+    /// SI unit (`None`: text).
+    pub unit: Option<String>,
+    /// Given as a log range (the plots use a log axis).
+    pub log: bool,
+}
+
+/// `sweep.json`: what a sweep is, so that a resume or a merge can check it is the same one.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Layout version ([`FORMAT_VERSION`]).
+    pub format_version: i64,
+    /// djkr's version.
+    pub djkr_version: String,
+    /// The scenario file as given.
+    pub scenario: String,
+    /// Its text.
+    pub scenario_text: String,
+    /// `KEY=SPEC`, in the order given.
+    pub set: Vec<String>,
+    /// `--zip`.
+    pub zip: bool,
+    /// `--ensemble N`.
+    pub ensemble: Option<usize>,
+    /// `--seed S` (with an ensemble).
+    pub seed: Option<u64>,
+    /// The key columns.
+    pub keys: Vec<KeyInfo>,
+    /// Points.
+    pub points: usize,
+    /// Members per point.
+    pub members: usize,
+    /// Runs (points × members).
+    pub runs: usize,
+    /// This folder's shard (`None`: the whole sweep).
+    pub shard: Option<Shard>,
+}
+
+impl Manifest {
+    /// The manifest of `sweep` (whose `set` arguments, as given, are `set`).
+    pub fn of(sweep: &Sweep, shard: Option<Shard>) -> Manifest {
+        let e = sweep.ensemble();
+        Manifest {
+            format_version: FORMAT_VERSION,
+            djkr_version: env!("CARGO_PKG_VERSION").to_string(),
+            scenario: sweep.source().name().to_string(),
+            scenario_text: sweep.source().text().to_string(),
+            set: sweep.grid().axes().iter().map(|a| a.shown()).collect(),
+            zip: sweep.grid().zip(),
+            ensemble: e.map(|e| e.members),
+            seed: e.map(|e| e.seed),
+            keys: sweep
+                .grid()
+                .axes()
+                .iter()
+                .map(|a| KeyInfo {
+                    name: a.key.to_string(),
+                    unit: a.unit().map(str::to_string),
+                    log: a.form == SpecForm::Log,
+                })
+                .collect(),
+            points: sweep.grid().points(),
+            members: sweep.members(),
+            runs: sweep.runs(),
+            shard,
+        }
+    }
+
+    /// The key columns of the tables.
+    pub fn key_columns(&self) -> Vec<KeyColumn> {
+        self.keys
+            .iter()
+            .map(|k| KeyColumn {
+                name: k.name.clone(),
+                unit: k.unit.clone(),
+            })
+            .collect()
+    }
+
+    /// The first difference from `other` that makes them different sweeps (the scenario is
+    /// compared by its text, not its path; the shard is not compared).
+    pub fn difference(&self, other: &Manifest) -> Option<String> {
+        let checks: [(&str, bool); 8] = [
+            ("djkr version", self.djkr_version == other.djkr_version),
+            (
+                "scenario file text",
+                self.scenario_text == other.scenario_text,
+            ),
+            ("--set list", self.set == other.set),
+            ("--zip", self.zip == other.zip),
+            ("--ensemble", self.ensemble == other.ensemble),
+            ("--seed", self.seed == other.seed),
+            (
+                "format version",
+                self.format_version == other.format_version,
+            ),
+            (
+                "grid",
+                self.points == other.points && self.runs == other.runs && self.keys == other.keys,
+            ),
+        ];
+        checks
+            .iter()
+            .find(|(_, same)| !same)
+            .map(|(what, _)| (*what).to_string())
+    }
+
+    /// The command line that makes this sweep (without --out, --jobs, --shard).
+    pub fn command(&self) -> String {
+        let mut s = format!("djkr sweep {}", shell_quote(&self.scenario));
+        for set in &self.set {
+            s.push_str(&format!(" --set {}", shell_quote(set)));
+        }
+        if self.zip {
+            s.push_str(" --zip");
+        }
+        if let Some(n) = self.ensemble {
+            s.push_str(&format!(
+                " --ensemble {n} --seed {}",
+                self.seed.unwrap_or(0)
+            ));
+        }
+        s
+    }
+
+    fn read(dir: &Path) -> Result<Option<Manifest>, FilesError> {
+        let path = dir.join(MANIFEST_NAME);
+        if !path.exists() {
+            return Ok(None);
+        }
+        let text = fs::read_to_string(&path).map_err(io(&path))?;
+        serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| invalid(&path, format!("not a djkr sweep description: {e}")))
+    }
+
+    fn write(&self, dir: &Path) -> Result<(), FilesError> {
+        let text = serde_json::to_string_pretty(self)
+            .map_err(|e| invalid(dir, format!("sweep.json: {e}")))?;
+        write_atomic(&dir.join(MANIFEST_NAME), format!("{text}\n").as_bytes())?;
+        Ok(())
+    }
+
+    /// Whether run `index` belongs to this folder.
+    pub fn owns(&self, index: usize) -> bool {
+        index < self.runs && self.shard.is_none_or(|s| s.contains(index))
+    }
+}
+
+/// Quote for a POSIX shell when needed.
+pub fn shell_quote(s: &str) -> String {
+    if !s.is_empty()
+        && s.chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c))
+    {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
+/// The rows a folder holds: `sweep.csv` and `progress.csv` together, one per run (the later
+/// file wins), only runs of the folder's shard.
+pub fn read_rows(dir: &Path, manifest: &Manifest) -> Result<Vec<Row>, FilesError> {
+    let keys = manifest.key_columns();
+    let mut by_run = std::collections::BTreeMap::new();
+    for name in [ROWS_CSV_NAME, PROGRESS_NAME] {
+        let path = dir.join(name);
+        if !path.exists() {
+            continue;
+        }
+        let text = fs::read_to_string(&path).map_err(io(&path))?;
+        let rows = parse_rows_csv(&text, &keys).map_err(|m| invalid(&path, m))?;
+        for r in rows {
+            let index = r.point * manifest.members + r.member;
+            if r.member >= manifest.members || !manifest.owns(index) {
+                return Err(invalid(
+                    &path,
+                    format!(
+                        "row of point {} member {} does not belong to this sweep{}",
+                        r.point,
+                        r.member,
+                        manifest
+                            .shard
+                            .map(|s| format!(" (shard {}/{})", s.index, s.count))
+                            .unwrap_or_default()
+                    ),
+                ));
+            }
+            by_run.insert((r.point, r.member), r);
+        }
+    }
+    Ok(by_run.into_values().collect())
+}
+
+/// The progress file, open for appending rows.
+#[derive(Debug)]
+pub struct Progress {
+    file: File,
+    keys: Vec<KeyColumn>,
+    path: PathBuf,
+}
+
+impl Progress {
+    /// Append one row, flushed.
+    pub fn append(&mut self, row: &Row) -> Result<(), FilesError> {
+        let csv = rows_table(&self.keys, std::slice::from_ref(row)).to_csv();
+        let line = csv.split_once('\n').map_or("", |(_, l)| l);
+        self.file
+            .write_all(line.as_bytes())
+            .and_then(|_| self.file.flush())
+            .map_err(io(&self.path))
+    }
+}
+
+/// A sweep folder opened to run in: its manifest, the rows already done, the progress file.
+#[derive(Debug)]
+pub struct Opened {
+    /// The manifest (written or checked).
+    pub manifest: Manifest,
+    /// Rows already done (`--resume`), sorted.
+    pub done: Vec<Row>,
+    /// The progress file.
+    pub progress: Progress,
+}
+
+/// Open `dir` for `manifest`'s sweep. A folder that already holds a sweep is refused unless
+/// `resume`, and then it must be the same sweep (same shard too). With `resume` and no sweep in
+/// the folder, the sweep starts afresh.
+pub fn open(dir: &Path, manifest: Manifest, resume: bool) -> Result<Opened, FilesError> {
+    fs::create_dir_all(dir).map_err(io(dir))?;
+    let done = match Manifest::read(dir)? {
+        Some(old) => {
+            if !resume {
+                return Err(invalid(
+                    dir,
+                    "already holds a sweep (sweep.json): add --resume to continue it, or choose \
+                     another --out",
+                ));
+            }
+            if let Some(what) = old.difference(&manifest) {
+                return Err(invalid(
+                    dir,
+                    format!(
+                        "--resume: the sweep there differs in its {what}: it was made by `{}`",
+                        old.command()
+                    ),
+                ));
+            }
+            if old.shard != manifest.shard {
+                let show = |s: Option<Shard>| {
+                    s.map_or("the whole sweep".to_string(), |s| {
+                        format!("shard {}/{}", s.index, s.count)
+                    })
+                };
+                return Err(invalid(
+                    dir,
+                    format!(
+                        "--resume: the folder holds {}, not {}",
+                        show(old.shard),
+                        show(manifest.shard)
+                    ),
+                ));
+            }
+            read_rows(dir, &old)?
+        }
+        None => {
+            manifest.write(dir)?;
+            Vec::new()
+        }
+    };
+    let path = dir.join(PROGRESS_NAME);
+    let keys = manifest.key_columns();
+    let header = crate::output::table::Table::from_schema(&row_schema(&keys))
+        .map(|t| t.to_csv())
+        .unwrap_or_default();
+    if path.exists() {
+        // Cut a torn last line (a writer killed mid-line) before appending.
+        let text = fs::read(&path).map_err(io(&path))?;
+        let keep = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        if keep < text.len() {
+            let f = OpenOptions::new()
+                .write(true)
+                .open(&path)
+                .map_err(io(&path))?;
+            f.set_len(keep as u64).map_err(io(&path))?;
+        }
+        if keep == 0 {
+            fs::write(&path, header.as_bytes()).map_err(io(&path))?;
+        }
+    } else {
+        fs::write(&path, header.as_bytes()).map_err(io(&path))?;
+    }
+    let file = OpenOptions::new()
+        .append(true)
+        .open(&path)
+        .map_err(io(&path))?;
+    Ok(Opened {
+        manifest,
+        done,
+        progress: Progress { file, keys, path },
+    })
+}
+
+/// Write the tables and plots of `rows` into `dir` (atomically, each file) and, when the sweep
+/// is `complete`, remove `progress.csv`. `rows` are sorted in place. Returns the files written.
+pub fn write_results(
+    dir: &Path,
+    manifest: &Manifest,
+    rows: &mut [Row],
+    complete: bool,
+) -> Result<Vec<PathBuf>, FilesError> {
+    rows.sort_by_key(|r| (r.point, r.member));
+    let keys = manifest.key_columns();
+    let table = rows_table(&keys, rows);
+    let points = point_stats(rows);
+    let ptable = points_table(&keys, &points);
+    let mut written = Vec::new();
+
+    let csv = dir.join(ROWS_CSV_NAME);
+    table.save_csv(&csv)?;
+    written.push(csv);
+
+    let h5 = dir.join(ROWS_H5_NAME);
+    let mut b = FileBuilder::new();
+    b.set_attr("djkr_version", text_attr(env!("CARGO_PKG_VERSION")));
+    b.set_attr("source", text_attr(&manifest.command()));
+    b.set_attr("scenario", text_attr(&manifest.scenario_text));
+    b.set_attr("set", text_attr(&manifest.set.join("\n")));
+    b.set_attr("zip", AttrValue::I64(i64::from(manifest.zip)));
+    b.set_attr(
+        "ensemble",
+        AttrValue::I64(manifest.ensemble.map_or(0, |n| n as i64)),
+    );
+    b.set_attr(
+        "seed",
+        AttrValue::I64(manifest.seed.map_or(0, |s| s as i64)),
+    );
+    b.set_attr("points", AttrValue::I64(manifest.points as i64));
+    b.set_attr("members", AttrValue::I64(manifest.members as i64));
+    b.set_attr("runs", AttrValue::I64(manifest.runs as i64));
+    b.set_attr(
+        "layout",
+        text_attr("one row per run at the root (as sweep.csv); group points: as points.csv"),
+    );
+    table.write_hdf5(&mut b);
+    let mut g = b.create_group("points");
+    g.set_attr(
+        "description",
+        text_attr("one row per point: the members' statistics (as points.csv)"),
+    );
+    ptable.write_hdf5(&mut g);
+    b.add_group(g.finish());
+    let bytes = b.finish().map_err(|e| OutputError::Hdf5 {
+        path: h5.clone(),
+        message: e.to_string(),
+    })?;
+    write_atomic(&h5, &bytes)?;
+    written.push(h5);
+
+    let pcsv = dir.join(POINTS_CSV_NAME);
+    ptable.save_csv(&pcsv)?;
+    written.push(pcsv);
+
+    written.extend(super::plots::sweep_plots(dir, manifest, &points, rows)?);
+
+    if complete {
+        let p = dir.join(PROGRESS_NAME);
+        if p.exists() {
+            fs::remove_file(&p).map_err(io(&p))?;
+        }
+    }
+    sync_dir(dir);
+    Ok(written)
+}
+
+/// What a merge found and wrote.
+#[derive(Debug, Clone)]
+pub struct Merged {
+    /// The merged sweep's manifest.
+    pub manifest: Manifest,
+    /// Rows merged.
+    pub rows: usize,
+    /// Of them, failed runs.
+    pub failed: usize,
+    /// Files written.
+    pub files: Vec<PathBuf>,
+}
+
+/// Merge the shard folders `dirs` of one sweep into `out`: the same files as the unsharded
+/// sweep. Every folder must hold a shard of the same sweep, every run exactly once.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, FilesError> {
+    let Some(first) = dirs.first() else {
+        return Err(invalid(out, "merge: no shard folders given"));
+    };
+    let mut base: Option<Manifest> = None;
+    let mut rows: Vec<Row> = Vec::new();
+    let mut seen_shards = Vec::new();
+    for d in dirs {
+        let m = Manifest::read(d)?
+            .ok_or_else(|| invalid(d, "no sweep.json: not a djkr sweep folder"))?;
+        if let Some(b) = &base {
+            if let Some(what) = b.difference(&m) {
+                return Err(invalid(
+                    d,
+                    format!(
+                        "a shard of another sweep: its {what} differs from {}'s",
+                        first.display()
+                    ),
+                ));
+            }
+        }
+        if let Some(s) = m.shard {
+            if seen_shards.contains(&s) {
+                return Err(invalid(
+                    d,
+                    format!("shard {}/{} is given twice", s.index, s.count),
+                ));
+            }
+            seen_shards.push(s);
+        }
+        let mut r = read_rows(d, &m)?;
+        let expected = (0..m.runs).filter(|&i| m.owns(i)).count();
+        if r.len() < expected {
+            return Err(invalid(
+                d,
+                format!(
+                    "incomplete: {} of its {expected} runs are done; finish it with \
+                     `{} --shard {} --resume --out {}`",
+                    r.len(),
+                    m.command(),
+                    m.shard
+                        .map_or("1/1".to_string(), |s| format!("{}/{}", s.index, s.count)),
+                    shell_quote(&d.display().to_string())
+                ),
+            ));
+        }
+        rows.append(&mut r);
+        if base.is_none() {
+            base = Some(m);
+        }
+    }
+    let Some(mut manifest) = base else {
+        return Err(invalid(out, "merge: no shard folders given"));
+    };
+    manifest.shard = None;
+    rows.sort_by_key(|r| (r.point, r.member));
+    if let Some(w) = rows
+        .windows(2)
+        .find(|w| (w[0].point, w[0].member) == (w[1].point, w[1].member))
+    {
+        return Err(invalid(
+            out,
+            format!(
+                "point {} member {} is in two shard folders",
+                w[0].point, w[0].member
+            ),
+        ));
+    }
+    if rows.len() != manifest.runs {
+        let have: std::collections::HashSet<_> = rows.iter().map(|r| (r.point, r.member)).collect();
+        let missing: Vec<usize> = (0..manifest.runs)
+            .filter(|&i| !have.contains(&(i / manifest.members, i % manifest.members)))
+            .collect();
+        let count = seen_shards.first().map_or(1, |s| s.count);
+        let absent: Vec<String> = (1..=count)
+            .filter(|k| !seen_shards.iter().any(|s| s.index == *k))
+            .map(|k| format!("{k}/{count}"))
+            .collect();
+        return Err(invalid(
+            out,
+            format!(
+                "merge: {} of {} runs are missing (first: point {} member {}){}",
+                missing.len(),
+                manifest.runs,
+                missing.first().map_or(0, |i| i / manifest.members),
+                missing.first().map_or(0, |i| i % manifest.members),
+                if absent.is_empty() {
+                    String::new()
+                } else {
+                    format!("; shards not given: {}", absent.join(", "))
+                }
+            ),
+        ));
+    }
+    fs::create_dir_all(out).map_err(io(out))?;
+    if let Some(old) = Manifest::read(out)? {
+        if let Some(what) = old.difference(&manifest) {
+            return Err(invalid(
+                out,
+                format!("already holds another sweep (its {what} differs): choose another --out"),
+            ));
+        }
+    }
+    manifest.write(out)?;
+    let files = write_results(out, &manifest, &mut rows, true)?;
+    Ok(Merged {
+        failed: rows.iter().filter(|r| r.result.is_err()).count(),
+        rows: rows.len(),
+        manifest,
+        files,
+    })
+}
+
+/// The runs of `manifest`'s folder not in `done` (indices in (point, member) order).
+pub fn remaining(sweep: &Sweep, manifest: &Manifest, done: &[Row]) -> Vec<usize> {
+    let have: std::collections::HashSet<usize> = done
+        .iter()
+        .map(|r| {
+            sweep.run_index(RunId {
+                point: r.point,
+                member: r.member,
+            })
+        })
+        .collect();
+    (0..sweep.runs())
+        .filter(|&i| manifest.owns(i) && !have.contains(&i))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_are_disjoint_and_cover() {
+        let shards: Vec<Shard> = (1..=3).map(|k| Shard { index: k, count: 3 }).collect();
+        for i in 0..20 {
+            assert_eq!(shards.iter().filter(|s| s.contains(i)).count(), 1);
+        }
+        assert_eq!(Shard::parse("2/3").unwrap(), shards[1]);
+        for bad in ["0/3", "4/3", "x", "1/0", "1-3"] {
+            assert!(Shard::parse(bad).is_err(), "{bad}");
+        }
+        let env = |vars: &'static [(&'static str, &'static str)]| {
+            move |k: &str| {
+                vars.iter()
+                    .find(|(n, _)| *n == k)
+                    .map(|(_, v)| (*v).to_string())
+            }
+        };
+        let s = Shard::from_slurm(env(&[
+            ("SLURM_ARRAY_TASK_ID", "5"),
+            ("SLURM_ARRAY_TASK_COUNT", "10"),
+            ("SLURM_ARRAY_TASK_MIN", "0"),
+            ("SLURM_ARRAY_TASK_MAX", "9"),
+        ]))
+        .unwrap();
+        assert_eq!(
+            s,
+            Shard {
+                index: 6,
+                count: 10
+            }
+        );
+        assert!(Shard::from_slurm(env(&[])).is_err());
+        assert!(Shard::from_slurm(env(&[
+            ("SLURM_ARRAY_TASK_ID", "5"),
+            ("SLURM_ARRAY_TASK_COUNT", "2"),
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+            ("SLURM_ARRAY_TASK_MAX", "5"),
+        ]))
+        .is_err());
+    }
+
+    #[test]
+    fn quoting() {
+        assert_eq!(
+            shell_quote("base.amplitude=10um,30um"),
+            "base.amplitude=10um,30um"
+        );
+        assert_eq!(shell_quote("stage[3].speed=1"), "'stage[3].speed=1'");
+        assert_eq!(shell_quote("it's"), r"'it'\''s'");
+    }
+}

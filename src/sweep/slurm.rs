@@ -1,0 +1,172 @@
+//! `djkr sweep ... --slurm`: a ready Slurm batch script for a sweep.
+//!
+//! `OUT/sweep.sbatch` is an array job with one task per shard (`--array=1-N`). Task K runs
+//! `djkr sweep FILE ... --shard K/N --resume --out OUT/shards/K` on its `--cpus-per-task`
+//! threads: a chunk of runs, not one, because Slurm starts about one array task per second per
+//! slot. The first task to start submits the merge step once (a marker file guards against a
+//! requeue): `djkr sweep merge OUT/shards/* --out OUT` with `--dependency=afterok` on the whole
+//! array, so it runs when every task has succeeded and writes the files of the unsharded sweep
+//! into OUT. A task that failed can be resubmitted alone (`sbatch --array=K OUT/sweep.sbatch`; it
+//! resumes), and then the merge run by hand.
+//!
+//! Every path in the script is absolute (the djkr binary, the scenario, OUT), so it can be
+//! submitted from any directory.
+
+use super::files::shell_quote;
+
+/// What the script needs.
+#[derive(Debug, Clone)]
+pub struct SlurmScript {
+    /// The djkr binary (absolute).
+    pub djkr: String,
+    /// The scenario file (absolute).
+    pub scenario: String,
+    /// `KEY=SPEC`, in order.
+    pub set: Vec<String>,
+    /// `--zip`.
+    pub zip: bool,
+    /// `--ensemble N --seed S`.
+    pub ensemble: Option<(usize, u64)>,
+    /// `--keep-runs`.
+    pub keep_runs: bool,
+    /// The sweep folder (absolute).
+    pub out: String,
+    /// Array tasks (shards).
+    pub shards: usize,
+    /// Threads (cpus) per task.
+    pub cpus_per_task: usize,
+    /// `#SBATCH --time` (e.g. `1:00:00`), if given.
+    pub time: Option<String>,
+    /// `#SBATCH --partition`, if given.
+    pub partition: Option<String>,
+    /// Total runs (for the comments).
+    pub runs: usize,
+}
+
+/// A shard count that gives each array task a chunk of runs: `runs / 64` rounded up, at most
+/// 1000 (Slurm's default MaxArraySize is 1001).
+pub fn default_shards(runs: usize) -> usize {
+    runs.div_ceil(64).clamp(1, 1000)
+}
+
+impl SlurmScript {
+    /// The sweep command of task `$K` (without the shard, threads and folder).
+    fn sweep_command(&self) -> String {
+        let mut s = format!("\"$DJKR\" sweep {}", shell_quote(&self.scenario));
+        for set in &self.set {
+            s.push_str(&format!(" \\\n    --set {}", shell_quote(set)));
+        }
+        if self.zip {
+            s.push_str(" --zip");
+        }
+        if let Some((n, seed)) = self.ensemble {
+            s.push_str(&format!(" --ensemble {n} --seed {seed}"));
+        }
+        if self.keep_runs {
+            s.push_str(" --keep-runs");
+        }
+        s
+    }
+
+    /// The script's text.
+    pub fn text(&self) -> String {
+        let q = |s: &str| shell_quote(s);
+        let mut opts = String::new();
+        if let Some(t) = &self.time {
+            opts.push_str(&format!("#SBATCH --time={t}\n"));
+        }
+        if let Some(p) = &self.partition {
+            opts.push_str(&format!("#SBATCH --partition={p}\n"));
+        }
+        let mut merge_opts = String::new();
+        if let Some(t) = &self.time {
+            merge_opts.push_str(&format!(" --time={}", q(t)));
+        }
+        if let Some(p) = &self.partition {
+            merge_opts.push_str(&format!(" --partition={}", q(p)));
+        }
+        let per_task = self.runs.div_ceil(self.shards.max(1));
+        format!(
+            r#"#!/bin/bash
+# A djkr sweep as a Slurm array job: {runs} runs in {n} tasks of about {per_task} runs each.
+# Written by `djkr sweep ... --slurm` (djkr {version}).
+#
+#   submit:   sbatch {out}/sweep.sbatch
+#   watch:    squeue --me; tail -f {out}/shards/*/progress.csv
+#   result:   {out}/sweep.csv, points.csv, sweep.h5 and the plots, written by the merge step
+#             that the first task submits (it waits for every task: afterok).
+#   a task failed: resubmit it alone, it resumes (sbatch --array=K {out}/sweep.sbatch),
+#             then merge by hand: djkr sweep merge {out}/shards/* --out {out}
+#
+#SBATCH --job-name=djkr-sweep
+#SBATCH --array=1-{n}
+#SBATCH --cpus-per-task={cpus}
+#SBATCH --output={out}/slurm/%x-%A_%a.out
+{opts}
+set -euo pipefail
+DJKR={djkr}
+OUT={out}
+K=$(( SLURM_ARRAY_TASK_ID - ${{SLURM_ARRAY_TASK_MIN:-1}} + 1 ))
+
+# The merge step, submitted once (the marker survives a requeue).
+if ( set -o noclobber; echo "$SLURM_ARRAY_JOB_ID" > "$OUT/slurm/merge.submitted" ) 2>/dev/null; then
+  if ! sbatch --parsable --job-name=djkr-sweep-merge --dependency="afterok:$SLURM_ARRAY_JOB_ID" \
+      --cpus-per-task=1 --output="$OUT/slurm/%x-%j.out"{merge_opts} \
+      --wrap="exec \"$DJKR\" sweep merge \"$OUT\"/shards/* --out \"$OUT\"" > "$OUT/slurm/merge.jobid"; then
+    echo "warning: could not submit the merge step; when every task is done, run:" >&2
+    echo "  $DJKR sweep merge $OUT/shards/* --out $OUT" >&2
+  fi
+fi
+
+exec {cmd} \
+    --shard "$K/{n}" --jobs "${{SLURM_CPUS_PER_TASK:-1}}" --resume --out "$OUT/shards/$K"
+"#,
+            runs = self.runs,
+            n = self.shards,
+            per_task = per_task,
+            version = env!("CARGO_PKG_VERSION"),
+            out = q(&self.out),
+            cpus = self.cpus_per_task.max(1),
+            opts = opts,
+            djkr = q(&self.djkr),
+            merge_opts = merge_opts,
+            cmd = self.sweep_command(),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn script_runs_shards_and_submits_the_merge() {
+        let s = SlurmScript {
+            djkr: "/opt/djkr".into(),
+            scenario: "/data/x.toml".into(),
+            set: vec!["base.amplitude=10um,20um".into(), "stage[3].speed=1".into()],
+            zip: false,
+            ensemble: Some((8, 3)),
+            keep_runs: false,
+            out: "/scratch/sweep one".into(),
+            shards: 4,
+            cpus_per_task: 2,
+            time: Some("1:00:00".into()),
+            partition: None,
+            runs: 16,
+        }
+        .text();
+        assert!(s.starts_with("#!/bin/bash\n"));
+        assert!(s.contains("#SBATCH --array=1-4\n"), "{s}");
+        assert!(s.contains("#SBATCH --cpus-per-task=2\n"));
+        assert!(s.contains("#SBATCH --time=1:00:00\n"));
+        assert!(s.contains("--set 'stage[3].speed=1'"));
+        assert!(s.contains("--ensemble 8 --seed 3"));
+        assert!(s.contains("--shard \"$K/4\""));
+        assert!(s.contains("OUT='/scratch/sweep one'"));
+        assert!(s.contains("--dependency=\"afterok:$SLURM_ARRAY_JOB_ID\""));
+        assert_eq!(default_shards(10), 1);
+        assert_eq!(default_shards(640), 10);
+        assert_eq!(default_shards(10_000_000), 1000);
+    }
+}
