@@ -176,8 +176,7 @@ const N: usize = 70_000;
 // Long enough to be streamed: the first spill, two appends and a partial last batch.
 const N_STREAMED: usize = SPILL_ROWS + 2 * FLUSH_ROWS + 12_345;
 
-/// Write the synthetic run of `n` samples into `dir` (its three period records arrive in the
-/// last samples, after a streamed run's first spill); returns the samples and the result.
+/// Write the synthetic run of `n` samples into `dir`; returns the samples and the result.
 fn write_run(dir: &Path, csv: bool, n: usize) -> (Vec<Sample>, RunResult) {
     let (samples, res, _) = write_run_with_id(dir, csv, n);
     (samples, res)
@@ -191,14 +190,25 @@ fn write_run_with_id(dir: &Path, csv: bool, n: usize) -> (Vec<Sample>, RunResult
     let samples: Vec<Sample> = (0..n).map(sample).collect();
     let evs = events(n);
     let cyc = cycles();
+    // A streamed run gets its first period record after the first spill (the period datasets
+    // are created then) and the next ones in later batches.
+    let cycle_at = if n >= SPILL_ROWS {
+        [n - 2 * FLUSH_ROWS - 10, n - FLUSH_ROWS - 10, n - 1]
+    } else {
+        [
+            n.saturating_sub(3),
+            n.saturating_sub(2),
+            n.saturating_sub(1),
+        ]
+    };
     let mut next_event = 0;
     for (i, s) in samples.iter().enumerate() {
         while next_event < evs.len() && evs[next_event].time <= s.t {
             w.event(&evs[next_event]);
             next_event += 1;
         }
-        if i + cyc.len() >= n {
-            w.cycle(&cyc[i + cyc.len() - n]);
+        if let Some(k) = cycle_at.iter().position(|&j| j == i) {
+            w.cycle(&cyc[k]);
         }
         assert!(w.sample(s));
     }

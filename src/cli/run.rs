@@ -47,13 +47,16 @@ struct Progress<'a> {
     inner: &'a mut RunWriter,
     bar: ProgressBar,
     last: Instant,
+    samples: u64,
     events: usize,
     stages: usize,
 }
 
 impl Observer for Progress<'_> {
     fn sample(&mut self, s: &Sample) -> bool {
-        if self.last.elapsed() >= Duration::from_millis(100) {
+        self.samples += 1;
+        // Reading the clock at every sample cost 6 % of a run sampled at 12 kHz.
+        if self.samples.is_multiple_of(256) && self.last.elapsed() >= Duration::from_millis(100) {
             self.last = Instant::now();
             self.bar.set_message(format!(
                 "t = {:.6} s  stage {}/{}  a = {:.4} mm  F = {:.4} mN  events {}",
@@ -99,6 +102,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         inner: &mut writer,
         bar: bar.clone(),
         last: Instant::now(),
+        samples: 0,
         events: 0,
         stages: scn.stages.len(),
     };

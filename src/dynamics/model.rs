@@ -108,6 +108,9 @@ pub struct Model {
     pub vel_scale: f64,
     /// Characteristic time (s): the shortest of the base period and the free contact period.
     pub t_char: f64,
+    /// Period of the free oscillation of sphere and spring on the jump-in contact stiffness (s;
+    /// +∞ without inertia).
+    pub t_free: f64,
     /// The explicit right-hand side's constants, so that its chain of dependent operations
     /// carries one division instead of four (see [`Model::signed_g`], [`Model::crack_speed`]).
     fast: FastConstants,
@@ -232,10 +235,11 @@ pub fn resolve(s: &Rig, scales: RunScales) -> Result<Model, String> {
         len_scale = len_scale.max(g0.abs());
     }
     let kc = jkr::contact_stiffness(&mat, a_jump);
-    let mut t_char = f64::INFINITY;
+    let mut t_free = f64::INFINITY;
     if mech == Mechanics::Dynamic {
-        t_char = 2.0 * PI * (m / (k + kc)).sqrt();
+        t_free = 2.0 * PI * (m / (k + kc)).sqrt();
     }
+    let mut t_char = t_free;
     if omega > 0.0 {
         t_char = t_char.min(2.0 * PI / omega);
     }
@@ -267,6 +271,7 @@ pub fn resolve(s: &Rig, scales: RunScales) -> Result<Model, String> {
         len_scale,
         vel_scale,
         t_char,
+        t_free,
         fast: FastConstants {
             inv_r: 1.0 / mat.r,
             g_coef: 3.0 * mat.k / (8.0 * PI),

@@ -7,7 +7,7 @@
 //! a field added to the record fails that test until it is listed here with its unit. `index` and `stage` are int64 columns,
 //! the rest f64. The HDF5 `description` of each dataset is its name.
 
-use super::table::{Column, Data, Field, Table};
+use super::table::{Cell, Column, Data, Field, Table};
 use super::timeseries::stage_index;
 use crate::dynamics::types::CycleRecord;
 
@@ -110,6 +110,20 @@ pub fn cycle_table(cycles: &[CycleRecord]) -> Table {
     Table::from_fixed(columns)
 }
 
+/// Append one record to a table of [`cycle_schema`] (a run writer's buffer).
+pub fn push_cycle(table: &mut Table, c: &CycleRecord) {
+    let mut row = [Cell::F64(0.0); CYCLE_FIELDS.len()];
+    for (cell, def) in row.iter_mut().zip(CYCLE_FIELDS.iter()) {
+        *cell = match def.get {
+            Get::F64(g) => Cell::F64(g(c)),
+            Get::I64(g) => Cell::I64(g(c)),
+        };
+    }
+    // The row is built from the schema itself.
+    let pushed = table.push_row(&row);
+    debug_assert!(pushed.is_ok(), "{pushed:?}");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -162,8 +176,13 @@ mod tests {
             let v = m[def.name].as_f64().unwrap();
             assert_eq!(def.value(&r).to_bits(), v.to_bits(), "{}", def.name);
         }
-        let t = cycle_table(&[r, r]);
+        let mut t = cycle_table(&[r, r]);
         assert_eq!(t.rows(), 2);
+        push_cycle(&mut t, &r);
+        let mut three = cycle_table(&[r, r, r]);
+        assert_eq!(t, three);
+        three.clear();
+        assert_eq!(three, cycle_table(&[]));
         assert_eq!(t.columns().len(), CYCLE_FIELDS.len());
         assert!(cycle_table(&[]).columns().len() == CYCLE_FIELDS.len());
     }

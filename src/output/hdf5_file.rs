@@ -160,7 +160,9 @@ fn extendable(compress: bool, chunk: usize) -> Storage {
 
 impl H5Stream {
     /// Create the file at `path` with the rows of `tables` and open it for appending. hdf5-pure
-    /// syncs it once, when it is finished (`SyncPolicy::OnClose`).
+    /// syncs it once, when it is finished (`SyncPolicy::OnClose`). The datasets are created
+    /// empty and the rows appended: building them with their rows would hold the rows in memory
+    /// three times over (the buffer, the builder's copy, the file image).
     pub fn create(
         path: &Path,
         tables: RunTables,
@@ -172,26 +174,21 @@ impl H5Stream {
             path: path.to_path_buf(),
             message,
         };
+        let empty = |t: &Table| Table::from_schema(&t.schema()).map_err(|e| err(e.to_string()));
         let mut b = FileBuilder::new();
         for (k, v) in start_attrs(scenario, run_id) {
             b.set_attr(k, v);
         }
-        tables
-            .series
-            .write_hdf5_with(&mut b, extendable(compress, HDF5_CHUNK));
+        empty(tables.series)?.write_hdf5_with(&mut b, extendable(compress, HDF5_CHUNK));
         let mut g = b.create_group("events");
         g.set_attr("description", vstr(EVENTS_DESCRIPTION));
-        tables
-            .events
-            .write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
+        empty(tables.events)?.write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
         b.add_group(g.finish());
         let mut g = b.create_group("cycles");
         g.set_attr("description", vstr(CYCLES_DESCRIPTION));
         let cycles_created = !tables.cycles.is_empty();
         if cycles_created {
-            tables
-                .cycles
-                .write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
+            empty(tables.cycles)?.write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
         }
         b.add_group(g.finish());
         b.write(path).map_err(|e| err(e.to_string()))?;
@@ -200,12 +197,14 @@ impl H5Stream {
             FileAccessProperties::new().with_sync_policy(SyncPolicy::OnClose),
         )
         .map_err(|e| err(e.to_string()))?;
-        Ok(Self {
+        let mut stream = Self {
             file,
             path: path.to_path_buf(),
             compress,
             cycles_created,
-        })
+        };
+        stream.append(tables)?;
+        Ok(stream)
     }
 
     /// Append the rows of `tables`.
@@ -233,6 +232,8 @@ impl H5Stream {
             .cycles
             .create_hdf5_in(&group, extendable(self.compress, RECORD_CHUNK))
             .map_err(err)?;
+        // Datasets created in an open file are staged until committed; appends need them written.
+        self.file.commit().map_err(|e| err(e.to_string()))?;
         self.cycles_created = true;
         Ok(())
     }

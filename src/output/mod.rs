@@ -502,15 +502,12 @@ impl Observer for RunWriter {
         self.maybe_flush()
     }
     fn event(&mut self, e: &Event) {
-        let row = timeseries::events_table(std::slice::from_ref(e));
-        // Same schema by construction.
-        let _ = self.rows.events.append_rows(&row);
+        timeseries::push_event(&mut self.rows.events, e);
         self.kinds.push(e.kind);
         self.maybe_flush();
     }
     fn cycle(&mut self, c: &CycleRecord) {
-        let row = cycles::cycle_table(std::slice::from_ref(c));
-        let _ = self.rows.cycles.append_rows(&row);
+        cycles::push_cycle(&mut self.rows.cycles, c);
         self.cycles += 1;
         self.maybe_flush();
     }

@@ -462,6 +462,38 @@ impl Table {
         Ok(())
     }
 
+    /// Append one row of a table whose columns are `f.len()` f64 columns followed by `i.len()`
+    /// i64 columns (the time series): the per-sample path, without a [`Cell`] per value. A row
+    /// of another shape is refused.
+    pub fn push_numeric_row(&mut self, f: &[f64], i: &[i64]) -> Result<(), TableError> {
+        let shape_ok = self.columns.len() == f.len() + i.len()
+            && self.columns[..f.len()]
+                .iter()
+                .all(|c| c.data.kind() == Kind::F64)
+            && self.columns[f.len()..]
+                .iter()
+                .all(|c| c.data.kind() == Kind::I64);
+        if !shape_ok {
+            return Err(TableError::Schema(format!(
+                "a row of {} floats and {} integers does not fit this table",
+                f.len(),
+                i.len()
+            )));
+        }
+        let (fc, ic) = self.columns.split_at_mut(f.len());
+        for (c, &x) in fc.iter_mut().zip(f) {
+            if let Data::F64(d) = &mut c.data {
+                d.push(x);
+            }
+        }
+        for (c, &x) in ic.iter_mut().zip(i) {
+            if let Data::I64(d) = &mut c.data {
+                d.push(x);
+            }
+        }
+        Ok(())
+    }
+
     /// Append the rows of `other`, which must have the same column names and types.
     pub fn append_rows(&mut self, other: &Table) -> Result<(), TableError> {
         self.check_kinds(other.columns.iter().map(|c| c.data.kind()))?;

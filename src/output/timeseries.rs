@@ -181,13 +181,12 @@ impl TimeSeriesWriter {
 
     /// Buffer one sample.
     pub fn push(&mut self, s: &Sample) {
-        let mut row = [Cell::F64(0.0); 12];
-        for (cell, def) in row.iter_mut().zip(SERIES.iter()) {
-            *cell = Cell::F64(def.value(s));
+        let mut row = [0.0; SERIES.len()];
+        for (x, def) in row.iter_mut().zip(SERIES.iter()) {
+            *x = def.value(s);
         }
-        row[11] = Cell::I64(stage_index(s.stage));
-        // The row is built from the schema itself, so it always matches.
-        let pushed = self.table.push_row(&row);
+        // The schema is SERIES then the stage: the row always fits.
+        let pushed = self.table.push_numeric_row(&row, &[stage_index(s.stage)]);
         debug_assert!(pushed.is_ok(), "{pushed:?}");
     }
 }
@@ -207,12 +206,36 @@ pub(crate) fn stage_index(stage: usize) -> i64 {
     i64::try_from(stage).unwrap_or(i64::MAX)
 }
 
-/// The kebab-case name of an event kind, as in summary.json.
+/// The kebab-case name of an event kind, as in summary.json (serde's name: a unit test checks).
 pub(crate) fn kind_name(kind: EventKind) -> String {
-    match serde_json::to_value(kind) {
-        Ok(serde_json::Value::String(s)) => s,
-        _ => format!("{kind:?}"),
+    kind_str(kind).to_string()
+}
+
+fn kind_str(kind: EventKind) -> &'static str {
+    match kind {
+        EventKind::ContactLoss => "contact-loss",
+        EventKind::Impact => "impact",
+        EventKind::PullOff => "pull-off",
+        EventKind::PreloadReached => "preload-reached",
+        EventKind::DurationElapsed => "duration-elapsed",
+        EventKind::StageStart => "stage-start",
     }
+}
+
+/// Append one event to a table of the [`events_table`] schema (a run writer's buffer).
+pub fn push_event(table: &mut Table, e: &Event) {
+    let mut row = [Cell::F64(0.0); SERIES.len() + 2];
+    row[0] = Cell::Text(kind_str(e.kind));
+    row[1] = Cell::F64(e.time);
+    row[2] = Cell::I64(stage_index(e.stage));
+    for (cell, def) in row[3..]
+        .iter_mut()
+        .zip(SERIES.iter().filter(|c| c.name != "t"))
+    {
+        *cell = Cell::F64(def.value(&e.state));
+    }
+    let pushed = table.push_row(&row);
+    debug_assert!(pushed.is_ok(), "{pushed:?}");
 }
 
 /// Description of the event `kind` column.
@@ -262,5 +285,46 @@ mod tests {
         let t = TimeSeriesWriter::new();
         assert_eq!(t.table().columns().len(), 12);
         assert_eq!(events_table(&[]).columns().len(), 13);
+    }
+
+    #[test]
+    fn event_rows_and_kind_names_match_the_table_and_serde() {
+        let kinds = [
+            EventKind::ContactLoss,
+            EventKind::Impact,
+            EventKind::PullOff,
+            EventKind::PreloadReached,
+            EventKind::DurationElapsed,
+            EventKind::StageStart,
+        ];
+        let mut pushed = events_table(&[]);
+        let mut events = Vec::new();
+        for (i, kind) in kinds.into_iter().enumerate() {
+            let serde_name = serde_json::to_value(kind).unwrap();
+            assert_eq!(serde_name.as_str(), Some(kind_str(kind)));
+            let state = Sample {
+                t: i as f64,
+                x_s: 1.0,
+                v_s: 2.0,
+                x_b: 3.0,
+                x_k: 4.0,
+                delta: 5.0,
+                a: 6.0,
+                a_dot: 7.0,
+                force: -0.5 * i as f64,
+                g: 8.0,
+                w: 9.0,
+                stage: i,
+            };
+            let e = Event {
+                kind,
+                time: state.t,
+                stage: i,
+                state,
+            };
+            push_event(&mut pushed, &e);
+            events.push(e);
+        }
+        assert_eq!(pushed, events_table(&events));
     }
 }
