@@ -12,6 +12,7 @@ pub mod adhesion;
 pub mod beta_fit;
 pub mod closed_form;
 pub mod comparators;
+pub mod continuation;
 pub mod describing;
 pub mod dynamics;
 pub mod error;
