@@ -275,11 +275,40 @@ pub fn continue_branch(
         central: true,
     };
     let first = first_node(&map, &steady, start, stop - start, &set.engine)?;
-    let curve = trace_branch(&map, first, (start, stop), &set.engine, progress);
+    let mut curve = trace_branch(&map, first, (start, stop), &set.engine, progress);
+    snap_to_range(&map, &mut curve, (start, stop), &set.engine);
     let mut b = to_branch(&map, param, (start, stop), curve);
     b.periods = map.family.periods();
     b.wall_s = t0.elapsed().as_secs_f64();
     Ok(b)
+}
+
+/// Put the last point of a curve that ended at the edge of the range exactly on it (the located
+/// edge is within `locate_tol` in arclength).
+pub fn snap_to_range(
+    map: &ScaledMap,
+    curve: &mut Curve<Evaluation>,
+    (start, stop): (f64, f64),
+    set: &engine::Settings,
+) {
+    if curve.end != End::Window {
+        return;
+    }
+    let n = map.n();
+    let Some(last) = curve.nodes.last_mut() else {
+        return;
+    };
+    let p = last.eval.values[0];
+    let bound = if (p - start).abs() < (p - stop).abs() {
+        start
+    } else {
+        stop
+    };
+    if let Ok(s) = engine::snap(map, last, n, bound / map.ps[0], set) {
+        if s.eval.values[0] == bound || (s.eval.values[0] - bound).abs() <= (p - bound).abs() {
+            *last = s;
+        }
+    }
 }
 
 /// The test functions of a branch: fold (tangent's parameter component), period doubling,

@@ -66,7 +66,7 @@ pub struct Settings {
     pub h_max: f64,
     /// Largest turn of the tangent per step (rad).
     pub max_angle: f64,
-    /// Tolerance in arclength of a located test-function zero.
+    /// Tolerance in arclength of a located test-function zero or window edge.
     pub locate_tol: f64,
     /// Most points on one curve.
     pub max_points: usize,
@@ -176,6 +176,13 @@ pub fn correct<S: System>(
             .solve(&rhs)
             .ok_or(CorrectFail::Singular)?;
         let mut dn = delta.amax();
+        if std::env::var("DJKR_DEBUG").is_ok() {
+            eprintln!(
+                "it {it} g {:?} dn {dn:e} delta {:?}",
+                g.as_slice(),
+                delta.as_slice()
+            );
+        }
         if it > 0 && dn > 0.5 * last_norm && !fresh {
             // Slow chord contraction: Newton from here on.
             jac = sys.jacobian(&e).map_err(CorrectFail::Map)?;
@@ -261,6 +268,32 @@ pub fn locate<S: System>(
         }
     }
     best.map(|(_, n)| n).ok_or(CorrectFail::NoConvergence)
+}
+
+/// The point of the curve near `node` whose unknown `k` equals `target` exactly (the edge of a
+/// window, located to `locate_tol` by [`trace`], made exact): a corrector on the hyperplane
+/// u_k = target, the tangent oriented as `node`'s.
+pub fn snap<S: System>(
+    sys: &S,
+    node: &Node<S::Eval>,
+    k: usize,
+    target: f64,
+    set: &Settings,
+) -> Result<Node<S::Eval>, CorrectFail> {
+    let d = target - sys.point(&node.eval)[k];
+    if d == 0.0 {
+        return Ok(node.clone());
+    }
+    let mut e = DVector::zeros(sys.dim());
+    e[k] = d.signum();
+    let fake = Node {
+        tangent: e,
+        ..node.clone()
+    };
+    let mut n = correct(sys, &fake, d.abs(), set)?;
+    n.tangent = tangent(&n.jac, &node.tangent).ok_or(CorrectFail::Singular)?;
+    n.s = node.s;
+    Ok(n)
 }
 
 /// The next step after an accepted one of length `h` that took `iterations` corrector

@@ -286,32 +286,6 @@ impl Family {
         &self.fixed
     }
 
-    /// The value the scenario itself (with the fixed overrides) gives key `i`, when it gives one.
-    pub fn scenario_value(&self, i: usize) -> Option<f64> {
-        let scn = self.source.scenario(&self.fixed).ok()?;
-        let rig = &scn.rig;
-        let v = match self.params.get(i)?.info.key {
-            "base.frequency" => rig.base?.frequency,
-            "base.amplitude" => rig.base?.amplitude,
-            "initial.preload" => match scn.initial {
-                Initial::Preload(p) => p,
-                _ => return None,
-            },
-            "damping.c" => rig.damping?.c,
-            "spring.stiffness" => match rig.holder {
-                crate::rig::Holder::Spring { stiffness } => stiffness,
-                _ => return None,
-            },
-            "sphere.mass" => rig.sphere.mass,
-            "sphere.gravity" => rig.sphere.gravity,
-            "material.K" => rig.material.k,
-            "material.R" => rig.material.r,
-            "material.w0" => rig.material.w0,
-            _ => return None,
-        };
-        Some(v)
-    }
-
     /// The problem at parameter values `values` (one per free key, SI).
     pub fn setup(&self, values: &[f64]) -> Result<Arc<Setup>, ContinuationError> {
         let bits: Vec<u64> = values.iter().map(|v| v.to_bits()).collect();

@@ -46,6 +46,8 @@ pub struct Period {
     pub record: CycleRecord,
     /// Contact losses and impacts within the period.
     pub events: Vec<EventKind>,
+    /// The base period T (s) the steps span.
+    pub length: f64,
     /// The accepted step lengths (s), in order.
     steps: Vec<f64>,
 }
@@ -119,6 +121,7 @@ pub fn period(setup: &Setup, y: [f64; 3], rtol: f64) -> Result<Period, MapFail> 
                 end: [s.x_s, s.v_s, s.a],
                 record,
                 events,
+                length: setup.period(),
                 steps,
             });
         }
@@ -255,48 +258,103 @@ impl ScaledMap {
         })
     }
 
+    /// One replay (counted) of `steps`, recorded over a period `t0`, from `y` at `values`.
+    fn replay_at(
+        &self,
+        y: [f64; 3],
+        values: &[f64],
+        steps: &[f64],
+        t0: f64,
+    ) -> Result<[f64; 3], MapFail> {
+        let setup = self.setup(values)?;
+        self.family.count(1);
+        replay(&setup, y, steps, setup.period() / t0, self.rtol)
+    }
+
+    /// The scaled monodromy matrix ∂P/∂ŷ (n × n) at state `y` and parameters `values`, by
+    /// differences of replays of `steps` (recorded over a period `t0`; stretched to the period
+    /// at `values`): central with step `fd_step` when [`central`](Self::central), else forward.
+    pub fn monodromy_at(
+        &self,
+        y: [f64; 3],
+        values: &[f64],
+        steps: &[f64],
+        t0: f64,
+    ) -> Result<DMatrix<f64>, MapFail> {
+        let n = self.n();
+        let eps = self.fd_step;
+        let base = if self.central {
+            None
+        } else {
+            Some(self.replay_at(y, values, steps, t0)?)
+        };
+        let mut m = DMatrix::zeros(n, n);
+        for (col, &j) in self.idx.iter().enumerate() {
+            let mut yp = y;
+            yp[j] += eps * self.sc[j];
+            let plus = self.replay_at(yp, values, steps, t0)?;
+            let (lo, h) = match base {
+                Some(b) => (b, eps),
+                None => {
+                    let mut ym = y;
+                    ym[j] -= eps * self.sc[j];
+                    (self.replay_at(ym, values, steps, t0)?, 2.0 * eps)
+                }
+            };
+            for (row, &i) in self.idx.iter().enumerate() {
+                m[(row, col)] = (plus[i] - lo[i]) / self.sc[i] / h;
+            }
+        }
+        Ok(m)
+    }
+
+    /// The scaled derivative ∂P/∂p̂_k (n) at state `y` and parameters `values` (replays as in
+    /// [`monodromy_at`](Self::monodromy_at)).
+    pub fn parameter_column(
+        &self,
+        y: [f64; 3],
+        values: &[f64],
+        k: usize,
+        steps: &[f64],
+        t0: f64,
+    ) -> Result<DVector<f64>, MapFail> {
+        let dp = self.fd_step * self.ps[k].abs();
+        let mut up = values.to_vec();
+        up[k] += dp;
+        let plus = self.replay_at(y, &up, steps, t0)?;
+        let mut down = values.to_vec();
+        if self.central {
+            down[k] -= dp;
+        }
+        let minus = self.replay_at(y, &down, steps, t0)?;
+        let h = (up[k] - down[k]) / self.ps[k];
+        Ok(DVector::from_fn(self.n(), |row, _| {
+            let i = self.idx[row];
+            (plus[i] - minus[i]) / self.sc[i] / h
+        }))
+    }
+
     /// The Jacobian of the residual at an evaluation, n × (n + m) in scaled units: the columns
     /// of the state unknowns are M − I, M the monodromy matrix (∂P/∂y scaled), then ∂F/∂p̂ per
     /// parameter. Derivatives on the frozen step sequence of `e.period` (module doc).
     pub fn jacobian(&self, e: &Evaluation) -> Result<DMatrix<f64>, MapFail> {
         let (n, m) = (self.n(), self.m());
-        let setup = self.setup(&e.values)?;
+        let t0 = e.period.length;
         let steps = &e.period.steps;
-        let base = replay(&setup, e.y, steps, 1.0, self.rtol)?;
+        let mono = self.monodromy_at(e.y, &e.values, steps, t0)?;
         let mut jac = DMatrix::zeros(n, n + m);
-        let eps = self.fd_step;
-        let per_column = if self.central { 2 } else { 1 };
-        self.family.count((per_column * n + m + 1) as u64);
-        for (col, &j) in self.idx.iter().enumerate() {
-            let mut yp = e.y;
-            yp[j] += eps * self.sc[j];
-            let plus = replay(&setup, yp, steps, 1.0, self.rtol)?;
-            let (lo, h) = if self.central {
-                let mut ym = e.y;
-                ym[j] -= eps * self.sc[j];
-                (replay(&setup, ym, steps, 1.0, self.rtol)?, 2.0 * eps)
-            } else {
-                (base, eps)
-            };
-            for (row, &i) in self.idx.iter().enumerate() {
-                let d = (plus[i] - lo[i]) / self.sc[i] / h;
-                jac[(row, col)] = d - if row == col { 1.0 } else { 0.0 };
-            }
-        }
+        jac.view_mut((0, 0), (n, n))
+            .copy_from(&(mono - DMatrix::identity(n, n)));
         for k in 0..m {
-            let mut vals = e.values.clone();
-            let dp = eps * self.ps[k].abs();
-            vals[k] += dp;
-            let h = (vals[k] - e.values[k]) / self.ps[k];
-            let sp = self.setup(&vals)?;
-            let stretch = sp.period() / setup.period();
-            // The spring end may move with the parameter (a preload): the state is the same.
-            let plus = replay(&sp, e.y, steps, stretch, self.rtol)?;
-            for (row, &i) in self.idx.iter().enumerate() {
-                jac[(row, n + k)] = (plus[i] - base[i]) / self.sc[i] / h;
-            }
+            let c = self.parameter_column(e.y, &e.values, k, steps, t0)?;
+            jac.view_mut((0, n + k), (n, 1)).copy_from(&c);
         }
         Ok(jac)
+    }
+
+    /// The step sequence of an evaluation's period (for replays at nearby points).
+    pub fn steps<'a>(&self, e: &'a Evaluation) -> &'a [f64] {
+        &e.period.steps
     }
 
     /// The monodromy matrix M (∂P/∂y over the state unknowns, scaled) from a Jacobian.

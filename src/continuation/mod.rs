@@ -4,7 +4,10 @@ pub mod branch;
 pub mod engine;
 pub mod family;
 pub mod floquet;
+pub mod folds;
 pub mod map;
+pub mod report;
+pub mod sweep;
 
 use thiserror::Error;
 
