@@ -193,11 +193,7 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     let curves = match (&fold, &family2) {
         (Some((q, range)), Some(f2)) => {
             let t0 = std::time::Instant::now();
-            let mut fs = set.engine;
-            // The fold condition det(M − I) is known to ~1e-9, its gradient is small: the fold
-            // curve's points are determined to ~1e-7 in the scaled state (folds module doc).
-            fs.tol = fs.tol.max(1e-6);
-            let c = folds::continue_folds(f2, &branch, *range, &fs, &mut |p, v| {
+            let c = folds::continue_folds(f2, &branch, *range, &set.engine, &mut |p, v| {
                 bar.set_message(format!(
                     "fold curve: {} = {p:.6e}, {} = {v:.6e}",
                     param.name(),

@@ -32,6 +32,9 @@ impl System for ScaledMap {
     fn jacobian(&self, e: &Evaluation) -> Result<DMatrix<f64>, MapFail> {
         ScaledMap::jacobian(self, e)
     }
+    fn floor(&self, u: &DVector<f64>) -> DVector<f64> {
+        self.floor(u)
+    }
 }
 
 /// Settings of a branch continuation.
@@ -52,7 +55,7 @@ impl Default for Settings {
         Self {
             engine: engine::Settings::default(),
             rtol: 1e-10,
-            fd_step: 1e-5,
+            fd_step: super::map::FD_STEP,
             steady: Options::default(),
         }
     }

@@ -13,9 +13,10 @@
 //! G(u) = 0, t_k·(u − u_k) = h (Keller), each correction solving the bordered system
 //! [J; t_kᵀ] Δ = −[G(u); t_k·(u − u_k) − h]. The first iterations reuse u_k's Jacobian (a chord
 //! iteration, one period of the map each); when the corrections contract by less than half, the
-//! Jacobian is recomputed at the iterate (Newton). Converged when ‖Δ‖∞ < `tol`; the Jacobian
-//! and tangent are then computed at the converged point (for the next predictor, the
-//! multipliers and the test functions).
+//! Jacobian is recomputed at the iterate (Newton). Converged when every |Δ_i| < `tol` +
+//! floor_i, the floor being the precision the integration leaves the unknown
+//! ([`System::floor`]); the Jacobian and tangent are then computed at the converged point (for
+//! the next predictor, the multipliers and the test functions).
 //!
 //! **Step control.** A step is refused and halved when the corrector fails (no convergence in
 //! `max_iterations`, a first correction larger than half the step, i.e. a predictor too far
@@ -49,6 +50,11 @@ pub trait System {
     fn residual<'a>(&self, e: &'a Self::Eval) -> &'a DVector<f64>;
     /// The Jacobian ∂G/∂u ((N − 1) × N) at an evaluation.
     fn jacobian(&self, e: &Self::Eval) -> Result<DMatrix<f64>, MapFail>;
+    /// How precisely each unknown can be known at `u` (absolute, in u's units): the floor the
+    /// integration's own error puts under a converged correction. Zero by default.
+    fn floor(&self, u: &DVector<f64>) -> DVector<f64> {
+        DVector::zeros(u.len())
+    }
 }
 
 /// Settings of the continuation (all lengths in the scaled unknowns).
@@ -163,6 +169,14 @@ pub fn correct<S: System>(
     let mut fresh = false;
     let mut near = from.eval.clone();
     let mut last_norm = f64::INFINITY;
+    // Corrections are measured against the tolerance plus each unknown's precision floor:
+    // converged when every |Δ_i| < tol + floor_i.
+    let weights = sys.floor(&u).add_scalar(set.tol);
+    let wnorm = |d: &DVector<f64>| {
+        d.iter()
+            .zip(weights.iter())
+            .fold(0.0f64, |m, (x, w)| m.max(x.abs() / w))
+    };
     for it in 0..set.max_iterations {
         let e = sys.evaluate(&u, &near).map_err(CorrectFail::Map)?;
         let g = sys.residual(&e);
@@ -175,14 +189,7 @@ pub fn correct<S: System>(
             .lu()
             .solve(&rhs)
             .ok_or(CorrectFail::Singular)?;
-        let mut dn = delta.amax();
-        if std::env::var("DJKR_DEBUG").is_ok() {
-            eprintln!(
-                "it {it} g {:?} dn {dn:e} delta {:?}",
-                g.as_slice(),
-                delta.as_slice()
-            );
-        }
+        let mut dn = wnorm(&delta);
         if it > 0 && dn > 0.5 * last_norm && !fresh {
             // Slow chord contraction: Newton from here on.
             jac = sys.jacobian(&e).map_err(CorrectFail::Map)?;
@@ -191,20 +198,20 @@ pub fn correct<S: System>(
                 .lu()
                 .solve(&rhs)
                 .ok_or(CorrectFail::Singular)?;
-            dn = delta.amax();
-        } else if it > 0 && dn > last_norm {
+            dn = wnorm(&delta);
+        } else if it > 0 && dn > last_norm && dn >= 1.0 {
             return Err(CorrectFail::NoConvergence);
         }
         if !dn.is_finite() {
             return Err(CorrectFail::NoConvergence);
         }
-        if it == 0 && h != 0.0 && dn > 0.5 * h.abs() && dn > 10.0 * set.tol {
+        if it == 0 && h != 0.0 && delta.amax() > 0.5 * h.abs() && dn > 10.0 {
             return Err(CorrectFail::FarPredictor);
         }
         u += &delta;
         near = e;
         last_norm = dn;
-        if dn < set.tol {
+        if dn < 1.0 {
             let e = sys.evaluate(&u, &near).map_err(CorrectFail::Map)?;
             let jac = sys.jacobian(&e).map_err(CorrectFail::Map)?;
             let tangent = tangent(&jac, t).ok_or(CorrectFail::Singular)?;
@@ -294,6 +301,33 @@ pub fn snap<S: System>(
     n.tangent = tangent(&n.jac, &node.tangent).ok_or(CorrectFail::Singular)?;
     n.s = node.s;
     Ok(n)
+}
+
+/// The point near `node` where unknown `k` is extremal along the curve, from the vertex of the
+/// parabola through u_k at arclengths −d, 0, +d from `node` (corrected points), then corrected
+/// there. Where u_k is extremal its value depends on the arclength only quadratically, so a
+/// zero of the tangent's k-component located with an error δs leaves an error ∝ δs² in u_k,
+/// which this refinement removes; `None` when the vertex is not within ±d.
+pub fn extremum<S: System>(
+    sys: &S,
+    node: &Node<S::Eval>,
+    k: usize,
+    d: f64,
+    set: &Settings,
+) -> Option<Node<S::Eval>> {
+    let q = |n: &Node<S::Eval>| sys.point(&n.eval)[k];
+    let a = correct(sys, node, -d, set).ok()?;
+    let b = correct(sys, node, d, set).ok()?;
+    let (qa, q0, qb) = (q(&a), q(node), q(&b));
+    let curvature = qa - 2.0 * q0 + qb;
+    let u = 0.5 * d * (qa - qb) / curvature;
+    if !(u.is_finite() && u.abs() < d) {
+        return None;
+    }
+    let mut c = correct(sys, node, u, set).ok()?;
+    c.tangent = tangent(&c.jac, &node.tangent)?;
+    c.s = node.s + u;
+    Some(c)
 }
 
 /// The next step after an accepted one of length `h` that took `iterations` corrector

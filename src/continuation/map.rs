@@ -33,7 +33,11 @@ use crate::steady::OrbitState;
 use super::family::{Family, Setup};
 
 /// Default finite-difference step in scaled units.
-pub const FD_STEP: f64 = 1e-7;
+pub const FD_STEP: f64 = 1e-5;
+
+/// Multiple of rtol × |u_i| below which a corrector need not resolve unknown i
+/// ([`ScaledMap::floor`]).
+pub const FLOOR: f64 = 10.0;
 
 /// One adaptive period of the map.
 #[derive(Debug, Clone)]
@@ -355,6 +359,14 @@ impl ScaledMap {
     /// The step sequence of an evaluation's period (for replays at nearby points).
     pub fn steps<'a>(&self, e: &'a Evaluation) -> &'a [f64] {
         &e.period.steps
+    }
+
+    /// The precision floor of each scaled unknown: [`FLOOR`] × rtol × |u_i|. A state component
+    /// is integrated to about rtol relative to its own size, which its scale (the oscillation
+    /// amplitude) may not be: at X_b = 10 nm the mean position x_s is ~1000 L, and a fixed
+    /// point is known to ~1e-7 L along the slow (creeping) direction, not to 1e-9.
+    pub fn floor(&self, u: &DVector<f64>) -> DVector<f64> {
+        u.map(|x| FLOOR * self.rtol * x.abs())
     }
 
     /// The monodromy matrix M (∂P/∂y over the state unknowns, scaled) from a Jacobian.
