@@ -255,18 +255,6 @@ fn the_branch_is_the_same_traced_up_and_down() {
     assert_eq!(pattern(&down), vec![true, false, true]);
 }
 
-/// Distance from `x` to the segment a–b.
-fn seg_dist(a: (f64, f64), b: (f64, f64), x: (f64, f64)) -> f64 {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-    let l2 = dx * dx + dy * dy;
-    let t = if l2 > 0.0 {
-        (((x.0 - a.0) * dx + (x.1 - a.1) * dy) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (a.0 + t * dx - x.0).hypot(a.1 + t * dy - x.1)
-}
-
 /// The resonance rig with a constant work of adhesion (no rate dependence): the contact radius
 /// follows the JKR curve, and at small amplitude the system is a linear oscillator with the JKR
 /// tangent stiffness.

@@ -12,7 +12,7 @@ use djkr::continuation::family::{Family, Parameter};
 use djkr::continuation::folds::{self, FoldCurve, FoldPointKind};
 use djkr::continuation::report::{self, ContinuationReport};
 use djkr::continuation::sweep::{self, SweepPoint};
-use djkr::output::table::{hdf5_tables, text_attr};
+use djkr::output::table::{format_f64, hdf5_tables, text_attr};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::scenario::parse::ScenarioSource;
 use djkr::steady::Options;
@@ -439,8 +439,8 @@ fn print_report(file: &Path, r: &ContinuationReport) {
         "{}: branch of periodic orbits in {} over {}..{} {} — {} points, {} steps ({} refused), {} periods, {:.3} s",
         file.display(),
         r.parameter,
-        r.range[0],
-        r.range[1],
+        format_f64(r.range[0]),
+        format_f64(r.range[1]),
         r.unit,
         r.points,
         r.steps,
@@ -475,8 +475,8 @@ fn print_report(file: &Path, r: &ContinuationReport) {
         println!(
             "  sweep {:<4} jumps between {} and {} {} (|δ_A/X_b| {:.4} → {})",
             j.direction,
-            j.from,
-            j.to,
+            format_f64(j.from),
+            format_f64(j.to),
             r.unit,
             j.delta_amp_over_xb_before,
             j.delta_amp_over_xb_after

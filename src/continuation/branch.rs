@@ -308,7 +308,7 @@ pub fn snap_to_range(
         stop
     };
     if let Ok(s) = engine::snap(map, last, n, bound / map.ps[0], set) {
-        if s.eval.values[0] == bound || (s.eval.values[0] - bound).abs() <= (p - bound).abs() {
+        if (s.eval.values[0] - bound).abs() <= (p - bound).abs() {
             *last = s;
         }
     }

@@ -479,3 +479,97 @@ pub fn trace<S: System>(
         work,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The unit circle y² + x² = 1 as a "branch" in the parameter x (last unknown).
+    struct Circle;
+
+    #[derive(Clone, Debug)]
+    struct Ev {
+        u: DVector<f64>,
+        g: DVector<f64>,
+    }
+
+    impl System for Circle {
+        type Eval = Ev;
+        fn dim(&self) -> usize {
+            2
+        }
+        fn evaluate(&self, u: &DVector<f64>, _: &Ev) -> Result<Ev, MapFail> {
+            Ok(Ev {
+                u: u.clone(),
+                g: DVector::from_element(1, u[0] * u[0] + u[1] * u[1] - 1.0),
+            })
+        }
+        fn point<'a>(&self, e: &'a Ev) -> &'a DVector<f64> {
+            &e.u
+        }
+        fn residual<'a>(&self, e: &'a Ev) -> &'a DVector<f64> {
+            &e.g
+        }
+        fn jacobian(&self, e: &Ev) -> Result<DMatrix<f64>, MapFail> {
+            Ok(DMatrix::from_row_slice(1, 2, &[2.0 * e.u[0], 2.0 * e.u[1]]))
+        }
+    }
+
+    #[test]
+    fn a_circle_is_followed_around_its_fold_to_the_window_edge() {
+        let set = Settings {
+            h_max: 0.2,
+            h_start: 0.05,
+            ..Settings::default()
+        };
+        let u0 = DVector::from_vec(vec![-(0.75f64.sqrt()), -0.5]);
+        let e = Circle
+            .evaluate(
+                &u0,
+                &Ev {
+                    u: u0.clone(),
+                    g: DVector::zeros(1),
+                },
+            )
+            .unwrap_or_else(|_| unreachable!());
+        let jac = Circle.jacobian(&e).unwrap_or_else(|_| unreachable!());
+        let t = tangent(&jac, &DVector::from_vec(vec![0.0, 1.0])).unwrap_or_default();
+        assert!(t[1] > 0.0);
+        let start = Node {
+            eval: e,
+            jac,
+            tangent: t,
+            s: 0.0,
+            iterations: 0,
+        };
+        let fold = |n: &Node<Ev>| n.tangent[1];
+        let window = |n: &Node<Ev>| (n.eval.u[1] + 0.5).min(2.0 - n.eval.u[1]);
+        let curve = trace(&Circle, start, &set, &[&fold], &window, &mut |_| {});
+        assert_eq!(curve.end, End::Window);
+        assert_eq!(curve.specials.len(), 1);
+        let f = &curve.nodes[curve.specials[0].1].eval.u;
+        // The fold of x on the circle is (y, x) = (0, 1); x is extremal there, so it is located
+        // to second order in the arclength error.
+        assert!((f[1] - 1.0).abs() < 1e-14 && f[0].abs() < 1e-6, "{f}");
+        let last = curve
+            .nodes
+            .last()
+            .map(|n| n.eval.u.clone())
+            .unwrap_or_default();
+        assert!(
+            (last[1] + 0.5).abs() < 1e-9 && (last[0] - 0.75f64.sqrt()).abs() < 1e-8,
+            "{last}"
+        );
+        // Arclength along the circle from angle −120° round to +120° is 4π/3; the
+        // pseudo-arclength, a sum of steps along the tangents, falls short by O(h²κ²) per step.
+        let s = curve.nodes.last().map_or(0.0, |n| n.s);
+        assert!(
+            (s / (4.0 * std::f64::consts::PI / 3.0) - 1.0).abs() < 2e-3,
+            "{s}"
+        );
+        let extremum = extremum(&Circle, &curve.nodes[curve.specials[0].1], 1, 1e-2, &set);
+        assert!(
+            extremum.is_some_and(|n| (n.eval.u[1] - 1.0).abs() < 1e-15 && n.eval.u[0].abs() < 1e-7)
+        );
+    }
+}

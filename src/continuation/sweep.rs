@@ -50,7 +50,7 @@ pub fn sweep(family: &Family, values: &[f64], opts: &Options) -> Vec<SweepPoint>
                 });
             match result {
                 Ok(s) => {
-                    from = Some(s.clone());
+                    from = Some(s);
                     SweepPoint {
                         value,
                         steady: Some(s),
