@@ -226,9 +226,19 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     files.extend([png, svg]);
 
     let mut rep = ContinuationReport::new(&scenario_name, &branch);
-    rep.sweep_jumps = report::jumps("up", &up, &branch);
-    rep.sweep_jumps
-        .extend(report::jumps("down", &down, &branch));
+    for (name, pts) in [("up", &up), ("down", &down)] {
+        let (jumps, unstable) = report::jumps(name, pts, &branch);
+        rep.sweep_jumps.extend(jumps);
+        if !unstable.is_empty() {
+            let v: Vec<String> = unstable.iter().map(|x| format_f64(*x)).collect();
+            rep.notes.push(format!(
+                "the {name} sweep found an unstable orbit at {} = {} {} (shooting converges to whichever orbit is near its start; the continuation says which are stable)",
+                param.name(),
+                v.join(", "),
+                param.info.unit
+            ));
+        }
+    }
     if let (Some((q, range)), Some((c, wall))) = (&fold, &curves) {
         let fig = fold_figure(&a.file, &branch, q, c);
         let (png, svg) = plot::render(&fig, &out.join("fold_curves"))?;
@@ -401,12 +411,7 @@ fn branch_figure(file: &Path, b: &Branch, up: &[SweepPoint], down: &[SweepPoint]
 fn fold_figure(file: &Path, b: &Branch, q: &Parameter, curves: &[FoldCurve]) -> Figure {
     let info = b.parameter.info;
     let mut fig = Figure::new(
-        format!(
-            "folds in ({}, {}): bistable between the curves ({})",
-            info.key,
-            q.name(),
-            stem(file)
-        ),
+        format!("fold curves: bistable between them ({})", stem(file)),
         format!("{} ({})", info.key, info.unit),
         format!("{} ({})", q.name(), q.info.unit),
     )
@@ -426,11 +431,11 @@ fn fold_figure(file: &Path, b: &Branch, q: &Parameter, curves: &[FoldCurve]) -> 
     if !x.is_empty() {
         fig = fig.with_series(Series::new("cusp", x, y, Style::Markers).with_color(3));
     }
-    let (x, y): (Vec<f64>, Vec<f64>) = curves
-        .iter()
-        .flat_map(|c| c.points.first())
-        .map(|p| (p.values[0], p.values[1]))
-        .unzip();
+    let q0 = curves
+        .first()
+        .and_then(|c| c.points.first())
+        .map_or(f64::NAN, |p| p.values[1]);
+    let (x, y): (Vec<f64>, Vec<f64>) = b.of_kind(PointKind::Fold).map(|p| (p.value, q0)).unzip();
     fig.with_series(Series::new("folds of the branch", x, y, Style::Markers).with_color(4))
 }
 

@@ -7,18 +7,29 @@
 //! condition: a multiplier +1. A curve in R^(n+2), followed by the same pseudo-arclength engine
 //! as the branches ([`super::engine`]). With n ≤ 3 state unknowns the determinant is as well
 //! conditioned as a bordered (minimally augmented) test function and needs no bordering vectors
-//! to update. g comes from the monodromy matrix of the point (central differences on the
-//! frozen step sequence, accurate to ~1e-9); its gradient, needed only by the corrector, from
-//! forward differences of g with step 1e-4 (each a monodromy matrix at a perturbed point on the
-//! same step sequence), accurate to ~1e-5: the corrector converges to the zero set of g itself,
-//! only a little more slowly.
+//! to update. g comes from a Richardson-extrapolated monodromy matrix (central differences at
+//! 1e-3 and 5e-4 on the frozen step sequence, error O(ε⁴)); its gradient, needed only by the
+//! corrector, from central differences of g with step 1e-4.
+//!
+//! **Precision.** The fold multiplier is the creeping radius's, within ~1e-3 of 1 along the
+//! whole branch, so g changes slowly along the branch (|∇g| ~ 1e-4 in scaled units on the
+//! bundled scene) and its noise (~1e-11) leaves the state of a fold point uncertain at ~1e-7 in
+//! the branch's direction; the corrector does not resolve the state below 1e-6 or the
+//! parameters below 1e-7 (scaled; [`System::floor`]). Along that direction the parameters are
+//! extremal at a fold, so they are not affected to first order; what remains is how g depends
+//! on KEY2 itself, which near the cusp is weak: the cusp's KEY2 is known to ~1e-5 relative
+//! (the bundled scene: 1.038292 µm from the fold curve at rtol 1e-10, 1.038281 µm at 1e-12,
+//! 1.038285 µm from the fold separation Δf ∝ (X_b − X_c)^{3/2} of branches just above it;
+//! its frequency to 1e-6).
 //!
 //! **Cusp.** Near a cusp the fold curve in (y, p, q) is smooth while its projection on the
 //! (p, q) plane has a cusp: in the normal form ẋ = p + q x − x³ the folds are
 //! (p, q) = (−2x³, 3x²), so along the curve q has an extremum where the two folds meet and
 //! p only an inflection. The cusp is located as the zero of the q-component of the fold curve's
-//! tangent; the p-component there is reported with it (≈ 0 at a true cusp; a smooth turn of the
-//! fold curve in q has it nonzero and is reported as such, not as a cusp).
+//! tangent, then refined as the vertex of a parabola through q at ±0.01 in arclength
+//! ([`engine::extremum`]: q is extremal there, so the tangent's error matters only through
+//! the parabola). It is called a cusp when the tangent's p-component is also small there
+//! (below 5 % of its state part); a smooth turn of the fold curve in q is reported as a turn.
 //!
 //! **Start.** The branch is computed at KEY2 = START of `--fold-range`; each fold on it starts a
 //! fold curve, followed into the window until it leaves it (either parameter's range). A curve

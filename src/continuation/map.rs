@@ -1,26 +1,24 @@
 //! The one-period map of a [`Family`] and its derivatives, in scaled unknowns.
 //!
 //! The unknowns are u = (ŷ, p̂): the state components of (x_s, v_s, a) that the problem
-//! integrates ([`Problem::unknown_indices`]), each divided by its scale (L, ωL, a_m, fixed for
+//! integrates ([`Problem::unknown_indices`](crate::steady::Problem::unknown_indices)), each divided by its scale (L, ωL, a_m, fixed for
 //! the whole branch), and the free parameters, each divided by its scale (the width of its
 //! range). The residual is F(u) = (P(y; p) − y)/scale over the state unknowns.
 //!
 //! # Derivatives: finite differences on a frozen step sequence
-//! The map is integrated adaptively (DP8 at rtol 1e-10 by default). A finite difference of two
-//! adaptive runs is noisy: the step sequences of the two runs differ, and so do their
-//! integration errors, by about rtol at random, which a difference quotient with a step ε
-//! amplifies to rtol/ε ≈ 1e-4. Here every derivative is instead taken on the *discrete* map:
-//! the accepted steps of the adaptive period from y are recorded, and the base point and every
-//! perturbed start are integrated again with exactly that step sequence
-//! ([`Simulator::trial`](crate::dynamics::Simulator::trial), one fresh step at a time, stretched
-//! by T(p′)/T(p) when the perturbed parameter changes the period). The replays differ only by
-//! the perturbation, so their difference quotient is the derivative of one smooth discrete map
-//! (Bock's *internal numerical differentiation*): its rounding noise is ~1e-16/ε and its
-//! distance from the exact derivative is the integration error (~rtol). Forward differences
-//! with ε = 1e-7 (scaled) leave a truncation error of about ε times the map's curvature.
-//! Measured on the bundled resonance scene at 1.5 µm (tests/continuation.rs): the multipliers
-//! from frozen forward differences at ε = 1e-7 agree with central ones at ε = 1e-5 to ~1e-8,
-//! where differences of adaptive runs scatter by ~1e-4.
+//! The map is integrated adaptively (DP8 at rtol 1e-10 by default). Its derivatives are taken
+//! on the *discrete* map instead: the accepted steps of the adaptive period from y are recorded,
+//! and every perturbed start is integrated again with exactly that step sequence
+//! ([`Simulator::trial`](crate::dynamics::Simulator::trial), one fresh step at a time,
+//! stretched by T(p′)/T(p) when the perturbed parameter changes the period). The differences are
+//! then those of one smooth map (Bock's *internal numerical differentiation*). Measured on the
+//! bundled resonance scene at 1.5 µm: along a line of starts the adaptive map is smooth to
+//! ~1e-14 (scaled) as long as its step sequence does not change, and jumps by up to ~1e-11 where
+//! it does; the replayed map never jumps. With rounding ~1e-14, central differences at
+//! ε = 1e-5 ([`FD_STEP`]) carry ~1e-9 (1e-14/ε, plus ε² times the third derivative); central
+//! differences at 1e-5 and 1e-4 agree to 2e-8 on the slowest multiplier, forward ones at 1e-6
+//! are off by ~1e-7. A Jacobian costs 2n + 2m replays (n state unknowns, m parameters), each
+//! cheaper than an adaptive period (no rejected steps).
 //!
 //! A period that loses or forms contact is not smooth: it is reported (the event kinds), and the
 //! continuation treats it as the end of the smooth branch (grazing).

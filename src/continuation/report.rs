@@ -507,26 +507,25 @@ impl ContinuationReport {
     }
 }
 
-/// The stable runs of a branch: maximal stretches of consecutive stable points, each as
-/// (parameter value, |δ1|/X_b) pairs in order.
-fn stable_runs(b: &Branch) -> Vec<Vec<(f64, f64)>> {
-    let mut runs: Vec<Vec<(f64, f64)>> = Vec::new();
-    let mut cur: Vec<(f64, f64)> = Vec::new();
+/// The runs of a branch: maximal stretches of consecutive points of equal stability, each as
+/// (stable, [(parameter value, |δ1|/X_b)]) in order.
+fn runs(b: &Branch) -> Vec<(bool, Vec<(f64, f64)>)> {
+    let mut runs: Vec<(bool, Vec<(f64, f64)>)> = Vec::new();
     for p in &b.points {
-        if p.stable() {
-            cur.push((p.value, p.delta_amp_over_xb()));
-        } else if !cur.is_empty() {
-            runs.push(std::mem::take(&mut cur));
+        let xy = (p.value, p.delta_amp_over_xb());
+        match runs.last_mut() {
+            Some((st, v)) if *st == p.stable() => v.push(xy),
+            _ => runs.push((p.stable(), vec![xy])),
         }
-    }
-    if !cur.is_empty() {
-        runs.push(cur);
     }
     runs
 }
 
 /// |δ1|/X_b of a run at `v`, linearly interpolated (`None` outside it).
 fn run_at(run: &[(f64, f64)], v: f64) -> Option<f64> {
+    if let [(p, y)] = run {
+        return ((v - p).abs() <= 1e-12 * p.abs()).then_some(*y);
+    }
     run.windows(2).find_map(|w| {
         let ((p0, y0), (p1, y1)) = (w[0], w[1]);
         let (lo, hi) = (p0.min(p1), p0.max(p1));
@@ -540,26 +539,32 @@ fn run_at(run: &[(f64, f64)], v: f64) -> Option<f64> {
     })
 }
 
-/// Which stable run of the branch a sweep's steady state lies on: the run whose value at the
-/// same parameter is nearest, if within 2 % (`None`: on none of them).
-fn run_of(runs: &[Vec<(f64, f64)>], v: f64, y: f64) -> Option<usize> {
+/// Which run of the branch a sweep's steady state lies on: the run whose value at the same
+/// parameter is nearest, if within 2 % (`None`: on none of them).
+fn run_of(runs: &[(bool, Vec<(f64, f64)>)], v: f64, y: f64) -> Option<usize> {
     runs.iter()
         .enumerate()
-        .filter_map(|(i, r)| run_at(r, v).map(|z| (i, (z - y).abs() / y.abs().max(z.abs()))))
+        .filter_map(|(i, (_, r))| run_at(r, v).map(|z| (i, (z - y).abs() / y.abs().max(z.abs()))))
         .filter(|(_, d)| *d < 0.02)
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(i, _)| i)
 }
 
-/// The jumps of a sweep (values in the order swept): consecutive values whose steady states lie
-/// on different stable runs of the branch, or where the next one is missing.
-pub fn jumps(direction: &'static str, p: &[SweepPoint], branch: &Branch) -> Vec<Jump> {
-    let runs = stable_runs(branch);
+/// What the sweeps did against the branch: where they jump (consecutive values on different
+/// runs of the branch, or a steady state missing after one found), and which values they
+/// found on an unstable run (shooting converges to any orbit near its start, stable or not).
+pub fn jumps(direction: &'static str, p: &[SweepPoint], branch: &Branch) -> (Vec<Jump>, Vec<f64>) {
+    let runs = runs(branch);
     let run = |x: &SweepPoint| {
         x.steady
             .as_ref()
             .and_then(|s| run_of(&runs, x.value, s.transfer_magnitude()))
     };
+    let unstable: Vec<f64> = p
+        .iter()
+        .filter(|x| run(x).is_some_and(|r| !runs[r].0))
+        .map(|x| x.value)
+        .collect();
     let mut out = Vec::new();
     for w in p.windows(2) {
         let Some(a) = w[0].steady.as_ref().map(Steady::transfer_magnitude) else {
@@ -578,5 +583,5 @@ pub fn jumps(direction: &'static str, p: &[SweepPoint], branch: &Branch) -> Vec<
             });
         }
     }
-    out
+    (out, unstable)
 }
