@@ -588,13 +588,32 @@ fn continue_command_writes_the_contract_columns_and_json() {
         "continue",
         &file,
         "--param",
+        "base.frequency",
+        "--range",
+        "395:405",
+        "--set",
+        "base.amplitude=-1um",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.starts_with("error: --set base.amplitude=-1um: must be a finite number >= 0 (m)"),
+        "{e}"
+    );
+    let o = djkr(&[
+        "continue",
+        &file,
+        "--param",
         "base.amplitude",
         "--range",
         "1um:-1um",
     ]);
     assert_eq!(o.status.code(), Some(2));
     let e = String::from_utf8_lossy(&o.stderr);
-    assert!(e.contains("--range") && e.contains("base.amplitude"), "{e}");
+    assert!(
+        e.contains("--range = 1um:-1um: base.amplitude = -1e-6: must be a finite number >= 0"),
+        "{e}"
+    );
 }
 
 fn scene(name: &str) -> ScenarioSource {

@@ -25,9 +25,10 @@ pub struct ContinueArgs {
     /// Scenario file (its first vibrating stage defines the periodic problem, as for `djkr
     /// validate`).
     file: PathBuf,
-    /// The key to continue in: a constant of the periodic orbit, e.g. base.frequency,
-    /// base.amplitude, initial.preload, damping.c, spring.stiffness, sphere.mass, material.K,
-    /// adhesion.n (`djkr continue --help` lists them all in the error for a wrong one).
+    /// The key to continue in, a constant of the periodic orbit: base.frequency,
+    /// base.amplitude, initial.preload, damping.c, spring.stiffness, sphere.mass,
+    /// sphere.gravity, material.K, material.R, material.w0, adhesion.v0, adhesion.n,
+    /// adhesion.v_sat.
     #[arg(long, value_name = "KEY")]
     param: String,
     /// Range of KEY, START:STOP with units, e.g. 340:600 or 340Hz:0.6kHz. The branch starts at
@@ -48,7 +49,7 @@ pub struct ContinueArgs {
         requires = "fold_param"
     )]
     fold_range: Option<String>,
-    /// Values of the up and down sweeps overlaid on the branch (0: no sweeps).
+    /// Values of the up and down sweeps overlaid on the branch (0: no sweeps; at most 10000).
     #[arg(long, default_value = "41", value_name = "N")]
     sweep: usize,
     /// Relative tolerance of the time integration.
@@ -67,6 +68,11 @@ pub struct ContinueArgs {
         allow_hyphen_values = true
     )]
     tol: String,
+    /// Largest continuation step, in the scaled unknowns (state by its oscillation scale,
+    /// KEY by the range's width). Two folds closer than one step (just above a cusp) can be
+    /// stepped over: lower it to resolve them.
+    #[arg(long, default_value = "0.1", value_name = "H")]
+    max_step: String,
     /// Output directory [default: out/<scenario name>-continue].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
@@ -124,10 +130,19 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     let param = Parameter::parse("--param", &a.param)?;
     let (p0, p1) = parse_range("--range", &a.range, &param)?;
     let rtol = tolerance("--rtol", &a.rtol, 1e-14, 1e-6)?;
+    if a.sweep > 10_000 {
+        bail!("--sweep = {}: must be in 0..=10000", a.sweep);
+    }
     let tol = tolerance("--tol", &a.tol, 1e-14, 1e-3)?;
     let fold = match (&a.fold_param, &a.fold_range) {
         (Some(k), Some(r)) => {
             let q = Parameter::parse("--fold-param", k)?;
+            if q.key == param.key {
+                bail!(
+                    "--fold-param {k}: must differ from --param {}",
+                    param.name()
+                );
+            }
             let range = parse_range("--fold-range", r, &q)?;
             Some((q, range))
         }
@@ -135,6 +150,8 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     };
     let overrides = a.set.overrides()?;
     let source = ScenarioSource::read(&a.file)?;
+    // The file with its overrides, before any value of KEY: a bad --set is named as such.
+    let scenario_name = source.scenario(&overrides)?.source_name;
     // The branch: KEY free; with --fold-param, KEY2 held at the start of its range.
     let mut fixed = overrides.clone();
     if let Some((q, (q0, _))) = &fold {
@@ -161,16 +178,14 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
         }
         None => None,
     };
-    let scenario_name = source
-        .scenario(&overrides)
-        .map(|s| s.source_name)
-        .unwrap_or_else(|_| a.file.display().to_string());
 
     let mut set = branch::Settings {
         rtol,
         ..branch::Settings::default()
     };
     set.engine.tol = tol;
+    set.engine.h_max = tolerance("--max-step", &a.max_step, 1e-6, 10.0)?;
+    set.engine.h_start = set.engine.h_start.min(set.engine.h_max);
     set.steady.rtol = rtol;
     let bar = progress_bar(0, "continuation");
     let branch = branch::continue_branch(&family, (p0, p1), &set, &mut |p| {

@@ -432,6 +432,22 @@ pub fn to_branch(
             p.kind = kind;
         }
     }
+    for &(t, s0, s1) in &curve.unlocated {
+        let at = |s: f64| {
+            curve
+                .nodes
+                .iter()
+                .find(|n| n.s.to_bits() == s.to_bits())
+                .map_or(f64::NAN, |n| n.eval.values[0])
+        };
+        notes.push(format!(
+            "a {} lies between {} = {:.9e} and {:.9e} but could not be located",
+            TESTS[t].name(),
+            parameter.name(),
+            at(s0),
+            at(s1)
+        ));
+    }
     if let Some(p) = points.first_mut() {
         p.kind = PointKind::Start;
     }

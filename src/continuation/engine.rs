@@ -379,6 +379,8 @@ pub struct Curve<E> {
     pub nodes: Vec<Node<E>>,
     /// (test index, node index) of each located zero.
     pub specials: Vec<(usize, usize)>,
+    /// (test index, arclength before, after) of sign changes that could not be located.
+    pub unlocated: Vec<(usize, f64, f64)>,
     /// Why it ended.
     pub end: End,
     /// Work done.
@@ -403,6 +405,7 @@ pub fn trace<S: System>(
     let mut work = Work::default();
     let mut nodes = vec![start];
     let mut specials = Vec::new();
+    let mut unlocated = Vec::new();
     let mut h = set.h_start;
     let end = loop {
         if nodes.len() >= set.max_points {
@@ -438,8 +441,9 @@ pub fn trace<S: System>(
         for (i, test) in tests.iter().enumerate() {
             let (f0, f1) = (test(&cur), test(&next));
             if f0 * f1 < 0.0 {
-                if let Ok(n) = locate(sys, &cur, h, (f0, f1), *test, set, &mut work) {
-                    found.push((i, n));
+                match locate(sys, &cur, h, (f0, f1), *test, set, &mut work) {
+                    Ok(n) => found.push((i, n)),
+                    Err(_) => unlocated.push((i, cur.s, next.s)),
                 }
             }
         }
@@ -475,6 +479,7 @@ pub fn trace<S: System>(
     Curve {
         nodes,
         specials,
+        unlocated,
         end,
         work,
     }

@@ -24,7 +24,7 @@ use std::sync::{Arc, Mutex};
 
 use crate::dynamics::protocol::Initial;
 use crate::scenario::overrides::{Override, SetKey};
-use crate::scenario::parse::ScenarioSource;
+use crate::scenario::parse::{ScenarioError, ScenarioSource};
 use crate::steady::{OrbitState, Problem};
 use crate::units::Dimension;
 
@@ -326,10 +326,21 @@ impl Family {
                 .map_err(|e| ContinuationError::Input(e.to_string()))?;
             overrides.push(o);
         }
-        let scn = self
-            .source
-            .scenario(&overrides)
-            .map_err(|e| ContinuationError::Input(e.to_string()))?;
+        let scn = self.source.scenario(&overrides).map_err(|e| match &e {
+            // A value of a free key the file's rules refuse: name the key, not an override.
+            ScenarioError::Override { key, message, .. } => {
+                match self
+                    .params
+                    .iter()
+                    .zip(values)
+                    .find(|(p, _)| p.name() == key)
+                {
+                    Some((_, v)) => ContinuationError::Input(format!("{key} = {v:e}: {message}")),
+                    None => ContinuationError::Input(e.to_string()),
+                }
+            }
+            _ => ContinuationError::Input(e.to_string()),
+        })?;
         let err = |e: String| ContinuationError::Input(format!("{}: {e}", scn.source_name));
         // Where the vibration starts: the scene's initial state, or where its earlier stages
         // leave it. Earlier stages are run once, at the first value (module doc).

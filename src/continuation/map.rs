@@ -79,7 +79,26 @@ impl std::fmt::Display for MapFail {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             MapFail::Inconsistent => write!(f, "no state consistent with the adhesion law"),
-            MapFail::Rough(k) => write!(f, "the period contains {k:?}"),
+            MapFail::Rough(k) => {
+                let names: Vec<&str> = k
+                    .iter()
+                    .map(|e| match e {
+                        EventKind::ContactLoss => "a contact loss",
+                        EventKind::Impact => "an impact",
+                        _ => "an event",
+                    })
+                    .collect();
+                write!(
+                    f,
+                    "the period contains {} (the one-period map is smooth only while the contact \
+                     holds all period)",
+                    if names.is_empty() {
+                        "an open contact".to_string()
+                    } else {
+                        names.join(" and ")
+                    }
+                )
+            }
             MapFail::Sim(e) => write!(f, "time integration failed: {e}"),
             MapFail::Setup(e) => write!(f, "{e}"),
         }
