@@ -551,6 +551,23 @@ fn continue_command_writes_the_contract_columns_and_json() {
          force_mean [N],a_mean [m],a_amp [m],stable [1],multiplier_1_abs [1],\
          multiplier_2_abs [1],multiplier_3_abs [1]"
     );
+    // The HDF5 file holds the same columns, bit for bit.
+    let h5 = hdf5_pure::File::open(dir.path().join("branch.h5")).unwrap_or_else(|e| panic!("{e}"));
+    let freq = h5
+        .dataset("branch/base.frequency")
+        .and_then(|d| d.read_f64())
+        .unwrap_or_else(|e| panic!("{e}"));
+    let from_csv: Vec<f64> = csv
+        .lines()
+        .skip(1)
+        .filter_map(|l| l.split(',').nth(1).and_then(|x| x.parse().ok()))
+        .collect();
+    assert_eq!(freq, from_csv);
+    let stable = h5
+        .dataset("branch/stable")
+        .and_then(|d| d.read_i64())
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert!(stable.iter().all(|&x| x == 0 || x == 1));
     // Stable rows 1, unstable rows 0, and both occur.
     let stable: Vec<&str> = csv
         .lines()

@@ -36,8 +36,8 @@
 //! integrated again with exactly the accepted steps of the base period (stretched by T(p′)/T(p)
 //! when the period changes), so every difference is that of one smooth discrete map and never
 //! straddles a change of the step sequence (measured on the bundled scene: the adaptive map is
-//! smooth to ~1e-14 between such changes and jumps by up to ~1e-11 across them). Rounding in the
-//! replays is ~1e-14, so the entries of M carry ~1e-9 (1e-14/ε plus the ε² truncation);
+//! smooth to its rounding, ~1e-14, between such changes, with isolated jumps of ~3e-11 where
+//! they happen; see [`map`]). Rounding in the replays is ~1e-14, so the entries of M carry ~1e-9 (1e-14/ε plus the ε² truncation);
 //! central differences at 1e-5 and 1e-4 agree to 2e-8 on the creep multiplier at 400 Hz. Not
 //! variational equations with saltation: there are no events inside a smooth period, and the
 //! core simulator's steppers are reused as they are. The Floquet multipliers are the
