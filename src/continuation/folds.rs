@@ -90,12 +90,9 @@ impl FoldSystem {
         steps: &[f64],
         t0: f64,
     ) -> Result<DMatrix<f64>, MapFail> {
-        let mut m = self.map.clone();
-        m.central = true;
-        m.fd_step = MONODROMY_STEP;
-        let coarse = m.monodromy_at(y, values, steps, t0)?;
-        m.fd_step = 0.5 * MONODROMY_STEP;
-        let fine = m.monodromy_at(y, values, steps, t0)?;
+        let m = &self.map;
+        let coarse = m.monodromy_with(y, values, steps, t0, MONODROMY_STEP, true)?;
+        let fine = m.monodromy_with(y, values, steps, t0, 0.5 * MONODROMY_STEP, true)?;
         Ok((fine * 4.0 - coarse) / 3.0)
     }
 

@@ -306,9 +306,21 @@ impl ScaledMap {
         steps: &[f64],
         t0: f64,
     ) -> Result<DMatrix<f64>, MapFail> {
+        self.monodromy_with(y, values, steps, t0, self.fd_step, self.central)
+    }
+
+    /// [`monodromy_at`](Self::monodromy_at) with step `eps`, central or forward.
+    pub fn monodromy_with(
+        &self,
+        y: [f64; 3],
+        values: &[f64],
+        steps: &[f64],
+        t0: f64,
+        eps: f64,
+        central: bool,
+    ) -> Result<DMatrix<f64>, MapFail> {
         let n = self.n();
-        let eps = self.fd_step;
-        let base = if self.central {
+        let base = if central {
             None
         } else {
             Some(self.replay_at(y, values, steps, t0)?)
