@@ -13,6 +13,7 @@ pub mod beta_fit;
 pub mod catalogue;
 pub mod closed_form;
 pub mod comparators;
+pub mod continuation;
 pub mod describing;
 pub mod dynamics;
 pub mod error;

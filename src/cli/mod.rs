@@ -4,6 +4,7 @@
 mod accuracy;
 mod closed;
 mod common;
+mod continuation;
 mod figures;
 mod fit;
 mod imposed;
@@ -41,6 +42,7 @@ const EXAMPLES: &str = "Examples:
   djkr check scenarios/*.toml
   djkr validate scenarios/resonance-400hz.toml
   djkr resonance scenarios/resonance-400hz.toml --freq 300:500:101 --out out/resonance
+  djkr continue scenarios/resonance-400hz.toml --param base.frequency --range 340:600 --set base.amplitude=1.5um
   djkr accuracy scenarios/quasi-static-jkr.toml --out out/accuracy
 
 Bare numbers are SI; values with units are welcome (51mm, 9.33MPa, 240mJ/m^2, 0.0445mm/s, 1.5kHz).
@@ -83,6 +85,11 @@ enum Command {
     /// Frequency response by continuation (up and down sweeps): |δ_A/X_b|, phase, F_m, a_m, a_A
     /// per frequency with the linear transfer and harmonic balance; CSV, HDF5 and plots.
     Resonance(resonance::ResonanceArgs),
+    /// Continue the periodic orbit in one scenario key (pseudo-arclength, through folds):
+    /// stable and unstable branches, Floquet multipliers, folds, period doublings,
+    /// Neimark-Sacker points, sweeps overlaid; with --fold-param the fold curves in two keys
+    /// (bistability region, cusp). CSV, HDF5 and plots.
+    Continue(continuation::ContinueArgs),
     /// Map the error of the imposed-area shortcut against the time-domain steady state over a
     /// grid of frequency and base amplitude (mean force, δ_A); CSV, HDF5 and colour maps.
     ShortcutMap(shortcut_map::ShortcutMapArgs),
@@ -108,6 +115,7 @@ pub fn main() -> ExitCode {
         Command::Figures(a) => figures::figures(&a),
         Command::Validate(a) => validate::validate(&a),
         Command::Resonance(a) => resonance::resonance(&a),
+        Command::Continue(a) => continuation::continuation(&a),
         Command::ShortcutMap(a) => shortcut_map::shortcut_map(&a),
         Command::Accuracy(a) => accuracy::accuracy(&a),
     };

@@ -464,21 +464,22 @@ impl Problem {
         &self.rig
     }
 
+    /// Which of (x_s, v_s, a) (indices 0, 1, 2) are unknowns of the one-period map: x_s and v_s
+    /// when the sphere has inertia, a when the law is rate-dependent (module doc).
+    pub fn unknown_indices(&self) -> Vec<usize> {
+        self.unknowns.indices()
+    }
+
     /// Angular frequency ω = 2πf (rad/s).
     pub fn omega(&self) -> f64 {
         2.0 * PI * self.frequency
     }
 
-    /// Run `periods` base periods from `start` (at phase 0) with integration tolerance `rtol`.
-    /// `watch` sees the end state and record of every completed period and may stop the run
-    /// early by returning `false`.
-    pub fn run_periods(
-        &self,
-        start: &Initial,
-        periods: u64,
-        rtol: f64,
-        mut watch: impl FnMut(&Sample, &CycleRecord) -> bool,
-    ) -> Result<PeriodRun, SimError> {
+    /// A simulator at `start` (phase 0, the shaker on from now, the spring end held still),
+    /// integrating at tolerance `rtol` with this problem's method and budgets: what
+    /// [`run_periods`](Self::run_periods) steps, for callers that drive the steps themselves
+    /// (continuation replays a period's step sequence from perturbed starts).
+    pub fn simulator(&self, start: &Initial, rtol: f64) -> Result<Simulator, SimError> {
         let (y, mut drive) = protocol::initial_state(&self.rig, start, &self.model)?;
         drive.shaker = true;
         drive.t_on = y.t;
@@ -494,14 +495,28 @@ impl Problem {
             interpolated_samples: false,
         };
         let stepper = stepper::build(self.solver.method, &self.rig);
-        let mut sim = Simulator::new(
+        Ok(Simulator::new(
             self.model.clone(),
             stepper,
             self.rig.formation,
             settings,
             y,
             drive,
-        );
+        ))
+    }
+
+    /// Run `periods` base periods from `start` (at phase 0) with integration tolerance `rtol`.
+    /// `watch` sees the end state and record of every completed period and may stop the run
+    /// early by returning `false`.
+    pub fn run_periods(
+        &self,
+        start: &Initial,
+        periods: u64,
+        rtol: f64,
+        mut watch: impl FnMut(&Sample, &CycleRecord) -> bool,
+    ) -> Result<PeriodRun, SimError> {
+        let mut sim = self.simulator(start, rtol)?;
+        let y = *sim.state();
         // The simulator records the last base-period boundary (k·2π/ω) even when rounding puts
         // it a sliver after the stop time (periods / f).
         sim.advance_to(y.t + periods as f64 / self.frequency, None);
@@ -544,7 +559,7 @@ impl Problem {
     /// 0); with a rate-independent law a itself is the JKR radius at w0 for δ. `None` when the
     /// law gives no finite rate (a compressive edge under a Gent–Schultz law heals at an
     /// unbounded rate).
-    fn consistent(&self, x_s: f64, v_s: f64, a: f64, x_k: f64) -> Option<OrbitState> {
+    pub fn consistent(&self, x_s: f64, v_s: f64, a: f64, x_k: f64) -> Option<OrbitState> {
         let m = &self.rig.material;
         let law = &self.rig.law;
         if !(x_s.is_finite() && v_s.is_finite() && a.is_finite() && x_k.is_finite()) {
@@ -579,7 +594,7 @@ impl Problem {
     }
 
     /// The residual scales (L, ωL, a) from a cycle record.
-    fn scales(&self, c: &CycleRecord) -> [f64; 3] {
+    pub fn scales(&self, c: &CycleRecord) -> [f64; 3] {
         let m = &self.rig.material;
         let a_j = jkr::jump_in_radius(m, self.rig.law.w0());
         let floor = 1e-6 * a_j * a_j / m.r;

@@ -1,0 +1,587 @@
+//! What `djkr continue` writes and prints: the branch table (`branch.csv`, `branch.h5`, whose
+//! column names are a contract), the special points, the sweeps and the fold curves as tables
+//! ([`crate::output::table`]), and the `--json` summary ([`ContinuationReport`]).
+//!
+//! JSON has no NaN: a number that may be missing is left out.
+
+use serde::ser::{Serialize, SerializeMap, Serializer};
+
+use super::branch::{Branch, BranchEnd, BranchPoint, PointKind};
+use super::folds::{FoldCurve, FoldPoint, FoldPointKind};
+use super::sweep::SweepPoint;
+use crate::output::{Column, Table};
+use crate::steady::Steady;
+
+/// The columns of `branch.csv` and the `branch` group of `branch.h5`, in order (the KEY's own
+/// column, named by the key, is second).
+pub const BRANCH_COLUMNS: [&str; 12] = [
+    "arclength",
+    "KEY",
+    "delta_amp_over_xb",
+    "phase",
+    "delta_mean",
+    "force_mean",
+    "a_mean",
+    "a_amp",
+    "stable",
+    "multiplier_1_abs",
+    "multiplier_2_abs",
+    "multiplier_3_abs",
+];
+
+/// The branch table: one row per point (special points included, in order of arclength).
+pub fn branch_table(b: &Branch) -> Table {
+    let p = &b.points;
+    let f = |g: &dyn Fn(&BranchPoint) -> f64| p.iter().map(g).collect::<Vec<f64>>();
+    let info = b.parameter.info;
+    Table::from_fixed(vec![
+        Column::f64(
+            "arclength",
+            "1",
+            "pseudo-arclength along the branch in the scaled unknowns (state by L, omega L, a_m; parameter by the range's width)",
+            f(&|x| x.arclength),
+        ),
+        Column::f64(info.key, info.unit, info.what, f(&|x| x.value)),
+        Column::f64(
+            "delta_amp_over_xb",
+            "1",
+            "first-harmonic indentation amplitude |delta_1| / X_b",
+            f(&|x| x.delta_amp_over_xb()),
+        ),
+        Column::f64(
+            "phase",
+            "rad",
+            "phase phi of delta_1, delta - delta_m ~ |delta_1| sin(wt + phi)",
+            f(&|x| x.phase()),
+        ),
+        Column::f64(
+            "delta_mean",
+            "m",
+            "cycle-mean indentation",
+            f(&|x| x.cycle.delta_mean),
+        ),
+        Column::f64(
+            "force_mean",
+            "N",
+            "cycle-mean contact force (compressive +)",
+            f(&|x| x.cycle.force_mean),
+        ),
+        Column::f64(
+            "a_mean",
+            "m",
+            "cycle-mean contact radius",
+            f(&|x| x.cycle.a_mean),
+        ),
+        Column::f64(
+            "a_amp",
+            "m",
+            "first-harmonic contact-radius amplitude a_A",
+            f(&|x| x.a_amp()),
+        ),
+        Column::i64(
+            "stable",
+            "1",
+            "1: every Floquet multiplier inside the unit circle; 0: not",
+            p.iter().map(|x| i64::from(x.stable())).collect(),
+        ),
+        Column::f64(
+            "multiplier_1_abs",
+            "1",
+            "largest |Floquet multiplier|",
+            f(&|x| x.multiplier_abs(0)),
+        ),
+        Column::f64(
+            "multiplier_2_abs",
+            "1",
+            "second largest |Floquet multiplier| (NaN: fewer unknowns)",
+            f(&|x| x.multiplier_abs(1)),
+        ),
+        Column::f64(
+            "multiplier_3_abs",
+            "1",
+            "third largest |Floquet multiplier| (NaN: fewer unknowns)",
+            f(&|x| x.multiplier_abs(2)),
+        ),
+    ])
+}
+
+/// The special points of a branch (start, folds, bifurcations, grazing, end): `bifurcations.csv`.
+pub fn special_table(b: &Branch) -> Table {
+    let p: Vec<&BranchPoint> = b
+        .points
+        .iter()
+        .filter(|x| x.kind != PointKind::Regular)
+        .collect();
+    let f = |g: &dyn Fn(&BranchPoint) -> f64| p.iter().map(|x| g(x)).collect::<Vec<f64>>();
+    let info = b.parameter.info;
+    let mu = |k: usize, part: &'static str| {
+        Column::f64(
+            format!("multiplier_{}_{part}", k + 1),
+            "1",
+            format!(
+                "{} part of the Floquet multiplier {} (largest modulus first)",
+                if part == "re" { "real" } else { "imaginary" },
+                k + 1
+            ),
+            p.iter()
+                .map(|x| {
+                    x.multipliers
+                        .get(k)
+                        .map_or(f64::NAN, |z| if part == "re" { z.re } else { z.im })
+                })
+                .collect(),
+        )
+    };
+    let mut cols = vec![
+        Column::text(
+            "kind",
+            "start, fold, period-doubling, neimark-sacker, branch-point, grazing, end",
+            p.iter().map(|x| x.kind.name().to_string()).collect(),
+        ),
+        Column::f64("arclength", "1", "pseudo-arclength", f(&|x| x.arclength)),
+        Column::f64(info.key, info.unit, info.what, f(&|x| x.value)),
+        Column::f64(
+            "delta_amp_over_xb",
+            "1",
+            "|delta_1| / X_b",
+            f(&|x| x.delta_amp_over_xb()),
+        ),
+        Column::f64(
+            "a_mean",
+            "m",
+            "cycle-mean contact radius",
+            f(&|x| x.cycle.a_mean),
+        ),
+    ];
+    for k in 0..3 {
+        cols.push(mu(k, "re"));
+        cols.push(mu(k, "im"));
+    }
+    Table::from_fixed(cols)
+}
+
+/// A sweep's table (`sweep.csv` holds both directions).
+pub fn sweep_table(key: &str, unit: &str, direction: &str, p: &[SweepPoint]) -> Table {
+    let st = |name: &str, unit: &str, description: &str, g: &dyn Fn(&Steady) -> f64| {
+        Column::f64_opt(
+            name,
+            unit,
+            description,
+            p.iter().map(|x| x.steady.as_ref().map(g)),
+        )
+    };
+    Table::from_fixed(vec![
+        Column::text(
+            "direction",
+            "sweep direction",
+            p.iter().map(|_| direction.to_string()).collect(),
+        ),
+        Column::f64(
+            key,
+            unit,
+            "parameter value",
+            p.iter().map(|x| x.value).collect(),
+        ),
+        st(
+            "delta_amp_over_xb",
+            "1",
+            "|delta_1| / X_b",
+            &Steady::transfer_magnitude,
+        ),
+        st("phase", "rad", "phase of delta_1", &Steady::transfer_phase),
+        st("delta_mean", "m", "cycle-mean indentation", &|s| {
+            s.cycle.delta_mean
+        }),
+        st("force_mean", "N", "cycle-mean contact force", &|s| {
+            s.cycle.force_mean
+        }),
+        st("a_mean", "m", "cycle-mean contact radius", &|s| {
+            s.cycle.a_mean
+        }),
+        st("a_amp", "m", "contact-radius amplitude", &Steady::a_amp),
+        Column::text(
+            "error",
+            "why the steady state is missing (empty when found)",
+            p.iter()
+                .map(|x| x.error.clone().unwrap_or_default())
+                .collect(),
+        ),
+    ])
+}
+
+/// The fold curves' table (`fold_curves.csv`): one row per point, `curve` numbering them.
+pub fn fold_table(keys: [(&str, &str); 2], curves: &[FoldCurve]) -> Table {
+    let rows: Vec<(usize, &FoldPoint)> = curves
+        .iter()
+        .enumerate()
+        .flat_map(|(i, c)| c.points.iter().map(move |p| (i, p)))
+        .collect();
+    let f = |g: &dyn Fn(&FoldPoint) -> f64| rows.iter().map(|(_, p)| g(p)).collect::<Vec<f64>>();
+    Table::from_fixed(vec![
+        Column::i64(
+            "curve",
+            "1",
+            "fold curve number (from 0)",
+            rows.iter().map(|(i, _)| *i as i64).collect(),
+        ),
+        Column::text(
+            "kind",
+            "start, regular, cusp, turn, end",
+            rows.iter()
+                .map(|(_, p)| fold_kind_name(p.kind).to_string())
+                .collect(),
+        ),
+        Column::f64(
+            "arclength",
+            "1",
+            "pseudo-arclength along the fold curve (scaled)",
+            f(&|p| p.arclength),
+        ),
+        Column::f64(keys[0].0, keys[0].1, "first parameter", f(&|p| p.values[0])),
+        Column::f64(
+            keys[1].0,
+            keys[1].1,
+            "second parameter",
+            f(&|p| p.values[1]),
+        ),
+        Column::f64(
+            "delta_amp_over_xb",
+            "1",
+            "|delta_1| / X_b of the orbit at the fold",
+            f(&FoldPoint::delta_amp_over_xb),
+        ),
+        Column::f64(
+            "a_mean",
+            "m",
+            "cycle-mean contact radius at the fold",
+            f(&|p| p.cycle.a_mean),
+        ),
+    ])
+}
+
+fn fold_kind_name(k: FoldPointKind) -> &'static str {
+    match k {
+        FoldPointKind::Regular => "regular",
+        FoldPointKind::Start => "start",
+        FoldPointKind::Cusp => "cusp",
+        FoldPointKind::Turn => "turn",
+        FoldPointKind::End => "end",
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// JSON
+
+/// A point in the JSON report: `{"KEY": value, "delta_amp_over_xb": ..., "a_mean": ...}` (a
+/// second key's value with `--fold-param`), plus what else is known about it. Keys are the
+/// scenario keys themselves, so the object is built by hand.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Marked {
+    /// (key, value) of the parameters.
+    pub values: Vec<(String, f64)>,
+    /// |δ1|/X_b (left out when not finite).
+    pub delta_amp_over_xb: f64,
+    /// ⟨a⟩ (m).
+    pub a_mean: f64,
+    /// Other numbers (name, value), left out when not finite.
+    pub extra: Vec<(&'static str, f64)>,
+    /// |μ| largest first (branch points only).
+    pub multipliers_abs: Vec<f64>,
+}
+
+impl Serialize for Marked {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = s.serialize_map(None)?;
+        for (k, v) in &self.values {
+            if v.is_finite() {
+                m.serialize_entry(k, v)?;
+            }
+        }
+        if self.delta_amp_over_xb.is_finite() {
+            m.serialize_entry("delta_amp_over_xb", &self.delta_amp_over_xb)?;
+        }
+        if self.a_mean.is_finite() {
+            m.serialize_entry("a_mean", &self.a_mean)?;
+        }
+        for (k, v) in &self.extra {
+            if v.is_finite() {
+                m.serialize_entry(k, v)?;
+            }
+        }
+        let mu: Vec<f64> = self
+            .multipliers_abs
+            .iter()
+            .copied()
+            .filter(|x| x.is_finite())
+            .collect();
+        if !mu.is_empty() {
+            m.serialize_entry("multipliers_abs", &mu)?;
+        }
+        m.end()
+    }
+}
+
+impl Marked {
+    /// A point of a branch.
+    pub fn of_point(key: &str, p: &BranchPoint) -> Self {
+        Self {
+            values: vec![(key.to_string(), p.value)],
+            delta_amp_over_xb: p.delta_amp_over_xb(),
+            a_mean: p.cycle.a_mean,
+            extra: vec![("arclength", p.arclength)],
+            multipliers_abs: p.multipliers.iter().map(|z| z.norm()).collect(),
+        }
+    }
+
+    /// A point of a fold curve.
+    pub fn of_fold(keys: [&str; 2], p: &FoldPoint) -> Self {
+        Self {
+            values: vec![
+                (keys[0].to_string(), p.values[0]),
+                (keys[1].to_string(), p.values[1]),
+            ],
+            delta_amp_over_xb: p.delta_amp_over_xb(),
+            a_mean: p.cycle.a_mean,
+            extra: Vec::new(),
+            multipliers_abs: Vec::new(),
+        }
+    }
+}
+
+/// A jump of a sweep: the last value on the branch it leaves and the next value swept.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Jump {
+    /// Sweep direction, `up` or `down`.
+    pub direction: &'static str,
+    /// Last value before the jump.
+    pub from: f64,
+    /// Next value swept.
+    pub to: f64,
+    /// |δ1|/X_b before.
+    pub delta_amp_over_xb_before: f64,
+    /// |δ1|/X_b after (left out when that steady state is missing).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub delta_amp_over_xb_after: Option<f64>,
+}
+
+/// A fold curve in the JSON report.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FoldCurveReport {
+    /// Why it ended.
+    pub end: BranchEnd,
+    /// Its points.
+    pub points: Vec<Marked>,
+}
+
+/// The `--json` summary of `djkr continue`.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct ContinuationReport {
+    /// The scenario (with its overrides).
+    pub scenario: String,
+    /// The continuation parameter (KEY).
+    pub parameter: String,
+    /// Its SI unit.
+    pub unit: String,
+    /// The range (START, STOP), SI.
+    pub range: [f64; 2],
+    /// Points on the branch (special points included).
+    pub points: usize,
+    /// Why the branch ended.
+    pub end: BranchEnd,
+    /// Folds (limit points): the branch turns back, a multiplier is +1.
+    pub folds: Vec<Marked>,
+    /// Period doublings: a multiplier is −1.
+    pub period_doublings: Vec<Marked>,
+    /// Neimark–Sacker points: a complex pair on the unit circle.
+    pub neimark_sacker: Vec<Marked>,
+    /// Branch points (a real multiplier through +1 without a turn).
+    pub branch_points: Vec<Marked>,
+    /// The last smooth point before a period loses or forms contact.
+    pub grazing: Vec<Marked>,
+    /// Where the sweeps jump (with `--sweep` > 0).
+    pub sweep_jumps: Vec<Jump>,
+    /// Accepted steps.
+    pub steps: usize,
+    /// Refused steps.
+    pub rejected: usize,
+    /// Periods of the map integrated for the branch (adaptive and replayed).
+    pub periods: u64,
+    /// Wall-clock time of the branch (s).
+    pub wall_s: f64,
+    /// The second parameter (KEY2) with `--fold-param`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fold_parameter: Option<String>,
+    /// Its range.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fold_range: Option<[f64; 2]>,
+    /// The fold curves (with `--fold-param`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fold_curves: Option<Vec<FoldCurveReport>>,
+    /// The cusp where the folds are born (with `--fold-param`, when one was found).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cusp: Option<Marked>,
+    /// Wall-clock time of the fold curves (s).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub fold_wall_s: Option<f64>,
+    /// Observations.
+    pub notes: Vec<String>,
+    /// Files written.
+    pub files: Vec<String>,
+}
+
+impl ContinuationReport {
+    /// The report of a branch (`files`, the sweeps' jumps and the fold curves are added by the
+    /// caller).
+    pub fn new(scenario: &str, b: &Branch) -> Self {
+        let key = b.parameter.name();
+        let of = |k: PointKind| -> Vec<Marked> {
+            b.of_kind(k).map(|p| Marked::of_point(key, p)).collect()
+        };
+        Self {
+            scenario: scenario.to_string(),
+            parameter: key.to_string(),
+            unit: b.parameter.info.unit.to_string(),
+            range: [b.range.0, b.range.1],
+            points: b.points.len(),
+            end: b.end.clone(),
+            folds: of(PointKind::Fold),
+            period_doublings: of(PointKind::PeriodDoubling),
+            neimark_sacker: of(PointKind::NeimarkSacker),
+            branch_points: of(PointKind::BranchPoint),
+            grazing: of(PointKind::Grazing),
+            sweep_jumps: Vec::new(),
+            steps: b.work.steps,
+            rejected: b.work.rejected,
+            periods: b.periods,
+            wall_s: b.wall_s,
+            fold_parameter: None,
+            fold_range: None,
+            fold_curves: None,
+            cusp: None,
+            fold_wall_s: None,
+            notes: b.notes.clone(),
+            files: Vec::new(),
+        }
+    }
+
+    /// Add the fold curves of `--fold-param KEY2` over `range`.
+    pub fn with_folds(
+        mut self,
+        key2: &str,
+        range: (f64, f64),
+        curves: &[FoldCurve],
+        wall_s: f64,
+    ) -> Self {
+        let keys = [self.parameter.clone(), key2.to_string()];
+        let k = [keys[0].as_str(), keys[1].as_str()];
+        self.fold_curves = Some(
+            curves
+                .iter()
+                .map(|c| FoldCurveReport {
+                    end: c.end.clone(),
+                    points: c.points.iter().map(|p| Marked::of_fold(k, p)).collect(),
+                })
+                .collect(),
+        );
+        self.cusp = curves
+            .iter()
+            .flat_map(FoldCurve::cusps)
+            .next()
+            .map(|p| Marked::of_fold(k, p));
+        if self.cusp.is_none() {
+            self.notes.push(format!(
+                "no cusp within {key2} = {}..{}: the folds persist over the whole range",
+                range.0, range.1
+            ));
+        }
+        for (i, c) in curves.iter().enumerate() {
+            if let BranchEnd::StepUnderflow(why) | BranchEnd::Grazing(why) = &c.end {
+                self.notes
+                    .push(format!("fold curve {i} stopped early: {why}"));
+            }
+        }
+        self.fold_parameter = Some(key2.to_string());
+        self.fold_range = Some([range.0, range.1]);
+        self.fold_wall_s = Some(wall_s);
+        self
+    }
+}
+
+/// The runs of a branch: maximal stretches of consecutive points of equal stability, each as
+/// (stable, [(parameter value, |δ1|/X_b)]) in order.
+fn runs(b: &Branch) -> Vec<(bool, Vec<(f64, f64)>)> {
+    let mut runs: Vec<(bool, Vec<(f64, f64)>)> = Vec::new();
+    for p in &b.points {
+        let xy = (p.value, p.delta_amp_over_xb());
+        match runs.last_mut() {
+            Some((st, v)) if *st == p.stable() => v.push(xy),
+            _ => runs.push((p.stable(), vec![xy])),
+        }
+    }
+    runs
+}
+
+/// |δ1|/X_b of a run at `v`, linearly interpolated (`None` outside it).
+fn run_at(run: &[(f64, f64)], v: f64) -> Option<f64> {
+    if let [(p, y)] = run {
+        return ((v - p).abs() <= 1e-12 * p.abs()).then_some(*y);
+    }
+    run.windows(2).find_map(|w| {
+        let ((p0, y0), (p1, y1)) = (w[0], w[1]);
+        let (lo, hi) = (p0.min(p1), p0.max(p1));
+        (v >= lo && v <= hi).then(|| {
+            if hi > lo {
+                y0 + (y1 - y0) * (v - p0) / (p1 - p0)
+            } else {
+                y0
+            }
+        })
+    })
+}
+
+/// Which run of the branch a sweep's steady state lies on: the run whose value at the same
+/// parameter is nearest, if within 2 % (`None`: on none of them).
+fn run_of(runs: &[(bool, Vec<(f64, f64)>)], v: f64, y: f64) -> Option<usize> {
+    runs.iter()
+        .enumerate()
+        .filter_map(|(i, (_, r))| run_at(r, v).map(|z| (i, (z - y).abs() / y.abs().max(z.abs()))))
+        .filter(|(_, d)| *d < 0.02)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
+}
+
+/// What the sweeps did against the branch: where they jump (consecutive values on different
+/// runs of the branch, or a steady state missing after one found), and which values they
+/// found on an unstable run (shooting converges to any orbit near its start, stable or not).
+pub fn jumps(direction: &'static str, p: &[SweepPoint], branch: &Branch) -> (Vec<Jump>, Vec<f64>) {
+    let runs = runs(branch);
+    let run = |x: &SweepPoint| {
+        x.steady
+            .as_ref()
+            .and_then(|s| run_of(&runs, x.value, s.transfer_magnitude()))
+    };
+    let unstable: Vec<f64> = p
+        .iter()
+        .filter(|x| run(x).is_some_and(|r| !runs[r].0))
+        .map(|x| x.value)
+        .collect();
+    let mut out = Vec::new();
+    for w in p.windows(2) {
+        let Some(a) = w[0].steady.as_ref().map(Steady::transfer_magnitude) else {
+            continue;
+        };
+        let b = w[1].steady.as_ref().map(Steady::transfer_magnitude);
+        let (ra, rb) = (run(&w[0]), run(&w[1]));
+        let jump = b.is_none() || (ra.is_some() && rb.is_some() && ra != rb);
+        if jump {
+            out.push(Jump {
+                direction,
+                from: w[0].value,
+                to: w[1].value,
+                delta_amp_over_xb_before: a,
+                delta_amp_over_xb_after: b,
+            });
+        }
+    }
+    (out, unstable)
+}
