@@ -48,6 +48,7 @@ use crate::adhesion::{
 };
 use crate::dynamics::stepper::{method_from_name, METHOD_NAMES};
 use crate::error::ParamError;
+use crate::input::{self, InputError, InputKind};
 use crate::jkr;
 use crate::material::Material;
 use crate::units::{parse_quantity, Dimension};
@@ -69,14 +70,15 @@ pub const TABLE_W0_RTOL: f64 = 1e-6;
 /// dotted key, the value as written and what is allowed.
 #[derive(Debug, Error)]
 pub enum ScenarioError {
-    /// The file could not be read.
-    #[error("{file}: cannot read: {cause}")]
+    /// The file could not be read: missing, unreadable, not a regular file, too large or not
+    /// text ([`crate::input::read_text`]).
+    #[error("{file}: {cause}")]
     Io {
         /// The file.
         file: String,
-        /// The I/O error (shown in the message, so not also chained as a `source`, which made
-        /// the command line print it twice).
-        cause: std::io::Error,
+        /// Why (shown in the message, so not also chained as a `source`, which made the command
+        /// line print it twice).
+        cause: InputError,
     },
     /// TOML syntax error.
     #[error("{file}: TOML syntax error at line {line}, column {column}: {message}")]
@@ -304,7 +306,7 @@ pub fn parse_material_and_law(
 }
 
 fn read_text(path: &Path, name: &str) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|cause| ScenarioError::Io {
+    input::read_text(path, InputKind::Scenario).map_err(|cause| ScenarioError::Io {
         file: name.to_string(),
         cause,
     })
@@ -808,8 +810,8 @@ impl Parser<'_> {
                     Some(d) if Path::new(file).is_relative() => d.join(file),
                     _ => PathBuf::from(file),
                 };
-                let text = std::fs::read_to_string(&path).map_err(|e| {
-                    self.value_err(&key, &shown, format!("cannot read {}: {e}", path.display()))
+                let text = input::read_text(&path, InputKind::LawTable).map_err(|e| {
+                    self.value_err(&key, &shown, format!("{}: {e}", path.display()))
                 })?;
                 let table = TabulatedLaw::from_csv_str(&text, &path.display().to_string())
                     .map_err(|e| self.value_err(&key, &shown, e.to_string()))?;
