@@ -185,3 +185,22 @@ fn oversized_files_are_refused_with_the_limit() {
     std::fs::write(&scn, text).unwrap();
     refused(&["check", s(&scn)], &["adhesion.file", "16 MiB"]);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Item 4 (part): the default output folder of `run` is always a proper subfolder of out/.
+
+#[test]
+fn default_out_folder_is_a_subfolder_of_out_for_any_file_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(manifest("tests/scenarios/good/rigid-link.toml")).unwrap();
+    std::fs::write(dir.path().join("...toml"), &text).unwrap();
+    let r = djkr_in(dir.path(), &["run", "...toml"], Duration::from_secs(60));
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(!dir.path().join("summary.json").exists());
+    assert!(!dir.path().join("run.h5").exists());
+    assert!(
+        dir.path().join("out/scenario/summary.json").exists(),
+        "{}",
+        r.stdout
+    );
+}

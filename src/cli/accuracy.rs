@@ -3,7 +3,7 @@
 //! imposed-area cycle and the closed form's error map. Writes CSV, a markdown table and plots
 //! into `--out`; prints the table.
 
-use super::common::{load_scenario, positive_quantity, write_atomic, SetArgs};
+use super::common::{load_scenario, out_name, positive_quantity, write_atomic, SetArgs};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::accuracy::{self, Measure, StudyConfig};
@@ -102,13 +102,10 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
     };
     cfg.validate()?;
     let scn = load_scenario(file, &a.set)?;
-    let out = a.out.clone().unwrap_or_else(|| {
-        let stem = file
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "scene".into());
-        PathBuf::from("out").join(format!("accuracy-{stem}"))
-    });
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("accuracy-{}", out_name(file))));
     eprintln!(
         "reference: implicit at rtol {:e}, checked by dp8 …",
         cfg.reference_rtol

@@ -172,6 +172,38 @@ pub fn law_name(l: &Law) -> &'static str {
     }
 }
 
+/// The name of a default output folder for `file`: its stem made safe as one path component
+/// under `out/`, so that `out/<name>` is always a proper subfolder of `out/`: characters other
+/// than letters, digits, `-`, `_` and `.` become `_`, leading dots are dropped (a file named
+/// `...toml` has the stem `..`), and an empty result becomes `scenario`.
+pub fn out_name(file: &Path) -> String {
+    let stem = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let clean: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let clean = clean.trim_start_matches('.');
+    if clean.is_empty() {
+        "scenario".into()
+    } else {
+        clean.to_string()
+    }
+}
+
+/// `out/<out_name(file)><suffix>`: the default output folder of a command run on `file`.
+pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
+    PathBuf::from("out").join(format!("{}{suffix}", out_name(file)))
+}
+
 /// Angular frequency from a `--freq` flag (Hz, > 0).
 pub fn omega_from(flag: &str, text: &str) -> Result<f64, ParamError> {
     Ok(2.0 * std::f64::consts::PI * positive_quantity(flag, text, Dimension::Frequency)?)
@@ -232,4 +264,31 @@ pub fn fmt_force(f: f64) -> String {
 /// Write a file atomically (see [`djkr::output::write_atomic`]).
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     Ok(djkr::output::write_atomic(path, bytes)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_output_folders_stay_under_out() {
+        for (file, name) in [
+            ("scenarios/a.toml", "a"),
+            ("...toml", "scenario"),
+            ("..toml", "scenario"),
+            (".toml", "scenario"),
+            ("x/..", "scenario"),
+            ("", "scenario"),
+            ("/", "scenario"),
+            ("a b\\c.toml", "a_b_c"),
+            ("..hidden.toml", "hidden"),
+            ("v1.2.toml", "v1.2"),
+        ] {
+            assert_eq!(out_name(Path::new(file)), name, "{file}");
+            let out = default_out(Path::new(file), "-x");
+            let parts: Vec<_> = out.components().collect();
+            assert_eq!(parts.len(), 2, "{file}: {}", out.display());
+            assert!(matches!(parts[1], std::path::Component::Normal(_)));
+        }
+    }
 }

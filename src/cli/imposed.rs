@@ -7,6 +7,7 @@ use super::common::{
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use djkr::imposed_area;
+use djkr::scenario::checks::small_contact_warning;
 use djkr::units::Dimension;
 use serde_json::json;
 
@@ -43,6 +44,17 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
         );
     }
     let c = imposed_area::cycle(&m, &law, omega, a_mean, a_amp)?;
+    // The same small-contact rule as `pulloff` and `run`.
+    let notes: Vec<String> = small_contact_warning(
+        "the contact reaches a_m + a_A",
+        c.a_mean_imposed + c.a_amp,
+        m.r,
+    )
+    .into_iter()
+    .collect();
+    for n in &notes {
+        eprintln!("warning: {n}");
+    }
     if a.json {
         return print_json(&json!({
             "a_mean": c.a_mean,
@@ -54,6 +66,7 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             "delta_cos": c.delta_cos,
             "force_mean": c.force_mean,
             "contact_fraction": c.contact_fraction,
+            "notes": notes,
         }));
     }
     print_table(
@@ -78,6 +91,9 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             ("contact fraction", format!("{:.6}", c.contact_fraction)),
         ],
     );
+    for n in &notes {
+        println!("  note: {n}");
+    }
     Ok(())
 }
 
@@ -220,21 +236,12 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
     // JKR is a small-contact theory (a ≪ R, half-space substrate): say so when the answer
     // leaves that range instead of printing it as if it were valid.
     let a_max = r.a_mean + a_amp.unwrap_or(0.0);
-    if a_max > SMALL_CONTACT_LIMIT * m.r {
-        let w = format!(
-            "outside the model: the contact reaches a_m + a_A = {} = {:.2} R, but JKR assumes a contact small against the sphere (a ≪ R; here limited to {SMALL_CONTACT_LIMIT} R)",
-            fmt_len(a_max),
-            a_max / m.r
-        );
+    if let Some(w) = small_contact_warning("the contact reaches a_m + a_A", a_max, m.r) {
         eprintln!("warning: {w}");
         r.notes.push(w);
     }
     report(&r, a.json)
 }
-
-/// Largest contact radius, as a fraction of R, that the small-contact (JKR) results are reported
-/// without a warning.
-const SMALL_CONTACT_LIMIT: f64 = 0.2;
 
 fn report(r: &PulloffReport, json_out: bool) -> Result<()> {
     if json_out {

@@ -1,10 +1,11 @@
 //! `djkr run FILE` and `djkr check FILE`: the time-domain simulator on a scenario file.
 
-use super::common::{law_name, load_scenario, SetArgs};
+use super::common::{default_out, law_name, load_scenario, SetArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use djkr::dynamics::{self, Event, Observer, RunResult, Sample};
 use djkr::output::RunWriter;
+use djkr::scenario::checks;
 use djkr::scenario::parse::{ScenarioError, ScenarioSource};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -75,14 +76,7 @@ impl Observer for Progress<'_> {
 /// Run `djkr run`.
 pub fn run(a: &RunArgs) -> Result<()> {
     let scn = load_scenario(&a.file, &a.set)?;
-    let out = a.out.clone().unwrap_or_else(|| {
-        let stem = a
-            .file
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "run".into());
-        PathBuf::from("out").join(stem)
-    });
+    let out = a.out.clone().unwrap_or_else(|| default_out(&a.file, ""));
     let mut writer = RunWriter::create(&out, &scn, a.csv || scn.output.csv)
         .with_context(|| format!("--out {}", out.display()))?;
     let bar = ProgressBar::new_spinner();
@@ -113,6 +107,10 @@ pub fn run(a: &RunArgs) -> Result<()> {
     let paths = writer
         .finish(&result)
         .with_context(|| format!("writing results into {}", out.display()))?;
+    let warnings = checks::result_warnings(&scn, &result);
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     if a.json {
         // Exactly the summary.json just written (its non-finite rule included).
         let text = std::fs::read_to_string(&paths.summary)
@@ -120,7 +118,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         println!("{}", text.trim_end());
         return Ok(());
     }
-    print_summary(&scn, &result);
+    print_summary(&scn, &result, &warnings);
     println!("\nwrote:");
     for p in paths.all() {
         println!("  {}", p.display());
@@ -128,14 +126,19 @@ pub fn run(a: &RunArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult) {
+fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[String]) {
     println!(
         "{}: {} stage(s), method {}",
         scn.source_name,
         scn.stages.len(),
         r.method
     );
-    if r.detached {
+    if !checks::pull_off_recorded(r) {
+        println!(
+            "  no pull-off        no tensile contact force and no complete base cycle recorded{}",
+            if r.detached { " (detached)" } else { "" }
+        );
+    } else if r.detached {
         println!(
             "  pull-off force     {:.6} mN  (amplification {:.4} over −3/2 π R w0 = {:.6} mN)",
             r.pull_off.force * 1e3,
@@ -173,6 +176,9 @@ fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult) {
         f.delta * 1e6,
         f.force * 1e3
     );
+    for w in warnings {
+        println!("  warning            {w}");
+    }
 }
 
 /// Run `djkr check`.
@@ -181,17 +187,28 @@ pub fn check(a: &CheckArgs) -> Result<()> {
     let mut failed = 0;
     for f in &a.files {
         match ScenarioSource::read(f).and_then(|src| src.scenario(&overrides)) {
-            Ok(s) => println!(
-                "{}: ok ({} stage(s), law {}, {})",
-                s.source_name,
-                s.stages.len(),
-                law_name(&s.rig.law),
-                if s.rig.base.is_some() {
-                    "vibrating base"
-                } else {
-                    "no base motion"
+            Ok(s) => {
+                // What `run` refuses when it sets the run up, `check` refuses too.
+                if let Err(e) = checks::setup_check(&s) {
+                    failed += 1;
+                    eprintln!("error: {}: {e}", s.source_name);
+                    continue;
                 }
-            ),
+                println!(
+                    "{}: ok ({} stage(s), law {}, {})",
+                    s.source_name,
+                    s.stages.len(),
+                    law_name(&s.rig.law),
+                    if s.rig.base.is_some() {
+                        "vibrating base"
+                    } else {
+                        "no base motion"
+                    }
+                );
+                for w in checks::scenario_warnings(&s) {
+                    eprintln!("warning: {}: {w}", s.source_name);
+                }
+            }
             Err(e) => {
                 failed += 1;
                 match e {

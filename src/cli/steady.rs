@@ -110,9 +110,9 @@ pub fn stem(file: &Path) -> String {
         .unwrap_or_else(|| "scenario".into())
 }
 
-/// `out/<scenario name>-<suffix>`.
+/// `out/<scenario name>-<suffix>` (the name made safe: [`super::common::out_name`]).
 pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
-    PathBuf::from("out").join(format!("{}-{suffix}", stem(file)))
+    super::common::default_out(file, &format!("-{suffix}"))
 }
 
 /// A progress bar (hidden when stderr is not a terminal).

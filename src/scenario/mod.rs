@@ -8,6 +8,7 @@
 //! Coordinates (MODEL.md): x_s sphere position (down +), x_b base displacement (up +), x_k the far
 //! end of the holding spring (down +), δ = x_s + x_b the indentation (> 0 compresses).
 
+pub mod checks;
 pub mod overrides;
 pub mod parse;
 

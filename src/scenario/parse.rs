@@ -37,6 +37,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 use toml::{Table, Value};
 
+use super::checks;
 use super::overrides::{self, Override};
 use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
@@ -258,6 +259,7 @@ fn build(
     let stages = p.stages(&top, holder, base.is_some())?;
     let solver = p.solver(&top)?;
     let output = p.output(&top)?;
+    p.physics(&top, &material, holder, sphere, &initial, &stages)?;
     Ok(Scenario {
         rig: Rig {
             material,
@@ -908,8 +910,20 @@ impl Parser<'_> {
         self.check_keys(&s, BASE_KEYS, "")?;
         let n = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
         let amplitude = self.non_negative(&s, "amplitude", &n, LENGTH.unit)?;
-        let frequency =
-            self.req_positive(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
+        let n = self.required(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
+        let frequency = self.positive(&s, "frequency", &n, FREQUENCY.unit)?;
+        if !(checks::MIN_FREQUENCY..=checks::MAX_FREQUENCY).contains(&frequency) {
+            return Err(self.value_err(
+                &s.key("frequency"),
+                &n.shown,
+                format!(
+                    "must lie in [{:e}, {:e}] (Hz): a period longer than 1e6 s outlasts any run, \
+                     one shorter than 1 us is below the time resolution of a long run",
+                    checks::MIN_FREQUENCY,
+                    checks::MAX_FREQUENCY
+                ),
+            ));
+        }
         Ok(Some(BaseMotion {
             amplitude,
             frequency,
@@ -990,6 +1004,55 @@ impl Parser<'_> {
                 Err(self.key_err("[initial]", "empty: give preload (N, > 0) or gap (m, > 0)"))
             }
         }
+    }
+
+    /// Combinations of valid values that JKR or the simulator cannot carry
+    /// ([`checks`]: a sphere too small for its jump-in radius, a static load whose contact
+    /// exceeds R, a weight lost to rounding).
+    fn physics(
+        &self,
+        top: &Section,
+        m: &Material,
+        holder: Holder,
+        sphere: Sphere,
+        initial: &Initial,
+        stages: &[Stage],
+    ) -> Result<()> {
+        if let Some(e) = checks::material_error(m) {
+            return Err(self.key_err("[material]", e));
+        }
+        let weight = sphere.mass * sphere.gravity;
+        if checks::spring_carries_weight(holder) {
+            if let Some(e) = checks::weight_error(m, weight) {
+                return Err(self.key_err(
+                    "[sphere]",
+                    format!(
+                        "mass = {} kg, gravity = {} m/s^2: {e}",
+                        sphere.mass, sphere.gravity
+                    ),
+                ));
+            }
+        }
+        if let Initial::Preload(p) = *initial {
+            if let Some(e) = checks::load_error(m, p) {
+                return Err(if top.table.get("initial").is_some() {
+                    self.value_err("initial.preload", show_float(p), e)
+                } else {
+                    self.key_err(
+                        "[sphere]",
+                        format!("the sphere rests on its weight m g = {p:e} N: {e}"),
+                    )
+                });
+            }
+        }
+        for (i, st) in stages.iter().enumerate() {
+            if let Until::Preload(p) = st.until {
+                if let Some(e) = checks::load_error(m, p) {
+                    return Err(self.value_err(&format!("stage[{i}].preload"), show_float(p), e));
+                }
+            }
+        }
+        Ok(())
     }
 
     fn stages(&self, top: &Section, holder: Holder, has_base: bool) -> Result<Vec<Stage>> {
