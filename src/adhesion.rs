@@ -278,7 +278,7 @@ impl TabulatedLaw {
             if !v.is_finite() || !w.is_finite() || w <= 0.0 {
                 return Err(ParamError::new(
                     format!("{source}: row {}", i + 1),
-                    format!("({v}, {w})"),
+                    format!("({v:?}, {w:?})"),
                     "speed must be finite and w finite and > 0",
                 ));
             }
@@ -287,7 +287,7 @@ impl TabulatedLaw {
                 if v <= vp || w >= wp {
                     return Err(ParamError::new(
                         format!("{source}: row {}", i + 1),
-                        format!("({v}, {w})"),
+                        format!("({v:?}, {w:?})"),
                         format!(
                             "speeds must increase strictly and w decrease strictly (previous row ({vp}, {wp}))"
                         ),
@@ -328,7 +328,7 @@ impl TabulatedLaw {
             {
                 return Err(ParamError::new(
                     format!("{source}: row {}", i + 1),
-                    format!("({v}, {w})"),
+                    format!("({v:?}, {w:?})"),
                     format!(
                         "speeds must lie in [-{TABLE_MAX_SPEED:e}, {TABLE_MAX_SPEED:e}] m/s and w within a factor {TABLE_MAX_W_RATIO:e} of w(0) = {} J/m^2",
                         law.w0

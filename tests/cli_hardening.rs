@@ -204,3 +204,135 @@ fn default_out_folder_is_a_subfolder_of_out_for_any_file_name() {
         r.stdout
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Item 6: every accepted input gives a valid result, a clear error, or a warning.
+
+fn scenario(rel: &str) -> String {
+    s(&manifest(rel)).to_string()
+}
+
+#[test]
+fn impossible_scenes_are_refused_at_validation() {
+    let minimal = scenario("tests/scenarios/good/minimal.toml");
+    let resting = scenario("tests/scenarios/good/resting-on-weight.toml");
+    let paper = scenario("scenarios/paper-protocol-300hz.toml");
+    // R = 1e-9: the jump-in radius alone is 6 R.
+    refused(
+        &["check", &minimal, "--set", "material.R=1e-9"],
+        &["[material]", "jump-in radius", "exceeds R"],
+    );
+    // gravity = 1e20: on a spring, the weight is lost to rounding; resting on it, the contact
+    // would exceed R.
+    refused(
+        &["check", &paper, "--set", "sphere.gravity=1e20"],
+        &[
+            "[sphere]",
+            "gravity = 100000000000000000000",
+            "the weight m g",
+        ],
+    );
+    refused(
+        &["run", &resting, "--set", "sphere.gravity=1e20"],
+        &["[sphere]", "rests on its weight", "> R"],
+    );
+    // frequency = 1e-300: a period longer than any run.
+    refused(
+        &["check", &paper, "--set", "base.frequency=1e-300"],
+        &["--set base.frequency=1e-300", "[1e-6, 1e6] (Hz)"],
+    );
+    // What run refuses at setup, check refuses too (mass 0 with damping).
+    refused(
+        &[
+            "check",
+            &scenario("tests/scenarios/good/quasi-static-mass-zero.toml"),
+            "--set",
+            "damping.c=0.5",
+        ],
+        &["mass = 0 with damping"],
+    );
+    refused(
+        &["check", &minimal, "--set", "solver.method=dp8"],
+        &["solver.method", "rate-independent"],
+    );
+}
+
+#[test]
+fn contacts_beyond_the_small_contact_range_are_warned_everywhere() {
+    // cycle: text and JSON.
+    let r = djkr(&[
+        "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1e10", "--json",
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let v: serde_json::Value = serde_json::from_str(&r.stdout).unwrap();
+    let notes = v["notes"].as_array().unwrap();
+    assert!(
+        notes[0].as_str().unwrap().contains("outside the model"),
+        "{v}"
+    );
+    assert!(
+        r.stderr.contains("warning: outside the model"),
+        "{}",
+        r.stderr
+    );
+    let r = djkr(&[
+        "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1e10",
+    ]);
+    assert!(r.stdout.contains("note: outside the model"), "{}", r.stdout);
+    let r = djkr(&[
+        "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1mm", "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&r.stdout).unwrap();
+    assert!(v["notes"].as_array().unwrap().is_empty(), "{v}");
+    // run: stderr, text and summary.json (also through --json).
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("small");
+    let rigid = scenario("tests/scenarios/good/rigid-link.toml");
+    let r = djkr(&["run", &rigid, "--set", "material.R=2e-4", "--out", s(&out)]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("warning: outside the model"),
+        "{}",
+        r.stderr
+    );
+    assert!(
+        r.stdout.contains("warning            outside the model"),
+        "{}",
+        r.stdout
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let w = summary["warnings"].as_array().unwrap();
+    assert!(w[0].as_str().unwrap().contains("0.405 R"), "{summary}");
+    let r = djkr(&["run", &rigid, "--out", s(&dir.path().join("ok")), "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&r.stdout).unwrap();
+    assert_eq!(v["warnings"], serde_json::json!([]), "{v}");
+}
+
+#[test]
+fn a_pull_off_never_recorded_is_reported_missing() {
+    // A base period of 1000 s: no cycle completes, so there is no cycle-averaged force; the
+    // summary used to print pull_off.force = 0.0 at t = 0.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("slow");
+    let r = djkr(&[
+        "run",
+        &scenario("scenarios/resonance-400hz.toml"),
+        "--set",
+        "base.frequency=1e-3",
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(r.stdout.contains("no pull-off"), "{}", r.stdout);
+    assert!(!r.stdout.contains("amplification"), "{}", r.stdout);
+    assert!(
+        r.stderr.contains("warning: no pull-off force recorded"),
+        "{}",
+        r.stderr
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert!(v["pull_off"].get("force").is_none(), "{v}");
+    assert_eq!(v["non_finite"]["pull_off.force"], "NaN");
+}

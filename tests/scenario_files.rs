@@ -84,7 +84,7 @@ fn good_files_carry_the_values_written() {
         Some((0.5, DampingOn::Contact))
     );
     assert_eq!(s.rig.formation, ContactFormation::Seed(1e-6));
-    assert_eq!(s.solver.method, Method::Dop853);
+    assert_eq!(s.solver.method, Method::Dp8);
     assert_eq!(
         (
             s.solver.rtol,
@@ -113,7 +113,7 @@ fn good_files_carry_the_values_written() {
     assert!(close(u.rig.sphere.mass, 3e-3));
     let b = u.rig.base.unwrap();
     assert!(close(b.amplitude, 10e-6) && close(b.frequency, 300.0));
-    assert!(close(u.stages[2].speed, 5e-6));
+    assert!(close(u.stages[2].speed, 5e-4));
     assert!(matches!(u.stages[0].until, Until::Duration(d) if close(d, 0.1)));
     assert!(matches!(u.initial, Initial::Preload(p) if close(p, 0.02)));
 
@@ -501,5 +501,41 @@ fn vibrating_scenes_respond_as_their_comments_say() {
             ((ratio - expect) / expect).abs() < tol,
             "{file}: |delta_A/X_b| = {ratio}, expected {expect}"
         );
+    }
+}
+
+/// Every good file runs to completion (issue 15: `check` accepted files that `run` refused or
+/// that took minutes of wall time). Each runs with a 30 s wall budget (all of them take about
+/// 3 s together in a release build) and must succeed: what fails here is either a scene that
+/// `check` should have refused or a simulator defect.
+#[test]
+fn every_good_file_runs_to_completion() {
+    let t0 = std::time::Instant::now();
+    for f in toml_files("tests/scenarios/good") {
+        let mut s = load_scenario(&f).unwrap_or_else(|e| panic!("{e}"));
+        s.solver.max_wall_s = s.solver.max_wall_s.min(30.0);
+        let t = std::time::Instant::now();
+        let r = s
+            .simulate(&mut djkr::dynamics::NoObserver)
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        assert!(r.final_state.t > 0.0, "{}", f.display());
+        eprintln!("{}: {:.2} s", f.display(), t.elapsed().as_secs_f64());
+    }
+    eprintln!("good corpus: {:.2} s", t0.elapsed().as_secs_f64());
+}
+
+/// Reproducers of simulator defects found by the fuzz test and the corpus work
+/// (tests/scenarios/fuzz-found, each file's comment says what and where). They must run to
+/// completion once the simulator core is fixed; until then this test is ignored (KNOWN FAILING:
+/// `tabulated-beyond-last-row.toml`, step size underflow). Run it with
+/// `cargo test --release --test scenario_files -- --ignored`.
+#[test]
+#[ignore = "known simulator defects (src/dynamics): see tests/scenarios/fuzz-found"]
+fn fuzz_found_reproducers_run_to_completion() {
+    for f in toml_files("tests/scenarios/fuzz-found") {
+        let mut s = load_scenario(&f).unwrap_or_else(|e| panic!("{e}"));
+        s.solver.max_wall_s = s.solver.max_wall_s.min(30.0);
+        s.simulate(&mut djkr::dynamics::NoObserver)
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
     }
 }

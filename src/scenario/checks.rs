@@ -181,8 +181,9 @@ pub fn result_warnings(s: &Scenario, r: &RunResult) -> Vec<String> {
     }
     if !pull_off_recorded(r) {
         out.push(
-            "no pull-off force recorded: no tensile contact force and no complete base cycle \
-             (pull_off is left out)"
+            "no pull-off force recorded: no base cycle completed (under vibration the pull-off \
+             force is a cycle mean: is the base period longer than the stages?) and no contact \
+             force was recorded instead; pull_off is left out"
                 .into(),
         );
     }

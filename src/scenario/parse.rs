@@ -115,6 +115,15 @@ pub enum ScenarioError {
         /// What is wrong and what is expected.
         message: String,
     },
+    /// Valid values that the simulator cannot run together (a massless sphere with damping, an
+    /// explicit method on a rate-independent law): what it would refuse when setting the run up.
+    #[error("{file}: {message}")]
+    Setup {
+        /// The file.
+        file: String,
+        /// What cannot be simulated, and what to change.
+        message: String,
+    },
     /// A `--set KEY=VALUE` override that does not fit the file (a stage it does not have), or
     /// whose value the file's rules reject: named by the override rather than by the file's key
     /// and value.
@@ -139,6 +148,7 @@ impl ScenarioError {
             | ScenarioError::Syntax { file, .. }
             | ScenarioError::Value { file, .. }
             | ScenarioError::Key { file, .. }
+            | ScenarioError::Setup { file, .. }
             | ScenarioError::Override { file, .. } => file,
         }
     }
@@ -260,7 +270,7 @@ fn build(
     let solver = p.solver(&top)?;
     let output = p.output(&top)?;
     p.physics(&top, &material, holder, sphere, &initial, &stages)?;
-    Ok(Scenario {
+    let scenario = Scenario {
         rig: Rig {
             material,
             law,
@@ -277,7 +287,14 @@ fn build(
         source_text: text.to_string(),
         source_name: source_name.to_string(),
         overrides,
-    })
+    };
+    // What the simulator would refuse when it sets the run up is refused here, so `check` and
+    // every command agree with `run`.
+    checks::setup_check(&scenario).map_err(|e| ScenarioError::Setup {
+        file: source_name.to_string(),
+        message: e.to_string(),
+    })?;
+    Ok(scenario)
 }
 
 /// Only the `[material]` and `[adhesion]` sections of a file, for commands that need nothing else
