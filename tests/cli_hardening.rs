@@ -336,3 +336,60 @@ fn a_pull_off_never_recorded_is_reported_missing() {
     assert!(v["pull_off"].get("force").is_none(), "{v}");
     assert_eq!(v["non_finite"]["pull_off.force"], "NaN");
 }
+
+// ---------------------------------------------------------------------------------------------
+// Item 8: every grid and list is bounded; the message names the flag and the limit.
+
+#[test]
+fn grids_are_bounded_naming_the_flag_and_the_limit() {
+    let res = scenario("scenarios/resonance-400hz.toml");
+    let tol21 = vec!["1e-6"; 21].join(",");
+    let nodes33 = vec!["11"; 33].join(",");
+    let cases: Vec<(Vec<&str>, Vec<&str>)> = vec![
+        (
+            vec!["shortcut-map", &res, "--freq", "300:500:100000", "--amp", "0.05um:2um:100000"],
+            vec!["--freq = 300:500:100000", "1..=1001"],
+        ),
+        (
+            vec!["shortcut-map", &res, "--freq", "300:500:1001", "--amp", "0.05um:2um:1001"],
+            vec!["--freq 300:500:1001 --amp 0.05um:2um:1001", "1002001 cells", "limit of 10000"],
+        ),
+        (
+            vec!["resonance", &res, "--freq", "300:500:100000"],
+            vec!["--freq = 300:500:100000", "1..=2001"],
+        ),
+        (
+            vec!["beta-fit", "--speed-ratio", "1e-2:1e2:100000"],
+            vec!["--speed-ratio", "100000 speed ratios", "limit of 1000"],
+        ),
+        (
+            vec!["beta-fit", "--speed-ratio", "1e-2:1e2:1000", "--n-values", "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8,0.9,1.0,1.1,1.2,1.3,1.4,1.5,1.6,1.7,1.8,1.9,2.0,2.1"],
+            vec!["21000 exact pull-offs", "limit of 20000"],
+        ),
+        (
+            vec!["beta-fit", "--beta", "0.5:10:100000"],
+            vec!["--beta", "limit of 10000"],
+        ),
+        (
+            vec!["accuracy", &res, "--repeats", "1000"],
+            vec!["--repeats", "1..=100"],
+        ),
+        (
+            vec!["accuracy", &res, "--tolerances", &tol21],
+            vec!["--tolerances", "21 tolerances", "limit of 20"],
+        ),
+        (
+            vec!["accuracy", "--imposed-area", "--nodes", &nodes33],
+            vec!["--nodes", "33 node counts", "limit of 32"],
+        ),
+    ];
+    for (args, needles) in cases {
+        let t = Instant::now();
+        refused(&args, &needles);
+        assert!(
+            t.elapsed() < Duration::from_secs(10),
+            "{args:?} took {:?}",
+            t.elapsed()
+        );
+    }
+}

@@ -3,7 +3,9 @@
 //! imposed-area cycle and the closed form's error map. Writes CSV, a markdown table and plots
 //! into `--out`; prints the table.
 
-use super::common::{load_scenario, out_name, positive_quantity, write_atomic, SetArgs};
+use super::common::{
+    limit_count, limits, load_scenario, out_name, positive_quantity, write_atomic, SetArgs,
+};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::accuracy::{self, Measure, StudyConfig};
@@ -87,14 +89,30 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
     let Some(file) = &a.file else {
         bail!("accuracy: give a scenario FILE, or --imposed-area");
     };
+    let methods = list("--methods", &a.methods, |s| {
+        accuracy::parse_method("--methods", s)
+    })?;
+    limit_count(
+        "--methods",
+        &a.methods,
+        methods.len(),
+        limits::ACCURACY_METHODS,
+        "methods",
+    )?;
+    let tolerances = list("--tolerances", &a.tolerances, |s| {
+        positive_quantity("--tolerances", s, Dimension::Dimensionless)
+    })?;
+    limit_count(
+        "--tolerances",
+        &a.tolerances,
+        tolerances.len(),
+        limits::ACCURACY_TOLERANCES,
+        "tolerances",
+    )?;
     let cfg = StudyConfig {
-        methods: list("--methods", &a.methods, |s| {
-            accuracy::parse_method("--methods", s)
-        })?,
-        tolerances: list("--tolerances", &a.tolerances, |s| {
-            positive_quantity("--tolerances", s, Dimension::Dimensionless)
-        })?,
-        repeats: count("--repeats", &a.repeats, 1, 1000)?,
+        methods,
+        tolerances,
+        repeats: count("--repeats", &a.repeats, 1, limits::ACCURACY_REPEATS)?,
         reference_rtol: positive_quantity("--ref-rtol", &a.ref_rtol, Dimension::Dimensionless)?,
         atol_ratio: positive_quantity("--atol-ratio", &a.atol_ratio, Dimension::Dimensionless)?,
         max_wall_s: positive_quantity("--max-wall", &a.max_wall, Dimension::Time)?,
@@ -147,7 +165,14 @@ fn print_written(out: &Path, plots: &[PathBuf], files: &[&str]) {
 
 fn imposed_area(a: &AccuracyArgs) -> Result<()> {
     let nodes = list("--nodes", &a.nodes, |s| count("--nodes", s, 3, 2001))?;
-    let repeats = count("--repeats", &a.repeats, 1, 1000)?;
+    limit_count(
+        "--nodes",
+        &a.nodes,
+        nodes.len(),
+        limits::ACCURACY_NODES,
+        "node counts",
+    )?;
+    let repeats = count("--repeats", &a.repeats, 1, limits::ACCURACY_REPEATS)?;
     let freq = positive_quantity("--freq", &a.freq, Dimension::Frequency)?;
     let beta = positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
     let out = a

@@ -204,6 +204,42 @@ pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
     PathBuf::from("out").join(format!("{}{suffix}", out_name(file)))
 }
 
+/// Limits on the grids and lists of the commands that take ranges: each bounds the work one
+/// invocation may ask for (a 100000 × 100000 shortcut map is 1e10 steady states).
+pub mod limits {
+    /// `resonance --freq START:STOP:COUNT`: frequencies per sweep.
+    pub const RESONANCE_FREQUENCIES: usize = 2001;
+    /// `shortcut-map --freq` and `--amp`: COUNT of each axis.
+    pub const MAP_AXIS: usize = 1001;
+    /// `shortcut-map`: cells (frequencies × amplitudes).
+    pub const MAP_CELLS: usize = 10_000;
+    /// `beta-fit --n-values`: exponents.
+    pub const BETA_FIT_N_VALUES: usize = 100;
+    /// `beta-fit --speed-ratio`: COUNT.
+    pub const BETA_FIT_SPEED_RATIOS: usize = 1000;
+    /// `beta-fit`: exact pull-offs (n values × speed ratios).
+    pub const BETA_FIT_PULL_OFFS: usize = 20_000;
+    /// `beta-fit --beta`: COUNT of the β grid.
+    pub const BETA_FIT_BETAS: usize = 10_000;
+    /// `accuracy --tolerances`: values.
+    pub const ACCURACY_TOLERANCES: usize = 20;
+    /// `accuracy --methods`: values (each method once).
+    pub const ACCURACY_METHODS: usize = 5;
+    /// `accuracy --repeats`.
+    pub const ACCURACY_REPEATS: usize = 100;
+    /// `accuracy --nodes`: node counts.
+    pub const ACCURACY_NODES: usize = 32;
+}
+
+/// Refuse a grid or list of `count` items beyond `max`, naming the flag (`what`: what is
+/// counted).
+pub fn limit_count(flag: &str, text: &str, count: usize, max: usize, what: &str) -> Result<()> {
+    if count > max {
+        bail!("{flag} = {text}: {count} {what}, more than the limit of {max}");
+    }
+    Ok(())
+}
+
 /// Angular frequency from a `--freq` flag (Hz, > 0).
 pub fn omega_from(flag: &str, text: &str) -> Result<f64, ParamError> {
     Ok(2.0 * std::f64::consts::PI * positive_quantity(flag, text, Dimension::Frequency)?)
