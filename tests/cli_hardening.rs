@@ -393,3 +393,66 @@ fn grids_are_bounded_naming_the_flag_and_the_limit() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Item 9: a closed stdout ends djkr quietly (SIGPIPE restored), never with a panic.
+
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_ends_djkr_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let dir = tempfile::tempdir().unwrap();
+    let figs = dir.path().join("figs");
+    for args in [
+        vec!["figures", "--only", "fig2", "--out", s(&figs)],
+        vec![
+            "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1mm",
+        ],
+        vec!["help"],
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_djkr"))
+            .args(&args)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        drop(child.stdout.take()); // the reader goes away at once, as `| head -0` would
+        let out = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert_ne!(out.status.code(), Some(101), "{args:?}: {err}");
+        assert!(
+            out.status.success() || out.status.signal() == Some(libc::SIGPIPE),
+            "{args:?}: {:?} {err}",
+            out.status
+        );
+    }
+}
+
+/// `validate scenarios/impacts.toml` printed `346.30626-1379.26544`: columns ran together.
+#[test]
+fn validate_table_columns_never_run_together() {
+    let r = djkr(&["validate", &scenario("scenarios/impacts.toml")]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let mut rows = 0;
+    for line in r.stdout.lines() {
+        for label in [
+            "time domain",
+            "imposed area",
+            "linear transfer",
+            "paper (39)",
+        ] {
+            if let Some(rest) = line.strip_prefix(label) {
+                rows += 1;
+                for cell in rest.split_whitespace() {
+                    assert!(
+                        cell == "—" || cell.parse::<f64>().is_ok(),
+                        "cell '{cell}' in: {line}\n{}",
+                        r.stdout
+                    );
+                }
+            }
+        }
+    }
+    assert!(rows >= 6, "{}", r.stdout);
+}

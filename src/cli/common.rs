@@ -312,7 +312,7 @@ mod tests {
             ("scenarios/a.toml", "a"),
             ("...toml", "scenario"),
             ("..toml", "scenario"),
-            (".toml", "scenario"),
+            (".toml", "toml"),
             ("x/..", "scenario"),
             ("", "scenario"),
             ("/", "scenario"),

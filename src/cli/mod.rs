@@ -84,6 +84,7 @@ enum Command {
 
 /// Entry point: run the command, print errors as one readable message, map to an exit code.
 pub fn main() -> ExitCode {
+    restore_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(a) => run::run(&a),
@@ -105,5 +106,19 @@ pub fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             ExitCode::from(2)
         }
+    }
+}
+
+/// Let a closed stdout end djkr quietly, as it does any Unix filter (`djkr figures | head -1`).
+/// Rust ignores SIGPIPE, so every `println!` after the reader has gone would panic on EPIPE
+/// (exit 101); with the default disposition restored, the kernel ends the process at the first
+/// such write instead. The commands print their results after writing their files, so a closed
+/// stdout cuts only the listing short.
+fn restore_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any thread exists; SIG_DFL is a valid
+    // disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
 }
