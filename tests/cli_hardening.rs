@@ -456,3 +456,48 @@ fn validate_table_columns_never_run_together() {
     }
     assert!(rows >= 6, "{}", r.stdout);
 }
+
+/// `accuracy scenarios/quasi-static-jkr.toml`, the --help example, ran 12 cases that could only
+/// fail (explicit methods on a constant-w law): they are skipped up front, saying so.
+#[test]
+fn accuracy_skips_methods_that_cannot_run_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let r = djkr(&[
+        "accuracy",
+        &scenario("scenarios/quasi-static-jkr.toml"),
+        "--tolerances",
+        "1e-4",
+        "--repeats",
+        "1",
+        "--out",
+        s(dir.path()),
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("skipping dp8, dopri5, dop853"),
+        "{}",
+        r.stderr
+    );
+    assert!(r.stderr.contains("rate-independent"), "{}", r.stderr);
+    assert!(!r.stdout.contains("failed:"), "{}", r.stdout);
+    assert!(r.stdout.contains("| implicit | 1e-4 |"), "{}", r.stdout);
+    let r = djkr(&[
+        "accuracy",
+        &scenario("scenarios/quasi-static-jkr.toml"),
+        "--methods",
+        "dp8",
+        "--out",
+        s(dir.path()),
+    ]);
+    assert_eq!(r.code, Some(2), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("--methods = dp8: none of them can run"),
+        "{}",
+        r.stderr
+    );
+    let help = djkr(&["--help"]).stdout;
+    assert!(
+        !help.contains("accuracy scenarios/quasi-static-jkr"),
+        "{help}"
+    );
+}

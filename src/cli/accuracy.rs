@@ -10,8 +10,11 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::accuracy::{self, Measure, StudyConfig};
 use djkr::beta_fit::log_space;
+use djkr::dynamics::stepper::method_name;
+use djkr::dynamics::Method;
 use djkr::error::ParamError;
 use djkr::plot;
+use djkr::scenario::checks;
 use djkr::units::Dimension;
 use std::path::{Path, PathBuf};
 
@@ -118,8 +121,34 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         max_wall_s: positive_quantity("--max-wall", &a.max_wall, Dimension::Time)?,
         ..StudyConfig::default()
     };
+    let mut cfg = cfg;
     cfg.validate()?;
     let scn = load_scenario(file, &a.set)?;
+    // Skip, saying so, the methods that cannot run this scene at all (an explicit method on a
+    // rate-independent law): a row per tolerance that can only fail is no measurement.
+    let (runnable, skipped): (Vec<Method>, Vec<Method>) = cfg.methods.iter().partition(|&&m| {
+        let mut s = scn.clone();
+        s.solver.method = m;
+        checks::setup_check(&s).is_ok()
+    });
+    if !skipped.is_empty() {
+        let mut s = scn.clone();
+        s.solver.method = skipped[0];
+        let why = checks::setup_check(&s)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        let names: Vec<&str> = skipped.iter().map(|&m| method_name(m)).collect();
+        eprintln!("skipping {} on {}: {why}", names.join(", "), file.display());
+    }
+    if runnable.is_empty() {
+        bail!(
+            "--methods = {}: none of them can run {} (see above)",
+            a.methods,
+            file.display()
+        );
+    }
+    cfg.methods = runnable;
     let out = a
         .out
         .clone()

@@ -138,8 +138,10 @@ pub fn setup_check(s: &Scenario) -> Result<(), SimError> {
     let stepper = stepper::build(plan.solver.method, plan.rig);
     if stepper.kind() != StepperKind::Embedded && s.rig.law.is_rate_independent() {
         return Err(SimError::Setup(format!(
-            "solver.method {} cannot run a rate-independent adhesion law (the contact radius is \
-             algebraic, G = w0, and has no explicit rate): use \"auto\" or \"implicit\"",
+            "solver.method = \"{}\" ({}) cannot run a rate-independent adhesion law (the \
+             contact radius is algebraic, G = w0, and has no explicit rate): use \"auto\" or \
+             \"implicit\"",
+            stepper::method_name(plan.solver.method),
             stepper.name()
         )));
     }
