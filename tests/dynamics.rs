@@ -489,7 +489,7 @@ fn explicit_errors_and_auto() {
     )];
     let (r, _) = run(&s);
     println!("{}", r.method);
-    assert!(r.method.starts_with("explicit DP8"), "{}", r.method);
+    assert!(r.method.starts_with("dp8"), "{}", r.method);
 }
 
 /// Probe of `ode_solvers` Dop853 alone on y'' = −y over [0, 10] with h_max = 0.5: error vs rtol.
@@ -1083,6 +1083,6 @@ fn auto_rule_by_scene() {
     s.stages = vec![stage(StageKind::Unload, 1e-4, Until::PullOff, None)];
     s.solver.method = Method::Auto;
     let (r, _) = run(&s);
-    assert!(r.method.starts_with("explicit DP8"), "{}", r.method);
+    assert!(r.method.starts_with("dp8"), "{}", r.method);
     assert!(r.detached);
 }

@@ -219,7 +219,7 @@ fn summarise(r: &RunResult, chk: &Checker) -> String {
     } else if let Some(c) = r.cycles.last() {
         s += &format!("; last-cycle ⟨F⟩ {:.4} mN", c.force_mean * 1e3);
     }
-    if let Some(i) = r.method.find(" steps taken implicitly") {
+    if let Some(i) = r.method.find(" steps implicit") {
         let n = r.method[..i].rsplit(' ').next().unwrap_or("");
         s += &format!("; {n} steps implicit");
     }

@@ -558,25 +558,21 @@ impl Protocol<'_> {
         let y = *self.sim.state();
         let final_state = self.sim.sample_of(&y, self.stage);
         let stepper = self.sim.stepper();
-        let mut m = stepper.name().to_string();
-        if method == Method::Auto {
-            m = format!(
-                "{m}; auto: implicit for rate-independent laws, seeded contact formation and \
-                 scenes without inertia (rigid link, m = 0), DP8 otherwise, taking a step \
-                 implicitly where a DP8 stage meets G <= 0"
-            );
-        }
+        // A short name (README, "Methods"): what ran, and for auto why not the other.
         let r = stepper.rescues();
-        if r.total() > 0 {
-            m.push_str(&format!(
-                "; {} steps taken implicitly ({} in deep healing, {} where a DP8 stage met \
-                 G <= 0, {} after the DP8 step size collapsed)",
-                r.total(),
-                r.stiff,
-                r.singular,
-                r.fallback
-            ));
-        }
+        let mut m = if method == Method::Auto {
+            let ran = match stepper.kind() {
+                stepper::StepperKind::Embedded => "implicit",
+                _ => "dp8",
+            };
+            if r.total() > 0 {
+                format!("{ran} (auto; {} steps implicit)", r.total())
+            } else {
+                format!("{ran} (auto)")
+            }
+        } else {
+            stepper::method_name(method).to_string()
+        };
         if self.stopped {
             m.push_str("; stopped by the observer");
         }
