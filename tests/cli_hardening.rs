@@ -480,7 +480,9 @@ fn accuracy_skips_methods_that_cannot_run_the_scene() {
     );
     assert!(r.stderr.contains("rate-independent"), "{}", r.stderr);
     assert!(
-        !r.stdout.lines().any(|l| l.starts_with("| dp8") || l.starts_with("| dop")),
+        !r.stdout
+            .lines()
+            .any(|l| l.starts_with("| dp8") || l.starts_with("| dop")),
         "{}",
         r.stdout
     );
@@ -504,4 +506,118 @@ fn accuracy_skips_methods_that_cannot_run_the_scene() {
         !help.contains("accuracy scenarios/quasi-static-jkr"),
         "{help}"
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Item 9: flags that have no effect are refused, naming them; flag values and event names as
+// the user writes them.
+
+#[test]
+fn flags_without_effect_are_refused_naming_them() {
+    let pulloff = ["pulloff", "--freq", "400", "--a-amp", "0.5mm"];
+    let with = |extra: &[&'static str]| {
+        let mut v: Vec<&str> = pulloff.to_vec();
+        v.extend_from_slice(extra);
+        v
+    };
+    refused(
+        &with(&["--beta", "3"]),
+        &["--beta has no effect with --method exact"],
+    );
+    refused(
+        &with(&["--method", "approx", "--mass", "3g"]),
+        &["--mass has no effect with --method approx"],
+    );
+    refused(
+        &with(&[
+            "--method",
+            "exact",
+            "--delta-form",
+            "printed",
+            "--damping",
+            "1",
+        ]),
+        &["--delta-form, --damping have no effect with --method exact"],
+    );
+    refused(
+        &[
+            "pulloff",
+            "--freq",
+            "400",
+            "--a-amp",
+            "1mm",
+            "--method",
+            "shui",
+            "--mass",
+            "3g",
+            "--damping",
+            "0.5",
+            "--base-amp",
+            "10um",
+        ],
+        &["--a-amp has no effect with --method shui"],
+    );
+    refused(
+        &["gs-fit", "docs/gs-fit/unload-record.csv", "--n", "0.5"],
+        &["--n has no effect in gs-fit"],
+    );
+    refused(
+        &["required-speed", "--amplification", "10", "--radius", "1mm"],
+        &["--radius has no effect in required-speed"],
+    );
+    refused(
+        &["accuracy", "--imposed-area", "--tolerances", "1e-6"],
+        &["--tolerances has no effect with --imposed-area"],
+    );
+    refused(
+        &[
+            "accuracy",
+            "scenarios/quasi-static-jkr.toml",
+            "--nodes",
+            "11",
+        ],
+        &["--nodes has no effect without --imposed-area"],
+    );
+    // The approx method still takes its own flags; its note names the form as a user would.
+    let r = djkr(&with(&[
+        "--method",
+        "approx",
+        "--beta",
+        "3",
+        "--delta-form",
+        "printed",
+        "--json",
+    ]));
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(r.stdout.contains("as printed in eq. (23)"), "{}", r.stdout);
+    assert!(!r.stdout.contains("Printed"), "{}", r.stdout);
+}
+
+#[test]
+fn messages_use_the_names_users_write() {
+    // --method exact (not `Exact`) in the message.
+    let e = refused(
+        &["pulloff", "--freq", "400"],
+        &["--a-amp is required for --method exact"],
+    );
+    assert!(!e.contains("Exact"), "{e}");
+    // Event kinds as summary.json spells them, not Rust's (ContactLoss).
+    let dir = tempfile::tempdir().unwrap();
+    let r = djkr(&[
+        "run",
+        &scenario("tests/scenarios/good/rigid-link.toml"),
+        "--out",
+        s(dir.path()),
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(
+        r.stdout
+            .contains("contact-loss ×1, pull-off ×1, stage-start ×1"),
+        "{}",
+        r.stdout
+    );
+    assert!(!r.stdout.contains("ContactLoss"), "{}", r.stdout);
+    // A short method line.
+    let first = r.stdout.lines().next().unwrap();
+    assert!(first.ends_with("method implicit (auto)"), "{first}");
 }

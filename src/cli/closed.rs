@@ -1,7 +1,7 @@
 //! `djkr required-speed` (eq. 29) and `djkr beta-fit` (Fig. 3(b) and β ≈ 2.5, checked).
 
 use super::common::{
-    limit_count, limits, positive_quantity, print_json, print_table, MaterialArgs,
+    limit_count, limits, positive_quantity, print_json, print_table, reject_unused, MaterialArgs,
 };
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -29,6 +29,13 @@ pub struct RequiredSpeedArgs {
 
 /// Run `djkr required-speed`.
 pub fn required_speed(a: &RequiredSpeedArgs) -> Result<()> {
+    reject_unused(
+        &[
+            ("--modulus", a.material.k.is_some()),
+            ("--radius", a.material.radius.is_some()),
+        ],
+        "in required-speed (eq. 29 depends on the adhesion law only)",
+    )?;
     let (_, law) = a.material.resolve()?;
     let target = positive_quantity(
         "--amplification",

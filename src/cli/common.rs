@@ -240,6 +240,18 @@ pub fn limit_count(flag: &str, text: &str, count: usize, max: usize, what: &str)
     Ok(())
 }
 
+/// Refuse flags that were given but have no effect in the chosen mode (`given`: each flag's
+/// name and whether it was given; `mode`: the mode, e.g. `with --method exact`), naming them:
+/// a flag silently ignored reads as a result it did not shape.
+pub fn reject_unused(given: &[(&str, bool)], mode: &str) -> Result<()> {
+    let unused: Vec<&str> = given.iter().filter(|g| g.1).map(|g| g.0).collect();
+    match unused.as_slice() {
+        [] => Ok(()),
+        [one] => bail!("{one} has no effect {mode}: leave it out"),
+        many => bail!("{} have no effect {mode}: leave them out", many.join(", ")),
+    }
+}
+
 /// Angular frequency from a `--freq` flag (Hz, > 0).
 pub fn omega_from(flag: &str, text: &str) -> Result<f64, ParamError> {
     Ok(2.0 * std::f64::consts::PI * positive_quantity(flag, text, Dimension::Frequency)?)

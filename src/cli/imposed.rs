@@ -2,7 +2,7 @@
 
 use super::common::{
     fmt_force, fmt_len, non_negative_quantity, omega_from, positive_quantity, print_json,
-    print_table, quantity, MaterialArgs,
+    print_table, quantity, reject_unused, MaterialArgs,
 };
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
@@ -97,6 +97,12 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
     Ok(())
 }
 
+/// A value-enum flag's value as the user types it (`exact`, not `Exact`).
+fn flag_value<T: ValueEnum>(v: T) -> String {
+    v.to_possible_value()
+        .map_or_else(String::new, |p| p.get_name().to_string())
+}
+
 /// Pull-off methods.
 #[derive(ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
 pub enum PulloffMethod {
@@ -123,13 +129,14 @@ pub struct PulloffArgs {
     /// Method.
     #[arg(long, value_enum, default_value_t = PulloffMethod::Exact)]
     method: PulloffMethod,
-    /// Speed correction β of eq. (24) for `approx` (> 0).
-    #[arg(long, default_value = "2.5", allow_hyphen_values = true)]
-    beta: String,
-    /// δ_A amplitude in the closed form: as derived from eqs. (14)−(15) (MODEL.md), or as
-    /// printed in eq. (23) (for comparison with the paper).
-    #[arg(long, value_enum, default_value_t = DeltaForm::Derived)]
-    delta_form: DeltaForm,
+    /// Speed correction β of eq. (24) for `approx` (> 0) [default: 2.5].
+    #[arg(long, allow_hyphen_values = true)]
+    beta: Option<String>,
+    /// δ_A amplitude in the closed form (`approx`): as derived from eqs. (14)−(15)
+    /// (docs/MODEL.md), or as printed in eq. (23) (for comparison with the paper)
+    /// [default: derived].
+    #[arg(long, value_enum)]
+    delta_form: Option<DeltaForm>,
     /// Sphere mass m for `shui` (> 0). Units: kg, g.
     #[arg(long, value_name = "KG", allow_hyphen_values = true)]
     mass: Option<String>,
@@ -171,14 +178,46 @@ struct PulloffReport {
 
 /// Run `djkr pulloff`.
 pub fn pulloff(a: &PulloffArgs) -> Result<()> {
+    let method = a.method;
+    let closed_form = [
+        ("--beta", a.beta.is_some()),
+        ("--delta-form", a.delta_form.is_some()),
+    ];
+    let shui = [
+        ("--mass", a.mass.is_some()),
+        ("--damping", a.damping.is_some()),
+        ("--base-amp", a.base_amp.is_some()),
+    ];
+    let yi = [("--delta-amp", a.delta_amp.is_some())];
+    let mode = format!("with --method {}", flag_value(method));
+    match method {
+        PulloffMethod::Exact => reject_unused(&[&closed_form[..], &shui, &yi].concat(), &mode)?,
+        PulloffMethod::Approx => reject_unused(&[&shui[..], &yi].concat(), &mode)?,
+        PulloffMethod::Shui => reject_unused(
+            &[&closed_form[..], &yi, &[("--a-amp", a.a_amp.is_some())]].concat(),
+            &format!("{mode} (its eq. 5 sets a_m itself from --mass, --damping, --base-amp)"),
+        )?,
+        PulloffMethod::Yi => {
+            reject_unused(&[&closed_form[..], &shui].concat(), &mode)?;
+            if a.delta_amp.is_some() {
+                reject_unused(
+                    &[("--a-amp", a.a_amp.is_some())],
+                    "with --method yi and --delta-amp (--a-amp only sets delta_A = 2 a_A^2/R when --delta-amp is absent)",
+                )?;
+            }
+        }
+    }
     let (m, law) = a.material.resolve()?;
     let omega = omega_from("--freq", &a.freq)?;
     let a_amp = match &a.a_amp {
         Some(t) => Some(non_negative_quantity("--a-amp", t, Dimension::Length)?),
         None => None,
     };
-    let need_a_amp =
-        || a_amp.ok_or_else(|| anyhow::anyhow!("--a-amp is required for --method {:?}", a.method));
+    let need_a_amp = || {
+        a_amp.ok_or_else(|| {
+            anyhow::anyhow!("--a-amp is required for --method {}", flag_value(a.method))
+        })
+    };
     let r = match a.method {
         PulloffMethod::Exact => {
             let p = imposed_area::pull_off(&m, &law, omega, need_a_amp()?)?;
@@ -214,8 +253,13 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
             }
         }
         PulloffMethod::Approx => {
-            let beta = positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
-            let form = match a.delta_form {
+            let beta = positive_quantity(
+                "--beta",
+                a.beta.as_deref().unwrap_or("2.5"),
+                Dimension::Dimensionless,
+            )?;
+            let delta_form = a.delta_form.unwrap_or(DeltaForm::Derived);
+            let form = match delta_form {
                 DeltaForm::Derived => djkr::closed_form::DeltaAmpForm::Derived,
                 DeltaForm::Printed => djkr::closed_form::DeltaAmpForm::Printed,
             };
@@ -227,7 +271,14 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
                 delta_amp: p.delta_amp,
                 force: p.force,
                 amplification: p.amplification,
-                notes: vec![format!("beta = {beta}, delta_A {:?}", a.delta_form)],
+                notes: vec![format!(
+                    "beta = {beta}, delta_A {}",
+                    match delta_form {
+                        DeltaForm::Derived =>
+                            "as derived from eqs. (14)-(15) (--delta-form derived)",
+                        DeltaForm::Printed => "as printed in eq. (23) (--delta-form printed)",
+                    }
+                )],
             }
         }
         PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),

@@ -160,7 +160,12 @@ fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[Stri
     }
     let mut counts = std::collections::BTreeMap::new();
     for e in &r.events {
-        *counts.entry(format!("{:?}", e.kind)).or_insert(0usize) += 1;
+        // The names summary.json and events.csv use (contact-loss, pull-off, ...).
+        let name = match serde_json::to_value(e.kind) {
+            Ok(serde_json::Value::String(s)) => s,
+            _ => "event".to_string(),
+        };
+        *counts.entry(name).or_insert(0usize) += 1;
     }
     let list: Vec<String> = counts.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
     println!("  events             {}", list.join(", "));
