@@ -621,3 +621,30 @@ fn messages_use_the_names_users_write() {
     let first = r.stdout.lines().next().unwrap();
     assert!(first.ends_with("method implicit (auto)"), "{first}");
 }
+
+/// I/O errors printed the OS message twice (`...: Not a directory (os error 20): Not a
+/// directory (os error 20)`).
+#[test]
+fn io_errors_print_the_os_message_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, "x").unwrap();
+    let under = |n: &str| s(&file.join(n)).to_string();
+    let rigid = scenario("tests/scenarios/good/rigid-link.toml");
+    for args in [
+        vec!["run".to_string(), rigid.clone(), "--out".into(), under("x")],
+        vec![
+            "figures".into(),
+            "--only".into(),
+            "fig2".into(),
+            "--out".into(),
+            under("f"),
+        ],
+        vec!["gs-fit".into(), under("none.csv")],
+        vec!["check".into(), under("none.toml")],
+    ] {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let e = refused(&args, &[]);
+        assert_eq!(e.matches("os error").count(), 1, "{args:?}: {e}");
+    }
+}
