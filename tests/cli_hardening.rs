@@ -648,3 +648,24 @@ fn io_errors_print_the_os_message_once() {
         assert_eq!(e.matches("os error").count(), 1, "{args:?}: {e}");
     }
 }
+
+/// `-0.00000` was printed for values that round to zero (validate at X_b = 0).
+#[test]
+fn no_negative_zero_is_printed() {
+    let r = djkr(&[
+        "validate",
+        &scenario("scenarios/resonance-400hz.toml"),
+        "--set",
+        "base.amplitude=0",
+    ]);
+    for cell in r.stdout.split_whitespace() {
+        let digits = cell.trim_start_matches('-');
+        let zero = !digits.is_empty() && digits.chars().all(|c| c == '0' || c == '.');
+        assert!(
+            !(cell.starts_with('-') && zero),
+            "'{cell}' in:\n{}",
+            r.stdout
+        );
+    }
+    assert!(r.stdout.contains("0.00000"), "{}", r.stdout);
+}

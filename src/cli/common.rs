@@ -279,17 +279,51 @@ pub fn print_json(report: &impl serde::Serialize) -> Result<()> {
     Ok(())
 }
 
-/// A two-column table of (label, value with unit) rows, aligned.
+/// A two-column table of (label, value with unit) rows, aligned (no value shown as `-0.0`).
 pub fn print_table(title: &str, rows: &[(&str, String)]) {
     println!("{title}");
     let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
     for (k, v) in rows {
-        println!("  {k:<w$}  {v}");
+        println!("  {k:<w$}  {}", no_negative_zero(v));
     }
+}
+
+/// A formatted number that rounded to zero is shown without a sign: `-0.000000 mm` (a value
+/// of -1e-12 m at 6 decimals, or an IEEE -0.0) becomes `0.000000 mm`. Every number in `text`
+/// is treated alike.
+pub fn no_negative_zero(text: &str) -> String {
+    let b = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < b.len() {
+        let starts_number = b[i] == b'-'
+            && b.get(i + 1).is_some_and(u8::is_ascii_digit)
+            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'.'));
+        if starts_number {
+            let end = (i + 1..b.len())
+                .find(|&j| !(b[j].is_ascii_digit() || b[j] == b'.'))
+                .unwrap_or(b.len());
+            let mantissa_is_zero = b[i + 1..end].iter().all(|&c| c == b'0' || c == b'.');
+            // An exponent (`-0.0e0`) or more digits after it are part of the number too.
+            let exponent = b.get(end).is_some_and(|&c| c == b'e' || c == b'E');
+            if mantissa_is_zero && !exponent {
+                i += 1; // drop the sign
+                continue;
+            }
+        }
+        let c = text[i..].chars().next().unwrap_or(' ');
+        out.push(c);
+        i += c.len_utf8();
+    }
+    out
 }
 
 /// Format a length in the most readable unit.
 pub fn fmt_len(x: f64) -> String {
+    no_negative_zero(&fmt_len_signed(x))
+}
+
+fn fmt_len_signed(x: f64) -> String {
     let a = x.abs();
     if a >= 1e-3 || a == 0.0 {
         format!("{:.6} mm", x * 1e3)
@@ -302,6 +336,10 @@ pub fn fmt_len(x: f64) -> String {
 
 /// Format a force in the most readable unit.
 pub fn fmt_force(f: f64) -> String {
+    no_negative_zero(&fmt_force_signed(f))
+}
+
+fn fmt_force_signed(f: f64) -> String {
     if f.abs() >= 1.0 {
         format!("{f:.6} N")
     } else {
@@ -317,6 +355,22 @@ pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbers_that_round_to_zero_have_no_sign() {
+        assert_eq!(no_negative_zero("-0.000000 mm"), "0.000000 mm");
+        assert_eq!(
+            no_negative_zero("a = -0.00000, b = -0.001"),
+            "a = 0.00000, b = -0.001"
+        );
+        assert_eq!(
+            no_negative_zero("-0 and -0.0e0 and x-0.0"),
+            "0 and -0.0e0 and x-0.0"
+        );
+        assert_eq!(no_negative_zero("δ_c -0.00000 µm"), "δ_c 0.00000 µm");
+        assert_eq!(fmt_len(-1e-18), "0.000000 nm");
+        assert_eq!(fmt_force(-0.0), "0.000000 mN");
+    }
 
     #[test]
     fn default_output_folders_stay_under_out() {

@@ -127,27 +127,33 @@ pub fn run(a: &RunArgs) -> Result<()> {
 }
 
 fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[String]) {
-    println!(
+    // Every line without a `-0.0`.
+    macro_rules! line {
+        ($($t:tt)*) => {
+            println!("{}", super::common::no_negative_zero(&format!($($t)*)))
+        };
+    }
+    line!(
         "{}: {} stage(s), method {}",
         scn.source_name,
         scn.stages.len(),
         r.method
     );
     if !checks::pull_off_recorded(r) {
-        println!(
+        line!(
             "  no pull-off        no pull-off force recorded (see the warning){}",
             if r.detached { " (detached)" } else { "" }
         );
     } else if r.detached {
-        println!(
+        line!(
             "  pull-off force     {:.6} mN  (amplification {:.4} over −3/2 π R w0 = {:.6} mN)",
             r.pull_off.force * 1e3,
             r.pull_off.amplification,
             scn.rig.material.static_pull_off_force() * 1e3
         );
-        println!("  reached at         t = {:.6} s", r.pull_off.time);
+        line!("  reached at         t = {:.6} s", r.pull_off.time);
     } else {
-        println!(
+        line!(
             "  no detachment; most tensile {} force {:.6} mN at t = {:.6} s",
             if scn.rig.base.is_some() {
                 "cycle-averaged"
@@ -168,13 +174,16 @@ fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[Stri
         *counts.entry(name).or_insert(0usize) += 1;
     }
     let list: Vec<String> = counts.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
-    println!("  events             {}", list.join(", "));
-    println!(
+    line!("  events             {}", list.join(", "));
+    line!(
         "  solver             {} steps, {} rejected, {} rhs evaluations, {:.3} s wall",
-        r.stats.steps, r.stats.rejected, r.stats.rhs_evals, r.stats.wall_s
+        r.stats.steps,
+        r.stats.rejected,
+        r.stats.rhs_evals,
+        r.stats.wall_s
     );
     let f = &r.final_state;
-    println!(
+    line!(
         "  final state        t = {:.6} s, a = {:.6} mm, δ = {:.6} µm, F = {:.6} mN",
         f.t,
         f.a * 1e3,
@@ -182,7 +191,7 @@ fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[Stri
         f.force * 1e3
     );
     for w in warnings {
-        println!("  warning            {w}");
+        line!("  warning            {w}");
     }
 }
 

@@ -94,7 +94,7 @@ fn layout(rows: &[Vec<String>]) -> String {
                 line.push_str(&format!("  {c:>w$}"));
             }
         }
-        out.push_str(line.trim_end());
+        out.push_str(&super::common::no_negative_zero(line.trim_end()));
         out.push('\n');
     }
     out
