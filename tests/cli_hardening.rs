@@ -222,19 +222,28 @@ fn impossible_scenes_are_refused_at_validation() {
         &["check", &minimal, "--set", "material.R=1e-9"],
         &["[material]", "jump-in radius", "exceeds R"],
     );
-    // gravity = 1e20: on a spring, the weight is lost to rounding; resting on it, the contact
-    // would exceed R.
+    // gravity = 1e20 is beyond any rig; a weight within the bounds but beyond 1e6 x the
+    // adhesive force is lost to rounding on a spring; resting on it, the contact exceeds R.
     refused(
         &["check", &paper, "--set", "sphere.gravity=1e20"],
-        &[
-            "[sphere]",
-            "gravity = 100000000000000000000",
-            "the weight m g",
-        ],
+        &["--set sphere.gravity=1e20", "must not exceed 1e4 (m/s^2)"],
     );
     refused(
-        &["run", &resting, "--set", "sphere.gravity=1e20"],
+        &["check", &paper, "--set", "sphere.mass=1e4"],
+        &["[sphere]", "mass = 10000 kg", "the weight m g"],
+    );
+    refused(
+        &["run", &resting, "--set", "sphere.mass=1e4"],
         &["[sphere]", "rests on its weight", "> R"],
+    );
+    // Values far beyond any rig (found by the fuzz test: they ran without end).
+    refused(
+        &["check", &resting, "--set", "material.K=9.33e47"],
+        &["--set material.K=9.33e47", "must not exceed 1e13 (Pa)"],
+    );
+    refused(
+        &["check", &paper, "--set", "stage[0].speed=1e125"],
+        &["--set stage[0].speed=1e125", "must not exceed 1e2 (m/s)"],
     );
     // frequency = 1e-300: a period longer than any run.
     refused(

@@ -3,6 +3,8 @@
 //! carried with the result).
 //!
 //! **Errors** (in the section walk of [`super::parse`], so every command refuses them):
+//! - a value beyond its key's bounds ([`UPPER_BOUNDS`]: K ≤ 1e13 Pa, a stage speed ≤ 100 m/s,
+//!   ...; [`LOWER_BOUNDS`]: w0 ≥ 1e-9 J/m², ...);
 //! - the JKR jump-in radius (8πw0R²/3K)^(1/3) exceeds R: no contact of this material is small
 //!   against the sphere, which JKR assumes (`R = 1e-9` with the paper's K and w0);
 //! - a static load (the initial preload, the weight of a sphere resting without spring force, a
@@ -43,6 +45,91 @@ pub const MIN_FREQUENCY: f64 = 1e-6;
 /// Largest base frequency (Hz): a period of 1 µs is still 5e5 rounding steps of the time at the
 /// default stage limit of 1e4 s.
 pub const MAX_FREQUENCY: f64 = 1e6;
+
+/// Upper bounds of scenario values, by dotted key (`stage[N]` as `stage`): the largest value the
+/// model (a small, quasi-static JKR contact on a soft solid) and double precision carry. Far
+/// beyond what any rig has, they keep absurd inputs (`K = 9.33e47`, a spring end moving at
+/// 1e125 m/s) from reaching the simulator, where they produced no result in any budget.
+pub const UPPER_BOUNDS: &[(&str, f64, &str)] = &[
+    (
+        "material.K",
+        1e13,
+        "stiffer than diamond; JKR is for soft solids",
+    ),
+    ("material.R", 10.0, "a sphere of more than 10 m"),
+    ("material.w0", 1e4, "tougher than any adhesive interface"),
+    ("adhesion.v0", 1e3, "faster than any crack in a soft solid"),
+    (
+        "adhesion.v_sat",
+        1e3,
+        "faster than any crack in a soft solid",
+    ),
+    (
+        "adhesion.n",
+        10.0,
+        "Gent-Schultz exponents lie well below 10",
+    ),
+    ("sphere.mass", 1e4, "ten tonnes on an adhesive contact"),
+    ("sphere.gravity", 1e4, "about 1000 g"),
+    ("spring.stiffness", 1e12, "stiffer than any holder"),
+    ("damping.c", 1e9, "beyond any damper"),
+    ("base.amplitude", 1.0, "a shaker stroke of more than 1 m"),
+    ("initial.gap", 1.0, "a start more than 1 m away"),
+    (
+        "stage.speed",
+        100.0,
+        "faster than elastic waves in a soft solid",
+    ),
+    (
+        "output.sample_rate",
+        1e7,
+        "more than 1e7 samples per second of simulated time",
+    ),
+];
+
+/// Lower bounds of positive scenario values, by dotted key: below them the relations of the
+/// model underflow (`w0 = 2.4e-299` gives a jump-in radius of 1e-103 m, and the run never
+/// ended).
+pub const LOWER_BOUNDS: &[(&str, f64, &str)] = &[
+    ("material.K", 1.0, "softer than any solid"),
+    (
+        "material.w0",
+        1e-9,
+        "below, the contact is Hertzian to double precision (use a tiny w0 no smaller)",
+    ),
+    ("adhesion.v0", 1e-15, "slower than any measurable crack"),
+    (
+        "adhesion.n",
+        1e-3,
+        "Gent-Schultz exponents lie well above 1e-3",
+    ),
+];
+
+/// A dotted key with a stage index dropped: `stage[3].speed` → `stage.speed`.
+fn generic_key(key: &str) -> String {
+    match key.strip_prefix("stage[") {
+        Some(rest) => format!("stage{}", &rest[rest.find(']').map_or(0, |i| i + 1)..]),
+        None => key.to_string(),
+    }
+}
+
+/// The upper bound of the value at dotted `key`, with why, if it has one.
+pub fn upper_bound(key: &str) -> Option<(f64, &'static str)> {
+    let key = generic_key(key);
+    UPPER_BOUNDS
+        .iter()
+        .find(|(k, _, _)| *k == key)
+        .map(|&(_, max, why)| (max, why))
+}
+
+/// The lower bound of the positive value at dotted `key`, with why, if it has one.
+pub fn lower_bound(key: &str) -> Option<(f64, &'static str)> {
+    let key = generic_key(key);
+    LOWER_BOUNDS
+        .iter()
+        .find(|(k, _, _)| *k == key)
+        .map(|&(_, min, why)| (min, why))
+}
 
 /// The warning for a contact radius `a` on a sphere of radius `r` beyond
 /// [`SMALL_CONTACT_LIMIT`] R (`what` names the radius: "the contact reaches a_m + a_A"); `None`
@@ -195,4 +282,23 @@ pub fn result_warnings(s: &Scenario, r: &RunResult) -> Vec<String> {
 /// Whether a holder carries the sphere's weight with a spring (the case [`weight_error`] guards).
 pub fn spring_carries_weight(h: Holder) -> bool {
     matches!(h, Holder::Spring { stiffness } if stiffness > 0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn upper_bounds_by_key() {
+        assert_eq!(upper_bound("stage[12].speed").map(|b| b.0), Some(100.0));
+        assert_eq!(upper_bound("material.K").map(|b| b.0), Some(1e13));
+        assert_eq!(upper_bound("stage[0].duration"), None);
+        assert_eq!(upper_bound("version"), None);
+        assert_eq!(lower_bound("material.w0").map(|b| b.0), Some(1e-9));
+        for (k, _, _) in UPPER_BOUNDS.iter().chain(LOWER_BOUNDS) {
+            let (section, key) = k.split_once('.').unwrap();
+            let keys = crate::scenario::parse::section_keys(section).unwrap();
+            assert!(keys.contains(&key), "{k}");
+        }
+    }
 }

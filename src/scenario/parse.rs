@@ -680,9 +680,33 @@ impl Parser<'_> {
         }
     }
 
+    /// The value, or an error when it exceeds the largest value the model carries for this key
+    /// ([`checks::upper_bound`]).
+    fn bounded(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
+        if let Some((max, why)) = checks::upper_bound(&s.key(k)) {
+            if n.v > max {
+                return Err(self.value_err(
+                    &s.key(k),
+                    &n.shown,
+                    format!("must not exceed {max:e} ({unit}): {why}"),
+                ));
+            }
+        }
+        if let Some((min, why)) = checks::lower_bound(&s.key(k)) {
+            if n.v < min {
+                return Err(self.value_err(
+                    &s.key(k),
+                    &n.shown,
+                    format!("must be at least {min:e} ({unit}): {why}"),
+                ));
+            }
+        }
+        Ok(n.v)
+    }
+
     fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
         if n.v.is_finite() && n.v >= f64::MIN_POSITIVE {
-            Ok(n.v)
+            self.bounded(s, k, n, unit)
         } else if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
             Err(self.value_err(
                 &s.key(k),
@@ -703,7 +727,7 @@ impl Parser<'_> {
 
     fn non_negative(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
         if n.v.is_finite() && n.v >= 0.0 {
-            Ok(n.v)
+            self.bounded(s, k, n, unit)
         } else {
             Err(self.value_err(
                 &s.key(k),
