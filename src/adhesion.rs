@@ -1,4 +1,4 @@
-//! Rate-dependent work of adhesion w(ȧ) and its inverse (MODEL.md, "Gent–Schultz law").
+//! Rate-dependent work of adhesion w(ȧ) and its inverse (docs/MODEL.md, "Gent–Schultz law").
 //!
 //! Convention: ȧ > 0 is healing (contact advancing), ȧ < 0 peeling (crack opening). Every law is
 //! continuous and strictly decreasing in ȧ, with w(0) = w0 (a constant law is the degenerate,

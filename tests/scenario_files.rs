@@ -161,7 +161,7 @@ fn material_and_law_reads_a_full_scenario() {
 
 // ---- bundled scenarios -------------------------------------------------------------------
 
-/// |δ_A / X_b| from the linearised transfer of MODEL.md (eqs. 36-39, derived correctly).
+/// |δ_A / X_b| from the linearised transfer of docs/MODEL.md (eqs. 36-39, derived correctly).
 fn transfer(m: f64, k: f64, c: f64, kc: f64, f: f64) -> f64 {
     let om = 2.0 * PI * f;
     let a = k - m * om * om;
@@ -334,7 +334,7 @@ fn impacts_scene_loses_contact_every_cycle() {
     assert!(f_r < base.frequency / 4.0);
     assert_eq!(s.stages[0].vibration, Some(true));
     assert_eq!(s.rig.formation, ContactFormation::JumpIn);
-    // With the Gent-Schultz law the threshold is much higher: the derived delta_A of MODEL.md
+    // With the Gent-Schultz law the threshold is much higher: the derived delta_A of docs/MODEL.md
     // (eq. 23 corrected) at a_A = a_m, where a(t) first touches 0, must lie below X_b.
     let Law::GentSchultz(gs) = s.rig.law else {
         panic!("Gent-Schultz law expected")
