@@ -79,7 +79,7 @@ pub enum InputError {
 
 /// A limit in bytes in words: `1 MiB`, `512 MiB`, `100 bytes`.
 pub fn show_limit(bytes: u64) -> String {
-    if bytes >= MIB && bytes % MIB == 0 {
+    if bytes >= MIB && bytes.is_multiple_of(MIB) {
         format!("{} MiB", bytes / MIB)
     } else {
         format!("{bytes} bytes")

@@ -313,6 +313,14 @@ fn contacts_beyond_the_small_contact_range_are_warned_everywhere() {
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let w = summary["warnings"].as_array().unwrap();
     assert!(w[0].as_str().unwrap().contains("0.405 R"), "{summary}");
+    // check says so before the run.
+    let r = djkr(&["check", &rigid, "--set", "material.R=2e-4"]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("warning: ") && r.stderr.contains("0.405 R"),
+        "{}",
+        r.stderr
+    );
     let r = djkr(&["run", &rigid, "--out", s(&dir.path().join("ok")), "--json"]);
     let v: serde_json::Value = serde_json::from_str(&r.stdout).unwrap();
     assert_eq!(v["warnings"], serde_json::json!([]), "{v}");

@@ -558,7 +558,8 @@ impl Protocol<'_> {
         let y = *self.sim.state();
         let final_state = self.sim.sample_of(&y, self.stage);
         let stepper = self.sim.stepper();
-        // A short name (README, "Methods"): what ran, and for auto why not the other.
+        // A short name (README, "Methods"): what ran, `(auto)` when auto chose it, and how many
+        // steps DP8 handed to the implicit method.
         let r = stepper.rescues();
         let mut m = if method == Method::Auto {
             let ran = match stepper.kind() {
