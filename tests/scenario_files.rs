@@ -553,6 +553,11 @@ fn fuzz_found_reproducers_run_to_completion() {
                     s.rig.law = Law::Constant(djkr::adhesion::ConstantW { w0: v });
                 }
                 "stage[0].speed" => s.stages[0].speed = v,
+                "base.amplitude" => {
+                    if let Some(b) = s.rig.base.as_mut() {
+                        b.amplitude = v;
+                    }
+                }
                 other => panic!("{}: unknown bypass key {other}", f.display()),
             }
         }

@@ -13,7 +13,8 @@
 //!   contact force is then the small difference of two huge forces, lost to rounding
 //!   (`gravity = 1e20` gave a "pull-off" with the contact lost);
 //! - a base frequency outside [[`MIN_FREQUENCY`], [`MAX_FREQUENCY`]] Hz: a period longer than
-//!   any run (`frequency = 1e-300`), or shorter than the time resolution of a long run.
+//!   any run (`frequency = 1e-300`), or shorter than the time resolution of a long run; a base
+//!   whose peak speed 2πfX_b exceeds [`MAX_BASE_SPEED`].
 //!
 //! [`setup_check`] adds what the simulator refuses when it sets a run up (a massless sphere with
 //! damping, an explicit method on a rate-independent law), so `check` refuses it too.
@@ -140,6 +141,21 @@ pub fn small_contact_warning(what: &str, a: f64, r: f64) -> Option<String> {
             "outside the model: {what} = {a:.4e} m = {:.3} R, but JKR assumes a contact small \
              against the sphere (a << R; warned above {SMALL_CONTACT_LIMIT} R)",
             a / r
+        )
+    })
+}
+
+/// Largest peak speed 2π f X_b of the base (m/s), the bound of the stage speeds: faster than
+/// elastic waves in a soft solid.
+pub const MAX_BASE_SPEED: f64 = 100.0;
+
+/// Why a base motion is beyond the model: its peak speed exceeds [`MAX_BASE_SPEED`].
+pub fn base_speed_error(amplitude: f64, frequency: f64) -> Option<String> {
+    let v = 2.0 * std::f64::consts::PI * frequency * amplitude;
+    (v > MAX_BASE_SPEED).then(|| {
+        format!(
+            "the base's peak speed 2 pi f X_b = {v:.4e} m/s exceeds {MAX_BASE_SPEED:e} m/s, faster \
+             than elastic waves in a soft solid (the bound of stage speeds too)"
         )
     })
 }

@@ -949,8 +949,8 @@ impl Parser<'_> {
             return Ok(None);
         };
         self.check_keys(&s, BASE_KEYS, "")?;
-        let n = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
-        let amplitude = self.non_negative(&s, "amplitude", &n, LENGTH.unit)?;
+        let na = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
+        let amplitude = self.non_negative(&s, "amplitude", &na, LENGTH.unit)?;
         let n = self.required(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
         let frequency = self.positive(&s, "frequency", &n, FREQUENCY.unit)?;
         if !(checks::MIN_FREQUENCY..=checks::MAX_FREQUENCY).contains(&frequency) {
@@ -964,6 +964,9 @@ impl Parser<'_> {
                     checks::MAX_FREQUENCY
                 ),
             ));
+        }
+        if let Some(e) = checks::base_speed_error(amplitude, frequency) {
+            return Err(self.value_err(&s.key("amplitude"), &na.shown, e));
         }
         Ok(Some(BaseMotion {
             amplitude,
