@@ -622,9 +622,9 @@ pub fn method_label(requested: &str, used: &str) -> String {
         return requested.to_string();
     }
     let u = used.to_lowercase();
-    if u.contains("steps taken implicitly") {
+    if u.contains("steps implicit") {
         "auto→dp8+implicit".into()
-    } else if u.starts_with("explicit dp8") {
+    } else if u.starts_with("dp8") {
         "auto→dp8".into()
     } else if u.starts_with("implicit") {
         "auto→implicit".into()

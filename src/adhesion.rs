@@ -1,4 +1,4 @@
-//! Rate-dependent work of adhesion w(ȧ) and its inverse (MODEL.md, "Gent–Schultz law").
+//! Rate-dependent work of adhesion w(ȧ) and its inverse (docs/MODEL.md, "Gent–Schultz law").
 //!
 //! Convention: ȧ > 0 is healing (contact advancing), ȧ < 0 peeling (crack opening). Every law is
 //! continuous and strictly decreasing in ȧ, with w(0) = w0 (a constant law is the degenerate,
@@ -257,8 +257,15 @@ pub struct TabulatedLaw {
     w0: f64,
 }
 
+/// Largest |speed| (m/s) of a tabulated law's rows: faster than any crack in a soft solid.
+pub const TABLE_MAX_SPEED: f64 = 1e3;
+/// Largest ratio of a tabulated law's w to its w(0), either way.
+pub const TABLE_MAX_W_RATIO: f64 = 1e9;
+
 impl TabulatedLaw {
-    /// Build from (speed, w) pairs; `source` names the file in errors.
+    /// Build from (speed, w) pairs; `source` names the file in errors. The rows must be finite,
+    /// with speeds increasing strictly and spanning 0, |speed| ≤ [`TABLE_MAX_SPEED`], and w
+    /// decreasing strictly, > 0 and within a factor [`TABLE_MAX_W_RATIO`] of w(0).
     pub fn new(points: &[(f64, f64)], source: &str) -> Result<Self, ParamError> {
         if points.len() < 2 {
             return Err(ParamError::new(
@@ -271,7 +278,7 @@ impl TabulatedLaw {
             if !v.is_finite() || !w.is_finite() || w <= 0.0 {
                 return Err(ParamError::new(
                     format!("{source}: row {}", i + 1),
-                    format!("({v}, {w})"),
+                    format!("({v:?}, {w:?})"),
                     "speed must be finite and w finite and > 0",
                 ));
             }
@@ -280,7 +287,7 @@ impl TabulatedLaw {
                 if v <= vp || w >= wp {
                     return Err(ParamError::new(
                         format!("{source}: row {}", i + 1),
-                        format!("({v}, {w})"),
+                        format!("({v:?}, {w:?})"),
                         format!(
                             "speeds must increase strictly and w decrease strictly (previous row ({vp}, {wp}))"
                         ),
@@ -311,6 +318,24 @@ impl TabulatedLaw {
             w0: 0.0,
         };
         law.w0 = law.interpolate(0.0);
+        // Bounded: speeds no faster than any crack in a soft solid, and w within a range of
+        // w(0) that double precision carries through G = w(ȧ) (a row of w = 1e300 next to
+        // w0 = 0.24 made the interpolation cancel to w ≈ 0).
+        for (i, &(v, w)) in points.iter().enumerate() {
+            let ratio = w / law.w0;
+            if v.abs() > TABLE_MAX_SPEED
+                || !(1.0 / TABLE_MAX_W_RATIO..=TABLE_MAX_W_RATIO).contains(&ratio)
+            {
+                return Err(ParamError::new(
+                    format!("{source}: row {}", i + 1),
+                    format!("({v:?}, {w:?})"),
+                    format!(
+                        "speeds must lie in [-{TABLE_MAX_SPEED:e}, {TABLE_MAX_SPEED:e}] m/s and w within a factor {TABLE_MAX_W_RATIO:e} of w(0) = {} J/m^2",
+                        law.w0
+                    ),
+                ));
+            }
+        }
         Ok(law)
     }
 
@@ -353,7 +378,8 @@ impl TabulatedLaw {
         }
         let j = self.xi.partition_point(|&x| x <= xi).clamp(1, n - 1);
         let t = (xi - self.xi[j - 1]) / (self.xi[j] - self.xi[j - 1]);
-        self.w[j - 1] + t * (self.w[j] - self.w[j - 1])
+        // As a weighted mean: no cancellation between rows of very different w.
+        (1.0 - t) * self.w[j - 1] + t * self.w[j]
     }
 }
 
@@ -381,7 +407,7 @@ impl AdhesionLaw for TabulatedLaw {
         // w is decreasing: find the segment, invert linearly in xi.
         let j = self.w.partition_point(|&w| w > g).clamp(1, n - 1);
         let t = (g - self.w[j - 1]) / (self.w[j] - self.w[j - 1]);
-        let xi = self.xi[j - 1] + t * (self.xi[j] - self.xi[j - 1]);
+        let xi = (1.0 - t) * self.xi[j - 1] + t * self.xi[j];
         self.v_ref * xi.sinh()
     }
 }
@@ -605,6 +631,15 @@ mod tests {
         assert!(TabulatedLaw::new(&[(0.0, 0.2)], "t").is_err());
         assert!(TabulatedLaw::new(&[(-1.0, 0.2), (1.0, 0.3)], "t").is_err());
         assert!(TabulatedLaw::new(&[(1.0, 0.3), (2.0, 0.2)], "t").is_err());
+        // Unbounded rows are refused, saying the bounds.
+        for pts in [
+            [(-1e300, 1e300), (0.0, 0.24), (1e300, 1e-300)],
+            [(-1.0, 1e300), (0.0, 0.24), (1.0, 0.1)],
+            [(-1e4, 1.0), (0.0, 0.24), (1.0, 0.1)],
+        ] {
+            let e = TabulatedLaw::new(&pts, "t").unwrap_err().to_string();
+            assert!(e.contains("within a factor 1e9 of w(0)"), "{e}");
+        }
         let e = TabulatedLaw::from_csv_str("speed,w\n-1,0.5\nx,0.1\n", "law.csv").unwrap_err();
         assert!(e.to_string().contains("law.csv: line 3"), "{e}");
         assert!(TabulatedLaw::from_csv_str("speed,w\n-1,0.5\n0,0.24\n1,0.1\n", "law.csv").is_ok());

@@ -1,5 +1,5 @@
 //! The paper's closed-form approximation of the imposed-area problem, eqs. (16)–(24), and its
-//! inversion eq. (29) (MODEL.md, "Imposed-area method").
+//! inversion eq. (29) (docs/MODEL.md, "Imposed-area method").
 //!
 //! # The estimate (Sec. 2.2)
 //!

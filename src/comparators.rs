@@ -1,4 +1,4 @@
-//! The other models the paper discusses (Sec. 1; MODEL.md, "Other models"): Shui et al. (2020),
+//! The other models the paper discusses (Sec. 1; docs/MODEL.md, "Other models"): Shui et al. (2020),
 //! eqs. (5)–(7), and Yi et al. (2024), eq. (8). Sign convention as everywhere in the crate: the
 //! force F > 0 is compressive, so pull-off forces are negative.
 //!

@@ -7,8 +7,8 @@
 //! [`fig2_table`], [`fig3a_table`], [`fig3b_table`] and [`figs4to8_table`]. Differences from the paper's captions, kept deliberately:
 //! - Fig. 3(a): the caption says a_A = 3/10, 3/5, 9/10 mm, the text 250, 500, 750 µm; the text's
 //!   values are the default ([`FIG3A_AMPLITUDES`]), the caption's are [`FIG3A_AMPLITUDES_CAPTION`].
-//! - Fig. 7: the caption's F0 = −3/2 π R v0 is a misprint for w0 (MODEL.md).
-//! - Figs. 4–8 dashed lines: the closed form with the δ_A derived from eqs. (14)−(15) (MODEL.md);
+//! - Fig. 7: the caption's F0 = −3/2 π R v0 is a misprint for w0 (docs/MODEL.md).
+//! - Figs. 4–8 dashed lines: the closed form with the δ_A derived from eqs. (14)−(15) (docs/MODEL.md);
 //!   the CSV also has the printed eq. (23) column.
 
 use crate::adhesion::GentSchultz;

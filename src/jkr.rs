@@ -1,4 +1,4 @@
-//! JKR contact relations of a rigid sphere on an elastic half-space (MODEL.md, "Contact
+//! JKR contact relations of a rigid sphere on an elastic half-space (docs/MODEL.md, "Contact
 //! relations"). Sign conventions: the indentation δ > 0 compresses, the force F > 0 is
 //! compressive, the contact radius a ≥ 0. All functions are pure and SI.
 //!

@@ -20,6 +20,7 @@ pub mod error;
 pub mod figures;
 pub mod gs_fit;
 pub mod imposed_area;
+pub mod input;
 pub mod jkr;
 pub mod material;
 pub mod numerics;

@@ -1,7 +1,7 @@
 //! Small-oscillation transfer from base motion to indentation (paper Sec. 4, eqs. 36–39), with
 //! the contact linearised as a spring k_c = (3/2) K a_m (∂F/∂δ at fixed a).
 //!
-//! Derivation (MODEL.md, "Resonance transfer"). With δ = x_s + x_b, x_b = X_b sin ωt, and F ≈ F_m +
+//! Derivation (docs/MODEL.md, "Resonance transfer"). With δ = x_s + x_b, x_b = X_b sin ωt, and F ≈ F_m +
 //! k_c (δ − δ_m), the oscillating part of eq. (30) with damping on the sphere is
 //! m δ̈ + c δ̇ + (k + k_c) δ = m ẍ_b + c ẋ_b + k x_b = X_b [(k − mω²) sin ωt + cω cos ωt].
 //! Writing A = k − mω², B = k + k_c − mω², D = cω and δ = δ_s sin ωt + δ_c cos ωt, the sine and

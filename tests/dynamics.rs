@@ -388,7 +388,7 @@ fn explicit_errors_and_auto() {
         Some(true),
     )];
     let (r, _) = run(&s);
-    assert!(r.method.starts_with("explicit DP8"), "{}", r.method);
+    assert!(r.method.starts_with("dp8"), "{}", r.method);
 }
 
 /// m = 0 (quasi-static balance through the spring): elastic JKR unloaded through a soft spring
@@ -657,6 +657,6 @@ fn auto_rule_by_scene() {
     assert!(run(&massless).0.method.starts_with("implicit"));
 
     let (r, _) = run(&catalogue::gs_soft_spring_unload(1e-4));
-    assert!(r.method.starts_with("explicit DP8"), "{}", r.method);
+    assert!(r.method.starts_with("dp8"), "{}", r.method);
     assert!(r.detached);
 }

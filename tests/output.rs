@@ -131,6 +131,7 @@ fn result(events: Vec<Event>, final_state: Sample) -> RunResult {
         events,
         cycle_count: 3,
         last_cycle: Some(cycle(2)),
+        max_contact_radius: final_state.a,
         envelope: Default::default(),
     }
 }

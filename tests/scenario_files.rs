@@ -84,7 +84,7 @@ fn good_files_carry_the_values_written() {
         Some((0.5, DampingOn::Contact))
     );
     assert_eq!(s.rig.formation, ContactFormation::Seed(1e-6));
-    assert_eq!(s.solver.method, Method::Dop853);
+    assert_eq!(s.solver.method, Method::Dp8);
     assert_eq!(
         (
             s.solver.rtol,
@@ -113,7 +113,7 @@ fn good_files_carry_the_values_written() {
     assert!(close(u.rig.sphere.mass, 3e-3));
     let b = u.rig.base.unwrap();
     assert!(close(b.amplitude, 10e-6) && close(b.frequency, 300.0));
-    assert!(close(u.stages[2].speed, 5e-6));
+    assert!(close(u.stages[2].speed, 5e-4));
     assert!(matches!(u.stages[0].until, Until::Duration(d) if close(d, 0.1)));
     assert!(matches!(u.initial, Initial::Preload(p) if close(p, 0.02)));
 
@@ -161,7 +161,7 @@ fn material_and_law_reads_a_full_scenario() {
 
 // ---- bundled scenarios -------------------------------------------------------------------
 
-/// |δ_A / X_b| from the linearised transfer of MODEL.md (eqs. 36-39, derived correctly).
+/// |δ_A / X_b| from the linearised transfer of docs/MODEL.md (eqs. 36-39, derived correctly).
 fn transfer(m: f64, k: f64, c: f64, kc: f64, f: f64) -> f64 {
     let om = 2.0 * PI * f;
     let a = k - m * om * om;
@@ -334,7 +334,7 @@ fn impacts_scene_loses_contact_every_cycle() {
     assert!(f_r < base.frequency / 4.0);
     assert_eq!(s.stages[0].vibration, Some(true));
     assert_eq!(s.rig.formation, ContactFormation::JumpIn);
-    // With the Gent-Schultz law the threshold is much higher: the derived delta_A of MODEL.md
+    // With the Gent-Schultz law the threshold is much higher: the derived delta_A of docs/MODEL.md
     // (eq. 23 corrected) at a_A = a_m, where a(t) first touches 0, must lie below X_b.
     let Law::GentSchultz(gs) = s.rig.law else {
         panic!("Gent-Schultz law expected")
@@ -503,4 +503,93 @@ fn vibrating_scenes_respond_as_their_comments_say() {
             "{file}: |delta_A/X_b| = {ratio}, expected {expect}"
         );
     }
+}
+
+/// Every good file runs to completion (issue 15: `check` accepted files that `run` refused or
+/// that took minutes of wall time). Each runs with a 30 s wall budget (all of them take about
+/// 3 s together in a release build) and must succeed: what fails here is either a scene that
+/// `check` should have refused or a simulator defect.
+#[test]
+fn every_good_file_runs_to_completion() {
+    let t0 = std::time::Instant::now();
+    for f in toml_files("tests/scenarios/good") {
+        let mut s = load_scenario(&f).unwrap_or_else(|e| panic!("{e}"));
+        s.solver.max_wall_s = s.solver.max_wall_s.min(30.0);
+        let t = std::time::Instant::now();
+        let r = s
+            .simulate(&mut djkr::dynamics::NoObserver)
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        assert!(r.final_state.t > 0.0, "{}", f.display());
+        eprintln!("{}: {:.2} s", f.display(), t.elapsed().as_secs_f64());
+    }
+    eprintln!("good corpus: {:.2} s", t0.elapsed().as_secs_f64());
+}
+
+/// Reproducers of simulator defects found by the fuzz test and the corpus work
+/// (tests/scenarios/fuzz-found, each file's comment says what and where). A `# bypass: KEY =
+/// VALUE` line sets a value that validation now refuses on the loaded scenario, to reach the
+/// defect through the library. Each must end (with a result or a clear error, within its
+/// budgets) once the simulator core is fixed; until then this test is ignored (KNOWN FAILING:
+/// `tabulated-beyond-last-row.toml` underflows, the `impact-loss-loop-*` files never end). Each
+/// runs on its own thread under a 30 s deadline: `cargo test --release --test scenario_files --
+/// --ignored`.
+#[test]
+#[ignore = "known simulator defects (src/dynamics): see tests/scenarios/fuzz-found"]
+fn fuzz_found_reproducers_run_to_completion() {
+    let mut failures = Vec::new();
+    for f in toml_files("tests/scenarios/fuzz-found") {
+        let mut s = load_scenario(&f).unwrap_or_else(|e| panic!("{e}"));
+        for line in std::fs::read_to_string(&f).unwrap().lines() {
+            let Some((key, value)) = line
+                .strip_prefix("# bypass: ")
+                .and_then(|b| b.split_once(" = "))
+            else {
+                continue;
+            };
+            let v: f64 = value.trim().parse().unwrap();
+            match key.trim() {
+                "material.K" => s.rig.material.k = v,
+                "material.w0" => {
+                    s.rig.material.w0 = v;
+                    s.rig.law = Law::Constant(djkr::adhesion::ConstantW { w0: v });
+                }
+                "stage[0].speed" => s.stages[0].speed = v,
+                "base.amplitude" => {
+                    if let Some(b) = s.rig.base.as_mut() {
+                        b.amplitude = v;
+                    }
+                }
+                other => panic!("{}: unknown bypass key {other}", f.display()),
+            }
+        }
+        s.solver.max_wall_s = s.solver.max_wall_s.min(10.0);
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            // Events that never end would fill memory: the observer stops them by panicking.
+            struct Cap(u64);
+            impl djkr::dynamics::Observer for Cap {
+                fn wants_samples(&self) -> bool {
+                    false
+                }
+                fn event(&mut self, _e: &djkr::dynamics::Event) {
+                    self.0 += 1;
+                    assert!(self.0 < 1_000_000, "more than 1e6 events: they never end");
+                }
+            }
+            let r =
+                std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| s.simulate(&mut Cap(0))));
+            let r = match r {
+                Ok(r) => r.map(|_| ()).map_err(|e| e.to_string()),
+                Err(_) => Err("more than 1e6 events: they never end".to_string()),
+            };
+            tx.send(r).ok();
+        });
+        match rx.recv_timeout(std::time::Duration::from_secs(30)) {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) if !e.contains("step size underflow") && !e.contains("never end") => {}
+            Ok(Err(e)) => failures.push(format!("{}: {e}", f.display())),
+            Err(_) => failures.push(format!("{}: still running after 30 s", f.display())),
+        }
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
 }

@@ -3,13 +3,19 @@
 //! imposed-area cycle and the closed form's error map. Writes CSV, a markdown table and plots
 //! into `--out`; prints the table.
 
-use super::common::{load_scenario, positive_quantity, write_atomic, SetArgs};
+use super::common::{
+    limit_count, limits, load_scenario, out_name, positive_quantity, reject_unused, write_atomic,
+    SetArgs,
+};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::accuracy::{self, Measure, StudyConfig};
 use djkr::beta_fit::log_space;
+use djkr::dynamics::stepper::method_name;
+use djkr::dynamics::Method;
 use djkr::error::ParamError;
 use djkr::plot;
+use djkr::scenario::checks;
 use djkr::units::Dimension;
 use std::path::{Path, PathBuf};
 
@@ -19,39 +25,45 @@ pub struct AccuracyArgs {
     /// Scenario file (TOML) to study; not needed with --imposed-area.
     #[arg(required_unless_present = "imposed_area")]
     file: Option<PathBuf>,
-    /// Methods, comma-separated: implicit, dp8, dopri5, dop853, auto.
-    #[arg(long, default_value = "implicit,dp8,dopri5,dop853,auto")]
-    methods: String,
-    /// Relative tolerances, comma-separated, each in (0, 1) (atol = --atol-ratio × rtol).
-    #[arg(long, default_value = "1e-4,1e-6,1e-8,1e-10")]
-    tolerances: String,
+    /// Methods, comma-separated: implicit, dp8, dopri5, dop853, auto
+    /// [default: implicit,dp8,dopri5,dop853,auto].
+    #[arg(long)]
+    methods: Option<String>,
+    /// Relative tolerances, comma-separated, each in (0, 1) (atol = --atol-ratio × rtol)
+    /// [default: 1e-4,1e-6,1e-8,1e-10].
+    #[arg(long)]
+    tolerances: Option<String>,
     /// Timed runs per method and tolerance; the wall time reported is their median.
     #[arg(long, default_value = "3")]
     repeats: String,
-    /// Tolerance of the reference run (implicit), checked by dp8 at the same tolerance.
-    #[arg(long, default_value = "1e-12")]
-    ref_rtol: String,
-    /// atol / rtol for every run.
-    #[arg(long, default_value = "0.01")]
-    atol_ratio: String,
-    /// Wall-clock budget of each studied run (a slower run is reported as failed).
-    #[arg(long, default_value = "60s", value_name = "TIME")]
-    max_wall: String,
+    /// Tolerance of the reference run (implicit), checked by dp8 at the same tolerance
+    /// [default: 1e-12].
+    #[arg(long)]
+    ref_rtol: Option<String>,
+    /// atol / rtol for every run [default: 0.01].
+    #[arg(long)]
+    atol_ratio: Option<String>,
+    /// Wall-clock budget of each studied run (a slower run is reported as failed)
+    /// [default: 60s].
+    #[arg(long, value_name = "TIME")]
+    max_wall: Option<String>,
     /// Output directory [default: out/accuracy-<scenario name>, or out/accuracy-imposed-area].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// Study the imposed-area method instead: quadrature nodes vs error, closed form vs exact.
     #[arg(long)]
     imposed_area: bool,
-    /// With --imposed-area: tanh-sinh node counts, comma-separated (each 3..=2001).
-    #[arg(long, default_value = "11,21,31,41,51,61,81,101,121,161")]
-    nodes: String,
-    /// With --imposed-area: frequency of the closed-form map (sets a_A = v_max/ω).
-    #[arg(long, default_value = "200", value_name = "HZ")]
-    freq: String,
-    /// With --imposed-area: speed correction β of eq. (24) for the closed form.
-    #[arg(long, default_value = "2.5")]
-    beta: String,
+    /// With --imposed-area: tanh-sinh node counts, comma-separated (each 3..=2001)
+    /// [default: 11,21,31,41,51,61,81,101,121,161].
+    #[arg(long)]
+    nodes: Option<String>,
+    /// With --imposed-area: frequency of the closed-form map (sets a_A = v_max/ω)
+    /// [default: 200].
+    #[arg(long, value_name = "HZ")]
+    freq: Option<String>,
+    /// With --imposed-area: speed correction β of eq. (24) for the closed form [default: 2.5].
+    #[arg(long)]
+    beta: Option<String>,
     #[command(flatten)]
     set: SetArgs,
 }
@@ -82,33 +94,108 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         if !a.set.set.is_empty() {
             bail!("--set changes a scenario FILE's values; --imposed-area reads no scenario");
         }
+        reject_unused(
+            &[
+                ("FILE", a.file.is_some()),
+                ("--methods", a.methods.is_some()),
+                ("--tolerances", a.tolerances.is_some()),
+                ("--ref-rtol", a.ref_rtol.is_some()),
+                ("--atol-ratio", a.atol_ratio.is_some()),
+                ("--max-wall", a.max_wall.is_some()),
+            ],
+            "with --imposed-area (they set the study of a scenario FILE)",
+        )?;
         return imposed_area(a);
     }
+    reject_unused(
+        &[
+            ("--nodes", a.nodes.is_some()),
+            ("--freq", a.freq.is_some()),
+            ("--beta", a.beta.is_some()),
+        ],
+        "without --imposed-area (they set the imposed-area study)",
+    )?;
     let Some(file) = &a.file else {
         bail!("accuracy: give a scenario FILE, or --imposed-area");
     };
+    let methods_text = a
+        .methods
+        .as_deref()
+        .unwrap_or("implicit,dp8,dopri5,dop853,auto");
+    let methods = list("--methods", methods_text, |s| {
+        accuracy::parse_method("--methods", s)
+    })?;
+    limit_count(
+        "--methods",
+        methods_text,
+        methods.len(),
+        limits::ACCURACY_METHODS,
+        "methods",
+    )?;
+    let tolerances_text = a.tolerances.as_deref().unwrap_or("1e-4,1e-6,1e-8,1e-10");
+    let tolerances = list("--tolerances", tolerances_text, |s| {
+        positive_quantity("--tolerances", s, Dimension::Dimensionless)
+    })?;
+    limit_count(
+        "--tolerances",
+        tolerances_text,
+        tolerances.len(),
+        limits::ACCURACY_TOLERANCES,
+        "tolerances",
+    )?;
     let cfg = StudyConfig {
-        methods: list("--methods", &a.methods, |s| {
-            accuracy::parse_method("--methods", s)
-        })?,
-        tolerances: list("--tolerances", &a.tolerances, |s| {
-            positive_quantity("--tolerances", s, Dimension::Dimensionless)
-        })?,
-        repeats: count("--repeats", &a.repeats, 1, 1000)?,
-        reference_rtol: positive_quantity("--ref-rtol", &a.ref_rtol, Dimension::Dimensionless)?,
-        atol_ratio: positive_quantity("--atol-ratio", &a.atol_ratio, Dimension::Dimensionless)?,
-        max_wall_s: positive_quantity("--max-wall", &a.max_wall, Dimension::Time)?,
+        methods,
+        tolerances,
+        repeats: count("--repeats", &a.repeats, 1, limits::ACCURACY_REPEATS)?,
+        reference_rtol: positive_quantity(
+            "--ref-rtol",
+            a.ref_rtol.as_deref().unwrap_or("1e-12"),
+            Dimension::Dimensionless,
+        )?,
+        atol_ratio: positive_quantity(
+            "--atol-ratio",
+            a.atol_ratio.as_deref().unwrap_or("0.01"),
+            Dimension::Dimensionless,
+        )?,
+        max_wall_s: positive_quantity(
+            "--max-wall",
+            a.max_wall.as_deref().unwrap_or("60s"),
+            Dimension::Time,
+        )?,
         ..StudyConfig::default()
     };
+    let mut cfg = cfg;
     cfg.validate()?;
     let scn = load_scenario(file, &a.set)?;
-    let out = a.out.clone().unwrap_or_else(|| {
-        let stem = file
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "scene".into());
-        PathBuf::from("out").join(format!("accuracy-{stem}"))
+    // Skip, saying so, the methods that cannot run this scene at all (an explicit method on a
+    // rate-independent law): a row per tolerance that can only fail is no measurement.
+    let (runnable, skipped): (Vec<Method>, Vec<Method>) = cfg.methods.iter().partition(|&&m| {
+        let mut s = scn.clone();
+        s.solver.method = m;
+        checks::setup_check(&s).is_ok()
     });
+    if !skipped.is_empty() {
+        let mut s = scn.clone();
+        s.solver.method = skipped[0];
+        let why = checks::setup_check(&s)
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default();
+        let names: Vec<&str> = skipped.iter().map(|&m| method_name(m)).collect();
+        eprintln!("skipping {} on {}: {why}", names.join(", "), file.display());
+    }
+    if runnable.is_empty() {
+        bail!(
+            "--methods = {}: none of them can run {} (see above)",
+            methods_text,
+            file.display()
+        );
+    }
+    cfg.methods = runnable;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("accuracy-{}", out_name(file))));
     eprintln!(
         "reference: implicit at rtol {:e}, checked by dp8 …",
         cfg.reference_rtol
@@ -149,10 +236,29 @@ fn print_written(out: &Path, plots: &[PathBuf], files: &[&str]) {
 }
 
 fn imposed_area(a: &AccuracyArgs) -> Result<()> {
-    let nodes = list("--nodes", &a.nodes, |s| count("--nodes", s, 3, 2001))?;
-    let repeats = count("--repeats", &a.repeats, 1, 1000)?;
-    let freq = positive_quantity("--freq", &a.freq, Dimension::Frequency)?;
-    let beta = positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
+    let nodes_text = a
+        .nodes
+        .as_deref()
+        .unwrap_or("11,21,31,41,51,61,81,101,121,161");
+    let nodes = list("--nodes", nodes_text, |s| count("--nodes", s, 3, 2001))?;
+    limit_count(
+        "--nodes",
+        nodes_text,
+        nodes.len(),
+        limits::ACCURACY_NODES,
+        "node counts",
+    )?;
+    let repeats = count("--repeats", &a.repeats, 1, limits::ACCURACY_REPEATS)?;
+    let freq = positive_quantity(
+        "--freq",
+        a.freq.as_deref().unwrap_or("200"),
+        Dimension::Frequency,
+    )?;
+    let beta = positive_quantity(
+        "--beta",
+        a.beta.as_deref().unwrap_or("2.5"),
+        Dimension::Dimensionless,
+    )?;
     let out = a
         .out
         .clone()

@@ -1,6 +1,8 @@
 //! `djkr required-speed` (eq. 29) and `djkr beta-fit` (Fig. 3(b) and β ≈ 2.5, checked).
 
-use super::common::{positive_quantity, print_json, print_table, MaterialArgs};
+use super::common::{
+    limit_count, limits, positive_quantity, print_json, print_table, reject_unused, MaterialArgs,
+};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::beta_fit::{self, BetaFitConfig};
@@ -27,6 +29,13 @@ pub struct RequiredSpeedArgs {
 
 /// Run `djkr required-speed`.
 pub fn required_speed(a: &RequiredSpeedArgs) -> Result<()> {
+    reject_unused(
+        &[
+            ("--modulus", a.material.k.is_some()),
+            ("--radius", a.material.radius.is_some()),
+        ],
+        "in required-speed (eq. 29 depends on the adhesion law only)",
+    )?;
     let (_, law) = a.material.resolve()?;
     let target = positive_quantity(
         "--amplification",
@@ -112,8 +121,33 @@ pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
         .split(',')
         .map(|t| positive_quantity("--n-values", t.trim(), Dimension::Dimensionless))
         .collect::<Result<Vec<_>, _>>()?;
+    limit_count(
+        "--n-values",
+        &a.n_values,
+        n_values.len(),
+        limits::BETA_FIT_N_VALUES,
+        "exponents",
+    )?;
     let (slo, shi, sn) = range("--speed-ratio", &a.speed_ratio)?;
+    limit_count(
+        "--speed-ratio",
+        &a.speed_ratio,
+        sn,
+        limits::BETA_FIT_SPEED_RATIOS,
+        "speed ratios",
+    )?;
+    if n_values.len() * sn > limits::BETA_FIT_PULL_OFFS {
+        bail!(
+            "--n-values {} --speed-ratio {}: {} x {sn} = {} exact pull-offs, more than the limit of {}",
+            a.n_values,
+            a.speed_ratio,
+            n_values.len(),
+            n_values.len() * sn,
+            limits::BETA_FIT_PULL_OFFS
+        );
+    }
     let (blo, bhi, bn) = range("--beta", &a.beta)?;
+    limit_count("--beta", &a.beta, bn, limits::BETA_FIT_BETAS, "beta values")?;
     if bn < 3 || bhi <= blo {
         bail!("--beta = {}: needs MIN < MAX and COUNT >= 3", a.beta);
     }

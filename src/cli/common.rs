@@ -172,6 +172,86 @@ pub fn law_name(l: &Law) -> &'static str {
     }
 }
 
+/// The name of a default output folder for `file`: its stem made safe as one path component
+/// under `out/`, so that `out/<name>` is always a proper subfolder of `out/`: characters other
+/// than letters, digits, `-`, `_` and `.` become `_`, leading dots are dropped (a file named
+/// `...toml` has the stem `..`), and an empty result becomes `scenario`.
+pub fn out_name(file: &Path) -> String {
+    let stem = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let clean: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_alphanumeric() || matches!(c, '-' | '_' | '.') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    let clean = clean.trim_start_matches('.');
+    if clean.is_empty() {
+        "scenario".into()
+    } else {
+        clean.to_string()
+    }
+}
+
+/// `out/<out_name(file)><suffix>`: the default output folder of a command run on `file`.
+pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
+    PathBuf::from("out").join(format!("{}{suffix}", out_name(file)))
+}
+
+/// Limits on the grids and lists of the commands that take ranges: each bounds the work one
+/// invocation may ask for (a 100000 × 100000 shortcut map is 1e10 steady states).
+pub mod limits {
+    /// `resonance --freq START:STOP:COUNT`: frequencies per sweep.
+    pub const RESONANCE_FREQUENCIES: usize = 2001;
+    /// `shortcut-map --freq` and `--amp`: COUNT of each axis.
+    pub const MAP_AXIS: usize = 1001;
+    /// `shortcut-map`: cells (frequencies × amplitudes).
+    pub const MAP_CELLS: usize = 10_000;
+    /// `beta-fit --n-values`: exponents.
+    pub const BETA_FIT_N_VALUES: usize = 100;
+    /// `beta-fit --speed-ratio`: COUNT.
+    pub const BETA_FIT_SPEED_RATIOS: usize = 1000;
+    /// `beta-fit`: exact pull-offs (n values × speed ratios).
+    pub const BETA_FIT_PULL_OFFS: usize = 20_000;
+    /// `beta-fit --beta`: COUNT of the β grid.
+    pub const BETA_FIT_BETAS: usize = 10_000;
+    /// `accuracy --tolerances`: values.
+    pub const ACCURACY_TOLERANCES: usize = 20;
+    /// `accuracy --methods`: values (each method once).
+    pub const ACCURACY_METHODS: usize = 5;
+    /// `accuracy --repeats`.
+    pub const ACCURACY_REPEATS: usize = 100;
+    /// `accuracy --nodes`: node counts.
+    pub const ACCURACY_NODES: usize = 32;
+}
+
+/// Refuse a grid or list of `count` items beyond `max`, naming the flag (`what`: what is
+/// counted).
+pub fn limit_count(flag: &str, text: &str, count: usize, max: usize, what: &str) -> Result<()> {
+    if count > max {
+        bail!("{flag} = {text}: {count} {what}, more than the limit of {max}");
+    }
+    Ok(())
+}
+
+/// Refuse flags that were given but have no effect in the chosen mode (`given`: each flag's
+/// name and whether it was given; `mode`: the mode, e.g. `with --method exact`), naming them:
+/// a flag silently ignored reads as a result it did not shape.
+pub fn reject_unused(given: &[(&str, bool)], mode: &str) -> Result<()> {
+    let unused: Vec<&str> = given.iter().filter(|g| g.1).map(|g| g.0).collect();
+    match unused.as_slice() {
+        [] => Ok(()),
+        [one] => bail!("{one} has no effect {mode}: leave it out"),
+        many => bail!("{} have no effect {mode}: leave them out", many.join(", ")),
+    }
+}
+
 /// Angular frequency from a `--freq` flag (Hz, > 0).
 pub fn omega_from(flag: &str, text: &str) -> Result<f64, ParamError> {
     Ok(2.0 * std::f64::consts::PI * positive_quantity(flag, text, Dimension::Frequency)?)
@@ -199,17 +279,51 @@ pub fn print_json(report: &impl serde::Serialize) -> Result<()> {
     Ok(())
 }
 
-/// A two-column table of (label, value with unit) rows, aligned.
+/// A two-column table of (label, value with unit) rows, aligned (no value shown as `-0.0`).
 pub fn print_table(title: &str, rows: &[(&str, String)]) {
     println!("{title}");
     let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
     for (k, v) in rows {
-        println!("  {k:<w$}  {v}");
+        println!("  {k:<w$}  {}", no_negative_zero(v));
     }
+}
+
+/// A formatted number that rounded to zero is shown without a sign: `-0.000000 mm` (a value
+/// of -1e-12 m at 6 decimals, or an IEEE -0.0) becomes `0.000000 mm`. Every number in `text`
+/// is treated alike.
+pub fn no_negative_zero(text: &str) -> String {
+    let b = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < b.len() {
+        let starts_number = b[i] == b'-'
+            && b.get(i + 1).is_some_and(u8::is_ascii_digit)
+            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'.'));
+        if starts_number {
+            let end = (i + 1..b.len())
+                .find(|&j| !(b[j].is_ascii_digit() || b[j] == b'.'))
+                .unwrap_or(b.len());
+            let mantissa_is_zero = b[i + 1..end].iter().all(|&c| c == b'0' || c == b'.');
+            // An exponent (`-0.0e0`) or more digits after it are part of the number too.
+            let exponent = b.get(end).is_some_and(|&c| c == b'e' || c == b'E');
+            if mantissa_is_zero && !exponent {
+                i += 1; // drop the sign
+                continue;
+            }
+        }
+        let c = text[i..].chars().next().unwrap_or(' ');
+        out.push(c);
+        i += c.len_utf8();
+    }
+    out
 }
 
 /// Format a length in the most readable unit.
 pub fn fmt_len(x: f64) -> String {
+    no_negative_zero(&fmt_len_signed(x))
+}
+
+fn fmt_len_signed(x: f64) -> String {
     let a = x.abs();
     if a >= 1e-3 || a == 0.0 {
         format!("{:.6} mm", x * 1e3)
@@ -222,6 +336,10 @@ pub fn fmt_len(x: f64) -> String {
 
 /// Format a force in the most readable unit.
 pub fn fmt_force(f: f64) -> String {
+    no_negative_zero(&fmt_force_signed(f))
+}
+
+fn fmt_force_signed(f: f64) -> String {
     if f.abs() >= 1.0 {
         format!("{f:.6} N")
     } else {
@@ -232,4 +350,47 @@ pub fn fmt_force(f: f64) -> String {
 /// Write a file atomically (see [`djkr::output::write_atomic`]).
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     Ok(djkr::output::write_atomic(path, bytes)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_that_round_to_zero_have_no_sign() {
+        assert_eq!(no_negative_zero("-0.000000 mm"), "0.000000 mm");
+        assert_eq!(
+            no_negative_zero("a = -0.00000, b = -0.001"),
+            "a = 0.00000, b = -0.001"
+        );
+        assert_eq!(
+            no_negative_zero("-0 and -0.0e0 and x-0.0"),
+            "0 and -0.0e0 and x-0.0"
+        );
+        assert_eq!(no_negative_zero("δ_c -0.00000 µm"), "δ_c 0.00000 µm");
+        assert_eq!(fmt_len(-1e-18), "0.000000 nm");
+        assert_eq!(fmt_force(-0.0), "0.000000 mN");
+    }
+
+    #[test]
+    fn default_output_folders_stay_under_out() {
+        for (file, name) in [
+            ("scenarios/a.toml", "a"),
+            ("...toml", "scenario"),
+            ("..toml", "scenario"),
+            (".toml", "toml"),
+            ("x/..", "scenario"),
+            ("", "scenario"),
+            ("/", "scenario"),
+            ("a b\\c.toml", "a_b_c"),
+            ("..hidden.toml", "hidden"),
+            ("v1.2.toml", "v1.2"),
+        ] {
+            assert_eq!(out_name(Path::new(file)), name, "{file}");
+            let out = default_out(Path::new(file), "-x");
+            let parts: Vec<_> = out.components().collect();
+            assert_eq!(parts.len(), 2, "{file}: {}", out.display());
+            assert!(matches!(parts[1], std::path::Component::Normal(_)));
+        }
+    }
 }

@@ -1,9 +1,10 @@
 //! `djkr gs-fit FILE`: Gent–Schultz constants from a quasi-static unloading record (Sec. 3).
 
-use super::common::{print_json, print_table, MaterialArgs};
-use anyhow::{bail, Context, Result};
+use super::common::{print_json, print_table, reject_unused, MaterialArgs};
+use anyhow::{bail, Result};
 use clap::Args;
 use djkr::gs_fit::{self, GsFitOptions, GsFitReport};
+use djkr::input::{read_text, InputKind};
 use std::path::PathBuf;
 
 /// Flags of `djkr gs-fit`.
@@ -20,7 +21,7 @@ pub struct GsFitArgs {
     /// Print one JSON object of SI values.
     #[arg(long)]
     json: bool,
-    /// K and R of the contact (w0, v0, n flags are ignored: they are what is fitted).
+    /// K and R of the contact (--w0, --v0 and --n are refused: they are what is fitted).
     #[command(flatten)]
     material: MaterialArgs,
 }
@@ -32,9 +33,17 @@ material; it goes on after pull-off with a = 0, rows that are left out):
 
 /// Run `djkr gs-fit`.
 pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
+    reject_unused(
+        &[
+            ("--w0", a.material.w0.is_some()),
+            ("--v0", a.material.v0.is_some()),
+            ("--n", a.material.n.is_some()),
+        ],
+        "in gs-fit (w0, v0 and n are what it fits; only K and R of the material are used)",
+    )?;
     let (m, _) = a.material.resolve()?;
-    let text = std::fs::read_to_string(&a.file)
-        .with_context(|| format!("reading {}", a.file.display()))?;
+    let text = read_text(&a.file, InputKind::Record)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", a.file.display()))?;
     let all = gs_fit::parse_csv(&text, &a.file.display().to_string())?;
     let Some(span) = gs_fit::contact_span(&all) else {
         bail!(

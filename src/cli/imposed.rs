@@ -2,11 +2,12 @@
 
 use super::common::{
     fmt_force, fmt_len, non_negative_quantity, omega_from, positive_quantity, print_json,
-    print_table, quantity, MaterialArgs,
+    print_table, quantity, reject_unused, MaterialArgs,
 };
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use djkr::imposed_area;
+use djkr::scenario::checks::small_contact_warning;
 use djkr::units::Dimension;
 use serde_json::json;
 
@@ -43,6 +44,17 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
         );
     }
     let c = imposed_area::cycle(&m, &law, omega, a_mean, a_amp)?;
+    // The same small-contact rule as `pulloff` and `run`.
+    let notes: Vec<String> = small_contact_warning(
+        "the contact reaches a_m + a_A",
+        c.a_mean_imposed + c.a_amp,
+        m.r,
+    )
+    .into_iter()
+    .collect();
+    for n in &notes {
+        eprintln!("warning: {n}");
+    }
     if a.json {
         return print_json(&json!({
             "a_mean": c.a_mean,
@@ -54,6 +66,7 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             "delta_cos": c.delta_cos,
             "force_mean": c.force_mean,
             "contact_fraction": c.contact_fraction,
+            "notes": notes,
         }));
     }
     print_table(
@@ -78,7 +91,16 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             ("contact fraction", format!("{:.6}", c.contact_fraction)),
         ],
     );
+    for n in &notes {
+        println!("  note: {n}");
+    }
     Ok(())
+}
+
+/// A value-enum flag's value as the user types it (`exact`, not `Exact`).
+fn flag_value<T: ValueEnum>(v: T) -> String {
+    v.to_possible_value()
+        .map_or_else(String::new, |p| p.get_name().to_string())
 }
 
 /// Pull-off methods.
@@ -107,13 +129,14 @@ pub struct PulloffArgs {
     /// Method.
     #[arg(long, value_enum, default_value_t = PulloffMethod::Exact)]
     method: PulloffMethod,
-    /// Speed correction β of eq. (24) for `approx` (> 0).
-    #[arg(long, default_value = "2.5", allow_hyphen_values = true)]
-    beta: String,
-    /// δ_A amplitude in the closed form: as derived from eqs. (14)−(15) (MODEL.md), or as
-    /// printed in eq. (23) (for comparison with the paper).
-    #[arg(long, value_enum, default_value_t = DeltaForm::Derived)]
-    delta_form: DeltaForm,
+    /// Speed correction β of eq. (24) for `approx` (> 0) [default: 2.5].
+    #[arg(long, allow_hyphen_values = true)]
+    beta: Option<String>,
+    /// δ_A amplitude in the closed form (`approx`): as derived from eqs. (14)−(15)
+    /// (docs/MODEL.md), or as printed in eq. (23) (for comparison with the paper)
+    /// [default: derived].
+    #[arg(long, value_enum)]
+    delta_form: Option<DeltaForm>,
     /// Sphere mass m for `shui` (> 0). Units: kg, g.
     #[arg(long, value_name = "KG", allow_hyphen_values = true)]
     mass: Option<String>,
@@ -155,14 +178,46 @@ struct PulloffReport {
 
 /// Run `djkr pulloff`.
 pub fn pulloff(a: &PulloffArgs) -> Result<()> {
+    let method = a.method;
+    let closed_form = [
+        ("--beta", a.beta.is_some()),
+        ("--delta-form", a.delta_form.is_some()),
+    ];
+    let shui = [
+        ("--mass", a.mass.is_some()),
+        ("--damping", a.damping.is_some()),
+        ("--base-amp", a.base_amp.is_some()),
+    ];
+    let yi = [("--delta-amp", a.delta_amp.is_some())];
+    let mode = format!("with --method {}", flag_value(method));
+    match method {
+        PulloffMethod::Exact => reject_unused(&[&closed_form[..], &shui, &yi].concat(), &mode)?,
+        PulloffMethod::Approx => reject_unused(&[&shui[..], &yi].concat(), &mode)?,
+        PulloffMethod::Shui => reject_unused(
+            &[&closed_form[..], &yi, &[("--a-amp", a.a_amp.is_some())]].concat(),
+            &format!("{mode} (its eq. 5 sets a_m itself from --mass, --damping, --base-amp)"),
+        )?,
+        PulloffMethod::Yi => {
+            reject_unused(&[&closed_form[..], &shui].concat(), &mode)?;
+            if a.delta_amp.is_some() {
+                reject_unused(
+                    &[("--a-amp", a.a_amp.is_some())],
+                    "with --method yi and --delta-amp (--a-amp only sets delta_A = 2 a_A^2/R when --delta-amp is absent)",
+                )?;
+            }
+        }
+    }
     let (m, law) = a.material.resolve()?;
     let omega = omega_from("--freq", &a.freq)?;
     let a_amp = match &a.a_amp {
         Some(t) => Some(non_negative_quantity("--a-amp", t, Dimension::Length)?),
         None => None,
     };
-    let need_a_amp =
-        || a_amp.ok_or_else(|| anyhow::anyhow!("--a-amp is required for --method {:?}", a.method));
+    let need_a_amp = || {
+        a_amp.ok_or_else(|| {
+            anyhow::anyhow!("--a-amp is required for --method {}", flag_value(a.method))
+        })
+    };
     let r = match a.method {
         PulloffMethod::Exact => {
             let p = imposed_area::pull_off(&m, &law, omega, need_a_amp()?)?;
@@ -198,8 +253,13 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
             }
         }
         PulloffMethod::Approx => {
-            let beta = positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
-            let form = match a.delta_form {
+            let beta = positive_quantity(
+                "--beta",
+                a.beta.as_deref().unwrap_or("2.5"),
+                Dimension::Dimensionless,
+            )?;
+            let delta_form = a.delta_form.unwrap_or(DeltaForm::Derived);
+            let form = match delta_form {
                 DeltaForm::Derived => djkr::closed_form::DeltaAmpForm::Derived,
                 DeltaForm::Printed => djkr::closed_form::DeltaAmpForm::Printed,
             };
@@ -211,7 +271,14 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
                 delta_amp: p.delta_amp,
                 force: p.force,
                 amplification: p.amplification,
-                notes: vec![format!("beta = {beta}, delta_A {:?}", a.delta_form)],
+                notes: vec![format!(
+                    "beta = {beta}, delta_A {}",
+                    match delta_form {
+                        DeltaForm::Derived =>
+                            "as derived from eqs. (14)-(15) (--delta-form derived)",
+                        DeltaForm::Printed => "as printed in eq. (23) (--delta-form printed)",
+                    }
+                )],
             }
         }
         PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
@@ -220,21 +287,12 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
     // JKR is a small-contact theory (a ≪ R, half-space substrate): say so when the answer
     // leaves that range instead of printing it as if it were valid.
     let a_max = r.a_mean + a_amp.unwrap_or(0.0);
-    if a_max > SMALL_CONTACT_LIMIT * m.r {
-        let w = format!(
-            "outside the model: the contact reaches a_m + a_A = {} = {:.2} R, but JKR assumes a contact small against the sphere (a ≪ R; here limited to {SMALL_CONTACT_LIMIT} R)",
-            fmt_len(a_max),
-            a_max / m.r
-        );
+    if let Some(w) = small_contact_warning("the contact reaches a_m + a_A", a_max, m.r) {
         eprintln!("warning: {w}");
         r.notes.push(w);
     }
     report(&r, a.json)
 }
-
-/// Largest contact radius, as a fraction of R, that the small-contact (JKR) results are reported
-/// without a warning.
-const SMALL_CONTACT_LIMIT: f64 = 0.2;
 
 fn report(r: &PulloffReport, json_out: bool) -> Result<()> {
     if json_out {

@@ -43,7 +43,7 @@ const EXAMPLES: &str = "Examples:
   djkr validate scenarios/resonance-400hz.toml
   djkr resonance scenarios/resonance-400hz.toml --freq 300:500:101 --out out/resonance
   djkr continue scenarios/resonance-400hz.toml --param base.frequency --range 340:600 --set base.amplitude=1.5um
-  djkr accuracy scenarios/quasi-static-jkr.toml --out out/accuracy
+  djkr accuracy scenarios/paper-protocol-300hz.toml --methods implicit,auto --out out/accuracy
 
 Bare numbers are SI; values with units are welcome (51mm, 9.33MPa, 240mJ/m^2, 0.0445mm/s, 1.5kHz).
 Default material: the paper's Fig. 2 set (K 9.33 MPa, R 51 mm, w0 240 mJ/m^2, v0 0.0445 mm/s, n 0.531).
@@ -101,6 +101,7 @@ enum Command {
 
 /// Entry point: run the command, print errors as one readable message, map to an exit code.
 pub fn main() -> ExitCode {
+    restore_sigpipe();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(a) => run::run(&a),
@@ -124,8 +125,57 @@ pub fn main() -> ExitCode {
         // A sweep stopped by Ctrl-C has said how to resume; 130 is the shell's code for SIGINT.
         Err(e) if e.is::<sweep::Interrupted>() => ExitCode::from(130),
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_text(&e));
             ExitCode::from(2)
         }
+    }
+}
+
+/// Let a closed stdout end djkr quietly, as it does any Unix filter (`djkr figures | head -1`).
+/// Rust ignores SIGPIPE, so every `println!` after the reader has gone would panic on EPIPE
+/// (exit 101); with the default disposition restored, the kernel ends the process at the first
+/// such write instead. The commands print their results after writing their files, so a closed
+/// stdout cuts only the listing short.
+fn restore_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any thread exists; SIG_DFL is a valid
+    // disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
+/// An error and its causes on one line, `outer: inner: ...`, leaving out a cause whose text the
+/// line already holds: library errors that show their I/O cause in their own message and also
+/// chain it as their `source` printed the OS message twice.
+fn error_text(e: &anyhow::Error) -> String {
+    let mut out = String::new();
+    for cause in e.chain() {
+        let t = cause.to_string();
+        if t.is_empty() || out.contains(&t) {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(": ");
+        }
+        out.push_str(&t);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cause_already_shown_is_not_repeated() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file (os error 2)");
+        #[derive(Debug, thiserror::Error)]
+        #[error("x: {0}")]
+        struct Shows(#[source] std::io::Error);
+        let e = anyhow::Error::new(Shows(io)).context("--out x");
+        assert_eq!(error_text(&e), "--out x: x: No such file (os error 2)");
+        let e = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(error_text(&e), "outer: inner");
     }
 }

@@ -2,7 +2,7 @@
 //! steady state), with the linear transfer and harmonic balance alongside; writes
 //! `resonance.csv`, `resonance.h5` and plots, prints a summary.
 
-use super::common::{load_scenario, positive_quantity, print_json, write_atomic};
+use super::common::{limits, load_scenario, positive_quantity, print_json, write_atomic};
 use super::steady::{default_out, progress_bar, range, stem, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
@@ -58,7 +58,12 @@ pub struct ResonanceArgs {
 /// Run `djkr resonance`.
 pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     let opts = a.steady.options()?;
-    let (lo, hi, n) = range("--freq", &a.freq, Dimension::Frequency)?;
+    let (lo, hi, n) = range(
+        "--freq",
+        &a.freq,
+        Dimension::Frequency,
+        limits::RESONANCE_FREQUENCIES,
+    )?;
     let scn = load_scenario(&a.file, &a.steady.set)?;
     let (mut problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;

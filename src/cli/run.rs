@@ -1,10 +1,11 @@
 //! `djkr run FILE` and `djkr check FILE`: the time-domain simulator on a scenario file.
 
-use super::common::{law_name, load_scenario, SetArgs};
+use super::common::{default_out, law_name, load_scenario, SetArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use djkr::dynamics::{self, Event, Observer, RunResult, Sample};
 use djkr::output::RunWriter;
+use djkr::scenario::checks;
 use djkr::scenario::parse::{ScenarioError, ScenarioSource};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -82,14 +83,7 @@ impl Observer for Progress<'_> {
 /// Run `djkr run`.
 pub fn run(a: &RunArgs) -> Result<()> {
     let scn = load_scenario(&a.file, &a.set)?;
-    let out = a.out.clone().unwrap_or_else(|| {
-        let stem = a
-            .file
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "run".into());
-        PathBuf::from("out").join(stem)
-    });
+    let out = a.out.clone().unwrap_or_else(|| default_out(&a.file, ""));
     let mut writer = RunWriter::create(&out, &scn, a.csv || scn.output.csv)
         .with_context(|| format!("--out {}", out.display()))?;
     let bar = ProgressBar::new_spinner();
@@ -128,6 +122,10 @@ pub fn run(a: &RunArgs) -> Result<()> {
     } else {
         Vec::new()
     };
+    let warnings = checks::result_warnings(&scn, &result);
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     if a.json {
         // Exactly the summary.json just written (its non-finite rule included).
         let text = std::fs::read_to_string(&paths.summary)
@@ -135,7 +133,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         println!("{}", text.trim_end());
         return Ok(());
     }
-    print_summary(&scn, &result);
+    print_summary(&scn, &result, &warnings);
     println!("\nwrote:");
     for p in paths
         .all()
@@ -147,23 +145,34 @@ pub fn run(a: &RunArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult) {
-    println!(
+fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[String]) {
+    // Every line without a `-0.0`.
+    macro_rules! line {
+        ($($t:tt)*) => {
+            println!("{}", super::common::no_negative_zero(&format!($($t)*)))
+        };
+    }
+    line!(
         "{}: {} stage(s), method {}",
         scn.source_name,
         scn.stages.len(),
         r.method
     );
-    if r.detached {
-        println!(
+    if !checks::pull_off_recorded(r) {
+        line!(
+            "  no pull-off        no pull-off force recorded (see the warning){}",
+            if r.detached { " (detached)" } else { "" }
+        );
+    } else if r.detached {
+        line!(
             "  pull-off force     {:.6} mN  (amplification {:.4} over −3/2 π R w0 = {:.6} mN)",
             r.pull_off.force * 1e3,
             r.pull_off.amplification,
             scn.rig.material.static_pull_off_force() * 1e3
         );
-        println!("  reached at         t = {:.6} s", r.pull_off.time);
+        line!("  reached at         t = {:.6} s", r.pull_off.time);
     } else {
-        println!(
+        line!(
             "  no detachment; most tensile {} force {:.6} mN at t = {:.6} s",
             if scn.rig.base.is_some() {
                 "cycle-averaged"
@@ -176,22 +185,33 @@ fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult) {
     }
     let mut counts = std::collections::BTreeMap::new();
     for e in &r.events {
-        *counts.entry(format!("{:?}", e.kind)).or_insert(0usize) += 1;
+        // The names summary.json and events.csv use (contact-loss, pull-off, ...).
+        let name = match serde_json::to_value(e.kind) {
+            Ok(serde_json::Value::String(s)) => s,
+            _ => "event".to_string(),
+        };
+        *counts.entry(name).or_insert(0usize) += 1;
     }
     let list: Vec<String> = counts.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
-    println!("  events             {}", list.join(", "));
-    println!(
+    line!("  events             {}", list.join(", "));
+    line!(
         "  solver             {} steps, {} rejected, {} rhs evaluations, {:.3} s wall",
-        r.stats.steps, r.stats.rejected, r.stats.rhs_evals, r.stats.wall_s
+        r.stats.steps,
+        r.stats.rejected,
+        r.stats.rhs_evals,
+        r.stats.wall_s
     );
     let f = &r.final_state;
-    println!(
+    line!(
         "  final state        t = {:.6} s, a = {:.6} mm, δ = {:.6} µm, F = {:.6} mN",
         f.t,
         f.a * 1e3,
         f.delta * 1e6,
         f.force * 1e3
     );
+    for w in warnings {
+        line!("  warning            {w}");
+    }
 }
 
 /// Run `djkr check`.
@@ -200,17 +220,22 @@ pub fn check(a: &CheckArgs) -> Result<()> {
     let mut failed = 0;
     for f in &a.files {
         match ScenarioSource::read(f).and_then(|src| src.scenario(&overrides)) {
-            Ok(s) => println!(
-                "{}: ok ({} stage(s), law {}, {})",
-                s.source_name,
-                s.stages.len(),
-                law_name(&s.rig.law),
-                if s.rig.base.is_some() {
-                    "vibrating base"
-                } else {
-                    "no base motion"
+            Ok(s) => {
+                println!(
+                    "{}: ok ({} stage(s), law {}, {})",
+                    s.source_name,
+                    s.stages.len(),
+                    law_name(&s.rig.law),
+                    if s.rig.base.is_some() {
+                        "vibrating base"
+                    } else {
+                        "no base motion"
+                    }
+                );
+                for w in checks::scenario_warnings(&s) {
+                    eprintln!("warning: {}: {w}", s.source_name);
                 }
-            ),
+            }
             Err(e) => {
                 failed += 1;
                 match e {

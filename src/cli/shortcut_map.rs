@@ -2,7 +2,7 @@
 //! time-domain steady state over frequency × base amplitude; writes `shortcut-map.csv`,
 //! `shortcut-map.h5` and colour maps, prints a summary.
 
-use super::common::{load_scenario, print_json, write_atomic};
+use super::common::{limits, load_scenario, print_json, write_atomic};
 use super::steady::{default_out, progress_bar, range, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -50,8 +50,17 @@ fn log_space(lo: f64, hi: f64, n: usize) -> Vec<f64> {
 /// Run `djkr shortcut-map`.
 pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     let opts = a.steady.options()?;
-    let (flo, fhi, nf) = range("--freq", &a.freq, Dimension::Frequency)?;
-    let (alo, ahi, na) = range("--amp", &a.amp, Dimension::Length)?;
+    let (flo, fhi, nf) = range("--freq", &a.freq, Dimension::Frequency, limits::MAP_AXIS)?;
+    let (alo, ahi, na) = range("--amp", &a.amp, Dimension::Length, limits::MAP_AXIS)?;
+    if nf * na > limits::MAP_CELLS {
+        anyhow::bail!(
+            "--freq {} --amp {}: {nf} x {na} = {} cells, more than the limit of {} (steady states per map)",
+            a.freq,
+            a.amp,
+            nf * na,
+            limits::MAP_CELLS
+        );
+    }
     let scn = load_scenario(&a.file, &a.steady.set)?;
     let (problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;

@@ -79,9 +79,9 @@ impl SteadyArgs {
     }
 }
 
-/// Parse START:STOP:COUNT with units, 0 < START ≤ STOP, COUNT ≥ 1 (START = STOP when COUNT = 1
-/// is not required: COUNT = 1 gives START).
-pub fn range(flag: &str, text: &str, dim: Dimension) -> Result<(f64, f64, usize)> {
+/// Parse START:STOP:COUNT with units, 0 < START ≤ STOP, 1 ≤ COUNT ≤ `max` (START = STOP when
+/// COUNT = 1 is not required: COUNT = 1 gives START).
+pub fn range(flag: &str, text: &str, dim: Dimension, max: usize) -> Result<(f64, f64, usize)> {
     let parts: Vec<&str> = text.split(':').collect();
     if parts.len() != 3 {
         bail!("{flag} = {text}: expected START:STOP:COUNT, e.g. 300:500:101");
@@ -94,8 +94,8 @@ pub fn range(flag: &str, text: &str, dim: Dimension) -> Result<(f64, f64, usize)
             parts[2]
         )
     })?;
-    if n == 0 || n > 100_000 {
-        bail!("{flag} = {text}: COUNT = {n} must be in 1..=100000");
+    if n == 0 || n > max {
+        bail!("{flag} = {text}: COUNT = {n} must be in 1..={max} (the limit of this command)");
     }
     if hi < lo {
         bail!("{flag} = {text}: STOP must be >= START");
@@ -110,9 +110,9 @@ pub fn stem(file: &Path) -> String {
         .unwrap_or_else(|| "scenario".into())
 }
 
-/// `out/<scenario name>-<suffix>`.
+/// `out/<scenario name>-<suffix>` (the name made safe: [`super::common::out_name`]).
 pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
-    PathBuf::from("out").join(format!("{}-{suffix}", stem(file)))
+    super::common::default_out(file, &format!("-{suffix}"))
 }
 
 /// A progress bar (hidden when stderr is not a terminal).

@@ -55,18 +55,49 @@ pub fn validate(a: &ValidateArgs) -> Result<()> {
 
 fn cell(v: Option<f64>, scale: f64) -> String {
     match v {
-        Some(x) if x.is_finite() && (x * scale).abs() < 1e4 => format!("{:>11.5}", x * scale),
-        Some(x) if x.is_finite() => format!("{:>11.3e}", x * scale),
-        _ => format!("{:>11}", "—"),
+        Some(x) if x.is_finite() && (x * scale).abs() < 1e4 => format!("{:.5}", x * scale),
+        Some(x) if x.is_finite() => format!("{:.3e}", x * scale),
+        _ => "—".to_string(),
     }
 }
 
-fn row(label: &str, p: &Prediction, scales: [f64; 7]) -> String {
-    let mut line = format!("{label:<20}");
+fn row(label: &str, p: &Prediction, scales: [f64; 7]) -> Vec<String> {
+    let mut line = vec![label.to_string()];
     for ((_, v), sc) in p.fields().iter().zip(scales) {
-        line.push_str(&cell(*v, sc));
+        line.push(cell(*v, sc));
     }
     line
+}
+
+/// Lay out rows of cells: the first column left-aligned, the others right-aligned, each column
+/// as wide as its widest cell and separated by two spaces, so columns never run together
+/// (`346.30626-1379.26544` was one cell too wide for a fixed width).
+fn layout(rows: &[Vec<String>]) -> String {
+    let cols = rows.iter().map(Vec::len).max().unwrap_or(0);
+    let width: Vec<usize> = (0..cols)
+        .map(|j| {
+            rows.iter()
+                .filter_map(|r| r.get(j))
+                .map(|c| c.chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut out = String::new();
+    for r in rows {
+        let mut line = String::new();
+        for (j, c) in r.iter().enumerate() {
+            let w = width[j];
+            if j == 0 {
+                line.push_str(&format!("{c:<w$}"));
+            } else {
+                line.push_str(&format!("  {c:>w$}"));
+            }
+        }
+        out.push_str(&super::common::no_negative_zero(line.trim_end()));
+        out.push('\n');
+    }
+    out
 }
 
 fn print_report(file: &Path, r: &ValidateReport) {
@@ -94,27 +125,32 @@ fn print_report(file: &Path, r: &ValidateReport) {
         println!("  linear resonance √((k + k_c)/m)/2π = {f:.3} Hz (k_c = 3/2 K a_0)");
     }
     println!();
-    println!(
-        "{:<20}{:>11}{:>11}{:>11}{:>11}{:>11}{:>11}{:>11}",
-        "", "a_m mm", "a_A µm", "δ_m µm", "δ_s µm", "δ_c µm", "δ_A µm", "F_m mN"
-    );
+    let header = |names: [&str; 7]| {
+        std::iter::once(String::new())
+            .chain(names.iter().map(|n| n.to_string()))
+            .collect::<Vec<_>>()
+    };
     let scales = [1e3, 1e6, 1e6, 1e6, 1e6, 1e6, 1e3];
-    println!("{}", row("time domain", &r.time_domain, scales));
+    let mut rows = vec![
+        header([
+            "a_m mm", "a_A µm", "δ_m µm", "δ_s µm", "δ_c µm", "δ_A µm", "F_m mN",
+        ]),
+        row("time domain", &r.time_domain, scales),
+    ];
     for (_, label, p) in r.predictors.labelled() {
         if let Some(p) = p {
-            println!("{}", row(label, p, scales));
+            rows.push(row(label, p, scales));
         }
     }
+    print!("{}", layout(&rows));
     println!("\nrelative difference from the time domain, % (δ_s, δ_c relative to δ_A):");
-    println!(
-        "{:<20}{:>11}{:>11}{:>11}{:>11}{:>11}{:>11}{:>11}",
-        "", "a_m", "a_A", "δ_m", "δ_s", "δ_c", "δ_A", "F_m"
-    );
+    let mut rows = vec![header(["a_m", "a_A", "δ_m", "δ_s", "δ_c", "δ_A", "F_m"])];
     for (_, label, p) in r.relative_difference.labelled() {
         if let Some(p) = p {
-            println!("{}", row(label, p, [100.0; 7]));
+            rows.push(row(label, p, [100.0; 7]));
         }
     }
+    print!("{}", layout(&rows));
     for note in &r.notes {
         println!("  {note}");
     }
@@ -130,4 +166,30 @@ fn print_report(file: &Path, r: &ValidateReport) {
             "VIOLATED: internal inconsistency"
         }
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn columns_never_run_together() {
+        let rows = vec![
+            vec!["".to_string(), "δ_A µm".into(), "F_m mN".into()],
+            vec![
+                "imposed area".to_string(),
+                "346.30626".into(),
+                "-1379.26544".into(),
+            ],
+            vec!["x".to_string(), "—".into(), "1.000e5".into()],
+        ];
+        let t = layout(&rows);
+        assert!(t.contains("346.30626  -1379.26544"), "{t}");
+        for line in t.lines() {
+            assert!(!line.contains("6-1"), "{t}");
+        }
+        // Right-aligned under their headers.
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(lines[0].chars().count(), lines[1].chars().count(), "{t}");
+    }
 }

@@ -163,6 +163,7 @@ pub fn run(plan: &Plan, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
         event_counts: EventCounts::default(),
         last_event: None,
         cycle_count: 0,
+        max_radius: 0.0,
         last_cycle: None,
         sample_dt,
         next_sample: 0.0,
@@ -278,6 +279,8 @@ struct Protocol<'a> {
     /// The last event (the pending contact loss refers to it).
     last_event: Option<Event>,
     cycle_count: u64,
+    /// The largest contact radius at the end of an accepted step (m).
+    max_radius: f64,
     last_cycle: Option<CycleRecord>,
     sample_dt: f64,
     next_sample: f64,
@@ -495,6 +498,7 @@ impl Protocol<'_> {
                     if let Some(seg) = self.sim.segment() {
                         self.output(&seg);
                         self.track_force(&seg);
+                        self.max_radius = self.max_radius.max(seg.y1.a);
                     }
                     if let Some(rec) = period {
                         self.record_cycle(rec);
@@ -521,6 +525,7 @@ impl Protocol<'_> {
                     if let Some(seg) = self.sim.segment() {
                         self.output(&seg);
                         self.track_force(&seg);
+                        self.max_radius = self.max_radius.max(seg.y1.a);
                     }
                     self.event(kind, &ye);
                     match kind {
@@ -645,31 +650,25 @@ impl Protocol<'_> {
         let y = *self.sim.state();
         let final_state = self.sim.sample_of(&y, self.stage);
         let stepper = self.sim.stepper();
-        let mut m = stepper.name().to_string();
-        if method == Method::Auto {
-            m = format!(
-                "{m}; auto: implicit for rate-independent laws, seeded contact formation and \
-                 scenes without inertia (rigid link, m = 0), DP8 otherwise, taking a step \
-                 implicitly where a DP8 stage meets G <= 0"
-            );
-        }
+        // A short name (README, "Methods"): what ran, `(auto)` when auto chose it, and how many
+        // steps DP8 handed to the implicit method.
         let r = stepper.rescues();
-        if r.total() > 0 {
-            m.push_str(&format!(
-                "; {} steps taken implicitly ({} in deep healing, {} where a DP8 stage met \
-                 G <= 0, {} after the DP8 step size collapsed)",
-                r.total(),
-                r.stiff,
-                r.singular,
-                r.fallback
-            ));
-        }
+        let mut m = if method == Method::Auto {
+            let ran = match stepper.kind() {
+                stepper::StepperKind::Embedded => "implicit",
+                _ => "dp8",
+            };
+            if r.total() > 0 {
+                format!("{ran} (auto; {} steps implicit)", r.total())
+            } else {
+                format!("{ran} (auto)")
+            }
+        } else {
+            stepper::method_name(method).to_string()
+        };
         if let Some(e) = self.envelope.as_ref().map(|e| e.stats()) {
             if e.jumps > 0 {
-                m.push_str(&format!(
-                    "; envelope following skipped {} periods in {} jumps ({} trial periods)",
-                    e.periods_skipped, e.jumps, e.trial_periods
-                ));
+                m.push_str(&format!("; envelope skipped {} periods", e.periods_skipped));
             }
         }
         if self.stopped {
@@ -689,6 +688,7 @@ impl Protocol<'_> {
             final_state,
             cycle_count: self.cycle_count,
             last_cycle: self.last_cycle,
+            max_contact_radius: self.max_radius.max(final_state.a),
             envelope: self
                 .envelope
                 .as_ref()

@@ -112,6 +112,8 @@ pub struct RunResult {
     pub cycle_count: u64,
     /// The last period record.
     pub last_cycle: Option<CycleRecord>,
+    /// The largest contact radius at the end of any accepted step (m).
+    pub max_contact_radius: f64,
     /// What envelope following did.
     pub envelope: crate::dynamics::envelope::EnvelopeStats,
 }

@@ -19,6 +19,7 @@
 //!   "event_counts": {"impact": 3, "pull-off": 1, ...},
 //!   "units": {"F": "N", "pull_off.force": "N", "t": "s", ...},
 //!   "files": {"hdf5": "run.h5", "timeseries_csv": "timeseries.csv", ...},
+//!   "warnings": ["outside the model: the contact reaches a = ..."],
 //!   "non_finite": {"pull_off.force": "NaN"},
 //!   "events": [
 //!     {"kind": "stage-start", "stage": 0, "state": {...}, "time": 0.0},
@@ -26,6 +27,9 @@
 //!   ]
 //! }
 //! ```
+//!
+//! `warnings` lists what leaves the model's range ([`checks::result_warnings`]: a contact
+//! beyond 0.2 R, no pull-off recorded; always present, empty without).
 //!
 //! `scenario` names the file and its `--set` overrides; `overrides` lists them (`KEY=VALUE` as
 //! given; always present, empty when the file ran as written). `run_id` is the same string as
@@ -52,7 +56,7 @@ use super::cycles::cycle_table;
 use super::table::Data;
 use super::timeseries::{kind_name, stage_index, SERIES, STAGE, STAGE_UNIT};
 use crate::dynamics::types::{CycleRecord, RunResult, Sample};
-use crate::scenario::Scenario;
+use crate::scenario::{checks, Scenario};
 
 /// Version of the summary layout, stored as `format_version`.
 pub const SUMMARY_VERSION: i64 = 1;
@@ -176,15 +180,25 @@ pub fn summary_json(
 ) -> String {
     let mut b = Builder::default();
 
+    // No pull-off force recorded (the simulator's placeholder 0 N at t = 0): left out, as NaN.
+    let po = if checks::pull_off_recorded(result) {
+        result.pull_off
+    } else {
+        crate::dynamics::PullOffSummary {
+            force: f64::NAN,
+            amplification: f64::NAN,
+            time: f64::NAN,
+        }
+    };
     let mut pull_off = Map::new();
-    b.put(&mut pull_off, "pull_off.", "force", result.pull_off.force);
+    b.put(&mut pull_off, "pull_off.", "force", po.force);
     b.put(
         &mut pull_off,
         "pull_off.",
         "amplification",
-        result.pull_off.amplification,
+        po.amplification,
     );
-    b.put(&mut pull_off, "pull_off.", "time", result.pull_off.time);
+    b.put(&mut pull_off, "pull_off.", "time", po.time);
 
     let mut stats = Map::new();
     stats.insert("steps".into(), Value::from(result.stats.steps));
@@ -281,6 +295,10 @@ pub fn summary_json(
                     .map(|(k, v)| (k.clone(), Value::from(*v)))
                     .collect(),
             ),
+        ),
+        (
+            "warnings",
+            Value::from(checks::result_warnings(scenario, result)),
         ),
         (
             "non_finite",

@@ -5,9 +5,10 @@
 //! (with unknown keys rejected and every out-of-range value reported with file, key, value and the
 //! allowed range) lives in [`parse`].
 //!
-//! Coordinates (MODEL.md): x_s sphere position (down +), x_b base displacement (up +), x_k the far
+//! Coordinates (docs/MODEL.md): x_s sphere position (down +), x_b base displacement (up +), x_k the far
 //! end of the holding spring (down +), δ = x_s + x_b the indentation (> 0 compresses).
 
+pub mod checks;
 pub mod overrides;
 pub mod parse;
 

@@ -37,6 +37,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 use toml::{Table, Value};
 
+use super::checks;
 use super::overrides::{self, Override};
 use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
@@ -48,6 +49,7 @@ use crate::adhesion::{
 };
 use crate::dynamics::stepper::{method_from_name, EnvelopeMode, METHOD_NAMES};
 use crate::error::ParamError;
+use crate::input::{self, InputError, InputKind};
 use crate::jkr;
 use crate::material::Material;
 use crate::units::{parse_quantity, Dimension};
@@ -69,14 +71,15 @@ pub const TABLE_W0_RTOL: f64 = 1e-6;
 /// dotted key, the value as written and what is allowed.
 #[derive(Debug, Error)]
 pub enum ScenarioError {
-    /// The file could not be read.
-    #[error("{file}: cannot read: {cause}")]
+    /// The file could not be read: missing, unreadable, not a regular file, too large or not
+    /// text ([`crate::input::read_text`]).
+    #[error("{file}: {cause}")]
     Io {
         /// The file.
         file: String,
-        /// The I/O error (shown in the message, so not also chained as a `source`, which made
-        /// the command line print it twice).
-        cause: std::io::Error,
+        /// Why (shown in the message, so not also chained as a `source`, which made the command
+        /// line print it twice).
+        cause: InputError,
     },
     /// TOML syntax error.
     #[error("{file}: TOML syntax error at line {line}, column {column}: {message}")]
@@ -112,6 +115,15 @@ pub enum ScenarioError {
         /// What is wrong and what is expected.
         message: String,
     },
+    /// Valid values that the simulator cannot run together (a massless sphere with damping, an
+    /// explicit method on a rate-independent law): what it would refuse when setting the run up.
+    #[error("{file}: {message}")]
+    Setup {
+        /// The file.
+        file: String,
+        /// What cannot be simulated, and what to change.
+        message: String,
+    },
     /// A `--set KEY=VALUE` override that does not fit the file (a stage it does not have), or
     /// whose value the file's rules reject: named by the override rather than by the file's key
     /// and value.
@@ -136,6 +148,7 @@ impl ScenarioError {
             | ScenarioError::Syntax { file, .. }
             | ScenarioError::Value { file, .. }
             | ScenarioError::Key { file, .. }
+            | ScenarioError::Setup { file, .. }
             | ScenarioError::Override { file, .. } => file,
         }
     }
@@ -256,7 +269,8 @@ fn build(
     let stages = p.stages(&top, holder, base.is_some())?;
     let solver = p.solver(&top)?;
     let output = p.output(&top)?;
-    Ok(Scenario {
+    p.physics(&top, &material, holder, sphere, &initial, &stages)?;
+    let scenario = Scenario {
         rig: Rig {
             material,
             law,
@@ -273,7 +287,14 @@ fn build(
         source_text: text.to_string(),
         source_name: source_name.to_string(),
         overrides,
-    })
+    };
+    // What the simulator would refuse when it sets the run up is refused here, so `check` and
+    // every command agree with `run`.
+    checks::setup_check(&scenario).map_err(|e| ScenarioError::Setup {
+        file: source_name.to_string(),
+        message: e.to_string(),
+    })?;
+    Ok(scenario)
 }
 
 /// Only the `[material]` and `[adhesion]` sections of a file, for commands that need nothing else
@@ -304,7 +325,7 @@ pub fn parse_material_and_law(
 }
 
 fn read_text(path: &Path, name: &str) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|cause| ScenarioError::Io {
+    input::read_text(path, InputKind::Scenario).map_err(|cause| ScenarioError::Io {
         file: name.to_string(),
         cause,
     })
@@ -663,9 +684,33 @@ impl Parser<'_> {
         }
     }
 
+    /// The value, or an error when it exceeds the largest value the model carries for this key
+    /// ([`checks::upper_bound`]).
+    fn bounded(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
+        if let Some((max, why)) = checks::upper_bound(&s.key(k)) {
+            if n.v > max {
+                return Err(self.value_err(
+                    &s.key(k),
+                    &n.shown,
+                    format!("must not exceed {max:e} ({unit}): {why}"),
+                ));
+            }
+        }
+        if let Some((min, why)) = checks::lower_bound(&s.key(k)) {
+            if n.v < min {
+                return Err(self.value_err(
+                    &s.key(k),
+                    &n.shown,
+                    format!("must be at least {min:e} ({unit}): {why}"),
+                ));
+            }
+        }
+        Ok(n.v)
+    }
+
     fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
         if n.v.is_finite() && n.v >= f64::MIN_POSITIVE {
-            Ok(n.v)
+            self.bounded(s, k, n, unit)
         } else if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
             Err(self.value_err(
                 &s.key(k),
@@ -686,7 +731,7 @@ impl Parser<'_> {
 
     fn non_negative(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
         if n.v.is_finite() && n.v >= 0.0 {
-            Ok(n.v)
+            self.bounded(s, k, n, unit)
         } else {
             Err(self.value_err(
                 &s.key(k),
@@ -812,8 +857,8 @@ impl Parser<'_> {
                     Some(d) if Path::new(file).is_relative() => d.join(file),
                     _ => PathBuf::from(file),
                 };
-                let text = std::fs::read_to_string(&path).map_err(|e| {
-                    self.value_err(&key, &shown, format!("cannot read {}: {e}", path.display()))
+                let text = input::read_text(&path, InputKind::LawTable).map_err(|e| {
+                    self.value_err(&key, &shown, format!("{}: {e}", path.display()))
                 })?;
                 let table = TabulatedLaw::from_csv_str(&text, &path.display().to_string())
                     .map_err(|e| self.value_err(&key, &shown, e.to_string()))?;
@@ -908,10 +953,25 @@ impl Parser<'_> {
             return Ok(None);
         };
         self.check_keys(&s, BASE_KEYS, "")?;
-        let n = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
-        let amplitude = self.non_negative(&s, "amplitude", &n, LENGTH.unit)?;
-        let frequency =
-            self.req_positive(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
+        let na = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
+        let amplitude = self.non_negative(&s, "amplitude", &na, LENGTH.unit)?;
+        let n = self.required(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
+        let frequency = self.positive(&s, "frequency", &n, FREQUENCY.unit)?;
+        if !(checks::MIN_FREQUENCY..=checks::MAX_FREQUENCY).contains(&frequency) {
+            return Err(self.value_err(
+                &s.key("frequency"),
+                &n.shown,
+                format!(
+                    "must lie in [{:e}, {:e}] (Hz): a period longer than 1e6 s outlasts any run, \
+                     one shorter than 1 us is below the time resolution of a long run",
+                    checks::MIN_FREQUENCY,
+                    checks::MAX_FREQUENCY
+                ),
+            ));
+        }
+        if let Some(e) = checks::base_speed_error(amplitude, frequency) {
+            return Err(self.value_err(&s.key("amplitude"), &na.shown, e));
+        }
         let mut phase = 0.0;
         if let Some(n) = self.number(&s, "phase", ANGLE)? {
             if !(n.v.is_finite() && (0.0..2.0 * std::f64::consts::PI).contains(&n.v)) {
@@ -1006,6 +1066,55 @@ impl Parser<'_> {
                 Err(self.key_err("[initial]", "empty: give preload (N, > 0) or gap (m, > 0)"))
             }
         }
+    }
+
+    /// Combinations of valid values that JKR or the simulator cannot carry
+    /// ([`checks`]: a sphere too small for its jump-in radius, a static load whose contact
+    /// exceeds R, a weight lost to rounding).
+    fn physics(
+        &self,
+        top: &Section,
+        m: &Material,
+        holder: Holder,
+        sphere: Sphere,
+        initial: &Initial,
+        stages: &[Stage],
+    ) -> Result<()> {
+        if let Some(e) = checks::material_error(m) {
+            return Err(self.key_err("[material]", e));
+        }
+        let weight = sphere.mass * sphere.gravity;
+        if checks::spring_carries_weight(holder) {
+            if let Some(e) = checks::weight_error(m, weight) {
+                return Err(self.key_err(
+                    "[sphere]",
+                    format!(
+                        "mass = {} kg, gravity = {} m/s^2: {e}",
+                        sphere.mass, sphere.gravity
+                    ),
+                ));
+            }
+        }
+        if let Initial::Preload(p) = *initial {
+            if let Some(e) = checks::load_error(m, p) {
+                return Err(if top.table.get("initial").is_some() {
+                    self.value_err("initial.preload", show_float(p), e)
+                } else {
+                    self.key_err(
+                        "[sphere]",
+                        format!("the sphere rests on its weight m g = {p:e} N: {e}"),
+                    )
+                });
+            }
+        }
+        for (i, st) in stages.iter().enumerate() {
+            if let Until::Preload(p) = st.until {
+                if let Some(e) = checks::load_error(m, p) {
+                    return Err(self.value_err(&format!("stage[{i}].preload"), show_float(p), e));
+                }
+            }
+        }
+        Ok(())
     }
 
     fn stages(&self, top: &Section, holder: Holder, has_base: bool) -> Result<Vec<Stage>> {

@@ -8,7 +8,7 @@
 //!   θ = ωt + φ_a and the imposed δ_s, δ_c are rotated into the base's time frame:
 //!   δ1 = e^{iφ_a}(δ_s + iδ_c) (phasor X = x_s + i x_c; [`crate::describing`], "Phasors").
 //!   Means and δ_A need no rotation.
-//! - **linear transfer** (MODEL.md, eqs. 36–39 derived correctly) with k_c = (3/2) K a_0 at the
+//! - **linear transfer** (docs/MODEL.md, eqs. 36–39 derived correctly) with k_c = (3/2) K a_0 at the
 //!   static contact (w0) under the scene's mean load; its a_m, δ_m and F_m are the static values.
 //! - **paper transfer**: eqs. (36)–(37) as printed ([`crate::transfer::paper_printed`]), and the
 //!   far-from-resonance eq. (39), δ_s/X_b = A/B, reported separately.

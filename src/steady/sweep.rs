@@ -3,7 +3,7 @@
 //! follow the branch they are on and reveal hysteresis or jumps near a nonlinear resonance.
 //!
 //! Alongside, the two predictors that need no time integration: the corrected linear transfer
-//! (MODEL.md, eqs. 36–39, with k_c = (3/2) K a_0 at the static radius a_0 of the scene's mean
+//! (docs/MODEL.md, eqs. 36–39, with k_c = (3/2) K a_0 at the static radius a_0 of the scene's mean
 //! load) and the harmonic-balance predictor ([`crate::describing`]), itself continued along the
 //! sweep (each frequency's Newton started from the previous solution).
 //!

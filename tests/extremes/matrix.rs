@@ -215,7 +215,7 @@ pub fn summarise(r: &RunResult, chk: &Checker) -> String {
     } else if let Some(c) = r.last_cycle.as_ref() {
         s += &format!("; last-cycle ⟨F⟩ {:.4} mN", c.force_mean * 1e3);
     }
-    if let Some(i) = r.method.find(" steps taken implicitly") {
+    if let Some(i) = r.method.find(" steps implicit") {
         let n = r.method[..i].rsplit(' ').next().unwrap_or("");
         s += &format!("; {n} steps implicit");
     }
