@@ -529,12 +529,10 @@ fn every_good_file_runs_to_completion() {
 /// (tests/scenarios/fuzz-found, each file's comment says what and where). A `# bypass: KEY =
 /// VALUE` line sets a value that validation now refuses on the loaded scenario, to reach the
 /// defect through the library. Each must end (with a result or a clear error, within its
-/// budgets) once the simulator core is fixed; until then this test is ignored (KNOWN FAILING:
-/// `tabulated-beyond-last-row.toml` underflows, the `impact-loss-loop-*` files never end). Each
-/// runs on its own thread under a 30 s deadline: `cargo test --release --test scenario_files --
-/// --ignored`.
+/// budgets): the contact-loss/impact loops end with the simulator's no-progress error (or its
+/// event budget), the tabulated law past its last row runs (DP8 hands the collapsing steps to
+/// the implicit method). Each runs on its own thread under a 30 s deadline.
 #[test]
-#[ignore = "known simulator defects (src/dynamics): see tests/scenarios/fuzz-found"]
 fn fuzz_found_reproducers_run_to_completion() {
     let mut failures = Vec::new();
     for f in toml_files("tests/scenarios/fuzz-found") {
@@ -584,7 +582,9 @@ fn fuzz_found_reproducers_run_to_completion() {
             };
             tx.send(r).ok();
         });
-        match rx.recv_timeout(std::time::Duration::from_secs(30)) {
+        let outcome = rx.recv_timeout(std::time::Duration::from_secs(30));
+        eprintln!("{}: {outcome:?}", f.display());
+        match outcome {
             Ok(Ok(())) => {}
             Ok(Err(e)) if !e.contains("step size underflow") && !e.contains("never end") => {}
             Ok(Err(e)) => failures.push(format!("{}: {e}", f.display())),
