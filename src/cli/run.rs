@@ -91,7 +91,9 @@ pub fn run(a: &RunArgs) -> Result<()> {
         ProgressStyle::with_template("{spinner} [{elapsed}] {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_spinner()),
     );
-    bar.enable_steady_tick(Duration::from_millis(200));
+    if !bar.is_hidden() {
+        bar.enable_steady_tick(Duration::from_millis(200));
+    }
     let mut obs = Progress {
         inner: &mut writer,
         bar: bar.clone(),
