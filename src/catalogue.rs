@@ -765,17 +765,20 @@ pub enum Bundled {
     Resonance400,
     /// `scenarios/impacts.toml`.
     Impacts,
+    /// `scenarios/gentle-unload-300hz.toml`.
+    GentleUnload300,
 }
 
 impl Bundled {
     /// Every bundled scenario.
-    pub const ALL: [Bundled; 6] = [
+    pub const ALL: [Bundled; 7] = [
         Bundled::PaperProtocol200,
         Bundled::PaperProtocol300,
         Bundled::PaperProtocol400,
         Bundled::QuasiStaticJkr,
         Bundled::Resonance400,
         Bundled::Impacts,
+        Bundled::GentleUnload300,
     ];
 
     /// Path relative to the crate root, e.g. `scenarios/impacts.toml`.
@@ -787,6 +790,7 @@ impl Bundled {
             Bundled::QuasiStaticJkr => "scenarios/quasi-static-jkr.toml",
             Bundled::Resonance400 => "scenarios/resonance-400hz.toml",
             Bundled::Impacts => "scenarios/impacts.toml",
+            Bundled::GentleUnload300 => "scenarios/gentle-unload-300hz.toml",
         }
     }
 
@@ -799,6 +803,7 @@ impl Bundled {
             Bundled::QuasiStaticJkr => include_str!("../scenarios/quasi-static-jkr.toml"),
             Bundled::Resonance400 => include_str!("../scenarios/resonance-400hz.toml"),
             Bundled::Impacts => include_str!("../scenarios/impacts.toml"),
+            Bundled::GentleUnload300 => include_str!("../scenarios/gentle-unload-300hz.toml"),
         }
     }
 

@@ -30,6 +30,7 @@ pub mod quadrature;
 pub mod rig;
 pub mod run_plot;
 pub mod scenario;
+pub mod sensitivity;
 pub mod steady;
 pub mod sweep;
 pub mod transfer;

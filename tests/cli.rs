@@ -858,3 +858,49 @@ fn gs_fit_reads_a_runs_timeseries() {
     let help = djkr(&["gs-fit", "--help"]);
     assert!(String::from_utf8_lossy(&help.stdout).contains("docs/gs-fit/unload-record.csv"));
 }
+
+/// `run --sensitivity N`: N twins, a `sensitivity` section in summary.json with the runs and
+/// the spread, and a printed verdict; a chaotic pull-off is printed with the digits the twins
+/// share, not seven.
+#[test]
+fn run_sensitivity_reports_the_spread_and_prints_only_shared_digits() {
+    let out = tempfile::tempdir().unwrap();
+    let gentle = scenario("gentle-unload-300hz.toml");
+    let od = out.path().join("g");
+    let o = djkr(&[
+        "run",
+        s(&gentle),
+        "--sensitivity",
+        "3",
+        "--out",
+        od.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("SENSITIVE"), "{text}");
+    let line = text.lines().find(|l| l.contains("pull-off force")).unwrap();
+    // "-700 mN" or "-690 mN": no decimals once the twins disagree in the second digit.
+    assert!(
+        !line.contains(". mN") && !line.split_whitespace().nth(2).unwrap().contains('.'),
+        "{line}"
+    );
+    let j: Value =
+        serde_json::from_str(&std::fs::read_to_string(od.join("summary.json")).unwrap()).unwrap();
+    let sens = &j["sensitivity"];
+    assert_eq!(sens["runs"].as_array().unwrap().len(), 4);
+    assert_eq!(sens["key"], "base.amplitude");
+    assert_eq!(sens["sensitive"], true);
+    assert_eq!(
+        sens["runs"][0]["pull_off_force"].as_f64(),
+        j["pull_off"]["force"].as_f64()
+    );
+    // Without the flag: four digits and a pointer to it.
+    let o = djkr(&["run", s(&gentle), "--out", od.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("--sensitivity measures"), "{text}");
+    assert!(read_summary(&od).get("sensitivity").is_none());
+}
+
+fn read_summary(dir: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}

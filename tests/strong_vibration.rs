@@ -234,3 +234,37 @@ fn scan_of_base_amplitudes() {
         }
     }
 }
+
+/// Twins 1e-12 apart tell the two regimes apart (`djkr run --sensitivity`): on the heavy rig
+/// of the paper protocol the pull-off is deterministic (twins agree to integration accuracy,
+/// below `sensitivity::SENSITIVE_SPREAD`), on the gentle rig it is chaotic (the period-1 orbit
+/// is lost well before detachment: percent, `docs/studies/sensitivity.md`).
+#[test]
+fn twins_tell_a_deterministic_from_a_chaotic_pull_off() {
+    use djkr::sensitivity;
+    for (b, chaotic) in [
+        (Bundled::PaperProtocol300, false),
+        (Bundled::GentleUnload300, true),
+    ] {
+        let s = b.scenario().unwrap();
+        let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
+        let x = sensitivity::twins(&s, &r, 3, sensitivity::EPSILON)
+            .expect("both have a base")
+            .unwrap_or_else(|e| panic!("{}: {e}", b.path()));
+        assert_eq!(x.runs.len(), 4);
+        assert_eq!(
+            x.sensitive,
+            chaotic,
+            "{}: spread {:e}",
+            b.path(),
+            x.force_spread
+        );
+        if chaotic {
+            assert!(x.force_spread > 1e-3, "{}", x.force_spread);
+            assert!(x.digits <= 3);
+        } else {
+            assert!(x.force_spread < 1e-7, "{}", x.force_spread);
+            assert!(x.time_spread < 1e-6, "{}", x.time_spread);
+        }
+    }
+}

@@ -7,6 +7,7 @@ use djkr::dynamics::{self, Event, Observer, RunResult, Sample};
 use djkr::output::RunWriter;
 use djkr::scenario::checks;
 use djkr::scenario::parse::{ScenarioError, ScenarioSource};
+use djkr::sensitivity::Sensitivity;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -29,6 +30,13 @@ pub struct RunArgs {
     /// (same as `[output] plot = true`).
     #[arg(long)]
     plot: bool,
+    /// Also run N twins (default 4) whose base amplitude (without a base: initial preload or
+    /// gap) differs by k·1e-12 relative, in parallel, and report how far the pull-off moves:
+    /// under vibration the approach to pull-off can be chaotic, and then only a distribution
+    /// converges (README, "How reproducible is a pull-off?"). Adds `sensitivity` to summary.json.
+    #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "4",
+          value_parser = clap::value_parser!(u16).range(1..=256))]
+    sensitivity: Option<u16>,
     #[command(flatten)]
     set: SetArgs,
 }
@@ -114,6 +122,13 @@ pub fn run(a: &RunArgs) -> Result<()> {
             )));
         }
     };
+    let sens = match a.sensitivity {
+        Some(n) => sensitivity(&scn, &result, n.into())?,
+        None => None,
+    };
+    if let Some(s) = &sens {
+        writer.add_summary_section("sensitivity", serde_json::to_value(s)?);
+    }
     let paths = writer
         .finish(&result)
         .with_context(|| format!("writing results into {}", out.display()))?;
@@ -135,7 +150,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         println!("{}", text.trim_end());
         return Ok(());
     }
-    print_summary(&scn, &result, &warnings);
+    print_summary(&scn, &result, sens.as_ref(), &warnings);
     println!("\nwrote:");
     for p in paths
         .all()
@@ -147,7 +162,54 @@ pub fn run(a: &RunArgs) -> Result<()> {
     Ok(())
 }
 
-fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[String]) {
+/// The twins of `--sensitivity` (`None` with a note when the scene has nothing to perturb).
+fn sensitivity(
+    scn: &djkr::scenario::Scenario,
+    result: &RunResult,
+    members: usize,
+) -> Result<Option<Sensitivity>> {
+    eprintln!(
+        "--sensitivity: running {members} twin(s) of {} in parallel ...",
+        scn.source_name
+    );
+    match djkr::sensitivity::twins(scn, result, members, djkr::sensitivity::EPSILON) {
+        None => {
+            eprintln!(
+                "--sensitivity: nothing to perturb (no base motion and an explicit initial \
+                 state); no twins run"
+            );
+            Ok(None)
+        }
+        Some(r) => Ok(Some(r.with_context(|| {
+            format!("{}: a --sensitivity twin failed", scn.source_name)
+        })?)),
+    }
+}
+
+/// `x` rounded to `digits` significant digits (at least 2), in plain notation (`-684.2`,
+/// `-700`).
+fn significant(x: f64, digits: usize) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let digits = digits.max(2) as i32;
+    let magnitude = x.abs().log10().floor() as i32;
+    let decimals = (digits - 1 - magnitude).max(0) as usize;
+    let unit = 10f64.powi(magnitude + 1 - digits);
+    let rounded = if decimals == 0 {
+        (x / unit).round() * unit
+    } else {
+        x
+    };
+    format!("{rounded:.decimals$}")
+}
+
+fn print_summary(
+    scn: &djkr::scenario::Scenario,
+    r: &RunResult,
+    sens: Option<&Sensitivity>,
+    warnings: &[String],
+) {
     // Every line without a `-0.0`.
     macro_rules! line {
         ($($t:tt)*) => {
@@ -160,6 +222,15 @@ fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[Stri
         scn.stages.len(),
         r.method
     );
+    let f0 = scn.rig.material.static_pull_off_force();
+    // Under vibration the approach to pull-off can be chaotic: without a measurement, four
+    // significant digits and a pointer to --sensitivity; with one, the digits the twins share.
+    let vibrating = scn.rig.base.is_some() && r.cycle_count > 0;
+    let digits = match sens {
+        Some(s) => s.digits.min(7),
+        None if vibrating => 4,
+        None => 7,
+    };
     if !checks::pull_off_recorded(r) {
         line!(
             "  no pull-off        no pull-off force recorded (see the warning){}",
@@ -167,33 +238,79 @@ fn print_summary(scn: &djkr::scenario::Scenario, r: &RunResult, warnings: &[Stri
         );
     } else if r.detached {
         line!(
-            "  pull-off force     {:.6} mN  (amplification {:.4} over −3/2 π R w0 = {:.6} mN)",
-            r.pull_off.force * 1e3,
-            r.pull_off.amplification,
-            scn.rig.material.static_pull_off_force() * 1e3
+            "  pull-off force     {} mN  (amplification {} over −3/2 π R w0 = {:.6} mN)",
+            significant(r.pull_off.force * 1e3, digits),
+            significant(r.pull_off.amplification, digits),
+            f0 * 1e3
         );
-        line!("  reached at         t = {:.6} s", r.pull_off.time);
+        line!(
+            "  reached at         t = {} s",
+            significant(r.pull_off.time, digits.max(3))
+        );
     } else {
         line!(
-            "  no detachment; most tensile {} force {:.6} mN at t = {:.6} s",
+            "  no detachment; most tensile {} force {} mN at t = {:.6} s",
             if scn.rig.base.is_some() {
                 "cycle-averaged"
             } else {
                 "contact"
             },
-            r.pull_off.force * 1e3,
+            significant(r.pull_off.force * 1e3, digits),
             r.pull_off.time
         );
     }
-    let mut counts = std::collections::BTreeMap::new();
-    for e in &r.events {
-        // The names summary.json and events.csv use (contact-loss, pull-off, ...).
-        let name = match serde_json::to_value(e.kind) {
-            Ok(serde_json::Value::String(s)) => s,
-            _ => "event".to_string(),
-        };
-        *counts.entry(name).or_insert(0usize) += 1;
+    match sens {
+        Some(s) if s.sensitive => {
+            line!(
+                "  sensitivity        SENSITIVE: {} runs with {} differing by up to {:.0e} \
+                 relative give pull-off forces {} … {} mN (sd {} mN, spread {:.1} %) and \
+                 times {:.3} s apart: only the digits shown hold. Report a distribution: \
+                 djkr sweep FILE --ensemble N (this sd needs {} members for a standard error \
+                 of 1 %)",
+                s.runs.len(),
+                s.key,
+                s.epsilon * (s.runs.len() - 1) as f64,
+                significant(s.force_min * 1e3, 4),
+                significant(s.force_max * 1e3, 4),
+                significant(s.force_std * 1e3, 2),
+                100.0 * s.force_spread,
+                s.time_spread,
+                s.members_for(0.01 * s.force_mean.abs())
+            );
+        }
+        Some(s) => {
+            line!(
+                "  sensitivity        deterministic: {} runs with {} differing by up to \
+                 {:.0e} relative agree to {:.1e} in the pull-off force",
+                s.runs.len(),
+                s.key,
+                s.epsilon * (s.runs.len() - 1) as f64,
+                s.force_spread
+            );
+        }
+        None if vibrating && r.detached => {
+            line!(
+                "  note               under vibration the approach to pull-off can be chaotic \
+                 (tiny input changes move it by percent): --sensitivity measures how many \
+                 digits hold"
+            );
+        }
+        None => {}
     }
+    let counts: Vec<(String, u64)> = r
+        .event_counts
+        .by_kind()
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(k, n)| {
+            // The names summary.json and events.csv use (contact-loss, pull-off, ...).
+            let name = match serde_json::to_value(k) {
+                Ok(serde_json::Value::String(s)) => s,
+                _ => "event".to_string(),
+            };
+            (name, n)
+        })
+        .collect();
     let list: Vec<String> = counts.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
     line!("  events             {}", list.join(", "));
     line!(

@@ -257,6 +257,7 @@ pub struct RunWriter {
     cycles: u64,
     stream: Option<Streaming>,
     error: Option<OutputError>,
+    sections: Vec<(String, serde_json::Value)>,
     // Last: released after the partials are gone.
     _lock: Option<File>,
 }
@@ -290,6 +291,7 @@ impl RunWriter {
             cycles: 0,
             stream: None,
             error: None,
+            sections: Vec::new(),
             _lock: lock,
         })
     }
@@ -302,6 +304,11 @@ impl RunWriter {
     /// This run's identity, shared by its `run.h5` and `summary.json` (`run_id`).
     pub fn run_id(&self) -> &str {
         &self.run_id
+    }
+
+    /// Add a top-level section `key` to summary.json (after the standard ones).
+    pub fn add_summary_section(&mut self, key: &str, value: serde_json::Value) {
+        self.sections.push((key.to_string(), value));
     }
 
     /// True once the run is long enough that its rows are streamed to disk.
@@ -428,8 +435,14 @@ impl RunWriter {
                 .map(|n| n.to_string_lossy().into_owned());
             files.bytes.push((name.unwrap_or_default(), len));
         }
-        let json =
-            summary::summary_json(&self.scenario, result, self.samples, &files, &self.run_id);
+        let json = summary::summary_json(
+            &self.scenario,
+            result,
+            self.samples,
+            &files,
+            &self.run_id,
+            &self.sections,
+        );
         // Last: its presence marks a complete run.
         staged.push(AtomicFile::write_tagged(
             &self.target(SUMMARY_NAME),

@@ -77,6 +77,10 @@ pub struct SummaryFiles {
     pub bytes: Vec<(String, u64)>,
 }
 
+/// Further top-level sections of summary.json, written after the standard ones (e.g.
+/// `sensitivity`, from `djkr run --sensitivity`).
+pub type Sections = [(String, Value)];
+
 /// Builds JSON objects while applying the non-finite rule.
 #[derive(Default)]
 struct Builder {
@@ -177,6 +181,7 @@ pub fn summary_json(
     samples: u64,
     files: &SummaryFiles,
     run_id: &str,
+    sections: &Sections,
 ) -> String {
     let mut b = Builder::default();
 
@@ -309,6 +314,9 @@ pub fn summary_json(
     let mut out = String::from("{\n");
     for (k, v) in &top {
         out.push_str(&format!("  {}: {},\n", Value::from(*k), v));
+    }
+    for (k, v) in sections {
+        out.push_str(&format!("  {}: {},\n", Value::from(k.as_str()), v));
     }
     out.push_str("  \"events\": [");
     for (i, e) in events.iter().enumerate() {
