@@ -69,8 +69,7 @@ fn peak_rss(file: &Path, out: &Path) -> (u64, u64) {
         "djkr run failed: status {status}"
     );
     let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     // ru_maxrss is in kilobytes on Linux.
     (
         usage.ru_maxrss as u64 * 1024,

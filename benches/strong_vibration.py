@@ -1,0 +1,206 @@
+#!/usr/bin/env python3
+"""Release-build benchmarks of the strong-vibration engine (issue 11), in one run.
+
+    cargo build --release
+    python3 benches/strong_vibration.py [--peer PATH/TO/peer] [--repeats N] [--skip-reference]
+
+1. The 18-point table: scenarios/paper-protocol-{200,300,400}hz.toml with [base] amplitude
+   10, 20, 60, 80, 100, 150 um and the unload's max_duration 400 s, `auto`, rtol 1e-8, two
+   runs at a time (2 cores); wall time of the whole table (median of the passes) and every
+   pull-off against a converged implicit run (rtol 1e-9, computed here unless --skip-reference).
+2. The paper's protocol at full length (60 s dwells, 300 Hz, 12 kHz samples): wall time and
+   peak RSS of `djkr run` (median of the repeats).
+3. With --peer: `djkr run benches/scenes/vib400.toml` against `peer rk8pd RTOL vib400` (the
+   compiled C/GSL peer) at rtol 1e-6, 1e-8, 1e-10: each program's self-error (a(1 s) against
+   its own run at rtol 1e-12), whole-process wall and CPU times (median of interleaved runs) and
+   their ratio.
+
+Prints a markdown report. Nothing is written into the repository; run outputs go to a
+temporary directory. Timings on a shared machine are noisy: the report gives medians and the
+load average.
+"""
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DJKR = os.path.join(ROOT, "target", "release", "djkr")
+
+
+def run_child(argv):
+    """Run argv for its output: (wall s, stdout)."""
+    t0 = time.perf_counter()
+    p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    out, err = p.communicate()
+    wall = time.perf_counter() - t0
+    if p.returncode != 0:
+        raise RuntimeError(f"{' '.join(argv)} failed: {err.decode()[-500:]}")
+    return wall, out.decode()
+
+
+def run_measured(argv):
+    """Run argv with os.wait4: (wall s, cpu s, peak RSS bytes, stdout)."""
+    r, w = os.pipe()
+    t0 = time.perf_counter()
+    pid = os.fork()
+    if pid == 0:
+        os.dup2(w, 1)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, 2)
+        os.close(r)
+        os.execv(argv[0], argv)
+    os.close(w)
+    chunks = []
+    while True:
+        b = os.read(r, 65536)
+        if not b:
+            break
+        chunks.append(b)
+    _, status, ru = os.wait4(pid, 0)
+    wall = time.perf_counter() - t0
+    os.close(r)
+    if status != 0:
+        raise RuntimeError(f"{' '.join(argv)} failed with status {status}")
+    return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss * 1024, b"".join(chunks).decode()
+
+
+def djkr_json(args, out):
+    _, text = run_child([DJKR, "run", *args, "--out", out, "--json"])
+    return json.loads(text)
+
+
+def table18(tmp, passes, reference):
+    freqs = [200, 300, 400]
+    amps = [10, 20, 60, 80, 100, 150]
+    points = [(f, a) for f in freqs for a in amps]
+
+    def one(p, extra, tag):
+        f, a = p
+        out = os.path.join(tmp, f"t18-{tag}-{f}-{a}")
+        return djkr_json(
+            [os.path.join(ROOT, f"scenarios/paper-protocol-{f}hz.toml"),
+             "--set", f"base.amplitude={a}um", "--set", "stage[3].max_duration=400", *extra],
+            out)
+
+    walls = []
+    results = None
+    for k in range(passes):
+        t0 = time.perf_counter()
+        with ThreadPoolExecutor(2) as ex:
+            results = list(ex.map(lambda p: one(p, [], f"p{k}"), points))
+        walls.append(time.perf_counter() - t0)
+    refs = None
+    if reference:
+        with ThreadPoolExecutor(2) as ex:
+            refs = list(ex.map(lambda p: one(p, ["--set", "solver.method=implicit",
+                                                 "--set", "solver.rtol=1e-9",
+                                                 "--set", "solver.envelope=off"], "ref"), points))
+    print("## 1. The 18-point table (auto, rtol 1e-8, 2 runs at a time)\n")
+    print(f"Whole table: median {statistics.median(walls):.2f} s over {passes} passes "
+          f"({', '.join(f'{w:.2f}' for w in walls)} s).\n")
+    print("| f (Hz) | X_b (um) | amplification | run wall (s) | periods skipped |"
+          + (" vs implicit rtol 1e-9 |" if refs else ""))
+    print("|---|---|---|---|---|" + ("---|" if refs else ""))
+    worst = 0.0
+    for i, (f, a) in enumerate(points):
+        r = results[i]
+        row = (f"| {f} | {a} | {r['pull_off']['amplification']:.4f} | "
+               f"{r['stats']['wall_s']:.3f} | {r['envelope']['periods_skipped']} |")
+        if refs:
+            rel = abs(r["pull_off"]["force"] / refs[i]["pull_off"]["force"] - 1)
+            worst = max(worst, rel)
+            row += f" {rel:.1e} |"
+        print(row)
+    if refs:
+        print(f"\nWorst pull-off difference from the implicit reference: {worst:.1e}.\n")
+
+
+def full_length(tmp, repeats):
+    argv = [DJKR, "run", os.path.join(ROOT, "scenarios/paper-protocol-300hz.toml"),
+            "--set", "stage[1].duration=60", "--set", "stage[2].duration=60",
+            "--out", os.path.join(tmp, "full"), "--json"]
+    rows = [run_measured(argv) for _ in range(repeats)]
+    j = json.loads(rows[-1][3])
+    print("## 2. The paper's protocol at full length (60 s dwells, 300 Hz, 12 kHz samples)\n")
+    print(f"Wall {statistics.median(r[0] for r in rows):.3f} s, CPU "
+          f"{statistics.median(r[1] for r in rows):.3f} s, peak RSS "
+          f"{statistics.median(r[2] for r in rows) / 2**20:.1f} MiB (medians of {repeats}); "
+          f"{j['samples']} samples, run.h5 {j['file_bytes']['run.h5'] / 1e6:.0f} MB, "
+          f"{j['envelope']['periods_skipped']} periods skipped, amplification "
+          f"{j['pull_off']['amplification']:.4f}.\n")
+
+
+def peer_compare(tmp, peer, repeats):
+    scene = os.path.join(ROOT, "benches/scenes/vib400.toml")
+    out = os.path.join(tmp, "vib400")
+
+    def djkr_argv(rtol):
+        return [DJKR, "run", scene, "--set", f"solver.rtol={rtol}", "--out", out]
+
+    def peer_argv(rtol):
+        return [peer, "rk8pd", f"{rtol}", "vib400"]
+
+    ref_d = djkr_json([scene, "--set", "solver.rtol=1e-12", "--set", "solver.envelope=off"], out)
+    a_ref_d = ref_d["final_state"]["a"]
+    a_ref_p = json.loads(run_child(peer_argv(1e-12))[1])["y_end"][2]
+    print("## 3. djkr against the compiled peer on vib400 (1 s at 400 Hz)\n")
+    print("Self-error: |a(1 s) − a_ref(1 s)| / a_ref against each program's own rtol 1e-12 run "
+          "(djkr's reference without envelope following). Whole-process medians of "
+          f"{repeats} interleaved runs.\n")
+    print("| rtol | djkr self-error | peer self-error | djkr wall (ms) | peer wall (ms) | "
+          "wall ratio | djkr CPU (ms) | peer CPU (ms) | CPU ratio | djkr rhs evals | peer nfev |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for rtol in [1e-6, 1e-8, 1e-10]:
+        dj = djkr_json([scene, "--set", f"solver.rtol={rtol}"], out)
+        pj = json.loads(run_child(peer_argv(rtol))[1])
+        e_d = abs(dj["final_state"]["a"] - a_ref_d) / a_ref_d
+        e_p = abs(pj["y_end"][2] - a_ref_p) / a_ref_p
+        d_runs, p_runs = [], []
+        for _ in range(repeats):
+            d_runs.append(run_measured(djkr_argv(rtol)))
+            p_runs.append(run_measured(peer_argv(rtol)))
+        dw = statistics.median(r[0] for r in d_runs)
+        pw = statistics.median(r[0] for r in p_runs)
+        dc = statistics.median(r[1] for r in d_runs)
+        pc = statistics.median(r[1] for r in p_runs)
+        wr = statistics.median(d[0] / p[0] for d, p in zip(d_runs, p_runs))
+        cr = statistics.median(d[1] / max(p[1], 1e-6) for d, p in zip(d_runs, p_runs))
+        print(f"| {rtol:.0e} | {e_d:.1e} | {e_p:.1e} | {dw * 1e3:.1f} | {pw * 1e3:.1f} | "
+              f"{wr:.2f} | {dc * 1e3:.1f} | {pc * 1e3:.1f} | {cr:.2f} | "
+              f"{dj['stats']['rhs_evals']} | {pj['nfev']} |")
+    print()
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--peer", help="path to the compiled peer (../shared/peers/c-gsl/peer)")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--passes", type=int, default=2)
+    ap.add_argument("--skip-reference", action="store_true")
+    ap.add_argument("--only", choices=["table", "full", "peer"])
+    a = ap.parse_args()
+    if not os.path.exists(DJKR):
+        sys.exit(f"{DJKR} missing: run `cargo build --release` first")
+    print("# Strong-vibration benchmarks\n")
+    print(f"{time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, {os.cpu_count()} CPUs, "
+          f"load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}.\n")
+    with tempfile.TemporaryDirectory() as tmp:
+        if a.only in (None, "table"):
+            table18(tmp, a.passes, not a.skip_reference)
+        if a.only in (None, "full"):
+            full_length(tmp, a.repeats)
+        if a.only in (None, "peer"):
+            if a.peer:
+                peer_compare(tmp, os.path.abspath(a.peer), a.repeats)
+            else:
+                print("(peer comparison skipped: give --peer PATH)\n")
+
+
+if __name__ == "__main__":
+    main()
