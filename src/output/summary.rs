@@ -4,7 +4,7 @@
 //! {
 //!   "format_version": 1,
 //!   "djkr_version": "0.1.0",
-//!   "run_id": "20261124T063900-4f2a-1c9e8b",
+//!   "run_id": "1795500000.123456-41234",
 //!   "scenario": "scenarios/paper-protocol-300hz.toml --set base.amplitude=30um",
 //!   "overrides": ["base.amplitude=30um"],
 //!   "method": "dopri5 (auto: ...)",
@@ -14,6 +14,8 @@
 //!   "samples": 1000,
 //!   "envelope": {"jumps": 12, "periods_skipped": 3400, "trial_periods": 40, "rejected": 2},
 //!   "events_listed": 12,
+//!   "file_bytes": {"hdf5": 183424, "timeseries_csv": 91233},
+//!   "sensitivity": {"key": "base.amplitude", "epsilon": 1e-12, "force_spread": 3.1e-2, "digits": 1, "sensitive": true, "runs": [...], ...},
 //!   "final_state": {"F": 0.0, "G": 0.0, "a": 0.0, ..., "stage": 3, "t": 12.4, ...},
 //!   "cycles": {"count": 3600, "last": {"force_mean": -0.05, "index": 3599, ...}},
 //!   "event_counts": {"impact": 3, "pull-off": 1, ...},
@@ -32,8 +34,9 @@
 //! beyond 0.2 R, no pull-off recorded; always present, empty without).
 //!
 //! `scenario` names the file and its `--set` overrides; `overrides` lists them (`KEY=VALUE` as
-//! given; always present, empty when the file ran as written). `run_id` is the same string as
-//! the root attribute `run_id` of `run.h5`: files of one run carry one id. `event_counts` counts
+//! given; always present, empty when the file ran as written). `run_id` (Unix seconds.microseconds at
+//! the start of the run, then the process id) is the same string as the root attribute `run_id`
+//! of `run.h5`: files of one run carry one id. `event_counts` counts
 //! every event of the run; `events` lists the first `events_listed` of them (at most 10 000; the
 //! HDF5 file has them all). `envelope` says how many periods envelope following jumped over
 //! (they have no samples and no records).
