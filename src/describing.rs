@@ -890,41 +890,8 @@ pub fn at_contact_amplitude(
             "mean equation at a_A = {a_amp} m, omega = {omega} rad/s: {why}"
         ))
     };
-    // Bracket: the residual increases with a_m on the branch of the static contact.
-    let lo_limit = -a_amp;
-    let (mut lo, mut hi) = (st.a, st.a);
-    let (mut rlo, mut clo) = mean(lo).ok_or_else(|| no_root("cycle failed"))?;
-    let (mut rhi, mut chi) = (rlo, clo);
-    let mut step = 0.1 * st.a.max(a_amp);
-    for _ in 0..200 {
-        if rlo <= 0.0 && rhi >= 0.0 {
-            break;
-        }
-        if rlo > 0.0 {
-            hi = lo;
-            rhi = rlo;
-            chi = clo;
-            lo = (lo - step).max(lo_limit);
-            let v = mean(lo).ok_or_else(|| no_root("cycle failed"))?;
-            rlo = v.0;
-            clo = v.1;
-            if rlo > 0.0 && lo <= lo_limit {
-                return Err(no_root("positive down to a_m = -a_A"));
-            }
-        } else {
-            lo = hi;
-            rlo = rhi;
-            clo = chi;
-            hi += step;
-            let v = mean(hi).ok_or_else(|| no_root("cycle failed"))?;
-            rhi = v.0;
-            chi = v.1;
-        }
-        step *= 2.0;
-    }
-    if !(rlo <= 0.0 && rhi >= 0.0) {
-        return Err(no_root("no sign change found"));
-    }
+    let ((mut lo, mut rlo, clo), (mut hi, mut rhi, chi)) =
+        bracket_mean_root(&mean, &no_root, st.a, a_amp)?;
     // Illinois false position.
     let mut side = 0;
     let mut best = if rlo.abs() < rhi.abs() {
@@ -963,11 +930,83 @@ pub fn at_contact_amplitude(
         }
     }
     let (a_m, c, _) = best;
+    let q = base_phasor(rig, omega, &c)?;
+    let xb = q.norm();
+    if !(xb.is_finite() && xb > 0.0) {
+        return Err(no_root("no first harmonic"));
+    }
+    let psi = -q.im.atan2(q.re);
+    let pb = Balance {
+        rig,
+        x_k: st.x_k,
+        xb,
+        omega,
+    };
+    let e = pb
+        .eval([a_m, a_amp.ln(), psi])
+        .ok_or_else(|| no_root("cycle failed at the solution"))?;
+    Ok(pb.finish(&e, [a_m, a_amp.ln(), psi], 0))
+}
+
+/// One end of [`bracket_mean_root`]'s bracket: a_m, the residual there and its cycle.
+type BracketEnd = (f64, f64, Cycle);
+
+/// A sign change of the mean equation's residual `mean(a_m)` (increasing with a_m on the branch
+/// of the static contact), searched from the static radius `a_static` in steps doubling from a
+/// tenth of the larger of it and `a_amp`, not below a_m = −a_A: the ends (a_m, residual, cycle)
+/// with the residual ≤ 0 at the lower one and ≥ 0 at the upper one.
+fn bracket_mean_root(
+    mean: &impl Fn(f64) -> Option<(f64, Cycle)>,
+    no_root: &impl Fn(&str) -> DescribingError,
+    a_static: f64,
+    a_amp: f64,
+) -> Result<(BracketEnd, BracketEnd), DescribingError> {
+    let lo_limit = -a_amp;
+    let (mut lo, mut hi) = (a_static, a_static);
+    let (mut rlo, mut clo) = mean(lo).ok_or_else(|| no_root("cycle failed"))?;
+    let (mut rhi, mut chi) = (rlo, clo);
+    let mut step = 0.1 * a_static.max(a_amp);
+    for _ in 0..200 {
+        if rlo <= 0.0 && rhi >= 0.0 {
+            break;
+        }
+        if rlo > 0.0 {
+            hi = lo;
+            rhi = rlo;
+            chi = clo;
+            lo = (lo - step).max(lo_limit);
+            let v = mean(lo).ok_or_else(|| no_root("cycle failed"))?;
+            rlo = v.0;
+            clo = v.1;
+            if rlo > 0.0 && lo <= lo_limit {
+                return Err(no_root("positive down to a_m = -a_A"));
+            }
+        } else {
+            lo = hi;
+            rlo = rhi;
+            clo = chi;
+            hi += step;
+            let v = mean(hi).ok_or_else(|| no_root("cycle failed"))?;
+            rhi = v.0;
+            chi = v.1;
+        }
+        step *= 2.0;
+    }
+    if !(rlo <= 0.0 && rhi >= 0.0) {
+        return Err(no_root("no sign change found"));
+    }
+    Ok(((lo, rlo, clo), (hi, rhi, chi)))
+}
+
+/// The first harmonic's balance for the cycle `c` in the θ frame: q with X_b = |q| and
+/// ψ = −arg q (sphere damping: q = δ1θ + F1θ/Z; contact damping: q = ((A + iD) δ1θ + F1θ)/A).
+/// Errors when Z (or A) vanishes.
+fn base_phasor(rig: &Rig, omega: f64, c: &Cycle) -> Result<C, DescribingError> {
     let a = rig.spring_stiffness() - rig.mass() * omega * omega;
     let d = rig.damping_coefficient() * omega;
     let d1 = C::new(c.delta_sin, c.delta_cos);
     let f1 = C::new(c.force_sin, c.force_cos);
-    let q = match rig.damping_on() {
+    Ok(match rig.damping_on() {
         DampingOn::Sphere => {
             if a.hypot(d) <= 0.0 {
                 return Err(ParamError::new(
@@ -990,22 +1029,7 @@ pub fn at_contact_amplitude(
             }
             (C::new(a, d) * d1 + f1) * (1.0 / a)
         }
-    };
-    let xb = q.norm();
-    if !(xb.is_finite() && xb > 0.0) {
-        return Err(no_root("no first harmonic"));
-    }
-    let psi = -q.im.atan2(q.re);
-    let pb = Balance {
-        rig,
-        x_k: st.x_k,
-        xb,
-        omega,
-    };
-    let e = pb
-        .eval([a_m, a_amp.ln(), psi])
-        .ok_or_else(|| no_root("cycle failed at the solution"))?;
-    Ok(pb.finish(&e, [a_m, a_amp.ln(), psi], 0))
+    })
 }
 
 /// Number of points per decade of a_A in [`solutions`]' scan of the branch.

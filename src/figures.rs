@@ -409,7 +409,6 @@ pub fn figs4to8_table(rows: &[TableRow]) -> Table {
 }
 
 /// Write the chosen figures into `out_dir` as CSV + PNG + SVG; returns the files written.
-#[allow(clippy::float_cmp)] // series are selected by grid values copied from the grid, not computed
 pub fn write_figures(
     out_dir: &Path,
     which: &[FigureId],
@@ -432,85 +431,21 @@ pub fn write_figures(
                 let p = out_dir.join("fig2.csv");
                 fig2_table(&curves).save_csv(&p)?;
                 files.push(p);
-                let mut fig = Figure::new(
-                    "Fig. 2: indentation over one cycle (200 Hz, a_A = 1 mm)",
-                    "ωt (rad)",
-                    "δ (µm)",
-                );
-                for (k, c) in curves.iter().enumerate() {
-                    fig = fig.with_series(
-                        Series::new(
-                            format!("a_m = {:.0} µm", c.a_mean * 1e6),
-                            c.theta.clone(),
-                            c.delta.iter().map(|d| d * 1e6).collect(),
-                            Style::Line,
-                        )
-                        .with_color(k),
-                    );
-                }
-                push_plot(&mut files, &fig, "fig2")?;
+                push_plot(&mut files, &fig2_figure(&curves), "fig2")?;
             }
             FigureId::Fig3a => {
                 let curves = fig3a(m, law, &FIG3A_AMPLITUDES, beta, 200)?;
                 let p = out_dir.join("fig3a.csv");
                 fig3a_table(&curves).save_csv(&p)?;
                 files.push(p);
-                let mut fig = Figure::new(
-                    format!("Fig. 3(a): F_m vs δ_m at 400 Hz (dashed: eq. 18, β = {beta})"),
-                    "δ_m (µm)",
-                    "F_m (N)",
-                )
-                .with_legend(LegendPosition::LowerRight);
-                for (k, c) in curves.iter().enumerate() {
-                    let x: Vec<f64> = c.delta_mean.iter().map(|d| d * 1e6).collect();
-                    fig = fig
-                        .with_series(
-                            Series::new(
-                                format!("exact, a_A = {:.0} µm", c.a_amp * 1e6),
-                                x,
-                                c.force_mean.clone(),
-                                Style::Line,
-                            )
-                            .with_color(k),
-                        )
-                        .with_series(
-                            Series::new(
-                                format!("approx, a_A = {:.0} µm", c.a_amp * 1e6),
-                                c.approx_delta_mean.iter().map(|d| d * 1e6).collect(),
-                                c.approx_force_mean.clone(),
-                                Style::Dashed,
-                            )
-                            .with_color(k),
-                        );
-                }
-                push_plot(&mut files, &fig, "fig3a")?;
+                push_plot(&mut files, &fig3a_figure(&curves, beta), "fig3a")?;
             }
             FigureId::Fig3b => {
                 let pts = fig3b(m, law, beta)?;
                 let p = out_dir.join("fig3b.csv");
                 fig3b_table(&pts).save_csv(&p)?;
                 files.push(p);
-                let mut fig = Figure::new(
-                    format!("Fig. 3(b): exact / approximate pull-off amplification (β = {beta})"),
-                    "v_max / v0",
-                    "ratio",
-                )
-                .with_log(true, false);
-                let mut ns: Vec<f64> = pts.iter().map(|p| p.n).collect();
-                ns.dedup();
-                for (k, n) in ns.iter().enumerate() {
-                    let sel: Vec<&RatioPoint> = pts.iter().filter(|p| p.n == *n).collect();
-                    fig = fig.with_series(
-                        Series::new(
-                            format!("n = {n}"),
-                            sel.iter().map(|p| p.speed_ratio).collect(),
-                            sel.iter().map(|p| p.ratio).collect(),
-                            Style::LineMarkers,
-                        )
-                        .with_color(k),
-                    );
-                }
-                push_plot(&mut files, &fig, "fig3b")?;
+                push_plot(&mut files, &fig3b_figure(&pts, beta), "fig3b")?;
             }
             FigureId::Figs4to8 => {
                 let amps = table_amplitudes();
@@ -518,78 +453,165 @@ pub fn write_figures(
                 let p = out_dir.join("figs4-8.csv");
                 figs4to8_table(&rows).save_csv(&p)?;
                 files.push(p);
-                type Pick = fn(&TableRow) -> (f64, f64);
-                let specs: [(&str, &str, &str, Pick, Pick, bool); 5] = [
-                    (
-                        "fig4",
-                        "Fig. 4: mean contact radius at pull-off",
-                        "a_m,po (mm)",
-                        |r| (r.a_amp * 1e3, r.exact.cycle.a_mean * 1e3),
-                        |r| (r.a_amp * 1e3, r.approx.a_mean * 1e3),
-                        false,
-                    ),
-                    (
-                        "fig5",
-                        "Fig. 5: mean indentation at pull-off",
-                        "δ_m,po (µm)",
-                        |r| (r.a_amp * 1e3, r.exact.cycle.delta_mean * 1e6),
-                        |r| (r.a_amp * 1e3, r.approx.delta_mean * 1e6),
-                        false,
-                    ),
-                    (
-                        "fig6",
-                        "Fig. 6: indentation amplitude at pull-off",
-                        "δ_A,po (µm)",
-                        |r| (r.a_amp * 1e3, r.exact.cycle.delta_amp * 1e6),
-                        |r| (r.a_amp * 1e3, r.approx.delta_amp * 1e6),
-                        false,
-                    ),
-                    (
-                        "fig7",
-                        "Fig. 7: pull-off amplification F_m,po / F0",
-                        "F_m,po / F0",
-                        |r| (r.a_amp * 1e3, r.exact.amplification),
-                        |r| (r.a_amp * 1e3, r.approx.amplification),
-                        false,
-                    ),
-                    (
-                        "fig8",
-                        "Fig. 8: indentation amplitude vs mean at pull-off",
-                        "δ_A,po (µm)",
-                        |r| {
-                            (
-                                r.exact.cycle.delta_mean * 1e6,
-                                r.exact.cycle.delta_amp * 1e6,
-                            )
-                        },
-                        |r| (r.approx.delta_mean * 1e6, r.approx.delta_amp * 1e6),
-                        true,
-                    ),
-                ];
-                for (stem, title, ylabel, exact, approx, markers) in specs {
-                    let xlabel = if markers { "δ_m,po (µm)" } else { "a_A (mm)" };
-                    let mut fig =
-                        Figure::new(format!("{title} (dashed: β = {beta})"), xlabel, ylabel);
-                    for (k, &f) in TABLE_FREQUENCIES.iter().enumerate() {
-                        let sel: Vec<&TableRow> =
-                            rows.iter().filter(|r| r.frequency == f).collect();
-                        let (ex, ey): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| exact(r)).unzip();
-                        let (ax, ay): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| approx(r)).unzip();
-                        let style = if markers { Style::Markers } else { Style::Line };
-                        fig = fig
-                            .with_series(
-                                Series::new(format!("exact, {f:.0} Hz"), ex, ey, style)
-                                    .with_color(k),
-                            )
-                            .with_series(
-                                Series::new(format!("approx, {f:.0} Hz"), ax, ay, Style::Dashed)
-                                    .with_color(k),
-                            );
-                    }
+                for (stem, fig) in figs4to8_figures(&rows, beta) {
                     push_plot(&mut files, &fig, stem)?;
                 }
             }
         }
     }
     Ok(files)
+}
+
+/// Fig. 2: the indentation over one cycle, one line per mean contact radius.
+fn fig2_figure(curves: &[Fig2Curve]) -> Figure {
+    let mut fig = Figure::new(
+        "Fig. 2: indentation over one cycle (200 Hz, a_A = 1 mm)",
+        "ωt (rad)",
+        "δ (µm)",
+    );
+    for (k, c) in curves.iter().enumerate() {
+        fig = fig.with_series(
+            Series::new(
+                format!("a_m = {:.0} µm", c.a_mean * 1e6),
+                c.theta.clone(),
+                c.delta.iter().map(|d| d * 1e6).collect(),
+                Style::Line,
+            )
+            .with_color(k),
+        );
+    }
+    fig
+}
+
+/// Fig. 3(a): the mean force against the mean indentation, exact and (dashed) closed form with
+/// speed correction `beta`, one colour per amplitude.
+fn fig3a_figure(curves: &[Fig3aCurve], beta: f64) -> Figure {
+    let mut fig = Figure::new(
+        format!("Fig. 3(a): F_m vs δ_m at 400 Hz (dashed: eq. 18, β = {beta})"),
+        "δ_m (µm)",
+        "F_m (N)",
+    )
+    .with_legend(LegendPosition::LowerRight);
+    for (k, c) in curves.iter().enumerate() {
+        let x: Vec<f64> = c.delta_mean.iter().map(|d| d * 1e6).collect();
+        fig = fig
+            .with_series(
+                Series::new(
+                    format!("exact, a_A = {:.0} µm", c.a_amp * 1e6),
+                    x,
+                    c.force_mean.clone(),
+                    Style::Line,
+                )
+                .with_color(k),
+            )
+            .with_series(
+                Series::new(
+                    format!("approx, a_A = {:.0} µm", c.a_amp * 1e6),
+                    c.approx_delta_mean.iter().map(|d| d * 1e6).collect(),
+                    c.approx_force_mean.clone(),
+                    Style::Dashed,
+                )
+                .with_color(k),
+            );
+    }
+    fig
+}
+
+/// Fig. 3(b): the exact over the approximate pull-off amplification against v_max/v0, one line
+/// per exponent n.
+#[allow(clippy::float_cmp)] // series are selected by grid values copied from the grid, not computed
+fn fig3b_figure(pts: &[RatioPoint], beta: f64) -> Figure {
+    let mut fig = Figure::new(
+        format!("Fig. 3(b): exact / approximate pull-off amplification (β = {beta})"),
+        "v_max / v0",
+        "ratio",
+    )
+    .with_log(true, false);
+    let mut ns: Vec<f64> = pts.iter().map(|p| p.n).collect();
+    ns.dedup();
+    for (k, n) in ns.iter().enumerate() {
+        let sel: Vec<&RatioPoint> = pts.iter().filter(|p| p.n == *n).collect();
+        fig = fig.with_series(
+            Series::new(
+                format!("n = {n}"),
+                sel.iter().map(|p| p.speed_ratio).collect(),
+                sel.iter().map(|p| p.ratio).collect(),
+                Style::LineMarkers,
+            )
+            .with_color(k),
+        );
+    }
+    fig
+}
+
+/// Figs. 4–8 from the table `rows`, with their stems: each quantity at pull-off, exact and
+/// (dashed) closed form, one colour per frequency.
+#[allow(clippy::float_cmp)] // series are selected by grid values copied from the grid, not computed
+fn figs4to8_figures(rows: &[TableRow], beta: f64) -> Vec<(&'static str, Figure)> {
+    type Pick = fn(&TableRow) -> (f64, f64);
+    let specs: [(&str, &str, &str, Pick, Pick, bool); 5] = [
+        (
+            "fig4",
+            "Fig. 4: mean contact radius at pull-off",
+            "a_m,po (mm)",
+            |r| (r.a_amp * 1e3, r.exact.cycle.a_mean * 1e3),
+            |r| (r.a_amp * 1e3, r.approx.a_mean * 1e3),
+            false,
+        ),
+        (
+            "fig5",
+            "Fig. 5: mean indentation at pull-off",
+            "δ_m,po (µm)",
+            |r| (r.a_amp * 1e3, r.exact.cycle.delta_mean * 1e6),
+            |r| (r.a_amp * 1e3, r.approx.delta_mean * 1e6),
+            false,
+        ),
+        (
+            "fig6",
+            "Fig. 6: indentation amplitude at pull-off",
+            "δ_A,po (µm)",
+            |r| (r.a_amp * 1e3, r.exact.cycle.delta_amp * 1e6),
+            |r| (r.a_amp * 1e3, r.approx.delta_amp * 1e6),
+            false,
+        ),
+        (
+            "fig7",
+            "Fig. 7: pull-off amplification F_m,po / F0",
+            "F_m,po / F0",
+            |r| (r.a_amp * 1e3, r.exact.amplification),
+            |r| (r.a_amp * 1e3, r.approx.amplification),
+            false,
+        ),
+        (
+            "fig8",
+            "Fig. 8: indentation amplitude vs mean at pull-off",
+            "δ_A,po (µm)",
+            |r| {
+                (
+                    r.exact.cycle.delta_mean * 1e6,
+                    r.exact.cycle.delta_amp * 1e6,
+                )
+            },
+            |r| (r.approx.delta_mean * 1e6, r.approx.delta_amp * 1e6),
+            true,
+        ),
+    ];
+    let mut figs = Vec::new();
+    for (stem, title, ylabel, exact, approx, markers) in specs {
+        let xlabel = if markers { "δ_m,po (µm)" } else { "a_A (mm)" };
+        let mut fig = Figure::new(format!("{title} (dashed: β = {beta})"), xlabel, ylabel);
+        for (k, &f) in TABLE_FREQUENCIES.iter().enumerate() {
+            let sel: Vec<&TableRow> = rows.iter().filter(|r| r.frequency == f).collect();
+            let (ex, ey): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| exact(r)).unzip();
+            let (ax, ay): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| approx(r)).unzip();
+            let style = if markers { Style::Markers } else { Style::Line };
+            fig = fig
+                .with_series(Series::new(format!("exact, {f:.0} Hz"), ex, ey, style).with_color(k))
+                .with_series(
+                    Series::new(format!("approx, {f:.0} Hz"), ax, ay, Style::Dashed).with_color(k),
+                );
+        }
+        figs.push((stem, fig));
+    }
+    figs
 }

@@ -241,17 +241,7 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
     }
     let speed = a_a * omega;
     if a_a <= 0.0 || speed <= 0.0 {
-        // Static contact at w(0): no kinks, closed form.
-        let w = law.work_of_adhesion(0.0).max(0.0);
-        let g = (g_coef * a_m).sqrt();
-        let sw = w.sqrt();
-        out.a_mean = a_m;
-        out.delta_mean = jkr::equilibrium_indentation(m, a_m, w);
-        out.force_mean = jkr::equilibrium_force(m, a_m, w);
-        out.force_slope = 3.0 * k * a_m * a_m / r - 2.25 * k * g * sw;
-        out.contact_fraction = 1.0;
-        out.evaluations = 1;
-        return out;
+        return static_cycle(out, m, law, a_m);
     }
     // Half-width Φ of the contact interval in φ; atan2 keeps it accurate where acos would be
     // ill-conditioned (a_m → ±a_A).
@@ -300,36 +290,7 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
             fdiff * sin_phi,
         ]
     };
-    let mut sums = [0.0; 7];
-    let mut pieces = 1;
-    if kink_speeds.is_empty() {
-        sums = rule.integrate_n(0.0, phi_end, |_, d0, d1| node(d0, d1));
-    } else {
-        let mut cuts: Vec<f64> = kink_speeds
-            .iter()
-            .map(|v| v.abs() / speed)
-            .filter(|&x| x > 0.0 && x <= 1.0)
-            .flat_map(|x| {
-                let p = x.asin();
-                [p, PI - p]
-            })
-            .filter(|&p| p > 0.0 && p < phi_end)
-            .collect();
-        cuts.push(0.0);
-        cuts.push(phi_end);
-        cuts.sort_by(f64::total_cmp);
-        cuts.dedup_by(|x, y| (*x - *y).abs() <= 4.0 * f64::EPSILON * PI);
-        pieces = cuts.len() - 1;
-        for win in cuts.windows(2) {
-            let (p0, p1) = (win[0], win[1]);
-            // Distances to the cycle's own ends stay exact in the first and last piece.
-            let tail = phi_end - p1;
-            let part = rule.integrate_n(p0, p1, |_, dl, dr| node(p0 + dl, tail + dr));
-            for (s, v) in sums.iter_mut().zip(part) {
-                *s += v;
-            }
-        }
-    }
+    let (sums, pieces) = integrate_pieces(rule, phi_end, speed, kink_speeds, &node);
     let inv2pi = 0.5 / PI;
     out.a_mean = (a_m * phi_end + a_a * sin_end) / PI;
     out.delta_mean = sums[0] * inv2pi;
@@ -343,6 +304,61 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
     out.contact_fraction = phi_end / PI;
     out.evaluations = 2 * rule.len() * pieces;
     out
+}
+
+/// The cycle of a static contact (no oscillation of the radius) at w(0): no kinks, closed form.
+fn static_cycle<L: AdhesionLaw + ?Sized>(mut out: Cycle, m: &Material, law: &L, a_m: f64) -> Cycle {
+    let (k, r) = (m.k, m.r);
+    let g_coef = 8.0 * PI / (3.0 * k);
+    let w = law.work_of_adhesion(0.0).max(0.0);
+    let g = (g_coef * a_m).sqrt();
+    let sw = w.sqrt();
+    out.a_mean = a_m;
+    out.delta_mean = jkr::equilibrium_indentation(m, a_m, w);
+    out.force_mean = jkr::equilibrium_force(m, a_m, w);
+    out.force_slope = 3.0 * k * a_m * a_m / r - 2.25 * k * g * sw;
+    out.contact_fraction = 1.0;
+    out.evaluations = 1;
+    out
+}
+
+/// The integrals of `node` (a function of the distances to both ends of [0, Φ]) over
+/// [0, `phi_end`], split where |ȧ| = `speed` |sin φ| hits a kink speed; and the number of pieces.
+fn integrate_pieces(
+    rule: &QuadratureRule,
+    phi_end: f64,
+    speed: f64,
+    kink_speeds: &[f64],
+    node: &impl Fn(f64, f64) -> [f64; 7],
+) -> ([f64; 7], usize) {
+    if kink_speeds.is_empty() {
+        return (rule.integrate_n(0.0, phi_end, |_, d0, d1| node(d0, d1)), 1);
+    }
+    let mut cuts: Vec<f64> = kink_speeds
+        .iter()
+        .map(|v| v.abs() / speed)
+        .filter(|&x| x > 0.0 && x <= 1.0)
+        .flat_map(|x| {
+            let p = x.asin();
+            [p, PI - p]
+        })
+        .filter(|&p| p > 0.0 && p < phi_end)
+        .collect();
+    cuts.push(0.0);
+    cuts.push(phi_end);
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup_by(|x, y| (*x - *y).abs() <= 4.0 * f64::EPSILON * PI);
+    let mut sums = [0.0; 7];
+    for win in cuts.windows(2) {
+        let (p0, p1) = (win[0], win[1]);
+        // Distances to the cycle's own ends stay exact in the first and last piece.
+        let tail = phi_end - p1;
+        let part = rule.integrate_n(p0, p1, |_, dl, dr| node(p0 + dl, tail + dr));
+        for (s, v) in sums.iter_mut().zip(part) {
+            *s += v;
+        }
+    }
+    (sums, cuts.len() - 1)
 }
 
 /// Indentation δ(θ) of the imposed cycle at phase θ = ωt (m); 0 where a ≤ 0 (no contact).

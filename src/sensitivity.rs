@@ -190,14 +190,15 @@ pub fn summarise(perturbed: Perturbed, epsilon: f64, runs: Vec<Twin>) -> Sensiti
         force_spread: spread,
         time_spread: t.max - t.min,
         digits: shared_digits(spread),
-        sensitive: !(spread <= SENSITIVE_SPREAD),
+        // A NaN spread counts as sensitive.
+        sensitive: spread > SENSITIVE_SPREAD || spread.is_nan(),
         runs,
     }
 }
 
 /// Significant digits that values spread by `rel` (relative) share: ⌊−log10 rel⌋, within 1 … 15.
 pub fn shared_digits(rel: f64) -> usize {
-    if !(rel > 0.0) {
+    if rel <= 0.0 || rel.is_nan() {
         return 15;
     }
     (-rel.log10()).floor().clamp(1.0, 15.0) as usize

@@ -51,6 +51,8 @@ sample_rate = 12000
 
 /// Run `djkr run FILE --out DIR`; its peak resident memory (bytes) and the samples it wrote.
 fn peak_rss(file: &Path, out: &Path) -> (u64, u64) {
+    // Reaped by `wait4` below, which also gives its resource usage.
+    #[allow(clippy::zombie_processes)]
     let child = Command::new(env!("CARGO_BIN_EXE_djkr"))
         .args(["run", "--json", "--out"])
         .arg(out)

@@ -16,6 +16,7 @@ use djkr::dynamics::Method;
 use djkr::error::ParamError;
 use djkr::plot;
 use djkr::scenario::checks;
+use djkr::scenario::Scenario;
 use djkr::units::Dimension;
 use std::path::{Path, PathBuf};
 
@@ -91,20 +92,7 @@ fn count(flag: &str, text: &str, lo: usize, hi: usize) -> Result<usize, ParamErr
 /// Run `djkr accuracy`.
 pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
     if a.imposed_area {
-        if !a.set.set.is_empty() {
-            bail!("--set changes a scenario FILE's values; --imposed-area reads no scenario");
-        }
-        reject_unused(
-            &[
-                ("FILE", a.file.is_some()),
-                ("--methods", a.methods.is_some()),
-                ("--tolerances", a.tolerances.is_some()),
-                ("--ref-rtol", a.ref_rtol.is_some()),
-                ("--atol-ratio", a.atol_ratio.is_some()),
-                ("--max-wall", a.max_wall.is_some()),
-            ],
-            "with --imposed-area (they set the study of a scenario FILE)",
-        )?;
+        reject_scenario_flags(a)?;
         return imposed_area(a);
     }
     reject_unused(
@@ -122,6 +110,46 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         .methods
         .as_deref()
         .unwrap_or("implicit,dp8,dopri5,dop853,auto");
+    let mut cfg = study_config(a, methods_text)?;
+    cfg.validate()?;
+    let scn = load_scenario(file, &a.set)?;
+    cfg.methods = runnable_methods(&scn, &cfg.methods, methods_text, file)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(format!("accuracy-{}", out_name(file))));
+    eprintln!(
+        "reference: implicit at rtol {:e}, checked by dp8 …",
+        cfg.reference_rtol
+    );
+    let study = accuracy::work_precision(&scn, &cfg, |i, n, m, rtol| {
+        eprintln!("[{}/{}] {m} rtol {rtol:e}", i + 1, n);
+    })
+    .with_context(|| format!("{}", file.display()))?;
+    write_study(&study, &out)
+}
+
+/// With `--imposed-area`: refuse the flags that set the study of a scenario FILE.
+fn reject_scenario_flags(a: &AccuracyArgs) -> Result<()> {
+    if !a.set.set.is_empty() {
+        bail!("--set changes a scenario FILE's values; --imposed-area reads no scenario");
+    }
+    reject_unused(
+        &[
+            ("FILE", a.file.is_some()),
+            ("--methods", a.methods.is_some()),
+            ("--tolerances", a.tolerances.is_some()),
+            ("--ref-rtol", a.ref_rtol.is_some()),
+            ("--atol-ratio", a.atol_ratio.is_some()),
+            ("--max-wall", a.max_wall.is_some()),
+        ],
+        "with --imposed-area (they set the study of a scenario FILE)",
+    )
+}
+
+/// The study's settings from the flags (`methods_text`: `--methods` or its default), not yet
+/// validated as a whole.
+fn study_config(a: &AccuracyArgs, methods_text: &str) -> Result<StudyConfig> {
     let methods = list("--methods", methods_text, |s| {
         accuracy::parse_method("--methods", s)
     })?;
@@ -143,7 +171,7 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         limits::ACCURACY_TOLERANCES,
         "tolerances",
     )?;
-    let cfg = StudyConfig {
+    Ok(StudyConfig {
         methods,
         tolerances,
         repeats: count("--repeats", &a.repeats, 1, limits::ACCURACY_REPEATS)?,
@@ -163,13 +191,19 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
             Dimension::Time,
         )?,
         ..StudyConfig::default()
-    };
-    let mut cfg = cfg;
-    cfg.validate()?;
-    let scn = load_scenario(file, &a.set)?;
-    // Skip, saying so, the methods that cannot run this scene at all (an explicit method on a
-    // rate-independent law): a row per tolerance that can only fail is no measurement.
-    let (runnable, skipped): (Vec<Method>, Vec<Method>) = cfg.methods.iter().partition(|&&m| {
+    })
+}
+
+/// The `methods` that can run the scene `scn` of `file`. The others are skipped, saying so (an
+/// explicit method on a rate-independent law): a row per tolerance that can only fail is no
+/// measurement. None left is an error.
+fn runnable_methods(
+    scn: &Scenario,
+    methods: &[Method],
+    methods_text: &str,
+    file: &Path,
+) -> Result<Vec<Method>> {
+    let (runnable, skipped): (Vec<Method>, Vec<Method>) = methods.iter().partition(|&&m| {
         let mut s = scn.clone();
         s.solver.method = m;
         checks::setup_check(&s).is_ok()
@@ -191,34 +225,26 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
             file.display()
         );
     }
-    cfg.methods = runnable;
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("out").join(format!("accuracy-{}", out_name(file))));
-    eprintln!(
-        "reference: implicit at rtol {:e}, checked by dp8 …",
-        cfg.reference_rtol
-    );
-    let study = accuracy::work_precision(&scn, &cfg, |i, n, m, rtol| {
-        eprintln!("[{}/{}] {m} rtol {rtol:e}", i + 1, n);
-    })
-    .with_context(|| format!("{}", file.display()))?;
-    let table = accuracy::study_table(&study);
-    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
-    accuracy::work_precision_table(&study).save_csv(&out.join("work_precision.csv"))?;
+    Ok(runnable)
+}
+
+/// Write the study's CSV, markdown table and plots into `out`; print the table and the files.
+fn write_study(study: &accuracy::Study, out: &Path) -> Result<()> {
+    let table = accuracy::study_table(study);
+    std::fs::create_dir_all(out).with_context(|| format!("--out {}", out.display()))?;
+    accuracy::work_precision_table(study).save_csv(&out.join("work_precision.csv"))?;
     write_atomic(&out.join("work_precision.md"), table.as_bytes())?;
     let (png, svg) = plot::render(
-        &accuracy::study_figure(&study, Measure::PullOffRelevant),
+        &accuracy::study_figure(study, Measure::PullOffRelevant),
         &out.join("work_precision"),
     )?;
     let (png2, svg2) = plot::render(
-        &accuracy::study_figure(&study, Measure::PullOffForce),
+        &accuracy::study_figure(study, Measure::PullOffForce),
         &out.join("work_precision_pull_off"),
     )?;
     println!("{table}");
     print_written(
-        &out,
+        out,
         &[png, svg, png2, svg2],
         &["work_precision.csv", "work_precision.md"],
     );

@@ -125,10 +125,62 @@ fn check_ends(flag: &str, text: &str, family: &Family, values: &[[f64; 2]]) -> R
     Ok(())
 }
 
+/// The checked flags of `djkr continue`, before the scenario is read.
+struct Flags {
+    /// `--param`.
+    param: Parameter,
+    /// `--range` (START, STOP).
+    range: (f64, f64),
+    /// `--rtol`.
+    rtol: f64,
+    /// `--tol`.
+    tol: f64,
+    /// `--fold-param` and its `--fold-range`.
+    fold: Option<(Parameter, (f64, f64))>,
+}
+
+/// The scenario and the periodic problems continued in it.
+struct Problem {
+    /// The scenario file.
+    source: ScenarioSource,
+    /// Its name with the overrides.
+    scenario_name: String,
+    /// KEY free; with `--fold-param`, KEY2 held at the start of its range.
+    family: Family,
+    /// With `--fold-param`: KEY and KEY2 free.
+    family2: Option<Family>,
+}
+
+/// What `djkr continue` computed.
+struct Computed {
+    /// The branch in KEY.
+    branch: Branch,
+    /// The natural sweeps up and down (empty with `--sweep 0`).
+    up: Vec<SweepPoint>,
+    down: Vec<SweepPoint>,
+    /// With `--fold-param`: the fold curves and their wall time (s).
+    curves: Option<(Vec<FoldCurve>, f64)>,
+}
+
 /// Run `djkr continue`.
 pub fn continuation(a: &ContinueArgs) -> Result<()> {
+    let flags = parse_flags(a)?;
+    let problem = problem(a, &flags)?;
+    let set = settings(a, &flags)?;
+    let computed = compute(a, &flags, &problem, &set)?;
+    let rep = write_outputs(a, &flags, &problem, &computed)?;
+    if a.json {
+        print_json(&rep)
+    } else {
+        print_report(&a.file, &rep);
+        Ok(())
+    }
+}
+
+/// Check the flags that need no scenario.
+fn parse_flags(a: &ContinueArgs) -> Result<Flags> {
     let param = Parameter::parse("--param", &a.param)?;
-    let (p0, p1) = parse_range("--range", &a.range, &param)?;
+    let range = parse_range("--range", &a.range, &param)?;
     let rtol = tolerance("--rtol", &a.rtol, 1e-14, 1e-6)?;
     if a.sweep > 10_000 {
         bail!("--sweep = {}: must be in 0..=10000", a.sweep);
@@ -148,13 +200,26 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
         }
         _ => None,
     };
+    Ok(Flags {
+        param,
+        range,
+        rtol,
+        tol,
+        fold,
+    })
+}
+
+/// Read the scenario with its overrides and set up the families, checking that the ends of the
+/// ranges are values the scenario accepts.
+fn problem(a: &ContinueArgs, flags: &Flags) -> Result<Problem> {
+    let (param, (p0, p1), rtol) = (flags.param, flags.range, flags.rtol);
     let overrides = a.set.overrides()?;
     let source = ScenarioSource::read(&a.file)?;
     // The file with its overrides, before any value of KEY: a bad --set is named as such.
     let scenario_name = source.scenario(&overrides)?.source_name;
     // The branch: KEY free; with --fold-param, KEY2 held at the start of its range.
     let mut fixed = overrides.clone();
-    if let Some((q, (q0, _))) = &fold {
+    if let Some((q, (q0, _))) = &flags.fold {
         if let Some(o) = overrides.iter().find(|o| o.key() == q.key) {
             bail!(
                 "--set {o}: {} is the --fold-param, whose values come from --fold-range; drop the --set",
@@ -165,7 +230,7 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     }
     let family = Family::new(source.clone(), fixed, vec![param], rtol)?;
     check_ends("--range", &a.range, &family, &[[p0, 0.0], [p1, 0.0]])?;
-    let family2 = match &fold {
+    let family2 = match &flags.fold {
         Some((q, (q0, q1))) => {
             let f2 = Family::new(source.clone(), overrides.clone(), vec![param, *q], rtol)?;
             check_ends(
@@ -178,17 +243,38 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
         }
         None => None,
     };
+    Ok(Problem {
+        source,
+        scenario_name,
+        family,
+        family2,
+    })
+}
 
+/// The continuation's settings from `--rtol`, `--tol` and `--max-step`.
+fn settings(a: &ContinueArgs, flags: &Flags) -> Result<branch::Settings> {
     let mut set = branch::Settings {
-        rtol,
+        rtol: flags.rtol,
         ..branch::Settings::default()
     };
-    set.engine.tol = tol;
+    set.engine.tol = flags.tol;
     set.engine.h_max = tolerance("--max-step", &a.max_step, 1e-6, 10.0)?;
     set.engine.h_start = set.engine.h_start.min(set.engine.h_max);
-    set.steady.rtol = rtol;
+    set.steady.rtol = flags.rtol;
+    Ok(set)
+}
+
+/// The branch, the sweeps and the fold curves, under one progress bar.
+fn compute(
+    a: &ContinueArgs,
+    flags: &Flags,
+    problem: &Problem,
+    set: &branch::Settings,
+) -> Result<Computed> {
+    let (param, (p0, p1)) = (flags.param, flags.range);
+    let family = &problem.family;
     let bar = progress_bar(0, "continuation");
-    let branch = branch::continue_branch(&family, (p0, p1), &set, &mut |p| {
+    let branch = branch::continue_branch(family, (p0, p1), set, &mut |p| {
         bar.set_message(format!("{} = {p:.6e}", param.name()));
         bar.tick();
     })
@@ -197,15 +283,15 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     let (up, down) = if a.sweep > 0 {
         bar.set_message("sweeps up and down");
         let opts = Options {
-            rtol,
+            rtol: flags.rtol,
             ..Options::default()
         };
-        sweep::sweep_both(&family, (p0, p1), a.sweep, &opts)
+        sweep::sweep_both(family, (p0, p1), a.sweep, &opts)
     } else {
         (Vec::new(), Vec::new())
     };
 
-    let curves = match (&fold, &family2) {
+    let curves = match (&flags.fold, &problem.family2) {
         (Some((q, range)), Some(f2)) => {
             let t0 = std::time::Instant::now();
             let c = folds::continue_folds(f2, &branch, *range, &set.engine, &mut |p, v| {
@@ -221,28 +307,59 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
         _ => None,
     };
     bar.finish_and_clear();
+    Ok(Computed {
+        branch,
+        up,
+        down,
+        curves,
+    })
+}
 
+/// Write the tables and plots into the output folder; the report, listing them.
+fn write_outputs(
+    a: &ContinueArgs,
+    flags: &Flags,
+    problem: &Problem,
+    c: &Computed,
+) -> Result<ContinuationReport> {
+    let (fold, branch, up, down) = (&flags.fold, &c.branch, &c.up, &c.down);
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| default_out(&a.file, "continue"));
     std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
-    let fold_tables = curves.as_ref().map(|c| (&c.0, fold.as_ref().map(|f| f.0)));
+    let fold_tables = c
+        .curves
+        .as_ref()
+        .map(|c| (&c.0, fold.as_ref().map(|f| f.0)));
     let mut files = write_tables(
         &out,
-        &scenario_name,
-        &source,
-        &branch,
-        (&up, &down),
+        &problem.scenario_name,
+        &problem.source,
+        branch,
+        (up, down),
         fold_tables,
     )?;
-    let fig = branch_figure(&a.file, &branch, &up, &down);
+    let fig = branch_figure(&a.file, branch, up, down);
     let (png, svg) = plot::render(&fig, &out.join("branch"))?;
     files.extend([png, svg]);
 
-    let mut rep = ContinuationReport::new(&scenario_name, &branch);
-    for (name, pts) in [("up", &up), ("down", &down)] {
-        let (jumps, unstable) = report::jumps(name, pts, &branch);
+    let mut rep = ContinuationReport::new(&problem.scenario_name, branch);
+    add_sweep_jumps(&mut rep, &flags.param, c);
+    if let (Some((q, range)), Some((curves, wall))) = (fold, &c.curves) {
+        let fig = fold_figure(&a.file, branch, q, curves);
+        let (png, svg) = plot::render(&fig, &out.join("fold_curves"))?;
+        files.extend([png, svg]);
+        rep = rep.with_folds(q.name(), *range, curves, *wall);
+    }
+    rep.files = files.iter().map(|p| p.display().to_string()).collect();
+    Ok(rep)
+}
+
+/// The sweeps' jumps into the report, and a note for each sweep that found unstable orbits.
+fn add_sweep_jumps(rep: &mut ContinuationReport, param: &Parameter, c: &Computed) {
+    for (name, pts) in [("up", &c.up), ("down", &c.down)] {
+        let (jumps, unstable) = report::jumps(name, pts, &c.branch);
         rep.sweep_jumps.extend(jumps);
         if !unstable.is_empty() {
             let v: Vec<String> = unstable.iter().map(|x| format_f64(*x)).collect();
@@ -253,19 +370,6 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
                 param.info.unit
             ));
         }
-    }
-    if let (Some((q, range)), Some((c, wall))) = (&fold, &curves) {
-        let fig = fold_figure(&a.file, &branch, q, c);
-        let (png, svg) = plot::render(&fig, &out.join("fold_curves"))?;
-        files.extend([png, svg]);
-        rep = rep.with_folds(q.name(), *range, c, *wall);
-    }
-    rep.files = files.iter().map(|p| p.display().to_string()).collect();
-    if a.json {
-        print_json(&rep)
-    } else {
-        print_report(&a.file, &rep);
-        Ok(())
     }
 }
 

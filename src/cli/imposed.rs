@@ -178,6 +178,43 @@ struct PulloffReport {
 
 /// Run `djkr pulloff`.
 pub fn pulloff(a: &PulloffArgs) -> Result<()> {
+    reject_other_methods_flags(a)?;
+    let (m, law) = a.material.resolve()?;
+    let omega = omega_from("--freq", &a.freq)?;
+    let a_amp = match &a.a_amp {
+        Some(t) => Some(non_negative_quantity("--a-amp", t, Dimension::Length)?),
+        None => None,
+    };
+    let need_a_amp = || {
+        a_amp.ok_or_else(|| {
+            anyhow::anyhow!("--a-amp is required for --method {}", flag_value(a.method))
+        })
+    };
+    let r = match a.method {
+        PulloffMethod::Exact => exact(&m, &law, omega, need_a_amp()?)?,
+        PulloffMethod::Approx => {
+            let beta = positive_quantity(
+                "--beta",
+                a.beta.as_deref().unwrap_or("2.5"),
+                Dimension::Dimensionless,
+            )?;
+            approx(a, &m, &law, omega, beta, need_a_amp()?)?
+        }
+        PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
+    };
+    let mut r = r;
+    // JKR is a small-contact theory (a ≪ R, half-space substrate): say so when the answer
+    // leaves that range instead of printing it as if it were valid.
+    let a_max = r.a_mean + a_amp.unwrap_or(0.0);
+    if let Some(w) = small_contact_warning("the contact reaches a_m + a_A", a_max, m.r) {
+        eprintln!("warning: {w}");
+        r.notes.push(w);
+    }
+    report(&r, a.json)
+}
+
+/// Refuse the flags of the other `--method`s.
+fn reject_other_methods_flags(a: &PulloffArgs) -> Result<()> {
     let method = a.method;
     let closed_form = [
         ("--beta", a.beta.is_some()),
@@ -207,91 +244,79 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
             }
         }
     }
-    let (m, law) = a.material.resolve()?;
-    let omega = omega_from("--freq", &a.freq)?;
-    let a_amp = match &a.a_amp {
-        Some(t) => Some(non_negative_quantity("--a-amp", t, Dimension::Length)?),
-        None => None,
-    };
-    let need_a_amp = || {
-        a_amp.ok_or_else(|| {
-            anyhow::anyhow!("--a-amp is required for --method {}", flag_value(a.method))
-        })
-    };
-    let r = match a.method {
-        PulloffMethod::Exact => {
-            let p = imposed_area::pull_off(&m, &law, omega, need_a_amp()?)?;
-            let mut notes = Vec::new();
-            if p.local_minima.len() > 1 {
-                notes.push(format!(
-                    "the mean-force curve F_m(a_m) has {} local minima; the global one is reported. Others (a_m imposed, F_m): {}",
-                    p.local_minima.len(),
-                    p.local_minima
-                        .iter()
-                        .map(|(am, f)| format!("({}, {})", fmt_len(*am), fmt_force(*f)))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ));
-            }
-            if !p.global {
-                notes.push("the global minimum could not be certified (see local minima)".into());
-            }
-            if p.cycle.contact_fraction < 1.0 {
-                notes.push(format!(
-                    "contact is lost during part of the cycle (contact fraction {:.4}); a_m is the a-posteriori mean",
-                    p.cycle.contact_fraction
-                ));
-            }
-            PulloffReport {
-                method: "exact (imposed-area method, Sec. 2.1)",
-                a_mean: p.cycle.a_mean,
-                delta_mean: p.cycle.delta_mean,
-                delta_amp: p.cycle.delta_amp,
-                force: p.force,
-                amplification: p.amplification,
-                notes,
-            }
-        }
-        PulloffMethod::Approx => {
-            let beta = positive_quantity(
-                "--beta",
-                a.beta.as_deref().unwrap_or("2.5"),
-                Dimension::Dimensionless,
-            )?;
-            let delta_form = a.delta_form.unwrap_or(DeltaForm::Derived);
-            let form = match delta_form {
-                DeltaForm::Derived => djkr::closed_form::DeltaAmpForm::Derived,
-                DeltaForm::Printed => djkr::closed_form::DeltaAmpForm::Printed,
-            };
-            let p = djkr::closed_form::pull_off_approx(&m, &law, omega, need_a_amp()?, beta, form)?;
-            PulloffReport {
-                method: "approx (closed form, eqs. 20-24)",
-                a_mean: p.a_mean,
-                delta_mean: p.delta_mean,
-                delta_amp: p.delta_amp,
-                force: p.force,
-                amplification: p.amplification,
-                notes: vec![format!(
-                    "beta = {beta}, delta_A {}",
-                    match delta_form {
-                        DeltaForm::Derived =>
-                            "as derived from eqs. (14)-(15) (--delta-form derived)",
-                        DeltaForm::Printed => "as printed in eq. (23) (--delta-form printed)",
-                    }
-                )],
-            }
-        }
-        PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
-    };
-    let mut r = r;
-    // JKR is a small-contact theory (a ≪ R, half-space substrate): say so when the answer
-    // leaves that range instead of printing it as if it were valid.
-    let a_max = r.a_mean + a_amp.unwrap_or(0.0);
-    if let Some(w) = small_contact_warning("the contact reaches a_m + a_A", a_max, m.r) {
-        eprintln!("warning: {w}");
-        r.notes.push(w);
+    Ok(())
+}
+
+/// `--method exact`: the imposed-area method's pull-off, with notes on what limits it.
+fn exact(
+    m: &djkr::material::Material,
+    law: &djkr::adhesion::Law,
+    omega: f64,
+    a_amp: f64,
+) -> Result<PulloffReport> {
+    let p = imposed_area::pull_off(m, law, omega, a_amp)?;
+    let mut notes = Vec::new();
+    if p.local_minima.len() > 1 {
+        notes.push(format!(
+            "the mean-force curve F_m(a_m) has {} local minima; the global one is reported. Others (a_m imposed, F_m): {}",
+            p.local_minima.len(),
+            p.local_minima
+                .iter()
+                .map(|(am, f)| format!("({}, {})", fmt_len(*am), fmt_force(*f)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
     }
-    report(&r, a.json)
+    if !p.global {
+        notes.push("the global minimum could not be certified (see local minima)".into());
+    }
+    if p.cycle.contact_fraction < 1.0 {
+        notes.push(format!(
+            "contact is lost during part of the cycle (contact fraction {:.4}); a_m is the a-posteriori mean",
+            p.cycle.contact_fraction
+        ));
+    }
+    Ok(PulloffReport {
+        method: "exact (imposed-area method, Sec. 2.1)",
+        a_mean: p.cycle.a_mean,
+        delta_mean: p.cycle.delta_mean,
+        delta_amp: p.cycle.delta_amp,
+        force: p.force,
+        amplification: p.amplification,
+        notes,
+    })
+}
+
+/// `--method approx`: the closed form's pull-off with speed correction `beta`.
+fn approx(
+    a: &PulloffArgs,
+    m: &djkr::material::Material,
+    law: &djkr::adhesion::Law,
+    omega: f64,
+    beta: f64,
+    a_amp: f64,
+) -> Result<PulloffReport> {
+    let delta_form = a.delta_form.unwrap_or(DeltaForm::Derived);
+    let form = match delta_form {
+        DeltaForm::Derived => djkr::closed_form::DeltaAmpForm::Derived,
+        DeltaForm::Printed => djkr::closed_form::DeltaAmpForm::Printed,
+    };
+    let p = djkr::closed_form::pull_off_approx(m, law, omega, a_amp, beta, form)?;
+    Ok(PulloffReport {
+        method: "approx (closed form, eqs. 20-24)",
+        a_mean: p.a_mean,
+        delta_mean: p.delta_mean,
+        delta_amp: p.delta_amp,
+        force: p.force,
+        amplification: p.amplification,
+        notes: vec![format!(
+            "beta = {beta}, delta_A {}",
+            match delta_form {
+                DeltaForm::Derived => "as derived from eqs. (14)-(15) (--delta-form derived)",
+                DeltaForm::Printed => "as printed in eq. (23) (--delta-form printed)",
+            }
+        )],
+    })
 }
 
 fn report(r: &PulloffReport, json_out: bool) -> Result<()> {

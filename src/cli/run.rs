@@ -204,25 +204,25 @@ fn significant(x: f64, digits: usize) -> String {
     format!("{rounded:.decimals$}")
 }
 
+/// Print a summary line without a `-0.0`.
+macro_rules! summary_line {
+    ($($t:tt)*) => {
+        println!("{}", super::common::no_negative_zero(&format!($($t)*)))
+    };
+}
+
 fn print_summary(
     scn: &djkr::scenario::Scenario,
     r: &RunResult,
     sens: Option<&Sensitivity>,
     warnings: &[String],
 ) {
-    // Every line without a `-0.0`.
-    macro_rules! line {
-        ($($t:tt)*) => {
-            println!("{}", super::common::no_negative_zero(&format!($($t)*)))
-        };
-    }
-    line!(
+    summary_line!(
         "{}: {} stage(s), method {}",
         scn.source_name,
         scn.stages.len(),
         r.method
     );
-    let f0 = scn.rig.material.static_pull_off_force();
     // Under vibration the approach to pull-off can be chaotic: without a measurement, four
     // significant digits and a pointer to --sensitivity; with one, the digits the twins share.
     let vibrating = scn.rig.base.is_some() && r.cycle_count > 0;
@@ -231,24 +231,35 @@ fn print_summary(
         None if vibrating => 4,
         None => 7,
     };
+    print_pull_off(scn, r, digits);
+    print_sensitivity(sens, vibrating && r.detached);
+    print_run_stats(r);
+    for w in warnings {
+        summary_line!("  warning            {w}");
+    }
+}
+
+/// The pull-off force and time (to `digits` significant digits), or why there is none.
+fn print_pull_off(scn: &djkr::scenario::Scenario, r: &RunResult, digits: usize) {
+    let f0 = scn.rig.material.static_pull_off_force();
     if !checks::pull_off_recorded(r) {
-        line!(
+        summary_line!(
             "  no pull-off        no pull-off force recorded (see the warning){}",
             if r.detached { " (detached)" } else { "" }
         );
     } else if r.detached {
-        line!(
+        summary_line!(
             "  pull-off force     {} mN  (amplification {} over −3/2 π R w0 = {:.6} mN)",
             significant(r.pull_off.force * 1e3, digits),
             significant(r.pull_off.amplification, digits),
             f0 * 1e3
         );
-        line!(
+        summary_line!(
             "  reached at         t = {} s",
             significant(r.pull_off.time, digits.max(3))
         );
     } else {
-        line!(
+        summary_line!(
             "  no detachment; most tensile {} force {} mN at t = {:.6} s",
             if scn.rig.base.is_some() {
                 "cycle-averaged"
@@ -259,9 +270,14 @@ fn print_summary(
             r.pull_off.time
         );
     }
+}
+
+/// What `--sensitivity` measured; without it, for a pull-off under vibration
+/// (`vibrating_pull_off`), a pointer to it.
+fn print_sensitivity(sens: Option<&Sensitivity>, vibrating_pull_off: bool) {
     match sens {
         Some(s) if s.sensitive => {
-            line!(
+            summary_line!(
                 "  sensitivity        SENSITIVE: {} runs with {} differing by up to {:.0e} \
                  relative give pull-off forces {} … {} mN (sd {} mN, spread {:.1} %) and \
                  times {:.3} s apart: only the digits shown hold. Report a distribution: \
@@ -279,7 +295,7 @@ fn print_summary(
             );
         }
         Some(s) => {
-            line!(
+            summary_line!(
                 "  sensitivity        deterministic: {} runs with {} differing by up to \
                  {:.0e} relative agree to {:.1e} in the pull-off force",
                 s.runs.len(),
@@ -288,8 +304,8 @@ fn print_summary(
                 s.force_spread
             );
         }
-        None if vibrating && r.detached => {
-            line!(
+        None if vibrating_pull_off => {
+            summary_line!(
                 "  note               under vibration the approach to pull-off can be chaotic \
                  (tiny input changes move it by percent): --sensitivity measures how many \
                  digits hold"
@@ -297,6 +313,10 @@ fn print_summary(
         }
         None => {}
     }
+}
+
+/// The events by kind, the solver's work and the final state.
+fn print_run_stats(r: &RunResult) {
     let counts: Vec<(String, u64)> = r
         .event_counts
         .by_kind()
@@ -312,8 +332,8 @@ fn print_summary(
         })
         .collect();
     let list: Vec<String> = counts.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
-    line!("  events             {}", list.join(", "));
-    line!(
+    summary_line!("  events             {}", list.join(", "));
+    summary_line!(
         "  solver             {} steps, {} rejected, {} rhs evaluations, {:.3} s wall",
         r.stats.steps,
         r.stats.rejected,
@@ -321,16 +341,13 @@ fn print_summary(
         r.stats.wall_s
     );
     let f = &r.final_state;
-    line!(
+    summary_line!(
         "  final state        t = {:.6} s, a = {:.6} mm, δ = {:.6} µm, F = {:.6} mN",
         f.t,
         f.a * 1e3,
         f.delta * 1e6,
         f.force * 1e3
     );
-    for w in warnings {
-        line!("  warning            {w}");
-    }
 }
 
 /// Run `djkr check`.

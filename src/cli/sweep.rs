@@ -141,6 +141,9 @@ fn build(a: &SweepRunArgs, file: &Path) -> Result<Sweep> {
     Ok(Sweep::new(source, grid, ensemble)?)
 }
 
+/// Raised by Ctrl-C: no new run starts, running ones are abandoned.
+static STOP: AtomicBool = AtomicBool::new(false);
+
 fn run(a: &SweepRunArgs) -> Result<()> {
     let Some(file) = a.file.as_deref() else {
         bail!("give a scenario FILE (or `djkr sweep merge DIR... --out DIR`)");
@@ -149,23 +152,11 @@ fn run(a: &SweepRunArgs) -> Result<()> {
         bail!("--jobs 0: must be a whole number >= 1 (runs at a time)");
     }
     let sweep = build(a, file)?;
-    let out = a.out.clone().unwrap_or_else(|| {
-        let stem = file
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "scenario".into());
-        PathBuf::from("out").join(format!("{stem}-sweep"))
-    });
+    let out = a.out.clone().unwrap_or_else(|| default_out(file));
     if a.slurm {
         return slurm(a, file, &sweep, &out);
     }
-    let shard = match a.shard.as_deref() {
-        None => None,
-        Some("slurm") => {
-            Some(Shard::from_slurm(|k| std::env::var(k).ok()).map_err(anyhow::Error::msg)?)
-        }
-        Some(t) => Some(Shard::parse(t).map_err(anyhow::Error::msg)?),
-    };
+    let shard = parse_shard(a.shard.as_deref())?;
     let manifest = Manifest::of(&sweep, shard);
     let opened = files::open(&out, manifest, a.resume).context("--out")?;
     let manifest = opened.manifest;
@@ -176,9 +167,42 @@ fn run(a: &SweepRunArgs) -> Result<()> {
     let jobs = a
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    install_stop_handler();
+    if !rows.is_empty() {
+        eprintln!(
+            "resuming {}: {} of {owned} runs already done",
+            out.display(),
+            rows.len()
+        );
+    }
+    let keep_runs = a.keep_runs.then(|| out.join(files::RUNS_DIR));
+    let executed = execute(&sweep, &todo, jobs, keep_runs, &mut progress, &mut rows);
+    finish(&sweep, &manifest, &out, &mut rows, owned, jobs, executed)
+}
 
-    static STOP: AtomicBool = AtomicBool::new(false);
-    // A second Ctrl-C ends the process at once (the progress file is intact line by line).
+/// `--out` left out: out/<scenario name>-sweep.
+fn default_out(file: &Path) -> PathBuf {
+    let stem = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "scenario".into());
+    PathBuf::from("out").join(format!("{stem}-sweep"))
+}
+
+/// `--shard K/N` or `--shard slurm` (from the array task's environment).
+fn parse_shard(text: Option<&str>) -> Result<Option<Shard>> {
+    Ok(match text {
+        None => None,
+        Some("slurm") => {
+            Some(Shard::from_slurm(|k| std::env::var(k).ok()).map_err(anyhow::Error::msg)?)
+        }
+        Some(t) => Some(Shard::parse(t).map_err(anyhow::Error::msg)?),
+    })
+}
+
+/// Ctrl-C raises [`STOP`]; a second one ends the process at once (the progress file is intact
+/// line by line). A handler that cannot be installed is a warning.
+fn install_stop_handler() {
     let handler = ctrlc::set_handler(|| {
         if STOP.swap(true, Ordering::SeqCst) {
             std::process::exit(130);
@@ -190,14 +214,28 @@ fn run(a: &SweepRunArgs) -> Result<()> {
             "warning: Ctrl-C handler not installed ({e}): an interrupt will lose the running runs"
         );
     }
+}
 
-    if !rows.is_empty() {
-        eprintln!(
-            "resuming {}: {} of {owned} runs already done",
-            out.display(),
-            rows.len()
-        );
-    }
+/// What [`execute`] did.
+struct Executed {
+    /// Runs finished in this call (those of the list less the ones a stop left unstarted).
+    ran: usize,
+    /// Wall time of the call (s).
+    wall: f64,
+    /// The first failure to append to the progress file (it stopped the sweep).
+    write_error: Option<anyhow::Error>,
+}
+
+/// Run `todo` on `jobs` threads under a progress bar, appending each row to the progress file
+/// and to `rows` as it arrives.
+fn execute(
+    sweep: &Sweep,
+    todo: &[usize],
+    jobs: usize,
+    keep_runs: Option<PathBuf>,
+    progress: &mut files::Progress,
+    rows: &mut Vec<Row>,
+) -> Executed {
     let bar = ProgressBar::new(todo.len() as u64);
     bar.set_style(
         ProgressStyle::with_template(
@@ -209,13 +247,12 @@ fn run(a: &SweepRunArgs) -> Result<()> {
     let t0 = Instant::now();
     let mut failed = 0usize;
     let mut write_error: Option<anyhow::Error> = None;
-    let keep_runs = a.keep_runs.then(|| out.join(files::RUNS_DIR));
     let opts = RunOptions {
         jobs,
         stop: Some(&STOP),
         keep_runs,
     };
-    let not_run = run_sweep(&sweep, &todo, &opts, |row| {
+    let not_run = run_sweep(sweep, todo, &opts, |row| {
         if row.result.is_err() {
             failed += 1;
             bar.set_message(format!("({failed} failed)"));
@@ -230,28 +267,40 @@ fn run(a: &SweepRunArgs) -> Result<()> {
         bar.inc(1);
     });
     bar.finish_and_clear();
-    let wall = t0.elapsed().as_secs_f64();
-    let new_wall: f64 = rows
-        .iter()
-        .rev()
-        .take(todo.len() - not_run)
-        .map(|r| r.wall_s)
-        .sum();
+    Executed {
+        ran: todo.len() - not_run,
+        wall: t0.elapsed().as_secs_f64(),
+        write_error,
+    }
+}
+
+/// Write the sweep's files from all `rows` (of the `owned` runs of this folder), report, and
+/// for a sweep stopped early say how to resume it ([`Interrupted`]).
+fn finish(
+    sweep: &Sweep,
+    manifest: &Manifest,
+    out: &Path,
+    rows: &mut [Row],
+    owned: usize,
+    jobs: usize,
+    executed: Executed,
+) -> Result<()> {
+    let new_wall: f64 = rows.iter().rev().take(executed.ran).map(|r| r.wall_s).sum();
     let complete = rows.len() == owned;
-    let written = files::write_results(&out, &manifest, &mut rows, complete)
+    let written = files::write_results(out, manifest, rows, complete)
         .with_context(|| format!("writing the sweep's files into {}", out.display()))?;
-    if let Some(e) = write_error {
+    if let Some(e) = executed.write_error {
         return Err(e.context(format!(
             "{}: the progress file could not be written; the sweep stopped",
             out.display()
         )));
     }
     report(
-        &sweep,
-        &manifest,
-        &rows,
-        todo.len() - not_run,
-        wall,
+        sweep,
+        manifest,
+        rows,
+        executed.ran,
+        executed.wall,
         new_wall,
         jobs,
     );

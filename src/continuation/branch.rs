@@ -361,9 +361,54 @@ pub fn to_branch(
     range: (f64, f64),
     curve: Curve<Evaluation>,
 ) -> Branch {
-    let n = map.n();
     let mut notes = Vec::new();
-    let mut points: Vec<BranchPoint> = curve
+    let mut points = branch_points(map, &curve);
+    classify_specials(&mut points, &curve, &parameter, &mut notes);
+    for &(t, s0, s1) in &curve.unlocated {
+        let at = |s: f64| {
+            curve
+                .nodes
+                .iter()
+                .find(|n| n.s.to_bits() == s.to_bits())
+                .map_or(f64::NAN, |n| n.eval.values[0])
+        };
+        notes.push(format!(
+            "a {} lies between {} = {:.9e} and {:.9e} but could not be located",
+            TESTS[t].name(),
+            parameter.name(),
+            at(s0),
+            at(s1)
+        ));
+    }
+    let end = branch_end(&curve.end);
+    mark_ends(&mut points, &end);
+    match &end {
+        BranchEnd::Grazing(k) => notes.push(format!(
+            "the branch ends at a grazing: past the last point a period contains {k}, the map is not smooth there (not a fold)"
+        )),
+        BranchEnd::StepUnderflow(why) => notes.push(format!(
+            "the continuation stopped: the step size fell below its minimum ({why})"
+        )),
+        BranchEnd::MaxPoints => notes.push("the continuation stopped at its point limit".into()),
+        BranchEnd::Range => {}
+    }
+    Branch {
+        parameter,
+        range,
+        points,
+        end,
+        work: curve.work,
+        periods: 0,
+        wall_s: 0.0,
+        notes,
+        map: map.clone(),
+    }
+}
+
+/// One regular point per node of the curve, with its multipliers.
+fn branch_points(map: &ScaledMap, curve: &Curve<Evaluation>) -> Vec<BranchPoint> {
+    let n = map.n();
+    curve
         .nodes
         .iter()
         .map(|node| {
@@ -386,7 +431,17 @@ pub fn to_branch(
                 kind: PointKind::Regular,
             }
         })
-        .collect();
+        .collect()
+}
+
+/// Mark the test zeros of the curve that the multipliers confirm as bifurcations; a note for
+/// each zero that is something else (a neutral saddle, a branch point).
+fn classify_specials(
+    points: &mut [BranchPoint],
+    curve: &Curve<Evaluation>,
+    parameter: &Parameter,
+    notes: &mut Vec<String>,
+) {
     let folds: Vec<f64> = curve
         .specials
         .iter()
@@ -432,26 +487,11 @@ pub fn to_branch(
             p.kind = kind;
         }
     }
-    for &(t, s0, s1) in &curve.unlocated {
-        let at = |s: f64| {
-            curve
-                .nodes
-                .iter()
-                .find(|n| n.s.to_bits() == s.to_bits())
-                .map_or(f64::NAN, |n| n.eval.values[0])
-        };
-        notes.push(format!(
-            "a {} lies between {} = {:.9e} and {:.9e} but could not be located",
-            TESTS[t].name(),
-            parameter.name(),
-            at(s0),
-            at(s1)
-        ));
-    }
-    if let Some(p) = points.first_mut() {
-        p.kind = PointKind::Start;
-    }
-    let end = match &curve.end {
+}
+
+/// Why the traced curve ended.
+fn branch_end(end: &End) -> BranchEnd {
+    match end {
         End::Window => BranchEnd::Range,
         End::Rough(kinds) => {
             let k: Vec<&str> = kinds.iter().map(|k| event_name(*k)).collect();
@@ -459,7 +499,15 @@ pub fn to_branch(
         }
         End::Underflow(why) => BranchEnd::StepUnderflow(why.clone()),
         End::MaxPoints => BranchEnd::MaxPoints,
-    };
+    }
+}
+
+/// The first point is the start; the last, unless special, the end (a grazing where the branch
+/// ends at one).
+fn mark_ends(points: &mut [BranchPoint], end: &BranchEnd) {
+    if let Some(p) = points.first_mut() {
+        p.kind = PointKind::Start;
+    }
     if let Some(p) = points.last_mut() {
         if p.kind == PointKind::Regular {
             p.kind = match end {
@@ -467,27 +515,6 @@ pub fn to_branch(
                 _ => PointKind::End,
             };
         }
-    }
-    match &end {
-        BranchEnd::Grazing(k) => notes.push(format!(
-            "the branch ends at a grazing: past the last point a period contains {k}, the map is not smooth there (not a fold)"
-        )),
-        BranchEnd::StepUnderflow(why) => notes.push(format!(
-            "the continuation stopped: the step size fell below its minimum ({why})"
-        )),
-        BranchEnd::MaxPoints => notes.push("the continuation stopped at its point limit".into()),
-        BranchEnd::Range => {}
-    }
-    Branch {
-        parameter,
-        range,
-        points,
-        end,
-        work: curve.work,
-        periods: 0,
-        wall_s: 0.0,
-        notes,
-        map: map.clone(),
     }
 }
 

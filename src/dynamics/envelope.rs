@@ -108,6 +108,23 @@ struct Point {
     y: [f64; 3],
 }
 
+/// One BDF step in slow time, set up from the history.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BdfStep {
+    /// The new point's τ (τ_n + m).
+    tau: f64,
+    /// The index of the period the new point starts.
+    k: u64,
+    /// τ of the oldest history point (Milne's device).
+    tau_oldest: f64,
+    /// The predictor: the quadratic through the history, at `tau`.
+    predicted: [f64; 3],
+    /// ℓ₀′, the corrector's coefficient of the new point.
+    l0: f64,
+    /// Σ_{j≥1} ℓⱼ′ yⱼ over the newest ORDER history points.
+    known: [f64; 3],
+}
+
 /// Envelope following along one run.
 #[derive(Debug, Clone)]
 pub struct Envelope {
@@ -306,27 +323,77 @@ impl Envelope {
         y: &State,
         m: u64,
     ) -> Result<Option<(State, f64)>, SimError> {
+        let bdf = self.bdf_step(m);
+        let Some((z, iterations)) = self.newton(sim, y, &bdf)? else {
+            return Ok(None);
+        };
+        self.jac_age += 1;
+        if iterations > 2 || self.jac_age >= MAX_JAC_AGE {
+            // A fresh Jacobian next time: also a fresh look at the multipliers, which move as
+            // the run drifts towards a loss of stability.
+            self.jac = None;
+        }
+        let err = self.milne_error(&bdf, &z, m);
+        if !(err.is_finite() && err <= 1.0) {
+            let shrink = if err.is_finite() {
+                (0.9 * err.powf(-1.0 / (ORDER as f64 + 1.0))).clamp(0.2, 0.9)
+            } else {
+                0.25
+            };
+            self.skip = m as f64 * shrink;
+            return Ok(None);
+        }
+        if z[2].is_nan() || z[2] <= 0.0 {
+            return Ok(self.refuse());
+        }
+        Ok(Some((
+            sim.state_at_boundary(bdf.k, z[0], z[1], z[2], y.q),
+            err,
+        )))
+    }
+
+    /// The BDF step of `m` periods from the history: the new point's τ, the predictor and the
+    /// corrector's coefficients.
+    fn bdf_step(&self, m: u64) -> BdfStep {
         // History, newest last: the predictor uses all ORDER + 1 points, the corrector the newest
         // ORDER of them and the new point.
-        let hist: Vec<Point> = self.history.clone();
+        let hist = &self.history;
         let newest = hist[hist.len() - 1];
         let tau = newest.tau + m as f64;
         let taus: Vec<f64> = hist.iter().map(|p| p.tau).collect();
         let ys: Vec<[f64; 3]> = hist.iter().map(|p| p.y).collect();
-        let zp = lagrange(&taus, &ys, tau);
+        let predicted = lagrange(&taus, &ys, tau);
         // BDF of order ORDER on (tau, the newest ORDER points): Σ ℓⱼ' yⱼ = g(z).
         let mut nodes = vec![tau];
         nodes.extend(taus.iter().rev().take(ORDER));
         let l = lagrange_derivatives(&nodes);
-        let l0 = l[0];
         let known: [f64; 3] = std::array::from_fn(|c| {
             (1..=ORDER)
                 .map(|j| l[j] * hist[hist.len() - j].y[c])
                 .sum::<f64>()
         });
-        let k = newest.tau as u64 + m;
+        BdfStep {
+            tau,
+            k: newest.tau as u64 + m,
+            tau_oldest: taus[0],
+            predicted,
+            l0: l[0],
+            known,
+        }
+    }
+
+    /// Newton on the corrector of `bdf` from its predictor: the corrected point and the
+    /// iterations it took, or `None` when the step is refused (the skip was reduced) or the
+    /// largest multiplier reached its limit (jumps stop or pause).
+    fn newton(
+        &mut self,
+        sim: &mut Simulator,
+        y: &State,
+        bdf: &BdfStep,
+    ) -> Result<Option<([f64; 3], usize)>, SimError> {
+        let (l0, k) = (bdf.l0, bdf.k);
         let sc = self.scales;
-        let mut z = zp;
+        let mut z = bdf.predicted;
         let mut converged = false;
         let mut iterations = 0;
         let mut fresh_jac = false;
@@ -338,17 +405,7 @@ impl Envelope {
                 };
                 self.multiplier = slow_multiplier(&jac);
                 if self.multiplier >= self.settings.max_multiplier {
-                    // Perturbations stop decaying and the envelope's errors would grow. Towards
-                    // pull-off this is the approach to the loss of stability: the stage is
-                    // integrated directly from here. Elsewhere it may be a transient (the ring-
-                    // down after the shaker starts) or a creep that settles: try again later.
-                    if self.towards_pull_off {
-                        self.stop = true;
-                    } else {
-                        self.forget();
-                        self.cooldown = self.backoff;
-                        self.backoff = self.backoff.saturating_mul(2);
-                    }
+                    self.multiplier_at_limit();
                     return Ok(None);
                 }
                 self.jac = Some(jac);
@@ -365,7 +422,7 @@ impl Envelope {
             };
             iterations += 1;
             // F(z) = ℓ0' z + ℓ1' y_n + ℓ2' y_{n−1} − g(z), scaled.
-            let f: [f64; 3] = std::array::from_fn(|i| (l0 * z[i] + known[i] - g[i]) / sc[i]);
+            let f: [f64; 3] = std::array::from_fn(|i| (l0 * z[i] + bdf.known[i] - g[i]) / sc[i]);
             let Some(jac) = self.jac else {
                 return Ok(self.refuse());
             };
@@ -405,34 +462,35 @@ impl Envelope {
             self.jac = None;
             return Ok(self.refuse());
         }
-        self.jac_age += 1;
-        if iterations > 2 || self.jac_age >= MAX_JAC_AGE {
-            // A fresh Jacobian next time: also a fresh look at the multipliers, which move as
-            // the run drifts towards a loss of stability.
-            self.jac = None;
+        Ok(Some((z, iterations)))
+    }
+
+    /// The largest multiplier reached its limit: perturbations stop decaying and the envelope's
+    /// errors would grow. Towards pull-off this is the approach to the loss of stability: the
+    /// stage is integrated directly from here. Elsewhere it may be a transient (the ring-down
+    /// after the shaker starts) or a creep that settles: try again later.
+    fn multiplier_at_limit(&mut self) {
+        if self.towards_pull_off {
+            self.stop = true;
+        } else {
+            self.forget();
+            self.cooldown = self.backoff;
+            self.backoff = self.backoff.saturating_mul(2);
         }
-        // Milne's device for the corrector's local error.
-        // e_c = (1/ℓ0')/(1/ℓ0' + τ − τ_oldest) (z_c − z_p): the corrector's error against the
-        // predictor's, both proportional to the same derivative of the envelope.
-        let span = tau - taus[0];
+    }
+
+    /// The corrected point `z`'s local error by Milne's device, as a fraction of the share of
+    /// the tolerance a jump of `m` periods may use:
+    /// e_c = (1/ℓ0')/(1/ℓ0' + τ − τ_oldest) (z_c − z_p), the corrector's error against the
+    /// predictor's, both proportional to the same derivative of the envelope.
+    fn milne_error(&self, bdf: &BdfStep, z: &[f64; 3], m: u64) -> f64 {
+        let (l0, sc) = (bdf.l0, self.scales);
+        let span = bdf.tau - bdf.tau_oldest;
         let ratio = (1.0 / l0) / (1.0 / l0 + span);
-        let err = (0..3)
-            .map(|i| (ratio * (z[i] - zp[i]) / sc[i]).abs())
+        (0..3)
+            .map(|i| (ratio * (z[i] - bdf.predicted[i]) / sc[i]).abs())
             .fold(0.0f64, f64::max)
-            / (self.settings.tol * self.memory_share(m));
-        if !(err.is_finite() && err <= 1.0) {
-            let shrink = if err.is_finite() {
-                (0.9 * err.powf(-1.0 / (ORDER as f64 + 1.0))).clamp(0.2, 0.9)
-            } else {
-                0.25
-            };
-            self.skip = m as f64 * shrink;
-            return Ok(None);
-        }
-        if z[2].is_nan() || z[2] <= 0.0 {
-            return Ok(self.refuse());
-        }
-        Ok(Some((sim.state_at_boundary(k, z[0], z[1], z[2], y.q), err)))
+            / (self.settings.tol * self.memory_share(m))
     }
 
     /// The share of the envelope tolerance one jump of `m` periods may use. The slowest mode of
@@ -444,7 +502,7 @@ impl Envelope {
     }
 
     /// A refused step: try a quarter of the skip.
-    fn refuse(&mut self) -> Option<(State, f64)> {
+    fn refuse<T>(&mut self) -> Option<T> {
         self.skip *= 0.25;
         None
     }

@@ -94,43 +94,80 @@ pub fn solve_radius<F: FnMut(f64) -> f64>(
     if r_p == 0.0 {
         return Some(a_p);
     }
-    // Fast path: secant iteration from the predictor, accepted only if it converges onto an
-    // upward crossing (positive slope); otherwise the bracketing search below decides.
-    {
-        let (mut a0, mut r0) = (a_p, r_p);
-        let dir = if r_p < 0.0 { 1.0 } else { -1.0 };
-        let mut a1 = a_p + dir * step0.max(1e-9 * a_p);
-        if a1 > 0.0 {
-            let mut r1 = eval(a1);
-            for _ in 0..12 {
-                if !r1.is_finite() || (r1 - r0).abs() <= 0.0 {
-                    break;
-                }
-                let slope = (r1 - r0) / (a1 - a0);
-                if slope <= 0.0 {
-                    break;
-                }
-                let a2 = a1 - r1 / slope;
-                if a2.is_nan() || a2 <= 0.0 {
-                    break;
-                }
-                if (a2 - a1).abs() <= xtol_rel * a2 {
-                    return Some(a2);
-                }
-                (a0, r0) = (a1, r1);
-                a1 = a2;
-                r1 = eval(a1);
-                if r1 == 0.0 {
-                    return Some(a1);
-                }
+    if let Some(a) = secant_radius(&mut eval, a_p, r_p, step0, xtol_rel) {
+        return Some(a);
+    }
+    let (lo, hi, rhi) = bracket_radius(&mut eval, a_p, r_p, step0)?;
+    if rhi == 0.0 {
+        return Some(hi);
+    }
+    let mut conv = RelativeConvergency {
+        x_rel: 8.0 * f64::EPSILON,
+        x_abs: 1e-300,
+        f_abs: 0.0,
+        max_iter: 100,
+    };
+    match roots::find_root_brent(lo, hi, &mut eval, &mut conv) {
+        Ok(a) if a > 0.0 => Some(a),
+        Ok(_) => None,
+        // The bracket is valid, so only the iteration limit can fail: take its midpoint.
+        Err(_) => Some(0.5 * (lo + hi)),
+    }
+}
+
+/// The fast path of [`solve_radius`]: secant iteration from the predictor `a_p` (where ρ is
+/// `r_p`), accepted only if it converges onto an upward crossing (positive slope); otherwise
+/// `None` and the bracketing search decides.
+fn secant_radius(
+    eval: &mut impl FnMut(f64) -> f64,
+    a_p: f64,
+    r_p: f64,
+    step0: f64,
+    xtol_rel: f64,
+) -> Option<f64> {
+    let (mut a0, mut r0) = (a_p, r_p);
+    let dir = if r_p < 0.0 { 1.0 } else { -1.0 };
+    let mut a1 = a_p + dir * step0.max(1e-9 * a_p);
+    if a1 > 0.0 {
+        let mut r1 = eval(a1);
+        for _ in 0..12 {
+            if !r1.is_finite() || (r1 - r0).abs() <= 0.0 {
+                break;
+            }
+            let slope = (r1 - r0) / (a1 - a0);
+            if slope <= 0.0 {
+                break;
+            }
+            let a2 = a1 - r1 / slope;
+            if a2.is_nan() || a2 <= 0.0 {
+                break;
+            }
+            if (a2 - a1).abs() <= xtol_rel * a2 {
+                return Some(a2);
+            }
+            (a0, r0) = (a1, r1);
+            a1 = a2;
+            r1 = eval(a1);
+            if r1 == 0.0 {
+                return Some(a1);
             }
         }
     }
+    None
+}
+
+/// A bracket (lo, hi, ρ(hi)) of the upward crossing nearest to the predictor `a_p` (where ρ is
+/// `r_p`), searched outwards in steps growing 4× from `step0`; `None` when there is none with
+/// a > 0.
+fn bracket_radius(
+    eval: &mut impl FnMut(f64) -> f64,
+    a_p: f64,
+    r_p: f64,
+    step0: f64,
+) -> Option<(f64, f64, f64)> {
     let mut d = step0.max(4.0 * f64::EPSILON * a_p);
-    let (lo, hi, rlo, rhi);
     if r_p < 0.0 {
         let mut l = a_p;
-        let mut rl = r_p;
         loop {
             let h = a_p + d;
             let r = eval(h);
@@ -138,11 +175,9 @@ pub fn solve_radius<F: FnMut(f64) -> f64>(
                 return None;
             }
             if r >= 0.0 {
-                (lo, hi, rlo, rhi) = (l, h, rl, r);
-                break;
+                return Some((l, h, r));
             }
             l = h;
-            rl = r;
             d *= 4.0;
             if d > 1e12 * a_p.max(step0) {
                 return None;
@@ -160,8 +195,7 @@ pub fn solve_radius<F: FnMut(f64) -> f64>(
             }
             let r = eval(l);
             if r.is_finite() && r < 0.0 {
-                (lo, hi, rlo, rhi) = (l, h, r, rh);
-                break;
+                return Some((l, h, rh));
             }
             if last {
                 return None;
@@ -170,22 +204,6 @@ pub fn solve_radius<F: FnMut(f64) -> f64>(
             rh = if r.is_finite() { r } else { f64::INFINITY };
             d *= 4.0;
         }
-    }
-    if rhi == 0.0 {
-        return Some(hi);
-    }
-    let _ = rlo;
-    let mut conv = RelativeConvergency {
-        x_rel: 8.0 * f64::EPSILON,
-        x_abs: 1e-300,
-        f_abs: 0.0,
-        max_iter: 100,
-    };
-    match roots::find_root_brent(lo, hi, &mut eval, &mut conv) {
-        Ok(a) if a > 0.0 => Some(a),
-        Ok(_) => None,
-        // The bracket is valid, so only the iteration limit can fail: take its midpoint.
-        Err(_) => Some(0.5 * (lo + hi)),
     }
 }
 

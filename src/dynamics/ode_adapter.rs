@@ -228,13 +228,7 @@ pub fn macro_step(
     h_guess: f64,
 ) -> Result<(StepOut, f64), StepFail> {
     let scale = scales(model);
-    let mut y0 = Y::zeros();
-    y0[0] = y.x / scale[0];
-    y0[1] = y.v / scale[1];
-    y0[2] = y.a / scale[2];
-    for k in 0..NQ {
-        y0[3 + k] = y.q[k] / scale[3 + k];
-    }
+    let y0 = scaled(y, &scale);
     let singular = Cell::new(false);
     let collapse = Cell::new(false);
     let evals = Cell::new(0u64);
@@ -297,6 +291,41 @@ pub fn macro_step(
     if (t_end - t1).abs() > 1e-9 * h.max(f64::MIN_POSITIVE) + 4.0 * f64::EPSILON * t1.abs() {
         return Err(StepFail::Explicit("integration stopped early"));
     }
+    Ok((
+        StepOut {
+            y: end_state(model, drive, y, t1, &ye, &scale)?,
+            err: 0.0,
+            evals: n_evals,
+            err_exp: 0.0,
+            kink: None,
+            kink_ahead: None,
+        },
+        last_h,
+    ))
+}
+
+/// `y` in the integrator's scaled unknowns.
+fn scaled(y: &State, scale: &[f64; N]) -> Y {
+    let mut y0 = Y::zeros();
+    y0[0] = y.x / scale[0];
+    y0[1] = y.v / scale[1];
+    y0[2] = y.a / scale[2];
+    for k in 0..NQ {
+        y0[3 + k] = y.q[k] / scale[3 + k];
+    }
+    y0
+}
+
+/// The state at `t1`, the end of a macro step from `y`, from the integrator's scaled end point
+/// `ye`: unscaled, with its rates, checked finite.
+fn end_state(
+    model: &Model,
+    drive: &Drive,
+    y: &State,
+    t1: f64,
+    ye: &Y,
+    scale: &[f64; N],
+) -> Result<State, StepFail> {
     let (x, v, a) = (ye[0] * scale[0], ye[1] * scale[1], ye[2] * scale[2]);
     let Some((x, v, acc, adot, _)) = explicit_rates(model, drive, t1, x, v, a, y.contact) else {
         return Err(StepFail::Explicit(
@@ -310,24 +339,14 @@ pub fn macro_step(
     if !(x.is_finite() && v.is_finite() && a.is_finite() && q.iter().all(|v| v.is_finite())) {
         return Err(StepFail::NonFinite);
     }
-    Ok((
-        StepOut {
-            y: State {
-                t: t1,
-                x,
-                v,
-                acc,
-                a: if y.contact { a } else { 0.0 },
-                adot,
-                contact: y.contact,
-                q,
-            },
-            err: 0.0,
-            evals: n_evals,
-            err_exp: 0.0,
-            kink: None,
-            kink_ahead: None,
-        },
-        last_h,
-    ))
+    Ok(State {
+        t: t1,
+        x,
+        v,
+        acc,
+        a: if y.contact { a } else { 0.0 },
+        adot,
+        contact: y.contact,
+        q,
+    })
 }

@@ -817,15 +817,7 @@ impl Simulator {
         let t_lim = self.t_end.min(t_bound);
         let snap = 16.0 * f64::EPSILON * y0.t.abs().max(self.model.t_char);
         if t_lim - y0.t <= snap {
-            // Boundaries are hit exactly; a rounding sliver between two of them (a stage end and
-            // a period boundary computed differently, e.g. a stage of exactly one base period) is
-            // absorbed here, and a period boundary within it is recorded.
-            if t_bound - y0.t <= snap {
-                self.y.t = self.y.t.max(t_bound);
-                return Ok(self.at_boundary().map(Stop::Period));
-            }
-            self.y.t = self.y.t.max(t_lim);
-            return Ok(Some(Stop::Reached));
+            return Ok(self.absorb_sliver(y0.t, t_bound, t_lim, snap));
         }
         let kind = self.stepper.kind();
         let prop =
@@ -858,17 +850,7 @@ impl Simulator {
             return Ok(None);
         }
         if out.err > 1.0 {
-            self.stats.rejected += 1;
-            let h_new = self.control.reject(out.err, out.err_exp, h);
-            if y0.contact && y0.adot < 0.0 && h_new <= self.settings.event_tol.max(self.h_min()) {
-                // The radius runs into a turning point or a → 0 with unbounded speed faster
-                // than the event tolerance resolves: the contact is lost here.
-                return Ok(Some(self.lose_contact(&y0)));
-            }
-            if h_new <= self.h_min() {
-                return self.fall_back(y0.t, h_new);
-            }
-            return Ok(None);
+            return self.reject_step(&y0, &out, h);
         }
         self.control.accept(
             out.err,
@@ -915,6 +897,35 @@ impl Simulator {
             period,
             reached: hits && self.t_end <= t_lim,
         }))
+    }
+
+    /// Boundaries are hit exactly; a rounding sliver between two of them (a stage end and a
+    /// period boundary computed differently, e.g. a stage of exactly one base period) is absorbed
+    /// here: from `t0`, within `snap` of the limit `t_lim`, the state moves to it, and a period
+    /// boundary `t_bound` within the sliver is recorded.
+    fn absorb_sliver(&mut self, t0: f64, t_bound: f64, t_lim: f64, snap: f64) -> Option<Stop> {
+        if t_bound - t0 <= snap {
+            self.y.t = self.y.t.max(t_bound);
+            return self.at_boundary().map(Stop::Period);
+        }
+        self.y.t = self.y.t.max(t_lim);
+        Some(Stop::Reached)
+    }
+
+    /// The step y0 → y0 + `h` failed its error test (`out.err` > 1): shrink the step, or lose the
+    /// contact or fall back when it would become too small.
+    fn reject_step(&mut self, y0: &State, out: &StepOut, h: f64) -> Result<Option<Stop>, SimError> {
+        self.stats.rejected += 1;
+        let h_new = self.control.reject(out.err, out.err_exp, h);
+        if y0.contact && y0.adot < 0.0 && h_new <= self.settings.event_tol.max(self.h_min()) {
+            // The radius runs into a turning point or a → 0 with unbounded speed faster
+            // than the event tolerance resolves: the contact is lost here.
+            return Ok(Some(self.lose_contact(y0)));
+        }
+        if h_new <= self.h_min() {
+            return self.fall_back(y0.t, h_new);
+        }
+        Ok(None)
     }
 
     /// The earliest event within the accepted step y0 → y1, located; the state moves to it.

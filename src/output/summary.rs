@@ -187,74 +187,12 @@ pub fn summary_json(
     sections: &Sections,
 ) -> String {
     let mut b = Builder::default();
-
-    // No pull-off force recorded (the simulator's placeholder 0 N at t = 0): left out, as NaN.
-    let po = if checks::pull_off_recorded(result) {
-        result.pull_off
-    } else {
-        crate::dynamics::PullOffSummary {
-            force: f64::NAN,
-            amplification: f64::NAN,
-            time: f64::NAN,
-        }
-    };
-    let mut pull_off = Map::new();
-    b.put(&mut pull_off, "pull_off.", "force", po.force);
-    b.put(
-        &mut pull_off,
-        "pull_off.",
-        "amplification",
-        po.amplification,
-    );
-    b.put(&mut pull_off, "pull_off.", "time", po.time);
-
-    let mut stats = Map::new();
-    stats.insert("steps".into(), Value::from(result.stats.steps));
-    stats.insert("rejected".into(), Value::from(result.stats.rejected));
-    stats.insert("rhs_evals".into(), Value::from(result.stats.rhs_evals));
-    b.put(&mut stats, "stats.", "wall_s", result.stats.wall_s);
-
+    let pull_off = b.pull_off(result);
+    let stats = b.stats(result);
     let final_state = b.state("final_state.", &result.final_state);
-
-    let counts: BTreeMap<String, u64> = result
-        .event_counts
-        .by_kind()
-        .into_iter()
-        .filter(|(_, n)| *n > 0)
-        .map(|(k, n)| (kind_name(k), n))
-        .collect();
-    let events: Vec<Value> = result
-        .events
-        .iter()
-        .enumerate()
-        .map(|(i, e)| {
-            let kind = kind_name(e.kind);
-            let prefix = format!("events[{i}].");
-            let mut m = Map::new();
-            m.insert("kind".into(), Value::String(kind));
-            b.put(&mut m, &prefix, "time", e.time);
-            m.insert("stage".into(), Value::from(stage_index(e.stage)));
-            m.insert(
-                "state".into(),
-                b.state(&format!("{prefix}state."), &e.state),
-            );
-            Value::Object(m)
-        })
-        .collect();
-
+    let counts = event_counts(result);
+    let events = b.events(result);
     let (cycles, cycle_units) = b.cycles(result.cycle_count, result.last_cycle.as_ref());
-
-    let mut file_map = Map::new();
-    file_map.insert("hdf5".into(), Value::String(files.hdf5.clone()));
-    if let Some(f) = &files.timeseries_csv {
-        file_map.insert("timeseries_csv".into(), Value::String(f.clone()));
-    }
-    if let Some(f) = &files.events_csv {
-        file_map.insert("events_csv".into(), Value::String(f.clone()));
-    }
-    if let Some(f) = &files.cycles_csv {
-        file_map.insert("cycles_csv".into(), Value::String(f.clone()));
-    }
 
     let top: Vec<(&str, Value)> = vec![
         ("format_version", Value::from(SUMMARY_VERSION)),
@@ -274,15 +212,7 @@ pub fn summary_json(
         ("events_listed", Value::from(result.events.len() as u64)),
         ("final_state", final_state),
         ("cycles", cycles),
-        (
-            "event_counts",
-            Value::Object(
-                counts
-                    .into_iter()
-                    .map(|(k, v)| (k, Value::from(v)))
-                    .collect(),
-            ),
-        ),
+        ("event_counts", counts),
         (
             "units",
             Value::Object(
@@ -293,7 +223,7 @@ pub fn summary_json(
                     .collect(),
             ),
         ),
-        ("files", Value::Object(file_map)),
+        ("files", Value::Object(file_map(files))),
         (
             "file_bytes",
             Value::Object(
@@ -313,9 +243,105 @@ pub fn summary_json(
             Value::Object(b.non_finite.into_iter().collect()),
         ),
     ];
+    layout(&top, sections, &events)
+}
 
+impl Builder {
+    /// `pull_off`: force, amplification and time. No pull-off force recorded (the simulator's
+    /// placeholder 0 N at t = 0): left out, as NaN.
+    fn pull_off(&mut self, result: &RunResult) -> Map<String, Value> {
+        let po = if checks::pull_off_recorded(result) {
+            result.pull_off
+        } else {
+            crate::dynamics::PullOffSummary {
+                force: f64::NAN,
+                amplification: f64::NAN,
+                time: f64::NAN,
+            }
+        };
+        let mut pull_off = Map::new();
+        self.put(&mut pull_off, "pull_off.", "force", po.force);
+        self.put(
+            &mut pull_off,
+            "pull_off.",
+            "amplification",
+            po.amplification,
+        );
+        self.put(&mut pull_off, "pull_off.", "time", po.time);
+        pull_off
+    }
+
+    /// `stats`: the solver's work.
+    fn stats(&mut self, result: &RunResult) -> Map<String, Value> {
+        let mut stats = Map::new();
+        stats.insert("steps".into(), Value::from(result.stats.steps));
+        stats.insert("rejected".into(), Value::from(result.stats.rejected));
+        stats.insert("rhs_evals".into(), Value::from(result.stats.rhs_evals));
+        self.put(&mut stats, "stats.", "wall_s", result.stats.wall_s);
+        stats
+    }
+
+    /// `events`: the listed events, one object each.
+    fn events(&mut self, result: &RunResult) -> Vec<Value> {
+        result
+            .events
+            .iter()
+            .enumerate()
+            .map(|(i, e)| {
+                let kind = kind_name(e.kind);
+                let prefix = format!("events[{i}].");
+                let mut m = Map::new();
+                m.insert("kind".into(), Value::String(kind));
+                self.put(&mut m, &prefix, "time", e.time);
+                m.insert("stage".into(), Value::from(stage_index(e.stage)));
+                m.insert(
+                    "state".into(),
+                    self.state(&format!("{prefix}state."), &e.state),
+                );
+                Value::Object(m)
+            })
+            .collect()
+    }
+}
+
+/// `event_counts`: every kind of event that happened, with its count.
+fn event_counts(result: &RunResult) -> Value {
+    let counts: BTreeMap<String, u64> = result
+        .event_counts
+        .by_kind()
+        .into_iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(k, n)| (kind_name(k), n))
+        .collect();
+    Value::Object(
+        counts
+            .into_iter()
+            .map(|(k, v)| (k, Value::from(v)))
+            .collect(),
+    )
+}
+
+/// `files`: the files written.
+fn file_map(files: &SummaryFiles) -> Map<String, Value> {
+    let mut file_map = Map::new();
+    file_map.insert("hdf5".into(), Value::String(files.hdf5.clone()));
+    if let Some(f) = &files.timeseries_csv {
+        file_map.insert("timeseries_csv".into(), Value::String(f.clone()));
+    }
+    if let Some(f) = &files.events_csv {
+        file_map.insert("events_csv".into(), Value::String(f.clone()));
+    }
+    if let Some(f) = &files.cycles_csv {
+        file_map.insert("cycles_csv".into(), Value::String(f.clone()));
+    }
+    file_map
+}
+
+/// The text: the `top` keys one per line, then the extra `sections`, then the `events` one per
+/// line.
+fn layout(top: &[(&str, Value)], sections: &Sections, events: &[Value]) -> String {
     let mut out = String::from("{\n");
-    for (k, v) in &top {
+    for (k, v) in top {
         out.push_str(&format!("  {}: {},\n", Value::from(*k), v));
     }
     for (k, v) in sections {

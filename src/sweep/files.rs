@@ -605,6 +605,34 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, FilesError> {
     };
     manifest.shard = None;
     rows.sort_by_key(|r| (r.point, r.member));
+    check_every_run_once(out, &manifest, &rows, &seen_shards)?;
+    fs::create_dir_all(out).map_err(io(out))?;
+    if let Some(old) = Manifest::read(out)? {
+        if let Some(what) = old.difference(&manifest) {
+            return Err(invalid(
+                out,
+                format!("already holds another sweep (its {what} differs): choose another --out"),
+            ));
+        }
+    }
+    manifest.write(out)?;
+    let files = write_results(out, &manifest, &mut rows, true)?;
+    Ok(Merged {
+        failed: rows.iter().filter(|r| r.result.is_err()).count(),
+        rows: rows.len(),
+        manifest,
+        files,
+    })
+}
+
+/// The merged `rows` (sorted) hold every run of `manifest` exactly once; `seen` are the shards
+/// given (to name those missing).
+fn check_every_run_once(
+    out: &Path,
+    manifest: &Manifest,
+    rows: &[Row],
+    seen: &[Shard],
+) -> Result<(), FilesError> {
     if let Some(w) = rows
         .windows(2)
         .find(|w| (w[0].point, w[0].member) == (w[1].point, w[1].member))
@@ -622,9 +650,9 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, FilesError> {
         let missing: Vec<usize> = (0..manifest.runs)
             .filter(|&i| !have.contains(&(i / manifest.members, i % manifest.members)))
             .collect();
-        let count = seen_shards.first().map_or(1, |s| s.count);
+        let count = seen.first().map_or(1, |s| s.count);
         let absent: Vec<String> = (1..=count)
-            .filter(|k| !seen_shards.iter().any(|s| s.index == *k))
+            .filter(|k| !seen.iter().any(|s| s.index == *k))
             .map(|k| format!("{k}/{count}"))
             .collect();
         return Err(invalid(
@@ -643,23 +671,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, FilesError> {
             ),
         ));
     }
-    fs::create_dir_all(out).map_err(io(out))?;
-    if let Some(old) = Manifest::read(out)? {
-        if let Some(what) = old.difference(&manifest) {
-            return Err(invalid(
-                out,
-                format!("already holds another sweep (its {what} differs): choose another --out"),
-            ));
-        }
-    }
-    manifest.write(out)?;
-    let files = write_results(out, &manifest, &mut rows, true)?;
-    Ok(Merged {
-        failed: rows.iter().filter(|r| r.result.is_err()).count(),
-        rows: rows.len(),
-        manifest,
-        files,
-    })
+    Ok(())
 }
 
 /// The runs of `manifest`'s folder not in `done` (indices in (point, member) order).

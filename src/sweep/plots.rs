@@ -72,7 +72,29 @@ pub fn sweep_plots(
     let ensemble = manifest.ensemble.is_some();
     let mut files = Vec::new();
     let numeric = |j: usize| keys[j].unit.is_some();
-    // The x axis: the numeric key with the most distinct values (the first given on a tie).
+    if let Some(xj) = x_key(keys, points, &vary) {
+        let fig = amplification_figure(keys, points, &vary, xj, ensemble);
+        let (png, svg) = plot::render(&fig, &dir.join(AMPLIFICATION))?;
+        files.extend([png, svg]);
+    }
+    if vary.len() == 2 && !manifest.zip && vary.iter().all(|&j| numeric(j)) {
+        if let Some(map) = amplification_map(keys, points, (vary[0], vary[1]), ensemble) {
+            let (png, svg) = plot::render_heatmap(&map, &dir.join(AMPLIFICATION_MAP))?;
+            files.extend([png, svg]);
+        }
+    }
+    if ensemble {
+        let fig = phase_figure(keys, points, rows, &vary);
+        let (png, svg) = plot::render(&fig, &dir.join(PHASE))?;
+        files.extend([png, svg]);
+    }
+    Ok(files)
+}
+
+/// The x axis of the amplification figure: of the varying keys `vary`, the numeric one with the
+/// most distinct values (the first given on a tie).
+fn x_key(keys: &[KeyInfo], points: &[PointStats], vary: &[usize]) -> Option<usize> {
+    let numeric = |j: usize| keys[j].unit.is_some();
     let distinct = |j: usize| {
         let mut v: Vec<u64> = points
             .iter()
@@ -82,8 +104,7 @@ pub fn sweep_plots(
         v.dedup();
         v.len()
     };
-    let x_key = vary
-        .iter()
+    vary.iter()
         .copied()
         .filter(|&j| numeric(j))
         .fold(None, |best: Option<(usize, usize)>, j| {
@@ -93,151 +114,166 @@ pub fn sweep_plots(
                 _ => Some((j, n)),
             }
         })
-        .map(|(j, _)| j);
-    if let Some(xj) = x_key {
-        let others: Vec<usize> = vary.iter().copied().filter(|&j| j != xj).collect();
-        let mut groups: Vec<(String, Vec<&PointStats>)> = Vec::new();
-        for p in points {
-            let name = others
-                .iter()
-                .map(|&j| value_text(&keys[j], &p.keys[j]))
-                .collect::<Vec<_>>()
-                .join(", ");
-            match groups.iter_mut().find(|(n, _)| *n == name) {
-                Some((_, v)) => v.push(p),
-                None => groups.push((name, vec![p])),
-            }
+        .map(|(j, _)| j)
+}
+
+/// `amplification`: the amplification against key `xj`, one line per value of the other
+/// varying keys; with an `ensemble`, bars of ± one standard deviation of the members.
+fn amplification_figure(
+    keys: &[KeyInfo],
+    points: &[PointStats],
+    vary: &[usize],
+    xj: usize,
+    ensemble: bool,
+) -> Figure {
+    let others: Vec<usize> = vary.iter().copied().filter(|&j| j != xj).collect();
+    let mut groups: Vec<(String, Vec<&PointStats>)> = Vec::new();
+    for p in points {
+        let name = others
+            .iter()
+            .map(|&j| value_text(&keys[j], &p.keys[j]))
+            .collect::<Vec<_>>()
+            .join(", ");
+        match groups.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, v)) => v.push(p),
+            None => groups.push((name, vec![p])),
         }
-        let mut fig = Figure::new(
-            format!("pull-off amplification against {}", keys[xj].name),
-            label(&keys[xj]),
-            if ensemble {
-                "pull-off amplification (mean ± std of members)"
-            } else {
-                "pull-off amplification"
-            },
-        )
-        .with_log(keys[xj].log, false)
-        .with_legend(LegendPosition::UpperLeft);
-        for (g, (name, mut pts)) in groups.into_iter().enumerate() {
-            pts.sort_by(|a, b| {
-                let x = |p: &PointStats| p.keys[xj].num().unwrap_or(f64::NAN);
-                x(a).total_cmp(&x(b))
-            });
-            let xs: Vec<f64> = pts
-                .iter()
-                .map(|p| p.keys[xj].num().unwrap_or(f64::NAN))
-                .collect();
-            let ys: Vec<f64> = pts.iter().map(|p| p.amplification.mean).collect();
-            fig.series
-                .push(Series::new(name, xs.clone(), ys.clone(), Style::LineMarkers).with_color(g));
-            if pts.iter().any(|p| p.amplification.n >= 2) {
-                let (mut bx, mut by) = (Vec::new(), Vec::new());
-                for (p, x) in pts.iter().zip(&xs) {
-                    let s = p.amplification;
-                    if s.std.is_finite() {
-                        bx.extend([*x, *x, f64::NAN]);
-                        by.extend([s.mean - s.std, s.mean + s.std, f64::NAN]);
-                    }
-                }
-                fig.series
-                    .push(Series::new("", bx, by, Style::Line).with_color(g));
-            }
-        }
-        let (png, svg) = plot::render(&fig, &dir.join(AMPLIFICATION))?;
-        files.extend([png, svg]);
     }
-    if vary.len() == 2 && !manifest.zip && vary.iter().all(|&j| numeric(j)) {
-        let (xj, yj) = (vary[0], vary[1]);
-        let axis = |j: usize| {
-            let mut v: Vec<f64> = points.iter().filter_map(|p| p.keys[j].num()).collect();
-            v.sort_by(f64::total_cmp);
-            v.dedup_by(|a, b| a.to_bits() == b.to_bits());
-            v
+    let mut fig = Figure::new(
+        format!("pull-off amplification against {}", keys[xj].name),
+        label(&keys[xj]),
+        if ensemble {
+            "pull-off amplification (mean ± std of members)"
+        } else {
+            "pull-off amplification"
+        },
+    )
+    .with_log(keys[xj].log, false)
+    .with_legend(LegendPosition::UpperLeft);
+    for (g, (name, mut pts)) in groups.into_iter().enumerate() {
+        pts.sort_by(|a, b| {
+            let x = |p: &PointStats| p.keys[xj].num().unwrap_or(f64::NAN);
+            x(a).total_cmp(&x(b))
+        });
+        let xs: Vec<f64> = pts
+            .iter()
+            .map(|p| p.keys[xj].num().unwrap_or(f64::NAN))
+            .collect();
+        let ys: Vec<f64> = pts.iter().map(|p| p.amplification.mean).collect();
+        fig.series
+            .push(Series::new(name, xs.clone(), ys.clone(), Style::LineMarkers).with_color(g));
+        if pts.iter().any(|p| p.amplification.n >= 2) {
+            let (mut bx, mut by) = (Vec::new(), Vec::new());
+            for (p, x) in pts.iter().zip(&xs) {
+                let s = p.amplification;
+                if s.std.is_finite() {
+                    bx.extend([*x, *x, f64::NAN]);
+                    by.extend([s.mean - s.std, s.mean + s.std, f64::NAN]);
+                }
+            }
+            fig.series
+                .push(Series::new("", bx, by, Style::Line).with_color(g));
+        }
+    }
+    fig
+}
+
+/// `amplification-map`: the (mean) amplification over the numeric keys `xj` and `yj`, or `None`
+/// when either has fewer than two values or a value that is not finite.
+fn amplification_map(
+    keys: &[KeyInfo],
+    points: &[PointStats],
+    (xj, yj): (usize, usize),
+    ensemble: bool,
+) -> Option<Heatmap> {
+    let axis = |j: usize| {
+        let mut v: Vec<f64> = points.iter().filter_map(|p| p.keys[j].num()).collect();
+        v.sort_by(f64::total_cmp);
+        v.dedup_by(|a, b| a.to_bits() == b.to_bits());
+        v
+    };
+    let (x, y) = (axis(xj), axis(yj));
+    let finite = x.iter().chain(&y).all(|v| v.is_finite());
+    if !(x.len() >= 2 && y.len() >= 2 && finite) {
+        return None;
+    }
+    let mut cell: BTreeMap<(usize, usize), f64> = BTreeMap::new();
+    for p in points {
+        let pos = |v: &[f64], j: usize| {
+            p.keys[j]
+                .num()
+                .and_then(|k| v.iter().position(|a| a.to_bits() == k.to_bits()))
         };
-        let (x, y) = (axis(xj), axis(yj));
-        let finite = x.iter().chain(&y).all(|v| v.is_finite());
-        if x.len() >= 2 && y.len() >= 2 && finite {
-            let mut cell: BTreeMap<(usize, usize), f64> = BTreeMap::new();
-            for p in points {
-                let pos = |v: &[f64], j: usize| {
-                    p.keys[j]
-                        .num()
-                        .and_then(|k| v.iter().position(|a| a.to_bits() == k.to_bits()))
-                };
-                if let (Some(ix), Some(iy)) = (pos(&x, xj), pos(&y, yj)) {
-                    cell.insert((ix, iy), p.amplification.mean);
-                }
-            }
-            let mut z = vec![f64::NAN; x.len() * y.len()];
-            for ((ix, iy), v) in cell {
-                z[iy * x.len() + ix] = v;
-            }
-            let map = Heatmap {
-                title: format!(
-                    "pull-off amplification{}: {} × {}",
-                    if ensemble { " (mean of members)" } else { "" },
-                    keys[xj].name,
-                    keys[yj].name
-                ),
-                x_label: label(&keys[xj]),
-                y_label: label(&keys[yj]),
-                z_label: "pull-off amplification".into(),
-                x_log: keys[xj].log,
-                y_log: keys[yj].log,
-                x,
-                y,
-                z,
-                z_log: false,
-                z_range: None,
-                size: plot::DEFAULT_SIZE,
-            };
-            let (png, svg) = plot::render_heatmap(&map, &dir.join(AMPLIFICATION_MAP))?;
-            files.extend([png, svg]);
+        if let (Some(ix), Some(iy)) = (pos(&x, xj), pos(&y, yj)) {
+            cell.insert((ix, iy), p.amplification.mean);
         }
     }
-    if ensemble {
-        let mut fig = Figure::new(
-            "pull-off amplification against the base phase at shaker-on",
-            "phase (rad)",
-            "pull-off amplification",
-        )
-        .with_x_range(0.0, std::f64::consts::TAU)
-        .with_legend(LegendPosition::UpperRight);
-        let labelled = points.len() <= 10;
-        let mut by_point: BTreeMap<usize, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
-        for r in rows {
-            if let Some(a) = r.amplification() {
-                let e = by_point.entry(r.point).or_default();
-                e.0.push(r.phase);
-                e.1.push(a);
-            }
-        }
-        for (i, (p, (xs, ys))) in by_point.into_iter().enumerate() {
-            let name = if labelled {
-                points
-                    .iter()
-                    .find(|s| s.point == p)
-                    .map(|s| {
-                        let v: Vec<String> = vary
-                            .iter()
-                            .map(|&j| value_text(&keys[j], &s.keys[j]))
-                            .collect();
-                        if v.is_empty() {
-                            format!("point {p}")
-                        } else {
-                            v.join(", ")
-                        }
-                    })
-                    .unwrap_or_default()
-            } else {
-                String::new()
-            };
-            fig.series
-                .push(Series::new(name, xs, ys, Style::Markers).with_color(i));
-        }
-        let (png, svg) = plot::render(&fig, &dir.join(PHASE))?;
-        files.extend([png, svg]);
+    let mut z = vec![f64::NAN; x.len() * y.len()];
+    for ((ix, iy), v) in cell {
+        z[iy * x.len() + ix] = v;
     }
-    Ok(files)
+    Some(Heatmap {
+        title: format!(
+            "pull-off amplification{}: {} × {}",
+            if ensemble { " (mean of members)" } else { "" },
+            keys[xj].name,
+            keys[yj].name
+        ),
+        x_label: label(&keys[xj]),
+        y_label: label(&keys[yj]),
+        z_label: "pull-off amplification".into(),
+        x_log: keys[xj].log,
+        y_log: keys[yj].log,
+        x,
+        y,
+        z,
+        z_log: false,
+        z_range: None,
+        size: plot::DEFAULT_SIZE,
+    })
+}
+
+/// `phase`: each member's amplification against its base phase, one colour per point (named
+/// by the varying keys `vary` when there are at most 10 points).
+fn phase_figure(keys: &[KeyInfo], points: &[PointStats], rows: &[Row], vary: &[usize]) -> Figure {
+    let mut fig = Figure::new(
+        "pull-off amplification against the base phase at shaker-on",
+        "phase (rad)",
+        "pull-off amplification",
+    )
+    .with_x_range(0.0, std::f64::consts::TAU)
+    .with_legend(LegendPosition::UpperRight);
+    let labelled = points.len() <= 10;
+    let mut by_point: BTreeMap<usize, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
+    for r in rows {
+        if let Some(a) = r.amplification() {
+            let e = by_point.entry(r.point).or_default();
+            e.0.push(r.phase);
+            e.1.push(a);
+        }
+    }
+    for (i, (p, (xs, ys))) in by_point.into_iter().enumerate() {
+        let name = if labelled {
+            points
+                .iter()
+                .find(|s| s.point == p)
+                .map(|s| {
+                    let v: Vec<String> = vary
+                        .iter()
+                        .map(|&j| value_text(&keys[j], &s.keys[j]))
+                        .collect();
+                    if v.is_empty() {
+                        format!("point {p}")
+                    } else {
+                        v.join(", ")
+                    }
+                })
+                .unwrap_or_default()
+        } else {
+            String::new()
+        };
+        fig.series
+            .push(Series::new(name, xs, ys, Style::Markers).with_color(i));
+    }
+    fig
 }
