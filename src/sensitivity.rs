@@ -190,14 +190,14 @@ pub fn summarise(perturbed: Perturbed, epsilon: f64, runs: Vec<Twin>) -> Sensiti
         force_spread: spread,
         time_spread: t.max - t.min,
         digits: shared_digits(spread),
-        sensitive: !(spread <= SENSITIVE_SPREAD),
+        sensitive: spread.is_nan() || spread > SENSITIVE_SPREAD,
         runs,
     }
 }
 
 /// Significant digits that values spread by `rel` (relative) share: ⌊−log10 rel⌋, within 1 … 15.
 pub fn shared_digits(rel: f64) -> usize {
-    if !(rel > 0.0) {
+    if rel.is_nan() || rel <= 0.0 {
         return 15;
     }
     (-rel.log10()).floor().clamp(1.0, 15.0) as usize
