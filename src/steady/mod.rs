@@ -493,6 +493,7 @@ impl Problem {
             max_wall_s: self.solver.max_wall_s,
             max_events: self.solver.max_events,
             interpolated_samples: false,
+            cancel: self.solver.cancel,
         };
         let stepper = stepper::build(self.solver.method, &self.rig);
         Ok(Simulator::new(
