@@ -12,15 +12,17 @@
 //!   message; a run that fails raises `RuntimeError`; a panic never crosses into Python (it
 //!   becomes a `RuntimeError`).
 //! - Long calls (`run`, `validate`, `resonance`, `sweep`) run on a worker thread with the
-//!   interpreter lock released; the calling thread polls for signals every [`POLL`] and on
-//!   Ctrl-C raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker
-//!   to stop (tens of microseconds of simulation) and raises `KeyboardInterrupt`.
+//!   interpreter lock released; the main thread polls for signals every [`POLL`] and on Ctrl-C
+//!   raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
+//!   stop (tens of microseconds of simulation) and raises `KeyboardInterrupt`. Other Python
+//!   threads (which Python never interrupts) run them in place, without the lock.
 
 use std::collections::HashMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, RecvTimeoutError};
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
 
 use numpy::PyArray1;
@@ -33,7 +35,7 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
 use djkr::adhesion::Law;
 use djkr::api::{self, ApiError, Arg};
-use djkr::cancel::CancelFlag;
+use djkr::cancel::{Cancel, CancelFlag};
 use djkr::closed_form::{DeltaAmpForm, BETA_PAPER};
 use djkr::dynamics::types::Event;
 use djkr::material::Material;
@@ -69,13 +71,19 @@ fn input_err(e: impl std::fmt::Display) -> PyErr {
     ScenarioError::new_err(e.to_string())
 }
 
-fn panic_err(payload: Box<dyn std::any::Any + Send>) -> PyErr {
-    let what = payload
+fn panic_text(payload: Box<dyn std::any::Any + Send>) -> String {
+    payload
         .downcast_ref::<&str>()
         .map(|s| s.to_string())
         .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_else(|| "unknown panic".into());
-    PyRuntimeError::new_err(format!("internal error in djkr (please report): {what}"))
+        .unwrap_or_else(|| "unknown panic".into())
+}
+
+fn panic_err(payload: Box<dyn std::any::Any + Send>) -> PyErr {
+    PyRuntimeError::new_err(format!(
+        "internal error in djkr (please report): {}",
+        panic_text(payload)
+    ))
 }
 
 /// Run `f` on this thread, a panic becoming a `RuntimeError`.
@@ -83,17 +91,95 @@ fn guarded<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
     catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| Err(panic_err(p)))
 }
 
-/// Run `work` on a worker thread with the interpreter lock released, polling for signals on
-/// this one; on a signal (Ctrl-C) raise the flag, wait for the worker and return the signal's
-/// exception. A panic of the worker becomes a `RuntimeError`.
-fn interruptible<T: Send>(
+/// A long call's view of its cancellation flag (all `'static`, so the call can run on the
+/// persistent worker thread).
+#[derive(Clone, Copy)]
+struct Stop {
+    token: Cancel,
+    flag: &'static AtomicBool,
+}
+
+impl Stop {
+    /// The token for the solver settings.
+    fn token(&self) -> Cancel {
+        self.token
+    }
+    /// The flag itself (a sweep's stop request).
+    fn flag(&self) -> &'static AtomicBool {
+        self.flag
+    }
+    fn is_cancelled(&self) -> bool {
+        self.flag.load(Ordering::SeqCst)
+    }
+}
+
+type Job = Box<dyn FnOnce() + Send>;
+
+/// The thread that runs the main thread's long calls, started at the first. One thread kept for
+/// the process rather than one per call: a new thread's first allocations fault in fresh pages,
+/// which cost 5 % of a 10 ms run.
+///
+/// The worker belongs to the process that started it: a child made by `fork` (multiprocessing)
+/// inherits the channel but not the thread, so a process whose id changed starts its own.
+fn submit(job: Job) -> PyResult<()> {
+    static WORKER: Mutex<Option<(u32, mpsc::Sender<Job>)>> = Mutex::new(None);
+    let mut worker = WORKER.lock().unwrap_or_else(|p| p.into_inner());
+    let pid = std::process::id();
+    if worker.as_ref().is_none_or(|(owner, _)| *owner != pid) {
+        let (tx, rx) = mpsc::channel::<Job>();
+        std::thread::Builder::new()
+            .name("djkr-worker".into())
+            .spawn(move || {
+                for job in rx {
+                    job();
+                }
+            })
+            .map_err(|e| PyRuntimeError::new_err(format!("djkr: no worker thread: {e}")))?;
+        *worker = Some((pid, tx));
+    }
+    let sent = worker.as_ref().map(|(_, tx)| tx.send(job));
+    match sent {
+        Some(Ok(())) => Ok(()),
+        _ => Err(PyRuntimeError::new_err(
+            "djkr: the worker thread is not running",
+        )),
+    }
+}
+
+/// True on the interpreter's main thread, the only one that receives KeyboardInterrupt.
+fn on_main_thread(py: Python<'_>) -> PyResult<bool> {
+    let threading = py.import("threading")?;
+    let main = threading.call_method0("main_thread")?.getattr("ident")?;
+    let me = threading.call_method0("get_ident")?;
+    main.eq(me)
+}
+
+/// Run `work` with the interpreter lock released. On the main thread it runs on the worker
+/// thread while this one polls for signals every [`POLL`]; on a signal (Ctrl-C) the flag is
+/// raised, the worker stops at its next poll (tens of microseconds) and the signal's exception
+/// is returned. On other threads, which never receive Ctrl-C, it runs in place. A panic becomes
+/// a `RuntimeError`.
+fn interruptible<T: Send + 'static>(
     py: Python<'_>,
-    work: impl FnOnce(&CancelFlag) -> Result<T, ApiError> + Send,
+    work: impl FnOnce(Stop) -> Result<T, ApiError> + Send + 'static,
 ) -> PyResult<T> {
-    let flag = CancelFlag::acquire();
+    let guard = CancelFlag::acquire();
+    let stop = Stop {
+        token: guard.token(),
+        flag: guard.flag(),
+    };
+    if !on_main_thread(py)? {
+        return py
+            .detach(|| catch_unwind(AssertUnwindSafe(|| work(stop))))
+            .map_err(panic_err)?
+            .map_err(api_err);
+    }
     let (tx, rx) = mpsc::channel();
+    submit(Box::new(move || {
+        let _ = tx.send(catch_unwind(AssertUnwindSafe(|| work(stop))));
+    }))?;
     // Borrowed by the waits below with the lock released, which need it `Sync`.
-    let rx = std::sync::Mutex::new(rx);
+    let rx = Mutex::new(rx);
     let wait = |timeout: Option<Duration>| {
         let rx = rx.lock().unwrap_or_else(|p| p.into_inner());
         match timeout {
@@ -101,31 +187,27 @@ fn interruptible<T: Send>(
             None => rx.recv().map_err(|_| RecvTimeoutError::Disconnected),
         }
     };
-    std::thread::scope(|scope| {
-        let flag = &flag;
-        scope.spawn(move || {
-            let r = catch_unwind(AssertUnwindSafe(|| work(flag)));
-            let _ = tx.send(r);
-        });
-        loop {
-            match py.detach(|| wait(Some(POLL))) {
-                Ok(Ok(r)) => return r.map_err(api_err),
-                Ok(Err(p)) => return Err(panic_err(p)),
-                Err(RecvTimeoutError::Disconnected) => {
-                    return Err(PyRuntimeError::new_err(
-                        "djkr: the worker thread ended without a result",
-                    ))
-                }
-                Err(RecvTimeoutError::Timeout) => {
-                    if let Err(signal) = py.check_signals() {
-                        flag.cancel();
-                        let _ = py.detach(|| wait(None));
-                        return Err(signal);
-                    }
+    let result = loop {
+        match py.detach(|| wait(Some(POLL))) {
+            Ok(Ok(r)) => break r.map_err(api_err),
+            Ok(Err(p)) => break Err(panic_err(p)),
+            Err(RecvTimeoutError::Disconnected) => {
+                break Err(PyRuntimeError::new_err(
+                    "djkr: the worker thread ended without a result",
+                ))
+            }
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(signal) = py.check_signals() {
+                    guard.cancel();
+                    // The flag returns to the pool only once the work has let go of it.
+                    let _ = py.detach(|| wait(None));
+                    break Err(signal);
                 }
             }
         }
-    })
+    };
+    drop(guard);
+    result
 }
 
 fn warn(py: Python<'_>, messages: &[String]) -> PyResult<()> {
@@ -570,10 +652,10 @@ fn run(
     out: Option<PathBuf>,
 ) -> PyResult<Run> {
     let (scn, sets) = guarded(|| Ok((scenario_of(scenario)?, set_texts(set)?)))?;
-    let (rec, name) = interruptible(py, move |flag| {
+    let (rec, name) = interruptible(py, move |stop| {
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
-        s.solver.cancel = flag.token();
+        s.solver.cancel = stop.token();
         let rec = api::run(&s, out.as_deref())?;
         Ok((rec, s.source_name.clone()))
     })?;
@@ -684,13 +766,13 @@ fn validate(
     set: Option<&Bound<'_, PyDict>>,
 ) -> PyResult<Py<PyAny>> {
     let (scn, sets) = guarded(|| Ok((scenario_of(scenario)?, set_texts(set)?)))?;
-    let report = interruptible(py, move |flag| {
+    let report = interruptible(py, move |stop| {
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
-        s.solver.cancel = flag.token();
+        s.solver.cancel = stop.token();
         let r = api::validate(&s, &Options::default())
             .map_err(|e| ApiError::from_steady(source.name(), e))?;
-        if flag.is_cancelled() {
+        if stop.is_cancelled() {
             return Err(ApiError::Cancelled);
         }
         Ok(r)
@@ -738,7 +820,7 @@ fn resonance(
         Ok((scenario_of(scenario)?, set_texts(set)?, range_text))
     })?;
     let which = api::Sweeps::parse("sweep", sweep).map_err(api_err)?;
-    let table = interruptible(py, move |flag| {
+    let table = interruptible(py, move |stop| {
         let freqs = api::range(
             "freq",
             &range_text,
@@ -747,7 +829,7 @@ fn resonance(
         )?;
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
-        s.solver.cancel = flag.token();
+        s.solver.cancel = stop.token();
         let (problem, start) =
             Problem::from_plan(&s.plan()).map_err(|e| ApiError::from_steady(source.name(), e))?;
         let r = api::resonance(
@@ -759,7 +841,7 @@ fn resonance(
             true,
             &|_, _| {},
         );
-        if flag.is_cancelled() {
+        if stop.is_cancelled() {
             return Err(ApiError::Cancelled);
         }
         Ok(r.table())
@@ -795,14 +877,14 @@ fn sweep(
             "jobs = 0: must be a whole number >= 1 (runs at a time)",
         ));
     }
-    let table = interruptible(py, move |flag| {
+    let table = interruptible(py, move |stop| {
         let source = scn.source()?;
         api::sweep(
             source,
             &axes,
             ensemble.map(|m| (m, seed)),
             jobs.unwrap_or(0),
-            Some(flag.flag()),
+            Some(stop.flag()),
         )
     })?;
     guarded(|| table_to_py(py, table))

@@ -402,3 +402,22 @@ def test_the_example_runs(tmp_path):
     for name in ("amplification.png", "resonance.png"):
         assert (tmp_path / name).stat().st_size > 1000
     assert "amplification" in p.stdout
+
+
+def _samples(_):
+    return len(djkr.run(TINY).t)
+
+
+def test_calls_from_other_threads_and_forked_processes():
+    """Off the main thread a call runs in place; a forked child starts its own worker."""
+    expected = len(djkr.run(TINY).t)
+    got = []
+    th = threading.Thread(target=lambda: got.append(_samples(None)))
+    th.start()
+    th.join()
+    assert got == [expected]
+    import multiprocessing
+
+    if "fork" in multiprocessing.get_all_start_methods():
+        with multiprocessing.get_context("fork").Pool(2) as pool:
+            assert pool.map(_samples, range(2)) == [expected, expected]
