@@ -9,7 +9,9 @@
 
 pub mod accuracy;
 pub mod adhesion;
+pub mod api;
 pub mod beta_fit;
+pub mod cancel;
 pub mod catalogue;
 pub mod closed_form;
 pub mod comparators;

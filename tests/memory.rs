@@ -50,6 +50,8 @@ sample_rate = 12000
 }
 
 /// Run `djkr run FILE --out DIR`; its peak resident memory (bytes) and the samples it wrote.
+// The child is reaped by `wait4` below (which also gives its peak memory), not by `wait()`.
+#[allow(clippy::zombie_processes)]
 fn peak_rss(file: &Path, out: &Path) -> (u64, u64) {
     // Reaped by `wait4` below, which also gives its resource usage.
     #[allow(clippy::zombie_processes)]

@@ -6,6 +6,8 @@
 //! directory and `pip install h5py numpy` into it once; only if that fails outside CI do they
 //! print a notice and skip the h5py cross-check (under `CI` it is a failure).
 
+mod pyenv;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
@@ -349,44 +351,16 @@ fn h5py_python() -> Option<PathBuf> {
     static PYTHON: OnceLock<Option<PathBuf>> = OnceLock::new();
     PYTHON
         .get_or_init(|| {
-            let in_ci = std::env::var_os("CI").is_some_and(|v| !v.is_empty() && v != "false");
-            let imports = |py: &Path| {
-                Command::new(py)
-                    .args(["-c", "import h5py, numpy"])
-                    .output()
-                    .is_ok_and(|o| o.status.success())
-            };
             let system = PathBuf::from("python3");
-            if imports(&system) {
+            if pyenv::runs(&system, "import h5py, numpy") {
                 return Some(system);
             }
-            let venv = Path::new(env!("CARGO_TARGET_TMPDIR")).join("h5py-venv");
-            let py = venv.join("bin/python3");
-            if !imports(&py) {
-                eprintln!(
-                    "h5py not importable: installing it into {} (once)",
-                    venv.display()
-                );
-                let ok = Command::new("python3")
-                    .args(["-m", "venv"])
-                    .arg(&venv)
-                    .status()
-                    .is_ok_and(|s| s.success())
-                    && Command::new(&py)
-                        .args(["-m", "pip", "install", "--quiet", "h5py", "numpy"])
-                        .status()
-                        .is_ok_and(|s| s.success());
-                if !ok || !imports(&py) {
-                    assert!(
-                        !in_ci,
-                        "could not provide h5py (venv at {})",
-                        venv.display()
-                    );
-                    eprintln!("NOTICE: h5py could not be installed, h5py cross-check skipped");
-                    return None;
-                }
+            let py = pyenv::venv("h5py-venv", &["h5py", "numpy"], &["h5py", "numpy"]);
+            if py.is_none() {
+                assert!(!pyenv::in_ci(), "could not provide h5py (venv h5py-venv)");
+                eprintln!("NOTICE: h5py could not be installed, h5py cross-check skipped");
             }
-            Some(py)
+            py
         })
         .clone()
 }

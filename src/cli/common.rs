@@ -3,36 +3,17 @@
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::adhesion::{GentSchultz, Law};
-use djkr::error::{non_negative, positive, ParamError};
 use djkr::material::Material;
 use djkr::scenario::overrides::Override;
 use djkr::scenario::parse::ScenarioSource;
 use djkr::scenario::Scenario;
-use djkr::units::{parse_quantity, Dimension};
+use djkr::units::Dimension;
 use std::path::{Path, PathBuf};
 
-/// Parse a flag's text as a quantity (bare numbers are SI).
-pub fn quantity(flag: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
-    parse_quantity(flag, text, dim)
-}
-
-/// Parse a flag that must be > 0.
-pub fn positive_quantity(flag: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
-    let v = quantity(flag, text, dim)?;
-    positive(flag, v, dim.si()).map_err(|e| ParamError {
-        value: text.to_string(),
-        ..e
-    })
-}
-
-/// Parse a flag that must be ≥ 0.
-pub fn non_negative_quantity(flag: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
-    let v = quantity(flag, text, dim)?;
-    non_negative(flag, v, dim.si()).map_err(|e| ParamError {
-        value: text.to_string(),
-        ..e
-    })
-}
+pub use djkr::api::{
+    fmt_force, fmt_len, limits, no_negative_zero, non_negative_quantity, omega_from,
+    positive_quantity, quantity,
+};
 
 /// `--set KEY=VALUE`: scenario values overridden from the command line, shared by every command
 /// that reads a scenario file.
@@ -55,11 +36,7 @@ pub struct SetArgs {
 impl SetArgs {
     /// The overrides, parsed and their keys checked (before any file is read).
     pub fn overrides(&self) -> Result<Vec<Override>> {
-        Ok(self
-            .set
-            .iter()
-            .map(|t| Override::parse(t))
-            .collect::<Result<_, _>>()?)
+        Ok(djkr::api::overrides(&self.set)?)
     }
 }
 
@@ -98,7 +75,7 @@ impl MaterialArgs {
     /// tabulated law, whose w(0) is its table's); `--v0` and `--n` need a Gent–Schultz law (plain
     /// or saturated).
     pub fn resolve(&self) -> Result<(Material, Law)> {
-        let (mut m, mut law) = (Material::PAPER, Law::GentSchultz(GentSchultz::PAPER));
+        let (mut m, mut law) = djkr::api::default_material();
         if let Some(path) = &self.material {
             // Only [material] and [adhesion] are read (the rest of the scenario is ignored).
             (m, law) = djkr::scenario::parse::material_and_law(path)
@@ -204,33 +181,6 @@ pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
     PathBuf::from("out").join(format!("{}{suffix}", out_name(file)))
 }
 
-/// Limits on the grids and lists of the commands that take ranges: each bounds the work one
-/// invocation may ask for (a 100000 × 100000 shortcut map is 1e10 steady states).
-pub mod limits {
-    /// `resonance --freq START:STOP:COUNT`: frequencies per sweep.
-    pub const RESONANCE_FREQUENCIES: usize = 2001;
-    /// `shortcut-map --freq` and `--amp`: COUNT of each axis.
-    pub const MAP_AXIS: usize = 1001;
-    /// `shortcut-map`: cells (frequencies × amplitudes).
-    pub const MAP_CELLS: usize = 10_000;
-    /// `beta-fit --n-values`: exponents.
-    pub const BETA_FIT_N_VALUES: usize = 100;
-    /// `beta-fit --speed-ratio`: COUNT.
-    pub const BETA_FIT_SPEED_RATIOS: usize = 1000;
-    /// `beta-fit`: exact pull-offs (n values × speed ratios).
-    pub const BETA_FIT_PULL_OFFS: usize = 20_000;
-    /// `beta-fit --beta`: COUNT of the β grid.
-    pub const BETA_FIT_BETAS: usize = 10_000;
-    /// `accuracy --tolerances`: values.
-    pub const ACCURACY_TOLERANCES: usize = 20;
-    /// `accuracy --methods`: values (each method once).
-    pub const ACCURACY_METHODS: usize = 5;
-    /// `accuracy --repeats`.
-    pub const ACCURACY_REPEATS: usize = 100;
-    /// `accuracy --nodes`: node counts.
-    pub const ACCURACY_NODES: usize = 32;
-}
-
 /// Refuse a grid or list of `count` items beyond `max`, naming the flag (`what`: what is
 /// counted).
 pub fn limit_count(flag: &str, text: &str, count: usize, max: usize, what: &str) -> Result<()> {
@@ -252,29 +202,10 @@ pub fn reject_unused(given: &[(&str, bool)], mode: &str) -> Result<()> {
     }
 }
 
-/// Angular frequency from a `--freq` flag (Hz, > 0).
-pub fn omega_from(flag: &str, text: &str) -> Result<f64, ParamError> {
-    Ok(2.0 * std::f64::consts::PI * positive_quantity(flag, text, Dimension::Frequency)?)
-}
-
 /// Print a report as JSON (pretty, keys sorted), refusing non-finite numbers (serde_json would
-/// write `null`): the report is turned into a `serde_json::Value` for that check only.
+/// write `null`): [`djkr::api::finite_json`].
 pub fn print_json(report: &impl serde::Serialize) -> Result<()> {
-    fn check(v: &serde_json::Value, path: &str) -> Result<()> {
-        match v {
-            serde_json::Value::Null => bail!("internal error: non-finite value at {path}"),
-            serde_json::Value::Object(o) => o
-                .iter()
-                .try_for_each(|(k, x)| check(x, &format!("{path}.{k}"))),
-            serde_json::Value::Array(a) => a
-                .iter()
-                .enumerate()
-                .try_for_each(|(i, x)| check(x, &format!("{path}[{i}]"))),
-            _ => Ok(()),
-        }
-    }
-    let v = serde_json::to_value(report)?;
-    check(&v, "$")?;
+    let v = djkr::api::finite_json(report)?;
     println!("{}", serde_json::to_string_pretty(&v)?);
     Ok(())
 }
@@ -288,65 +219,6 @@ pub fn print_table(title: &str, rows: &[(&str, String)]) {
     }
 }
 
-/// A formatted number that rounded to zero is shown without a sign: `-0.000000 mm` (a value
-/// of -1e-12 m at 6 decimals, or an IEEE -0.0) becomes `0.000000 mm`. Every number in `text`
-/// is treated alike.
-pub fn no_negative_zero(text: &str) -> String {
-    let b = text.as_bytes();
-    let mut out = String::with_capacity(text.len());
-    let mut i = 0;
-    while i < b.len() {
-        let starts_number = b[i] == b'-'
-            && b.get(i + 1).is_some_and(u8::is_ascii_digit)
-            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'.'));
-        if starts_number {
-            let end = (i + 1..b.len())
-                .find(|&j| !(b[j].is_ascii_digit() || b[j] == b'.'))
-                .unwrap_or(b.len());
-            let mantissa_is_zero = b[i + 1..end].iter().all(|&c| c == b'0' || c == b'.');
-            // An exponent (`-0.0e0`) or more digits after it are part of the number too.
-            let exponent = b.get(end).is_some_and(|&c| c == b'e' || c == b'E');
-            if mantissa_is_zero && !exponent {
-                i += 1; // drop the sign
-                continue;
-            }
-        }
-        let c = text[i..].chars().next().unwrap_or(' ');
-        out.push(c);
-        i += c.len_utf8();
-    }
-    out
-}
-
-/// Format a length in the most readable unit.
-pub fn fmt_len(x: f64) -> String {
-    no_negative_zero(&fmt_len_signed(x))
-}
-
-fn fmt_len_signed(x: f64) -> String {
-    let a = x.abs();
-    if a >= 1e-3 || a == 0.0 {
-        format!("{:.6} mm", x * 1e3)
-    } else if a >= 1e-6 {
-        format!("{:.6} µm", x * 1e6)
-    } else {
-        format!("{:.6} nm", x * 1e9)
-    }
-}
-
-/// Format a force in the most readable unit.
-pub fn fmt_force(f: f64) -> String {
-    no_negative_zero(&fmt_force_signed(f))
-}
-
-fn fmt_force_signed(f: f64) -> String {
-    if f.abs() >= 1.0 {
-        format!("{f:.6} N")
-    } else {
-        format!("{:.6} mN", f * 1e3)
-    }
-}
-
 /// Write a file atomically (see [`djkr::output::write_atomic`]).
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     Ok(djkr::output::write_atomic(path, bytes)?)
@@ -355,22 +227,6 @@ pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn numbers_that_round_to_zero_have_no_sign() {
-        assert_eq!(no_negative_zero("-0.000000 mm"), "0.000000 mm");
-        assert_eq!(
-            no_negative_zero("a = -0.00000, b = -0.001"),
-            "a = 0.00000, b = -0.001"
-        );
-        assert_eq!(
-            no_negative_zero("-0 and -0.0e0 and x-0.0"),
-            "0 and -0.0e0 and x-0.0"
-        );
-        assert_eq!(no_negative_zero("δ_c -0.00000 µm"), "δ_c 0.00000 µm");
-        assert_eq!(fmt_len(-1e-18), "0.000000 nm");
-        assert_eq!(fmt_force(-0.0), "0.000000 mN");
-    }
 
     #[test]
     fn default_output_folders_stay_under_out() {

@@ -2,12 +2,11 @@
 
 use super::common::{
     fmt_force, fmt_len, non_negative_quantity, omega_from, positive_quantity, print_json,
-    print_table, quantity, reject_unused, MaterialArgs,
+    print_table, reject_unused, MaterialArgs,
 };
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
-use djkr::imposed_area;
-use djkr::scenario::checks::small_contact_warning;
+use djkr::api::{self, Arg, PullOffReport};
 use djkr::units::Dimension;
 use serde_json::json;
 
@@ -33,41 +32,19 @@ pub struct CycleArgs {
 /// Run `djkr cycle`.
 pub fn cycle(a: &CycleArgs) -> Result<()> {
     let (m, law) = a.material.resolve()?;
-    let omega = omega_from("--freq", &a.freq)?;
-    let a_amp = non_negative_quantity("--a-amp", &a.a_amp, Dimension::Length)?;
-    let a_mean = quantity("--a-mean", &a.a_mean, Dimension::Length)?;
-    if a_mean < -a_amp {
-        bail!(
-            "--a-mean = {}: must be >= -a_A = {} m (below, the contact never forms)",
-            a.a_mean,
-            -a_amp
-        );
-    }
-    let c = imposed_area::cycle(&m, &law, omega, a_mean, a_amp)?;
-    // The same small-contact rule as `pulloff` and `run`.
-    let notes: Vec<String> = small_contact_warning(
-        "the contact reaches a_m + a_A",
-        c.a_mean_imposed + c.a_amp,
-        m.r,
-    )
-    .into_iter()
-    .collect();
-    for n in &notes {
+    let r = api::cycle(
+        &m,
+        &law,
+        Arg::new("--freq", &a.freq),
+        Arg::new("--a-mean", &a.a_mean),
+        Arg::new("--a-amp", &a.a_amp),
+    )?;
+    let (omega, c, notes) = (r.omega, &r.cycle, &r.notes);
+    for n in notes {
         eprintln!("warning: {n}");
     }
     if a.json {
-        return print_json(&json!({
-            "a_mean": c.a_mean,
-            "a_mean_imposed": c.a_mean_imposed,
-            "a_amp": c.a_amp,
-            "delta_mean": c.delta_mean,
-            "delta_amp": c.delta_amp,
-            "delta_sin": c.delta_sin,
-            "delta_cos": c.delta_cos,
-            "force_mean": c.force_mean,
-            "contact_fraction": c.contact_fraction,
-            "notes": notes,
-        }));
+        return print_json(&r.json());
     }
     print_table(
         &format!(
@@ -91,7 +68,7 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             ("contact fraction", format!("{:.6}", c.contact_fraction)),
         ],
     );
-    for n in &notes {
+    for n in notes {
         println!("  note: {n}");
     }
     Ok(())
@@ -165,56 +142,8 @@ pub enum DeltaForm {
     Printed,
 }
 
-/// Result rows shared by all methods.
-struct PulloffReport {
-    method: &'static str,
-    a_mean: f64,
-    delta_mean: f64,
-    delta_amp: f64,
-    force: f64,
-    amplification: f64,
-    notes: Vec<String>,
-}
-
 /// Run `djkr pulloff`.
 pub fn pulloff(a: &PulloffArgs) -> Result<()> {
-    reject_other_methods_flags(a)?;
-    let (m, law) = a.material.resolve()?;
-    let omega = omega_from("--freq", &a.freq)?;
-    let a_amp = match &a.a_amp {
-        Some(t) => Some(non_negative_quantity("--a-amp", t, Dimension::Length)?),
-        None => None,
-    };
-    let need_a_amp = || {
-        a_amp.ok_or_else(|| {
-            anyhow::anyhow!("--a-amp is required for --method {}", flag_value(a.method))
-        })
-    };
-    let r = match a.method {
-        PulloffMethod::Exact => exact(&m, &law, omega, need_a_amp()?)?,
-        PulloffMethod::Approx => {
-            let beta = positive_quantity(
-                "--beta",
-                a.beta.as_deref().unwrap_or("2.5"),
-                Dimension::Dimensionless,
-            )?;
-            approx(a, &m, &law, omega, beta, need_a_amp()?)?
-        }
-        PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
-    };
-    let mut r = r;
-    // JKR is a small-contact theory (a ≪ R, half-space substrate): say so when the answer
-    // leaves that range instead of printing it as if it were valid.
-    let a_max = r.a_mean + a_amp.unwrap_or(0.0);
-    if let Some(w) = small_contact_warning("the contact reaches a_m + a_A", a_max, m.r) {
-        eprintln!("warning: {w}");
-        r.notes.push(w);
-    }
-    report(&r, a.json)
-}
-
-/// Refuse the flags of the other `--method`s.
-fn reject_other_methods_flags(a: &PulloffArgs) -> Result<()> {
     let method = a.method;
     let closed_form = [
         ("--beta", a.beta.is_some()),
@@ -244,92 +173,48 @@ fn reject_other_methods_flags(a: &PulloffArgs) -> Result<()> {
             }
         }
     }
-    Ok(())
-}
-
-/// `--method exact`: the imposed-area method's pull-off, with notes on what limits it.
-fn exact(
-    m: &djkr::material::Material,
-    law: &djkr::adhesion::Law,
-    omega: f64,
-    a_amp: f64,
-) -> Result<PulloffReport> {
-    let p = imposed_area::pull_off(m, law, omega, a_amp)?;
-    let mut notes = Vec::new();
-    if p.local_minima.len() > 1 {
-        notes.push(format!(
-            "the mean-force curve F_m(a_m) has {} local minima; the global one is reported. Others (a_m imposed, F_m): {}",
-            p.local_minima.len(),
-            p.local_minima
-                .iter()
-                .map(|(am, f)| format!("({}, {})", fmt_len(*am), fmt_force(*f)))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-    }
-    if !p.global {
-        notes.push("the global minimum could not be certified (see local minima)".into());
-    }
-    if p.cycle.contact_fraction < 1.0 {
-        notes.push(format!(
-            "contact is lost during part of the cycle (contact fraction {:.4}); a_m is the a-posteriori mean",
-            p.cycle.contact_fraction
-        ));
-    }
-    Ok(PulloffReport {
-        method: "exact (imposed-area method, Sec. 2.1)",
-        a_mean: p.cycle.a_mean,
-        delta_mean: p.cycle.delta_mean,
-        delta_amp: p.cycle.delta_amp,
-        force: p.force,
-        amplification: p.amplification,
-        notes,
-    })
-}
-
-/// `--method approx`: the closed form's pull-off with speed correction `beta`.
-fn approx(
-    a: &PulloffArgs,
-    m: &djkr::material::Material,
-    law: &djkr::adhesion::Law,
-    omega: f64,
-    beta: f64,
-    a_amp: f64,
-) -> Result<PulloffReport> {
-    let delta_form = a.delta_form.unwrap_or(DeltaForm::Derived);
-    let form = match delta_form {
-        DeltaForm::Derived => djkr::closed_form::DeltaAmpForm::Derived,
-        DeltaForm::Printed => djkr::closed_form::DeltaAmpForm::Printed,
+    let (m, law) = a.material.resolve()?;
+    let omega = omega_from("--freq", &a.freq)?;
+    let a_amp = match &a.a_amp {
+        Some(t) => Some(non_negative_quantity("--a-amp", t, Dimension::Length)?),
+        None => None,
     };
-    let p = djkr::closed_form::pull_off_approx(m, law, omega, a_amp, beta, form)?;
-    Ok(PulloffReport {
-        method: "approx (closed form, eqs. 20-24)",
-        a_mean: p.a_mean,
-        delta_mean: p.delta_mean,
-        delta_amp: p.delta_amp,
-        force: p.force,
-        amplification: p.amplification,
-        notes: vec![format!(
-            "beta = {beta}, delta_A {}",
-            match delta_form {
-                DeltaForm::Derived => "as derived from eqs. (14)-(15) (--delta-form derived)",
-                DeltaForm::Printed => "as printed in eq. (23) (--delta-form printed)",
+    let need_a_amp = || {
+        a_amp.ok_or_else(|| {
+            anyhow::anyhow!("--a-amp is required for --method {}", flag_value(a.method))
+        })
+    };
+    let method = match a.method {
+        PulloffMethod::Exact => api::PullOffMethod::Exact {
+            a_amp: need_a_amp()?,
+        },
+        PulloffMethod::Approx => {
+            let beta = match &a.beta {
+                Some(t) => positive_quantity("--beta", t, Dimension::Dimensionless)?,
+                None => djkr::closed_form::BETA_PAPER,
+            };
+            let form = match a.delta_form.unwrap_or(DeltaForm::Derived) {
+                DeltaForm::Derived => djkr::closed_form::DeltaAmpForm::Derived,
+                DeltaForm::Printed => djkr::closed_form::DeltaAmpForm::Printed,
+            };
+            api::PullOffMethod::Approx {
+                a_amp: need_a_amp()?,
+                beta,
+                form,
             }
-        )],
-    })
+        }
+        PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
+    };
+    let r = api::pull_off(&m, &law, omega, method)?;
+    for w in &r.warnings {
+        eprintln!("warning: {w}");
+    }
+    report(&r, a.json)
 }
 
-fn report(r: &PulloffReport, json_out: bool) -> Result<()> {
+fn report(r: &PullOffReport, json_out: bool) -> Result<()> {
     if json_out {
-        return print_json(&json!({
-            "method": r.method,
-            "a_mean": r.a_mean,
-            "delta_mean": r.delta_mean,
-            "delta_amp": r.delta_amp,
-            "force": r.force,
-            "amplification": r.amplification,
-            "notes": r.notes,
-        }));
+        return print_json(&r.json());
     }
     print_table(
         &format!("Pull-off, {}", r.method),
@@ -407,23 +292,7 @@ fn comparators(
             (None, Some(aa)) => cmp::yi_indentation_amplitude_from_area_amplitude(m, aa),
             (None, None) => bail!("--method yi needs --delta-amp or --a-amp (then δ_A = 2 a_A²/R)"),
         };
-        let p = cmp::yi_mean_force(m, law, omega, delta_amp)?;
-        PulloffReport {
-            method: "Yi et al. (2024) eq. (8), δ_m = δ_A",
-            a_mean: (m.r * delta_amp).sqrt(),
-            delta_mean: delta_amp,
-            delta_amp,
-            force: p.force,
-            amplification: p.amplification,
-            notes: vec![
-                "a_m here is the Hertz radius at δ_m (Yi's model does not search a_m)".into(),
-                format!(
-                    "peak contact-radius speed {:.6} mm/s, mean w {:.6} mJ/m^2",
-                    p.peak_speed * 1e3,
-                    p.mean_work_of_adhesion * 1e3
-                ),
-            ],
-        }
+        api::pull_off(m, law, omega, api::PullOffMethod::Yi { delta_amp })?
     };
     report(&r, a.json)
 }

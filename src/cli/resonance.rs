@@ -6,9 +6,10 @@ use super::common::{limits, load_scenario, positive_quantity, print_json, write_
 use super::steady::{default_out, progress_bar, range, stem, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
+use djkr::api;
 use djkr::output::table::{hdf5_tables, text_attr};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
-use djkr::scenario::{Initial, Scenario};
+use djkr::scenario::Scenario;
 use djkr::steady::report::{self, ResonanceReport};
 use djkr::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
 use djkr::steady::{Options, Problem};
@@ -71,23 +72,39 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
         let xb = positive_quantity("--amp", t, Dimension::Length)?;
         problem = problem.at(problem.frequency, xb)?;
     }
-    let lin = Linearisation::for_problem(&problem, &start).map_err(|e| e.to_string());
-    let hb_lin = lin.as_ref().ok().filter(|_| !a.no_harmonic_balance);
-    let freqs = sweep::frequencies(lo, hi, n);
-    let t0 = std::time::Instant::now();
-    let sweeps = run_sweeps(a.sweep, &problem, &start, &freqs, &opts, hb_lin);
-    let wall = t0.elapsed().as_secs_f64();
+    let which = match a.sweep {
+        SweepArg::Up => api::Sweeps::Up,
+        SweepArg::Down => api::Sweeps::Down,
+        SweepArg::Both => api::Sweeps::Both,
+    };
+    let dirs = if which == api::Sweeps::Both { 2 } else { 1 };
+    let bar = progress_bar((n * dirs) as u64, "sweep");
+    let progress = |d: Direction, p: &SweepPoint| {
+        bar.inc(1);
+        bar.set_message(format!("{} {:.2} Hz", d.name(), p.frequency));
+    };
+    let res = api::resonance(
+        &problem,
+        &start,
+        (lo, hi, n),
+        which,
+        &opts,
+        !a.no_harmonic_balance,
+        &progress,
+    );
+    bar.finish_and_clear();
+    let (sweeps, lin, wall) = (&res.sweeps, &res.linearisation, res.wall_s);
 
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| default_out(&a.file, "resonance"));
     std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
-    let mut files = write_tables(&out, &scn, &sweeps, &opts)?;
+    let mut files = write_tables(&out, &scn, &res, &opts)?;
     let (fig, phase) = figures(
         &a.file,
-        &sweeps,
-        hb_lin.is_some(),
+        sweeps,
+        res.harmonic_balance,
         lin.as_ref().ok(),
         lo,
         hi,
@@ -97,7 +114,7 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     files.extend([png, svg, ppng, psvg]);
 
     let mut report = ResonanceReport::new(
-        &sweeps,
+        sweeps,
         (lo, hi, n),
         lin.as_ref().map_err(String::as_str),
         wall,
@@ -111,43 +128,16 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     }
 }
 
-/// The sweeps the flag asks for, with a progress bar: up, down, or both in parallel (up first).
-fn run_sweeps(
-    which: SweepArg,
-    problem: &Problem,
-    start: &Initial,
-    freqs: &[f64],
-    opts: &Options,
-    hb_lin: Option<&Linearisation>,
-) -> Vec<Sweep> {
-    let dirs = if which == SweepArg::Both { 2 } else { 1 };
-    let bar = progress_bar((freqs.len() * dirs) as u64, "sweep");
-    let progress = |d: Direction, p: &SweepPoint| {
-        bar.inc(1);
-        bar.set_message(format!("{} {:.2} Hz", d.name(), p.frequency));
-    };
-    let one = |d| sweep::sweep(problem, start, freqs, d, opts, hb_lin, &progress);
-    let sweeps = match which {
-        SweepArg::Up => vec![one(Direction::Up)],
-        SweepArg::Down => vec![one(Direction::Down)],
-        SweepArg::Both => {
-            let (u, d) = sweep::sweep_both(problem, start, freqs, opts, hb_lin, &progress);
-            vec![u, d]
-        }
-    };
-    bar.finish_and_clear();
-    sweeps
-}
-
 /// `resonance.csv` (all sweeps in one table) and `resonance.h5` (one group per direction).
 fn write_tables(
     out: &Path,
     scn: &Scenario,
-    sweeps: &[Sweep],
+    res: &api::Resonance,
     opts: &Options,
 ) -> Result<Vec<PathBuf>> {
+    let sweeps = &res.sweeps;
     let csv_path = out.join("resonance.csv");
-    report::sweeps_table(sweeps).save_csv(&csv_path)?;
+    res.table().save_csv(&csv_path)?;
     let tables: Vec<_> = sweeps.iter().map(report::sweep_table).collect();
     let groups: Vec<(&str, &str, &djkr::output::Table)> = sweeps
         .iter()

@@ -79,28 +79,9 @@ impl SteadyArgs {
     }
 }
 
-/// Parse START:STOP:COUNT with units, 0 < START ≤ STOP, 1 ≤ COUNT ≤ `max` (START = STOP when
-/// COUNT = 1 is not required: COUNT = 1 gives START).
+/// Parse START:STOP:COUNT with units ([`djkr::api::range`]).
 pub fn range(flag: &str, text: &str, dim: Dimension, max: usize) -> Result<(f64, f64, usize)> {
-    let parts: Vec<&str> = text.split(':').collect();
-    if parts.len() != 3 {
-        bail!("{flag} = {text}: expected START:STOP:COUNT, e.g. 300:500:101");
-    }
-    let lo = positive_quantity(flag, parts[0].trim(), dim)?;
-    let hi = positive_quantity(flag, parts[1].trim(), dim)?;
-    let n: usize = parts[2].trim().parse().map_err(|_| {
-        anyhow::anyhow!(
-            "{flag} = {text}: COUNT = {} must be an integer >= 1",
-            parts[2]
-        )
-    })?;
-    if n == 0 || n > max {
-        bail!("{flag} = {text}: COUNT = {n} must be in 1..={max} (the limit of this command)");
-    }
-    if hi < lo {
-        bail!("{flag} = {text}: STOP must be >= START");
-    }
-    Ok((lo, hi, n))
+    Ok(djkr::api::range(flag, text, dim, max)?)
 }
 
 /// The scenario file's name without extension.

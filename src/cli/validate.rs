@@ -7,7 +7,7 @@ use super::common::print_json;
 use super::steady::SteadyArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::steady::crosscheck::{self, Prediction};
+use djkr::steady::crosscheck::Prediction;
 use djkr::steady::report::ValidateReport;
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
@@ -33,22 +33,16 @@ pub fn validate(a: &ValidateArgs) -> Result<()> {
     let bar = ProgressBar::new_spinner();
     bar.set_message("finding the periodic steady state");
     bar.enable_steady_tick(Duration::from_millis(200));
-    let c = crosscheck::compare(&scn.plan(), &opts);
+    let report = djkr::api::validate(&scn, &opts);
     bar.finish_and_clear();
-    let c = c.with_context(|| format!("{}", a.file.display()))?;
-    let report = ValidateReport::new(&c);
+    let report = report.with_context(|| format!("{}", a.file.display()))?;
     if a.json {
         print_json(&report)?;
     } else {
         print_report(&a.file, &report);
     }
-    let fb = &report.force_balance;
-    if !fb.holds {
-        bail!(
-            "internal inconsistency: the force balance <F> = m g - k(<x_s> - x_k) fails by {:.3e} (relative), above {:.0e}",
-            fb.relative_error,
-            fb.tolerance
-        );
+    if let Some(e) = djkr::api::force_balance_violation(&report) {
+        bail!(e);
     }
     Ok(())
 }

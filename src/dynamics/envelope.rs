@@ -526,7 +526,11 @@ impl Envelope {
         let t = match sim.trial_period(s, k, TRIAL_TOLERANCE) {
             Ok(t) => t,
             // The run's budgets hold across trial periods too.
-            Err(e @ (SimError::StepBudget { .. } | SimError::WallBudget { .. })) => return Err(e),
+            Err(
+                e @ (SimError::StepBudget { .. }
+                | SimError::WallBudget { .. }
+                | SimError::Cancelled { .. }),
+            ) => return Err(e),
             // A trial from a poor iterate that cannot be integrated only refuses the step.
             Err(_) => return Ok(None),
         };

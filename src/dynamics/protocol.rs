@@ -152,6 +152,7 @@ pub fn run(plan: &Plan, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
         max_wall_s: plan.solver.max_wall_s,
         max_events: plan.solver.max_events,
         interpolated_samples: wants_samples && sample_dt > 0.0,
+        cancel: plan.solver.cancel,
     };
     let formation = plan.rig.formation;
     let sim = Simulator::new(model, stepper, formation, settings, y, drive);

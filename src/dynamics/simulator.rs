@@ -12,6 +12,7 @@ use super::model::{self, q, Drive, Kinematics, Mechanics, Model, NQ};
 use super::state::{State, StepFail, StepOut, Tol};
 use super::stepper::Stepper;
 use super::types::{CycleRecord, EventKind, Sample, SimError, Stats};
+use crate::cancel::Cancel;
 use crate::jkr;
 use crate::rig::ContactFormation;
 use std::f64::consts::PI;
@@ -33,6 +34,9 @@ pub struct Settings {
     /// Samples are interpolated on a time grid between step ends (DP8 then keeps its steps to
     /// 1/16 of a base period).
     pub interpolated_samples: bool,
+    /// Polled with the wall-clock budget: a raised flag stops the run with
+    /// [`SimError::Cancelled`].
+    pub cancel: Cancel,
 }
 
 /// A stretch of the solution between two states of one step, under the drive that held over
@@ -606,6 +610,9 @@ impl Simulator {
         }
         // The clock costs ~20 ns; a unit of work ~1 µs.
         if self.work.is_multiple_of(64) {
+            if self.settings.cancel.is_cancelled() {
+                return Err(SimError::Cancelled { t: self.y.t });
+            }
             let wall = self.start.elapsed().as_secs_f64();
             if wall > self.settings.max_wall_s {
                 return Err(SimError::WallBudget {

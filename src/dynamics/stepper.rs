@@ -46,6 +46,9 @@ pub struct Solver {
     pub envelope: EnvelopeMode,
     /// Local error tolerance of an envelope step (scaled, dimensionless).
     pub envelope_tol: f64,
+    /// Cancellation from another thread ([`crate::cancel`]); none unless a caller sets one. Not
+    /// a scenario key.
+    pub cancel: Cancel,
 }
 
 impl Default for Solver {
@@ -60,6 +63,7 @@ impl Default for Solver {
             event_tol: 1e-12,
             envelope: EnvelopeMode::Auto,
             envelope_tol: 1e-6,
+            cancel: Cancel::NONE,
         }
     }
 }
@@ -70,6 +74,7 @@ use super::model::{Drive, Model, NQ};
 use super::ode_adapter::{self, OdeMethod};
 use super::state::{State, StepFail, StepOut, Tol};
 use crate::adhesion::AdhesionLaw;
+use crate::cancel::Cancel;
 use crate::rig::{ContactFormation, Rig};
 
 /// How the simulator drives a stepper.

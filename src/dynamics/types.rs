@@ -347,6 +347,12 @@ pub enum SimError {
         /// State.
         state: Box<Sample>,
     },
+    /// Cancelled from another thread ([`crate::cancel`]; e.g. Ctrl-C in Python).
+    #[error("cancelled at t = {t:e} s")]
+    Cancelled {
+        /// Time (s).
+        t: f64,
+    },
     /// A stage ran for its `max_duration` without meeting its end condition.
     #[error("stage {stage} ({until}) did not end within max_duration = {max_duration} s (t = {t:e} s); {}", describe(.state))]
     StageTimeout {

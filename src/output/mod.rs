@@ -579,7 +579,7 @@ fn remove_stale_partials(dir: &Path) {
 }
 
 /// A run id unique on this machine: the start time and the process id.
-fn new_run_id() -> String {
+pub fn new_run_id() -> String {
     let now = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap_or_default();

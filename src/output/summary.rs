@@ -64,10 +64,11 @@ use crate::scenario::{checks, Scenario};
 /// Version of the summary layout, stored as `format_version`.
 pub const SUMMARY_VERSION: i64 = 1;
 
-/// File names (relative to the output directory) listed under `files`.
+/// File names (relative to the output directory) listed under `files`. The default lists none
+/// (a run kept in memory, without a run folder: `files` and `file_bytes` are empty).
 #[derive(Debug, Clone, Default)]
 pub struct SummaryFiles {
-    /// The HDF5 file.
+    /// The HDF5 file (empty: none written).
     pub hdf5: String,
     /// The time-series CSV, when written.
     pub timeseries_csv: Option<String>,
@@ -324,7 +325,10 @@ fn event_counts(result: &RunResult) -> Value {
 /// `files`: the files written.
 fn file_map(files: &SummaryFiles) -> Map<String, Value> {
     let mut file_map = Map::new();
-    file_map.insert("hdf5".into(), Value::String(files.hdf5.clone()));
+    // No HDF5 name: nothing was written (a run kept in memory, e.g. from Python without `out`).
+    if !files.hdf5.is_empty() {
+        file_map.insert("hdf5".into(), Value::String(files.hdf5.clone()));
+    }
     if let Some(f) = &files.timeseries_csv {
         file_map.insert("timeseries_csv".into(), Value::String(f.clone()));
     }

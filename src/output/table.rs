@@ -403,6 +403,11 @@ impl Table {
         Ok(())
     }
 
+    /// The columns by value, in order (a table handed on whole, e.g. to Python).
+    pub fn into_columns(self) -> Vec<Column> {
+        self.columns
+    }
+
     /// The columns, in order.
     pub fn columns(&self) -> &[Column] {
         &self.columns

@@ -173,6 +173,11 @@ impl TimeSeriesWriter {
         &self.events
     }
 
+    /// The samples as a table and the events, by value (a run kept in memory).
+    pub fn into_parts(self) -> (Table, Vec<Event>) {
+        (self.table, self.events)
+    }
+
     /// Forget the buffered samples and events (they went to disk).
     pub fn clear(&mut self) {
         self.table.clear();
@@ -202,12 +207,12 @@ impl Observer for TimeSeriesWriter {
 }
 
 /// A stage index as stored in files (int64; indices never come near 2^63).
-pub(crate) fn stage_index(stage: usize) -> i64 {
+pub fn stage_index(stage: usize) -> i64 {
     i64::try_from(stage).unwrap_or(i64::MAX)
 }
 
 /// The kebab-case name of an event kind, as in summary.json (serde's name: a unit test checks).
-pub(crate) fn kind_name(kind: EventKind) -> String {
+pub fn kind_name(kind: EventKind) -> String {
     kind_str(kind).to_string()
 }
 

@@ -459,6 +459,11 @@ impl Problem {
         Problem::new(&self.rig, self.solver, frequency, amplitude)
     }
 
+    /// The cancellation token of its solver settings ([`crate::cancel`]).
+    pub fn cancel(&self) -> crate::cancel::Cancel {
+        self.solver.cancel
+    }
+
     /// The rig (its base at this problem's frequency and amplitude).
     pub fn rig(&self) -> &Rig {
         &self.rig
@@ -493,6 +498,7 @@ impl Problem {
             max_wall_s: self.solver.max_wall_s,
             max_events: self.solver.max_events,
             interpolated_samples: false,
+            cancel: self.solver.cancel,
         };
         let stepper = stepper::build(self.solver.method, &self.rig);
         Ok(Simulator::new(

@@ -146,7 +146,8 @@ pub fn frequencies(lo: f64, hi: f64, count: usize) -> Vec<f64> {
 /// Sweep `freqs` (Hz, any order; sorted ascending for `Up`, descending for `Down`) at the
 /// problem's base amplitude, starting from `start` at the first frequency and from the previous
 /// steady state after that. `lin` adds the predictors; `progress` is called after each
-/// frequency.
+/// frequency. Cancelled through the problem's solver settings, the sweep ends at the next
+/// frequency with the points done.
 pub fn sweep(
     problem: &Problem,
     start: &Initial,
@@ -167,6 +168,10 @@ pub fn sweep(
     let mut cycles = 0;
     let mut points = Vec::with_capacity(fs.len());
     for &f in &fs {
+        // Cancelled (crate::cancel): the points left are not computed.
+        if problem.cancel().is_cancelled() {
+            break;
+        }
         let result = problem
             .at(f, problem.amplitude)
             .and_then(|p| p.solve(&from, opts));

@@ -1,0 +1,423 @@
+"""The Python package against the command line: every number compared with what `djkr`
+prints or writes for the same input (nothing hard-coded)."""
+
+import _thread
+import json
+import math
+import subprocess
+import sys
+import threading
+import time
+import warnings
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+import djkr
+from conftest import ROOT, cli, cli_error, cli_json
+
+VIB400 = "benches/scenes/vib400.toml"  # 1 s at 400 Hz: samples and period records
+IMPACTS = "scenarios/impacts.toml"  # contact lost and regained: many events
+RESONANCE = "scenarios/resonance-400hz.toml"
+TINY = "tests/sweep/tiny.toml"
+SERIES = ["t", "x_s", "v_s", "x_b", "x_k", "delta", "a", "a_dot", "F", "G", "w"]
+
+# Keys of summary.json that differ between two runs of the same scenario, or with the folder.
+VOLATILE = {"run_id", "files", "file_bytes"}
+
+
+@pytest.fixture(autouse=True)
+def at_root(monkeypatch):
+    """Relative scenario paths as the command line is given them (summaries name the path)."""
+    monkeypatch.chdir(ROOT)
+
+
+def bits(a):
+    """An array's bit patterns (NaN equal to itself, -0.0 unequal to 0.0)."""
+    a = np.ascontiguousarray(a)
+    return a.view(np.uint64 if a.dtype == np.float64 else a.dtype)
+
+
+def assert_bits_equal(a, b, what):
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.dtype == b.dtype, f"{what}: {a.dtype} vs {b.dtype}"
+    assert a.shape == b.shape, f"{what}: {a.shape} vs {b.shape}"
+    assert np.array_equal(bits(a), bits(b)), f"{what}: values differ"
+
+
+def stable(summary):
+    """summary.json without what differs from run to run (run id, wall time, files)."""
+    s = {k: v for k, v in summary.items() if k not in VOLATILE}
+    s["stats"] = {k: v for k, v in s["stats"].items() if k != "wall_s"}
+    return s
+
+
+def cli_run(tmp_path, scenario, *sets, name="cli"):
+    out = tmp_path / name
+    args = ["run", scenario, "--out", out]
+    for s in sets:
+        args += ["--set", s]
+    cli(*args)
+    return out
+
+
+def assert_run_matches_folder(r, folder):
+    """Every array of a Run equals its dataset in folder/run.h5, bit for bit."""
+    with h5py.File(folder / "run.h5", "r") as f:
+        for name in SERIES:
+            assert_bits_equal(getattr(r, name), f[name][()], name)
+        assert_bits_equal(r.stage, f["stage"][()], "stage")
+        assert set(r.cycles) == set(f["cycles"].keys())
+        for name, values in r.cycles.items():
+            assert_bits_equal(values, f["cycles"][name][()], f"cycles/{name}")
+        ev = f["events"]
+        kinds = [k.decode() if isinstance(k, bytes) else k for k in ev["kind"][()]]
+        assert [e["kind"] for e in r.events] == kinds
+        assert_bits_equal(np.array([e["time"] for e in r.events]), ev["time"][()], "events/time")
+        assert_bits_equal(np.array([e["stage"] for e in r.events], dtype=np.int64), ev["stage"][()], "events/stage")
+        for name in SERIES[1:]:
+            got = np.array([e["state"][name] for e in r.events], dtype=np.float64)
+            assert_bits_equal(got, ev[name][()], f"events/{name}")
+
+
+@pytest.mark.parametrize("scenario", [VIB400, IMPACTS])
+def test_run_arrays_equal_the_cli_hdf5_bit_for_bit(tmp_path, scenario):
+    folder = cli_run(tmp_path, scenario)
+    r = djkr.run(scenario)
+    assert len(r) == len(r.t) > 100
+    assert r.t.dtype == np.float64 and r.stage.dtype == np.int64
+    assert_run_matches_folder(r, folder)
+    cli_summary = json.loads((folder / "summary.json").read_text())
+    assert stable(r.summary) == stable(cli_summary)
+    # Without a folder there are no files to list.
+    assert r.summary["files"] == {} and r.summary["file_bytes"] == {}
+    # The events of summary.json are those of the run (all of them here, fewer than 10 000).
+    assert len(r.events) == r.summary["events_listed"] == len(cli_summary["events"])
+    for e, s in zip(r.events, cli_summary["events"]):
+        assert e["kind"] == s["kind"] and e["stage"] == s["stage"] and e["time"] == s["time"]
+        assert {k: v for k, v in e["state"].items() if math.isfinite(v)} == s["state"]
+
+
+def test_out_writes_the_run_folder_of_djkr_run(tmp_path):
+    out = tmp_path / "py"
+    r = djkr.run(VIB400, out=out)
+    # summary is exactly the file written, and the file is that of the command line.
+    assert r.summary == json.loads((out / "summary.json").read_text())
+    assert r.summary["files"] == {"hdf5": "run.h5"}
+    assert_run_matches_folder(r, out)
+    folder = cli_run(tmp_path, VIB400)
+    assert stable(r.summary) == stable(json.loads((folder / "summary.json").read_text()))
+    assert not list(out.glob(".*.partial"))
+
+
+def test_set_equals_cli_set(tmp_path):
+    sets = {"base.amplitude": "3um", "solver.rtol": 1e-9, "stage[0].duration": 0.25}
+    folder = cli_run(tmp_path, VIB400, "base.amplitude=3um", "solver.rtol=1e-09", "stage[0].duration=0.25")
+    r = djkr.run(VIB400, set=sets)
+    assert r.summary["overrides"] == ["base.amplitude=3um", "solver.rtol=1e-09", "stage[0].duration=0.25"]
+    assert stable(r.summary) == stable(json.loads((folder / "summary.json").read_text()))
+    assert_run_matches_folder(r, folder)
+    # A boolean is written as TOML spells it.
+    r2 = djkr.run(TINY, set={"output.csv": True})
+    assert r2.summary["overrides"] == ["output.csv=true"]
+
+
+def test_scenario_forms_give_the_same_run(tmp_path):
+    tomllib = pytest.importorskip("tomllib")
+    text = (ROOT / VIB400).read_text()
+    by_path = djkr.run(VIB400)
+    by_pathlib = djkr.run(ROOT / VIB400)
+    by_text = djkr.run(text)
+    by_dict = djkr.run(tomllib.loads(text))
+    assert by_text.summary["scenario"] == "<string>"
+    assert by_dict.summary["scenario"] == "<dict>"
+    for other in (by_pathlib, by_text, by_dict):
+        for name in SERIES:
+            assert_bits_equal(getattr(other, name), getattr(by_path, name), name)
+    # A dict with overrides: the same as the file with overrides.
+    d = tomllib.loads(text)
+    d["base"]["amplitude"] = "3um"
+    assert_bits_equal(djkr.run(d).F, djkr.run(VIB400, set={"base.amplitude": "3um"}).F, "F")
+
+
+def test_to_pandas(tmp_path):
+    r = djkr.run(TINY)
+    df = r.to_pandas()
+    assert isinstance(df, pd.DataFrame)
+    assert list(df.columns) == SERIES + ["stage"]
+    for name in SERIES + ["stage"]:
+        assert_bits_equal(df[name].to_numpy(), getattr(r, name), name)
+
+
+CYCLES = [
+    (("400", "2mm", "0.5mm"), {}),
+    ((300.0, 0.0015, 2e-4), {}),
+    (("1.5kHz", "-0.1mm", "0.3mm"), {}),  # truncated cycle
+    ((200, "11mm", "0.5mm"), {}),  # a beyond 0.2 R: a note
+    ((400, "2mm", "0.5mm"), {"material": "scenarios/impacts.toml"}),
+]
+
+
+@pytest.mark.parametrize("args,kw", CYCLES)
+def test_cycle_equals_cli_json(args, kw):
+    freq, a_mean, a_amp = args
+    flags = ["--freq", freq, "--a-mean", a_mean, "--a-amp", a_amp]
+    if "material" in kw:
+        flags += ["--material", kw["material"]]
+    expected = cli_json("cycle", *flags)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        got = djkr.cycle(*args, **kw)
+    assert got == expected
+    # The notes are also warnings, as on the command line's stderr.
+    assert [str(w.message) for w in caught] == expected["notes"]
+    assert all(w.category is RuntimeWarning for w in caught)
+
+
+PULLOFFS = [
+    ((400, "0.5mm"), {}, []),
+    (("300Hz", 1e-3), {"method": "approx"}, ["--method", "approx"]),
+    ((200, "0.25mm"), {"method": "approx", "beta": 4.17}, ["--method", "approx", "--beta", "4.17"]),
+    ((400, "0.5mm"), {"method": "yi"}, ["--method", "yi"]),
+    ((400, "0.5mm"), {"material": "scenarios/impacts.toml"}, ["--material", "scenarios/impacts.toml"]),
+]
+
+
+@pytest.mark.parametrize("args,kw,flags", PULLOFFS)
+def test_pulloff_equals_cli_json(args, kw, flags):
+    freq, a_amp = args
+    expected = cli_json("pulloff", "--freq", freq, "--a-amp", a_amp, *flags)
+    assert djkr.pulloff(*args, **kw) == expected
+
+
+def test_material_as_text_and_dict():
+    tomllib = pytest.importorskip("tomllib")
+    text = (ROOT / IMPACTS).read_text()
+    expected = djkr.pulloff(400, "0.5mm", material=IMPACTS)
+    assert djkr.pulloff(400, "0.5mm", material=text) == expected
+    assert djkr.pulloff(400, "0.5mm", material=tomllib.loads(text)) == expected
+
+
+def drop_wall(v):
+    """A report without its wall times."""
+    if isinstance(v, dict):
+        return {k: drop_wall(x) for k, x in v.items() if k != "wall_s"}
+    if isinstance(v, list):
+        return [drop_wall(x) for x in v]
+    return v
+
+
+def test_validate_equals_cli_json():
+    expected = cli_json("validate", RESONANCE)
+    got = djkr.validate(RESONANCE)
+    assert drop_wall(got) == drop_wall(expected)
+    expected = cli_json("validate", RESONANCE, "--set", "base.amplitude=0.3um")
+    assert drop_wall(djkr.validate(RESONANCE, set={"base.amplitude": "0.3um"})) == drop_wall(expected)
+
+
+def csv_columns(path):
+    """A djkr CSV as {name: values}, the header's `name [unit]` cut to the name."""
+    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    return {c.split(" [")[0]: list(df[c]) for c in df.columns}
+
+
+def assert_columns_equal(got, expected, skip=()):
+    assert list(got) == list(expected)
+    for name, col in expected.items():
+        if name in skip:
+            continue
+        g = got[name]
+        if g.dtype.kind == "f":
+            assert_bits_equal(g, np.array([float(x) for x in col]), name)
+        elif g.dtype.kind == "i":
+            assert_bits_equal(g, np.array([int(x) for x in col], dtype=np.int64), name)
+        else:
+            assert list(g) == col, name
+
+
+@pytest.mark.parametrize("direction", ["both", "down"])
+def test_resonance_columns_equal_cli_csv(tmp_path, direction):
+    out = tmp_path / "res"
+    cli("resonance", RESONANCE, "--freq", "380:420:5", "--sweep", direction, "--out", out)
+    got = djkr.resonance(RESONANCE, freq=(380, 420, 5), sweep=direction)
+    assert_columns_equal(got, csv_columns(out / "resonance.csv"))
+    assert set(got["direction"]) == ({"up", "down"} if direction == "both" else {"down"})
+    # Units welcome, as on the command line.
+    again = djkr.resonance(RESONANCE, freq=("0.38kHz", "420Hz", 5), sweep=direction)
+    assert_bits_equal(again["delta_amp_over_xb"], got["delta_amp_over_xb"], "delta_amp_over_xb")
+
+
+def test_sweep_columns_equal_cli_csv(tmp_path):
+    out = tmp_path / "sweep"
+    cli("sweep", TINY, "--set", "base.amplitude=5um,10um", "--set", "base.frequency=250:300:2",
+        "--ensemble", "2", "--seed", "3", "--jobs", "2", "--out", out)
+    got = djkr.sweep(TINY, grid={"base.amplitude": ["5um", "10um"], "base.frequency": "250:300:2"},
+                     ensemble=2, seed=3, jobs=2)
+    expected = csv_columns(out / "sweep.csv")
+    assert_columns_equal(got, expected, skip={"wall_s"})
+    assert len(got["point"]) == 2 * 2 * 2
+    # A list of SI floats is the same as the list of strings with units.
+    si = djkr.sweep(TINY, grid={"base.amplitude": [5e-6, 1e-5]}, jobs=1)
+    strings = djkr.sweep(TINY, grid={"base.amplitude": ["5e-06", "1e-05"]}, jobs=1)
+    assert_bits_equal(si["pull_off_force"], strings["pull_off_force"], "pull_off_force")
+
+
+def test_bad_input_raises_scenario_error_with_the_cli_message():
+    cases = [
+        (lambda: djkr.run(VIB400, set={"base.amplitude": "-1um"}),
+         ["run", VIB400, "--set", "base.amplitude=-1um"], "base.amplitude"),
+        (lambda: djkr.run(VIB400, set={"base.amplitud": "30um"}),
+         ["run", VIB400, "--set", "base.amplitud=30um"], "base.amplitud"),
+        (lambda: djkr.validate(VIB400, set={"stage[7].speed": 1e-3}),
+         ["validate", VIB400, "--set", "stage[7].speed=0.001"], "stage[7]"),
+        (lambda: djkr.run("tests/scenarios/bad/negative-radius.toml"),
+         ["run", "tests/scenarios/bad/negative-radius.toml"], "material.R"),
+    ]
+    for call, args, key in cases:
+        if not (ROOT / args[1]).exists():
+            continue
+        with pytest.raises(djkr.ScenarioError) as e:
+            call()
+        assert isinstance(e.value, ValueError)
+        assert str(e.value) == cli_error(*args)
+        assert key in str(e.value)
+    # Function arguments are named as in Python.
+    with pytest.raises(djkr.ScenarioError, match="^freq = -400: must be a finite number > 0"):
+        djkr.cycle(-400, "2mm", "0.5mm")
+    with pytest.raises(djkr.ScenarioError, match="a_mean = -1mm"):
+        djkr.cycle(400, "-1mm", "0.5mm")
+    with pytest.raises(djkr.ScenarioError, match="beta has no effect"):
+        djkr.pulloff(400, "0.5mm", beta=3)
+    with pytest.raises(djkr.ScenarioError, match="base.amplitude"):
+        djkr.sweep(TINY, grid={"base.amplitude": ["10um", "-1um"]})
+    with pytest.raises(djkr.ScenarioError, match="freq"):
+        djkr.resonance(RESONANCE, freq=(500, 400, 3))
+    with pytest.raises(djkr.ScenarioError, match=r"<dict>: material\.R"):
+        djkr.run({"version": 1, "material": {"K": 9.33e6, "R": -1, "w0": 0.24},
+                  "stage": [{"kind": "hold", "duration": 0.1}]})
+    with pytest.raises(TypeError):
+        djkr.run(42)
+
+
+def test_bad_files_give_the_cli_message():
+    """Every bad scenario of the corpus: the same message from Python as from `djkr check`."""
+    bad = sorted((ROOT / "tests/scenarios/bad").glob("*.toml"))
+    assert bad
+    for path in bad:
+        rel = str(path.relative_to(ROOT))
+        expected = cli("check", rel, check=False).stderr.strip().splitlines()[0]
+        with pytest.raises(djkr.ScenarioError) as e:
+            djkr.run(rel)
+        assert "error: " + str(e.value) == expected, rel
+
+
+class interrupt_after:
+    """Send Ctrl-C (KeyboardInterrupt) to the main thread after `seconds`, unless the block
+    ended before; the block must raise KeyboardInterrupt. `elapsed`: the block's wall time."""
+
+    def __init__(self, seconds):
+        self.timer = threading.Timer(seconds, _thread.interrupt_main)
+
+    def __enter__(self):
+        self.t0 = time.perf_counter()
+        self.timer.start()
+        return self
+
+    def __exit__(self, kind, value, tb):
+        self.elapsed = time.perf_counter() - self.t0
+        self.timer.cancel()
+        assert kind is KeyboardInterrupt, f"the call ended without interruption ({self.elapsed:.3f} s)"
+        return True
+
+
+LONG = {"stage[0].duration": "1000s", "output.sample_rate": 10, "solver.envelope": "off"}
+
+
+def test_keyboard_interrupt_stops_a_long_run():
+    with interrupt_after(0.3) as i:
+        djkr.run(VIB400, set=LONG)  # several seconds of work uninterrupted
+    assert i.elapsed < 0.8, f"KeyboardInterrupt took {i.elapsed - 0.3:.3f} s"
+    # The module is usable afterwards, and a folder of an interrupted run holds no run.
+    assert djkr.cycle(400, "2mm", "0.5mm")["force_mean"] < 0
+
+
+def test_keyboard_interrupt_stops_resonance_and_sweep(tmp_path):
+    long_grid = {"stage[0].duration": ["1000s", "1001s"], "solver.envelope": ["off"]}
+    for call in (
+        lambda: djkr.resonance(RESONANCE, freq=(300, 500, 2001)),
+        lambda: djkr.sweep(VIB400, grid=long_grid, jobs=2),
+    ):
+        with interrupt_after(0.3) as i:
+            call()
+        assert i.elapsed < 0.8, f"KeyboardInterrupt took {i.elapsed - 0.3:.3f} s"
+
+
+def test_interrupted_run_leaves_no_run_in_its_folder(tmp_path):
+    out = tmp_path / "interrupted"
+    with interrupt_after(0.3):
+        djkr.run(VIB400, set=LONG, out=out)
+    assert not (out / "summary.json").exists() and not (out / "run.h5").exists()
+    assert not list(out.glob(".*.partial"))
+
+
+def test_calls_release_the_interpreter_lock():
+    """Another Python thread runs while a run is in Rust."""
+    ticks = []
+    stop = threading.Event()
+
+    def ticker():
+        while not stop.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.005)
+
+    th = threading.Thread(target=ticker)
+    th.start()
+    try:
+        t0 = time.perf_counter()
+        djkr.run(VIB400, set={"stage[0].duration": "20s", "solver.envelope": "off"})
+        t1 = time.perf_counter()
+    finally:
+        stop.set()
+        th.join()
+    assert t1 - t0 > 0.05
+    during = [t for t in ticks if t0 < t < t1]
+    assert len(during) >= 0.3 * (t1 - t0) / 0.005
+
+
+def test_the_package_ships_type_stubs():
+    pkg = Path(djkr.__file__).parent
+    assert (pkg / "py.typed").exists()
+    stub = (pkg / "__init__.pyi").read_text()
+    for name in djkr.__all__:
+        assert name in stub
+
+
+def test_the_example_runs(tmp_path):
+    script = ROOT / "examples" / "python_study.py"
+    p = subprocess.run([sys.executable, str(script), str(tmp_path)], capture_output=True, text=True, cwd=ROOT)
+    assert p.returncode == 0, p.stderr
+    for name in ("amplification.png", "resonance.png"):
+        assert (tmp_path / name).stat().st_size > 1000
+    assert "amplification" in p.stdout
+
+
+def _samples(_):
+    return len(djkr.run(TINY).t)
+
+
+def test_calls_from_other_threads_and_forked_processes():
+    """Off the main thread a call runs in place; a forked child starts its own worker."""
+    expected = len(djkr.run(TINY).t)
+    got = []
+    th = threading.Thread(target=lambda: got.append(_samples(None)))
+    th.start()
+    th.join()
+    assert got == [expected]
+    import multiprocessing
+
+    if "fork" in multiprocessing.get_all_start_methods():
+        with multiprocessing.get_context("fork").Pool(2) as pool:
+            assert pool.map(_samples, range(2)) == [expected, expected]

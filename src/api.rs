@@ -1,0 +1,875 @@
+//! What a command computes and reports, as calls: the command line (`src/cli/`) and the Python
+//! binding (`python/`) both call these, so that `djkr cycle --json` and `djkr.cycle(...)` give
+//! the same keys and the same numbers, and `djkr.run(...)` the same arrays as `djkr run`'s
+//! `run.h5`.
+//!
+//! - Arguments arrive as text with their names ([`Arg`]): bare numbers are SI, units are
+//!   welcome (`400Hz`, `0.5mm`), and an error names the argument as the caller spells it
+//!   (`--a-amp` on the command line, `a_amp` in Python).
+//! - [`cycle`] and [`pull_off`]: the reports of `djkr cycle` and `djkr pulloff` (exact, approx,
+//!   Yi), with [`CycleReport::json`] and [`PullOffReport::json`] the objects `--json` prints.
+//! - [`run`]: a run kept in memory (the time series, events and period records as the run file's
+//!   tables) and optionally written into a run folder by the same [`RunWriter`] as `djkr run`.
+//! - [`validate`], [`resonance`], [`sweep`]: the steady-state comparison, the frequency response
+//!   and a study, each returning what the command's `--json` or table holds.
+//! - [`finite_json`]: a report as JSON, refusing non-finite numbers (JSON has none).
+//!
+//! Every long computation here takes its cancellation from the scenario's
+//! [`Solver::cancel`](crate::dynamics::Solver::cancel) (or, for a sweep, a stop flag), so a
+//! caller can stop it from another thread ([`crate::cancel`]).
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use serde_json::{json, Value};
+use thiserror::Error;
+
+use crate::adhesion::{GentSchultz, Law};
+use crate::closed_form::DeltaAmpForm;
+use crate::comparators;
+use crate::dynamics::types::{CycleRecord, Event, Observer, RunResult, Sample};
+use crate::dynamics::SimError;
+use crate::error::{non_negative, positive, ParamError};
+use crate::imposed_area::{self, Cycle};
+use crate::material::Material;
+use crate::output::summary::{summary_json, SummaryFiles};
+use crate::output::table::Table;
+use crate::output::{cycles, OutputError, OutputPaths, RunWriter, TimeSeriesWriter};
+use crate::run_plot::RunPlotError;
+use crate::scenario::checks::small_contact_warning;
+use crate::scenario::overrides::{Override, OverrideError};
+use crate::scenario::parse::ScenarioError;
+use crate::scenario::{Initial, Scenario};
+use crate::steady::report::{self, ValidateReport};
+use crate::steady::sweep::{self as steady_sweep, Direction, Linearisation, SweepPoint};
+use crate::steady::{crosscheck, Options, Problem, SteadyError};
+use crate::sweep::{
+    rows_table, run_all, Axis, Ensemble, Grid, RunOptions, SpecError, Sweep, SweepError,
+};
+use crate::units::{parse_quantity, Dimension};
+
+/// Limits on the grids and lists of the commands that take ranges: each bounds the work one
+/// invocation may ask for (a 100000 × 100000 shortcut map is 1e10 steady states).
+pub mod limits {
+    /// `resonance --freq START:STOP:COUNT`: frequencies per sweep.
+    pub const RESONANCE_FREQUENCIES: usize = 2001;
+    /// `shortcut-map --freq` and `--amp`: COUNT of each axis.
+    pub const MAP_AXIS: usize = 1001;
+    /// `shortcut-map`: cells (frequencies × amplitudes).
+    pub const MAP_CELLS: usize = 10_000;
+    /// `beta-fit --n-values`: exponents.
+    pub const BETA_FIT_N_VALUES: usize = 100;
+    /// `beta-fit --speed-ratio`: COUNT.
+    pub const BETA_FIT_SPEED_RATIOS: usize = 1000;
+    /// `beta-fit`: exact pull-offs (n values × speed ratios).
+    pub const BETA_FIT_PULL_OFFS: usize = 20_000;
+    /// `beta-fit --beta`: COUNT of the β grid.
+    pub const BETA_FIT_BETAS: usize = 10_000;
+    /// `accuracy --tolerances`: values.
+    pub const ACCURACY_TOLERANCES: usize = 20;
+    /// `accuracy --methods`: values (each method once).
+    pub const ACCURACY_METHODS: usize = 5;
+    /// `accuracy --repeats`.
+    pub const ACCURACY_REPEATS: usize = 100;
+    /// `accuracy --nodes`: node counts.
+    pub const ACCURACY_NODES: usize = 32;
+}
+
+/// Why a call failed. [`ApiError::is_input`] tells bad input (the caller's to fix; Python's
+/// `ScenarioError`) from a computation that failed or was cancelled.
+#[derive(Debug, Error)]
+pub enum ApiError {
+    /// An argument out of range or malformed.
+    #[error(transparent)]
+    Param(#[from] ParamError),
+    /// A scenario that does not parse or validate (also a bad override value).
+    #[error(transparent)]
+    Scenario(#[from] ScenarioError),
+    /// A `KEY=VALUE` override that does not parse.
+    #[error(transparent)]
+    Override(#[from] OverrideError),
+    /// A sweep's `KEY=SPEC` that does not parse.
+    #[error(transparent)]
+    Spec(#[from] SpecError),
+    /// A sweep whose points or ensemble do not validate.
+    #[error(transparent)]
+    Sweep(#[from] SweepError),
+    /// Other bad input, with its message.
+    #[error("{0}")]
+    Invalid(String),
+    /// The scenario cannot describe a periodic steady state (no `[base]`, ...).
+    #[error("{source_name}: {error}")]
+    SteadySetup {
+        /// The scenario's name.
+        source_name: String,
+        /// Why.
+        error: SteadyError,
+    },
+    /// The steady-state search failed.
+    #[error("{source_name}: {error}")]
+    Steady {
+        /// The scenario's name.
+        source_name: String,
+        /// Why.
+        error: SteadyError,
+    },
+    /// The run failed (its partial files removed).
+    #[error("{source_name}: run failed (no output written): {error}")]
+    Run {
+        /// The scenario's name.
+        source_name: String,
+        /// Why.
+        error: SimError,
+    },
+    /// Writing the run folder failed.
+    #[error("{context}: {error}")]
+    Output {
+        /// Which folder and step.
+        context: String,
+        /// Why.
+        error: OutputError,
+    },
+    /// Drawing the run's figure failed.
+    #[error("drawing the run's figure into {}: {error}", dir.display())]
+    Plot {
+        /// The run folder.
+        dir: PathBuf,
+        /// Why.
+        error: RunPlotError,
+    },
+    /// A report held a non-finite number where JSON has none (an internal error).
+    #[error("internal error: non-finite value at {0}")]
+    NonFinite(String),
+    /// Stopped from another thread ([`crate::cancel`]).
+    #[error("cancelled")]
+    Cancelled,
+}
+
+impl ApiError {
+    /// True for bad input: an argument, a scenario, an override, a sweep's grid.
+    pub fn is_input(&self) -> bool {
+        matches!(
+            self,
+            ApiError::Param(_)
+                | ApiError::Scenario(_)
+                | ApiError::Override(_)
+                | ApiError::Spec(_)
+                | ApiError::Sweep(_)
+                | ApiError::Invalid(_)
+                | ApiError::SteadySetup { .. }
+        )
+    }
+
+    /// A steady-state error about the scenario named `source_name`: bad input when the
+    /// scenario cannot describe a steady state, [`ApiError::Cancelled`] when cancelled.
+    pub fn from_steady(source_name: &str, error: SteadyError) -> Self {
+        let source_name = source_name.to_string();
+        match error {
+            SteadyError::Sim(SimError::Cancelled { .. }) => ApiError::Cancelled,
+            e @ SteadyError::Setup(_) => ApiError::SteadySetup {
+                source_name,
+                error: e,
+            },
+            e => ApiError::Steady {
+                source_name,
+                error: e,
+            },
+        }
+    }
+}
+
+/// An argument as text with the name errors give it (`--freq`, or `freq`).
+#[derive(Debug, Clone, Copy)]
+pub struct Arg<'a> {
+    /// The name.
+    pub name: &'a str,
+    /// The value as given: a bare SI number or a number with a unit.
+    pub text: &'a str,
+}
+
+impl<'a> Arg<'a> {
+    /// `name = text`.
+    pub fn new(name: &'a str, text: &'a str) -> Self {
+        Self { name, text }
+    }
+}
+
+/// Parse a quantity (bare numbers are SI).
+pub fn quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    parse_quantity(name, text, dim)
+}
+
+/// Parse a quantity that must be > 0.
+pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    let v = quantity(name, text, dim)?;
+    positive(name, v, dim.si()).map_err(|e| ParamError {
+        value: text.to_string(),
+        ..e
+    })
+}
+
+/// Parse a quantity that must be ≥ 0.
+pub fn non_negative_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    let v = quantity(name, text, dim)?;
+    non_negative(name, v, dim.si()).map_err(|e| ParamError {
+        value: text.to_string(),
+        ..e
+    })
+}
+
+/// Angular frequency from a frequency argument (Hz, > 0).
+pub fn omega_from(name: &str, text: &str) -> Result<f64, ParamError> {
+    Ok(2.0 * std::f64::consts::PI * positive_quantity(name, text, Dimension::Frequency)?)
+}
+
+/// Parse START:STOP:COUNT with units, 0 < START ≤ STOP, 1 ≤ COUNT ≤ `max` (START = STOP when
+/// COUNT = 1 is not required: COUNT = 1 gives START).
+pub fn range(
+    name: &str,
+    text: &str,
+    dim: Dimension,
+    max: usize,
+) -> Result<(f64, f64, usize), ApiError> {
+    let parts: Vec<&str> = text.split(':').collect();
+    if parts.len() != 3 {
+        return Err(ApiError::Invalid(format!(
+            "{name} = {text}: expected START:STOP:COUNT, e.g. 300:500:101"
+        )));
+    }
+    let lo = positive_quantity(name, parts[0].trim(), dim)?;
+    let hi = positive_quantity(name, parts[1].trim(), dim)?;
+    let n: usize = parts[2].trim().parse().map_err(|_| {
+        ApiError::Invalid(format!(
+            "{name} = {text}: COUNT = {} must be an integer >= 1",
+            parts[2]
+        ))
+    })?;
+    if n == 0 || n > max {
+        return Err(ApiError::Invalid(format!(
+            "{name} = {text}: COUNT = {n} must be in 1..={max} (the limit of this command)"
+        )));
+    }
+    if hi < lo {
+        return Err(ApiError::Invalid(format!(
+            "{name} = {text}: STOP must be >= START"
+        )));
+    }
+    Ok((lo, hi, n))
+}
+
+/// `KEY=VALUE` overrides, parsed and their keys checked.
+pub fn overrides<S: AsRef<str>>(sets: &[S]) -> Result<Vec<Override>, OverrideError> {
+    sets.iter().map(|t| Override::parse(t.as_ref())).collect()
+}
+
+/// The material and adhesion law of the commands that take one, when none is given: the
+/// paper's Fig. 2 set (K 9.33 MPa, R 51 mm, w0 240 mJ/m², v0 0.0445 mm/s, n 0.531).
+pub fn default_material() -> (Material, Law) {
+    (Material::PAPER, Law::GentSchultz(GentSchultz::PAPER))
+}
+
+/// A report as a JSON value, refusing non-finite numbers (serde_json would write `null`); the
+/// error names the path of the first one (`$.notes[0]`).
+pub fn finite_json(report: &impl serde::Serialize) -> Result<Value, ApiError> {
+    let v = serde_json::to_value(report).map_err(|e| ApiError::NonFinite(e.to_string()))?;
+    check_finite(&v)?;
+    Ok(v)
+}
+
+/// Refuse a JSON value that holds `null` where a number was (a non-finite number), naming its
+/// path.
+pub fn check_finite(v: &Value) -> Result<(), ApiError> {
+    fn check(v: &Value, path: &str) -> Result<(), ApiError> {
+        match v {
+            Value::Null => Err(ApiError::NonFinite(path.to_string())),
+            Value::Object(o) => o
+                .iter()
+                .try_for_each(|(k, x)| check(x, &format!("{path}.{k}"))),
+            Value::Array(a) => a
+                .iter()
+                .enumerate()
+                .try_for_each(|(i, x)| check(x, &format!("{path}[{i}]"))),
+            _ => Ok(()),
+        }
+    }
+    check(v, "$")
+}
+
+/// A formatted number that rounded to zero is shown without a sign: `-0.000000 mm` (a value
+/// of -1e-12 m at 6 decimals, or an IEEE -0.0) becomes `0.000000 mm`. Every number in `text`
+/// is treated alike.
+pub fn no_negative_zero(text: &str) -> String {
+    let b = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < b.len() {
+        let starts_number = b[i] == b'-'
+            && b.get(i + 1).is_some_and(u8::is_ascii_digit)
+            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'.'));
+        if starts_number {
+            let end = (i + 1..b.len())
+                .find(|&j| !(b[j].is_ascii_digit() || b[j] == b'.'))
+                .unwrap_or(b.len());
+            let mantissa_is_zero = b[i + 1..end].iter().all(|&c| c == b'0' || c == b'.');
+            // An exponent (`-0.0e0`) or more digits after it are part of the number too.
+            let exponent = b.get(end).is_some_and(|&c| c == b'e' || c == b'E');
+            if mantissa_is_zero && !exponent {
+                i += 1; // drop the sign
+                continue;
+            }
+        }
+        let c = text[i..].chars().next().unwrap_or(' ');
+        out.push(c);
+        i += c.len_utf8();
+    }
+    out
+}
+
+/// Format a length in the most readable unit.
+pub fn fmt_len(x: f64) -> String {
+    no_negative_zero(&fmt_len_signed(x))
+}
+
+fn fmt_len_signed(x: f64) -> String {
+    let a = x.abs();
+    if a >= 1e-3 || a == 0.0 {
+        format!("{:.6} mm", x * 1e3)
+    } else if a >= 1e-6 {
+        format!("{:.6} µm", x * 1e6)
+    } else {
+        format!("{:.6} nm", x * 1e9)
+    }
+}
+
+/// Format a force in the most readable unit.
+pub fn fmt_force(f: f64) -> String {
+    no_negative_zero(&fmt_force_signed(f))
+}
+
+fn fmt_force_signed(f: f64) -> String {
+    if f.abs() >= 1.0 {
+        format!("{f:.6} N")
+    } else {
+        format!("{:.6} mN", f * 1e3)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// cycle, pull-off
+
+/// One imposed-area cycle (`djkr cycle`) and the model-range warnings it raised.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CycleReport {
+    /// Angular frequency ω (rad/s).
+    pub omega: f64,
+    /// The cycle.
+    pub cycle: Cycle,
+    /// Where the answer leaves the model's range (a beyond 0.2 R): shown as warnings and listed
+    /// under `notes`.
+    pub notes: Vec<String>,
+}
+
+impl CycleReport {
+    /// The object `djkr cycle --json` prints.
+    pub fn json(&self) -> Value {
+        let c = &self.cycle;
+        json!({
+            "a_mean": c.a_mean,
+            "a_mean_imposed": c.a_mean_imposed,
+            "a_amp": c.a_amp,
+            "delta_mean": c.delta_mean,
+            "delta_amp": c.delta_amp,
+            "delta_sin": c.delta_sin,
+            "delta_cos": c.delta_cos,
+            "force_mean": c.force_mean,
+            "contact_fraction": c.contact_fraction,
+            "notes": self.notes,
+        })
+    }
+}
+
+/// One imposed-area cycle at frequency `freq` (Hz) with a(t) = a_mean + a_amp sin ωt (m).
+pub fn cycle(
+    m: &Material,
+    law: &Law,
+    freq: Arg,
+    a_mean: Arg,
+    a_amp: Arg,
+) -> Result<CycleReport, ParamError> {
+    let omega = omega_from(freq.name, freq.text)?;
+    let amp = non_negative_quantity(a_amp.name, a_amp.text, Dimension::Length)?;
+    let mean = quantity(a_mean.name, a_mean.text, Dimension::Length)?;
+    if mean < -amp {
+        return Err(ParamError::new(
+            a_mean.name,
+            a_mean.text,
+            format!(
+                "must be >= -a_A = {} m (below, the contact never forms)",
+                -amp
+            ),
+        ));
+    }
+    let c = imposed_area::cycle(m, law, omega, mean, amp)?;
+    // The same small-contact rule as `pulloff` and `run`.
+    let notes = small_contact_warning(
+        "the contact reaches a_m + a_A",
+        c.a_mean_imposed + c.a_amp,
+        m.r,
+    )
+    .into_iter()
+    .collect();
+    Ok(CycleReport {
+        omega,
+        cycle: c,
+        notes,
+    })
+}
+
+/// A pull-off method of [`pull_off`] with its inputs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PullOffMethod {
+    /// The imposed-area method minimised over a_m, at amplitude a_A (m).
+    Exact {
+        /// a_A (m).
+        a_amp: f64,
+    },
+    /// The closed form, eqs. (20)–(24).
+    Approx {
+        /// a_A (m).
+        a_amp: f64,
+        /// β of eq. (24) (the paper's: [`crate::closed_form::BETA_PAPER`]).
+        beta: f64,
+        /// The δ_A form.
+        form: DeltaAmpForm,
+    },
+    /// Yi et al. eq. (8) with δ_m = δ_A.
+    Yi {
+        /// δ_A (m); from a_A by [`comparators::yi_indentation_amplitude_from_area_amplitude`].
+        delta_amp: f64,
+    },
+}
+
+/// What `djkr pulloff` reports for the exact, approx and yi methods.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PullOffReport {
+    /// The method, in words.
+    pub method: &'static str,
+    /// a_m at pull-off (m).
+    pub a_mean: f64,
+    /// δ_m at pull-off (m).
+    pub delta_mean: f64,
+    /// δ_A at pull-off (m).
+    pub delta_amp: f64,
+    /// Pull-off force (N, negative tensile).
+    pub force: f64,
+    /// Over −3/2 πRw0.
+    pub amplification: f64,
+    /// Caveats (several minima, contact loss, the closed form's settings, the model's range).
+    pub notes: Vec<String>,
+    /// The notes that are warnings (the answer leaves the model's range).
+    pub warnings: Vec<String>,
+}
+
+impl PullOffReport {
+    /// The object `djkr pulloff --json` prints.
+    pub fn json(&self) -> Value {
+        json!({
+            "method": self.method,
+            "a_mean": self.a_mean,
+            "delta_mean": self.delta_mean,
+            "delta_amp": self.delta_amp,
+            "force": self.force,
+            "amplification": self.amplification,
+            "notes": self.notes,
+        })
+    }
+}
+
+/// The pull-off for vibration at angular frequency `omega` (rad/s) by `method`.
+pub fn pull_off(
+    m: &Material,
+    law: &Law,
+    omega: f64,
+    method: PullOffMethod,
+) -> Result<PullOffReport, ParamError> {
+    let (mut r, a_amp) = match method {
+        PullOffMethod::Exact { a_amp } => {
+            let p = imposed_area::pull_off(m, law, omega, a_amp)?;
+            let mut notes = Vec::new();
+            if p.local_minima.len() > 1 {
+                notes.push(format!(
+                    "the mean-force curve F_m(a_m) has {} local minima; the global one is reported. Others (a_m imposed, F_m): {}",
+                    p.local_minima.len(),
+                    p.local_minima
+                        .iter()
+                        .map(|(am, f)| format!("({}, {})", fmt_len(*am), fmt_force(*f)))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            }
+            if !p.global {
+                notes.push("the global minimum could not be certified (see local minima)".into());
+            }
+            if p.cycle.contact_fraction < 1.0 {
+                notes.push(format!(
+                    "contact is lost during part of the cycle (contact fraction {:.4}); a_m is the a-posteriori mean",
+                    p.cycle.contact_fraction
+                ));
+            }
+            let r = PullOffReport {
+                method: "exact (imposed-area method, Sec. 2.1)",
+                a_mean: p.cycle.a_mean,
+                delta_mean: p.cycle.delta_mean,
+                delta_amp: p.cycle.delta_amp,
+                force: p.force,
+                amplification: p.amplification,
+                notes,
+                warnings: Vec::new(),
+            };
+            (r, a_amp)
+        }
+        PullOffMethod::Approx { a_amp, beta, form } => {
+            let p = crate::closed_form::pull_off_approx(m, law, omega, a_amp, beta, form)?;
+            let r = PullOffReport {
+                method: "approx (closed form, eqs. 20-24)",
+                a_mean: p.a_mean,
+                delta_mean: p.delta_mean,
+                delta_amp: p.delta_amp,
+                force: p.force,
+                amplification: p.amplification,
+                notes: vec![format!(
+                    "beta = {beta}, delta_A {}",
+                    match form {
+                        DeltaAmpForm::Derived =>
+                            "as derived from eqs. (14)-(15) (--delta-form derived)",
+                        DeltaAmpForm::Printed => "as printed in eq. (23) (--delta-form printed)",
+                    }
+                )],
+                warnings: Vec::new(),
+            };
+            (r, a_amp)
+        }
+        PullOffMethod::Yi { delta_amp } => {
+            let p = comparators::yi_mean_force(m, law, omega, delta_amp)?;
+            return Ok(PullOffReport {
+                method: "Yi et al. (2024) eq. (8), δ_m = δ_A",
+                a_mean: (m.r * delta_amp).sqrt(),
+                delta_mean: delta_amp,
+                delta_amp,
+                force: p.force,
+                amplification: p.amplification,
+                notes: vec![
+                    "a_m here is the Hertz radius at δ_m (Yi's model does not search a_m)".into(),
+                    format!(
+                        "peak contact-radius speed {:.6} mm/s, mean w {:.6} mJ/m^2",
+                        p.peak_speed * 1e3,
+                        p.mean_work_of_adhesion * 1e3
+                    ),
+                ],
+                warnings: Vec::new(),
+            });
+        }
+    };
+    // JKR is a small-contact theory (a ≪ R, half-space substrate): say so when the answer
+    // leaves that range instead of presenting it as if it were valid.
+    if let Some(w) = small_contact_warning("the contact reaches a_m + a_A", r.a_mean + a_amp, m.r) {
+        r.notes.push(w.clone());
+        r.warnings.push(w);
+    }
+    Ok(r)
+}
+
+// ---------------------------------------------------------------------------------------------
+// run
+
+/// A run kept in memory: the tables of its `run.h5` (time series, events, period records), its
+/// result and its `summary.json`.
+#[derive(Debug)]
+pub struct RunRecord {
+    /// The time series: the `SERIES` columns of [`crate::output::timeseries`], then `stage`.
+    pub series: Table,
+    /// Every event, in time order.
+    pub events: Vec<Event>,
+    /// The period records (the HDF5 `cycles/` group's columns).
+    pub cycles: Table,
+    /// The run's result.
+    pub result: RunResult,
+    /// The text of `summary.json`: the file written into the run folder, or without one the
+    /// same text with empty `files` and `file_bytes`.
+    pub summary: String,
+    /// The files written, when a run folder was asked for.
+    pub files: Option<OutputPaths>,
+    /// The run's figure (`run.png`, `run.svg`), when `[output] plot = true`.
+    pub plots: Vec<PathBuf>,
+}
+
+/// Keeps everything in memory and hands it on to a run writer, when there is one.
+struct InMemory<'a> {
+    series: TimeSeriesWriter,
+    cycles: Table,
+    writer: Option<&'a mut RunWriter>,
+}
+
+impl Observer for InMemory<'_> {
+    fn sample(&mut self, s: &Sample) -> bool {
+        self.series.push(s);
+        match self.writer.as_deref_mut() {
+            Some(w) => w.sample(s),
+            None => true,
+        }
+    }
+    fn event(&mut self, e: &Event) {
+        self.series.event(e);
+        if let Some(w) = self.writer.as_deref_mut() {
+            w.event(e);
+        }
+    }
+    fn cycle(&mut self, c: &CycleRecord) {
+        cycles::push_cycle(&mut self.cycles, c);
+        if let Some(w) = self.writer.as_deref_mut() {
+            w.cycle(c);
+        }
+    }
+}
+
+/// Run `scn` and keep its samples, events and period records in memory; with `out`, also write
+/// the run folder `djkr run --out` writes (`run.h5`, `summary.json`, the CSV files and figure
+/// its `[output]` asks for), by the same writer. Cancelled through `scn.solver.cancel`.
+pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
+    let mut writer = match out {
+        Some(dir) => Some(
+            RunWriter::create(dir, scn, scn.output.csv).map_err(|error| ApiError::Output {
+                context: format!("out = {}", dir.display()),
+                error,
+            })?,
+        ),
+        None => None,
+    };
+    let mut obs = InMemory {
+        series: TimeSeriesWriter::new(),
+        cycles: cycles::cycle_table(&[]),
+        writer: writer.as_mut(),
+    };
+    let result = scn.simulate(&mut obs);
+    let InMemory { series, cycles, .. } = obs;
+    let result = match result {
+        Ok(r) => r,
+        Err(SimError::Cancelled { .. }) => return Err(ApiError::Cancelled),
+        Err(error) => {
+            return Err(ApiError::Run {
+                source_name: scn.source_name.clone(),
+                error,
+            })
+        }
+    };
+    let (series, events) = series.into_parts();
+    let samples = series.rows() as u64;
+    let (summary, files, plots) = match (writer, out) {
+        (Some(w), Some(dir)) => {
+            let paths = w.finish(&result).map_err(|error| ApiError::Output {
+                context: format!("writing results into {}", dir.display()),
+                error,
+            })?;
+            let plots = if scn.output.plot {
+                let (png, svg) =
+                    crate::run_plot::plot_run_dir(dir).map_err(|error| ApiError::Plot {
+                        dir: dir.to_path_buf(),
+                        error,
+                    })?;
+                vec![png, svg]
+            } else {
+                Vec::new()
+            };
+            // Exactly the file just written.
+            let text = std::fs::read_to_string(&paths.summary).map_err(|e| ApiError::Output {
+                context: format!("reading back {}", paths.summary.display()),
+                error: OutputError::Io {
+                    path: paths.summary.clone(),
+                    source: e,
+                },
+            })?;
+            (text, Some(paths), plots)
+        }
+        _ => {
+            let text = summary_json(
+                scn,
+                &result,
+                samples,
+                &SummaryFiles::default(),
+                &crate::output::new_run_id(),
+                &[],
+            );
+            (text, None, Vec::new())
+        }
+    };
+    Ok(RunRecord {
+        series,
+        events,
+        cycles,
+        result,
+        summary,
+        files,
+        plots,
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// validate, resonance
+
+/// The periodic steady state of `scn` compared with the predictors (`djkr validate`; its
+/// `--json` is [`finite_json`] of the report).
+pub fn validate(scn: &Scenario, opts: &Options) -> Result<ValidateReport, SteadyError> {
+    let c = crosscheck::compare(&scn.plan(), opts)?;
+    Ok(ValidateReport::new(&c))
+}
+
+/// The message of a force balance that fails (an internal inconsistency), if it does.
+pub fn force_balance_violation(r: &ValidateReport) -> Option<String> {
+    let fb = &r.force_balance;
+    (!fb.holds).then(|| {
+        format!(
+            "internal inconsistency: the force balance <F> = m g - k(<x_s> - x_k) fails by {:.3e} (relative), above {:.0e}",
+            fb.relative_error, fb.tolerance
+        )
+    })
+}
+
+/// Which frequency sweeps [`resonance`] runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sweeps {
+    /// Increasing frequency.
+    Up,
+    /// Decreasing frequency.
+    Down,
+    /// Both, in parallel (up first in the results).
+    Both,
+}
+
+impl Sweeps {
+    /// `up`, `down` or `both`.
+    pub fn parse(name: &str, text: &str) -> Result<Sweeps, ApiError> {
+        match text {
+            "up" => Ok(Sweeps::Up),
+            "down" => Ok(Sweeps::Down),
+            "both" => Ok(Sweeps::Both),
+            _ => Err(ApiError::Invalid(format!(
+                "{name} = {text}: must be up, down or both"
+            ))),
+        }
+    }
+}
+
+/// A frequency response (`djkr resonance`).
+#[derive(Debug)]
+pub struct Resonance {
+    /// The linearisation about the static state, or why there is none.
+    pub linearisation: Result<Linearisation, String>,
+    /// Whether harmonic balance ran alongside.
+    pub harmonic_balance: bool,
+    /// The sweeps, up first.
+    pub sweeps: Vec<steady_sweep::Sweep>,
+    /// Wall time of the sweeps (s).
+    pub wall_s: f64,
+}
+
+impl Resonance {
+    /// `resonance.csv`: every sweep's rows in one table.
+    pub fn table(&self) -> Table {
+        report::sweeps_table(&self.sweeps)
+    }
+}
+
+/// The frequency response of `problem` (from [`Problem::from_plan`], at the base amplitude
+/// wanted) over `freqs` (`lo`, `hi` in Hz, `n` frequencies) from `start`, by continuation in the
+/// `which` directions, with harmonic balance alongside when `harmonic_balance`. `progress` sees
+/// every point. A point whose steady state is not found is a row with its error; cancelled
+/// through the problem's solver settings, every point left fails at once (the caller checks
+/// the flag).
+pub fn resonance(
+    problem: &Problem,
+    start: &Initial,
+    freqs: (f64, f64, usize),
+    which: Sweeps,
+    opts: &Options,
+    harmonic_balance: bool,
+    progress: &(dyn Fn(Direction, &SweepPoint) + Sync),
+) -> Resonance {
+    let linearisation = Linearisation::for_problem(problem, start).map_err(|e| e.to_string());
+    let hb = linearisation.as_ref().ok().filter(|_| harmonic_balance);
+    let fs = steady_sweep::frequencies(freqs.0, freqs.1, freqs.2);
+    let t0 = std::time::Instant::now();
+    let one = |d| steady_sweep::sweep(problem, start, &fs, d, opts, hb, progress);
+    let sweeps = match which {
+        Sweeps::Up => vec![one(Direction::Up)],
+        Sweeps::Down => vec![one(Direction::Down)],
+        Sweeps::Both => {
+            let (u, d) = steady_sweep::sweep_both(problem, start, &fs, opts, hb, progress);
+            vec![u, d]
+        }
+    };
+    let wall_s = t0.elapsed().as_secs_f64();
+    let harmonic_balance = hb.is_some();
+    Resonance {
+        linearisation,
+        harmonic_balance,
+        sweeps,
+        wall_s,
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// sweep
+
+/// A study (`djkr sweep`) run to its end in memory: the table `sweep.csv` holds, one row per
+/// run sorted by (point, member). `axes` are `KEY=SPEC` as after `--set` (a list `10um,30um`,
+/// a range `START:STOP:N` or `START:STOP:Nlog`), swept as the Cartesian grid, the first key
+/// slowest; `ensemble` is (members, seed); `jobs` 0 is one per core. A raised `stop` abandons
+/// the sweep ([`ApiError::Cancelled`]).
+pub fn sweep<S: AsRef<str>>(
+    source: crate::scenario::parse::ScenarioSource,
+    axes: &[S],
+    ensemble: Option<(usize, u64)>,
+    jobs: usize,
+    stop: Option<&AtomicBool>,
+) -> Result<Table, ApiError> {
+    let axes = axes
+        .iter()
+        .map(|s| Axis::parse(s.as_ref()))
+        .collect::<Result<Vec<_>, _>>()?;
+    let grid = Grid::new(axes, false)?;
+    let ensemble = ensemble.map(|(members, seed)| Ensemble { members, seed });
+    let sweep = Sweep::new(source, grid, ensemble)?;
+    let rows = run_all(
+        &sweep,
+        &RunOptions {
+            jobs,
+            stop,
+            keep_runs: None,
+        },
+    );
+    if stop.is_some_and(|f| f.load(std::sync::atomic::Ordering::SeqCst)) {
+        return Err(ApiError::Cancelled);
+    }
+    Ok(rows_table(&sweep.key_columns(), &rows))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_that_round_to_zero_have_no_sign() {
+        assert_eq!(no_negative_zero("-0.000000 mm"), "0.000000 mm");
+        assert_eq!(
+            no_negative_zero("a = -0.00000, b = -0.001"),
+            "a = 0.00000, b = -0.001"
+        );
+        assert_eq!(
+            no_negative_zero("-0 and -0.0e0 and x-0.0"),
+            "0 and -0.0e0 and x-0.0"
+        );
+        assert_eq!(no_negative_zero("δ_c -0.00000 µm"), "δ_c 0.00000 µm");
+        assert_eq!(fmt_len(-1e-18), "0.000000 nm");
+        assert_eq!(fmt_force(-0.0), "0.000000 mN");
+    }
+}
