@@ -4,6 +4,7 @@ prints or writes for the same input (nothing hard-coded)."""
 import _thread
 import json
 import math
+import signal
 import subprocess
 import sys
 import threading
@@ -322,6 +323,11 @@ class interrupt_after:
         self.timer = threading.Timer(seconds, _thread.interrupt_main)
 
     def __enter__(self):
+        # Python's own Ctrl-C handler, as in an interactive session or Jupyter. A process
+        # started in the background by a non-interactive shell (nohup, `cmd &` in a CI script)
+        # inherits SIGINT ignored, and then Python installs no handler and interrupt_main()
+        # does nothing.
+        self.previous = signal.signal(signal.SIGINT, signal.default_int_handler)
         self.t0 = time.perf_counter()
         self.timer.start()
         return self
@@ -329,6 +335,7 @@ class interrupt_after:
     def __exit__(self, kind, value, tb):
         self.elapsed = time.perf_counter() - self.t0
         self.timer.cancel()
+        signal.signal(signal.SIGINT, self.previous)
         assert kind is KeyboardInterrupt, f"the call ended without interruption ({self.elapsed:.3f} s)"
         return True
 
