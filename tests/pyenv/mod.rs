@@ -34,15 +34,48 @@ pub fn venv(name: &str, packages: &[&str], imports: &[&str]) -> Option<PathBuf> 
         packages.join(" "),
         dir.display()
     );
-    let ok = Command::new("python3")
-        .args(["-m", "venv"])
-        .arg(&dir)
-        .status()
-        .is_ok_and(|s| s.success())
+    let make = || {
+        Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&dir)
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    // Debian ships `venv` (ensurepip) in a package of its own: install it (and python3 itself)
+    // when the first attempt fails and we may (root with apt-get, as in CI), then try again on a
+    // clean directory (the failed attempt leaves a venv without pip behind).
+    let made = make() || {
+        let _ = std::fs::remove_dir_all(&dir);
+        apt_install(&["python3", "python3-venv"]) && make()
+    };
+    let ok = made
         && Command::new(&py)
             .args(["-m", "pip", "install", "--quiet"])
             .args(packages)
             .status()
             .is_ok_and(|s| s.success());
     (ok && runs(&py, &check)).then_some(py)
+}
+
+/// `apt-get install -y PACKAGES` when running as root on a machine with apt-get; true when it
+/// succeeded.
+fn apt_install(packages: &[&str]) -> bool {
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+    if !root || !Path::new("/usr/bin/apt-get").exists() {
+        return false;
+    }
+    eprintln!("installing {} with apt-get", packages.join(" "));
+    let _ = Command::new("apt-get")
+        .args(["update", "-qq"])
+        .env("DEBIAN_FRONTEND", "noninteractive")
+        .status();
+    Command::new("apt-get")
+        .args(["install", "-y", "-qq"])
+        .args(packages)
+        .env("DEBIAN_FRONTEND", "noninteractive")
+        .status()
+        .is_ok_and(|s| s.success())
 }
