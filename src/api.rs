@@ -194,14 +194,9 @@ impl<'a> Arg<'a> {
     }
 }
 
-/// Parse a quantity (bare numbers are SI).
-pub fn quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
-    parse_quantity(name, text, dim)
-}
-
 /// Parse a quantity that must be > 0.
 pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
-    let v = quantity(name, text, dim)?;
+    let v = parse_quantity(name, text, dim)?;
     positive(name, v, dim.si()).map_err(|e| ParamError {
         value: text.to_string(),
         ..e
@@ -210,7 +205,7 @@ pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, 
 
 /// Parse a quantity that must be ≥ 0.
 pub fn non_negative_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
-    let v = quantity(name, text, dim)?;
+    let v = parse_quantity(name, text, dim)?;
     non_negative(name, v, dim.si()).map_err(|e| ParamError {
         value: text.to_string(),
         ..e
@@ -398,7 +393,7 @@ pub fn cycle(
 ) -> Result<CycleReport, ParamError> {
     let omega = omega_from(freq.name, freq.text)?;
     let amp = non_negative_quantity(a_amp.name, a_amp.text, Dimension::Length)?;
-    let mean = quantity(a_mean.name, a_mean.text, Dimension::Length)?;
+    let mean = parse_quantity(a_mean.name, a_mean.text, Dimension::Length)?;
     if mean < -amp {
         return Err(ParamError::new(
             a_mean.name,
@@ -680,15 +675,7 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
             } else {
                 Vec::new()
             };
-            // Exactly the file just written.
-            let text = std::fs::read_to_string(&paths.summary).map_err(|e| ApiError::Output {
-                context: format!("reading back {}", paths.summary.display()),
-                error: OutputError::Io {
-                    path: paths.summary.clone(),
-                    source: e,
-                },
-            })?;
-            (text, Some(paths), plots)
+            (paths.summary_text.clone(), Some(paths), plots)
         }
         _ => {
             let text = summary_json(
@@ -783,8 +770,8 @@ impl Resonance {
 /// wanted) over `freqs` (`lo`, `hi` in Hz, `n` frequencies) from `start`, by continuation in the
 /// `which` directions, with harmonic balance alongside when `harmonic_balance`. `progress` sees
 /// every point. A point whose steady state is not found is a row with its error; cancelled
-/// through the problem's solver settings, every point left fails at once (the caller checks
-/// the flag).
+/// through the problem's solver settings, each sweep ends at its next frequency with the points
+/// done (the caller checks the flag).
 pub fn resonance(
     problem: &Problem,
     start: &Initial,

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 pub use djkr::api::{
     fmt_force, fmt_len, limits, no_negative_zero, non_negative_quantity, omega_from,
-    positive_quantity, quantity,
+    positive_quantity,
 };
 
 /// `--set KEY=VALUE`: scenario values overridden from the command line, shared by every command

@@ -3,7 +3,7 @@
 //! fold curves in two parameters; writes `branch.csv`, `branch.h5`, `bifurcations.csv`,
 //! `sweep.csv`, `fold_curves.csv` and plots, prints a summary.
 
-use super::common::{print_json, quantity, write_atomic, SetArgs};
+use super::common::{print_json, write_atomic, SetArgs};
 use super::steady::{default_out, progress_bar, stem};
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -16,6 +16,7 @@ use djkr::output::table::{format_f64, hdf5_tables, text_attr};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::scenario::parse::ScenarioSource;
 use djkr::steady::Options;
+use djkr::units::parse_quantity;
 use hdf5_pure::AttrValue;
 use std::path::{Path, PathBuf};
 
@@ -93,8 +94,8 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
             p.info.unit
         );
     }
-    let a = quantity(flag, parts[0].trim(), p.info.dimension)?;
-    let b = quantity(flag, parts[1].trim(), p.info.dimension)?;
+    let a = parse_quantity(flag, parts[0].trim(), p.info.dimension)?;
+    let b = parse_quantity(flag, parts[1].trim(), p.info.dimension)?;
     if !(a.is_finite() && b.is_finite()) || a == b {
         bail!(
             "{flag} = {text}: START and STOP must be finite and differ ({} in {})",
@@ -107,7 +108,7 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
 
 /// A dimensionless tolerance flag in (lo, hi).
 fn tolerance(flag: &str, text: &str, lo: f64, hi: f64) -> Result<f64> {
-    let v = quantity(flag, text, djkr::units::Dimension::Dimensionless)?;
+    let v = parse_quantity(flag, text, djkr::units::Dimension::Dimensionless)?;
     if !(v.is_finite() && v > lo && v < hi) {
         bail!("{flag} = {text}: must be in ({lo:e}, {hi:e})");
     }

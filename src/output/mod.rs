@@ -170,6 +170,8 @@ pub struct OutputPaths {
     pub events_csv: Option<PathBuf>,
     /// `DIR/cycles.csv`, when CSV was requested.
     pub cycles_csv: Option<PathBuf>,
+    /// The text written into `summary.json`.
+    pub summary_text: String,
 }
 
 impl OutputPaths {
@@ -463,6 +465,7 @@ impl RunWriter {
             timeseries_csv: csv(TIMESERIES_CSV_NAME),
             events_csv: csv(EVENTS_CSV_NAME),
             cycles_csv: csv(CYCLES_CSV_NAME),
+            summary_text: json,
         })
     }
 
