@@ -3,7 +3,7 @@
 use super::common::{default_out, law_name, load_scenario, SetArgs};
 use anyhow::{Context, Result};
 use clap::Args;
-use djkr::dynamics::{self, Event, Observer, RunResult, Sample};
+use djkr::dynamics::{self, Event, Model, Observer, RunResult, Sample, StepSamples};
 use djkr::output::RunWriter;
 use djkr::scenario::checks;
 use djkr::scenario::parse::{ScenarioError, ScenarioSource};
@@ -65,19 +65,18 @@ impl Observer for Progress<'_> {
     fn sample(&mut self, s: &Sample) -> bool {
         self.samples += 1;
         // Reading the clock at every sample cost 6 % of a run sampled at 12 kHz.
-        if self.samples.is_multiple_of(256) && self.last.elapsed() >= Duration::from_millis(100) {
-            self.last = Instant::now();
-            self.bar.set_message(format!(
-                "t = {:.6} s  stage {}/{}  a = {:.4} mm  F = {:.4} mN  events {}",
-                s.t,
-                s.stage + 1,
-                self.stages,
-                s.a * 1e3,
-                s.force * 1e3,
-                self.events
-            ));
+        if self.samples.is_multiple_of(256) {
+            self.show(s);
         }
         self.inner.sample(s)
+    }
+    fn step_samples(&mut self, model: &Model, step: &StepSamples) -> bool {
+        let before = self.samples / 256;
+        self.samples += step.n as u64;
+        if self.samples / 256 != before {
+            self.show(&step.end(model));
+        }
+        self.inner.step_samples(model, step)
     }
     fn event(&mut self, e: &Event) {
         self.events += 1;
@@ -85,6 +84,25 @@ impl Observer for Progress<'_> {
     }
     fn cycle(&mut self, c: &dynamics::CycleRecord) {
         self.inner.cycle(c);
+    }
+}
+
+impl Progress<'_> {
+    /// Show where the run is, at most every 100 ms.
+    fn show(&mut self, s: &Sample) {
+        if self.last.elapsed() < Duration::from_millis(100) {
+            return;
+        }
+        self.last = Instant::now();
+        self.bar.set_message(format!(
+            "t = {:.6} s  stage {}/{}  a = {:.4} mm  F = {:.4} mN  events {}",
+            s.t,
+            s.stage + 1,
+            self.stages,
+            s.a * 1e3,
+            s.force * 1e3,
+            self.events
+        ));
     }
 }
 

@@ -238,7 +238,8 @@ pub mod state;
 pub mod stepper;
 pub mod types;
 
+pub use model::Model;
 pub use protocol::{run, Plan};
-pub use simulator::{Segment, Settings, Simulator, Stop};
+pub use simulator::{Segment, Settings, Simulator, StepSamples, Stop};
 pub use stepper::{EnvelopeMode, Method, Solver, Stepper};
 pub use types::*;

@@ -5,8 +5,8 @@
 
 use super::envelope::{Envelope, EnvelopeSettings};
 use super::model::{self, Drive, Mechanics, Model, NQ};
-use super::simulator::{make_sample, Segment, Settings, Simulator, Stop};
-use super::state::{hermite, State, Tol};
+use super::simulator::{make_sample, Segment, Settings, Simulator, StepSamples, Stop};
+use super::state::{hermite, Knot, State, Tol};
 use super::stepper::{self, EnvelopeMode, Method, Solver};
 use super::types::*;
 use crate::jkr;
@@ -330,22 +330,25 @@ impl Protocol<'_> {
         if self.stopped || !self.wants_samples {
             return;
         }
-        let model = self.sim.model();
-        if self.sample_dt <= 0.0 {
-            let s = make_sample(model, &seg.drive, &seg.y1, self.stage);
-            if !self.obs.sample(&s) {
-                self.stopped = true;
+        let mut step = StepSamples {
+            k0: Knot::from(&seg.y0),
+            k1: Knot::from(&seg.y1),
+            drive: seg.drive,
+            stage: self.stage,
+            t_first: self.next_sample,
+            dt: self.sample_dt.max(0.0),
+            n: 0,
+        };
+        if step.dt == 0.0 {
+            step.n = 1;
+        } else {
+            while self.next_sample <= seg.y1.t {
+                step.n += 1;
+                self.next_sample += self.sample_dt;
             }
-            return;
         }
-        while self.next_sample <= seg.y1.t {
-            let yi = hermite(&seg.y0, &seg.y1, self.next_sample);
-            let s = make_sample(model, &seg.drive, &yi, self.stage);
-            if !self.obs.sample(&s) {
-                self.stopped = true;
-                return;
-            }
-            self.next_sample += self.sample_dt;
+        if step.n > 0 && !self.obs.step_samples(self.sim.model(), &step) {
+            self.stopped = true;
         }
     }
 

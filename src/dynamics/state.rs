@@ -69,25 +69,81 @@ pub struct Tol {
     pub atol: f64,
 }
 
-/// Cubic Hermite interpolation of (x, v, a) between two states of one step (ȧ and the
-/// acceleration linear): the dense output for time-grid samples and interpolated searches.
+/// What dense output and samples need of a state: (t, x, v, a), their rates and the contact
+/// flag, without the quadratures (a step's samples travel as two knots).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Knot {
+    /// Time (s).
+    pub t: f64,
+    /// Sphere position x_s (m).
+    pub x: f64,
+    /// Sphere velocity (m/s).
+    pub v: f64,
+    /// Sphere acceleration (m/s²).
+    pub acc: f64,
+    /// Contact radius (m; 0 out of contact).
+    pub a: f64,
+    /// ȧ (m/s).
+    pub adot: f64,
+    /// In contact.
+    pub contact: bool,
+}
+
+impl From<&State> for Knot {
+    fn from(y: &State) -> Self {
+        Self {
+            t: y.t,
+            x: y.x,
+            v: y.v,
+            acc: y.acc,
+            a: y.a,
+            adot: y.adot,
+            contact: y.contact,
+        }
+    }
+}
+
+impl Knot {
+    /// Cubic Hermite interpolation of (x, v, a) between two knots of one step (ȧ and the
+    /// acceleration linear); the contact flag and, outside the step, the values of `k1`.
+    pub fn hermite(k0: &Knot, k1: &Knot, t: f64) -> Knot {
+        let h = k1.t - k0.t;
+        if h <= 0.0 {
+            return *k1;
+        }
+        let s = ((t - k0.t) / h).clamp(0.0, 1.0);
+        let h00 = (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s);
+        let h10 = s * (1.0 - s) * (1.0 - s);
+        let h01 = s * s * (3.0 - 2.0 * s);
+        let h11 = s * s * (s - 1.0);
+        let p =
+            |p0: f64, d0: f64, p1: f64, d1: f64| h00 * p0 + h10 * h * d0 + h01 * p1 + h11 * h * d1;
+        Knot {
+            t,
+            x: p(k0.x, k0.v, k1.x, k1.v),
+            v: p(k0.v, k0.acc, k1.v, k1.acc),
+            a: p(k0.a, k0.adot, k1.a, k1.adot),
+            adot: k0.adot + s * (k1.adot - k0.adot),
+            acc: k0.acc + s * (k1.acc - k0.acc),
+            contact: k1.contact,
+        }
+    }
+}
+
+/// Cubic Hermite interpolation of (x, v, a) between two states of one step ([`Knot::hermite`];
+/// the quadratures and the contact flag of `y1`): the dense output for interpolated searches.
 pub fn hermite(y0: &State, y1: &State, t: f64) -> State {
-    let h = y1.t - y0.t;
-    if h <= 0.0 {
+    if y1.t - y0.t <= 0.0 {
         return *y1;
     }
-    let s = ((t - y0.t) / h).clamp(0.0, 1.0);
-    let h00 = (1.0 + 2.0 * s) * (1.0 - s) * (1.0 - s);
-    let h10 = s * (1.0 - s) * (1.0 - s);
-    let h01 = s * s * (3.0 - 2.0 * s);
-    let h11 = s * s * (s - 1.0);
-    let p = |p0: f64, d0: f64, p1: f64, d1: f64| h00 * p0 + h10 * h * d0 + h01 * p1 + h11 * h * d1;
-    let mut y = *y1;
-    y.t = t;
-    y.x = p(y0.x, y0.v, y1.x, y1.v);
-    y.v = p(y0.v, y0.acc, y1.v, y1.acc);
-    y.a = p(y0.a, y0.adot, y1.a, y1.adot);
-    y.adot = y0.adot + s * (y1.adot - y0.adot);
-    y.acc = y0.acc + s * (y1.acc - y0.acc);
-    y
+    let k = Knot::hermite(&Knot::from(y0), &Knot::from(y1), t);
+    State {
+        t: k.t,
+        x: k.x,
+        v: k.v,
+        acc: k.acc,
+        a: k.a,
+        adot: k.adot,
+        ..*y1
+    }
 }

@@ -1,6 +1,8 @@
 //! What a time-domain run produces, and how observers (writers, progress bars, steady-state
 //! detectors) watch it. These types are the contract between the driver and the output writers.
 
+use super::model::Model;
+use super::simulator::StepSamples;
 use serde::Serialize;
 use thiserror::Error;
 
@@ -237,6 +239,13 @@ pub trait Observer {
     fn sample(&mut self, s: &Sample) -> bool {
         let _ = s;
         true
+    }
+    /// The time-series samples of one step (the driver's way of handing them over): by default
+    /// each is built and handed to [`Observer::sample`]; an observer may keep the step and build
+    /// them later, elsewhere, from `model` (the run writer's thread does). Return `false` to stop
+    /// the run.
+    fn step_samples(&mut self, model: &Model, step: &StepSamples) -> bool {
+        step.each(model, |s| self.sample(s))
     }
     /// Whether this observer uses time-series samples at all. The driver skips building them
     /// (a sin/cos, G and w per sample) when it returns `false`; events and cycles still arrive.

@@ -36,6 +36,7 @@
 //! All strings are variable-length UTF-8 (`AttrValue::VarLenString`): fixed-length ones come back
 //! as `bytes` in h5py.
 
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use hdf5_pure::{AttrValue, File, FileAccessProperties, FileBuilder, SyncPolicy};
@@ -209,33 +210,56 @@ impl H5Stream {
 
     /// Append the rows of `tables`.
     pub fn append(&mut self, tables: RunTables) -> Result<(), OutputError> {
+        self.append_series(tables.series, 0..tables.series.rows())?;
+        self.append_records(
+            (tables.events, 0..tables.events.rows()),
+            (tables.cycles, 0..tables.cycles.rows()),
+        )
+    }
+
+    /// Append the samples `rows` of `series`.
+    pub fn append_series(&mut self, series: &Table, rows: Range<usize>) -> Result<(), OutputError> {
+        series
+            .append_hdf5_rows(&self.file, "", rows)
+            .map_err(|message| OutputError::Hdf5 {
+                path: self.path.clone(),
+                message,
+            })
+    }
+
+    /// Append rows of the events and of the period records (the period datasets are created
+    /// with the first).
+    pub fn append_records(
+        &mut self,
+        (events, event_rows): (&Table, Range<usize>),
+        (cycles, cycle_rows): (&Table, Range<usize>),
+    ) -> Result<(), OutputError> {
         let err = |message: String| OutputError::Hdf5 {
             path: self.path.clone(),
             message,
         };
-        tables.series.append_hdf5(&self.file, "").map_err(err)?;
-        tables
-            .events
-            .append_hdf5(&self.file, "events/")
+        events
+            .append_hdf5_rows(&self.file, "events/", event_rows)
             .map_err(err)?;
-        if tables.cycles.is_empty() {
+        if cycle_rows.is_empty() {
             return Ok(());
         }
         if self.cycles_created {
-            return tables
-                .cycles
-                .append_hdf5(&self.file, "cycles/")
+            return cycles
+                .append_hdf5_rows(&self.file, "cycles/", cycle_rows)
                 .map_err(err);
         }
         let group = self.file.group("cycles").map_err(|e| err(e.to_string()))?;
-        tables
-            .cycles
+        Table::from_schema(&cycles.schema())
+            .map_err(|e| err(e.to_string()))?
             .create_hdf5_in(&group, extendable(self.compress, RECORD_CHUNK))
             .map_err(err)?;
         // Datasets created in an open file are staged until committed; appends need them written.
         self.file.commit().map_err(|e| err(e.to_string()))?;
         self.cycles_created = true;
-        Ok(())
+        cycles
+            .append_hdf5_rows(&self.file, "cycles/", cycle_rows)
+            .map_err(err)
     }
 
     /// Write the event kinds (`kinds`, one per event), the period count and the results, and

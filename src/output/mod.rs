@@ -6,11 +6,11 @@
 //! period records into it, then call [`RunWriter::finish`] with the [`RunResult`].
 //!
 //! **Memory independent of run length.** The writer buffers rows in memory up to
-//! [`SPILL_ROWS`] samples (≈ 12 MB). A run that stays below (most runs) is written at the end
-//! in one piece. A longer one switches to streaming: the HDF5 file is created with extendable
-//! chunked datasets and every [`FLUSH_ROWS`] samples the buffered samples, events and period
-//! records are appended to it (and to the CSV files), so memory stays bounded however long the
-//! run. The event kinds (one byte per event; `solver.max_events` bounds them) are written when
+//! [`SPILL_ROWS`] samples (≈ 3 MB). A run that stays below is written at the end in one piece.
+//! A longer one switches to streaming (module `stream`): the HDF5 file is created with extendable
+//! chunked datasets, and a writer thread builds the samples of each step and appends them, the
+//! events and the period records to it (and to the CSV files) a whole chunk at a time, so memory
+//! stays bounded however long the run, and the integration goes on meanwhile. The event kinds (one byte per event; `solver.max_events` bounds them) are written when
 //! the run ends, as are the results. Both ways give files of the same content
 //! ([`hdf5_file`] has the layout).
 //!
@@ -43,20 +43,23 @@
 pub mod atomic;
 pub mod cycles;
 pub mod hdf5_file;
+mod stream;
 pub mod summary;
 pub mod table;
 pub mod timeseries;
 
 use std::fs::{self, File};
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+use crate::dynamics::model::Model;
+use crate::dynamics::simulator::StepSamples;
 use crate::dynamics::types::{CycleRecord, Event, EventKind, Observer, RunResult, Sample};
 use crate::scenario::Scenario;
 pub use atomic::{write_atomic, AtomicFile};
-use hdf5_file::{H5Stream, RunTables};
+use stream::{Background, Pending, Rows, Streaming};
 pub use summary::SummaryFiles;
 pub use table::{Column, CsvWriter, Field, Table};
 pub use timeseries::TimeSeriesWriter;
@@ -77,9 +80,10 @@ pub const LOCK_NAME: &str = ".djkr.lock";
 /// The CSV files, written together on request.
 const CSV_NAMES: [&str; 3] = [TIMESERIES_CSV_NAME, EVENTS_CSV_NAME, CYCLES_CSV_NAME];
 
-/// Samples buffered before a run switches to streaming (12 columns × 8 bytes: ≈ 12.6 MB).
-pub const SPILL_ROWS: usize = 1 << 17;
-/// Rows buffered between two appends once streaming.
+/// Samples buffered before a run switches to streaming (12 columns × 8 bytes: ≈ 3 MB): a run
+/// longer than one chunk streams, so that its writer thread starts early.
+pub const SPILL_ROWS: usize = 1 << 15;
+/// Samples per append once streaming (one chunk of every time-series dataset).
 pub const FLUSH_ROWS: usize = 1 << 15;
 
 /// Bytes per sample in the HDF5 file (12 columns of 8 bytes, uncompressed).
@@ -189,54 +193,6 @@ impl OutputPaths {
     }
 }
 
-/// The rows buffered since the last write to disk.
-#[derive(Debug)]
-struct Rows {
-    series: TimeSeriesWriter,
-    events: Table,
-    cycles: Table,
-}
-
-impl Rows {
-    fn new() -> Self {
-        Self {
-            series: TimeSeriesWriter::new(),
-            events: timeseries::events_table(&[]),
-            cycles: cycles::cycle_table(&[]),
-        }
-    }
-
-    fn tables(&self) -> RunTables<'_> {
-        RunTables {
-            series: self.series.table(),
-            events: &self.events,
-            cycles: &self.cycles,
-        }
-    }
-
-    fn most(&self) -> usize {
-        self.series
-            .len()
-            .max(self.events.rows())
-            .max(self.cycles.rows())
-    }
-
-    fn clear(&mut self) {
-        self.series.clear();
-        self.events.clear();
-        self.cycles.clear();
-    }
-}
-
-/// The files of a run that switched to streaming.
-#[derive(Debug)]
-struct Streaming {
-    // Field order matters on drop: the HDF5 handle closes before its partial is removed.
-    h5: H5Stream,
-    h5_file: AtomicFile,
-    csv: Vec<(AtomicFile, CsvWriter<BufWriter<File>>)>,
-}
-
 /// How a run's files are written (`[output]` keys and `--csv`).
 #[derive(Debug, Clone, Copy)]
 struct Options {
@@ -257,7 +213,9 @@ pub struct RunWriter {
     kinds: Vec<EventKind>,
     samples: u64,
     cycles: u64,
-    stream: Option<Streaming>,
+    stream: Option<Background>,
+    /// The run's model (a copy, and where it lives), for the writer thread to build samples.
+    model: Option<(usize, Model)>,
     error: Option<OutputError>,
     sections: Vec<(String, serde_json::Value)>,
     // Last: released after the partials are gone.
@@ -292,6 +250,7 @@ impl RunWriter {
             samples: 0,
             cycles: 0,
             stream: None,
+            model: None,
             error: None,
             sections: Vec::new(),
             _lock: lock,
@@ -343,45 +302,37 @@ impl RunWriter {
     }
 
     fn flush(&mut self) -> Result<(), OutputError> {
-        match &mut self.stream {
-            Some(st) => {
-                st.h5.append(self.rows.tables())?;
-                write_csv_rows(&mut st.csv, self.rows.tables())?;
-            }
-            None => self.stream = Some(self.start_streaming()?),
+        if self.stream.is_none() {
+            let (addr, model) = match &self.model {
+                Some((addr, m)) => (*addr, Some(m.clone())),
+                None => (0, None),
+            };
+            let st = Streaming::create(
+                &self.dir,
+                &self.scenario,
+                &self.run_id,
+                (self.options.csv, self.options.compress),
+                model,
+            )?;
+            self.stream = Some(Background::spawn(st, addr)?);
         }
-        self.rows.clear();
+        let full = std::mem::replace(&mut self.rows, Rows::new());
+        if let Some(bg) = &mut self.stream {
+            self.rows = bg.send(full)?;
+        }
         Ok(())
     }
 
-    /// Create the HDF5 file (and CSV files) under their partial names with the rows so far.
-    fn start_streaming(&self) -> Result<Streaming, OutputError> {
-        let h5_file = AtomicFile::reserve(&self.target(HDF5_NAME), &self.run_id);
-        let h5 = H5Stream::create(
-            h5_file.partial(),
-            self.rows.tables(),
-            &self.scenario,
-            &self.run_id,
-            self.options.compress,
-        )?;
-        let mut csv = Vec::new();
-        if self.options.csv {
-            let schemas = [
-                self.rows.series.table().schema(),
-                self.rows.events.schema(),
-                self.rows.cycles.schema(),
-            ];
-            for (name, schema) in CSV_NAMES.into_iter().zip(schemas) {
-                let file = AtomicFile::reserve(&self.target(name), &self.run_id);
-                let p = file.partial().to_path_buf();
-                let out = File::create(&p).map_err(io_err(&p))?;
-                let w = CsvWriter::new(BufWriter::with_capacity(1 << 16, out), &schema)
-                    .map_err(io_err(&p))?;
-                csv.push((file, w));
-            }
-            write_csv_rows(&mut csv, self.rows.tables())?;
+    /// Buffer one built sample.
+    fn push_sample(&mut self, s: &Sample) -> bool {
+        self.samples += 1;
+        if self.stream.is_some() {
+            self.rows.pending.push(Pending::One(*s));
+            self.rows.pending_samples += 1;
+        } else {
+            self.rows.series.push(s);
         }
-        Ok(Streaming { h5, h5_file, csv })
+        self.maybe_flush()
     }
 
     /// Write every file of the finished run and move them into place, `summary.json` last. On
@@ -395,8 +346,11 @@ impl RunWriter {
         let mut staged: Vec<AtomicFile> = Vec::new();
         match self.stream.take() {
             None => self.stage_whole(result, &mut staged)?,
-            Some(mut st) => {
-                st.h5.append(self.rows.tables())?;
+            Some(mut bg) => {
+                let last = std::mem::replace(&mut self.rows, Rows::new());
+                bg.send(last)?;
+                let mut st = bg.finish()?;
+                st.write(true)?;
                 let kinds: Vec<String> = self
                     .kinds
                     .iter()
@@ -405,7 +359,6 @@ impl RunWriter {
                 let kinds: Vec<&str> = kinds.iter().map(String::as_str).collect();
                 st.h5.finish(&kinds, self.cycles, result)?;
                 staged.push(st.h5_file);
-                write_csv_rows(&mut st.csv, self.rows.tables())?;
                 for (file, w) in st.csv {
                     let p = file.partial().to_path_buf();
                     let f = w
@@ -513,9 +466,20 @@ impl RunWriter {
 
 impl Observer for RunWriter {
     fn sample(&mut self, s: &Sample) -> bool {
-        self.rows.series.push(s);
-        self.samples += 1;
-        self.maybe_flush()
+        self.push_sample(s)
+    }
+    fn step_samples(&mut self, model: &Model, step: &StepSamples) -> bool {
+        if let Some(bg) = &self.stream {
+            if bg.builds_with(model) {
+                self.samples += step.n as u64;
+                self.rows.pending.push(Pending::Step(*step));
+                self.rows.pending_samples += step.n;
+                return self.maybe_flush();
+            }
+        } else if self.model.is_none() {
+            self.model = Some((model as *const Model as usize, model.clone()));
+        }
+        step.each(model, |s| self.push_sample(s))
     }
     fn event(&mut self, e: &Event) {
         timeseries::push_event(&mut self.rows.events, e);
@@ -527,19 +491,6 @@ impl Observer for RunWriter {
         self.cycles += 1;
         self.maybe_flush();
     }
-}
-
-fn write_csv_rows(
-    csv: &mut [(AtomicFile, CsvWriter<BufWriter<File>>)],
-    tables: RunTables,
-) -> Result<(), OutputError> {
-    for ((file, w), table) in csv
-        .iter_mut()
-        .zip([tables.series, tables.events, tables.cycles])
-    {
-        w.write_rows(table).map_err(io_err(file.partial()))?;
-    }
-    Ok(())
 }
 
 /// Take the directory's lock: `Ok(None)` when the file system cannot lock (the run goes on

@@ -26,6 +26,7 @@
 //! variable-length string datasets.
 
 use std::io::{self, Write};
+use std::ops::Range;
 use std::path::Path;
 
 use hdf5_pure::{
@@ -591,16 +592,44 @@ impl Table {
     /// Append the rows to the extendable datasets of the open file `file` under `prefix` (`""`
     /// for the root, `"events/"`, ...), one dataset per numeric column (text columns are skipped).
     pub fn append_hdf5(&self, file: &hdf5_pure::File, prefix: &str) -> Result<(), String> {
+        self.append_hdf5_rows(file, prefix, 0..self.rows())
+    }
+
+    /// [`Table::append_hdf5`] for the rows in `rows` only.
+    pub fn append_hdf5_rows(
+        &self,
+        file: &hdf5_pure::File,
+        prefix: &str,
+        rows: Range<usize>,
+    ) -> Result<(), String> {
+        if rows.is_empty() {
+            return Ok(());
+        }
         for c in &self.columns {
             let name = format!("{prefix}{}", c.name);
             let result = match &c.data {
-                Data::F64(v) if !v.is_empty() => file.dataset(&name).and_then(|mut d| d.append(v)),
-                Data::I64(v) if !v.is_empty() => file.dataset(&name).and_then(|mut d| d.append(v)),
+                Data::F64(v) => file
+                    .dataset(&name)
+                    .and_then(|mut d| d.append(&v[rows.clone()])),
+                Data::I64(v) => file
+                    .dataset(&name)
+                    .and_then(|mut d| d.append(&v[rows.clone()])),
                 _ => Ok(()),
             };
             result.map_err(|e| format!("appending to {name}: {e}"))?;
         }
         Ok(())
+    }
+
+    /// Drop the first `n` rows (those already written).
+    pub fn remove_first_rows(&mut self, n: usize) {
+        for c in &mut self.columns {
+            match &mut c.data {
+                Data::F64(v) => drop(v.drain(..n.min(v.len()))),
+                Data::I64(v) => drop(v.drain(..n.min(v.len()))),
+                Data::Text(v) => drop(v.drain(..n.min(v.len()))),
+            }
+        }
     }
 }
 
@@ -779,6 +808,11 @@ impl<W: Write> CsvWriter<W> {
 
     /// Append the rows of `table`, whose columns must match the schema (names and types).
     pub fn write_rows(&mut self, table: &Table) -> io::Result<()> {
+        self.write_row_range(table, 0..table.rows())
+    }
+
+    /// [`CsvWriter::write_rows`] for the rows in `rows` only.
+    pub fn write_row_range(&mut self, table: &Table, rows: Range<usize>) -> io::Result<()> {
         let same = table.columns.len() == self.schema.len()
             && table
                 .columns
@@ -791,7 +825,7 @@ impl<W: Write> CsvWriter<W> {
                 "CSV rows do not match the header's columns",
             ));
         }
-        for i in 0..table.rows() {
+        for i in rows {
             self.line.clear();
             for (j, c) in table.columns.iter().enumerate() {
                 if j > 0 {

@@ -184,6 +184,16 @@ impl TimeSeriesWriter {
         self.events.clear();
     }
 
+    /// Buffer the rows of `other`, a table of this schema.
+    pub fn extend(&mut self, other: &Table) -> Result<(), super::table::TableError> {
+        self.table.append_rows(other)
+    }
+
+    /// Forget the first `n` samples (they went to disk).
+    pub fn remove_first(&mut self, n: usize) {
+        self.table.remove_first_rows(n);
+    }
+
     /// Buffer one sample.
     pub fn push(&mut self, s: &Sample) {
         let mut row = [0.0; SERIES.len()];
