@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use thiserror::Error;
 
-use crate::dynamics::{CycleRecord, Event, Observer, Sample};
+use crate::dynamics::{CycleRecord, Event, Model, Observer, Sample, StepSamples};
 use crate::output::RunWriter;
 use crate::scenario::overrides::{Override, SetKey};
 use crate::scenario::parse::{ScenarioError, ScenarioSource};
@@ -304,21 +304,40 @@ fn point_error(point: usize, e: ScenarioError) -> SweepError {
 /// writer). It takes samples like `djkr run`'s writer does, because the driver's step control
 /// depends on whether samples are wanted (`[output] sample_rate > 0` keeps DP8's steps within
 /// 1/16 of a base period): the same observer contract gives the same numbers. Samples are
-/// dropped at once, so memory per run does not grow with its length.
+/// not built (without `--keep-runs`), so memory per run does not grow with its length.
 struct SweepObserver<'a> {
     stop: Option<&'a AtomicBool>,
     stopped: bool,
     inner: Option<&'a mut RunWriter>,
 }
 
-impl Observer for SweepObserver<'_> {
-    fn sample(&mut self, s: &Sample) -> bool {
+impl SweepObserver<'_> {
+    /// True (and remembered) once a stop was requested.
+    fn stop_requested(&mut self) -> bool {
         if self.stop.is_some_and(|f| f.load(Ordering::Relaxed)) {
             self.stopped = true;
+        }
+        self.stopped
+    }
+}
+
+impl Observer for SweepObserver<'_> {
+    fn sample(&mut self, s: &Sample) -> bool {
+        if self.stop_requested() {
             return false;
         }
         match self.inner.as_deref_mut() {
             Some(w) => w.sample(s),
+            None => true,
+        }
+    }
+    fn step_samples(&mut self, model: &Model, step: &StepSamples) -> bool {
+        if self.stop_requested() {
+            return false;
+        }
+        // Without a run folder the samples are not even built.
+        match self.inner.as_deref_mut() {
+            Some(w) => w.step_samples(model, step),
             None => true,
         }
     }
