@@ -107,6 +107,23 @@ pub fn hdf5_bytes(
     result: &RunResult,
     compress: bool,
 ) -> Result<Vec<u8>, String> {
+    let mut bytes = Vec::new();
+    write_hdf5(tables, scenario, run_id, result, compress, &mut bytes)
+        .map_err(|e| e.to_string())?;
+    Ok(bytes)
+}
+
+/// [`hdf5_bytes`] written into `w` front to back as it is laid out, without the file's image in
+/// memory (hdf5-pure's `finish_to`: the same bytes). An error of the HDF5 encoder comes back as
+/// an I/O error whose text says so.
+pub fn write_hdf5(
+    tables: RunTables,
+    scenario: &Scenario,
+    run_id: &str,
+    result: &RunResult,
+    compress: bool,
+    w: impl std::io::Write,
+) -> std::io::Result<()> {
     let mut b = FileBuilder::new();
     for (k, v) in start_attrs(scenario, run_id)
         .into_iter()
@@ -130,7 +147,10 @@ pub fn hdf5_bytes(
         tables.cycles.write_hdf5_with(&mut g, storage);
     }
     b.add_group(g.finish());
-    b.finish().map_err(|e| e.to_string())
+    b.finish_to(w).map_err(|e| match e {
+        hdf5_pure::Error::Io(io) => io,
+        other => std::io::Error::other(format!("HDF5 writer: {other}")),
+    })
 }
 
 /// A run file written while the run goes on: created with the rows seen so far in extendable

@@ -429,22 +429,20 @@ impl RunWriter {
         staged: &mut Vec<AtomicFile>,
     ) -> Result<(), OutputError> {
         let target = self.target(HDF5_NAME);
-        let bytes = hdf5_file::hdf5_bytes(
-            self.rows.tables(),
-            &self.scenario,
-            &self.run_id,
-            result,
-            self.options.compress,
-        )
-        .map_err(|message| OutputError::Hdf5 {
-            path: target.clone(),
-            message,
-        })?;
         staged.push(AtomicFile::write_tagged(
             &target,
             &self.run_id,
             self.options.fsync,
-            |w| w.write_all(&bytes),
+            |w| {
+                hdf5_file::write_hdf5(
+                    self.rows.tables(),
+                    &self.scenario,
+                    &self.run_id,
+                    result,
+                    self.options.compress,
+                    w,
+                )
+            },
         )?);
         if self.options.csv {
             let t = self.rows.tables();
