@@ -1078,9 +1078,7 @@ impl StepSamples {
         }
         true
     }
-}
 
-impl StepSamples {
     /// The sample at the step's end (which need not be on the grid): for progress displays.
     pub fn end(&self, m: &Model) -> Sample {
         knot_sample(m, &self.drive, &self.k1, self.stage)

@@ -7,12 +7,13 @@
 //!
 //! **Memory independent of run length.** The writer buffers rows in memory up to
 //! [`SPILL_ROWS`] samples (≈ 3 MB). A run that stays below is written at the end in one piece.
-//! A longer one switches to streaming (module `stream`): the HDF5 file is created with extendable
-//! chunked datasets, and a writer thread builds the samples of each step and appends them, the
-//! events and the period records to it (and to the CSV files) a whole chunk at a time, so memory
-//! stays bounded however long the run, and the integration goes on meanwhile. The event kinds (one byte per event; `solver.max_events` bounds them) are written when
-//! the run ends, as are the results. Both ways give files of the same content
-//! ([`hdf5_file`] has the layout).
+//! A longer one switches to streaming (module `stream`): the HDF5 file is created with
+//! extendable chunked datasets, and a writer thread builds the samples of each step and appends
+//! them, the events and the period records to it (and to the CSV files) a whole chunk at a time,
+//! so memory stays bounded however long the run, and the integration goes on meanwhile. The
+//! event kinds (one byte per event; `solver.max_events` bounds them) are written when the run
+//! ends, as are the results. Both ways give files of the same content ([`hdf5_file`] has the
+//! layout).
 //!
 //! **Atomic output.** Every file is written under a hidden partial name tagged with the run's id
 //! (`DIR/.run.h5.<run_id>.partial`, ...) and renamed into place only when the run has succeeded,
