@@ -323,9 +323,50 @@ fn slurm_array_and_merge_equal_the_unsharded_sweep() {
         std::fs::read(sweep.join("points.csv")).unwrap(),
         std::fs::read(local.join("points.csv")).unwrap()
     );
+
+    // A task that fails (its shard's output path is a file): the merge step's dependency can
+    // then never be met, and Slurm must cancel it rather than leave it pending for ever.
+    let broken = dir.join("broken");
+    let mut c = vec!["sweep"];
+    c.extend(args);
+    c.extend([
+        "--slurm",
+        "--shards",
+        "2",
+        "--out",
+        broken.to_str().unwrap(),
+    ]);
+    djkr(&c);
+    std::fs::create_dir_all(broken.join("shards")).unwrap();
+    std::fs::write(broken.join("shards/2"), "not a directory").unwrap();
+    let st = Command::new("sbatch")
+        .arg("--wait")
+        .arg(broken.join("sweep.sbatch"))
+        .env("SLURM_CONF", &conf)
+        .status()
+        .unwrap();
+    assert!(!st.success(), "the array job should fail\n{}", logs(dir));
+    let merge_id = std::fs::read_to_string(broken.join("slurm/merge.jobid")).unwrap_or_default();
+    let merge_id = merge_id.trim().to_string();
+    assert!(!merge_id.is_empty(), "no merge job id\n{}", logs(dir));
+    let state = || {
+        Command::new("scontrol")
+            .args(["show", "job", "-o", &merge_id])
+            .env("SLURM_CONF", &conf)
+            .output()
+            .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+            .unwrap_or_default()
+    };
+    wait_for(
+        "the merge step to be cancelled",
+        Duration::from_secs(60),
+        || state().contains("JobState=CANCELLED"),
+    );
+    assert!(!broken.join("sweep.csv").exists());
+
     drop(daemons);
     eprintln!(
-        "Slurm test: cluster, 2-task array, merge and checks in {:.1} s",
+        "Slurm test: cluster, 2-task array, merge, a failed array's cancelled merge, checks in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
 }

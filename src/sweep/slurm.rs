@@ -6,8 +6,11 @@
 //! slot. The first task to start submits the merge step once (a marker file guards against a
 //! requeue): `djkr sweep merge OUT/shards/* --out OUT` with `--dependency=afterok` on the whole
 //! array, so it runs when every task has succeeded and writes the files of the unsharded sweep
-//! into OUT. A task that failed can be resubmitted alone (`sbatch --array=K OUT/sweep.sbatch`; it
-//! resumes), and then the merge run by hand.
+//! into OUT. When a task fails, that dependency can never be met: the merge step is submitted
+//! with `--kill-on-invalid-dep=yes`, so Slurm cancels it instead of leaving it pending for ever
+//! (the default on clusters without `DependencyParameters=kill_invalid_depend`). The failed task
+//! can be resubmitted alone (`sbatch --array=K OUT/sweep.sbatch`; it resumes), and then the merge
+//! run by hand.
 //!
 //! Every path in the script is absolute (the djkr binary, the scenario, OUT), so it can be
 //! submitted from any directory.
@@ -95,8 +98,9 @@ impl SlurmScript {
 #   watch:    squeue --me; tail -f {out}/shards/*/progress.csv
 #   result:   {out}/sweep.csv, points.csv, sweep.h5 and the plots, written by the merge step
 #             that the first task submits (it waits for every task: afterok).
-#   a task failed: resubmit it alone, it resumes (sbatch --array=K {out}/sweep.sbatch),
-#             then merge by hand: djkr sweep merge {out}/shards/* --out {out}
+#   a task failed: the merge step is cancelled (it could never run); resubmit the task alone,
+#             it resumes (sbatch --array=K {out}/sweep.sbatch), then merge by hand:
+#             djkr sweep merge {out}/shards/* --out {out}
 #
 #SBATCH --job-name=djkr-sweep
 #SBATCH --array=1-{n}
@@ -111,7 +115,7 @@ K=$(( SLURM_ARRAY_TASK_ID - ${{SLURM_ARRAY_TASK_MIN:-1}} + 1 ))
 # The merge step, submitted once (the marker survives a requeue).
 if ( set -o noclobber; echo "$SLURM_ARRAY_JOB_ID" > "$OUT/slurm/merge.submitted" ) 2>/dev/null; then
   if ! sbatch --parsable --job-name=djkr-sweep-merge --dependency="afterok:$SLURM_ARRAY_JOB_ID" \
-      --cpus-per-task=1 --output="$OUT/slurm/%x-%j.out"{merge_opts} \
+      --kill-on-invalid-dep=yes --cpus-per-task=1 --output="$OUT/slurm/%x-%j.out"{merge_opts} \
       --wrap="exec \"$DJKR\" sweep merge \"$OUT\"/shards/* --out \"$OUT\"" > "$OUT/slurm/merge.jobid"; then
     echo "warning: could not submit the merge step; when every task is done, run:" >&2
     echo "  $DJKR sweep merge $OUT/shards/* --out $OUT" >&2
@@ -165,6 +169,7 @@ mod tests {
         assert!(s.contains("--shard \"$K/4\""));
         assert!(s.contains("OUT='/scratch/sweep one'"));
         assert!(s.contains("--dependency=\"afterok:$SLURM_ARRAY_JOB_ID\""));
+        assert!(s.contains("--kill-on-invalid-dep=yes"));
         assert_eq!(default_shards(10), 1);
         assert_eq!(default_shards(640), 10);
         assert_eq!(default_shards(10_000_000), 1000);
