@@ -271,7 +271,6 @@ impl Background {
         let (tx, rx) = sync_channel::<Rows>(QUEUE);
         let (back_tx, back) = sync_channel::<Rows>(QUEUE + 1);
         let model_addr = if st.model.is_some() { model_addr } else { 0 };
-
         let handle = std::thread::Builder::new()
             .name("djkr-writer".into())
             .spawn(move || {
@@ -299,8 +298,8 @@ impl Background {
         self.model_addr != 0 && std::ptr::eq(self.model_addr as *const Model, model)
     }
 
-    /// Hand a full batch to the thread (waiting while it still works on the one before) and get
-    /// an empty buffer back; the thread's error if it has stopped.
+    /// Hand a full batch to the thread (waiting while `QUEUE` batches wait already) and get an
+    /// empty buffer back; the thread's error if it has stopped.
     pub fn send(&mut self, rows: Rows) -> Result<Rows, OutputError> {
         let sent = match &self.tx {
             Some(tx) => tx.send(rows).is_ok(),
