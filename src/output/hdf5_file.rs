@@ -42,7 +42,7 @@ use std::path::{Path, PathBuf};
 use hdf5_pure::{AttrValue, File, FileAccessProperties, FileBuilder, SyncPolicy};
 
 use super::table::{text_attr as vstr, Storage, Table, HDF5_CHUNK};
-use super::timeseries::EVENT_KIND_DESCRIPTION;
+use super::timeseries::{events_table, TimeSeriesWriter, EVENT_KIND_DESCRIPTION};
 use super::OutputError;
 use crate::dynamics::types::RunResult;
 use crate::scenario::Scenario;
@@ -153,8 +153,8 @@ pub fn write_hdf5(
     })
 }
 
-/// A run file written while the run goes on: created with the rows seen so far in extendable
-/// datasets, then appended to, and finished with the event kinds and the results. Its content is
+/// A run file written while the run goes on: created with empty extendable datasets, then
+/// appended to, and finished with the event kinds and the results. Its content is
 /// that of [`hdf5_bytes`] for the same rows (the period datasets appear with the first period,
 /// the event kinds at the end).
 pub struct H5Stream {
@@ -180,61 +180,45 @@ fn extendable(compress: bool, chunk: usize) -> Storage {
 }
 
 impl H5Stream {
-    /// Create the file at `path` with the rows of `tables` and open it for appending. hdf5-pure
-    /// syncs it once, when it is finished (`SyncPolicy::OnClose`). The datasets are created
-    /// empty and the rows appended: building them with their rows would hold the rows in memory
-    /// three times over (the buffer, the builder's copy, the file image).
+    /// Create the file at `path` with its datasets empty (the period datasets are created with
+    /// the first period record) and open it for appending. hdf5-pure syncs it once, when it is
+    /// finished (`SyncPolicy::OnClose`).
     pub fn create(
         path: &Path,
-        tables: RunTables,
         scenario: &Scenario,
         run_id: &str,
         compress: bool,
     ) -> Result<Self, OutputError> {
-        let err = |message: String| OutputError::Hdf5 {
+        let err = |e: hdf5_pure::Error| OutputError::Hdf5 {
             path: path.to_path_buf(),
-            message,
+            message: e.to_string(),
         };
-        let empty = |t: &Table| Table::from_schema(&t.schema()).map_err(|e| err(e.to_string()));
         let mut b = FileBuilder::new();
         for (k, v) in start_attrs(scenario, run_id) {
             b.set_attr(k, v);
         }
-        empty(tables.series)?.write_hdf5_with(&mut b, extendable(compress, HDF5_CHUNK));
+        TimeSeriesWriter::new()
+            .table()
+            .write_hdf5_with(&mut b, extendable(compress, HDF5_CHUNK));
         let mut g = b.create_group("events");
         g.set_attr("description", vstr(EVENTS_DESCRIPTION));
-        empty(tables.events)?.write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
+        events_table(&[]).write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
         b.add_group(g.finish());
         let mut g = b.create_group("cycles");
         g.set_attr("description", vstr(CYCLES_DESCRIPTION));
-        let cycles_created = !tables.cycles.is_empty();
-        if cycles_created {
-            empty(tables.cycles)?.write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
-        }
         b.add_group(g.finish());
-        b.write(path).map_err(|e| err(e.to_string()))?;
+        b.write(path).map_err(err)?;
         let file = File::open_rw_with_options(
             path,
             FileAccessProperties::new().with_sync_policy(SyncPolicy::OnClose),
         )
-        .map_err(|e| err(e.to_string()))?;
-        let mut stream = Self {
+        .map_err(err)?;
+        Ok(Self {
             file,
             path: path.to_path_buf(),
             compress,
-            cycles_created,
-        };
-        stream.append(tables)?;
-        Ok(stream)
-    }
-
-    /// Append the rows of `tables`.
-    pub fn append(&mut self, tables: RunTables) -> Result<(), OutputError> {
-        self.append_series(tables.series, 0..tables.series.rows())?;
-        self.append_records(
-            (tables.events, 0..tables.events.rows()),
-            (tables.cycles, 0..tables.cycles.rows()),
-        )
+            cycles_created: false,
+        })
     }
 
     /// Append the samples `rows` of `series`.

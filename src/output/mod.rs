@@ -215,7 +215,8 @@ pub struct RunWriter {
     samples: u64,
     cycles: u64,
     stream: Option<Background>,
-    /// The run's model (a copy, and where it lives), for the writer thread to build samples.
+    /// The run's model (a copy, and where it lives) until streaming starts and the writer
+    /// thread takes it to build the samples.
     model: Option<(usize, Model)>,
     error: Option<OutputError>,
     sections: Vec<(String, serde_json::Value)>,
@@ -304,8 +305,9 @@ impl RunWriter {
 
     fn flush(&mut self) -> Result<(), OutputError> {
         if self.stream.is_none() {
-            let (addr, model) = match &self.model {
-                Some((addr, m)) => (*addr, Some(m.clone())),
+            // The model moves to the thread, which builds the samples from here on.
+            let (addr, model) = match self.model.take() {
+                Some((addr, m)) => (addr, Some(m)),
                 None => (0, None),
             };
             let st = Streaming::create(

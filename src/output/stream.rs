@@ -124,13 +124,7 @@ impl Streaming {
     ) -> Result<Self, OutputError> {
         let empty = Rows::new();
         let h5_file = AtomicFile::reserve(&dir.join(HDF5_NAME), run_id);
-        let h5 = H5Stream::create(
-            h5_file.partial(),
-            empty.tables(),
-            scenario,
-            run_id,
-            compress,
-        )?;
+        let h5 = H5Stream::create(h5_file.partial(), scenario, run_id, compress)?;
         let mut st = Streaming {
             h5,
             h5_file,
