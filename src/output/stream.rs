@@ -103,7 +103,7 @@ pub(super) struct Streaming {
     pub h5_file: AtomicFile,
     pub csv: Vec<(AtomicFile, CsvWriter<BufWriter<File>>)>,
     /// Samples not yet written.
-    pub buf: TimeSeriesWriter,
+    buf: TimeSeriesWriter,
     /// Events not yet written.
     events: Table,
     /// Period records not yet written.
