@@ -30,7 +30,8 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DJKR = os.path.join(ROOT, "target", "release", "djkr")
+# DJKR_BIN: another build to measure (e.g. a copy, so that rebuilding does not disturb a run).
+DJKR = os.environ.get("DJKR_BIN", os.path.join(ROOT, "target", "release", "djkr"))
 
 
 def run_child(argv):

@@ -268,3 +268,46 @@ fn twins_tell_a_deterministic_from_a_chaotic_pull_off() {
         }
     }
 }
+
+/// A hold under a steady shaker settles onto its periodic orbit (the sphere rings down and the
+/// contact radius ratchets for ~100 periods), after which every boundary of the stage is the
+/// orbit's fixed point: envelope following finds it by shooting and jumps to the stage's end.
+/// On the light rig with c = 0.5 N s/m on the sphere (the compiled peer's benchmark scene,
+/// 1 s at 400 Hz / 10 µm, and the 3 s hold of `scenarios/gentle-unload-300hz.toml`, 300 Hz /
+/// 20 µm): one such jump over most of the stage, and the final state within the envelope's
+/// tolerance (1e-6 of X_b, ω X_b and a) of direct integration of every period.
+#[test]
+fn a_hold_at_its_periodic_steady_state_jumps_to_its_end() {
+    for (xb, f, duration) in [(10e-6, 400.0, 1.0), (20e-6, 300.0, 3.0)] {
+        let run = |envelope| {
+            let mut s = catalogue::vibrating_hold(xb, f, duration);
+            s.rig.damping = Some(djkr::rig::Damping {
+                c: 0.5,
+                on: djkr::rig::DampingOn::Sphere,
+            });
+            s.output.sample_rate = 0.0;
+            s.solver.envelope = envelope;
+            s.simulate(&mut djkr::dynamics::NoObserver)
+                .unwrap_or_else(|e| panic!("{f} Hz: {e}"))
+        };
+        let (direct, env) = (run(EnvelopeMode::Off), run(EnvelopeMode::Auto));
+        let periods = (duration * f).round() as u64;
+        assert_eq!(env.envelope.steady_jumps, 1, "{f} Hz: {:?}", env.envelope);
+        assert!(
+            env.envelope.periods_skipped > periods / 2,
+            "{f} Hz: {:?}",
+            env.envelope
+        );
+        let (d, e) = (direct.final_state, env.final_state);
+        assert!((d.t - duration).abs() < 1e-12 && (e.t - duration).abs() < 1e-12);
+        let w = 2.0 * PI * f;
+        for (what, x, y, scale) in [
+            ("x_s", e.x_s, d.x_s, xb),
+            ("v_s", e.v_s, d.v_s, w * xb),
+            ("a", e.a, d.a, d.a),
+        ] {
+            println!("{f} Hz {what}: {:.1e}", (x - y).abs() / scale);
+            assert!((x - y).abs() <= 1e-6 * scale, "{f} Hz {what}: {x} vs {y}");
+        }
+    }
+}

@@ -448,7 +448,10 @@ impl Protocol<'_> {
     /// the stage is already over (an approach whose preload is already reached).
     fn start_stage(&mut self, idx: usize, st: &Stage) -> bool {
         if let Some(e) = self.envelope.as_mut() {
-            e.new_stage(matches!(st.until, Until::PullOff));
+            e.new_stage(
+                matches!(st.until, Until::PullOff),
+                st.kind == StageKind::Hold,
+            );
         }
         self.stage = idx;
         self.sim.set_stage(idx);
