@@ -40,7 +40,9 @@
 //! tolerance; with it 2e-7). The next skip is m (tol/err)^(1/3) within [m/5, 4m]. A step whose
 //! trial period loses or regains contact, whose Newton iteration fails, or whose error is too
 //! large is retried with a smaller m; below two periods the run integrates directly for 16
-//! periods and tries again.
+//! periods and tries again. No step is tried while the newest two envelope points differ by more
+//! than a tenth of the scales (`FAST_DRIFT`): that is no slow drift (the ring-up after the
+//! shaker starts), and its trial periods are the most expensive of the run.
 //!
 //! # Where it stops
 //! Where the largest multiplier μ reaches 0.999, perturbations no longer decay and the
