@@ -121,6 +121,16 @@ pub struct EnvelopeStats {
     pub steady_jumps: u64,
 }
 
+/// What [`Envelope::fresh_jacobian`] found.
+enum Fresh {
+    /// The Jacobian is the envelope's now; g(z) = P(z) − z from its first trial period.
+    Map([f64; 3]),
+    /// A trial period was not smooth (contact lost or regained, or not integrable).
+    NotSmooth,
+    /// The largest multiplier reached its limit.
+    AtLimit,
+}
+
 /// An exact envelope point: the stroboscopic state (x_s, v_s, a) at the start of period τ.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Point {
@@ -315,18 +325,10 @@ impl Envelope {
         // The farthest target: the stop time's margin, the largest skip.
         let far = k + room.min(self.settings.max_skip);
         if let Some(z) = self.steady_state(sim, &y, far)? {
-            let skipped = far - k;
-            self.stats.jumps += 1;
-            self.stats.steady_jumps += 1;
-            self.stats.periods_skipped += skipped;
+            // The history before the periodic steady state is no envelope of what follows.
             self.forget();
-            self.push(Point {
-                tau: far as f64,
-                y: [z.x, z.v, z.a],
-            });
-            self.jumped = true;
-            sim.jump(z, skipped);
-            return Ok(skipped);
+            self.stats.steady_jumps += 1;
+            return Ok(self.land(sim, z, far, k));
         }
         loop {
             if self.stop || self.cooldown > 0 {
@@ -342,22 +344,13 @@ impl Envelope {
             }
             match self.attempt(sim, &y, target - base)? {
                 Some((z, err)) => {
-                    let skipped = target - k;
-                    self.stats.jumps += 1;
-                    self.stats.periods_skipped += skipped;
                     let grow = if err > 0.0 {
                         (0.9 * err.powf(-1.0 / (ORDER as f64 + 1.0))).clamp(0.2, 4.0)
                     } else {
                         4.0
                     };
                     self.skip = (target - base) as f64 * grow;
-                    self.push(Point {
-                        tau: target as f64,
-                        y: [z.x, z.v, z.a],
-                    });
-                    self.jumped = true;
-                    sim.jump(z, skipped);
-                    return Ok(skipped);
+                    return Ok(self.land(sim, z, target, k));
                 }
                 None => {
                     self.stats.rejected += 1;
@@ -438,17 +431,17 @@ impl Envelope {
         let mut z = start;
         // A fresh Jacobian at y: the multiplier bounds the transient the jump leaves out, so
         // it must be the one here, not one from an earlier stretch of the run.
-        let Some((jac, g0)) = self.jacobian(sim, &z, k, y)? else {
-            self.jac = None;
+        let g0 = match self.fresh_jacobian(sim, &z, k, y)? {
+            Fresh::Map(g0) => g0,
+            Fresh::NotSmooth => {
+                self.jac = None;
+                return Ok(None);
+            }
+            Fresh::AtLimit => return Ok(None),
+        };
+        let Some(jac) = self.jac else {
             return Ok(None);
         };
-        self.multiplier = slow_multiplier(&jac);
-        if self.multiplier >= self.settings.max_multiplier {
-            self.multiplier_at_limit();
-            return Ok(None);
-        }
-        self.jac = Some(jac);
-        self.jac_age = 0;
         let mut g_known = Some(g0);
         for _ in 0..MAX_NEWTON {
             let g = match g_known.take() {
@@ -496,6 +489,21 @@ impl Envelope {
             .map(|i| ((p1.y[i] - p0.y[i]) / self.scales[i] / (p1.tau - p0.tau)).abs())
             .fold(0.0f64, f64::max);
         d.is_finite().then_some(d)
+    }
+
+    /// Jump from the boundary of period `k` to the state `z` at the start of period `target`:
+    /// the new envelope point, the run moved there; returns the periods skipped.
+    fn land(&mut self, sim: &mut Simulator, z: State, target: u64, k: u64) -> u64 {
+        let skipped = target - k;
+        self.stats.jumps += 1;
+        self.stats.periods_skipped += skipped;
+        self.push(Point {
+            tau: target as f64,
+            y: [z.x, z.v, z.a],
+        });
+        self.jumped = true;
+        sim.jump(z, skipped);
+        skipped
     }
 
     fn push(&mut self, p: Point) {
@@ -594,17 +602,11 @@ impl Envelope {
         while iterations < MAX_NEWTON {
             let mut g_known = None;
             if self.jac.is_none() {
-                let Some((jac, g0)) = self.jacobian(sim, &z, k, y)? else {
-                    return Ok(self.refuse());
-                };
-                self.multiplier = slow_multiplier(&jac);
-                if self.multiplier >= self.settings.max_multiplier {
-                    self.multiplier_at_limit();
-                    return Ok(None);
+                match self.fresh_jacobian(sim, &z, k, y)? {
+                    Fresh::Map(g0) => g_known = Some(g0),
+                    Fresh::NotSmooth => return Ok(self.refuse()),
+                    Fresh::AtLimit => return Ok(None),
                 }
-                self.jac = Some(jac);
-                self.jac_age = 0;
-                g_known = Some(g0);
                 fresh_jac = true;
             }
             let g = match g_known {
@@ -657,6 +659,29 @@ impl Envelope {
             return Ok(self.refuse());
         }
         Ok(Some((z, iterations)))
+    }
+
+    /// A fresh Jacobian of the map at `z` (period `k`), kept as the envelope's with its largest
+    /// multiplier; at the multiplier's limit the jumps stop or pause
+    /// ([`Envelope::multiplier_at_limit`]).
+    fn fresh_jacobian(
+        &mut self,
+        sim: &mut Simulator,
+        z: &[f64; 3],
+        k: u64,
+        y: &State,
+    ) -> Result<Fresh, SimError> {
+        let Some((jac, g0)) = self.jacobian(sim, z, k, y)? else {
+            return Ok(Fresh::NotSmooth);
+        };
+        self.multiplier = slow_multiplier(&jac);
+        if self.multiplier >= self.settings.max_multiplier {
+            self.multiplier_at_limit();
+            return Ok(Fresh::AtLimit);
+        }
+        self.jac = Some(jac);
+        self.jac_age = 0;
+        Ok(Fresh::Map(g0))
     }
 
     /// The largest multiplier reached its limit: perturbations stop decaying and the envelope's
