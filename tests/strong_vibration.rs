@@ -273,9 +273,10 @@ fn twins_tell_a_deterministic_from_a_chaotic_pull_off() {
 /// contact radius ratchets for ~100 periods), after which every boundary of the stage is the
 /// orbit's fixed point: envelope following finds it by shooting and jumps to the stage's end.
 /// On the light rig with c = 0.5 N s/m on the sphere (the compiled peer's benchmark scene,
-/// 1 s at 400 Hz / 10 µm, and the 3 s hold of `scenarios/gentle-unload-300hz.toml`, 300 Hz /
-/// 20 µm): one such jump over most of the stage, and the final state within the envelope's
-/// tolerance (1e-6 of X_b, ω X_b and a) of direct integration of every period.
+/// 1 s at 400 Hz / 10 µm, and 3 s at 300 Hz / 20 µm, the vibration of
+/// `scenarios/gentle-unload-300hz.toml`): one such jump over most of the stage, and the final
+/// state within the envelope's tolerance (1e-6 of X_b, ω X_b and a) of direct integration of
+/// every period.
 #[test]
 fn a_hold_at_its_periodic_steady_state_jumps_to_its_end() {
     for (xb, f, duration) in [(10e-6, 400.0, 1.0), (20e-6, 300.0, 3.0)] {
