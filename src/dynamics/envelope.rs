@@ -325,7 +325,7 @@ impl Envelope {
         let h_prev = self.history[n - 1].tau - self.history[n - 2].tau;
         // The farthest target: the stop time's margin, the largest skip.
         let far = k + room.min(self.settings.max_skip);
-        if let Some(z) = self.steady_state(sim, &y, far)? {
+        if let Some(z) = self.steady_state(sim, &y, k, far)? {
             // The history before the periodic steady state is no envelope of what follows.
             self.forget();
             self.stats.steady_jumps += 1;
@@ -361,8 +361,8 @@ impl Envelope {
     }
 
     /// A periodic steady state reached in a periodic stage: the fixed point z* = P(z*) of the
-    /// one-period map, found by Newton (shooting) from the boundary state `y`, as the state at
-    /// boundary `far` (`None`: not there yet, integrate on).
+    /// one-period map, found by Newton (shooting) from the state `y` at the boundary of period
+    /// `k`, as the state at boundary `far` (`None`: not there yet, integrate on).
     ///
     /// Tried only where the envelope history says the drift per period, divided by 1 − μ (the
     /// distance to the fixed point of a linear contraction), is below [`STEADY_NEAR`]. Accepted
@@ -376,9 +376,9 @@ impl Envelope {
         &mut self,
         sim: &mut Simulator,
         y: &State,
+        k: u64,
         far: u64,
     ) -> Result<Option<State>, SimError> {
-        let k = sim.period_index();
         if !self.periodic || far < k + 2 {
             return Ok(None);
         }

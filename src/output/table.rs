@@ -564,8 +564,9 @@ impl Table {
     }
 
     /// As [`Table::write_hdf5`], with a storage choice: compressed or not, and extendable (every
-    /// numeric dataset chunked, unlimited, so that rows can be appended: [`Table::append_hdf5`];
-    /// text columns are then left out, to be written whole at the end).
+    /// numeric dataset chunked, unlimited, so that rows can be appended:
+    /// [`Table::append_hdf5_rows`]; text columns are then left out, to be written whole at the
+    /// end).
     pub fn write_hdf5_with(&self, group: &mut impl Hdf5Group, storage: Storage) {
         for c in self.stored_columns(storage) {
             configure_dataset(group.create_dataset(&c.name), c, storage);
@@ -589,13 +590,9 @@ impl Table {
             .filter(move |c| storage.extendable.is_none() || c.data.kind() != Kind::Text)
     }
 
-    /// Append the rows to the extendable datasets of the open file `file` under `prefix` (`""`
-    /// for the root, `"events/"`, ...), one dataset per numeric column (text columns are skipped).
-    pub fn append_hdf5(&self, file: &hdf5_pure::File, prefix: &str) -> Result<(), String> {
-        self.append_hdf5_rows(file, prefix, 0..self.rows())
-    }
-
-    /// [`Table::append_hdf5`] for the rows in `rows` only.
+    /// Append the rows in `rows` to the extendable datasets of the open file `file` under
+    /// `prefix` (`""` for the root, `"events/"`, ...), one dataset per numeric column (text
+    /// columns are skipped).
     pub fn append_hdf5_rows(
         &self,
         file: &hdf5_pure::File,
