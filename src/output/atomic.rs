@@ -126,11 +126,63 @@ impl AtomicFile {
         &self.target
     }
 
-    /// Rename the partial into place (replacing an earlier file of that name).
+    /// Put the partial in place of the target (replacing an earlier file of that name:
+    /// [`replace`]).
     pub fn commit(mut self) -> Result<PathBuf, OutputError> {
-        fs::rename(&self.partial, &self.target).map_err(io_err(&self.target))?;
+        replace(&self.partial, &self.target).map_err(io_err(&self.target))?;
         self.committed = true;
         Ok(self.target.clone())
+    }
+}
+
+/// Move `from` to `to`, replacing a file there, in one step that every reader sees whole: `to`
+/// is always either the old file or the new one.
+///
+/// On Linux an existing `to` is swapped with `from` (`renameat2` with `RENAME_EXCHANGE`) and the
+/// old file, now at `from`, removed, rather than renamed over: ext4 (with its default
+/// `auto_da_alloc`) starts writing the new file's data out from inside a rename over an existing
+/// file, which cost 0.9 ms per 600 kB file here, a tenth of a 1 s run end to end, against 0.06 ms
+/// for the swap and the removal. djkr makes no promise that rename-over would have kept (README,
+/// "Crash safety"): without `[output] fsync` a crash of the machine within the write-back delay
+/// may lose what a rename published either way. Where the swap is not supported (another
+/// system, a file system without it) or there is no file to replace, a plain rename.
+pub fn replace(from: &Path, to: &Path) -> std::io::Result<()> {
+    #[cfg(target_os = "linux")]
+    if exchange(from, to).is_ok() {
+        // `from` now holds the replaced file. Failing to remove it loses nothing: it keeps
+        // its hidden partial name, which a later write of the same file replaces (and a later
+        // run into the directory clears).
+        let _ = fs::remove_file(from);
+        return Ok(());
+    }
+    fs::rename(from, to)
+}
+
+/// Swap the files at `a` and `b` atomically (both must exist).
+#[cfg(target_os = "linux")]
+fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
+    use std::ffi::CString;
+    use std::os::unix::ffi::OsStrExt;
+    let c = |p: &Path| {
+        CString::new(p.as_os_str().as_bytes())
+            .map_err(|_| std::io::Error::from(std::io::ErrorKind::InvalidInput))
+    };
+    let (a, b) = (c(a)?, c(b)?);
+    // SAFETY: two valid NUL-terminated paths, relative ones resolved against the working
+    // directory as by rename(2); the call reads nothing else.
+    let r = unsafe {
+        libc::renameat2(
+            libc::AT_FDCWD,
+            a.as_ptr(),
+            libc::AT_FDCWD,
+            b.as_ptr(),
+            libc::RENAME_EXCHANGE,
+        )
+    };
+    if r == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::last_os_error())
     }
 }
 
@@ -177,5 +229,24 @@ mod tests {
         assert!(!partial_path(&p).exists());
         let names: Vec<_> = fs::read_dir(dir.path()).unwrap().flatten().collect();
         assert_eq!(names.len(), 1);
+    }
+
+    #[test]
+    fn replace_puts_the_new_file_in_place_and_leaves_no_old_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let (new, target) = (dir.path().join(".t.partial"), dir.path().join("t"));
+        fs::write(&new, b"first").unwrap();
+        replace(&new, &target).unwrap(); // nothing to replace: a plain rename
+        assert_eq!(fs::read(&target).unwrap(), b"first");
+        // A reader of the old file keeps it whole while it is replaced.
+        let mut reader = File::open(&target).unwrap();
+        fs::write(&new, b"second").unwrap();
+        replace(&new, &target).unwrap(); // swapped in, the old one removed
+        assert_eq!(fs::read(&target).unwrap(), b"second");
+        let mut old = String::new();
+        std::io::Read::read_to_string(&mut reader, &mut old).unwrap();
+        assert_eq!(old, "first");
+        let names: Vec<_> = fs::read_dir(dir.path()).unwrap().flatten().collect();
+        assert_eq!(names.len(), 1, "only the target is left: {names:?}");
     }
 }
