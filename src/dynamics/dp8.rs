@@ -429,13 +429,10 @@ pub fn step(
     let phase0 = drive.phase(model, y.t);
     for i in 1..12 {
         let (mut x, mut v, mut a) = (0.0, 0.0, 0.0);
-        for (j, kj) in k.iter().enumerate().take(i) {
-            let c = A[i][j];
-            if c != 0.0 {
-                x += c * kj.fx;
-                v += c * kj.fv;
-                a += c * kj.fa;
-            }
+        for (kj, &c) in k.iter().zip(&A[i]).take(i) {
+            x += c * kj.fx;
+            v += c * kj.fv;
+            a += c * kj.fa;
         }
         let a_i = if y.contact { y.a + h * a } else { 0.0 };
         evals += 1;
