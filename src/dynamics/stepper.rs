@@ -178,7 +178,7 @@ impl Stepper for Implicit {
 #[derive(Debug, Default, Clone)]
 pub struct Dp8 {
     /// The rates at the end of the last step and the state they belong to.
-    fsal: Option<(State, dp8::Rates, [f64; NQ])>,
+    fsal: Option<Fsal>,
     /// Refuse steps in deep healing ([`StepFail::Stiff`]) for a rescue method to take.
     stiffness_switch: bool,
 }
@@ -188,6 +188,32 @@ pub struct Dp8 {
 /// stability-limited, not accuracy-limited, and in deep healing (G ≈ 1e-6 w0, ∂ȧ/∂a ≈ −1e13/s)
 /// they would fall below what the time resolves late in a long run (h < 8 ε t).
 pub const DP8_STIFFNESS_LIMIT: f64 = 3.0;
+
+/// The rates and quadrature integrands at the end of DP8's last step, with what identifies the
+/// state they belong to (kept small: the cache is written on every step).
+#[derive(Debug, Clone)]
+struct Fsal {
+    t: f64,
+    x: f64,
+    v: f64,
+    a: f64,
+    contact: bool,
+    rates: dp8::Rates,
+    fq: [f64; NQ],
+}
+
+impl Fsal {
+    /// True for the very state the rates belong to (an identity test, hence bitwise; the time
+    /// to a few ulp, as a step's end time is recomputed).
+    fn belongs_to(&self, y: &State) -> bool {
+        let same = |p: f64, q: f64| p.to_bits() == q.to_bits();
+        (self.t - y.t).abs() <= 8.0 * f64::EPSILON * y.t.abs()
+            && same(self.x, y.x)
+            && same(self.v, y.v)
+            && same(self.a, y.a)
+            && self.contact == y.contact
+    }
+}
 
 impl Dp8 {
     /// DP8 that refuses deep-healing steps (for [`Rescued`]): `attempt` fails with
@@ -222,42 +248,53 @@ impl Stepper for Dp8 {
         tol: Tol,
         evals: &mut u64,
     ) -> Result<StepOut, StepFail> {
-        let cached = self.fsal.as_ref().and_then(|(ys, r, fq)| {
-            let same_t = (ys.t - y.t).abs() <= 8.0 * f64::EPSILON * y.t.abs();
-            // The very state the cached rates belong to (an identity test, hence bitwise).
-            let same = |p: f64, q: f64| p.to_bits() == q.to_bits();
-            (same_t
-                && same(ys.x, y.x)
-                && same(ys.v, y.v)
-                && same(ys.a, y.a)
-                && ys.contact == y.contact)
-                .then_some((*r, *fq))
-        });
         let mut extra = 0;
-        let k1 = match cached {
-            Some(r) => Ok(r),
-            None => {
+        let start = match self.fsal.take() {
+            Some(c) if c.belongs_to(y) => c,
+            _ => {
                 extra = 1;
-                dp8::rates_at(model, drive, y)
+                match dp8::rates_at(model, drive, y) {
+                    Ok((rates, fq)) => Fsal {
+                        t: y.t,
+                        x: y.x,
+                        v: y.v,
+                        a: y.a,
+                        contact: y.contact,
+                        rates,
+                        fq,
+                    },
+                    Err(e) => {
+                        *evals += extra;
+                        return Err(e);
+                    }
+                }
             }
         };
-        let k1 = k1.and_then(|(k1, fq1)| {
-            if self.stiffness_switch
-                && y.contact
-                && model.healing_stiffness(y.a, k1.g, k1.fa) * h > DP8_STIFFNESS_LIMIT
-            {
-                Err(StepFail::Stiff)
-            } else {
-                Ok((k1, fq1))
-            }
-        });
-        match k1.and_then(|(k1, fq1)| dp8::step(model, drive, y, &k1, &fq1, h, tol)) {
-            Ok((mut o, k_end, fq_end)) => {
+        let result = if self.stiffness_switch
+            && y.contact
+            && model.healing_stiffness(y.a, start.rates.g, start.rates.fa) * h > DP8_STIFFNESS_LIMIT
+        {
+            Err(StepFail::Stiff)
+        } else {
+            dp8::step(model, drive, y, &start.rates, &start.fq, h, tol)
+        };
+        match result {
+            Ok((mut o, rates, fq)) => {
                 o.evals += extra;
-                self.fsal = Some((o.y, k_end, fq_end));
+                self.fsal = Some(Fsal {
+                    t: o.y.t,
+                    x: o.y.x,
+                    v: o.y.v,
+                    a: o.y.a,
+                    contact: o.y.contact,
+                    rates,
+                    fq,
+                });
                 Ok(o)
             }
             Err(e) => {
+                // A failed attempt is retried from the same state with a shorter step.
+                self.fsal = Some(start);
                 *evals += extra;
                 Err(e)
             }
