@@ -14,8 +14,11 @@
 //!   hold at 1 µm (`vibration_1um_1s_400Hz/…`), where every method runs.
 //! - `paper_protocol_300hz/{method}`: the shipped `scenarios/paper-protocol-300hz.toml`
 //!   (`catalogue::Bundled::PaperProtocol300`; issue 3 target: ≤ 2 s).
+//! - `peer_vib400_rtol1e-7/auto`: the compiled peer's benchmark scene
+//!   (`benches/scenes/vib400.toml`) at rtol 1e-7, where djkr's error is below the peer's at
+//!   1e-8; with `one_rhs_dp8` it gives the integration's overhead over its RHS work.
 //!
-//! Every scene comes from `djkr::catalogue`, the scenes the tests prove correct.
+//! Every scene but the peer's comes from `djkr::catalogue`, the scenes the tests prove correct.
 //!
 //! `cargo bench --bench dynamics`; each benchmark prints its `Stats` once (steps, rhs), so
 //! wall / (rhs × one_rhs) can be formed.
@@ -170,6 +173,26 @@ fn bench(c: &mut Criterion) {
             }
         }
         Err(e) => eprintln!("paper_protocol_300hz: cannot load the scenario: {e}"),
+    }
+
+    // The compiled peer's benchmark scene at djkr's equal-accuracy tolerance, in process (no
+    // start-up, no files): its time over rhs × one_rhs_dp8 is the integration's overhead.
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/scenes/vib400.toml");
+    match djkr::scenario::parse::load_scenario(&file) {
+        Ok(mut s) => {
+            s.solver.rtol = 1e-7;
+            let id = "peer_vib400_rtol1e-7/auto";
+            if announce(id, &s) {
+                g.bench_function(id, |b| {
+                    b.iter(|| {
+                        black_box(&s)
+                            .simulate(&mut NoObserver)
+                            .map(|r| r.stats.steps)
+                    })
+                });
+            }
+        }
+        Err(e) => eprintln!("peer_vib400: cannot load {}: {e}", file.display()),
     }
     g.finish();
 }
