@@ -68,13 +68,13 @@
 //! Newton on P(z) = z (shooting) with a fresh Jacobian, and jumps to the stage's end when the last
 //! correction is below 1/100 of the tolerance, the run's state within 1e-3 of z* (the map is
 //! linear on the way), and the transient left after the jump, μ^M |y − z*| over its M periods,
-//! below 1/100 of the tolerance. The fixed point is looked for at every boundary, also while the BDF
-//! cools down after a refused step (the drift test is its own guard, with the stage's latest
-//! multiplier); a failed search waits 16, 32, 64, … periods before the next. On that scene it
-//! jumps from period 96 to 398 at rtol 1e-7: a(1 s) within 1e-13 of the jump from period 104
-//! that waited for the BDF's cooldown to end (27 k evaluations), and within 5e-9 of direct
-//! integration of every period (90 k); 25 k evaluations, where walking to the orbit with the
-//! BDF took 41 k and 73 k with trial periods in the ring-up (above).
+//! below 1/100 of the tolerance. The fixed point is looked for at every boundary, also while
+//! the BDF cools down after a refused step (the drift test is its own guard, with the stage's
+//! latest multiplier); a failed search waits 16, 32, 64, … periods before the next. On that
+//! scene it jumps from period 96 to 398 at rtol 1e-7: a(1 s) within 1e-13 of the jump from
+//! period 104 that waited for the BDF's cooldown to end (27 k evaluations), and within 5e-9 of
+//! direct integration of every period (90 k); 25 k evaluations, where walking to the orbit with
+//! the BDF took 41 k and 73 k with trial periods in the ring-up (above).
 //!
 //! # What is not produced for skipped periods
 //! The periods jumped over have no time-series samples and no period records; the record

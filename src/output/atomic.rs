@@ -145,10 +145,11 @@ impl AtomicFile {
 /// for the swap and the removal. djkr makes no promise that rename-over would have kept (README,
 /// "Crash safety"): without `[output] fsync` a crash of the machine within the write-back delay
 /// may lose what a rename published either way. Where the swap is not supported (another
-/// system, a file system without it) or there is no file to replace, a plain rename.
+/// system, a file system without it) or there is no file to replace, a plain rename; a directory
+/// in the way is never swapped out (the rename fails on it, naming it, as it always did).
 pub fn replace(from: &Path, to: &Path) -> std::io::Result<()> {
     #[cfg(target_os = "linux")]
-    if exchange(from, to).is_ok() {
+    if fs::symlink_metadata(to).is_ok_and(|m| !m.is_dir()) && exchange(from, to).is_ok() {
         // `from` now holds the replaced file. Failing to remove it loses nothing: it keeps
         // its hidden partial name, which a later write of the same file replaces (and a later
         // run into the directory clears).
@@ -248,5 +249,12 @@ mod tests {
         assert_eq!(old, "first");
         let names: Vec<_> = fs::read_dir(dir.path()).unwrap().flatten().collect();
         assert_eq!(names.len(), 1, "only the target is left: {names:?}");
+        // A directory of that name is not swapped away: the replacement fails and leaves it.
+        let d = dir.path().join("d");
+        fs::create_dir(&d).unwrap();
+        fs::write(d.join("inside"), b"keep").unwrap();
+        fs::write(&new, b"third").unwrap();
+        assert!(replace(&new, &d).is_err());
+        assert_eq!(fs::read(d.join("inside")).unwrap(), b"keep");
     }
 }
