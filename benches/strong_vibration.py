@@ -48,6 +48,22 @@ def run_child(argv):
     return wall, out.decode()
 
 
+def _finish(argv, pid, r, t0):
+    """Read the child's stdout from pipe `r` to its end and reap it: (wall s, rusage, stdout)."""
+    chunks = []
+    while True:
+        b = os.read(r, 65536)
+        if not b:
+            break
+        chunks.append(b)
+    _, status, ru = os.wait4(pid, 0)
+    wall = time.perf_counter() - t0
+    os.close(r)
+    if status != 0:
+        raise RuntimeError(f"{' '.join(argv)} failed with status {status}")
+    return wall, ru, b"".join(chunks).decode()
+
+
 def run_measured(argv):
     """Run argv with os.wait4: (wall s, cpu s, peak RSS bytes, stdout)."""
     r, w = os.pipe()
@@ -60,18 +76,8 @@ def run_measured(argv):
         os.close(r)
         os.execv(argv[0], argv)
     os.close(w)
-    chunks = []
-    while True:
-        b = os.read(r, 65536)
-        if not b:
-            break
-        chunks.append(b)
-    _, status, ru = os.wait4(pid, 0)
-    wall = time.perf_counter() - t0
-    os.close(r)
-    if status != 0:
-        raise RuntimeError(f"{' '.join(argv)} failed with status {status}")
-    return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss * 1024, b"".join(chunks).decode()
+    wall, ru, text = _finish(argv, pid, r, t0)
+    return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss * 1024, text
 
 
 def run_timed(argv):
@@ -88,18 +94,8 @@ def run_timed(argv):
         (os.POSIX_SPAWN_CLOSE, r),
     ])
     os.close(w)
-    chunks = []
-    while True:
-        b = os.read(r, 65536)
-        if not b:
-            break
-        chunks.append(b)
-    _, status, ru = os.wait4(pid, 0)
-    wall = time.perf_counter() - t0
-    os.close(r)
-    if status != 0:
-        raise RuntimeError(f"{' '.join(argv)} failed with status {status}")
-    return wall, ru.ru_utime + ru.ru_stime, b"".join(chunks).decode()
+    wall, ru, text = _finish(argv, pid, r, t0)
+    return wall, ru.ru_utime + ru.ru_stime, text
 
 
 def djkr_json(args, out):
