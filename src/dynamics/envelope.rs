@@ -127,8 +127,9 @@ pub struct EnvelopeStats {
 
 /// What [`Envelope::fresh_jacobian`] found.
 enum Fresh {
-    /// The Jacobian is the envelope's now; g(z) = P(z) − z from its first trial period.
-    Map([f64; 3]),
+    /// The Jacobian (scaled), the envelope's now, and g(z) = P(z) − z from its first trial
+    /// period.
+    Map([f64; 3], [[f64; 3]; 3]),
     /// A trial period was not smooth (contact lost or regained, or not integrable).
     NotSmooth,
     /// The largest multiplier reached its limit.
@@ -184,10 +185,8 @@ pub struct Envelope {
     backoff: u64,
     /// Jumps taken with the current Jacobian.
     jac_age: u32,
-    /// The largest Floquet multiplier at the last Jacobian.
-    multiplier: f64,
-    /// A Jacobian was taken in this stage (`multiplier` is its latest).
-    multiplier_seen: bool,
+    /// The largest Floquet multiplier at the stage's last Jacobian (`None` before it has one).
+    multiplier: Option<f64>,
     /// The last boundary was a jump target (the next one is not an envelope point).
     jumped: bool,
     /// The stage repeats the same one-period map every period (a hold under a steady shaker):
@@ -246,8 +245,7 @@ impl Envelope {
             towards_pull_off: false,
             backoff: FIRST_BACKOFF,
             jac_age: 0,
-            multiplier: 1.0,
-            multiplier_seen: false,
+            multiplier: None,
             jumped: false,
             periodic: false,
             steady_wait: 0,
@@ -280,7 +278,7 @@ impl Envelope {
         self.backoff = FIRST_BACKOFF;
         self.steady_wait = 0;
         self.steady_backoff = 1;
-        self.multiplier_seen = false;
+        self.multiplier = None;
     }
 
     /// At an exact period boundary of `sim` (`rec` the period that just ended): record the
@@ -402,11 +400,7 @@ impl Envelope {
         };
         // The stage's latest multiplier tells how near (the search takes a fresh one); before
         // the stage has one, a drift this small is worth one (a NaN drift fails the test too).
-        let mu_known = if self.multiplier_seen {
-            self.multiplier
-        } else {
-            0.0
-        };
+        let mu_known = self.multiplier.unwrap_or(0.0);
         let near = drift < STEADY_NEAR * (1.0 - mu_known).max(0.0);
         if !near {
             return Ok(None);
@@ -414,7 +408,8 @@ impl Envelope {
         let found = self.shoot(sim, y, k)?;
         let tol = self.settings.tol;
         let accepted = found.and_then(|(z, dist)| {
-            let mu = self.multiplier;
+            // The fresh Jacobian's (shoot takes one before it returns a point).
+            let mu = self.multiplier.unwrap_or(1.0);
             let periods = (far - k) as f64;
             let transient = dist * mu.powf(periods);
             (dist <= STEADY_NEAR && transient <= 0.01 * tol).then_some(z)
@@ -443,16 +438,13 @@ impl Envelope {
         let mut z = start;
         // A fresh Jacobian at y: the multiplier bounds the transient the jump leaves out, so
         // it must be the one here, not one from an earlier stretch of the run.
-        let g0 = match self.fresh_jacobian(sim, &z, k, y)? {
-            Fresh::Map(g0) => g0,
+        let (g0, jac) = match self.fresh_jacobian(sim, &z, k, y)? {
+            Fresh::Map(g0, jac) => (g0, jac),
             Fresh::NotSmooth => {
                 self.jac = None;
                 return Ok(None);
             }
             Fresh::AtLimit => return Ok(None),
-        };
-        let Some(jac) = self.jac else {
-            return Ok(None);
         };
         let mut g_known = Some(g0);
         for _ in 0..MAX_NEWTON {
@@ -615,7 +607,7 @@ impl Envelope {
             let mut g_known = None;
             if self.jac.is_none() {
                 match self.fresh_jacobian(sim, &z, k, y)? {
-                    Fresh::Map(g0) => g_known = Some(g0),
+                    Fresh::Map(g0, _) => g_known = Some(g0),
                     Fresh::NotSmooth => return Ok(self.refuse()),
                     Fresh::AtLimit => return Ok(None),
                 }
@@ -686,15 +678,15 @@ impl Envelope {
         let Some((jac, g0)) = self.jacobian(sim, z, k, y)? else {
             return Ok(Fresh::NotSmooth);
         };
-        self.multiplier = slow_multiplier(&jac);
-        self.multiplier_seen = true;
-        if self.multiplier >= self.settings.max_multiplier {
+        let mu = slow_multiplier(&jac);
+        self.multiplier = Some(mu);
+        if mu >= self.settings.max_multiplier {
             self.multiplier_at_limit();
             return Ok(Fresh::AtLimit);
         }
         self.jac = Some(jac);
         self.jac_age = 0;
-        Ok(Fresh::Map(g0))
+        Ok(Fresh::Map(g0, jac))
     }
 
     /// The largest multiplier reached its limit: perturbations stop decaying and the envelope's
@@ -730,7 +722,8 @@ impl Envelope {
     /// 1/(1 − μ) periods, so the errors of the jumps within that memory add up: a jump may use
     /// m (1 − μ) of the tolerance (at most all of it), which keeps their sum near the tolerance.
     fn memory_share(&self, m: u64) -> f64 {
-        (m as f64 * (1.0 - self.multiplier)).clamp(1e-3, 1.0)
+        // Only after a Jacobian of the stage (the BDF takes one before its first step).
+        (m as f64 * (1.0 - self.multiplier.unwrap_or(1.0))).clamp(1e-3, 1.0)
     }
 
     /// A refused step: try a quarter of the skip.

@@ -203,6 +203,19 @@ struct Fsal {
 }
 
 impl Fsal {
+    /// The rates and integrands at `y`.
+    fn at(y: &State, rates: dp8::Rates, fq: [f64; NQ]) -> Self {
+        Self {
+            t: y.t,
+            x: y.x,
+            v: y.v,
+            a: y.a,
+            contact: y.contact,
+            rates,
+            fq,
+        }
+    }
+
     /// True for the very state the rates belong to (an identity test, hence bitwise; the time
     /// to a few ulp, as a step's end time is recomputed).
     fn belongs_to(&self, y: &State) -> bool {
@@ -254,15 +267,7 @@ impl Stepper for Dp8 {
             _ => {
                 extra = 1;
                 match dp8::rates_at(model, drive, y) {
-                    Ok((rates, fq)) => Fsal {
-                        t: y.t,
-                        x: y.x,
-                        v: y.v,
-                        a: y.a,
-                        contact: y.contact,
-                        rates,
-                        fq,
-                    },
+                    Ok((rates, fq)) => Fsal::at(y, rates, fq),
                     Err(e) => {
                         *evals += extra;
                         return Err(e);
@@ -281,15 +286,7 @@ impl Stepper for Dp8 {
         match result {
             Ok((mut o, rates, fq)) => {
                 o.evals += extra;
-                self.fsal = Some(Fsal {
-                    t: o.y.t,
-                    x: o.y.x,
-                    v: o.y.v,
-                    a: o.y.a,
-                    contact: o.y.contact,
-                    rates,
-                    fq,
-                });
+                self.fsal = Some(Fsal::at(&o.y, rates, fq));
                 Ok(o)
             }
             Err(e) => {
