@@ -122,7 +122,6 @@ impl Streaming {
         (csv, compress): (bool, bool),
         model: Option<Model>,
     ) -> Result<Self, OutputError> {
-        let empty = Rows::new();
         let h5_file = AtomicFile::reserve(&dir.join(HDF5_NAME), run_id);
         let h5 = H5Stream::create(h5_file.partial(), scenario, run_id, compress)?;
         let mut st = Streaming {
@@ -135,10 +134,11 @@ impl Streaming {
             model,
         };
         if csv {
+            // The schemas of the stream's own (empty) tables.
             let schemas = [
-                empty.series.table().schema(),
-                empty.events.schema(),
-                empty.cycles.schema(),
+                st.buf.table().schema(),
+                st.events.schema(),
+                st.cycles.schema(),
             ];
             for (name, schema) in CSV_NAMES.into_iter().zip(schemas) {
                 let file = AtomicFile::reserve(&dir.join(name), run_id);
