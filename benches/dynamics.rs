@@ -16,12 +16,15 @@
 //!   (`catalogue::Bundled::PaperProtocol300`; issue 3 target: ≤ 2 s).
 //! - `peer_vib400_rtol1e-7/auto`: the compiled peer's benchmark scene
 //!   (`benches/scenes/vib400.toml`) at rtol 1e-7, where djkr's error is below the peer's at
-//!   1e-8; with `one_rhs_dp8` it gives the integration's overhead over its RHS work.
+//!   1e-8; with `one_rhs_dp8` it gives the integration's overhead over its RHS work (measured
+//!   in pairs, robust to a noisy machine, by `benches/overhead.rs`).
 //!
 //! Every scene but the peer's comes from `djkr::catalogue`, the scenes the tests prove correct.
 //!
 //! `cargo bench --bench dynamics`; each benchmark prints its `Stats` once (steps, rhs), so
 //! wall / (rhs × one_rhs) can be formed.
+mod common;
+
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::catalogue::{hold_400hz_1s, vibrating_hold, Bundled};
 use djkr::dynamics::model::{resolve, Drive};
@@ -95,29 +98,8 @@ fn bench(c: &mut Criterion) {
     });
 
     // One DP8 stage evaluation, in contact and healing (G < w0), with its quadrature sum.
-    let phase0 = drive.phase(&model, 1e-4);
-    let a0 = 1.2e-3;
-    let d0 = djkr::jkr::equilibrium_indentation(&model.mat, a0, model.w0);
-    g.bench_function("one_rhs_dp8", |b| {
-        let mut qacc = [0.0; djkr::dynamics::model::NQ];
-        let mut dt = 0.0;
-        b.iter(|| {
-            dt += 1e-12;
-            let kin = drive.at_advanced(&model, 1e-4 + dt, phase0, black_box(dt));
-            let r = djkr::dynamics::dp8::rates(
-                &model,
-                &kin,
-                black_box(d0 - kin.xb + 1e-7),
-                0.01,
-                a0,
-                true,
-                0.3,
-                &mut qacc,
-                false,
-            );
-            black_box(r.map(|r| r.fa))
-        })
-    });
+    let mut one = common::OneRhs::new();
+    g.bench_function("one_rhs_dp8", |b| b.iter(|| black_box(one.call())));
 
     // One base period (400 Hz) of the 5 µm hold.
     for (name, m) in [("implicit", Method::Implicit), ("dp8", Method::Dp8)] {
