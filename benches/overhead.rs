@@ -34,12 +34,11 @@ fn main() {
     let (mut run, mut rhs, mut ratio) = (vec![], vec![], vec![]);
     for _ in 0..rounds {
         let t = Instant::now();
-        black_box(
+        let _ = black_box(
             black_box(&s)
                 .simulate(&mut NoObserver)
                 .map(|r| r.stats.steps),
-        )
-        .ok();
+        );
         let tr = t.elapsed().as_secs_f64();
         let t = Instant::now();
         for _ in 0..evals {

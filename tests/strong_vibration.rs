@@ -170,7 +170,7 @@ fn envelope_following_matches_direct_integration() {
         let skipped = 1.0 - ce.len() as f64 / cd.len() as f64;
         assert!(skipped >= min_skipped, "{name}: skipped {skipped}");
         // Where it can skip little, its trial periods must not cost much more than they save
-        // (measured 1.02–1.03; 1.13–1.18 when every run of attempts was retried after 16
+        // (measured 1.02–1.03; 1.19–1.25 when every run of attempts was retried after 16
         // periods whether it had paid or not).
         let cost = re.stats.rhs_evals as f64 / rd.stats.rhs_evals as f64;
         println!("{name}: envelope/direct evaluations {cost:.4}, skipped {skipped:.4}");

@@ -85,13 +85,13 @@
 //! with a fresh Jacobian, and jumps to the stage's end when the last correction is below 1/100
 //! of the tolerance, the run's state within 1e-3 of z* (the map is linear on the way), and the
 //! transient left after the jump, μ^M |y − z*| over its M periods, below 1/100 of the
-//! tolerance. The fixed point is looked for at every boundary, also while
-//! the BDF cools down after a refused step (the drift test is its own guard); a failed search
-//! waits 16, 32, 64, … periods before the next. On that scene it jumps from period 95 to 398 at
-//! rtol 1e-7: a(1 s) within 1e-13 of the jump from period 104 that waited for the BDF's cooldown
-//! to end (27 k evaluations), and within 5e-9 of direct integration of every period (90 k);
-//! 22.6 k evaluations, where walking to the orbit with the BDF took 41 k and 73 k with trial
-//! periods in the ring-up (above).
+//! tolerance. The fixed point is looked for at every boundary, also while the BDF cools down
+//! after a refused step (the drift test is its own guard); a failed search waits 16, 32, 64, …
+//! periods before the next. On that scene it jumps from period 95 to 398 at rtol 1e-7: a(1 s)
+//! within 5e-14 of the jump from period 96 screened by the last Jacobian's μ (25 k
+//! evaluations), and within 5e-9 of direct integration of every period (90 k); 22.6 k
+//! evaluations, where walking to the orbit with the BDF took 41 k and 73 k with trial periods
+//! in the ring-up (above).
 //!
 //! # What is not produced for skipped periods
 //! The periods jumped over have no time-series samples and no period records; the record
@@ -460,13 +460,12 @@ impl Envelope {
     ///
     /// Tried only where the drift per period, divided by 1 − r (r the factor it shrinks by per
     /// period, [`Envelope::drift_decay`]: the distance to the fixed point of a linear
-    /// contraction), is below [`STEADY_NEAR`]. Accepted
-    /// when the last Newton correction is below 1/100 of the tolerance (z is then z* to the
-    /// trial periods' accuracy), y is within [`STEADY_NEAR`] of z* (the linearisation, and the
-    /// multiplier μ of the fresh Jacobian at y, hold on the way), and the transient μ^M |y − z*|
-    /// left over the M = far − k periods of the jump is below 1/100 of the tolerance: every
-    /// later boundary of the stage is z* within the tolerance, so none of them needs
-    /// integrating. It is looked for at every boundary (also while the BDF cools down); a failed
+    /// contraction), is below [`STEADY_NEAR`]. Accepted when the last Newton correction is
+    /// below 1/100 of the tolerance (z is then z* to the trial periods' accuracy), y is within
+    /// [`STEADY_NEAR`] of z* (the linearisation, and the multiplier μ of the fresh Jacobian at
+    /// y, hold on the way), and the transient μ^M |y − z*| left over the M = far − k periods of
+    /// the jump is below 1/100 of the tolerance: every later boundary of the stage is z* within
+    /// the tolerance, so none of them needs integrating. It is looked for at every boundary (also while the BDF cools down); a failed
     /// search waits 16, 32, 64, … periods before the next.
     fn steady_state(
         &mut self,
