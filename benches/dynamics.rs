@@ -26,8 +26,7 @@
 mod common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::catalogue::{hold_400hz_1s, vibrating_hold, Bundled};
-use djkr::dynamics::model::{resolve, Drive};
+use djkr::catalogue::{vibrating_hold, Bundled};
 use djkr::dynamics::NoObserver;
 use djkr::scenario::{Method, Scenario};
 use std::hint::black_box;
@@ -69,18 +68,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(5));
 
     // One implicit-stage residual with its derivative, as the Newton iteration evaluates it.
-    let s = hold_400hz_1s();
-    let model = match resolve(&s.rig, s.run_scales()) {
-        Ok(m) => m,
-        Err(e) => panic!("catalogue scene does not resolve: {e}"),
-    };
-    let drive = Drive {
-        xk0: 0.0,
-        tk0: 0.0,
-        xk_speed: 0.0,
-        shaker: true,
-        t_on: 0.0,
-    };
+    let (model, drive) = common::hold_model_and_drive();
     let kin = drive.at(&model, 1e-4);
     let (ck, hg) = (1.1e-3, 1e-6);
     g.bench_function("one_rhs", |b| {

@@ -18,21 +18,28 @@ pub struct OneRhs {
     qacc: [f64; NQ],
 }
 
+/// The model of the catalogue's 400 Hz hold (`catalogue::hold_400hz_1s`) and its drive with
+/// the shaker on from t = 0: where the single right-hand sides are timed.
+pub fn hold_model_and_drive() -> (Model, Drive) {
+    let s = hold_400hz_1s();
+    let model = match resolve(&s.rig, s.run_scales()) {
+        Ok(m) => m,
+        Err(e) => panic!("catalogue scene does not resolve: {e}"),
+    };
+    let drive = Drive {
+        xk0: 0.0,
+        tk0: 0.0,
+        xk_speed: 0.0,
+        shaker: true,
+        t_on: 0.0,
+    };
+    (model, drive)
+}
+
 impl OneRhs {
-    /// On the 400 Hz hold of the catalogue (`catalogue::hold_400hz_1s`).
+    /// On the 400 Hz hold of the catalogue ([`hold_model_and_drive`]).
     pub fn new() -> Self {
-        let s = hold_400hz_1s();
-        let model = match resolve(&s.rig, s.run_scales()) {
-            Ok(m) => m,
-            Err(e) => panic!("catalogue scene does not resolve: {e}"),
-        };
-        let drive = Drive {
-            xk0: 0.0,
-            tk0: 0.0,
-            xk_speed: 0.0,
-            shaker: true,
-            t_on: 0.0,
-        };
+        let (model, drive) = hold_model_and_drive();
         let phase0 = drive.phase(&model, 1e-4);
         let a0 = 1.2e-3;
         let d0 = djkr::jkr::equilibrium_indentation(&model.mat, a0, model.w0);
