@@ -1,5 +1,6 @@
-//! What the benchmarks share: one explicit right-hand side as a DP8 stage evaluates it, the
-//! unit of `Stats::rhs_evals` for DP8.
+//! What the benchmarks share: the scene single right-hand sides are timed on (the catalogue's
+//! 400 Hz hold), and one explicit right-hand side as a DP8 stage evaluates it, the unit of
+//! `Stats::rhs_evals` for DP8.
 
 use djkr::catalogue::hold_400hz_1s;
 use djkr::dynamics::model::{resolve, Drive, Model, NQ};
