@@ -34,6 +34,13 @@ pub trait AdhesionLaw {
         invert_by_root(self, g)
     }
 
+    /// The infimum of w over healing speeds (J/m²): at G at or below it the contact heals
+    /// without bound. 0 for the power laws (G ≤ 0); a saturated law's w at its saturation speed;
+    /// a table's smallest w (it is held beyond the last row).
+    fn healing_floor(&self) -> f64 {
+        0.0
+    }
+
     /// The rate factor of the closed forms (eq. 24): w(−v)/w0 − 1, the relative rise of the work
     /// of adhesion when peeling at speed v (m/s; the sign of v is ignored). (v/v0)^n for
     /// Gent–Schultz, 0 for a constant w.
@@ -235,6 +242,10 @@ impl AdhesionLaw for SaturatedGentSchultz {
     fn w0(&self) -> f64 {
         self.base.w0
     }
+    fn healing_floor(&self) -> f64 {
+        // ȧ → ∞ saturates the effective speed at v_sat.
+        self.base.work_of_adhesion(self.v_sat)
+    }
     fn work_of_adhesion(&self, adot: f64) -> f64 {
         let v = adot.abs();
         let v_eff = v / (1.0 + v / self.v_sat);
@@ -387,6 +398,9 @@ impl AdhesionLaw for TabulatedLaw {
     fn w0(&self) -> f64 {
         self.w0
     }
+    fn healing_floor(&self) -> f64 {
+        self.w[self.w.len() - 1]
+    }
     fn work_of_adhesion(&self, adot: f64) -> f64 {
         self.interpolate((adot / self.v_ref).asinh())
     }
@@ -479,6 +493,14 @@ impl AdhesionLaw for Law {
     }
     fn is_rate_independent(&self) -> bool {
         matches!(self, Law::Constant(_))
+    }
+    fn healing_floor(&self) -> f64 {
+        match self {
+            Law::Constant(l) => l.healing_floor(),
+            Law::GentSchultz(l) => l.healing_floor(),
+            Law::Saturated(l) => l.healing_floor(),
+            Law::Tabulated(l) => l.healing_floor(),
+        }
     }
     #[inline]
     fn crack_speed(&self, g: f64) -> f64 {

@@ -12,6 +12,7 @@ use super::model::{self, q, Drive, Kinematics, Mechanics, Model, NQ};
 use super::state::{Knot, State, StepFail, StepOut, Tol};
 use super::stepper::Stepper;
 use super::types::{CycleRecord, EventKind, Sample, SimError, Stats};
+use crate::adhesion::AdhesionLaw;
 use crate::cancel::Cancel;
 use crate::jkr;
 use crate::rig::ContactFormation;
@@ -930,9 +931,53 @@ impl Simulator {
             return Ok(Some(self.lose_contact(y0)));
         }
         if h_new <= self.h_min() {
+            if self.heal_to_floor(y0) {
+                return Ok(None);
+            }
             return self.fall_back(y0.t, h_new);
         }
         Ok(None)
+    }
+
+    /// A contact whose G is at or below its law's healing floor (a saturated law's w at the
+    /// saturation speed, a table's smallest w; [`AdhesionLaw::healing_floor`]) heals without
+    /// bound: the law has no finite speed there, and the steps collapse on the jump it implies
+    /// (measured: a table held flat beyond its last row, the implicit method's error 3.1 at
+    /// every step length down to 1e-14 s; tests/scenarios/fuzz-found). The edge moves as fast
+    /// as it must, so the radius jumps to where G is back on the floor: a root of
+    /// G(a, δ) = floor (1 + 1e-9) at the current δ, nearest to the current radius. True when the
+    /// state moved (the attempt is then retried from it).
+    fn heal_to_floor(&mut self, y0: &State) -> bool {
+        let floor = self.model.law.healing_floor();
+        if !y0.contact || floor <= 0.0 {
+            return false;
+        }
+        let kin = self.kin(y0.t);
+        let delta = y0.x + kin.xb;
+        let target = floor * (1.0 + 1e-9);
+        let f = |a: f64| self.model.signed_g(a, delta) - target;
+        if f(y0.a) > floor * 1e-6 {
+            return false;
+        }
+        // The nearest sign change in either direction, widening geometrically.
+        let bracket = (0..64).find_map(|k| {
+            let d = 1e-12 * 2f64.powi(k);
+            [y0.a * (1.0 + d), y0.a * (1.0 - d)]
+                .into_iter()
+                .find(|&a| a > 0.0 && f(a) > 0.0)
+        });
+        let Some(good) = bracket else {
+            return false;
+        };
+        // The root's side where G is on the floor or above.
+        let good = if good > y0.a {
+            crate::numerics::bisect(y0.a, good, 0.0, |a| f(a) <= 0.0).1
+        } else {
+            crate::numerics::bisect(good, y0.a, 0.0, |a| f(a) > 0.0).0
+        };
+        self.y.a = good;
+        self.refresh();
+        true
     }
 
     /// The earliest event within the accepted step y0 → y1, located; the state moves to it.
