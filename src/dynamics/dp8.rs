@@ -337,6 +337,10 @@ pub fn rates(
     })
 }
 
+/// Exponent of DP8's step-size controller, 1/(p̂ + 1) for its 7th-order error estimate (the
+/// combined 5th/3rd-order estimate behaves as one of order 7).
+pub const ERR_EXP: f64 = 0.125;
+
 /// Stage indices in increasing order of their nodes C.
 const BY_NODE: [usize; 12] = [0, 1, 2, 3, 6, 4, 7, 5, 9, 8, 10, 11];
 
@@ -490,7 +494,7 @@ pub fn step(
             },
             err,
             evals,
-            err_exp: 0.125,
+            err_exp: ERR_EXP,
             kink,
             kink_ahead,
         },

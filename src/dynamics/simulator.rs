@@ -322,7 +322,7 @@ impl Simulator {
         }
         settings.max_wall_s = wall_left;
         let mut trial = Simulator {
-            control: StepControl::new(self.control.h),
+            control: self.control.for_trial(tol_factor),
             model: self.model.clone(),
             drive: self.drive,
             stepper: self.stepper.fresh(),
@@ -389,6 +389,7 @@ impl Simulator {
     pub fn reset(&mut self, y: State, drive: Drive) {
         self.y = y;
         self.drive = drive;
+        self.control.forget_periods();
         self.collapse_at = None;
         self.kick_pending = false;
         self.cycles.off_pending = false;
@@ -446,6 +447,7 @@ impl Simulator {
     fn switch_on(&mut self) {
         self.drive.shaker = true;
         self.drive.t_on = self.y.t;
+        self.control.forget_periods();
         self.start_cycles();
     }
 
@@ -457,6 +459,7 @@ impl Simulator {
             self.refresh();
             return None;
         }
+        self.control.next_period();
         Some(self.record_cycle())
     }
 
@@ -624,6 +627,15 @@ impl Simulator {
             }
         }
         Ok(())
+    }
+
+    /// The time since the start of the current base period at `t` (s), while the shaker runs
+    /// steadily (`None` otherwise): where step control looks up the last period's attempts.
+    fn period_offset(&self, t: f64) -> Option<f64> {
+        if !self.vibrating_steadily() {
+            return None;
+        }
+        Some(t - self.boundary_time(self.cycles.index))
     }
 
     fn next_boundary(&self) -> f64 {
@@ -828,9 +840,14 @@ impl Simulator {
             return Ok(self.absorb_sliver(y0.t, t_bound, t_lim, snap));
         }
         let kind = self.stepper.kind();
-        let prop =
-            self.control
-                .propose(y0.t, self.h_max(), kind, self.settings.interpolated_samples);
+        let offset = self.period_offset(y0.t);
+        let prop = self.control.propose(
+            y0.t,
+            self.h_max(),
+            kind,
+            self.settings.interpolated_samples,
+            offset,
+        );
         let mut h = prop.h;
         if y0.contact {
             if let Some(tc) = self.collapse_at {
