@@ -28,7 +28,7 @@
 //! 3 028 451 → 2 927 141; `scenarios/impacts.toml` 1 092 339 → 966 596; the bundled 10 µm
 //! protocols within 0.05 % and the resonance scene unchanged (few rejections to prevent). Not
 //! every rejection goes: an attempt that starts beyond a guard's reach and ends before the next
-//! guard's start is not held (the unit test's model keeps a third of them).
+//! guard's start is not held (the unit test's model keeps about a quarter of them).
 
 use super::dp8;
 use super::stepper::StepperKind;
@@ -104,7 +104,7 @@ impl Guard {
 struct PeriodMemory {
     last: Vec<Guard>,
     current: Vec<Guard>,
-    /// The current period took more than [`MEMORY_ATTEMPTS`] attempts.
+    /// The current period made more than [`MEMORY_ATTEMPTS`] guards.
     overflow: bool,
 }
 

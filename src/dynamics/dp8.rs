@@ -337,8 +337,8 @@ pub fn rates(
     })
 }
 
-/// Exponent of DP8's step-size controller, 1/(p̂ + 1) for its 7th-order error estimate (the
-/// combined 5th/3rd-order estimate behaves as one of order 7).
+/// Exponent of DP8's step-size controller: 1/8, as in Hairer's DOP853, whose combination of
+/// the 5th- and 3rd-order estimates behaves as an O(h⁸) local error.
 pub const ERR_EXP: f64 = 0.125;
 
 /// Stage indices in increasing order of their nodes C.

@@ -956,14 +956,15 @@ impl Simulator {
         Ok(None)
     }
 
-    /// A contact whose G is at or below its law's healing floor (a saturated law's w at the
+    /// A contact whose G is below its law's healing floor (a saturated law's w at the
     /// saturation speed, a table's smallest w; [`AdhesionLaw::healing_floor`]) heals without
     /// bound: the law has no finite speed there, and the steps collapse on the jump it implies
     /// (measured: a table held flat beyond its last row, the implicit method's error 3.1 at
     /// every step length down to 1e-14 s; tests/scenarios/fuzz-found). The edge moves as fast
-    /// as it must, so the radius jumps to where G is back on the floor: a root of
+    /// as it must, so the radius jumps to where G is back above the floor: a root of
     /// G(a, δ) = floor (1 + 1e-9) at the current δ, nearest to the current radius. True when the
-    /// state moved (the attempt is then retried from it).
+    /// state moved (the attempt is then retried from it); a state already on or above the floor
+    /// is left alone, so a collapse there still ends the run with its error, never in a loop.
     fn heal_to_floor(&mut self, y0: &State) -> bool {
         let floor = self.model.law.healing_floor();
         if !y0.contact || floor <= 0.0 {
@@ -972,10 +973,10 @@ impl Simulator {
         let kin = self.kin(y0.t);
         let delta = y0.x + kin.xb;
         let target = floor * (1.0 + 1e-9);
-        let f = |a: f64| self.model.signed_g(a, delta) - target;
-        if f(y0.a) > floor * 1e-6 {
+        if self.model.signed_g(y0.a, delta) >= floor {
             return false;
         }
+        let f = |a: f64| self.model.signed_g(a, delta) - target;
         // The nearest sign change in either direction, widening geometrically.
         let bracket = (0..64).find_map(|k| {
             let d = 1e-12 * 2f64.powi(k);
