@@ -27,14 +27,7 @@ pub fn hold_model_and_drive() -> (Model, Drive) {
         Ok(m) => m,
         Err(e) => panic!("catalogue scene does not resolve: {e}"),
     };
-    let drive = Drive {
-        xk0: 0.0,
-        tk0: 0.0,
-        xk_speed: 0.0,
-        shaker: true,
-        t_on: 0.0,
-    };
-    (model, drive)
+    (model, Drive::held(0.0, true))
 }
 
 impl OneRhs {

@@ -689,13 +689,7 @@ mod tests {
             }),
             Law::Constant(ConstantW { w0: 0.24 }),
         ];
-        let drive = Drive {
-            xk0: 0.0,
-            tk0: 0.0,
-            xk_speed: 0.0,
-            shaker: true,
-            t_on: 0.0,
-        };
+        let drive = Drive::held(0.0, true);
         let mut checked = 0;
         for law in laws {
             let mut sc = base.clone();

@@ -318,6 +318,17 @@ pub struct Kinematics {
 }
 
 impl Drive {
+    /// The spring end held at `xk` (m), and the shaker on since t = 0 when `shaker`.
+    pub fn held(xk: f64, shaker: bool) -> Self {
+        Self {
+            xk0: xk,
+            tk0: 0.0,
+            xk_speed: 0.0,
+            shaker,
+            t_on: 0.0,
+        }
+    }
+
     /// Spring-end position at t.
     #[inline]
     pub fn x_k(&self, t: f64) -> f64 {

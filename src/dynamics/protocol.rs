@@ -259,14 +259,7 @@ pub fn initial_state(rig: &Rig, initial: &Initial, m: &Model) -> Result<(State, 
             };
         }
     }
-    let drive = Drive {
-        xk0: xk,
-        tk0: 0.0,
-        xk_speed: 0.0,
-        shaker: false,
-        t_on: 0.0,
-    };
-    Ok((y, drive))
+    Ok((y, Drive::held(xk, false)))
 }
 
 /// A protocol run in progress.
