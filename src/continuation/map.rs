@@ -141,7 +141,7 @@ pub fn period(setup: &Setup, y: [f64; 3], rtol: f64) -> Result<Period, MapFail> 
             return Ok(Period {
                 start,
                 end: [s.x_s, s.v_s, s.a],
-                record,
+                record: *record,
                 events,
                 length: setup.period(),
                 steps,

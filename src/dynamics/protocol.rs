@@ -501,7 +501,7 @@ impl Protocol<'_> {
                         self.max_radius = self.max_radius.max(seg.y1.a);
                     }
                     if let Some(rec) = period {
-                        self.record_cycle(rec);
+                        self.record_cycle(*rec);
                         if !reached {
                             self.follow_envelope(st, &rec)?;
                         }
@@ -542,7 +542,7 @@ impl Protocol<'_> {
                     }
                 }
                 Stop::Period(rec) => {
-                    self.record_cycle(rec);
+                    self.record_cycle(*rec);
                     self.follow_envelope(st, &rec)?;
                 }
                 Stop::Reached => return self.stage_end(idx, st, is_duration),

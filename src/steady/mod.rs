@@ -547,7 +547,7 @@ impl Problem {
             };
             if let Some(rec) = period {
                 run.periods += 1;
-                run.last = Some(rec);
+                run.last = Some(*rec);
                 let end = sim.sample_of(sim.state(), 0);
                 if !watch(&end, &rec) {
                     run.end = end;
