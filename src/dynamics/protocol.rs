@@ -262,6 +262,29 @@ pub fn initial_state(rig: &Rig, initial: &Initial, m: &Model) -> Result<(State, 
     Ok((y, Drive::held(xk, false)))
 }
 
+/// The samples of `seg` for (y0.t, y1.t]: on the grid `next_sample` + k `sample_dt` (advanced
+/// past them), or the step's end alone without a grid (`sample_dt` = 0).
+fn step_samples(seg: &Segment, stage: usize, next_sample: &mut f64, sample_dt: f64) -> StepSamples {
+    let mut step = StepSamples {
+        k0: Knot::from(&seg.y0),
+        k1: Knot::from(&seg.y1),
+        drive: seg.drive,
+        stage,
+        t_first: *next_sample,
+        dt: sample_dt.max(0.0),
+        n: 0,
+    };
+    if step.dt == 0.0 {
+        step.n = 1;
+    } else {
+        while *next_sample <= seg.y1.t {
+            step.n += 1;
+            *next_sample += sample_dt;
+        }
+    }
+    step
+}
+
 /// A protocol run in progress.
 struct Protocol<'a> {
     sim: Simulator,
@@ -323,26 +346,36 @@ impl Protocol<'_> {
         if self.stopped || !self.wants_samples {
             return;
         }
-        let mut step = StepSamples {
-            k0: Knot::from(&seg.y0),
-            k1: Knot::from(&seg.y1),
-            drive: seg.drive,
-            stage: self.stage,
-            t_first: self.next_sample,
-            dt: self.sample_dt.max(0.0),
-            n: 0,
-        };
-        if step.dt == 0.0 {
-            step.n = 1;
-        } else {
-            while self.next_sample <= seg.y1.t {
-                step.n += 1;
-                self.next_sample += self.sample_dt;
-            }
+        let step = step_samples(seg, self.stage, &mut self.next_sample, self.sample_dt);
+        self.emit(&step);
+    }
+
+    /// [`Protocol::output`] of the step just taken, read in place (two states, 470 bytes).
+    fn output_step(&mut self) {
+        if self.stopped || !self.wants_samples {
+            return;
         }
-        if step.n > 0 && !self.obs.step_samples(self.sim.model(), &step) {
+        let Some(seg) = self.sim.segment() else {
+            return;
+        };
+        let step = step_samples(seg, self.stage, &mut self.next_sample, self.sample_dt);
+        self.emit(&step);
+    }
+
+    fn emit(&mut self, step: &StepSamples) {
+        if step.n > 0 && !self.obs.step_samples(self.sim.model(), step) {
             self.stopped = true;
         }
+    }
+
+    /// What the protocol keeps of the step just taken: the largest radius, its samples and the
+    /// most tensile force.
+    fn after_step(&mut self) {
+        if let Some(seg) = self.sim.segment() {
+            self.max_radius = self.max_radius.max(seg.y1.a);
+        }
+        self.output_step();
+        self.track_force();
     }
 
     fn record_cycle(&mut self, rec: CycleRecord) {
@@ -356,11 +389,12 @@ impl Protocol<'_> {
 
     /// Track the most tensile instantaneous force while the shaker is off, refining an interior
     /// minimum over the step's interpolant, then (if it may beat the record) by exact re-stepping.
-    fn track_force(&mut self, seg: &Segment) {
+    fn track_force(&mut self) {
+        let seg = match self.sim.segment() {
+            Some(seg) if !seg.drive.shaker && seg.y0.contact && seg.y1.contact => *seg,
+            _ => return,
+        };
         let (y0, y1) = (&seg.y0, &seg.y1);
-        if seg.drive.shaker || !y1.contact || !y0.contact {
-            return;
-        }
         let sim = &mut self.sim;
         let mut cand = vec![(sim.force_of(y1), y1.t)];
         if self.min_force.is_none() {
@@ -495,11 +529,7 @@ impl Protocol<'_> {
             }
             match self.sim.step()? {
                 Stop::Step { period, reached } => {
-                    if let Some(seg) = self.sim.segment() {
-                        self.output(&seg);
-                        self.track_force(&seg);
-                        self.max_radius = self.max_radius.max(seg.y1.a);
-                    }
+                    self.after_step();
                     if let Some(rec) = period {
                         self.record_cycle(*rec);
                         if !reached {
@@ -513,20 +543,12 @@ impl Protocol<'_> {
                         return self.stage_end(idx, st, is_duration);
                     }
                 }
-                Stop::Kick => {
-                    if let Some(seg) = self.sim.segment() {
-                        self.output(&seg);
-                    }
-                }
+                Stop::Kick => self.output_step(),
                 Stop::Event(kind, ye) => {
                     if let Some(e) = self.envelope.as_mut() {
                         e.forget();
                     }
-                    if let Some(seg) = self.sim.segment() {
-                        self.output(&seg);
-                        self.track_force(&seg);
-                        self.max_radius = self.max_radius.max(seg.y1.a);
-                    }
+                    self.after_step();
                     self.event(kind, &ye);
                     match kind {
                         EventKind::ContactLoss => {

@@ -223,8 +223,8 @@ impl Simulator {
     }
 
     /// The step behind the last [`Stop::Step`], [`Stop::Kick`] or [`Stop::Event`].
-    pub fn segment(&self) -> Option<Segment> {
-        self.segment
+    pub fn segment(&self) -> Option<&Segment> {
+        self.segment.as_ref()
     }
 
     /// Label what follows with stage index `stage` (samples in errors, period records).
@@ -891,10 +891,12 @@ impl Simulator {
             hits || prop.shortened,
             out.kink_ahead,
         );
-        let mut y1 = out.y;
+        // The step's end is read in place (the state with its quadratures is 192 bytes).
+        let mut out = out;
         if hits {
-            y1.t = t_lim;
+            out.y.t = t_lim;
         }
+        let y1 = &out.y;
         self.stats.steps += 1;
         if let Some(stop) = self.event_in_step(&y0, y1, h) {
             return Ok(Some(stop));
@@ -905,13 +907,14 @@ impl Simulator {
                 state: self.err_state(),
             });
         }
+        let heals = y1.adot >= 0.0;
+        self.y = out.y;
         self.segment = Some(Segment {
             y0,
-            y1,
+            y1: out.y,
             drive: self.drive,
         });
-        self.y = y1;
-        if y1.adot >= 0.0 {
+        if heals {
             // The contact heals: a collapse predicted while it shrank did not happen. (A DP8
             // stage leaving the domain across a turning point of the contact line looks like a
             // collapse; kept, the prediction halved every later step until the step size
@@ -1006,7 +1009,7 @@ impl Simulator {
     }
 
     /// The earliest event within the accepted step y0 → y1, located; the state moves to it.
-    fn event_in_step(&mut self, y0: &State, y1: State, h: f64) -> Option<Stop> {
+    fn event_in_step(&mut self, y0: &State, y1: &State, h: f64) -> Option<Stop> {
         let watches: [Option<Watch>; 2] = if y0.contact {
             [Some(Watch::Loss), self.preload.map(Watch::Preload)]
         } else {
@@ -1014,9 +1017,9 @@ impl Simulator {
         };
         let mut first: Option<(Watch, State)> = None;
         for w in watches.into_iter().flatten() {
-            let (g0, g1) = (self.watch_value(w, y0), self.watch_value(w, &y1));
+            let (g0, g1) = (self.watch_value(w, y0), self.watch_value(w, y1));
             if w.crossed(g0, g1) {
-                let ye = self.locate(w, y0, Some(y1), h);
+                let ye = self.locate(w, y0, Some(*y1), h);
                 if first.as_ref().is_none_or(|(_, f)| ye.t < f.t) {
                     first = Some((w, ye));
                 }

@@ -262,12 +262,13 @@ impl Stepper for Dp8 {
         evals: &mut u64,
     ) -> Result<StepOut, StepFail> {
         let mut extra = 0;
-        let start = match self.fsal.take() {
+        // The rates at y stay in place (not moved out and back: 240 bytes).
+        let start = match &self.fsal {
             Some(c) if c.belongs_to(y) => c,
             _ => {
                 extra = 1;
                 match dp8::rates_at(model, drive, y) {
-                    Ok((rates, fq)) => Fsal::at(y, rates, fq),
+                    Ok((rates, fq)) => self.fsal.insert(Fsal::at(y, rates, fq)),
                     Err(e) => {
                         *evals += extra;
                         return Err(e);
@@ -290,8 +291,8 @@ impl Stepper for Dp8 {
                 Ok(o)
             }
             Err(e) => {
-                // A failed attempt is retried from the same state with a shorter step.
-                self.fsal = Some(start);
+                // A failed attempt is retried from the same state with a shorter step (the
+                // rates at y are kept).
                 *evals += extra;
                 Err(e)
             }
