@@ -552,8 +552,13 @@ fn dp8_fixed_step_order_is_eight() {
     use djkr::dynamics::dp8::{rates_at, step};
     let (p1, p2) = ramp_oscillator_orders(-1e-3, 10, |model, drive, mut y, h, n| {
         let (mut k, mut fq) = rates_at(model, drive, &y).unwrap();
+        let mut o = djkr::dynamics::state::StepOut::default();
         for _ in 0..n {
-            let (o, k1, fq1) = step(model, drive, &y, &k, &fq, h, NO_CONTROL).unwrap();
+            let (mut k1, mut fq1) = (k, fq);
+            step(
+                model, drive, &y, &k, &fq, h, NO_CONTROL, &mut o, &mut k1, &mut fq1,
+            )
+            .unwrap();
             (y, k, fq) = (o.y, k1, fq1);
         }
         y

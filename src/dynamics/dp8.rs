@@ -233,7 +233,7 @@ const E5: [f64; 12] = [
 /// The derivatives at one point: ẋ_s, v̇_s, ȧ, G, and (for the reduced mechanics, where x_s and
 /// v_s follow from a) the positions. The quadrature integrands are accumulated by [`rates`]
 /// directly into the caller's weighted sum, so the stages stay small.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct Rates {
     /// ẋ_s (m/s).
     pub fx: f64,
@@ -415,8 +415,10 @@ pub fn rates_at(model: &Model, drive: &Drive, y: &State) -> Result<(Rates, [f64;
 }
 
 /// One DOP853 step of size h from y. `k1`, `fq1` are the rates and quadrature integrands at y
-/// (from the previous step's last evaluation, or [`rates_at`]). Returns the step and the rates
-/// and integrands at its end.
+/// (from the previous step's last evaluation, or [`rates_at`]). The step goes to `out` and the
+/// rates and integrands at its end to `k_end`, `fq_end` (written in place: returned, the three
+/// were 440 bytes to move through every attempt); on an error their contents are unspecified.
+#[allow(clippy::too_many_arguments)]
 pub fn step(
     model: &Model,
     drive: &Drive,
@@ -425,7 +427,10 @@ pub fn step(
     fq1: &[f64; NQ],
     h: f64,
     tol: Tol,
-) -> Result<(StepOut, Rates, [f64; NQ]), StepFail> {
+    out: &mut StepOut,
+    k_end: &mut Rates,
+    fq_end: &mut [f64; NQ],
+) -> Result<(), StepFail> {
     let mut k = [*k1; 12];
     let mut evals = 0u64;
     let mut qacc: [f64; NQ] = std::array::from_fn(|i| B[0] * fq1[i]);
@@ -476,31 +481,28 @@ pub fn step(
     }
     // First same as last: the rates at the end state.
     evals += 1;
-    let mut fq_end = [0.0; NQ];
+    *fq_end = [0.0; NQ];
     let kin = drive.at_advanced(model, y.t + h, phase0, h);
-    let k_end = rates(model, &kin, x1, v1, a1, y.contact, 1.0, &mut fq_end, true)?;
-    let (kink, kink_ahead) = turning_points(model, y, h, k1, &k_end, &k);
-    Ok((
-        StepOut {
-            y: State {
-                t: y.t + h,
-                x: k_end.x,
-                v: k_end.v,
-                acc: k_end.fv,
-                a: a1,
-                adot: k_end.fa,
-                contact: y.contact,
-                q,
-            },
-            err,
-            evals,
-            err_exp: ERR_EXP,
-            kink,
-            kink_ahead,
+    *k_end = rates(model, &kin, x1, v1, a1, y.contact, 1.0, fq_end, true)?;
+    let (kink, kink_ahead) = turning_points(model, y, h, k1, k_end, &k);
+    *out = StepOut {
+        y: State {
+            t: y.t + h,
+            x: k_end.x,
+            v: k_end.v,
+            acc: k_end.fv,
+            a: a1,
+            adot: k_end.fa,
+            contact: y.contact,
+            q,
         },
-        k_end,
-        fq_end,
-    ))
+        err,
+        evals,
+        err_exp: ERR_EXP,
+        kink,
+        kink_ahead,
+    };
+    Ok(())
 }
 
 /// The step's error: the implicit stepper's per-component scales, with Hairer's combination

@@ -126,6 +126,8 @@ pub struct Simulator {
     /// A contact just formed and awaits its backward-Euler kick.
     kick_pending: bool,
     segment: Option<Segment>,
+    /// The last step attempt, written in place by the stepper.
+    out: StepOut,
     /// Stage index reported in samples, records and errors.
     stage: usize,
     /// Units of work done (attempts and events), for the wall-clock cadence.
@@ -174,6 +176,7 @@ impl Simulator {
             collapse_at: None,
             kick_pending: false,
             segment: None,
+            out: StepOut::default(),
             stage: 0,
             work: 0,
             events: 0,
@@ -347,6 +350,7 @@ impl Simulator {
             collapse_at: None,
             kick_pending: false,
             segment: None,
+            out: StepOut::default(),
             stage: self.stage,
             work: 0,
             events: 0,
@@ -526,7 +530,7 @@ impl Simulator {
     /// when it fails.
     pub fn trial(&mut self, y: &State, h: f64) -> Option<State> {
         match self.try_step(y, h) {
-            Ok(Some(o)) => Some(o.y),
+            Ok(true) => Some(self.out.y),
             _ => None,
         }
     }
@@ -716,8 +720,9 @@ impl Simulator {
         rec
     }
 
-    /// Try a step; `Ok(None)` for a failed stage solve (counted as 12 evaluations).
-    fn try_step(&mut self, y: &State, h: f64) -> Result<Option<StepOut>, StepFail> {
+    /// Try a step into `self.out`; `Ok(false)` for a failed stage solve (counted as 12
+    /// evaluations).
+    fn try_step(&mut self, y: &State, h: f64) -> Result<bool, StepFail> {
         let mut extra = 0;
         let r = self.stepper.attempt(
             &self.model,
@@ -726,16 +731,17 @@ impl Simulator {
             h,
             self.settings.tol,
             &mut extra,
+            &mut self.out,
         );
         self.stats.rhs_evals += extra;
         match r {
-            Ok(o) => {
-                self.stats.rhs_evals += o.evals;
-                Ok(Some(o))
+            Ok(()) => {
+                self.stats.rhs_evals += self.out.evals;
+                Ok(true)
             }
             Err(StepFail::NoRoot) => {
                 self.stats.rhs_evals += 12;
-                Ok(None)
+                Ok(false)
             }
             Err(e) => Err(e),
         }
@@ -869,38 +875,37 @@ impl Simulator {
             h = t_lim - y0.t;
             hits = true;
         }
-        let out = match self.try_step(&y0, h) {
-            Ok(Some(o)) => o,
-            Ok(None) => return self.no_root(&y0, h),
+        match self.try_step(&y0, h) {
+            Ok(true) => {}
+            Ok(false) => return self.no_root(&y0, h),
             Err(e) => return self.failed(&y0, h, e),
-        };
-        if self
-            .control
-            .redo_at_turning_point(out.kink, h, self.h_min())
-        {
+        }
+        // The attempt is read where the stepper wrote it (the state with its quadratures is
+        // 192 bytes).
+        let StepOut {
+            err,
+            err_exp,
+            kink,
+            kink_ahead,
+            ..
+        } = self.out;
+        if self.control.redo_at_turning_point(kink, h, self.h_min()) {
             self.stats.rejected += 1;
             return Ok(None);
         }
-        if out.err > 1.0 {
-            return self.reject_step(&y0, &out, h);
+        if err > 1.0 {
+            return self.reject_step(&y0, err, err_exp, h);
         }
-        self.control.accept(
-            out.err,
-            out.err_exp,
-            h,
-            hits || prop.shortened,
-            out.kink_ahead,
-        );
-        // The step's end is read in place (the state with its quadratures is 192 bytes).
-        let mut out = out;
+        self.control
+            .accept(err, err_exp, h, hits || prop.shortened, kink_ahead);
         if hits {
-            out.y.t = t_lim;
+            self.out.y.t = t_lim;
         }
-        let y1 = &out.y;
         self.stats.steps += 1;
-        if let Some(stop) = self.event_in_step(&y0, y1, h) {
+        if let Some(stop) = self.event_in_step(&y0, h) {
             return Ok(Some(stop));
         }
+        let y1 = &self.out.y;
         if !(y1.x.is_finite() && y1.v.is_finite() && y1.a.is_finite() && y1.a >= 0.0) {
             return Err(SimError::NonFinite {
                 t: y0.t,
@@ -908,10 +913,10 @@ impl Simulator {
             });
         }
         let heals = y1.adot >= 0.0;
-        self.y = out.y;
+        self.y = self.out.y;
         self.segment = Some(Segment {
             y0,
-            y1: out.y,
+            y1: self.out.y,
             drive: self.drive,
         });
         if heals {
@@ -947,11 +952,18 @@ impl Simulator {
         Some(Stop::Reached)
     }
 
-    /// The step y0 → y0 + `h` failed its error test (`out.err` > 1): shrink the step, or lose the
-    /// contact or fall back when it would become too small.
-    fn reject_step(&mut self, y0: &State, out: &StepOut, h: f64) -> Result<Option<Stop>, SimError> {
+    /// The step y0 → y0 + `h` failed its error test (`err` > 1, the controller's exponent
+    /// `err_exp`): shrink the step, or lose the contact or fall back when it would become too
+    /// small.
+    fn reject_step(
+        &mut self,
+        y0: &State,
+        err: f64,
+        err_exp: f64,
+        h: f64,
+    ) -> Result<Option<Stop>, SimError> {
         self.stats.rejected += 1;
-        let h_new = self.control.reject(out.err, out.err_exp, h);
+        let h_new = self.control.reject(err, err_exp, h);
         if y0.contact && y0.adot < 0.0 && h_new <= self.settings.event_tol.max(self.h_min()) {
             // The radius runs into a turning point or a → 0 with unbounded speed faster
             // than the event tolerance resolves: the contact is lost here.
@@ -1008,21 +1020,28 @@ impl Simulator {
         true
     }
 
-    /// The earliest event within the accepted step y0 → y1, located; the state moves to it.
-    fn event_in_step(&mut self, y0: &State, y1: &State, h: f64) -> Option<Stop> {
+    /// The earliest event within the accepted step y0 → y1 (`self.out`), located; the state
+    /// moves to it.
+    fn event_in_step(&mut self, y0: &State, h: f64) -> Option<Stop> {
         let watches: [Option<Watch>; 2] = if y0.contact {
             [Some(Watch::Loss), self.preload.map(Watch::Preload)]
         } else {
             [Some(Watch::Impact), None]
         };
+        // Every crossing is judged on the step's end before locating one (its trial steps
+        // overwrite `self.out`).
+        let crossed = watches.map(|w| {
+            w.filter(|&w| w.crossed(self.watch_value(w, y0), self.watch_value(w, &self.out.y)))
+        });
+        if crossed.iter().all(Option::is_none) {
+            return None;
+        }
+        let y1 = self.out.y;
         let mut first: Option<(Watch, State)> = None;
-        for w in watches.into_iter().flatten() {
-            let (g0, g1) = (self.watch_value(w, y0), self.watch_value(w, y1));
-            if w.crossed(g0, g1) {
-                let ye = self.locate(w, y0, Some(*y1), h);
-                if first.as_ref().is_none_or(|(_, f)| ye.t < f.t) {
-                    first = Some((w, ye));
-                }
+        for w in crossed.into_iter().flatten() {
+            let ye = self.locate(w, y0, Some(y1), h);
+            if first.as_ref().is_none_or(|(_, f)| ye.t < f.t) {
+                first = Some((w, ye));
             }
         }
         let (w, ye) = first?;

@@ -4,7 +4,7 @@
 use super::model::NQ;
 
 /// The integrated state at one time.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct State {
     /// Time (s).
     pub t: f64,
@@ -41,7 +41,7 @@ pub enum StepFail {
 }
 
 /// A completed step attempt.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, Default)]
 pub struct StepOut {
     /// The state at t + h.
     pub y: State,

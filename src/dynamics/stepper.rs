@@ -99,9 +99,12 @@ pub trait Stepper: Send {
     fn name(&self) -> &'static str;
     /// How the simulator sizes its steps.
     fn kind(&self) -> StepperKind;
-    /// Attempt one step of length `h` from `y` under `drive`. `evals` receives the right-hand-side
-    /// evaluations spent beyond those the returned [`StepOut::evals`] counts (e.g. a first stage
-    /// recomputed, or a failed attempt's).
+    /// Attempt one step of length `h` from `y` under `drive`, into `out` (the caller's, written
+    /// in place: the 248-byte result moved out through every attempt showed as 3 % of the
+    /// integration's samples; in place the run is about 1 % faster). `evals` receives the right-hand-side evaluations spent beyond those
+    /// [`StepOut::evals`] counts (e.g. a first stage recomputed, or a failed attempt's). On an
+    /// error `out` is unspecified.
+    #[allow(clippy::too_many_arguments)]
     fn attempt(
         &mut self,
         model: &Model,
@@ -110,7 +113,8 @@ pub trait Stepper: Send {
         h: f64,
         tol: Tol,
         evals: &mut u64,
-    ) -> Result<StepOut, StepFail>;
+        out: &mut StepOut,
+    ) -> Result<(), StepFail>;
     /// Forget what the stepper carries from one step to the next (the drive or the state changed
     /// discontinuously: stage start, contact formed or lost, shaker switched).
     fn reset(&mut self) {}
@@ -168,8 +172,10 @@ impl Stepper for Implicit {
         h: f64,
         tol: Tol,
         _evals: &mut u64,
-    ) -> Result<StepOut, StepFail> {
-        esdirk::step(model, drive, y, h, tol)
+        out: &mut StepOut,
+    ) -> Result<(), StepFail> {
+        *out = esdirk::step(model, drive, y, h, tol)?;
+        Ok(())
     }
 }
 
@@ -177,8 +183,11 @@ impl Stepper for Implicit {
 /// step to the next.
 #[derive(Debug, Default, Clone)]
 pub struct Dp8 {
-    /// The rates at the end of the last step and the state they belong to.
-    fsal: Option<Fsal>,
+    /// Two slots for the rates at a step's ends and the states they belong to: a step reads its
+    /// start from one and writes its end into the other, so they are never moved.
+    fsal: [Fsal; 2],
+    /// The slot holding the rates at the current state, if any.
+    cur: Option<usize>,
     /// Refuse steps in deep healing ([`StepFail::Stiff`]) for a rescue method to take.
     stiffness_switch: bool,
 }
@@ -191,7 +200,7 @@ pub const DP8_STIFFNESS_LIMIT: f64 = 3.0;
 
 /// The rates and quadrature integrands at the end of DP8's last step, with what identifies the
 /// state they belong to (kept small: the cache is written on every step).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 struct Fsal {
     t: f64,
     x: f64,
@@ -203,17 +212,13 @@ struct Fsal {
 }
 
 impl Fsal {
-    /// The rates and integrands at `y`.
-    fn at(y: &State, rates: dp8::Rates, fq: [f64; NQ]) -> Self {
-        Self {
-            t: y.t,
-            x: y.x,
-            v: y.v,
-            a: y.a,
-            contact: y.contact,
-            rates,
-            fq,
-        }
+    /// Label the rates held as those at `y`.
+    fn belong_to(&mut self, y: &State) {
+        self.t = y.t;
+        self.x = y.x;
+        self.v = y.v;
+        self.a = y.a;
+        self.contact = y.contact;
     }
 
     /// True for the very state the rates belong to (an identity test, hence bitwise; the time
@@ -233,8 +238,8 @@ impl Dp8 {
     /// [`StepFail::Stiff`] where |∂ȧ/∂a| h > [`DP8_STIFFNESS_LIMIT`] at the step's start.
     pub fn with_stiffness_switch() -> Self {
         Self {
-            fsal: None,
             stiffness_switch: true,
+            ..Self::default()
         }
     }
 }
@@ -242,8 +247,8 @@ impl Dp8 {
 impl Stepper for Dp8 {
     fn fresh(&self) -> Box<dyn Stepper> {
         Box::new(Dp8 {
-            fsal: None,
             stiffness_switch: self.stiffness_switch,
+            ..Dp8::default()
         })
     }
     fn name(&self) -> &'static str {
@@ -260,21 +265,35 @@ impl Stepper for Dp8 {
         h: f64,
         tol: Tol,
         evals: &mut u64,
-    ) -> Result<StepOut, StepFail> {
+        out: &mut StepOut,
+    ) -> Result<(), StepFail> {
         let mut extra = 0;
-        // The rates at y stay in place (not moved out and back: 240 bytes).
-        let start = match &self.fsal {
-            Some(c) if c.belongs_to(y) => c,
+        let cur = match self.cur {
+            Some(c) if self.fsal[c].belongs_to(y) => c,
             _ => {
                 extra = 1;
                 match dp8::rates_at(model, drive, y) {
-                    Ok((rates, fq)) => self.fsal.insert(Fsal::at(y, rates, fq)),
+                    Ok((rates, fq)) => {
+                        let f = &mut self.fsal[0];
+                        (f.rates, f.fq) = (rates, fq);
+                        f.belong_to(y);
+                        self.cur = Some(0);
+                        0
+                    }
                     Err(e) => {
+                        self.cur = None;
                         *evals += extra;
                         return Err(e);
                     }
                 }
             }
+        };
+        // The step's start from slot `cur`, its end into the other.
+        let (lo, hi) = self.fsal.split_at_mut(1);
+        let (start, end) = if cur == 0 {
+            (&lo[0], &mut hi[0])
+        } else {
+            (&hi[0], &mut lo[0])
         };
         let result = if self.stiffness_switch
             && y.contact
@@ -282,24 +301,36 @@ impl Stepper for Dp8 {
         {
             Err(StepFail::Stiff)
         } else {
-            dp8::step(model, drive, y, &start.rates, &start.fq, h, tol)
+            dp8::step(
+                model,
+                drive,
+                y,
+                &start.rates,
+                &start.fq,
+                h,
+                tol,
+                out,
+                &mut end.rates,
+                &mut end.fq,
+            )
         };
         match result {
-            Ok((mut o, rates, fq)) => {
-                o.evals += extra;
-                self.fsal = Some(Fsal::at(&o.y, rates, fq));
-                Ok(o)
+            Ok(()) => {
+                out.evals += extra;
+                end.belong_to(&out.y);
+                self.cur = Some(1 - cur);
+                Ok(())
             }
             Err(e) => {
                 // A failed attempt is retried from the same state with a shorter step (the
-                // rates at y are kept).
+                // rates at y stay in their slot).
                 *evals += extra;
                 Err(e)
             }
         }
     }
     fn reset(&mut self) {
-        self.fsal = None;
+        self.cur = None;
     }
 }
 
@@ -361,20 +392,21 @@ impl<P: Stepper + Clone + 'static, R: Stepper + Clone + 'static> Stepper for Res
         h: f64,
         tol: Tol,
         evals: &mut u64,
-    ) -> Result<StepOut, StepFail> {
+        out: &mut StepOut,
+    ) -> Result<(), StepFail> {
         if self.forced > 0 {
             self.forced -= 1;
             self.fallbacks += 1;
-            return self.rescue.attempt(model, drive, y, h, tol, evals);
+            return self.rescue.attempt(model, drive, y, h, tol, evals, out);
         }
-        match self.primary.attempt(model, drive, y, h, tol, evals) {
+        match self.primary.attempt(model, drive, y, h, tol, evals, out) {
             Err(StepFail::Singular) => {
                 self.singular += 1;
-                self.rescue.attempt(model, drive, y, h, tol, evals)
+                self.rescue.attempt(model, drive, y, h, tol, evals, out)
             }
             Err(StepFail::Stiff) => {
                 self.stiff += 1;
-                self.rescue.attempt(model, drive, y, h, tol, evals)
+                self.rescue.attempt(model, drive, y, h, tol, evals, out)
             }
             r => r,
         }
@@ -439,10 +471,12 @@ impl Stepper for OdeSolvers {
         h: f64,
         tol: Tol,
         _evals: &mut u64,
-    ) -> Result<StepOut, StepFail> {
+        out: &mut StepOut,
+    ) -> Result<(), StepFail> {
         let (o, hi) = ode_adapter::macro_step(model, drive, y, h, tol, self.method, self.h_inner)?;
         self.h_inner = hi;
-        Ok(o)
+        *out = o;
+        Ok(())
     }
 }
 
