@@ -119,7 +119,7 @@ pub struct Simulator {
     t_end: f64,
     /// The preload whose crossing ends the current stretch (approach stages).
     preload: Option<f64>,
-    /// Largest step (s): 1/8 of a base period and 10 characteristic times.
+    /// The base-period clock and what a period record starts from.
     cycles: Cycles,
     /// A time at which a stage solve found no root (the contact collapses before it).
     collapse_at: Option<f64>,
