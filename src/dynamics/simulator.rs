@@ -653,7 +653,7 @@ impl Simulator {
         if let Some(t) = self.cycles.armed_at {
             t
         } else if self.drive.shaker && self.model.omega > 0.0 {
-            self.drive.t_on + (self.cycles.index + 1) as f64 * 2.0 * PI / self.model.omega
+            self.boundary_time(self.cycles.index + 1)
         } else {
             f64::INFINITY
         }
