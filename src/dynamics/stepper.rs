@@ -213,7 +213,7 @@ struct Fsal {
 
 impl Fsal {
     /// Label the rates held as those at `y`.
-    fn belong_to(&mut self, y: &State) {
+    fn label(&mut self, y: &State) {
         self.t = y.t;
         self.x = y.x;
         self.v = y.v;
@@ -276,7 +276,7 @@ impl Stepper for Dp8 {
                     Ok((rates, fq)) => {
                         let f = &mut self.fsal[0];
                         (f.rates, f.fq) = (rates, fq);
-                        f.belong_to(y);
+                        f.label(y);
                         self.cur = Some(0);
                         0
                     }
@@ -317,7 +317,7 @@ impl Stepper for Dp8 {
         match result {
             Ok(()) => {
                 out.evals += extra;
-                end.belong_to(&out.y);
+                end.label(&out.y);
                 self.cur = Some(1 - cur);
                 Ok(())
             }
