@@ -25,6 +25,11 @@ pub enum EnvelopeMode {
     Off,
 }
 
+/// Default of `solver.max_memory`: 2 GiB.
+pub const DEFAULT_MAX_MEMORY: u64 = 2 << 30;
+/// Smallest `solver.max_memory` accepted: 1 MiB.
+pub const MIN_MAX_MEMORY: u64 = 1 << 20;
+
 /// Solver settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Solver {
@@ -40,6 +45,11 @@ pub struct Solver {
     pub max_wall_s: f64,
     /// Contact events (losses, impacts) for the whole run.
     pub max_events: u64,
+    /// Memory a run may hold in samples, events and period records kept in memory (bytes;
+    /// `solver.max_memory`, default [`DEFAULT_MAX_MEMORY`]). A run whose sample count is known
+    /// up front is refused when its estimate exceeds it; otherwise a run that reaches it stops
+    /// with reason `memory`.
+    pub max_memory: u64,
     /// Event location tolerance in time (s).
     pub event_tol: f64,
     /// Envelope following.
@@ -60,6 +70,7 @@ impl Default for Solver {
             max_steps: 50_000_000,
             max_wall_s: 600.0,
             max_events: 10_000_000,
+            max_memory: DEFAULT_MAX_MEMORY,
             event_tol: 1e-12,
             envelope: EnvelopeMode::Auto,
             envelope_tol: 1e-6,

@@ -28,7 +28,7 @@
 //! | `[contact]` | `formation` = `"jump-in"` (default) or `"seed"` with `seed_radius` (m, 0 < r ≤ jump-in radius) |
 //! | `[initial]` | `preload` (N, > 0) or `gap` (m, > 0); absent without a spring: the sphere's weight |
 //! | `[[stage]]` (≥ 1) | `kind`, `speed` (m/s), one of `duration` (s) / `preload` (N) / `until = "pull-off"`, `vibration` (bool), `max_duration` (s, 1e4) |
-//! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `event_tol` (s, > 0) |
+//! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `max_memory` (bytes, ≥ 1 MiB, 2 GiB), `event_tol` (s, > 0) |
 //! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool), `plot` (bool) |
 
 use std::fmt::Display;
@@ -384,6 +384,7 @@ pub const SOLVER_KEYS: &[&str] = &[
     "max_steps",
     "max_events",
     "max_wall_s",
+    "max_memory",
     "event_tol",
     "envelope",
     "envelope_tol",
@@ -1338,6 +1339,25 @@ impl Parser<'_> {
                     &s.key("max_events"),
                     show(v),
                     "must be a whole number >= 1 (contact events)",
+                )
+            })?;
+        }
+        if let Some(v) = s.table.get("max_memory") {
+            let min = crate::dynamics::stepper::MIN_MAX_MEMORY;
+            let ok = match v {
+                Value::Integer(i) if *i >= min as i64 => Some(*i as u64),
+                Value::Float(f)
+                    if f.is_finite() && *f >= min as f64 && f.fract() == 0.0 && *f <= 9.0e15 =>
+                {
+                    Some(*f as u64)
+                }
+                _ => None,
+            };
+            solver.max_memory = ok.ok_or_else(|| {
+                self.value_err(
+                    &s.key("max_memory"),
+                    show(v),
+                    "must be a whole number of bytes >= 1048576 (1 MiB; default 2147483648 = 2 GiB)",
                 )
             })?;
         }

@@ -90,6 +90,7 @@ pub fn key_kind(key: &SetKey) -> Option<KeyKind> {
         ("stage", "preload") => num(D::Force, "N"),
         ("stage", "kind" | "until" | "vibration") => KeyKind::Text,
         ("solver", "rtol" | "atol" | "max_steps" | "max_events" | "envelope_tol") => bare("1"),
+        ("solver", "max_memory") => bare("B"),
         ("solver", "max_wall_s" | "event_tol") => num(D::Time, "s"),
         ("solver", "method" | "envelope") => KeyKind::Text,
         ("output", "sample_rate") => num(D::Frequency, "1/s"),
