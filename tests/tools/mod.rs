@@ -1,0 +1,178 @@
+//! What the tests that check djkr with outside tools (h5py reading the HDF5 files, the `python/`
+//! package's pytest suite, a Slurm cluster) may use, and when they may install it.
+//!
+//! A user's `cargo test` never changes their machine: without `DJKR_TEST_INSTALL=1` these tests
+//! use what is present (a system `python3` that imports what they need, a venv an earlier opted-in
+//! run left under the target directory, Slurm's commands on `PATH`) and otherwise skip, printing
+//! one line that says what was skipped and how to run it. With `DJKR_TEST_INSTALL=1` (which
+//! `.ci/run` exports) they install what is missing — Debian packages with apt-get as root, Python
+//! packages from the package index into a venv under the target directory — and a tool that
+//! still cannot be had fails the test instead of skipping it.
+
+// Each test binary that includes this module uses only part of it.
+#![allow(dead_code)]
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The environment variable that allows the tests to install what they need.
+pub const INSTALL_VAR: &str = "DJKR_TEST_INSTALL";
+
+/// True when the tests may install what they need (`DJKR_TEST_INSTALL=1`).
+pub fn may_install() -> bool {
+    std::env::var_os(INSTALL_VAR).is_some_and(|v| v == "1")
+}
+
+/// Say on the terminal, past the test harness's output capture (which would show it only for a
+/// failing test), that `what` was skipped and why. One line.
+pub fn skipped(what: &str, why: &str) {
+    use std::os::fd::FromRawFd;
+    // SAFETY: fd 2 is the process's standard error, open for the whole test run; ManuallyDrop
+    // keeps it from being closed here.
+    let mut stderr = std::mem::ManuallyDrop::new(unsafe { std::fs::File::from_raw_fd(2) });
+    let _ = writeln!(
+        stderr,
+        "SKIPPED {what}: {why} (run with {INSTALL_VAR}=1 to install it; see docs/guide/unattended.md)"
+    );
+}
+
+/// Skip `what` for `why`, or fail when installing was allowed (then the tool should have been
+/// there: CI must not pass without the check).
+pub fn skip_or_fail(what: &str, why: &str) {
+    assert!(
+        !may_install(),
+        "{what}: {why}, although {INSTALL_VAR}=1 allowed installing it"
+    );
+    skipped(what, why);
+}
+
+/// True when `python` runs `-c code` successfully.
+pub fn runs(python: &Path, code: &str) -> bool {
+    Command::new(python)
+        .args(["-c", code])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// True when `cmd` is on `PATH`.
+pub fn have(cmd: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {cmd}")])
+        .stdout(std::process::Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+/// True when this process runs as root.
+pub fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+}
+
+/// The interpreter of the venv `target/tmp/<name>` (`CARGO_TARGET_TMPDIR`) that can `import`
+/// each of `imports`, or why there is none.
+///
+/// A venv that already has them is used as it is. Otherwise, with [`may_install`], it is created
+/// and given `packages` by pip from the package index. Without it, nothing is downloaded: when
+/// the system `python3` already imports everything, the venv is made on top of the system's
+/// packages (`--system-site-packages`, inside the target directory only); else `Err`.
+pub fn venv(name: &str, packages: &[&str], imports: &[&str]) -> Result<PathBuf, String> {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let py = dir.join("bin/python3");
+    let check = format!("import {}", imports.join(", "));
+    if runs(&py, &check) {
+        return Ok(py);
+    }
+    let make = |system_site: bool| {
+        let mut c = Command::new("python3");
+        c.args(["-m", "venv"]);
+        if system_site {
+            c.arg("--system-site-packages");
+        }
+        c.arg(&dir).status().is_ok_and(|s| s.success())
+    };
+    if !may_install() {
+        if !runs(Path::new("python3"), &check) {
+            return Err(format!(
+                "needs a Python that imports {} (the system python3 does not, and there is no \
+                 venv under target/ yet)",
+                imports.join(", ")
+            ));
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+        return if make(true) && runs(&py, &check) {
+            Ok(py)
+        } else {
+            Err("python3 -m venv failed (Debian: the python3-venv package)".into())
+        };
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "{}: installing {} into {} (once)",
+        imports.join(", "),
+        packages.join(" "),
+        dir.display()
+    );
+    // Debian ships `venv` (ensurepip) in a package of its own: install it (and python3 itself)
+    // when the first attempt fails and we may (root with apt-get, as in CI), then try again on a
+    // clean directory (the failed attempt leaves a venv without pip behind).
+    // A venv made by an earlier run that lacks a package added since is completed, not remade.
+    let existing = runs(&py, "import sys");
+    if !existing {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    let made = existing || make(false) || {
+        let _ = std::fs::remove_dir_all(&dir);
+        apt_install(&["python3", "python3-venv"]).is_ok() && make(false)
+    };
+    if !made {
+        return Err("python3 -m venv failed, also after installing python3-venv".into());
+    }
+    let ok = Command::new(&py)
+        .args(["-m", "pip", "install", "--quiet"])
+        .args(packages)
+        .status()
+        .is_ok_and(|s| s.success());
+    if ok && runs(&py, &check) {
+        Ok(py)
+    } else {
+        Err(format!("pip install {} failed", packages.join(" ")))
+    }
+}
+
+/// `apt-get install -y PACKAGES`, only with [`may_install`], as root, on a machine with apt-get.
+pub fn apt_install(packages: &[&str]) -> Result<(), String> {
+    if !may_install() {
+        return Err(format!("{INSTALL_VAR} is not 1"));
+    }
+    if !is_root() || !have("apt-get") {
+        return Err("installing Debian packages needs root and apt-get".into());
+    }
+    let _ = writeln!(
+        std::io::stderr(),
+        "installing {} with apt-get",
+        packages.join(" ")
+    );
+    let run = |args: &[&str]| {
+        Command::new("apt-get")
+            .args(args)
+            .env("DEBIAN_FRONTEND", "noninteractive")
+            .stdout(std::process::Stdio::null())
+            .status()
+            .map_err(|e| format!("apt-get: {e}"))
+            .and_then(|s| {
+                s.success()
+                    .then_some(())
+                    .ok_or(format!("apt-get {} failed: {s}", args.join(" ")))
+            })
+    };
+    run(&["update", "-qq"])?;
+    run(&["install", "-y", "-qq"]
+        .iter()
+        .copied()
+        .chain(packages.iter().copied())
+        .collect::<Vec<_>>())
+}
