@@ -858,11 +858,18 @@ impl Parser<'_> {
                     Some(d) if Path::new(file).is_relative() => d.join(file),
                     _ => PathBuf::from(file),
                 };
-                let text = input::read_text(&path, InputKind::LawTable).map_err(|e| {
-                    self.value_err(&key, &shown, format!("{}: {e}", path.display()))
-                })?;
-                let table = TabulatedLaw::from_csv_str(&text, &path.display().to_string())
-                    .map_err(|e| self.value_err(&key, &shown, e.to_string()))?;
+                let table = match cached_table(&path) {
+                    Some(t) => t,
+                    None => {
+                        let text = input::read_text(&path, InputKind::LawTable).map_err(|e| {
+                            self.value_err(&key, &shown, format!("{}: {e}", path.display()))
+                        })?;
+                        let t = TabulatedLaw::from_csv_str(&text, &path.display().to_string())
+                            .map_err(|e| self.value_err(&key, &shown, e.to_string()))?;
+                        remember_table(&path, &t);
+                        t
+                    }
+                };
                 let w_table = table.w0();
                 if (w_table - m.w0).abs() > TABLE_W0_RTOL * m.w0 {
                     return Err(self.value_err(
@@ -1410,6 +1417,53 @@ impl Parser<'_> {
         }
         Ok(out)
     }
+}
+
+/// Identity of a law table's file as last read: path, size, modification time and inode. A
+/// file changed in place changes its size or time; one replaced changes its inode.
+type TableKey = (PathBuf, u64, Option<std::time::SystemTime>, u64);
+
+/// Law tables parsed in this process, so that a scenario rebuilt for every value of a
+/// continuation or sweep does not read and parse its table again (a 55 000-row table took 5 ms
+/// to parse, 99 % of a tabulated continuation). At most [`TABLE_CACHE_LEN`] tables are kept;
+/// a law's clones share its rows.
+static TABLE_CACHE: std::sync::Mutex<Vec<(TableKey, TabulatedLaw)>> =
+    std::sync::Mutex::new(Vec::new());
+const TABLE_CACHE_LEN: usize = 8;
+
+fn table_key(path: &Path) -> Option<TableKey> {
+    let m = std::fs::metadata(path).ok()?;
+    if !m.is_file() {
+        return None;
+    }
+    #[cfg(unix)]
+    let ino = std::os::unix::fs::MetadataExt::ino(&m);
+    #[cfg(not(unix))]
+    let ino = 0;
+    Some((path.to_path_buf(), m.len(), m.modified().ok(), ino))
+}
+
+/// The table parsed from `path` before, if its file is unchanged since.
+fn cached_table(path: &Path) -> Option<TabulatedLaw> {
+    let key = table_key(path)?;
+    let cache = TABLE_CACHE.lock().unwrap_or_else(|p| p.into_inner());
+    cache
+        .iter()
+        .find(|(k, _)| *k == key)
+        .map(|(_, t)| t.clone())
+}
+
+/// Keep `table`, just parsed from `path`, for the next scenario that names the same file.
+fn remember_table(path: &Path, table: &TabulatedLaw) {
+    let Some(key) = table_key(path) else {
+        return;
+    };
+    let mut cache = TABLE_CACHE.lock().unwrap_or_else(|p| p.into_inner());
+    cache.retain(|(k, _)| k.0 != key.0);
+    if cache.len() >= TABLE_CACHE_LEN {
+        cache.remove(0);
+    }
+    cache.push((key, table.clone()));
 }
 
 /// True when the holder can exert a force that the protocol controls (a spring with k > 0, or a
