@@ -132,19 +132,58 @@ pub fn parse_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, Par
             format!("not a number: expected {}", allowed_units()),
         )
     })?;
-    if !value.is_finite() {
+    let si = if unit.is_empty() {
+        value
+    } else {
+        match dim.units().iter().find(|(u, _)| *u == unit) {
+            Some((_, f)) => scale_decimal(num, value, *f),
+            None => {
+                return Err(ParamError::new(
+                    name,
+                    text,
+                    format!("unknown unit '{unit}': expected {}", allowed_units()),
+                ))
+            }
+        }
+    };
+    // After the unit: 1e310nm is 1e301 m.
+    if !si.is_finite() {
         return Err(ParamError::new(name, text, "must be finite"));
     }
-    if unit.is_empty() {
-        return Ok(value);
+    Ok(si)
+}
+
+/// The exponent k when `factor` is the double nearest 10^k (|k| ≤ 30), else `None`.
+fn power_of_ten(factor: f64) -> Option<i32> {
+    let k = factor.log10().round();
+    if !(-30.0..=30.0).contains(&k) {
+        return None;
     }
-    match dim.units().iter().find(|(u, _)| *u == unit) {
-        Some((_, f)) => Ok(value * f),
-        None => Err(ParamError::new(
-            name,
-            text,
-            format!("unknown unit '{unit}': expected {}", allowed_units()),
-        )),
+    let k = k as i32;
+    let exact: f64 = format!("1e{k}").parse().ok()?;
+    #[allow(clippy::float_cmp)] // the same decimal parsed twice is the same double
+    let is = exact == factor;
+    is.then_some(k)
+}
+
+/// The SI value of the decimal `num` (its parsed value `value`) times a unit's `factor`.
+///
+/// A power-of-ten factor shifts the decimal's exponent and parses the result, so the value is the
+/// double nearest the decimal the user spelled: `5um` is bit for bit `5e-6` (5 × 1e-6 in floating
+/// point is 4.9999999999999996e-6, one ulp off, which on a chaotic rig moves a pull-off by
+/// percent). Any other factor (`deg`) multiplies once.
+fn scale_decimal(num: &str, value: f64, factor: f64) -> f64 {
+    let Some(k) = power_of_ten(factor) else {
+        return value * factor;
+    };
+    let (mantissa, exp) = match num.find(['e', 'E']) {
+        Some(i) => (&num[..i], num[i + 1..].parse::<i64>().ok()),
+        None => (num, Some(0)),
+    };
+    match exp.and_then(|e| e.checked_add(i64::from(k))) {
+        Some(e) => format!("{mantissa}e{e}").parse().unwrap_or(value * factor),
+        // An exponent beyond i64: the value is 0 or infinite either way.
+        None => value * factor,
     }
 }
 
@@ -181,6 +220,49 @@ mod tests {
         assert_eq!(
             parse_quantity("x", "2.5e-1mm", Dimension::Length).unwrap(),
             2.5e-4
+        );
+    }
+
+    #[test]
+    fn power_of_ten_units_give_the_decimal_they_spell_bit_for_bit() {
+        // Issue 25: each equals its decimal literal exactly (5 × 1e-6 would be one ulp low).
+        let cases: [(&str, Dimension, f64); 10] = [
+            ("5um", Dimension::Length, 5e-6),
+            ("20um", Dimension::Length, 20e-6),
+            ("10 µm", Dimension::Length, 10e-6),
+            ("0.0445mm/s", Dimension::Speed, 0.0445e-3),
+            ("51mm", Dimension::Length, 51e-3),
+            ("240mJ/m^2", Dimension::EnergyPerArea, 240e-3),
+            ("1.5kHz", Dimension::Frequency, 1.5e3),
+            ("2.5e-1mm", Dimension::Length, 2.5e-4),
+            ("-3E+2mN", Dimension::Force, -3e-1),
+            ("9.33MPa", Dimension::Pressure, 9.33e6),
+        ];
+        for (text, dim, want) in cases {
+            let got = parse_quantity("x", text, dim).unwrap();
+            assert_eq!(
+                got.to_bits(),
+                want.to_bits(),
+                "{text}: {got:e} is not {want:e}"
+            );
+        }
+        assert_ne!(
+            (5.0 * 1e-6f64).to_bits(),
+            5e-6f64.to_bits(),
+            "the test needs a case that multiplication gets wrong"
+        );
+        // A factor that is not a power of ten multiplies once.
+        let deg = parse_quantity("phase", "90deg", Dimension::Angle).unwrap();
+        assert_eq!(deg, 90.0 * std::f64::consts::PI / 180.0);
+        // Exponents at the edges stay finite where the value is, and overflow is refused.
+        assert_eq!(
+            parse_quantity("x", "1e310nm", Dimension::Length).unwrap(),
+            1e301
+        );
+        assert!(parse_quantity("x", "1e400mm", Dimension::Length).is_err());
+        assert_eq!(
+            parse_quantity("x", "1e-99999999999999999999mm", Dimension::Length).unwrap(),
+            0.0
         );
     }
 

@@ -792,7 +792,7 @@ until = "pull-off"
         assert_eq!(
             s.rig.base,
             Some(BaseMotion {
-                amplitude: 30.0 * 1e-6,
+                amplitude: 30e-6,
                 frequency: 300.0,
                 phase: 0.0,
             })

@@ -267,9 +267,9 @@ fn range(
             } else if i == n - 1 {
                 hi
             } else if form == SpecForm::Log {
-                lo * (hi / lo).powf(frac)
+                to_15_digits(lo * (hi / lo).powf(frac))
             } else {
-                lo + (hi - lo) * frac
+                to_15_digits(lo + (hi - lo) * frac)
             };
             SpecValue {
                 set: SetValue::Float(x),
@@ -280,6 +280,14 @@ fn range(
     Ok((form, values))
 }
 
+/// `x` rounded to 15 significant digits: an interior point of a range is the decimal the grid
+/// means (20um of 10um:50um:5 is `2e-5`, not the `1.9999999999999998e-5` that the arithmetic
+/// gives), so tables print it as such and it equals the value typed alone. The change is below
+/// the arithmetic's own rounding (5e-16 relative).
+fn to_15_digits(x: f64) -> f64 {
+    format!("{x:.14e}").parse().unwrap_or(x)
+}
+
 #[cfg(test)]
 #[allow(clippy::float_cmp)] // values written exactly, compared exactly
 mod tests {
@@ -288,6 +296,15 @@ mod tests {
 
     fn key(t: &str) -> SetKey {
         SetKey::parse(t).unwrap()
+    }
+
+    trait Bits {
+        fn map_bits(&self) -> Vec<u64>;
+    }
+    impl Bits for [f64] {
+        fn map_bits(&self) -> Vec<u64> {
+            self.iter().map(|x| x.to_bits()).collect()
+        }
     }
 
     fn nums(t: &str, spec: &str) -> Vec<f64> {
@@ -331,7 +348,7 @@ mod tests {
         assert_eq!(v[1].set, SetValue::Text("3e-5".into()));
         assert_eq!(
             v.iter().map(|v| v.cell.num().unwrap()).collect::<Vec<_>>(),
-            vec![10.0 * 1e-6, 3e-5, 60.0 * 1e-6]
+            vec![10e-6, 3e-5, 60e-6]
         );
         let (_, t) = parse_spec(
             &key("solver.method"),
@@ -349,15 +366,17 @@ mod tests {
             nums("base.frequency", "200:400:3"),
             vec![200.0, 300.0, 400.0]
         );
-        let (lo, hi) = (10.0 * 1e-6, 30.0 * 1e-6);
-        assert_eq!(
-            nums("base.amplitude", "10um:30um:3"),
-            vec![lo, lo + (hi - lo) * 0.5, hi]
-        );
+        // Every point is the decimal it means, bit for bit (issue 25: 10 and 20 µm printed as
+        // 9.999999999999999e-6 and 1.9999999999999998e-5).
+        let v = nums("base.amplitude", "10um:50um:5");
+        let want = [10e-6, 20e-6, 30e-6, 40e-6, 50e-6];
+        assert_eq!(v.map_bits(), want.map_bits());
         let v = nums("stage[3].speed", "1um/s:1mm/s:4log");
-        assert_eq!(v.len(), 4);
-        assert_eq!((v[0], v[3]), (1e-6, 1e-3));
-        assert!((v[1] / 1e-5 - 1.0).abs() < 1e-12 && (v[2] / 1e-4 - 1.0).abs() < 1e-12);
+        assert_eq!(v.map_bits(), [1e-6, 1e-5, 1e-4, 1e-3].map_bits());
+        assert_eq!(
+            nums("adhesion.n", "0.1:0.7:7").map_bits(),
+            [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7].map_bits()
+        );
         assert_eq!(nums("adhesion.n", "0.2:0.8:4").len(), 4);
     }
 
