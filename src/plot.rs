@@ -35,6 +35,9 @@ pub enum Style {
     Markers,
     /// Solid line plus a marker at every point.
     LineMarkers,
+    /// One ring (a hollow circle, larger than a marker) per point, no line: drawn over or under
+    /// the filled markers of another series at the same points, both stay visible.
+    Rings,
 }
 
 /// One data series of a [`Figure`].
@@ -751,6 +754,7 @@ where
     let dash = px(9.0);
     let gap = px(6.0);
     let radius = px(4.0);
+    let ring = px(7.0);
     for (i, s) in fig.series.iter().enumerate() {
         let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
         let line_style = color.stroke_width(stroke);
@@ -773,6 +777,11 @@ where
             if matches!(s.style, Style::Markers | Style::LineMarkers) {
                 chart
                     .draw_series(seg.iter().map(|&p| Circle::new(p, radius, color.filled())))
+                    .map_err(|e| err(&e))?;
+            }
+            if s.style == Style::Rings {
+                chart
+                    .draw_series(seg.iter().map(|&p| Circle::new(p, ring, line_style)))
                     .map_err(|e| err(&e))?;
             }
         }
@@ -834,6 +843,7 @@ fn draw_legend<DB: DrawingBackend>(
     .map_err(|e| err(&e))?;
     let stroke = px(2.0);
     let radius = px(4.0) as i32;
+    let ring = px(7.0) as i32;
     for (row, (i, s)) in entries.iter().enumerate() {
         let color = PALETTE[s.color.unwrap_or(*i) % PALETTE.len()];
         let line = color.stroke_width(stroke);
@@ -852,10 +862,14 @@ fn draw_legend<DB: DrawingBackend>(
                         .map_err(|e| err(&e))?;
                 }
             }
-            Style::Markers => {}
+            Style::Markers | Style::Rings => {}
         }
         if matches!(s.style, Style::Markers | Style::LineMarkers) {
             area.draw(&Circle::new((gx + glyph_w / 2, yc), radius, color.filled()))
+                .map_err(|e| err(&e))?;
+        }
+        if s.style == Style::Rings {
+            area.draw(&Circle::new((gx + glyph_w / 2, yc), ring, line))
                 .map_err(|e| err(&e))?;
         }
         let ts = text_style.pos(plotters::style::text_anchor::Pos::new(

@@ -202,7 +202,12 @@ fn time_panel(
                 .push(Series::new("stage start", bx, by, Style::Dashed).with_color(9));
         }
     }
-    for (kind, color) in [("impact", 3), ("contact-loss", 2), ("pull-off", 1)] {
+    // Pull-off as a ring, first: the contact loss it often coincides with stays visible inside.
+    for (kind, color, style) in [
+        ("pull-off", 1, Style::Rings),
+        ("impact", 3, Style::Markers),
+        ("contact-loss", 2, Style::Markers),
+    ] {
         let (ex, ey): (Vec<f64>, Vec<f64>) = s
             .events
             .iter()
@@ -212,7 +217,7 @@ fn time_panel(
             .unzip();
         if !ex.is_empty() {
             fig.series
-                .push(Series::new(kind, ex, ey, Style::Markers).with_color(color));
+                .push(Series::new(kind, ex, ey, style).with_color(color));
         }
     }
     fig
@@ -337,4 +342,38 @@ pub fn plot_run_dir(dir: &Path) -> Result<(PathBuf, PathBuf), RunPlotError> {
         RUN_PLOT_SIZE,
         &dir.join(RUN_PLOT_STEM),
     )?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_contact_loss_at_the_pull_off_stays_visible() {
+        // Issue 25: the contact-loss marker was drawn under the pull-off marker at the same
+        // point. The pull-off is a ring drawn first; the dots of the other events come after it.
+        let ev = |kind: &str| (kind.to_string(), 1.0, -0.01, 1e-4, -1e-6);
+        let s = RunSeries {
+            source: "x".into(),
+            t: vec![0.0, 1.0, 2.0],
+            force: vec![0.0, -0.01, 0.0],
+            a: vec![1e-3, 1e-4, 0.0],
+            delta: vec![1e-6, -1e-6, -2e-6],
+            events: vec![ev("contact-loss"), ev("pull-off")],
+            cycles: Vec::new(),
+        };
+        let panels = run_panels(&s);
+        // The time panels: F, a and δ (positions 0, 2, 4).
+        for fig in [&panels[0], &panels[2], &panels[4]] {
+            let pos = |label: &str| fig.series.iter().position(|x| x.label == label).unwrap();
+            let (po, cl) = (pos("pull-off"), pos("contact-loss"));
+            assert_eq!(fig.series[po].style, Style::Rings, "{}", fig.title);
+            assert_eq!(fig.series[cl].style, Style::Markers, "{}", fig.title);
+            assert!(
+                po < cl,
+                "{}: the pull-off ring must be drawn first",
+                fig.title
+            );
+        }
+    }
 }

@@ -792,3 +792,25 @@ fn a_densely_tabulated_law_continues_like_the_law_it_samples() {
     }
     assert!(pt <= 5 * pa, "{pt} periods, analytic {pa}");
 }
+
+#[test]
+fn a_range_without_a_fold_says_so() {
+    // Issue 25: a range with no fold printed nothing about folds.
+    let dir = tempfile::tempdir().unwrap();
+    let o = djkr(&[
+        "continue",
+        resonance_file().to_str().unwrap(),
+        "--param",
+        "base.frequency",
+        "--range",
+        "300:350",
+        "--sweep",
+        "0",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("  no fold in range\n"), "{text}");
+    assert!(!text.contains("  fold "), "{text}");
+}

@@ -500,7 +500,11 @@ fn branch_figure(file: &Path, b: &Branch, up: &[SweepPoint], down: &[SweepPoint]
     fig = fig
         .with_series(Series::new("stable", xs, ys, Style::Line).with_color(0))
         .with_series(Series::new("unstable", xu, yu, Style::Dashed).with_color(0));
-    for (pts, name, color) in [(up, "sweep up", 1), (down, "sweep down", 2)] {
+    // Up as rings, down as dots: where both sweeps found the same orbit, both stay visible.
+    for (pts, name, color, style) in [
+        (up, "sweep up", 1, Style::Rings),
+        (down, "sweep down", 2, Style::Markers),
+    ] {
         if pts.is_empty() {
             continue;
         }
@@ -508,7 +512,7 @@ fn branch_figure(file: &Path, b: &Branch, up: &[SweepPoint], down: &[SweepPoint]
             .iter()
             .filter_map(|p| p.steady.as_ref().map(|s| (p.value, s.transfer_magnitude())))
             .unzip();
-        fig = fig.with_series(Series::new(name, x, y, Style::Markers).with_color(color));
+        fig = fig.with_series(Series::new(name, x, y, style).with_color(color));
     }
     for (kind, name, color) in [
         (PointKind::Fold, "fold (multiplier +1)", 3),
@@ -592,6 +596,9 @@ fn print_report(file: &Path, r: &ContinuationReport) {
         }
     };
     show("fold", &r.folds);
+    if r.folds.is_empty() {
+        println!("  no fold in range");
+    }
     show("period doubling", &r.period_doublings);
     show("Neimark-Sacker", &r.neimark_sacker);
     show("branch point", &r.branch_points);

@@ -194,10 +194,11 @@ fn figures(
     )
     .with_legend(LegendPosition::UpperRight);
     for (i, sw) in sweeps.iter().enumerate() {
+        // The second sweep as rings over the first's dots: both visible where they agree.
         let style = if i == 0 {
             Style::LineMarkers
         } else {
-            Style::Markers
+            Style::Rings
         };
         let label = format!("time domain, sweep {}", sw.direction.name());
         let series = |f: &dyn Fn(&SweepPoint) -> Option<f64>| {

@@ -550,8 +550,26 @@ fn run_of(runs: &[(bool, Vec<(f64, f64)>)], v: f64, y: f64) -> Option<usize> {
         .map(|(i, _)| i)
 }
 
+/// The relative change of |δ_A/X_b| between neighbouring sweep values, either of them on no
+/// run of the branch, that counts as a jump (the plot shows it as one; a smooth curve sampled
+/// by a sweep changes far less between neighbours).
+pub const OFF_BRANCH_JUMP: f64 = 0.25;
+
+/// Whether a sweep jumps between neighbouring values with |δ_A/X_b| `a` and `b` (`None`: no
+/// steady state found), on runs `ra` and `rb` of the branch (`None`: on none): a steady state
+/// lost, two different runs, or, where either lies on no run (off the computed branch, e.g.
+/// past a Neimark–Sacker point), a change the plot shows as a jump.
+fn is_jump(a: f64, b: Option<f64>, ra: Option<usize>, rb: Option<usize>) -> bool {
+    match (ra, b, rb) {
+        (_, None, _) => true,
+        (Some(x), Some(_), Some(y)) => x != y,
+        (_, Some(b), _) => (b - a).abs() > OFF_BRANCH_JUMP * a.abs().max(b.abs()),
+    }
+}
+
 /// What the sweeps did against the branch: where they jump (consecutive values on different
-/// runs of the branch, or a steady state missing after one found), and which values they
+/// runs of the branch, a steady state missing after one found, or, off the branch, a change of
+/// more than [`OFF_BRANCH_JUMP`]), and which values they
 /// found on an unstable run (shooting converges to any orbit near its start, stable or not).
 pub fn jumps(direction: &'static str, p: &[SweepPoint], branch: &Branch) -> (Vec<Jump>, Vec<f64>) {
     let runs = runs(branch);
@@ -571,9 +589,7 @@ pub fn jumps(direction: &'static str, p: &[SweepPoint], branch: &Branch) -> (Vec
             continue;
         };
         let b = w[1].steady.as_ref().map(Steady::transfer_magnitude);
-        let (ra, rb) = (run(&w[0]), run(&w[1]));
-        let jump = b.is_none() || (ra.is_some() && rb.is_some() && ra != rb);
-        if jump {
+        if is_jump(a, b, run(&w[0]), run(&w[1])) {
             out.push(Jump {
                 direction,
                 from: w[0].value,
@@ -584,4 +600,25 @@ pub fn jumps(direction: &'static str, p: &[SweepPoint], branch: &Branch) -> (Vec
         }
     }
     (out, unstable)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_sweep_jump_off_the_branch_is_reported_like_the_plot_shows_it() {
+        // Issue 25: a down sweep drawn jumping 2.82 → 9.76 with both values on no run of the
+        // computed branch was not reported.
+        assert!(is_jump(2.82, Some(9.76), None, None));
+        assert!(is_jump(2.82, Some(9.76), Some(0), None));
+        assert!(is_jump(2.82, Some(9.76), None, Some(1)));
+        // Neighbours of a smooth curve off the branch are not jumps.
+        assert!(!is_jump(2.82, Some(3.0), None, None));
+        // On the branch: different runs jump, one run does not, however steep.
+        assert!(is_jump(2.82, Some(2.9), Some(0), Some(1)));
+        assert!(!is_jump(2.82, Some(9.76), Some(1), Some(1)));
+        // A steady state lost is a jump.
+        assert!(is_jump(2.82, None, Some(0), None));
+    }
 }
