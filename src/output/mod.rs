@@ -57,7 +57,7 @@ use thiserror::Error;
 
 use crate::dynamics::model::Model;
 use crate::dynamics::simulator::StepSamples;
-use crate::dynamics::types::{CycleRecord, Event, EventKind, Observer, RunResult, Sample};
+use crate::dynamics::types::{CycleRecord, Ending, Event, EventKind, Observer, RunResult, Sample};
 use crate::scenario::Scenario;
 pub use atomic::{write_atomic, AtomicFile};
 use stream::{Background, Pending, Rows, Streaming};
@@ -340,8 +340,21 @@ impl RunWriter {
 
     /// Write every file of the finished run and move them into place, `summary.json` last. On
     /// error nothing of this run is left in the directory (partials are removed) and the error
-    /// names the file.
-    pub fn finish(mut self, result: &RunResult) -> Result<OutputPaths, OutputError> {
+    /// names the file. The run went to its end (`"status": "ok"`); [`RunWriter::finish_with`]
+    /// publishes a run that ended early.
+    pub fn finish(self, result: &RunResult) -> Result<OutputPaths, OutputError> {
+        self.finish_with(result, &Ending::ok())
+    }
+
+    /// [`RunWriter::finish`] for a run that ended as `ending` says: a run stopped by a budget or
+    /// a signal, or failed mid-way, publishes what it computed up to there (its time series,
+    /// events and period records, complete files) with `status`, `reason` and `message` in
+    /// summary.json.
+    pub fn finish_with(
+        mut self,
+        result: &RunResult,
+        ending: &Ending,
+    ) -> Result<OutputPaths, OutputError> {
         if let Some(e) = self.error.take() {
             return Err(e);
         }
@@ -396,6 +409,7 @@ impl RunWriter {
         let json = summary::summary_json(
             &self.scenario,
             result,
+            ending,
             self.samples,
             &files,
             &self.run_id,
