@@ -482,3 +482,47 @@ fn the_documented_sizes_are_the_counted_ones() {
     assert_eq!(api::EVENT_BYTES, 120);
     assert_eq!(api::CYCLE_BYTES, 192);
 }
+
+/// SIGTERM stops a sweep as Ctrl-C does (what is done is written, the message says how to
+/// resume) but with exit status 3, a stop rather than an interrupt.
+#[cfg(unix)]
+#[test]
+fn sigterm_stops_a_sweep_with_exit_status_3() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("term");
+    let child = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .current_dir(root())
+        .args([
+            "sweep",
+            TINY,
+            "--set",
+            "base.amplitude=4um:16um:300",
+            "--jobs",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let progress = out.join("progress.csv");
+    let t0 = Instant::now();
+    while std::fs::read_to_string(&progress).map_or(0, |t| t.lines().count()) < 3
+        && t0.elapsed() < Duration::from_secs(60)
+    {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let o = child.wait_with_output().unwrap();
+    if o.status.success() {
+        // The sweep finished before the signal arrived: nothing to check.
+        return;
+    }
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(3), "{stderr}");
+    assert!(stderr.contains("--resume --out"), "{stderr}");
+    assert!(out.join("sweep.csv").is_file());
+}

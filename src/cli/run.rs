@@ -137,12 +137,11 @@ impl std::fmt::Display for RunEnded {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "run {} ({}): {}; what it computed is in {} (summary.json \"status\": \"{}\")",
+            "run {} ({}): {}; what it computed is in {} (its summary.json says how it ended)",
             self.ending.status.name(),
             self.ending.reason.map_or("", |r| r.name()),
             self.ending.message.as_deref().unwrap_or(""),
             self.dir.display(),
-            self.ending.status.name()
         )
     }
 }
@@ -214,7 +213,18 @@ pub fn run(a: &RunArgs) -> Result<()> {
     let ok = ending.status == Status::Ok;
     let result = outcome.result;
     let sens = match a.sensitivity {
-        Some(n) if ok => sensitivity(&scn, &result, n.into())?,
+        Some(n) if ok => match sensitivity(&scn, &result, n.into()) {
+            Ok(s) => s,
+            // A signal during the twins: the run itself is complete and is written without
+            // them (the exit status still says the signal came).
+            Err(e) if signals::received().is_some() => {
+                eprintln!(
+                    "warning: {e:#}: the run's files are written without the sensitivity section"
+                );
+                None
+            }
+            Err(e) => return Err(e),
+        },
         _ => None,
     };
     if let Some(s) = &sens {
@@ -246,10 +256,30 @@ pub fn run(a: &RunArgs) -> Result<()> {
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    let ended = (!ok).then(|| RunEnded {
-        ending: ending.clone(),
-        dir: out.clone(),
-    });
+    let ended = if ok {
+        // A signal after the run (during --sensitivity's twins) ends djkr as the signal says.
+        signals::received().map(|s| {
+            let reason = match s {
+                signals::Signal::Terminate => Reason::Sigterm,
+                signals::Signal::Interrupt => Reason::Sigint,
+            };
+            RunEnded {
+                ending: Ending::early(
+                    reason,
+                    format!(
+                        "{} received after the run had completed (its files are complete)",
+                        reason.name()
+                    ),
+                ),
+                dir: out.clone(),
+            }
+        })
+    } else {
+        Some(RunEnded {
+            ending: ending.clone(),
+            dir: out.clone(),
+        })
+    };
     if a.json {
         // Exactly the summary.json just written (its non-finite rule included).
         let text = std::fs::read_to_string(&paths.summary)

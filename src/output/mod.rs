@@ -16,10 +16,11 @@
 //! layout).
 //!
 //! **Atomic output.** Every file is written under a hidden partial name tagged with the run's id
-//! (`DIR/.run.h5.<run_id>.partial`, ...) and renamed into place only when the run has succeeded,
-//! `summary.json` last: its presence marks a complete run, and it records the size of every
-//! other file of the run (`file_bytes`). A run that fails, is killed, or whose writer is dropped
-//! without [`RunWriter::finish`] leaves no `run.h5`/`summary.json` of its own, and files of an
+//! (`DIR/.run.h5.<run_id>.partial`, ...) and renamed into place only when the run has ended,
+//! `summary.json` last: its presence marks complete files, and it records the size of every
+//! other file of the run (`file_bytes`) and how the run ended (`status`: a run stopped by a
+//! budget or failed mid-way is published by [`RunWriter::finish_with`]). A run that is killed,
+//! or whose writer is dropped without finishing, leaves no `run.h5`/`summary.json` of its own, and files of an
 //! earlier complete run in the directory stay untouched. A writer holds an exclusive lock on
 //! `DIR/.djkr.lock` from [`RunWriter::create`] to its end, so a second run into the same
 //! directory fails at once, naming the directory, instead of interleaving; the holder of the
