@@ -27,7 +27,9 @@ use thiserror::Error;
 use crate::adhesion::{GentSchultz, Law};
 use crate::closed_form::DeltaAmpForm;
 use crate::comparators;
-use crate::dynamics::types::{CycleRecord, Event, Observer, RunResult, Sample};
+use crate::dynamics::types::{
+    CycleRecord, Ending, Event, Observer, Reason, RunResult, Sample, Status,
+};
 use crate::dynamics::SimError;
 use crate::error::{non_negative, positive, ParamError};
 use crate::imposed_area::{self, Cycle};
@@ -113,13 +115,25 @@ pub enum ApiError {
         /// Why.
         error: SteadyError,
     },
-    /// The run failed (its partial files removed).
-    #[error("{source_name}: run failed (no output written): {error}")]
+    /// The run could not start (the scenario cannot be simulated; nothing written).
+    #[error("{source_name}: run could not start (no output written): {error}")]
     Run {
         /// The scenario's name.
         source_name: String,
         /// Why.
         error: SimError,
+    },
+    /// The run started and ended early: stopped by a budget (`solver.max_steps`, `max_wall_s`,
+    /// `max_events`, `max_memory`) or failed mid-way. What it computed is kept in `record`
+    /// (and, with a run folder, published there with its status).
+    #[error("{source_name}: run {}: {}", .ending.status.name(), .ending.message.as_deref().unwrap_or(""))]
+    Ended {
+        /// The scenario's name.
+        source_name: String,
+        /// Its status, reason and message.
+        ending: Ending,
+        /// The run up to where it ended.
+        record: Box<RunRecord>,
     },
     /// Writing the run folder failed.
     #[error("{context}: {error}")]
@@ -598,15 +612,50 @@ pub struct RunRecord {
     pub plots: Vec<PathBuf>,
 }
 
-/// Keeps everything in memory and hands it on to a run writer, when there is one.
+/// Bytes one time-series sample holds in memory: the [`crate::output::timeseries::SERIES`]
+/// columns and the stage index, 8 bytes each.
+pub const SAMPLE_BYTES: u64 = 8 * (crate::output::timeseries::SERIES.len() as u64 + 1);
+/// Bytes one event holds in memory.
+pub const EVENT_BYTES: u64 = std::mem::size_of::<Event>() as u64;
+/// Bytes one period record holds in memory (its table row, 8 bytes a column).
+pub const CYCLE_BYTES: u64 = 8 * cycles::CYCLE_FIELDS.len() as u64;
+
+/// Keeps everything in memory and hands it on to a run writer, when there is one. It counts
+/// the bytes it holds (samples, events, period records: [`SAMPLE_BYTES`], [`EVENT_BYTES`],
+/// [`CYCLE_BYTES`]) and stops the run, with [`Reason::Memory`], before a sample would take them
+/// past `budget` (`solver.max_memory`): a run whose length is not known up front (samples at
+/// every step, stages that end at pull-off) cannot exhaust the machine's memory. The count is
+/// of the data itself; a growing column may briefly hold up to twice its length while it
+/// grows.
 struct InMemory<'a> {
     series: TimeSeriesWriter,
     cycles: Table,
     writer: Option<&'a mut RunWriter>,
+    /// Bytes held.
+    held: u64,
+    /// `solver.max_memory` (bytes).
+    budget: u64,
+    /// The budget stopped the run.
+    over_budget: bool,
+}
+
+impl InMemory<'_> {
+    /// Count `bytes` more; `false` (and the run stops) when they would pass the budget.
+    fn hold(&mut self, bytes: u64) -> bool {
+        if self.over_budget || self.held.saturating_add(bytes) > self.budget {
+            self.over_budget = true;
+            return false;
+        }
+        self.held += bytes;
+        true
+    }
 }
 
 impl Observer for InMemory<'_> {
     fn sample(&mut self, s: &Sample) -> bool {
+        if !self.hold(SAMPLE_BYTES) {
+            return false;
+        }
         self.series.push(s);
         match self.writer.as_deref_mut() {
             Some(w) => w.sample(s),
@@ -614,22 +663,33 @@ impl Observer for InMemory<'_> {
         }
     }
     fn event(&mut self, e: &Event) {
+        // Events and records cannot stop the run themselves (the budget of events bounds
+        // them); counted here, they stop it at the next sample.
+        self.held = self.held.saturating_add(EVENT_BYTES);
         self.series.event(e);
         if let Some(w) = self.writer.as_deref_mut() {
             w.event(e);
         }
     }
     fn cycle(&mut self, c: &CycleRecord) {
+        self.held = self.held.saturating_add(CYCLE_BYTES);
         cycles::push_cycle(&mut self.cycles, c);
         if let Some(w) = self.writer.as_deref_mut() {
             w.cycle(c);
         }
     }
+    fn stop_reason(&self) -> Option<Reason> {
+        self.over_budget.then_some(Reason::Memory)
+    }
 }
 
 /// Run `scn` and keep its samples, events and period records in memory; with `out`, also write
 /// the run folder `djkr run --out` writes (`run.h5`, `summary.json`, the CSV files and figure
-/// its `[output]` asks for), by the same writer. Cancelled through `scn.solver.cancel`.
+/// its `[output]` asks for), by the same writer. Cancelled through `scn.solver.cancel`
+/// ([`ApiError::Cancelled`]; a run folder is still published, with reason `SIGINT`). A run
+/// stopped by a budget (`solver.max_memory` included: the bytes held in memory) or failed
+/// mid-way returns [`ApiError::Ended`] with what it computed, and its run folder is published
+/// with its status.
 pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
     let mut writer = match out {
         Some(dir) => Some(
@@ -644,12 +704,14 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
         series: TimeSeriesWriter::new(),
         cycles: cycles::cycle_table(&[]),
         writer: writer.as_mut(),
+        held: 0,
+        budget: scn.solver.max_memory,
+        over_budget: false,
     };
-    let result = scn.simulate(&mut obs);
+    let outcome = scn.simulate_partial(&mut obs);
     let InMemory { series, cycles, .. } = obs;
-    let result = match result {
-        Ok(r) => r,
-        Err(SimError::Cancelled { .. }) => return Err(ApiError::Cancelled),
+    let outcome = match outcome {
+        Ok(o) => o,
         Err(error) => {
             return Err(ApiError::Run {
                 source_name: scn.source_name.clone(),
@@ -657,14 +719,18 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
             })
         }
     };
+    let ending = outcome.ending();
+    let result = outcome.result;
     let (series, events) = series.into_parts();
     let samples = series.rows() as u64;
     let (summary, files, plots) = match (writer, out) {
         (Some(w), Some(dir)) => {
-            let paths = w.finish(&result).map_err(|error| ApiError::Output {
-                context: format!("writing results into {}", dir.display()),
-                error,
-            })?;
+            let paths = w
+                .finish_with(&result, &ending)
+                .map_err(|error| ApiError::Output {
+                    context: format!("writing results into {}", dir.display()),
+                    error,
+                })?;
             let plots = if scn.output.plot {
                 let (png, svg) =
                     crate::run_plot::plot_run_dir(dir).map_err(|error| ApiError::Plot {
@@ -681,6 +747,7 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
             let text = summary_json(
                 scn,
                 &result,
+                &ending,
                 samples,
                 &SummaryFiles::default(),
                 &crate::output::new_run_id(),
@@ -689,7 +756,7 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
             (text, None, Vec::new())
         }
     };
-    Ok(RunRecord {
+    let record = RunRecord {
         series,
         events,
         cycles,
@@ -697,7 +764,16 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
         summary,
         files,
         plots,
-    })
+    };
+    match ending.status {
+        Status::Ok => Ok(record),
+        _ if ending.reason == Some(Reason::Sigint) => Err(ApiError::Cancelled),
+        _ => Err(ApiError::Ended {
+            source_name: scn.source_name.clone(),
+            ending,
+            record: Box::new(record),
+        }),
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -4,8 +4,9 @@
 //! every simulator a computation builds (a run, the shooting and time-stepping of `validate`, each
 //! frequency of a resonance sweep). The simulator polls it with its wall-clock budget (about every
 //! 64 units of work, tens of microseconds) and stops with [`crate::dynamics::SimError::Cancelled`].
-//! The command line has no use for it (Ctrl-C ends the process); the Python binding raises the
-//! flag when the interpreter reports a KeyboardInterrupt while the work runs on another thread.
+//! The command line raises it on SIGINT or SIGTERM (`djkr run` then publishes what the run
+//! computed); the Python binding raises the flag when the interpreter reports a
+//! KeyboardInterrupt while the work runs on another thread.
 //!
 //! The token is a `Copy` reference to a flag with a `'static` lifetime, so that the solver
 //! settings stay `Copy`. [`CancelFlag::acquire`] lends one of a fixed pool of flags and returns it
@@ -21,6 +22,12 @@ pub struct Cancel(Option<&'static AtomicBool>);
 impl Cancel {
     /// No cancellation: the computation runs to its end or its budgets.
     pub const NONE: Cancel = Cancel(None);
+
+    /// A token on a flag of the caller's own (e.g. the command line's signal flag, raised by
+    /// SIGINT or SIGTERM).
+    pub const fn from_static(flag: &'static AtomicBool) -> Cancel {
+        Cancel(Some(flag))
+    }
 
     /// True once the flag has been raised.
     #[inline]

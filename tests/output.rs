@@ -402,6 +402,55 @@ fn streamed_hdf5_reads_back_bit_exactly_with_h5py() {
     check_with_h5py(N_STREAMED);
 }
 
+/// A run stopped by a budget publishes files that h5py opens (issue 24, defect 3): written whole
+/// (a short run) and streamed (past [`SPILL_ROWS`] samples), every dataset read whole, the time
+/// series as long as summary.json's `samples`, and `"status": "stopped"`.
+#[test]
+fn a_stopped_run_opens_in_h5py() {
+    let Some(py) = h5py_python() else {
+        eprintln!("skipped a_stopped_run_opens_in_h5py: no Python with h5py");
+        return;
+    };
+    for max_steps in [2_000u64, (SPILL_ROWS + FLUSH_ROWS / 2) as u64] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut scn = scenario();
+        scn.stages[0].until = djkr::dynamics::protocol::Until::Duration(1e3);
+        scn.solver.max_steps = max_steps;
+        scn.solver.envelope = djkr::dynamics::EnvelopeMode::Off;
+        scn.output.sample_rate = 0.0;
+        let mut w = RunWriter::create(dir.path(), &scn, true).unwrap();
+        let outcome = scn.simulate_partial(&mut w).unwrap();
+        let ending = outcome.ending();
+        assert_eq!(ending.reason, Some(djkr::dynamics::Reason::MaxSteps));
+        assert_eq!(w.is_streaming(), max_steps as usize > SPILL_ROWS);
+        let paths = w.finish_with(&outcome.result, &ending).unwrap();
+        let summary: Value = serde_json::from_str(&paths.summary_text).unwrap();
+        assert_eq!(summary["status"], "stopped");
+        assert_eq!(summary["reason"], "max_steps");
+        let script = "import h5py, json, sys\n\
+                      n = {}\n\
+                      with h5py.File(sys.argv[1], 'r') as f:\n\
+                      \tf.visititems(lambda k, v: n.__setitem__(k, len(v[()])) \
+                      if isinstance(v, h5py.Dataset) and v.shape else None)\n\
+                      print(json.dumps(n))";
+        let o = Command::new(&py)
+            .args(["-c", script])
+            .arg(dir.path().join("run.h5"))
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "h5py cannot read the stopped run's file: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let lens: Value = serde_json::from_slice(&o.stdout).unwrap();
+        let samples = summary["samples"].as_u64().unwrap();
+        assert!(samples > 1000, "{samples}");
+        assert_eq!(lens["t"].as_u64(), Some(samples), "{lens}");
+        assert_eq!(lens["stage"].as_u64(), Some(samples), "{lens}");
+    }
+}
+
 fn check_with_h5py(n: usize) {
     let dir = tempfile::tempdir().unwrap();
     let (samples, res) = write_run(dir.path(), false, n);

@@ -11,8 +11,11 @@ dict with the file's structure (``{"version": 1, "material": {...}, "stage": [{.
 Quantities are SI floats or strings with units (``"400Hz"``, ``"0.5mm"``).
 
 Bad input raises ``ScenarioError`` (a ``ValueError``) with the command line's message; a run
-that fails raises ``RuntimeError``. Long calls release the interpreter lock and stop within a
-fraction of a second on Ctrl-C (``KeyboardInterrupt``).
+that a budget stopped (``solver.max_steps``, ``max_wall_s``, ``max_events``, ``max_memory``) or
+that failed mid-way raises ``RuntimeError`` whose ``run`` attribute is the ``Run`` up to there
+(``e.run.summary["status"]`` is ``"stopped"`` or ``"failed"``, with ``"reason"`` and
+``"message"``). Long calls release the interpreter lock and stop within a fraction of a second
+on Ctrl-C (``KeyboardInterrupt``; with ``out``, the folder is written with reason ``SIGINT``).
 """
 
 import os
@@ -80,7 +83,12 @@ def run(
 ) -> Run:
     """Run a scenario (``djkr run``); with ``out``, also write the run folder ``djkr run --out``
     writes (``run.h5``, ``summary.json``, and the CSV files and figure its ``[output]`` asks
-    for)."""
+    for).
+
+    A run stopped by a budget or failed mid-way raises ``RuntimeError`` with the partial
+    ``Run`` as its ``run`` attribute (and, with ``out``, its folder written with the status).
+    The samples, events and period records held in memory are capped at ``solver.max_memory``
+    (default 2 GiB): a run that would pass it stops with reason ``"memory"``."""
 
 def cycle(
     freq: Quantity,

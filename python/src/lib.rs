@@ -9,8 +9,9 @@
 //!   the same number. A scenario is a path (`str` without a line break, or `os.PathLike`), a
 //!   TOML string, or a dict with the file's structure; `set=` is a dict of `--set` overrides.
 //! - Errors: bad input raises `djkr.ScenarioError` (a `ValueError`) with the command line's
-//!   message; a run that fails raises `RuntimeError`; a panic never crosses into Python (it
-//!   becomes a `RuntimeError`).
+//!   message; a run that a budget stopped or that failed raises `RuntimeError` whose `run`
+//!   attribute is the run up to there (its summary's `status`, `reason`, `message` say how it
+//!   ended); a panic never crosses into Python (it becomes a `RuntimeError`).
 //! - Long calls (`run`, `validate`, `resonance`, `sweep`) run on a worker thread with the
 //!   interpreter lock released; the main thread polls for signals every [`POLL`] and on Ctrl-C
 //!   raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
@@ -656,10 +657,37 @@ fn run(
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
         s.solver.cancel = stop.token();
-        let rec = api::run(&s, out.as_deref())?;
+        // A run that ended early keeps what it computed: it travels with its message to
+        // become the exception's `run`.
+        let rec = match api::run(&s, out.as_deref()) {
+            Ok(rec) => Ok(rec),
+            Err(e @ ApiError::Ended { .. }) => {
+                let message = e.to_string();
+                match e {
+                    ApiError::Ended { record, .. } => Err((message, record)),
+                    e => return Err(e),
+                }
+            }
+            Err(e) => return Err(e),
+        };
         Ok((rec, s.source_name.clone()))
     })?;
-    guarded(|| Run::new(py, rec, name))
+    guarded(|| match rec {
+        Ok(rec) => Run::new(py, rec, name),
+        Err((message, record)) => Err(ended_err(py, message, Run::new(py, *record, name)?)),
+    })
+}
+
+/// The `RuntimeError` of a run that a budget stopped or that failed mid-way, with the run up to
+/// there as its `run` attribute (`summary["status"]`, `["reason"]` and `["message"]` say how
+/// it ended).
+fn ended_err(py: Python<'_>, message: String, run: Run) -> PyErr {
+    let err = PyRuntimeError::new_err(message);
+    let attached = Py::new(py, run).and_then(|r| err.value(py).setattr("run", r));
+    match attached {
+        Ok(()) => err,
+        Err(e) => e,
+    }
 }
 
 /// One imposed-area cycle (`djkr cycle --json`).

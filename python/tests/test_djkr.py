@@ -362,12 +362,58 @@ def test_keyboard_interrupt_stops_resonance_and_sweep(tmp_path):
         assert i.elapsed < 0.8, f"KeyboardInterrupt took {i.elapsed - 0.3:.3f} s"
 
 
-def test_interrupted_run_leaves_no_run_in_its_folder(tmp_path):
+def test_interrupted_run_publishes_its_folder_as_stopped(tmp_path):
+    """Ctrl-C stays KeyboardInterrupt; the run folder keeps what the run computed, with reason
+    SIGINT (as `djkr run` does)."""
     out = tmp_path / "interrupted"
     with interrupt_after(0.3):
         djkr.run(VIB400, set=LONG, out=out)
-    assert not (out / "summary.json").exists() and not (out / "run.h5").exists()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "stopped" and summary["reason"] == "SIGINT"
+    assert summary["final_state"]["t"] > 0
+    with h5py.File(out / "run.h5", "r") as f:
+        assert len(f["t"]) == summary["samples"]
     assert not list(out.glob(".*.partial"))
+
+
+def test_a_stopped_run_raises_runtime_error_with_the_partial_run(tmp_path):
+    """A budget (here max_steps) raises RuntimeError as before, with the run up to the stop as
+    the exception's `run`; its summary and folder say stopped, max_steps."""
+    out = tmp_path / "stopped"
+    with pytest.raises(RuntimeError) as e:
+        djkr.run(TINY, set={"solver.max_steps": 3000, "output.sample_rate": 0}, out=out)
+    assert not isinstance(e.value, djkr.ScenarioError)
+    assert "max_steps" in str(e.value)
+    run = e.value.run
+    assert isinstance(run, djkr.Run)
+    assert run.summary["status"] == "stopped" and run.summary["reason"] == "max_steps"
+    assert "in stage" in run.summary["message"]
+    assert len(run.t) == run.summary["samples"] > 0
+    assert run.t[-1] <= run.summary["final_state"]["t"]
+    on_disk = json.loads((out / "summary.json").read_text())
+    assert on_disk["reason"] == "max_steps" and on_disk["samples"] == len(run.t)
+    with h5py.File(out / "run.h5", "r") as f:
+        assert_bits_equal(f["t"][:], run.t, "t")
+    # A failure mid-way: status failed, the partial run attached.
+    with pytest.raises(RuntimeError) as e:
+        djkr.run(TINY, set={"stage[1].max_duration": 0.01})
+    assert e.value.run.summary["status"] == "failed"
+    assert e.value.run.summary["reason"] == "stage-timeout"
+    # A run that went to its end: status ok, no reason.
+    ok = djkr.run(TINY)
+    assert ok.summary["status"] == "ok"
+    assert "reason" not in ok.summary and "message" not in ok.summary
+
+
+def test_the_memory_budget_stops_a_run_with_per_step_output():
+    """solver.max_memory (1 MiB here) caps the samples a run holds; it stops with reason memory
+    and keeps what it holds."""
+    with pytest.raises(RuntimeError) as e:
+        djkr.run(TINY, set={"solver.max_memory": 1 << 20, "output.sample_rate": 0,
+                            "stage[0].duration": 5, "solver.envelope": "off"})
+    run = e.value.run
+    assert run.summary["status"] == "stopped" and run.summary["reason"] == "memory"
+    assert 1000 < len(run.t) <= (1 << 20) // 96
 
 
 def test_calls_release_the_interpreter_lock():

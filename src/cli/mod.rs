@@ -12,6 +12,7 @@ mod plot;
 mod resonance;
 mod run;
 mod shortcut_map;
+mod signals;
 mod steady;
 mod sweep;
 mod validate;
@@ -53,12 +54,22 @@ Scenario-file keys and every result are documented in README.md.";
 enum Command {
     /// Run a scenario file with the time-domain simulator (eqs. 30-32): writes summary.json and
     /// run.h5 (and CSV with --csv) into --out, atomically.
+    ///
+    /// A run stopped by a budget (solver.max_steps, max_wall_s, max_events), Ctrl-C or SIGTERM,
+    /// or failed mid-way, still writes what it computed up to there, with "status" ("stopped"
+    /// or "failed"), "reason" and "message" in summary.json. Exit status: 0 ok, 1 the run
+    /// failed, 2 bad input (or files that cannot be written), 3 stopped by a budget or SIGTERM,
+    /// 130 Ctrl-C (docs/guide/unattended.md).
     Run(run::RunArgs),
     /// Validate scenario files without running them.
     Check(run::CheckArgs),
     /// Sweeps and ensembles over any scenario key (--set KEY=SPEC), in parallel and resumable:
     /// sweep.csv, sweep.h5 (one row per run), points.csv (statistics per point) and plots;
     /// --shard K/N, `djkr sweep merge` and --slurm for clusters.
+    ///
+    /// A run stopped by a budget is a row with status "stopped", one that failed "error";
+    /// --resume runs both again unless --no-retry. Exit status: 0 the sweep ran (whatever its
+    /// rows' status), 2 bad input, 3 stopped by SIGTERM, 130 Ctrl-C (resume with --resume).
     Sweep(sweep::SweepArgs),
     /// Draw the figures of an existing run folder (run.png/.svg) or sweep folder.
     Plot(plot::PlotArgs),
@@ -123,8 +134,24 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        // A sweep stopped by Ctrl-C has said how to resume; 130 is the shell's code for SIGINT.
-        Err(e) if e.is::<sweep::Interrupted>() => ExitCode::from(130),
+        // A sweep stopped by a signal has said how to resume: 130 (the shell's code for SIGINT)
+        // after Ctrl-C, 3 after SIGTERM.
+        Err(e) if e.is::<sweep::Interrupted>() => ExitCode::from(
+            e.downcast_ref::<sweep::Interrupted>()
+                .map_or(130, |i| i.exit_status()),
+        ),
+        // A run that ended early has published its files: 1 failed, 3 stopped, 130 Ctrl-C.
+        Err(e) if e.is::<run::RunEnded>() => {
+            let code = e
+                .downcast_ref::<run::RunEnded>()
+                .map_or(1, |r| r.exit_status());
+            eprintln!(
+                "{}: {}",
+                if code == 1 { "error" } else { "stopped" },
+                error_text(&e)
+            );
+            ExitCode::from(code)
+        }
         Err(e) => {
             eprintln!("error: {}", error_text(&e));
             ExitCode::from(2)

@@ -1,9 +1,14 @@
 //! `djkr run FILE` and `djkr check FILE`: the time-domain simulator on a scenario file.
 
 use super::common::{default_out, law_name, load_scenario, SetArgs};
+use super::signals;
 use anyhow::{Context, Result};
 use clap::Args;
-use djkr::dynamics::{self, Event, Model, Observer, RunResult, Sample, StepSamples};
+use djkr::cancel::Cancel;
+use djkr::dynamics::{
+    self, Ending, Event, Model, Observer, Outcome, Reason, RunResult, Sample, SimError, Status,
+    StepSamples,
+};
 use djkr::output::RunWriter;
 use djkr::scenario::checks;
 use djkr::scenario::parse::{ScenarioError, ScenarioSource};
@@ -106,12 +111,76 @@ impl Progress<'_> {
     }
 }
 
+/// A run that ended early: stopped by a budget or a signal, or failed mid-way. Its files are
+/// published; `main` maps it to the exit status (1 failed, 3 stopped, 130 Ctrl-C).
+#[derive(Debug)]
+pub struct RunEnded {
+    /// How it ended.
+    pub ending: Ending,
+    /// Where its files are.
+    pub dir: PathBuf,
+}
+
+impl RunEnded {
+    /// The exit status: 1 for a failed run, 3 for one stopped by a budget or SIGTERM, 130 for
+    /// Ctrl-C.
+    pub fn exit_status(&self) -> u8 {
+        match (self.ending.status, self.ending.reason) {
+            (Status::Failed, _) => 1,
+            (_, Some(Reason::Sigint)) => 130,
+            _ => 3,
+        }
+    }
+}
+
+impl std::fmt::Display for RunEnded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "run {} ({}): {}; what it computed is in {} (its summary.json says how it ended)",
+            self.ending.status.name(),
+            self.ending.reason.map_or("", |r| r.name()),
+            self.ending.message.as_deref().unwrap_or(""),
+            self.dir.display(),
+        )
+    }
+}
+
+impl std::error::Error for RunEnded {}
+
+/// How the run ended, the signal that stopped it named (SIGINT or SIGTERM; the library knows
+/// only that it was cancelled).
+fn ending_of(outcome: &Outcome) -> Ending {
+    let ending = outcome.ending();
+    if !matches!(outcome.error, Some(SimError::Cancelled { .. })) {
+        return ending;
+    }
+    let reason = match signals::received() {
+        Some(signals::Signal::Terminate) => Reason::Sigterm,
+        _ => Reason::Sigint,
+    };
+    let f = &outcome.result.final_state;
+    Ending::early(
+        reason,
+        format!(
+            "{} received: the run got to t = {:e} s in stage {}",
+            reason.name(),
+            f.t,
+            f.stage
+        ),
+    )
+}
+
 /// Run `djkr run`.
 pub fn run(a: &RunArgs) -> Result<()> {
-    let scn = load_scenario(&a.file, &a.set)?;
+    let mut scn = load_scenario(&a.file, &a.set)?;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.file, ""));
     let mut writer = RunWriter::create(&out, &scn, a.csv || scn.output.csv)
         .with_context(|| format!("--out {}", out.display()))?;
+    signals::install(
+        "stopping: the run keeps what it computed and writes its files (again to quit at once)",
+    );
+    scn.solver.cancel = Cancel::from_static(signals::flag());
     let bar = ProgressBar::new_spinner();
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed}] {msg}")
@@ -128,32 +197,58 @@ pub fn run(a: &RunArgs) -> Result<()> {
         events: 0,
         stages: scn.stages.len(),
     };
-    let result = scn.simulate(&mut obs);
+    let outcome = scn.simulate_partial(&mut obs);
     bar.finish_and_clear();
-    let result = match result {
-        Ok(r) => r,
+    let outcome = match outcome {
+        Ok(o) => o,
         Err(e) => {
             writer.abort();
             return Err(anyhow::Error::new(e).context(format!(
-                "{}: run failed (no output written)",
+                "{}: run could not start (no output written)",
                 scn.source_name
             )));
         }
     };
+    let ending = ending_of(&outcome);
+    let ok = ending.status == Status::Ok;
+    let result = outcome.result;
     let sens = match a.sensitivity {
-        Some(n) => sensitivity(&scn, &result, n.into())?,
-        None => None,
+        Some(n) if ok => match sensitivity(&scn, &result, n.into()) {
+            Ok(s) => s,
+            // A signal during the twins: the run itself is complete and is written without
+            // them (the exit status still says the signal came).
+            Err(e) if signals::received().is_some() => {
+                eprintln!(
+                    "warning: {e:#}: the run's files are written without the sensitivity section"
+                );
+                None
+            }
+            Err(e) => return Err(e),
+        },
+        _ => None,
     };
     if let Some(s) = &sens {
         writer.add_summary_section("sensitivity", serde_json::to_value(s)?);
     }
     let paths = writer
-        .finish(&result)
+        .finish_with(&result, &ending)
         .with_context(|| format!("writing results into {}", out.display()))?;
     let plots = if a.plot || scn.output.plot {
-        let (png, svg) = djkr::run_plot::plot_run_dir(&out)
-            .with_context(|| format!("drawing the run's figure into {}", out.display()))?;
-        vec![png, svg]
+        match djkr::run_plot::plot_run_dir(&out) {
+            Ok((png, svg)) => vec![png, svg],
+            Err(e) if ok => {
+                return Err(anyhow::Error::new(e)
+                    .context(format!("drawing the run's figure into {}", out.display())))
+            }
+            // The files of a run that ended early come first: its figure is a bonus.
+            Err(e) => {
+                eprintln!(
+                    "warning: drawing the run's figure into {}: {e}",
+                    out.display()
+                );
+                Vec::new()
+            }
+        }
     } else {
         Vec::new()
     };
@@ -161,23 +256,50 @@ pub fn run(a: &RunArgs) -> Result<()> {
     for w in &warnings {
         eprintln!("warning: {w}");
     }
+    let ended = if ok {
+        // A signal after the run (during --sensitivity's twins) ends djkr as the signal says.
+        signals::received().map(|s| {
+            let reason = match s {
+                signals::Signal::Terminate => Reason::Sigterm,
+                signals::Signal::Interrupt => Reason::Sigint,
+            };
+            RunEnded {
+                ending: Ending::early(
+                    reason,
+                    format!(
+                        "{} received after the run had completed (its files are complete)",
+                        reason.name()
+                    ),
+                ),
+                dir: out.clone(),
+            }
+        })
+    } else {
+        Some(RunEnded {
+            ending: ending.clone(),
+            dir: out.clone(),
+        })
+    };
     if a.json {
         // Exactly the summary.json just written (its non-finite rule included).
         let text = std::fs::read_to_string(&paths.summary)
             .with_context(|| format!("reading back {}", paths.summary.display()))?;
         println!("{}", text.trim_end());
-        return Ok(());
+    } else {
+        print_summary(&scn, &result, &ending, sens.as_ref(), &warnings);
+        println!("\nwrote:");
+        for p in paths
+            .all()
+            .into_iter()
+            .chain(plots.iter().map(PathBuf::as_path))
+        {
+            println!("  {}", p.display());
+        }
     }
-    print_summary(&scn, &result, sens.as_ref(), &warnings);
-    println!("\nwrote:");
-    for p in paths
-        .all()
-        .into_iter()
-        .chain(plots.iter().map(PathBuf::as_path))
-    {
-        println!("  {}", p.display());
+    match ended {
+        Some(e) => Err(e.into()),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// The twins of `--sensitivity` (`None` with a note when the scene has nothing to perturb).
@@ -232,6 +354,7 @@ macro_rules! summary_line {
 fn print_summary(
     scn: &djkr::scenario::Scenario,
     r: &RunResult,
+    ending: &Ending,
     sens: Option<&Sensitivity>,
     warnings: &[String],
 ) {
@@ -241,6 +364,16 @@ fn print_summary(
         scn.stages.len(),
         r.method
     );
+    if let (Some(reason), Some(message)) = (ending.reason, ending.message.as_deref()) {
+        summary_line!(
+            "  {:<18} {message}; what follows is the run up to there",
+            format!(
+                "{} ({})",
+                ending.status.name().to_uppercase(),
+                reason.name()
+            )
+        );
+    }
     // Under vibration the approach to pull-off can be chaotic: without a measurement, four
     // significant digits and a pointer to --sensitivity; with one, the digits the twins share.
     let vibrating = scn.rig.base.is_some() && r.cycle_count > 0;

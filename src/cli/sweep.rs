@@ -2,6 +2,7 @@
 //! over [`djkr::sweep`].
 
 use super::common::fmt_force;
+use super::signals::{self, Signal};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use djkr::scenario::parse::ScenarioSource;
@@ -68,10 +69,15 @@ pub struct SweepRunArgs {
     /// Runs at a time [default: one per core].
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
-    /// Continue the sweep in --out, skipping the runs already done (a folder without a sweep
-    /// starts one).
+    /// Continue the sweep in --out: runs not yet done, and again those whose row is `stopped`
+    /// (a budget stopped them) or `error` (they failed), unless --no-retry (a folder without a
+    /// sweep starts one).
     #[arg(long)]
     resume: bool,
+    /// With --resume: keep the `stopped` and `error` rows as they are and run only the runs not
+    /// yet done.
+    #[arg(long, requires = "resume")]
+    no_retry: bool,
     /// Also keep each run's own folder (DIR/runs/pPPPP-mMM: run.h5, summary.json).
     #[arg(long)]
     keep_runs: bool,
@@ -94,13 +100,23 @@ pub struct SweepRunArgs {
     slurm_partition: Option<String>,
 }
 
-/// A sweep stopped by Ctrl-C (exit status 130).
+/// A sweep stopped by a signal: exit status 130 after Ctrl-C, 3 after SIGTERM.
 #[derive(Debug)]
-pub struct Interrupted;
+pub struct Interrupted(Option<Signal>);
+
+impl Interrupted {
+    /// 130 after Ctrl-C (the shell's code for SIGINT), 3 after SIGTERM (a stop, as a budget's).
+    pub fn exit_status(&self) -> u8 {
+        self.0.map_or(130, Signal::exit_status)
+    }
+}
 
 impl std::fmt::Display for Interrupted {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("interrupted")
+        f.write_str(match self.0 {
+            Some(Signal::Terminate) => "terminated (SIGTERM)",
+            _ => "interrupted",
+        })
     }
 }
 
@@ -141,8 +157,11 @@ fn build(a: &SweepRunArgs, file: &Path) -> Result<Sweep> {
     Ok(Sweep::new(source, grid, ensemble)?)
 }
 
-/// Raised by Ctrl-C: no new run starts, running ones are abandoned.
-static STOP: AtomicBool = AtomicBool::new(false);
+/// Raised by Ctrl-C or SIGTERM (or a progress file that cannot be written): no new run starts,
+/// running ones are abandoned.
+fn stop_flag() -> &'static AtomicBool {
+    signals::flag()
+}
 
 fn run(a: &SweepRunArgs) -> Result<()> {
     let Some(file) = a.file.as_deref() else {
@@ -162,17 +181,31 @@ fn run(a: &SweepRunArgs) -> Result<()> {
     let manifest = opened.manifest;
     let mut progress = opened.progress;
     let mut rows: Vec<Row> = opened.done;
+    let retried = if a.no_retry {
+        0
+    } else {
+        // Stopped and failed runs run again; their new rows replace the old ones (a row file
+        // read back keeps the last row of each run).
+        let before = rows.len();
+        rows.retain(|r| r.result.is_ok());
+        before - rows.len()
+    };
     let todo = files::remaining(&sweep, &manifest, &rows);
     let owned = rows.len() + todo.len();
     let jobs = a
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
     install_stop_handler();
-    if !rows.is_empty() {
+    if !rows.is_empty() || retried > 0 {
         eprintln!(
-            "resuming {}: {} of {owned} runs already done",
+            "resuming {}: {} of {owned} runs already done{}",
             out.display(),
-            rows.len()
+            rows.len(),
+            if retried > 0 {
+                format!("; {retried} stopped or failed run(s) run again (--no-retry keeps them)")
+            } else {
+                String::new()
+            }
         );
     }
     let keep_runs = a.keep_runs.then(|| out.join(files::RUNS_DIR));
@@ -200,20 +233,12 @@ fn parse_shard(text: Option<&str>) -> Result<Option<Shard>> {
     })
 }
 
-/// Ctrl-C raises [`STOP`]; a second one ends the process at once (the progress file is intact
-/// line by line). A handler that cannot be installed is a warning.
+/// Ctrl-C or SIGTERM raises the stop flag; a second one ends the process at once (the progress
+/// file is intact line by line). A handler that cannot be installed is a warning.
 fn install_stop_handler() {
-    let handler = ctrlc::set_handler(|| {
-        if STOP.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
-        }
-        eprintln!("\nstopping: no new runs start, running ones are abandoned (Ctrl-C again to quit at once)");
-    });
-    if let Err(e) = handler {
-        eprintln!(
-            "warning: Ctrl-C handler not installed ({e}): an interrupt will lose the running runs"
-        );
-    }
+    signals::install(
+        "stopping: no new runs start, running ones are abandoned (Ctrl-C again to quit at once)",
+    );
 }
 
 /// What [`execute`] did.
@@ -249,18 +274,18 @@ fn execute(
     let mut write_error: Option<anyhow::Error> = None;
     let opts = RunOptions {
         jobs,
-        stop: Some(&STOP),
+        stop: Some(stop_flag()),
         keep_runs,
     };
     let not_run = run_sweep(sweep, todo, &opts, |row| {
         if row.result.is_err() {
             failed += 1;
-            bar.set_message(format!("({failed} failed)"));
+            bar.set_message(format!("({failed} failed or stopped)"));
         }
         if write_error.is_none() {
             if let Err(e) = progress.append(&row) {
                 write_error = Some(e.into());
-                STOP.store(true, Ordering::SeqCst);
+                stop_flag().store(true, Ordering::SeqCst);
             }
         }
         rows.push(row);
@@ -319,7 +344,7 @@ fn finish(
             manifest.command(),
             files::shell_quote(&out.display().to_string())
         );
-        return Err(Interrupted.into());
+        return Err(Interrupted(signals::received()).into());
     }
     Ok(())
 }
@@ -334,9 +359,11 @@ fn report(
     runs_wall: f64,
     jobs: usize,
 ) {
-    let failed = rows.iter().filter(|r| r.result.is_err()).count();
+    let stopped = rows.iter().filter(|r| r.stopped).count();
+    let failed = rows.iter().filter(|r| r.result.is_err()).count() - stopped;
     println!(
-        "{}: {} point(s) x {} member(s){}; {} run(s) in this folder, {failed} failed",
+        "{}: {} point(s) x {} member(s){}; {} run(s) in this folder, {failed} failed, {stopped} \
+         stopped by a budget",
         manifest.scenario,
         sweep.grid().points(),
         sweep.members(),
@@ -386,8 +413,10 @@ fn report(
     if let Some(r) = rows.iter().find(|r| r.result.is_err()) {
         if let Err(e) = &r.result {
             println!(
-                "  first failure: point {} member {}: {e}",
-                r.point, r.member
+                "  first {}: point {} member {}: {e}",
+                if r.stopped { "stop" } else { "failure" },
+                r.point,
+                r.member
             );
         }
     }

@@ -239,7 +239,7 @@ pub mod stepper;
 pub mod types;
 
 pub use model::Model;
-pub use protocol::{run, Plan};
+pub use protocol::{run, run_partial, Plan};
 pub use simulator::{Segment, Settings, Simulator, StepSamples, Stop};
 pub use stepper::{EnvelopeMode, Method, Solver, Stepper};
 pub use types::*;

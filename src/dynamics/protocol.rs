@@ -120,8 +120,18 @@ pub struct Plan<'a> {
 }
 
 /// Run a protocol from its initial state, feeding `obs` with samples, events and cycle records.
-/// See the module documentation of [`crate::dynamics`].
+/// See the module documentation of [`crate::dynamics`]. A run that ends early (a budget, a
+/// failure) returns its error and drops what it computed; [`run_partial`] keeps it.
 pub fn run(plan: &Plan, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
+    run_partial(plan, obs)?.into_result()
+}
+
+/// [`run`], keeping what a run that ends early computed: once the run has started, a budget
+/// (`max_steps`, `max_wall_s`, `max_events`), a cancellation or a failure of the integration
+/// ends it with its [`Outcome`]: the result up to there (final state, events, cycles, pull-off
+/// so far) and the error. An error here means the run could not start (the scenario cannot be
+/// simulated: a [`SimError::Setup`] or an explicit method on a rate-independent law).
+pub fn run_partial(plan: &Plan, obs: &mut dyn Observer) -> Result<Outcome, SimError> {
     let model = model::resolve(plan.rig, run_scales(&plan.initial, plan.stages))
         .map_err(SimError::Setup)?;
     let (y, drive) = initial_state(plan.rig, &plan.initial, &model)?;
@@ -192,13 +202,26 @@ pub fn run(plan: &Plan, obs: &mut dyn Observer) -> Result<RunResult, SimError> {
     if run.sample_dt > 0.0 {
         run.next_sample = run.sample_dt;
     }
+    let mut error = None;
     for (i, st) in plan.stages.iter().enumerate() {
         if run.stopped {
             break;
         }
-        run.run_stage(i, st)?;
+        if let Err(e) = run.run_stage(i, st) {
+            error = Some(e);
+            break;
+        }
     }
-    Ok(run.finish(plan.solver.method))
+    let observer_reason = if run.stopped {
+        run.obs.stop_reason()
+    } else {
+        None
+    };
+    Ok(Outcome {
+        result: run.finish(plan.solver.method),
+        error,
+        observer_reason,
+    })
 }
 
 /// The initial state and drive (see the module documentation of [`crate::dynamics`]).

@@ -380,6 +380,23 @@ impl Simulator {
         self.stats.steps += trial.stats.steps;
         self.stats.rejected += trial.stats.rejected;
         self.stats.rhs_evals += trial.stats.rhs_evals;
+        // The trial ran on what was left of the run's budgets: an exhausted one is the run's,
+        // reported with the run's own budget, steps and time (the trial's would name what was
+        // left, e.g. "734 steps", and a time ahead of the run's last accepted state).
+        let out = out.map_err(|e| match e {
+            SimError::StepBudget { .. } => SimError::StepBudget {
+                t: self.y.t,
+                max_steps: self.settings.max_steps,
+                steps: self.stats.steps,
+                state: self.err_state(),
+            },
+            SimError::WallBudget { .. } => SimError::WallBudget {
+                t: self.y.t,
+                max_wall_s: self.settings.max_wall_s,
+                state: self.err_state(),
+            },
+            e => e,
+        });
         let (record, end) = out?;
         Ok(TrialPeriod {
             end,
@@ -613,6 +630,7 @@ impl Simulator {
             return Err(SimError::StepBudget {
                 t: self.y.t,
                 max_steps: self.settings.max_steps,
+                steps: self.stats.steps,
                 state: self.err_state(),
             });
         }

@@ -260,6 +260,13 @@ pub trait Observer {
     fn cycle(&mut self, c: &CycleRecord) {
         let _ = c;
     }
+    /// Why this observer asked the run to stop, when it did for a reason of its own that the
+    /// run's status should carry (an in-memory observer over its memory budget:
+    /// [`Reason::Memory`]). `None` (the default): a stop that is not the run's to report (e.g.
+    /// a sweep abandoning its runs, or a writer whose own error is reported when it finishes).
+    fn stop_reason(&self) -> Option<Reason> {
+        None
+    }
 }
 
 /// An observer that ignores everything.
@@ -312,17 +319,24 @@ pub enum SimError {
         state: Box<Sample>,
     },
     /// `solver.max_steps` exhausted.
-    #[error("step budget of {max_steps} steps exhausted at t = {t:e} s; {}", describe(.state))]
+    #[error(
+        "step budget exhausted: {steps} steps taken of solver.max_steps = {max_steps}, at t = \
+         {t:e} s; {}",
+        describe(.state)
+    )]
     StepBudget {
         /// Time (s).
         t: f64,
-        /// The budget.
+        /// The budget, as the scenario set it.
         max_steps: u64,
+        /// Accepted steps taken when the budget ran out (those of envelope following's trial
+        /// periods included).
+        steps: u64,
         /// State.
         state: Box<Sample>,
     },
     /// `solver.max_events` exhausted.
-    #[error("event budget of {max_events} events exhausted at t = {t:e} s; {}", describe(.state))]
+    #[error("event budget of solver.max_events = {max_events} events exhausted at t = {t:e} s; {}", describe(.state))]
     EventBudget {
         /// Time (s).
         t: f64,
@@ -347,7 +361,7 @@ pub enum SimError {
         state: Box<Sample>,
     },
     /// `solver.max_wall_s` exhausted.
-    #[error("wall-clock budget of {max_wall_s} s exhausted at t = {t:e} s; {}", describe(.state))]
+    #[error("wall-clock budget of solver.max_wall_s = {max_wall_s} s exhausted at t = {t:e} s; {}", describe(.state))]
     WallBudget {
         /// Time (s).
         t: f64,
@@ -396,6 +410,198 @@ pub enum SimError {
         /// State.
         state: Box<Sample>,
     },
+}
+
+impl SimError {
+    /// Why this error ended a run, as summary.json's `reason` names it (with its `status`:
+    /// [`Reason::status`]). [`SimError::Cancelled`] is [`Reason::Sigint`] (an interrupt: Ctrl-C
+    /// on the command line, KeyboardInterrupt in Python); the command line, which knows the
+    /// signal, makes it [`Reason::Sigterm`] when that was the signal.
+    pub fn reason(&self) -> Reason {
+        match self {
+            SimError::Setup(_) => Reason::Setup,
+            SimError::StepSizeUnderflow { .. } => Reason::StepUnderflow,
+            SimError::StepBudget { .. } => Reason::MaxSteps,
+            SimError::EventBudget { .. } => Reason::MaxEvents,
+            SimError::EventLoop { .. } => Reason::NoProgress,
+            SimError::WallBudget { .. } => Reason::MaxWallS,
+            SimError::Cancelled { .. } => Reason::Sigint,
+            SimError::StageTimeout { .. } => Reason::StageTimeout,
+            SimError::NonFinite { .. } => Reason::NonFinite,
+            SimError::Explicit { .. } => Reason::MethodFailed,
+        }
+    }
+}
+
+/// How a run ended: summary.json's `status`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    /// The run went through its stages to their end.
+    Ok,
+    /// A budget stopped it (`solver.max_steps`, `max_wall_s`, `max_events`, `max_memory`) or a
+    /// signal (SIGINT, SIGTERM): what it computed up to there is kept.
+    Stopped,
+    /// The integration failed (a non-finite state, a step-size underflow, ...): what it
+    /// computed up to there is kept.
+    Failed,
+}
+
+impl Status {
+    /// The name summary.json gives it: `ok`, `stopped`, `failed`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Status::Ok => "ok",
+            Status::Stopped => "stopped",
+            Status::Failed => "failed",
+        }
+    }
+}
+
+/// Why a run stopped or failed: summary.json's `reason`. The names are a contract
+/// (docs/guide/unattended.md); [`Reason::name`] spells them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Reason {
+    /// `max_steps`: `solver.max_steps` accepted steps taken.
+    MaxSteps,
+    /// `max_wall_s`: `solver.max_wall_s` of wall-clock time spent.
+    MaxWallS,
+    /// `max_events`: `solver.max_events` events located.
+    MaxEvents,
+    /// `memory`: the samples, events and period records held in memory would pass
+    /// `solver.max_memory`.
+    Memory,
+    /// `SIGINT`: interrupted (Ctrl-C; KeyboardInterrupt in Python).
+    Sigint,
+    /// `SIGTERM`: asked to terminate (a batch system's time limit, `kill`).
+    Sigterm,
+    /// `non-finite`: the state became non-finite and no smaller step cured it.
+    NonFinite,
+    /// `step-underflow`: the step size fell below what the time resolves.
+    StepUnderflow,
+    /// `no-progress`: contact events repeat without time advancing.
+    NoProgress,
+    /// `stage-timeout`: a stage ran for its `max_duration` without meeting its end condition.
+    StageTimeout,
+    /// `method-failed`: an explicitly requested explicit method met a state it cannot
+    /// integrate.
+    MethodFailed,
+    /// `setup`: the simulator could not set up a computation it needed (an internal error;
+    /// a scenario that cannot start is refused before the run instead).
+    Setup,
+}
+
+impl Reason {
+    /// Its name in summary.json.
+    pub fn name(self) -> &'static str {
+        match self {
+            Reason::MaxSteps => "max_steps",
+            Reason::MaxWallS => "max_wall_s",
+            Reason::MaxEvents => "max_events",
+            Reason::Memory => "memory",
+            Reason::Sigint => "SIGINT",
+            Reason::Sigterm => "SIGTERM",
+            Reason::NonFinite => "non-finite",
+            Reason::StepUnderflow => "step-underflow",
+            Reason::NoProgress => "no-progress",
+            Reason::StageTimeout => "stage-timeout",
+            Reason::MethodFailed => "method-failed",
+            Reason::Setup => "setup",
+        }
+    }
+
+    /// `stopped` for a budget or a signal, `failed` otherwise.
+    pub fn status(self) -> Status {
+        match self {
+            Reason::MaxSteps
+            | Reason::MaxWallS
+            | Reason::MaxEvents
+            | Reason::Memory
+            | Reason::Sigint
+            | Reason::Sigterm => Status::Stopped,
+            _ => Status::Failed,
+        }
+    }
+}
+
+/// How a run ended, as summary.json reports it: `status`, `reason` (none for a run that went to
+/// its end) and a `message` saying what stopped it, when and in which stage.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ending {
+    /// `ok`, `stopped` or `failed`.
+    pub status: Status,
+    /// Why it stopped or failed (`None` when ok).
+    pub reason: Option<Reason>,
+    /// What happened, where (`None` when ok).
+    pub message: Option<String>,
+}
+
+impl Ending {
+    /// A run that went through its stages.
+    pub fn ok() -> Self {
+        Ending {
+            status: Status::Ok,
+            reason: None,
+            message: None,
+        }
+    }
+
+    /// A run ended early for `reason`, with `message` saying what happened.
+    pub fn early(reason: Reason, message: String) -> Self {
+        Ending {
+            status: reason.status(),
+            reason: Some(reason),
+            message: Some(message),
+        }
+    }
+}
+
+/// A run that started, however it ended: its result up to where it ended, and what ended it
+/// early. [`crate::dynamics::protocol::run_partial`] returns it, so that a run stopped by a
+/// budget or failed mid-way keeps what it computed (like SciPy's `solve_ivp`: status, message,
+/// the solution so far).
+#[derive(Debug, Clone)]
+pub struct Outcome {
+    /// The result up to the end or the stop (`final_state` is where the run got to).
+    pub result: RunResult,
+    /// The error that ended the run early (`None`: it ran to its end, or its observer stopped
+    /// it).
+    pub error: Option<SimError>,
+    /// The observer's reason, when the observer stopped the run for one
+    /// ([`Observer::stop_reason`]).
+    pub observer_reason: Option<Reason>,
+}
+
+impl Outcome {
+    /// The run's status, reason and message. The message is the error's (or the observer's
+    /// reason) followed by where the run got to: its time and stage.
+    pub fn ending(&self) -> Ending {
+        let f = &self.result.final_state;
+        let place = format!("the run got to t = {:e} s in stage {}", f.t, f.stage);
+        if let Some(e) = &self.error {
+            return Ending::early(e.reason(), format!("{e} ({place})"));
+        }
+        match self.observer_reason {
+            Some(Reason::Memory) => Ending::early(
+                Reason::Memory,
+                format!(
+                    "memory budget exhausted: the samples, events and period records held in \
+                     memory would pass solver.max_memory ({place})"
+                ),
+            ),
+            Some(r) => Ending::early(r, format!("stopped: {} ({place})", r.name())),
+            None => Ending::ok(),
+        }
+    }
+
+    /// The result when the run went to its end (or its observer stopped it without a reason),
+    /// the error otherwise: what [`crate::dynamics::run`] returns.
+    pub fn into_result(self) -> Result<RunResult, SimError> {
+        match self.error {
+            Some(e) => Err(e),
+            None => Ok(self.result),
+        }
+    }
 }
 
 fn describe(s: &Sample) -> String {

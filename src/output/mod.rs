@@ -16,10 +16,11 @@
 //! layout).
 //!
 //! **Atomic output.** Every file is written under a hidden partial name tagged with the run's id
-//! (`DIR/.run.h5.<run_id>.partial`, ...) and renamed into place only when the run has succeeded,
-//! `summary.json` last: its presence marks a complete run, and it records the size of every
-//! other file of the run (`file_bytes`). A run that fails, is killed, or whose writer is dropped
-//! without [`RunWriter::finish`] leaves no `run.h5`/`summary.json` of its own, and files of an
+//! (`DIR/.run.h5.<run_id>.partial`, ...) and renamed into place only when the run has ended,
+//! `summary.json` last: its presence marks complete files, and it records the size of every
+//! other file of the run (`file_bytes`) and how the run ended (`status`: a run stopped by a
+//! budget or failed mid-way is published by [`RunWriter::finish_with`]). A run that is killed,
+//! or whose writer is dropped without finishing, leaves no `run.h5`/`summary.json` of its own, and files of an
 //! earlier complete run in the directory stay untouched. A writer holds an exclusive lock on
 //! `DIR/.djkr.lock` from [`RunWriter::create`] to its end, so a second run into the same
 //! directory fails at once, naming the directory, instead of interleaving; the holder of the
@@ -57,7 +58,7 @@ use thiserror::Error;
 
 use crate::dynamics::model::Model;
 use crate::dynamics::simulator::StepSamples;
-use crate::dynamics::types::{CycleRecord, Event, EventKind, Observer, RunResult, Sample};
+use crate::dynamics::types::{CycleRecord, Ending, Event, EventKind, Observer, RunResult, Sample};
 use crate::scenario::Scenario;
 pub use atomic::{write_atomic, AtomicFile};
 use stream::{Background, Pending, Rows, Streaming};
@@ -340,8 +341,21 @@ impl RunWriter {
 
     /// Write every file of the finished run and move them into place, `summary.json` last. On
     /// error nothing of this run is left in the directory (partials are removed) and the error
-    /// names the file.
-    pub fn finish(mut self, result: &RunResult) -> Result<OutputPaths, OutputError> {
+    /// names the file. The run went to its end (`"status": "ok"`); [`RunWriter::finish_with`]
+    /// publishes a run that ended early.
+    pub fn finish(self, result: &RunResult) -> Result<OutputPaths, OutputError> {
+        self.finish_with(result, &Ending::ok())
+    }
+
+    /// [`RunWriter::finish`] for a run that ended as `ending` says: a run stopped by a budget or
+    /// a signal, or failed mid-way, publishes what it computed up to there (its time series,
+    /// events and period records, complete files) with `status`, `reason` and `message` in
+    /// summary.json.
+    pub fn finish_with(
+        mut self,
+        result: &RunResult,
+        ending: &Ending,
+    ) -> Result<OutputPaths, OutputError> {
         if let Some(e) = self.error.take() {
             return Err(e);
         }
@@ -396,6 +410,7 @@ impl RunWriter {
         let json = summary::summary_json(
             &self.scenario,
             result,
+            ending,
             self.samples,
             &files,
             &self.run_id,

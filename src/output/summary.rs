@@ -7,6 +7,9 @@
 //!   "run_id": "1795500000.123456-41234",
 //!   "scenario": "scenarios/paper-protocol-300hz.toml --set base.amplitude=30um",
 //!   "overrides": ["base.amplitude=30um"],
+//!   "status": "stopped",
+//!   "reason": "max_wall_s",
+//!   "message": "wall-clock budget of solver.max_wall_s = 45 s exhausted at t = ... (the run got to t = 3.2e0 s in stage 1)",
 //!   "method": "dopri5 (auto: ...)",
 //!   "detached": true,
 //!   "pull_off": {"amplification": 1.7, "force": -0.098, "time": 12.3},
@@ -30,6 +33,15 @@
 //!   ]
 //! }
 //! ```
+//!
+//! `status` is `ok` (the run went through its stages), `stopped` (a budget or a signal stopped
+//! it) or `failed` (the integration failed mid-way); `reason` names why (`max_steps`,
+//! `max_wall_s`, `max_events`, `memory`, `SIGINT`, `SIGTERM`, `non-finite`, `step-underflow`,
+//! `no-progress`, `stage-timeout`, `method-failed`, `setup`: [`crate::dynamics::Reason`]) and
+//! `message` says what happened, when and in which stage; both are absent when ok (the file
+//! has no `null`: see the non-finite rule below). A stopped
+//! or failed run's numbers (`final_state`, `pull_off`, `cycles`, `events`, ...) and files
+//! describe the run up to where it ended.
 //!
 //! `warnings` lists what leaves the model's range ([`checks::result_warnings`]: a contact
 //! beyond 0.2 R, no pull-off recorded; always present, empty without).
@@ -59,7 +71,7 @@ use serde_json::{Map, Value};
 use super::cycles::cycle_table;
 use super::table::Data;
 use super::timeseries::{kind_name, stage_index, SERIES, STAGE, STAGE_UNIT};
-use crate::dynamics::types::{CycleRecord, RunResult, Sample};
+use crate::dynamics::types::{CycleRecord, Ending, RunResult, Sample};
 use crate::scenario::{checks, Scenario};
 
 /// Version of the summary layout, stored as `format_version`.
@@ -183,6 +195,7 @@ pub fn units() -> BTreeMap<String, String> {
 pub fn summary_json(
     scenario: &Scenario,
     result: &RunResult,
+    ending: &Ending,
     samples: u64,
     files: &SummaryFiles,
     run_id: &str,
@@ -202,6 +215,7 @@ pub fn summary_json(
         ("run_id", Value::from(run_id)),
         ("scenario", Value::from(scenario.source_name.as_str())),
         ("overrides", Value::from(scenario.overrides.clone())),
+        ("status", Value::from(ending.status.name())),
         ("method", Value::from(result.method.as_str())),
         ("detached", Value::Bool(result.detached)),
         ("pull_off", Value::Object(pull_off)),
@@ -245,6 +259,18 @@ pub fn summary_json(
             Value::Object(b.non_finite.into_iter().collect()),
         ),
     ];
+    // `reason` and `message` follow `status` when the run ended early (no `null` in the file).
+    let mut top = top;
+    let at = top
+        .iter()
+        .position(|(k, _)| *k == "status")
+        .map_or(0, |i| i + 1);
+    if let Some(m) = &ending.message {
+        top.insert(at, ("message", Value::from(m.as_str())));
+    }
+    if let Some(r) = ending.reason {
+        top.insert(at, ("reason", Value::from(r.name())));
+    }
     layout(&top, sections, &events)
 }
 

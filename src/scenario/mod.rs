@@ -89,6 +89,15 @@ impl Scenario {
         crate::dynamics::run(&self.plan(), obs)
     }
 
+    /// [`Scenario::simulate`], keeping what a run that ends early computed
+    /// ([`crate::dynamics::run_partial`]).
+    pub fn simulate_partial(
+        &self,
+        obs: &mut dyn crate::dynamics::Observer,
+    ) -> Result<crate::dynamics::Outcome, crate::dynamics::SimError> {
+        crate::dynamics::run_partial(&self.plan(), obs)
+    }
+
     /// The scales the protocol adds to the rig's model (initial gap, fastest spring-end speed).
     pub fn run_scales(&self) -> crate::dynamics::model::RunScales {
         crate::dynamics::protocol::run_scales(&self.initial, &self.stages)

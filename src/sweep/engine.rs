@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use thiserror::Error;
 
-use crate::dynamics::{CycleRecord, Event, Model, Observer, Sample, StepSamples};
+use crate::dynamics::{CycleRecord, Event, Model, Observer, Sample, Status, StepSamples};
 use crate::output::RunWriter;
 use crate::scenario::overrides::{Override, SetKey};
 use crate::scenario::parse::{ScenarioError, ScenarioSource};
@@ -258,33 +258,50 @@ impl Sweep {
             stopped: false,
             inner: writer.as_mut(),
         };
-        let outcome = scn.simulate(&mut obs);
+        let outcome = scn.simulate_partial(&mut obs);
         if obs.stopped {
             return None;
         }
-        let result = match outcome {
-            Ok(r) => r,
+        let outcome = match outcome {
+            Ok(o) => o,
             Err(e) => return failed(&e.to_string()),
         };
+        // A run that a budget stopped or that failed mid-way keeps its run folder, with its
+        // status, like `djkr run`'s.
+        let ending = outcome.ending();
+        let result = outcome.result;
         if let Some(w) = writer {
             let dir = w.dir().to_path_buf();
-            if let Err(e) = w.finish(&result) {
+            if let Err(e) = w.finish_with(&result, &ending) {
                 return failed(&format!("run folder: {e}"));
             }
-            if scn.output.plot {
+            if scn.output.plot && ending.status == Status::Ok {
                 if let Err(e) = crate::run_plot::plot_run_dir(&dir) {
                     return failed(&format!("run plot: {e}"));
                 }
             }
         }
-        Some(Row {
-            point: id.point,
-            member: id.member,
-            keys,
-            phase,
-            result: Ok(RunNumbers::of(&result)),
-            wall_s: result.stats.wall_s,
-        })
+        let message = ending.message.as_deref().unwrap_or_default();
+        match ending.status {
+            Status::Ok => Some(Row {
+                point: id.point,
+                member: id.member,
+                keys,
+                phase,
+                result: Ok(RunNumbers::of(&result)),
+                stopped: false,
+                wall_s: result.stats.wall_s,
+            }),
+            Status::Stopped => Some(Row::stopped(
+                id.point,
+                id.member,
+                keys,
+                phase,
+                message,
+                result.stats.wall_s,
+            )),
+            Status::Failed => failed(message),
+        }
     }
 }
 

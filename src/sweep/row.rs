@@ -71,8 +71,11 @@ pub struct Row {
     pub keys: Vec<KeyCell>,
     /// The base phase of the run (rad): the drawn one in an ensemble, else the scenario's.
     pub phase: f64,
-    /// The run's numbers, or why it failed.
+    /// The run's numbers, or why it failed or stopped.
     pub result: Result<RunNumbers, String>,
+    /// A budget (`solver.max_steps`, `max_wall_s`, `max_events`, `max_memory`) stopped the run:
+    /// status `stopped` rather than `error` (`result` holds the message either way).
+    pub stopped: bool,
     /// Wall-clock time of the run (s): `stats.wall_s`, or the sweep's measurement of a run that
     /// failed.
     pub wall_s: f64,
@@ -94,7 +97,32 @@ impl Row {
             keys,
             phase,
             result: Err(message.replace("\r\n", "; ").replace(['\n', '\r'], "; ")),
+            stopped: false,
             wall_s,
+        }
+    }
+
+    /// A row whose run a budget stopped (status `stopped`), with the run's message.
+    pub fn stopped(
+        point: usize,
+        member: usize,
+        keys: Vec<KeyCell>,
+        phase: f64,
+        message: &str,
+        wall_s: f64,
+    ) -> Row {
+        Row {
+            stopped: true,
+            ..Row::failed(point, member, keys, phase, message, wall_s)
+        }
+    }
+
+    /// The row's `status`: `ok`, `stopped` or `error`.
+    pub fn status(&self) -> &'static str {
+        match (&self.result, self.stopped) {
+            (Ok(_), _) => "ok",
+            (Err(_), true) => "stopped",
+            (Err(_), false) => "error",
         }
     }
 
@@ -160,8 +188,14 @@ pub fn row_schema(keys: &[KeyColumn]) -> Vec<Field> {
         "rad",
         "base phase at shaker-on ([base] phase)",
     ));
-    f.push(Field::text("status", "ok or error"));
-    f.push(Field::text("error", "why the run failed (empty when ok)"));
+    f.push(Field::text(
+        "status",
+        "ok, stopped (a budget stopped the run) or error (it failed)",
+    ));
+    f.push(Field::text(
+        "error",
+        "why the run failed or stopped (empty when ok)",
+    ));
     for (name, unit, description) in NUMBERS {
         f.push(if unit.is_empty() {
             Field::text(name, description)
@@ -226,9 +260,7 @@ pub fn rows_table(keys: &[KeyColumn], rows: &[Row]) -> Table {
     };
     let nan = f64::NAN;
     cols.push(f64_col(&mut i, &|r| r.phase));
-    cols.push(text_col(&mut i, &|r| {
-        if r.result.is_ok() { "ok" } else { "error" }.to_string()
-    }));
+    cols.push(text_col(&mut i, &|r| r.status().to_string()));
     cols.push(text_col(&mut i, &|r| {
         r.result.as_ref().err().cloned().unwrap_or_default()
     }));
@@ -344,10 +376,10 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                     delta_amp: num(b + 12)?,
                 })
             }
-            "error" => Err(cell(b + 2).to_string()),
+            "error" | "stopped" => Err(cell(b + 2).to_string()),
             other => {
                 return Err(format!(
-                    "line {line}, column status: '{other}' is neither ok nor error"
+                    "line {line}, column status: '{other}' is not ok, stopped or error"
                 ))
             }
         };
@@ -357,6 +389,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
             keys: kc,
             phase: num(b)?,
             result,
+            stopped: status == "stopped",
             wall_s: num(b + 9)?,
         });
     }
@@ -398,6 +431,7 @@ mod tests {
                     delta_mean: f64::NAN,
                     delta_amp: 1e-5,
                 }),
+                stopped: false,
                 wall_s: 0.07,
             },
             Row {
@@ -406,7 +440,17 @@ mod tests {
                 keys: vec![KeyCell::Num(6e-5), KeyCell::Text("implicit".into())],
                 phase: 0.0,
                 result: Err("step size underflow at t = 1e0 s, \"x\"; state: ...".into()),
+                stopped: false,
                 wall_s: 0.5,
+            },
+            Row {
+                point: 2,
+                member: 0,
+                keys: vec![KeyCell::Num(9e-5), KeyCell::Text("auto".into())],
+                phase: 0.5,
+                result: Err("wall-clock budget of solver.max_wall_s = 1 s exhausted".into()),
+                stopped: true,
+                wall_s: 1.0,
             },
         ]
     }
@@ -421,13 +465,16 @@ mod tests {
              rhs_evals [1],wall_s [s],force_mean [N],delta_mean [m],delta_amp [m]\n"
         ));
         let back = parse_rows_csv(&csv, &keys()).unwrap();
-        assert_eq!(back.len(), 2);
+        assert_eq!(back.len(), 3);
+        let status: Vec<&str> = back.iter().map(Row::status).collect();
+        assert_eq!(status, ["ok", "error", "stopped"]);
+        assert!(csv.contains(",stopped,"), "{csv}");
         // NaN != NaN: compare the CSV they make.
         assert_eq!(rows_table(&keys(), &back).to_csv(), csv);
         assert_eq!(back[1].result, rows()[1].result);
         // A torn last line is ignored.
         let torn = &csv[..csv.len() - 5];
-        assert_eq!(parse_rows_csv(torn, &keys()).unwrap().len(), 1);
+        assert_eq!(parse_rows_csv(torn, &keys()).unwrap().len(), 2);
         // Other columns are refused.
         let e = parse_rows_csv(&csv, &keys()[..1]).unwrap_err();
         assert!(e.contains("differ"), "{e}");
