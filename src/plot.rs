@@ -24,6 +24,34 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use thiserror::Error;
 
+/// The unit a reader expects for values `values` of SI unit `si`, and the factor from SI to it:
+/// µm rather than `1e-5` m, mN rather than `0.02` N (the largest |value| picks the prefix that
+/// puts it in [1, 1000)). Units without prefixed forms here (Hz, Pa, J/m^2, dimensionless) stay SI.
+pub fn display_unit(si: &str, values: &[f64]) -> (f64, String) {
+    let top = values
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold(0.0_f64, |m, v| m.max(v.abs()));
+    let pick = |steps: &[(f64, &str)]| -> (f64, String) {
+        // `steps`: (factor, unit) from the largest unit down; the first that makes top ≥ 1.
+        for &(f, u) in steps {
+            if top * f >= 1.0 {
+                return (f, u.to_string());
+            }
+        }
+        let (f, u) = steps[steps.len() - 1];
+        (f, u.to_string())
+    };
+    match si {
+        "m" if top > 0.0 => pick(&[(1.0, "m"), (1e3, "mm"), (1e6, "µm"), (1e9, "nm")]),
+        "N" if top > 0.0 => pick(&[(1.0, "N"), (1e3, "mN"), (1e6, "µN")]),
+        "m/s" if top > 0.0 => pick(&[(1.0, "m/s"), (1e3, "mm/s"), (1e6, "µm/s")]),
+        "s" if top > 0.0 => pick(&[(1.0, "s"), (1e3, "ms"), (1e6, "µs")]),
+        "kg" if top > 0.0 => pick(&[(1.0, "kg"), (1e3, "g"), (1e6, "mg")]),
+        _ => (1.0, si.to_string()),
+    }
+}
+
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Style {
@@ -1246,6 +1274,19 @@ mod tests {
             assert!(k.windows(2).all(|w| w[1] > w[0]), "{n}: {k:?}");
             assert!(k.iter().any(|&v| (v - 0.1).abs() < 1e-12), "{n}: {k:?}");
         }
+    }
+
+    #[test]
+    fn display_units_are_the_ones_a_reader_expects() {
+        // Issue 25: sweep axes in metres (1e-5) where the user thinks in µm.
+        assert_eq!(display_unit("m", &[1e-5, 5e-5]), (1e6, "µm".into()));
+        assert_eq!(display_unit("m", &[0.051]), (1e3, "mm".into()));
+        assert_eq!(display_unit("m", &[2.0]), (1.0, "m".into()));
+        assert_eq!(display_unit("m", &[3e-9]), (1e9, "nm".into()));
+        assert_eq!(display_unit("N", &[0.02, f64::NAN]), (1e3, "mN".into()));
+        assert_eq!(display_unit("m/s", &[4.45e-5]), (1e6, "µm/s".into()));
+        assert_eq!(display_unit("Hz", &[400.0]), (1.0, "Hz".into()));
+        assert_eq!(display_unit("m", &[0.0]), (1.0, "m".into()));
     }
 
     #[test]

@@ -12,7 +12,7 @@ use djkr::continuation::family::{Family, Parameter};
 use djkr::continuation::folds::{self, FoldCurve, FoldPointKind};
 use djkr::continuation::report::{self, ContinuationReport};
 use djkr::continuation::sweep::{self, SweepPoint};
-use djkr::output::table::{format_f64, hdf5_tables, text_attr};
+use djkr::output::table::{format_f64, format_sig, hdf5_tables, text_attr};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::scenario::parse::ScenarioSource;
 use djkr::steady::Options;
@@ -587,8 +587,9 @@ fn print_report(file: &Path, r: &ContinuationReport) {
                 .collect::<Vec<_>>()
                 .join(", ");
             println!(
-                "  {label:<16} {} = {v:.10e} {}, |δ_A/X_b| = {:.5}, a_m = {:.6} mm, |μ| = {mu}",
+                "  {label:<16} {} = {} {}, |δ_A/X_b| = {:.5}, a_m = {:.6} mm, |μ| = {mu}",
                 r.parameter,
+                format_sig(v, 9),
                 r.unit,
                 m.delta_amp_over_xb,
                 m.a_mean * 1e3
@@ -627,7 +628,7 @@ fn print_report(file: &Path, r: &ContinuationReport) {
             let v: Vec<String> = c
                 .values
                 .iter()
-                .map(|(k, v)| format!("{k} = {v:.9e}"))
+                .map(|(k, v)| format!("{k} = {}", format_sig(*v, 9)))
                 .collect();
             println!(
                 "  cusp: {}, |δ_A/X_b| = {:.5}",

@@ -764,6 +764,33 @@ pub fn format_f64(x: f64) -> String {
     }
 }
 
+/// `x` to `sig` significant digits for a human reader: plain decimals for magnitudes in
+/// [1e-3, 1e6) (`560.178239`, not `5.60178239e2`), exponent notation beyond. Machine files use
+/// [`format_f64`] (the shortest round trip) instead.
+pub fn format_sig(x: f64, sig: usize) -> String {
+    let m = x.abs();
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let sig = sig.max(1);
+    if (1e-3..1e6).contains(&m) {
+        // Digits after the point: sig minus the digits before it (rounding may add one).
+        let mut exp = m.log10().floor() as i64;
+        // 999.9996 to 6 digits rounds up into the next decade: one digit fewer after the point.
+        if format!("{m:.prec$e}", prec = sig - 1)
+            .parse::<f64>()
+            .unwrap_or(m)
+            >= 10f64.powi(exp as i32 + 1)
+        {
+            exp += 1;
+        }
+        let decimals = (sig as i64 - 1 - exp).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.prec$e}", prec = sig - 1)
+    }
+}
+
 /// A text cell, quoted when it holds a comma, a quote or a line break (RFC 4180).
 fn push_text(line: &mut String, s: &str) {
     if s.contains([',', '"', '\n', '\r']) {
@@ -848,6 +875,17 @@ impl<W: Write> CsvWriter<W> {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn human_numbers_are_plain_decimals_to_their_significant_digits() {
+        assert_eq!(format_sig(560.17823904678, 9), "560.178239");
+        assert_eq!(format_sig(43.16, 4), "43.16");
+        assert_eq!(format_sig(0.0123456, 3), "0.0123");
+        assert_eq!(format_sig(999.9996, 6), "1000.00");
+        assert_eq!(format_sig(2.5e-7, 3), "2.50e-7");
+        assert_eq!(format_sig(-1.5e7, 2), "-1.5e7");
+        assert_eq!(format_sig(0.0, 5), "0");
+    }
+
     use super::*;
 
     #[test]

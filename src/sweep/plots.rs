@@ -27,16 +27,34 @@ pub const AMPLIFICATION_MAP: &str = "amplification-map";
 /// The phase figure's stem.
 pub const PHASE: &str = "phase";
 
-fn label(k: &KeyInfo) -> String {
+/// The axis label of key `k` in the display unit `unit` ([`plot::display_unit`]).
+fn label(k: &KeyInfo, unit: &str) -> String {
     match k.unit.as_deref() {
-        Some(u) if u != "1" => format!("{} ({u})", k.name),
+        Some(u) if u != "1" => format!("{} ({unit})", k.name),
         _ => k.name.clone(),
     }
 }
 
+/// The display unit of key `j` over the sweep's points, and its factor from SI.
+fn key_display(keys: &[KeyInfo], points: &[PointStats], j: usize) -> (f64, String) {
+    let values: Vec<f64> = points.iter().filter_map(|p| p.keys[j].num()).collect();
+    match keys[j].unit.as_deref() {
+        Some(u) if u != "1" => plot::display_unit(u, &values),
+        _ => (1.0, String::new()),
+    }
+}
+
+/// Error bars smaller than this fraction of the mean are not drawn: at a plot's resolution
+/// (about 1 part in 1000) they are invisible, and drawn they suggest a spread that is rounding
+/// (a deterministic rig's members differ by ~1e-7).
+const MIN_BAR: f64 = 1e-3;
+
 fn value_text(k: &KeyInfo, c: &KeyCell) -> String {
     match (c, k.unit.as_deref()) {
-        (KeyCell::Num(x), Some(u)) if u != "1" => format!("{} = {} {u}", k.name, short(*x)),
+        (KeyCell::Num(x), Some(u)) if u != "1" => {
+            let (f, unit) = plot::display_unit(u, &[*x]);
+            format!("{} = {} {unit}", k.name, short(*x * f))
+        }
         _ => format!("{} = {c}", k.name),
     }
 }
@@ -139,11 +157,12 @@ fn amplification_figure(
             None => groups.push((name, vec![p])),
         }
     }
+    let (xf, xu) = key_display(keys, points, xj);
     let mut fig = Figure::new(
         format!("pull-off amplification against {}", keys[xj].name),
-        label(&keys[xj]),
+        label(&keys[xj], &xu),
         if ensemble {
-            "pull-off amplification (mean ± std of members)"
+            "pull-off amplification (mean ± std of members; bars < 0.1 % not drawn)"
         } else {
             "pull-off amplification"
         },
@@ -157,7 +176,7 @@ fn amplification_figure(
         });
         let xs: Vec<f64> = pts
             .iter()
-            .map(|p| p.keys[xj].num().unwrap_or(f64::NAN))
+            .map(|p| p.keys[xj].num().unwrap_or(f64::NAN) * xf)
             .collect();
         let ys: Vec<f64> = pts.iter().map(|p| p.amplification.mean).collect();
         fig.series
@@ -166,7 +185,7 @@ fn amplification_figure(
             let (mut bx, mut by) = (Vec::new(), Vec::new());
             for (p, x) in pts.iter().zip(&xs) {
                 let s = p.amplification;
-                if s.std.is_finite() {
+                if s.std.is_finite() && s.std >= MIN_BAR * s.mean.abs() {
                     bx.extend([*x, *x, f64::NAN]);
                     by.extend([s.mean - s.std, s.mean + s.std, f64::NAN]);
                 }
@@ -192,6 +211,8 @@ fn amplification_map(
         v.dedup_by(|a, b| a.to_bits() == b.to_bits());
         v
     };
+    let (xf, xu) = key_display(keys, points, xj);
+    let (yf, yu) = key_display(keys, points, yj);
     let (x, y) = (axis(xj), axis(yj));
     let finite = x.iter().chain(&y).all(|v| v.is_finite());
     if !(x.len() >= 2 && y.len() >= 2 && finite) {
@@ -219,13 +240,13 @@ fn amplification_map(
             keys[xj].name,
             keys[yj].name
         ),
-        x_label: label(&keys[xj]),
-        y_label: label(&keys[yj]),
+        x_label: label(&keys[xj], &xu),
+        y_label: label(&keys[yj], &yu),
         z_label: "pull-off amplification".into(),
         x_log: keys[xj].log,
         y_log: keys[yj].log,
-        x,
-        y,
+        x: x.iter().map(|v| v * xf).collect(),
+        y: y.iter().map(|v| v * yf).collect(),
         z,
         z_log: false,
         z_range: None,
@@ -276,4 +297,50 @@ fn phase_figure(keys: &[KeyInfo], points: &[PointStats], rows: &[Row], vary: &[u
             .push(Series::new(name, xs, ys, Style::Markers).with_color(i));
     }
     fig
+}
+
+#[cfg(test)]
+#[allow(clippy::float_cmp)] // values scaled by exact powers of ten, compared exactly
+mod tests {
+    use super::*;
+    use crate::sweep::stats::Summary;
+
+    fn point(i: usize, xb: f64, mean: f64, std: f64) -> PointStats {
+        let s = Summary {
+            n: 8,
+            mean,
+            std,
+            ..Summary::of([1.0, 2.0])
+        };
+        PointStats {
+            point: i,
+            keys: vec![KeyCell::Num(xb)],
+            members: 8,
+            failed: 0,
+            force: s,
+            amplification: s,
+        }
+    }
+
+    #[test]
+    fn axes_in_micrometres_and_no_bars_for_rounding_spreads() {
+        // Issue 25: the axis in metres (1e-5) and bars drawn for σ ≈ 1e-7.
+        let keys = vec![KeyInfo {
+            name: "base.amplitude".into(),
+            unit: Some("m".into()),
+            log: false,
+        }];
+        let pts = vec![
+            point(0, 10e-6, 9.57, 1e-7),
+            point(1, 20e-6, 20.0, 0.5),
+            point(2, 30e-6, 30.0, 1e-6),
+        ];
+        let fig = amplification_figure(&keys, &pts, &[0], 0, true);
+        assert_eq!(fig.x_label, "base.amplitude (µm)");
+        assert_eq!(fig.series[0].x, vec![10.0, 20.0, 30.0]);
+        // One bar: the point whose spread is visible.
+        let bars = &fig.series[1];
+        assert_eq!(bars.x.iter().filter(|x| x.is_finite()).count(), 2);
+        assert!(bars.x.iter().all(|x| x.is_nan() || *x == 20.0));
+    }
 }
