@@ -97,6 +97,9 @@ pub enum ApiError {
     /// Other bad input, with its message.
     #[error("{0}")]
     Invalid(String),
+    /// A run kept in memory whose known samples exceed `solver.max_memory` ([`crate::memory`]).
+    #[error(transparent)]
+    Memory(#[from] crate::memory::MemoryError),
     /// The scenario cannot describe a periodic steady state (no `[base]`, ...).
     #[error("{source_name}: {error}")]
     SteadySetup {
@@ -156,6 +159,7 @@ impl ApiError {
                 | ApiError::Spec(_)
                 | ApiError::Sweep(_)
                 | ApiError::Invalid(_)
+                | ApiError::Memory(_)
                 | ApiError::SteadySetup { .. }
         )
     }
@@ -629,8 +633,11 @@ impl Observer for InMemory<'_> {
 
 /// Run `scn` and keep its samples, events and period records in memory; with `out`, also write
 /// the run folder `djkr run --out` writes (`run.h5`, `summary.json`, the CSV files and figure
-/// its `[output]` asks for), by the same writer. Cancelled through `scn.solver.cancel`.
+/// its `[output]` asks for), by the same writer. Cancelled through `scn.solver.cancel`. A run
+/// whose known samples would not fit in `solver.max_memory` is refused before it starts
+/// ([`crate::memory::check_in_memory`]; an input error).
 pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
+    crate::memory::check_in_memory(scn)?;
     let mut writer = match out {
         Some(dir) => Some(
             RunWriter::create(dir, scn, scn.output.csv).map_err(|error| ApiError::Output {
