@@ -10,9 +10,13 @@ dict with the file's structure (``{"version": 1, "material": {...}, "stage": [{.
 ``set`` is a dict of ``--set`` overrides, ``{"base.amplitude": "30um", "stage[3].speed": 1e-3}``.
 Quantities are SI floats or strings with units (``"400Hz"``, ``"0.5mm"``).
 
-Bad input raises ``ScenarioError`` (a ``ValueError``) with the command line's message; a run
-that fails raises ``RuntimeError``. Long calls release the interpreter lock and stop within a
-fraction of a second on Ctrl-C (``KeyboardInterrupt``).
+Bad input raises ``ScenarioError`` (a ``ValueError``) with the command line's message, an
+argument of the wrong type ``ScenarioTypeError`` (both a ``ScenarioError`` and a ``TypeError``);
+a run that fails raises ``RuntimeError``. No input takes the interpreter down: a scenario dict
+or TOML string larger than a scenario file may be (1 MiB, once written as TOML), nested more
+than 80 deep (the TOML parser's limit) or containing itself is refused with ``ScenarioError``,
+and so is ``set=`` or ``grid=`` of more than 1 MiB of text. Long calls release the interpreter
+lock and stop within a fraction of a second on Ctrl-C (``KeyboardInterrupt``).
 """
 
 import os
@@ -30,6 +34,10 @@ SetValue = Union[float, int, str, bool]
 
 class ScenarioError(ValueError):
     """Bad input: a scenario, an override, an argument or a grid that djkr refuses."""
+
+class ScenarioTypeError(ScenarioError, TypeError):
+    """Bad input of the wrong type (a list where a number goes, an int where a dict goes):
+    caught by ``except ScenarioError`` and by ``except TypeError``."""
 
 class Run:
     """A time-domain run held in memory: the datasets of ``run.h5`` value for value."""
@@ -80,7 +88,13 @@ def run(
 ) -> Run:
     """Run a scenario (``djkr run``); with ``out``, also write the run folder ``djkr run --out``
     writes (``run.h5``, ``summary.json``, and the CSV files and figure its ``[output]`` asks
-    for)."""
+    for).
+
+    The run is held in memory. Where its sample count is known before it starts
+    (``[output] sample_rate`` > 0 over the stages with a ``duration``), a run whose samples
+    would take more than ``solver.max_memory`` (default 2 GiB, at 200 bytes a sample) is refused
+    at once with ``ScenarioError`` naming ``output.sample_rate``, the durations and the
+    estimate; lower the rate or raise ``solver.max_memory``."""
 
 def cycle(
     freq: Quantity,
