@@ -99,6 +99,9 @@ pub enum ApiError {
     /// Other bad input, with its message.
     #[error("{0}")]
     Invalid(String),
+    /// A run kept in memory whose known samples exceed `solver.max_memory` ([`crate::memory`]).
+    #[error(transparent)]
+    Memory(#[from] crate::memory::MemoryError),
     /// The scenario cannot describe a periodic steady state (no `[base]`, ...).
     #[error("{source_name}: {error}")]
     SteadySetup {
@@ -170,6 +173,7 @@ impl ApiError {
                 | ApiError::Spec(_)
                 | ApiError::Sweep(_)
                 | ApiError::Invalid(_)
+                | ApiError::Memory(_)
                 | ApiError::SteadySetup { .. }
         )
     }
@@ -612,9 +616,11 @@ pub struct RunRecord {
     pub plots: Vec<PathBuf>,
 }
 
-/// Bytes one time-series sample holds in memory: the [`crate::output::timeseries::SERIES`]
-/// columns and the stage index, 8 bytes each.
-pub const SAMPLE_BYTES: u64 = 8 * (crate::output::timeseries::SERIES.len() as u64 + 1);
+/// Bytes one time-series sample is charged in memory: the most it can cost at the peak
+/// ([`crate::memory::SAMPLE_BYTES`]: the [`crate::output::timeseries::SERIES`] columns and the
+/// stage index, 8 bytes each, in buffers that double when full), the same figure the estimate
+/// before the run uses, so that `solver.max_memory` bounds the peak either way.
+pub const SAMPLE_BYTES: u64 = crate::memory::SAMPLE_BYTES as u64;
 /// Bytes one event holds in memory.
 pub const EVENT_BYTES: u64 = std::mem::size_of::<Event>() as u64;
 /// Bytes one period record holds in memory (its table row, 8 bytes a column).
@@ -624,9 +630,8 @@ pub const CYCLE_BYTES: u64 = 8 * cycles::CYCLE_FIELDS.len() as u64;
 /// the bytes it holds (samples, events, period records: [`SAMPLE_BYTES`], [`EVENT_BYTES`],
 /// [`CYCLE_BYTES`]) and stops the run, with [`Reason::Memory`], before a sample would take them
 /// past `budget` (`solver.max_memory`): a run whose length is not known up front (samples at
-/// every step, stages that end at pull-off) cannot exhaust the machine's memory. The count is
-/// of the data itself; a growing column may briefly hold up to twice its length while it
-/// grows.
+/// every step, stages that end at pull-off) cannot exhaust the machine's memory. A sample is
+/// charged its peak cost (a growing column briefly holds up to twice its length).
 struct InMemory<'a> {
     series: TimeSeriesWriter,
     cycles: Table,
@@ -685,12 +690,14 @@ impl Observer for InMemory<'_> {
 
 /// Run `scn` and keep its samples, events and period records in memory; with `out`, also write
 /// the run folder `djkr run --out` writes (`run.h5`, `summary.json`, the CSV files and figure
-/// its `[output]` asks for), by the same writer. Cancelled through `scn.solver.cancel`
-/// ([`ApiError::Cancelled`]; a run folder is still published, with reason `SIGINT`). A run
-/// stopped by a budget (`solver.max_memory` included: the bytes held in memory) or failed
-/// mid-way returns [`ApiError::Ended`] with what it computed, and its run folder is published
-/// with its status.
+/// its `[output]` asks for), by the same writer. A run whose known samples would not fit in
+/// `solver.max_memory` is refused before it starts ([`crate::memory::check_in_memory`]; an input
+/// error). Cancelled through `scn.solver.cancel` ([`ApiError::Cancelled`]; a run folder is still
+/// published, with reason `SIGINT`). A run stopped by a budget (`solver.max_memory` included: the
+/// bytes held in memory) or failed mid-way returns [`ApiError::Ended`] with what it computed, and
+/// its run folder is published with its status.
 pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
+    crate::memory::check_in_memory(scn)?;
     let mut writer = match out {
         Some(dir) => Some(
             RunWriter::create(dir, scn, scn.output.csv).map_err(|error| ApiError::Output {

@@ -25,6 +25,7 @@ pub mod imposed_area;
 pub mod input;
 pub mod jkr;
 pub mod material;
+pub mod memory;
 pub mod numerics;
 pub mod output;
 pub mod plot;

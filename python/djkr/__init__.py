@@ -5,12 +5,13 @@ commands of the same names report, in SI units: ``cycle``, ``pulloff`` and ``val
 object of ``--json``, ``resonance`` and ``sweep`` the columns of ``resonance.csv`` and
 ``sweep.csv`` as numpy arrays, ``run`` a ``Run`` with the datasets of ``run.h5`` as numpy arrays
 and the content of ``summary.json``. Bad input raises ``ScenarioError`` (a ``ValueError``) with
-the command line's message. Long calls release the interpreter lock and stop on Ctrl-C.
+the command line's message (``ScenarioTypeError``, also a ``TypeError``, for a wrong type). Long calls release the interpreter lock and stop on Ctrl-C.
 """
 
 from ._djkr import (
     Run,
     ScenarioError,
+    ScenarioTypeError,
     __version__,
     cycle,
     pulloff,
@@ -23,6 +24,7 @@ from ._djkr import (
 __all__ = [
     "Run",
     "ScenarioError",
+    "ScenarioTypeError",
     "cycle",
     "pulloff",
     "resonance",

@@ -10,12 +10,17 @@ dict with the file's structure (``{"version": 1, "material": {...}, "stage": [{.
 ``set`` is a dict of ``--set`` overrides, ``{"base.amplitude": "30um", "stage[3].speed": 1e-3}``.
 Quantities are SI floats or strings with units (``"400Hz"``, ``"0.5mm"``).
 
-Bad input raises ``ScenarioError`` (a ``ValueError``) with the command line's message; a run
-that a budget stopped (``solver.max_steps``, ``max_wall_s``, ``max_events``, ``max_memory``) or
-that failed mid-way raises ``RuntimeError`` whose ``run`` attribute is the ``Run`` up to there
-(``e.run.summary["status"]`` is ``"stopped"`` or ``"failed"``, with ``"reason"`` and
-``"message"``). Long calls release the interpreter lock and stop within a fraction of a second
-on Ctrl-C (``KeyboardInterrupt``; with ``out``, the folder is written with reason ``SIGINT``).
+Bad input raises ``ScenarioError`` (a ``ValueError``) with the command line's message, an
+argument of the wrong type ``ScenarioTypeError`` (both a ``ScenarioError`` and a ``TypeError``).
+No input takes the interpreter down: a scenario dict or TOML string larger than a scenario file
+may be (1 MiB, once written as TOML), nested more than 80 deep (the TOML parser's limit) or
+containing itself is refused with ``ScenarioError``, and so is ``set=`` or ``grid=`` of more
+than 1 MiB of text. A run that a budget stopped (``solver.max_steps``, ``max_wall_s``,
+``max_events``, ``max_memory``) or that failed mid-way raises ``RuntimeError`` whose ``run``
+attribute is the ``Run`` up to there (``e.run.summary["status"]`` is ``"stopped"`` or
+``"failed"``, with ``"reason"`` and ``"message"``). Long calls release the interpreter lock and
+stop within a fraction of a second on Ctrl-C (``KeyboardInterrupt``; with ``out``, the folder is
+written with reason ``SIGINT``).
 """
 
 import os
@@ -33,6 +38,10 @@ SetValue = Union[float, int, str, bool]
 
 class ScenarioError(ValueError):
     """Bad input: a scenario, an override, an argument or a grid that djkr refuses."""
+
+class ScenarioTypeError(ScenarioError, TypeError):
+    """Bad input of the wrong type (a list where a number goes, an int where a dict goes):
+    caught by ``except ScenarioError`` and by ``except TypeError``."""
 
 class Run:
     """A time-domain run held in memory: the datasets of ``run.h5`` value for value."""
@@ -85,10 +94,15 @@ def run(
     writes (``run.h5``, ``summary.json``, and the CSV files and figure its ``[output]`` asks
     for).
 
-    A run stopped by a budget or failed mid-way raises ``RuntimeError`` with the partial
-    ``Run`` as its ``run`` attribute (and, with ``out``, its folder written with the status).
-    The samples, events and period records held in memory are capped at ``solver.max_memory``
-    (default 2 GiB): a run that would pass it stops with reason ``"memory"``."""
+    The run is held in memory. Where its sample count is known before it starts
+    (``[output] sample_rate`` > 0 over the stages with a ``duration``), a run whose samples
+    would take more than ``solver.max_memory`` (default 2 GiB, at 200 bytes a sample) is refused
+    at once with ``ScenarioError`` naming ``output.sample_rate``, the durations and the
+    estimate; lower the rate or raise ``solver.max_memory``. Otherwise the samples, events and
+    period records held are capped at ``solver.max_memory`` while it runs: a run that would pass
+    it stops with reason ``"memory"``. A run stopped by a budget or failed mid-way raises
+    ``RuntimeError`` with the partial ``Run`` as its ``run`` attribute (and, with ``out``, its
+    folder written with the status)."""
 
 def cycle(
     freq: Quantity,

@@ -32,13 +32,15 @@ use pyo3::exceptions::{
     PyKeyboardInterrupt, PyRuntimeError, PyRuntimeWarning, PyTypeError, PyValueError,
 };
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use pyo3::sync::PyOnceLock;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple, PyType};
 
 use djkr::adhesion::Law;
 use djkr::api::{self, ApiError, Arg};
 use djkr::cancel::{Cancel, CancelFlag};
 use djkr::closed_form::{DeltaAmpForm, BETA_PAPER};
 use djkr::dynamics::types::Event;
+use djkr::input::{show_limit, InputKind};
 use djkr::material::Material;
 use djkr::output::table::{Column, Data, Table};
 use djkr::output::timeseries::{kind_name, stage_index, SERIES, STAGE};
@@ -227,26 +229,119 @@ fn warn(py: Python<'_>, messages: &[String]) -> PyResult<()> {
 // ---------------------------------------------------------------------------------------------
 // arguments
 
+/// `djkr.ScenarioTypeError`: bad input of the wrong type (a list where a number goes, an int
+/// where a dict goes). A subclass of both `ScenarioError` and `TypeError`, so that `except
+/// djkr.ScenarioError` catches every bad input and `except TypeError` still catches a wrong
+/// type, as Python's convention has it. Made at first use with Python's `type()`, since an
+/// exception class with two bases cannot be declared from Rust.
+fn scenario_type_error(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
+    static CLASS: PyOnceLock<Py<PyType>> = PyOnceLock::new();
+    CLASS
+        .get_or_try_init(py, || {
+            let ns = PyDict::new(py);
+            ns.set_item("__module__", "djkr")?;
+            ns.set_item(
+                "__doc__",
+                "Bad input of the wrong type: both a ScenarioError and a TypeError.",
+            )?;
+            let bases = PyTuple::new(
+                py,
+                [py.get_type::<ScenarioError>(), py.get_type::<PyTypeError>()],
+            )?;
+            let class =
+                py.import("builtins")?
+                    .getattr("type")?
+                    .call1(("ScenarioTypeError", bases, ns))?;
+            Ok::<_, PyErr>(class.cast_into::<PyType>()?.unbind())
+        })
+        .map(|c| c.bind(py))
+}
+
+/// A [`scenario_type_error`] with `message`.
+fn type_err(message: impl Into<String>) -> PyErr {
+    let message = message.into();
+    Python::attach(|py| match scenario_type_error(py) {
+        Ok(class) => PyErr::from_type(class.clone(), message),
+        Err(e) => e,
+    })
+}
+
+/// The largest text djkr takes from Python in one argument: a scenario (a TOML string, or a dict
+/// once written as TOML), `set=` or `grid=` all together. The limit of a scenario file
+/// ([`InputKind::Scenario`], 1 MiB), so that no way of passing a scenario is larger than a file.
+fn text_limit() -> usize {
+    InputKind::Scenario.limit() as usize
+}
+
+/// `what` is larger than [`text_limit`]: the same words as for a file that is, after its size
+/// when known (`1048577 bytes`, or `2000000 characters` for a string not yet encoded).
+fn too_large(what: &str, size: Option<String>) -> PyErr {
+    let limit = text_limit();
+    let size = match size {
+        Some(s) => format!("{s}: "),
+        None => String::new(),
+    };
+    input_err(format!(
+        "{what}: {size}larger than {limit} bytes ({}), the limit for a scenario file",
+        show_limit(limit as u64)
+    ))
+}
+
+/// At most 80 characters of `s` (a key or value quoted in a message), `…` marking a cut.
+fn quote(s: &str) -> String {
+    const MAX: usize = 80;
+    match s.char_indices().nth(MAX) {
+        Some((cut, _)) => format!("{}…", &s[..cut]),
+        None => s.to_string(),
+    }
+}
+
+/// A Python `str` as Rust text; one holding a lone surrogate (which UTF-8 cannot encode) is bad
+/// input named `what`.
+fn text_of(s: &Bound<'_, PyString>, what: &str) -> PyResult<String> {
+    s.extract::<String>().map_err(|_| {
+        input_err(format!(
+            "{}: not valid Unicode text (a lone surrogate such as '\\ud800')",
+            quote(what)
+        ))
+    })
+}
+
+/// The type name of `v`, for messages.
+fn type_name(v: &Bound<'_, PyAny>) -> String {
+    v.get_type()
+        .name()
+        .map(|n| n.to_string())
+        .unwrap_or_else(|_| "?".into())
+}
+
 /// An argument's text: a string as given, a number as its shortest round-trip text.
 fn arg_text(v: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
     if v.is_instance_of::<PyBool>() {
-        return Err(PyTypeError::new_err(format!(
+        return Err(type_err(format!(
             "{name}: expected a number or a string with a unit, got a bool"
         )));
     }
     if let Ok(s) = v.cast::<PyString>() {
-        return s.extract::<String>();
+        return text_of(s, name);
     }
     if v.is_instance_of::<PyFloat>() || v.is_instance_of::<PyInt>() {
+        // A Python int has no size limit: 10**10**6 has a million digits (and Python refuses to
+        // write one of more than 4300); anything beyond f64's range is as good as infinite.
+        if v.is_instance_of::<PyInt>() && v.extract::<f64>().is_err() {
+            return Err(input_err(format!(
+                "{name}: an integer beyond the range of a 64-bit float (about 1.8e308)"
+            )));
+        }
         return v.str()?.extract::<String>();
     }
     // numpy scalars and other numbers
     if let Ok(x) = v.extract::<f64>() {
         return Ok(format!("{x:?}"));
     }
-    Err(PyTypeError::new_err(format!(
+    Err(type_err(format!(
         "{name}: expected a number (SI) or a string with a unit, got {}",
-        v.get_type().name()?
+        type_name(v)
     )))
 }
 
@@ -259,19 +354,110 @@ fn set_value_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
     arg_text(v, key)
 }
 
-/// `set=` as `KEY=VALUE` texts.
-fn set_texts(set: Option<&Bound<'_, PyDict>>) -> PyResult<Vec<String>> {
+/// An optional dict argument (`set=`, `grid=`): `None`, or a dict.
+fn dict_arg<'a, 'py>(
+    v: Option<&'a Bound<'py, PyAny>>,
+    name: &str,
+) -> PyResult<Option<&'a Bound<'py, PyDict>>> {
+    match v {
+        None => Ok(None),
+        Some(v) if v.is_none() => Ok(None),
+        Some(v) => v.cast::<PyDict>().map(Some).map_err(|_| {
+            type_err(format!(
+                "{name}: expected a dict of scenario keys, got {}",
+                type_name(v)
+            ))
+        }),
+    }
+}
+
+/// A key of `set=` or `grid=`: a string.
+fn key_text(k: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
+    match k.cast::<PyString>() {
+        Ok(s) => text_of(s, name),
+        Err(_) => Err(type_err(format!(
+            "{name}: keys must be strings such as \"base.amplitude\", got {}",
+            type_name(k)
+        ))),
+    }
+}
+
+/// `set=` as `KEY=VALUE` texts, at most [`text_limit`] bytes together.
+fn set_texts(set: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<String>> {
     let mut out = Vec::new();
-    if let Some(d) = set {
+    let mut bytes = 0;
+    if let Some(d) = dict_arg(set, "set")? {
         for (k, v) in d.iter() {
-            let key: String = k.extract().map_err(|_| {
-                PyTypeError::new_err("set: keys must be strings such as \"base.amplitude\"")
-            })?;
+            let key = key_text(&k, "set")?;
             let value = set_value_text(&v, &key)?;
+            bytes += key.len() + value.len() + 1;
+            if bytes > text_limit() {
+                return Err(too_large("set", None));
+            }
             out.push(format!("{key}={value}"));
         }
     }
     Ok(out)
+}
+
+/// A whole-number argument (`ensemble`, `seed`, `jobs`) in `[min, max]`: an int (or anything
+/// with `__index__`, such as a numpy integer), not a bool; `None` when not given.
+fn whole_arg(
+    v: Option<&Bound<'_, PyAny>>,
+    name: &str,
+    min: u64,
+    max: u64,
+) -> PyResult<Option<u64>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else {
+        return Ok(None);
+    };
+    let range = || {
+        input_err(format!(
+            "{name} = {}: must be a whole number in [{min}, {max}]",
+            quote(&v.str().map(|s| s.to_string()).unwrap_or_default())
+        ))
+    };
+    if v.is_instance_of::<PyBool>() {
+        return Err(type_err(format!(
+            "{name}: expected a whole number, got a bool"
+        )));
+    }
+    match v.extract::<i128>() {
+        Ok(i) if i >= min as i128 && i <= max as i128 => Ok(Some(i as u64)),
+        Ok(_) => Err(range()),
+        Err(_) if v.is_instance_of::<PyInt>() => Err(range()),
+        Err(_) => Err(type_err(format!(
+            "{name}: expected a whole number, got {}",
+            type_name(v)
+        ))),
+    }
+}
+
+/// A string argument (`method`, `sweep`).
+fn str_arg(v: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
+    match v.cast::<PyString>() {
+        Ok(s) => text_of(s, name),
+        Err(_) => Err(type_err(format!(
+            "{name}: expected a string, got {}",
+            type_name(v)
+        ))),
+    }
+}
+
+/// A folder argument (`out`): a `str` or `os.PathLike`; `None` when not given.
+fn path_arg(v: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<PathBuf>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else {
+        return Ok(None);
+    };
+    if let Ok(s) = v.cast::<PyString>() {
+        return Ok(Some(PathBuf::from(text_of(s, name)?)));
+    }
+    v.extract::<PathBuf>().map(Some).map_err(|_| {
+        type_err(format!(
+            "{name}: expected a path (str or os.PathLike), got {}",
+            type_name(v)
+        ))
+    })
 }
 
 /// Where a scenario comes from.
@@ -280,18 +466,36 @@ enum Scenario {
     Text { text: String, name: &'static str },
 }
 
+/// A scenario argument: a dict (written as TOML), a TOML string (one with a line break), a path
+/// (a `str` without one, or `os.PathLike`). A dict or string is held to the size of a file
+/// ([`text_limit`]).
 fn scenario_of(obj: &Bound<'_, PyAny>) -> PyResult<Scenario> {
     if let Ok(d) = obj.cast::<PyDict>() {
-        let table = toml_table(d, "")?;
+        let table = ToToml::default().table(d, "", 0)?;
         let text = toml::to_string(&table)
             .map_err(|e| input_err(format!("<dict>: cannot be written as TOML: {e}")))?;
+        if text.len() > text_limit() {
+            return Err(too_large(
+                "<dict> written as TOML",
+                Some(format!("{} bytes", text.len())),
+            ));
+        }
         return Ok(Scenario::Text {
             text,
             name: "<dict>",
         });
     }
     if let Ok(s) = obj.cast::<PyString>() {
-        let s: String = s.extract()?;
+        // Neither a path (at most a few kB) nor a scenario can be longer: refused by its length
+        // in characters before it is copied (each is at least a byte), then in bytes.
+        let chars = s.len()?;
+        if chars > text_limit() {
+            return Err(too_large("<string>", Some(format!("{chars} characters"))));
+        }
+        let s = text_of(s, "<string>")?;
+        if s.len() > text_limit() {
+            return Err(too_large("<string>", Some(format!("{} bytes", s.len()))));
+        }
         // Any valid scenario spans several lines (a [material] table at least); a path has no
         // line break.
         if s.contains('\n') {
@@ -305,9 +509,9 @@ fn scenario_of(obj: &Bound<'_, PyAny>) -> PyResult<Scenario> {
     if let Ok(p) = obj.extract::<PathBuf>() {
         return Ok(Scenario::Path(p));
     }
-    Err(PyTypeError::new_err(format!(
+    Err(type_err(format!(
         "scenario: expected a path, a TOML string or a dict, got {}",
-        obj.get_type().name()?
+        type_name(obj)
     )))
 }
 
@@ -327,53 +531,129 @@ impl Scenario {
     }
 }
 
-/// A dict with a scenario file's structure as a TOML table (`key` is the dotted path so far).
-fn toml_table(d: &Bound<'_, PyDict>, key: &str) -> PyResult<toml::Table> {
-    let mut t = toml::Table::new();
-    for (k, v) in d.iter() {
-        let k: String = k
-            .extract()
-            .map_err(|_| input_err(format!("<dict>: {key}: keys must be strings")))?;
-        let path = if key.is_empty() {
-            k.clone()
-        } else {
-            format!("{key}.{k}")
-        };
-        t.insert(k, toml_value(&v, &path)?);
-    }
-    Ok(t)
+/// The deepest nesting of dicts and lists a scenario dict may have: the TOML parser's own limit
+/// (toml 0.9 refuses tables, arrays and dotted keys nested 80 deep), so a dict is refused where
+/// the same scenario as a file would be, and before the conversion (a recursion) could overflow
+/// the stack.
+const MAX_DEPTH: usize = 80;
+
+/// Converts a scenario dict into a TOML table, refusing what no scenario file can hold: a
+/// container inside itself (a cycle), nesting deeper than [`MAX_DEPTH`], and more text than
+/// [`text_limit`] (counted as the conversion goes, from below, so that a dict of a million
+/// stages is refused after the first megabyte's worth of them rather than converted whole).
+#[derive(Default)]
+struct ToToml {
+    /// The dicts and lists on the path from the top to the value being converted (their
+    /// addresses: a live object's address is its identity).
+    open: Vec<usize>,
+    /// Bytes the TOML text will take at least: each key and each string its length, each other
+    /// value and each list item one byte.
+    bytes: usize,
 }
 
-fn toml_value(v: &Bound<'_, PyAny>, key: &str) -> PyResult<toml::Value> {
-    if let Ok(b) = v.cast::<PyBool>() {
-        return Ok(toml::Value::Boolean(b.is_true()));
-    }
-    if v.is_instance_of::<PyInt>() {
-        return match v.extract::<i64>() {
-            Ok(i) => Ok(toml::Value::Integer(i)),
-            Err(_) => Ok(toml::Value::Float(v.extract::<f64>()?)),
-        };
-    }
-    if let Ok(s) = v.cast::<PyString>() {
-        return Ok(toml::Value::String(s.extract::<String>()?));
-    }
-    if let Ok(d) = v.cast::<PyDict>() {
-        return Ok(toml::Value::Table(toml_table(d, key)?));
-    }
-    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
-        let mut items = Vec::new();
-        for (i, x) in v.try_iter()?.enumerate() {
-            items.push(toml_value(&x?, &format!("{key}[{i}]"))?);
+impl ToToml {
+    /// Count `n` bytes of the TOML text to come.
+    fn count(&mut self, n: usize) -> PyResult<()> {
+        self.bytes = self.bytes.saturating_add(n);
+        if self.bytes > text_limit() {
+            return Err(too_large("<dict>", None));
         }
-        return Ok(toml::Value::Array(items));
+        Ok(())
     }
-    if let Ok(x) = v.extract::<f64>() {
-        return Ok(toml::Value::Float(x));
+
+    /// Enter the container `v` at `key`, `depth` levels down: refused when it is already open
+    /// (a cycle) or too deep.
+    fn enter(&mut self, v: &Bound<'_, PyAny>, key: &str, depth: usize) -> PyResult<()> {
+        let id = v.as_ptr() as usize;
+        if self.open.contains(&id) {
+            return Err(input_err(format!(
+                "<dict>: {}: contains itself (a cycle): a scenario is a tree of dicts and lists",
+                quote(key)
+            )));
+        }
+        if depth > MAX_DEPTH {
+            return Err(input_err(format!(
+                "<dict>: {}: nested more than {MAX_DEPTH} deep, the limit of a scenario file",
+                quote(key)
+            )));
+        }
+        self.open.push(id);
+        Ok(())
     }
-    Err(input_err(format!(
-        "<dict>: {key}: a {} cannot be a scenario value (numbers, strings, booleans, dicts and lists can)",
-        v.get_type().name()?
-    )))
+
+    /// A dict with a scenario file's structure as a TOML table (`key` is the dotted path so far).
+    fn table(&mut self, d: &Bound<'_, PyDict>, key: &str, depth: usize) -> PyResult<toml::Table> {
+        self.enter(d, key, depth)?;
+        let mut t = toml::Table::new();
+        for (k, v) in d.iter() {
+            let k = match k.cast::<PyString>() {
+                Ok(s) => text_of(s, &format!("<dict>: {key}: a key"))?,
+                Err(_) => {
+                    return Err(input_err(format!(
+                        "<dict>: {}: keys must be strings, got {}",
+                        quote(key),
+                        type_name(&k)
+                    )))
+                }
+            };
+            self.count(k.len())?;
+            let path = if key.is_empty() {
+                k.clone()
+            } else {
+                format!("{key}.{k}")
+            };
+            let value = self.value(&v, &path, depth + 1)?;
+            t.insert(k, value);
+        }
+        self.open.pop();
+        Ok(t)
+    }
+
+    fn value(&mut self, v: &Bound<'_, PyAny>, key: &str, depth: usize) -> PyResult<toml::Value> {
+        if let Ok(b) = v.cast::<PyBool>() {
+            self.count(1)?;
+            return Ok(toml::Value::Boolean(b.is_true()));
+        }
+        if v.is_instance_of::<PyInt>() {
+            self.count(1)?;
+            return match v.extract::<i64>() {
+                Ok(i) => Ok(toml::Value::Integer(i)),
+                Err(_) => match v.extract::<f64>() {
+                    Ok(x) => Ok(toml::Value::Float(x)),
+                    Err(_) => Err(input_err(format!(
+                        "<dict>: {}: an integer beyond the range of a 64-bit float (about 1.8e308)",
+                        quote(key)
+                    ))),
+                },
+            };
+        }
+        if let Ok(s) = v.cast::<PyString>() {
+            self.count(s.len()?.max(1))?;
+            return Ok(toml::Value::String(text_of(s, &format!("<dict>: {key}"))?));
+        }
+        if let Ok(d) = v.cast::<PyDict>() {
+            return Ok(toml::Value::Table(self.table(d, key, depth)?));
+        }
+        if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+            self.enter(v, key, depth)?;
+            let mut items = Vec::new();
+            for (i, x) in v.try_iter()?.enumerate() {
+                self.count(1)?;
+                items.push(self.value(&x?, &format!("{key}[{i}]"), depth + 1)?);
+            }
+            self.open.pop();
+            return Ok(toml::Value::Array(items));
+        }
+        if let Ok(x) = v.extract::<f64>() {
+            self.count(1)?;
+            return Ok(toml::Value::Float(x));
+        }
+        Err(type_err(format!(
+            "<dict>: {}: a {} cannot be a scenario value (numbers, strings, booleans, dicts and lists can)",
+            quote(key),
+            type_name(v)
+        )))
+    }
 }
 
 fn material_of(material: Option<&Bound<'_, PyAny>>) -> PyResult<(Material, Law)> {
@@ -649,10 +929,16 @@ impl Run {
 fn run(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
-    set: Option<&Bound<'_, PyDict>>,
-    out: Option<PathBuf>,
+    set: Option<&Bound<'_, PyAny>>,
+    out: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Run> {
-    let (scn, sets) = guarded(|| Ok((scenario_of(scenario)?, set_texts(set)?)))?;
+    let (scn, sets, out) = guarded(|| {
+        Ok((
+            scenario_of(scenario)?,
+            set_texts(set)?,
+            path_arg(out, "out")?,
+        ))
+    })?;
     let (rec, name) = interruptible(py, move |stop| {
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
@@ -727,16 +1013,21 @@ fn cycle(
 
 /// The pull-off for a vibration (`djkr pulloff --json`).
 #[pyfunction]
-#[pyo3(signature = (freq, a_amp, method = "exact", beta = None, material = None))]
+#[pyo3(signature = (freq, a_amp, method = None, beta = None, material = None))]
 fn pulloff(
     py: Python<'_>,
     freq: &Bound<'_, PyAny>,
     a_amp: &Bound<'_, PyAny>,
-    method: &str,
+    method: Option<&Bound<'_, PyAny>>,
     beta: Option<&Bound<'_, PyAny>>,
     material: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyAny>> {
     guarded(|| {
+        let method = match method {
+            Some(m) if !m.is_none() => str_arg(m, "method")?,
+            _ => "exact".to_string(),
+        };
+        let method = method.as_str();
         if beta.is_some() && method != "approx" {
             return Err(input_err(format!(
                 "beta has no effect with method = \"{method}\": leave it out"
@@ -791,7 +1082,7 @@ fn pulloff(
 fn validate(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
-    set: Option<&Bound<'_, PyDict>>,
+    set: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyAny>> {
     let (scn, sets) = guarded(|| Ok((scenario_of(scenario)?, set_texts(set)?)))?;
     let report = interruptible(py, move |stop| {
@@ -816,22 +1107,23 @@ fn validate(
 
 /// The frequency response by continuation (`djkr resonance`): the columns of `resonance.csv`.
 #[pyfunction]
-#[pyo3(signature = (scenario, freq, sweep = "both", set = None))]
+#[pyo3(signature = (scenario, freq, sweep = None, set = None))]
 fn resonance(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
     freq: &Bound<'_, PyAny>,
-    sweep: &str,
-    set: Option<&Bound<'_, PyDict>>,
+    sweep: Option<&Bound<'_, PyAny>>,
+    set: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyDict>> {
     let (scn, sets, range_text) = guarded(|| {
         let range_text = if let Ok(s) = freq.cast::<PyString>() {
-            s.extract::<String>()?
+            text_of(s, "freq")?
         } else {
+            // At most one value more than needed: an endless iterator is not read forever.
             let parts: Vec<Bound<'_, PyAny>> = freq
                 .try_iter()
-                .and_then(|it| it.collect::<PyResult<Vec<_>>>())
-                .map_err(|_| PyTypeError::new_err("freq: expected (start, stop, n)"))?;
+                .and_then(|it| it.take(4).collect::<PyResult<Vec<_>>>())
+                .map_err(|_| type_err("freq: expected (start, stop, n)"))?;
             let [lo, hi, n] = parts.as_slice() else {
                 return Err(input_err(format!(
                     "freq: expected (start, stop, n), got {} values",
@@ -847,7 +1139,11 @@ fn resonance(
         };
         Ok((scenario_of(scenario)?, set_texts(set)?, range_text))
     })?;
-    let which = api::Sweeps::parse("sweep", sweep).map_err(api_err)?;
+    let sweep = match sweep {
+        Some(s) if !s.is_none() => str_arg(s, "sweep")?,
+        _ => "both".to_string(),
+    };
+    let which = api::Sweeps::parse("sweep", &sweep).map_err(api_err)?;
     let table = interruptible(py, move |stop| {
         let freqs = api::range(
             "freq",
@@ -879,26 +1175,38 @@ fn resonance(
 
 /// A study over scenario keys (`djkr sweep`): the columns of `sweep.csv`.
 #[pyfunction]
-#[pyo3(signature = (scenario, grid = None, ensemble = None, seed = 0, jobs = None))]
+#[pyo3(signature = (scenario, grid = None, ensemble = None, seed = None, jobs = None))]
 fn sweep(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
-    grid: Option<&Bound<'_, PyDict>>,
-    ensemble: Option<usize>,
-    seed: u64,
-    jobs: Option<usize>,
+    grid: Option<&Bound<'_, PyAny>>,
+    ensemble: Option<&Bound<'_, PyAny>>,
+    seed: Option<&Bound<'_, PyAny>>,
+    jobs: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyDict>> {
-    let (scn, axes) = guarded(|| {
+    let (scn, axes, ensemble, seed, jobs) = guarded(|| {
         let mut axes = Vec::new();
-        if let Some(g) = grid {
+        let mut bytes = 0;
+        if let Some(g) = dict_arg(grid, "grid")? {
             for (k, v) in g.iter() {
-                let key: String = k.extract().map_err(|_| {
-                    PyTypeError::new_err("grid: keys must be strings such as \"base.amplitude\"")
-                })?;
-                axes.push(format!("{key}={}", spec_text(&v, &key)?));
+                let key = key_text(&k, "grid")?;
+                let axis = format!("{key}={}", spec_text(&v, &key)?);
+                bytes += axis.len();
+                if bytes > text_limit() {
+                    return Err(too_large("grid", None));
+                }
+                axes.push(axis);
             }
         }
-        Ok((scenario_of(scenario)?, axes))
+        let whole =
+            |v, name| whole_arg(v, name, 0, usize::MAX as u64).map(|w| w.map(|w| w as usize));
+        Ok((
+            scenario_of(scenario)?,
+            axes,
+            whole(ensemble, "ensemble")?,
+            whole_arg(seed, "seed", 0, u64::MAX)?.unwrap_or(0),
+            whole(jobs, "jobs")?,
+        ))
     })?;
     if jobs == Some(0) {
         return Err(input_err(
@@ -926,13 +1234,21 @@ fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
     }
     if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() || v.hasattr("__array__")? {
         let mut items = Vec::new();
+        let mut bytes = 0;
         for (i, x) in v.try_iter()?.enumerate() {
             let t = set_value_text(&x?, key)?;
             if t.contains(',') {
                 return Err(input_err(format!(
-                    "grid: {key} value {} '{t}' holds a comma, which separates values",
-                    i + 1
+                    "grid: {} value {} '{}' holds a comma, which separates values",
+                    quote(key),
+                    i + 1,
+                    quote(&t)
                 )));
+            }
+            // An array of a billion values is refused at its first megabyte.
+            bytes += t.len() + 1;
+            if bytes > text_limit() {
+                return Err(too_large("grid", None));
             }
             items.push(t);
         }
@@ -945,6 +1261,7 @@ fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
 #[pymodule(name = "_djkr")]
 fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ScenarioError", m.py().get_type::<ScenarioError>())?;
+    m.add("ScenarioTypeError", scenario_type_error(m.py())?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Run>()?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
