@@ -616,11 +616,11 @@ pub struct RunRecord {
     pub plots: Vec<PathBuf>,
 }
 
-/// Bytes one time-series sample is charged in memory: the most it can cost at the peak
-/// ([`crate::memory::SAMPLE_BYTES`]: the [`crate::output::timeseries::SERIES`] columns and the
-/// stage index, 8 bytes each, in buffers that double when full), the same figure the estimate
-/// before the run uses, so that `solver.max_memory` bounds the peak either way.
-pub const SAMPLE_BYTES: u64 = crate::memory::SAMPLE_BYTES as u64;
+/// Bytes one time-series sample is charged in memory: the [`crate::output::timeseries::SERIES`]
+/// columns and the stage index, 8 bytes each (the data itself; while a column grows, its buffer
+/// briefly holds up to twice this: the estimate before the run, [`crate::memory::SAMPLE_BYTES`],
+/// counts that peak).
+pub const SAMPLE_BYTES: u64 = 8 * (crate::output::timeseries::SERIES.len() as u64 + 1);
 /// Bytes one event holds in memory.
 pub const EVENT_BYTES: u64 = std::mem::size_of::<Event>() as u64;
 /// Bytes one period record holds in memory (its table row, 8 bytes a column).
@@ -630,8 +630,9 @@ pub const CYCLE_BYTES: u64 = 8 * cycles::CYCLE_FIELDS.len() as u64;
 /// the bytes it holds (samples, events, period records: [`SAMPLE_BYTES`], [`EVENT_BYTES`],
 /// [`CYCLE_BYTES`]) and stops the run, with [`Reason::Memory`], before a sample would take them
 /// past `budget` (`solver.max_memory`): a run whose length is not known up front (samples at
-/// every step, stages that end at pull-off) cannot exhaust the machine's memory. A sample is
-/// charged its peak cost (a growing column briefly holds up to twice its length).
+/// every step, stages that end at pull-off) cannot exhaust the machine's memory. The count is
+/// of the data itself; a growing column may briefly hold up to twice its length while it
+/// grows.
 struct InMemory<'a> {
     series: TimeSeriesWriter,
     cycles: Table,

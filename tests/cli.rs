@@ -904,3 +904,102 @@ fn run_sensitivity_reports_the_spread_and_prints_only_shared_digits() {
 fn read_summary(dir: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
 }
+
+#[test]
+fn a_set_of_a_key_a_flag_replaces_is_refused_naming_the_flag() {
+    // Issue 25: `continue --set solver.rtol=1e-4` gave exactly the default result.
+    let scene = "scenarios/resonance-400hz.toml";
+    let cases: [(&[&str], &str, &str); 8] = [
+        (
+            &[
+                "continue",
+                scene,
+                "--param",
+                "base.frequency",
+                "--range",
+                "390:400",
+            ],
+            "solver.rtol=1e-4",
+            "--set solver.rtol has no effect on continue: use --rtol",
+        ),
+        (
+            &[
+                "continue",
+                scene,
+                "--param",
+                "base.frequency",
+                "--range",
+                "390:400",
+            ],
+            "base.frequency=300",
+            "--set base.frequency has no effect on continue: use --param with --range",
+        ),
+        (
+            &["validate", scene],
+            "solver.rtol=1e-6",
+            "--set solver.rtol has no effect on validate: use --rtol",
+        ),
+        (
+            &["resonance", scene, "--freq", "390:400:3"],
+            "solver.rtol=1e-6",
+            "--set solver.rtol has no effect on resonance: use --rtol",
+        ),
+        (
+            &["resonance", scene, "--freq", "390:400:3"],
+            "base.frequency=300",
+            "--set base.frequency has no effect on resonance: use --freq",
+        ),
+        (
+            &[
+                "shortcut-map",
+                scene,
+                "--freq",
+                "390:400:3",
+                "--amp",
+                "0.1um:1um:3",
+            ],
+            "base.amplitude=1um",
+            "--set base.amplitude has no effect on shortcut-map: use --amp",
+        ),
+        (
+            &["accuracy", scene],
+            "solver.method=dp8",
+            "--set solver.method has no effect on accuracy: use --methods",
+        ),
+        (
+            &["accuracy", scene],
+            "solver.rtol=1e-6",
+            "--set solver.rtol has no effect on accuracy: use --tolerances",
+        ),
+    ];
+    let dir = tempfile::tempdir().unwrap();
+    for (args, set, want) in cases {
+        let mut a: Vec<&str> = args.to_vec();
+        let out = dir.path().join("out");
+        a.extend(["--set", set, "--out", out.to_str().unwrap()]);
+        if args[0] == "validate" {
+            a.truncate(a.len() - 2);
+        }
+        let o = djkr(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{a:?}: {err}");
+        assert!(err.contains(want), "{a:?}: {err}");
+    }
+    // Without a flag that replaces it, the key is honoured: resonance without --amp reads
+    // base.amplitude from the file, so a --set of it is accepted.
+    let o = djkr(&[
+        "resonance",
+        scene,
+        "--freq",
+        "390:400:2",
+        "--sweep",
+        "up",
+        "--no-harmonic-balance",
+        "--set",
+        "base.amplitude=0.4um",
+        "--json",
+        "--out",
+        dir.path().join("r").to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -21,6 +21,13 @@ struct Counting;
 
 static LIVE: AtomicUsize = AtomicUsize::new(0);
 static PEAK: AtomicUsize = AtomicUsize::new(0);
+/// Taken by every test of this binary: the allocator's count is global, so a test that runs
+/// beside the measurement would add its allocations to the measured peak.
+static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|p| p.into_inner())
+}
 
 fn grow(n: usize) {
     let now = LIVE.fetch_add(n, Ordering::SeqCst) + n;
@@ -134,6 +141,7 @@ fn bytes_per_sample(n: usize) -> (f64, usize) {
 /// measured peak stays at or below it and comes within 5 % of it.
 #[test]
 fn sample_bytes_is_the_measured_peak_per_sample() {
+    let _serial = serial();
     let mut worst: f64 = 0.0;
     for n in [1 << 17, (1 << 17) + 1, 150_000, 200_000, (1 << 18) + 1] {
         let (per, samples) = bytes_per_sample(n);
@@ -162,6 +170,7 @@ fn sample_bytes_is_the_measured_peak_per_sample() {
 /// bad input naming both keys, the estimate in bytes and in words, and the way out.
 #[test]
 fn a_run_too_large_for_memory_is_refused_before_it_starts() {
+    let _serial = serial();
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/tests/sweep/tiny.toml"
@@ -196,6 +205,7 @@ fn a_run_too_large_for_memory_is_refused_before_it_starts() {
 /// above a lowered budget is refused while one just below it runs.
 #[test]
 fn the_budget_is_solver_max_memory() {
+    let _serial = serial();
     let text = scene(1.0, 9999.0); // 10 000 samples
     let need = 10_000.0 * SAMPLE_BYTES;
     let below = format!("solver.max_memory={}", (need as u64).max(1 << 20));

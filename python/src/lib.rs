@@ -382,6 +382,27 @@ fn key_text(k: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
     }
 }
 
+/// Refuse a `set=` key that `command` takes from elsewhere (`replaced`: key and where its value
+/// comes from): an override is honoured or refused, never silently ignored.
+fn refuse_replaced(sets: &[String], command: &str, replaced: &[(&str, &str)]) -> PyResult<()> {
+    for text in sets {
+        let key = text
+            .split_once('=')
+            .map_or(text.as_str(), |(k, _)| k)
+            .trim();
+        if let Some((_, how)) = replaced.iter().find(|(k, _)| *k == key) {
+            return Err(input_err(format!(
+                "set={{'{key}': ...}}: has no effect on {command}: {how}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// What `validate` and `resonance` integrate with instead of the scenario's `solver.rtol`.
+const STEADY_RTOL: &str = "its steady state is integrated at rtol = 1e-10, as the command \
+                           line's default --rtol";
+
 /// `set=` as `KEY=VALUE` texts, at most [`text_limit`] bytes together.
 fn set_texts(set: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<String>> {
     let mut out = Vec::new();
@@ -1085,6 +1106,7 @@ fn validate(
     set: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyAny>> {
     let (scn, sets) = guarded(|| Ok((scenario_of(scenario)?, set_texts(set)?)))?;
+    refuse_replaced(&sets, "validate", &[("solver.rtol", STEADY_RTOL)])?;
     let report = interruptible(py, move |stop| {
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
@@ -1139,6 +1161,14 @@ fn resonance(
         };
         Ok((scenario_of(scenario)?, set_texts(set)?, range_text))
     })?;
+    refuse_replaced(
+        &sets,
+        "resonance",
+        &[
+            ("solver.rtol", STEADY_RTOL),
+            ("base.frequency", "the frequencies come from freq="),
+        ],
+    )?;
     let sweep = match sweep {
         Some(s) if !s.is_none() => str_arg(s, "sweep")?,
         _ => "both".to_string(),

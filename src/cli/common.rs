@@ -38,7 +38,23 @@ impl SetArgs {
     pub fn overrides(&self) -> Result<Vec<Override>> {
         Ok(djkr::api::overrides(&self.set)?)
     }
+
+    /// Refuse a `--set` of a key that `command` takes from a flag of its own instead
+    /// (`replaced`: key and flag): an override is honoured or refused, never silently ignored.
+    pub fn refuse_replaced(&self, command: &str, replaced: &[(&str, &str)]) -> Result<()> {
+        for o in self.overrides()? {
+            let key = o.key().to_string();
+            if let Some((_, flag)) = replaced.iter().find(|(k, _)| *k == key) {
+                bail!("--set {key} has no effect on {command}: use {flag}");
+            }
+        }
+        Ok(())
+    }
 }
+
+/// What the steady-state commands (`validate`, `resonance`, `shortcut-map`, `continue`) do not
+/// read of a scenario, for their `--help`.
+pub const STEADY_UNUSED_KEYS: &str = "Not read (a --set of them changes nothing): the [output] keys, solver.envelope, solver.envelope_tol, solver.max_memory, and the stages after the first vibrating one. Keys that a flag of this command sets (solver.rtol by --rtol, and the swept or continued key) are refused with --set.";
 
 /// Read and validate a scenario file with the `--set` overrides applied.
 pub fn load_scenario(file: &Path, set: &SetArgs) -> Result<Scenario> {

@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 
 /// Flags of `djkr continue`.
 #[derive(Args, Debug)]
+#[command(after_help = super::common::STEADY_UNUSED_KEYS)]
 pub struct ContinueArgs {
     /// Scenario file (its first vibrating stage defines the periodic problem, as for `djkr
     /// validate`).
@@ -214,6 +215,14 @@ fn parse_flags(a: &ContinueArgs) -> Result<Flags> {
 /// ranges are values the scenario accepts.
 fn problem(a: &ContinueArgs, flags: &Flags) -> Result<Problem> {
     let (param, (p0, p1), rtol) = (flags.param, flags.range, flags.rtol);
+    let param_key = flags.param.name();
+    a.set.refuse_replaced(
+        "continue",
+        &[
+            ("solver.rtol", "--rtol"),
+            (param_key, "--param with --range"),
+        ],
+    )?;
     let overrides = a.set.overrides()?;
     let source = ScenarioSource::read(&a.file)?;
     // The file with its overrides, before any value of KEY: a bad --set is named as such.

@@ -30,6 +30,7 @@ pub enum SweepArg {
 
 /// Flags of `djkr resonance`.
 #[derive(Args, Debug)]
+#[command(after_help = super::common::STEADY_UNUSED_KEYS)]
 pub struct ResonanceArgs {
     /// Scenario file (mechanics, contact, mean load, base amplitude; see `djkr validate`).
     file: PathBuf,
@@ -65,6 +66,11 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
         Dimension::Frequency,
         limits::RESONANCE_FREQUENCIES,
     )?;
+    let mut replaced = vec![("solver.rtol", "--rtol"), ("base.frequency", "--freq")];
+    if a.amp.is_some() {
+        replaced.push(("base.amplitude", "--amp alone"));
+    }
+    a.steady.set.refuse_replaced("resonance", &replaced)?;
     let scn = load_scenario(&a.file, &a.steady.set)?;
     let (mut problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;

@@ -18,6 +18,7 @@ use std::path::{Path, PathBuf};
 
 /// Flags of `djkr shortcut-map`.
 #[derive(Args, Debug)]
+#[command(after_help = super::common::STEADY_UNUSED_KEYS)]
 pub struct ShortcutMapArgs {
     /// Scenario file (mechanics, contact, mean load; see `djkr validate`).
     file: PathBuf,
@@ -61,6 +62,14 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
             limits::MAP_CELLS
         );
     }
+    a.steady.set.refuse_replaced(
+        "shortcut-map",
+        &[
+            ("solver.rtol", "--rtol"),
+            ("base.frequency", "--freq"),
+            ("base.amplitude", "--amp"),
+        ],
+    )?;
     let scn = load_scenario(&a.file, &a.steady.set)?;
     let (problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;

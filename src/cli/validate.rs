@@ -15,6 +15,7 @@ use std::time::Duration;
 
 /// Flags of `djkr validate`.
 #[derive(Args, Debug)]
+#[command(after_help = super::common::STEADY_UNUSED_KEYS)]
 pub struct ValidateArgs {
     /// Scenario file: its first stage with the vibration on, at its base amplitude and frequency,
     /// with the spring end held where that stage starts.
@@ -29,6 +30,9 @@ pub struct ValidateArgs {
 /// Run `djkr validate`.
 pub fn validate(a: &ValidateArgs) -> Result<()> {
     let opts = a.steady.options()?;
+    a.steady
+        .set
+        .refuse_replaced("validate", &[("solver.rtol", "--rtol")])?;
     let scn = load_scenario(&a.file, &a.steady.set)?;
     let bar = ProgressBar::new_spinner();
     bar.set_message("finding the periodic steady state");
