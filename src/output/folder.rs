@@ -397,7 +397,6 @@ pub fn is_owned(dir: &Path, name: &str) -> bool {
 pub struct DirLock {
     file: File,
     path: PathBuf,
-    dir: PathBuf,
 }
 
 impl DirLock {
@@ -440,11 +439,7 @@ impl DirLock {
                 remove_recorded_partial(dir, name, ino);
             }
         }
-        let lock = DirLock {
-            file,
-            path,
-            dir: dir.to_path_buf(),
-        };
+        let lock = DirLock { file, path };
         lock.rewrite(true)?;
         Ok(Some(lock))
     }
@@ -463,14 +458,14 @@ impl DirLock {
             .map_err(io_err(&self.path))
     }
 
-    /// Record the partial file at `path` (in the locked folder), so that the next holder removes
+    /// Record the partial file at `path` (in the locked folder: its name is recorded), so that the next holder removes
     /// it if this process is killed before it is renamed into place or removed.
     pub fn note_partial(&self, path: &Path) {
         let (Some(name), Ok(m)) = (path.file_name(), fs::symlink_metadata(path)) else {
             return;
         };
         let name = name.to_string_lossy();
-        if name.contains([' ', '\n']) || path.parent() != Some(self.dir.as_path()) {
+        if name.contains([' ', '\n']) {
             return;
         }
         let ino = Stamp::of(&m, false).ino;
