@@ -319,5 +319,36 @@ mod tests {
         fs::write(&new, b"third").unwrap();
         assert!(replace(&new, &d).is_err());
         assert_eq!(fs::read(d.join("inside")).unwrap(), b"keep");
+        // A symbolic link is replaced itself: its target is neither written nor swapped away.
+        #[cfg(unix)]
+        {
+            let victim = dir.path().join("victim");
+            fs::write(&victim, b"precious").unwrap();
+            let link = dir.path().join("link");
+            std::os::unix::fs::symlink(&victim, &link).unwrap();
+            replace(&new, &link).unwrap();
+            assert_eq!(fs::read(&victim).unwrap(), b"precious");
+            assert!(fs::symlink_metadata(&link).unwrap().is_file());
+            assert_eq!(fs::read(&link).unwrap(), b"third");
+        }
+    }
+
+    #[test]
+    fn partials_are_new_files_that_no_planted_link_redirects() {
+        let dir = tempfile::tempdir().unwrap();
+        let victim = dir.path().join("victim");
+        fs::write(&victim, b"precious").unwrap();
+        let target = dir.path().join("out.png");
+        #[cfg(unix)]
+        for name in [".out.png.partial", ".out.png.tag.partial"] {
+            std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
+        }
+        let staged =
+            AtomicFile::write_tagged(&target, "tag", false, |w| w.write_all(b"png")).unwrap();
+        assert!(fs::symlink_metadata(staged.partial()).unwrap().is_file());
+        staged.commit().unwrap();
+        write_atomic(&target, b"png2").unwrap();
+        assert_eq!(fs::read(&victim).unwrap(), b"precious");
+        assert_eq!(fs::read(&target).unwrap(), b"png2");
     }
 }
