@@ -196,7 +196,7 @@ impl Record {
             .into();
         let text = serde_json::to_string_pretty(self).unwrap_or_default();
         let target = dir.join(MANIFEST_NAME);
-        let file = AtomicFile::write(&target, text.as_bytes())?;
+        let file = AtomicFile::write_unsynced(&target, text.as_bytes())?;
         file.rename_into_place()
     }
 
