@@ -410,3 +410,30 @@ fn two_plots_on_one_folder_at_once_both_succeed() {
     }
     assert!(is_regular(&t.join("D/run.png")));
 }
+
+/// A run folder written before djkr kept its record (no `.djkr-manifest.json`) is djkr's by its
+/// summary.json (`run_id`, `file_bytes`): rerunning into it needs no `--force`, but a file the
+/// summary does not list, or one whose size differs from it, is still the user's.
+#[test]
+fn a_run_folder_of_an_older_djkr_is_recognised_by_its_summary() {
+    let tmp = tempfile::tempdir().unwrap();
+    let t = tmp.path();
+    let d = t.join("D");
+    ok(t, &["run", &tiny(), "--out", "D"]);
+    std::fs::remove_file(d.join(".djkr-manifest.json")).unwrap();
+    std::fs::write(d.join("timeseries.csv"), b"mine").unwrap();
+    let msg = refused(t, &["run", &tiny(), "--out", "D", "--csv"]);
+    assert!(
+        msg.contains("timeseries.csv") && !msg.contains("run.h5") && !msg.contains("summary"),
+        "{msg}"
+    );
+    std::fs::remove_file(d.join("timeseries.csv")).unwrap();
+    ok(t, &["run", &tiny(), "--out", "D", "--csv"]);
+    // The record now covers them; an older folder whose run.h5 is not the size its summary says
+    // is not recognised.
+    std::fs::remove_file(d.join(".djkr-manifest.json")).unwrap();
+    std::fs::write(d.join("run.h5"), b"another file").unwrap();
+    let msg = refused(t, &["run", &tiny(), "--out", "D"]);
+    assert!(msg.contains("run.h5") && !msg.contains("summary"), "{msg}");
+    assert_eq!(std::fs::read(d.join("run.h5")).unwrap(), b"another file");
+}

@@ -171,6 +171,10 @@ struct Record {
     /// The files djkr published in the folder, by name.
     #[serde(default)]
     files: BTreeMap<String, Stamp>,
+    /// In a folder without a record, the files of a run an older djkr wrote there, by name, with
+    /// their sizes ([`legacy_run`]).
+    #[serde(skip)]
+    legacy: BTreeMap<String, u64>,
 }
 
 impl Record {
@@ -179,7 +183,10 @@ impl Record {
     fn read(dir: &Path) -> Result<Record, OutputError> {
         let path = dir.join(MANIFEST_NAME);
         let Some(mut f) = open_nofollow(&path, false)? else {
-            return Ok(Record::default());
+            return Ok(Record {
+                legacy: legacy_run(dir),
+                ..Record::default()
+            });
         };
         let mut text = String::new();
         f.read_to_string(&mut text).map_err(io_err(&path))?;
@@ -194,6 +201,14 @@ impl Record {
         self.about = "djkr's record of the files it wrote in this folder: it replaces or deletes \
                       only these (README, \"Output folders\")"
             .into();
+        // A run of an older djkr keeps its files djkr's once the folder has a record.
+        for (name, size) in std::mem::take(&mut self.legacy) {
+            if let Ok(m) = fs::symlink_metadata(dir.join(&name)) {
+                if m.file_type().is_file() && m.len() == size {
+                    self.files.entry(name).or_insert(Stamp::of(&m, false));
+                }
+            }
+        }
         let text = serde_json::to_string_pretty(self).unwrap_or_default();
         let target = dir.join(MANIFEST_NAME);
         let file = AtomicFile::write_unsynced(&target, text.as_bytes())?;
@@ -202,11 +217,48 @@ impl Record {
 
     /// Whether the file at `dir/name` is djkr's.
     fn owns(&self, dir: &Path, name: &str) -> bool {
-        match (self.files.get(name), fs::symlink_metadata(dir.join(name))) {
-            (Some(s), Ok(m)) => s.matches(&m),
+        let meta = fs::symlink_metadata(dir.join(name));
+        match (self.files.get(name), self.legacy.get(name), meta) {
+            (Some(s), _, Ok(m)) => s.matches(&m),
+            (None, Some(&size), Ok(m)) => m.file_type().is_file() && m.len() == size,
             _ => false,
         }
     }
+}
+
+/// A run folder that a djkr older than this record wrote: its `summary.json`, a JSON object with
+/// the run's `run_id` and `file_bytes` (the size of every other file of the run), is djkr's own
+/// record of that run. The files it lists, at those sizes, and `summary.json` itself count as
+/// djkr's, so that rerunning into such a folder needs no `--force`. Empty for anything else.
+fn legacy_run(dir: &Path) -> BTreeMap<String, u64> {
+    let mut files = BTreeMap::new();
+    let path = dir.join(super::SUMMARY_NAME);
+    let Ok(Some(f)) = open_nofollow(&path, false) else {
+        return files;
+    };
+    let Ok(len) = f.metadata().map(|m| m.len()) else {
+        return files;
+    };
+    // A summary lists at most 10 000 events: a few MB; anything larger is not one.
+    if len > 64 << 20 {
+        return files;
+    }
+    let Ok(v) = serde_json::from_reader::<_, serde_json::Value>(std::io::BufReader::new(f)) else {
+        return files;
+    };
+    let (Some(_), Some(bytes)) = (v["run_id"].as_str(), v["file_bytes"].as_object()) else {
+        return files;
+    };
+    for (name, size) in bytes {
+        if let (Some(size), false) = (
+            size.as_u64(),
+            name.contains(['/', '\\']) || name.starts_with('.'),
+        ) {
+            files.insert(name.clone(), size);
+        }
+    }
+    files.insert(super::SUMMARY_NAME.to_string(), len);
+    files
 }
 
 /// Open `path` without following a symbolic link (and without blocking on a FIFO); `None` when
