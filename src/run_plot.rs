@@ -19,6 +19,8 @@ use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style};
 
 /// The figure's file stem in a run folder.
 pub const RUN_PLOT_STEM: &str = "run";
+/// The files of the run's figure in its folder.
+pub const RUN_PLOT_FILES: [&str; 2] = ["run.png", "run.svg"];
 /// Image size (width, height) in pixels.
 pub const RUN_PLOT_SIZE: (u32, u32) = (1600, 1500);
 /// Points per drawn series at most (about two per pixel column).

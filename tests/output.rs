@@ -15,6 +15,7 @@ use std::sync::OnceLock;
 use djkr::dynamics::types::{
     CycleRecord, Event, EventCounts, EventKind, Observer, PullOffSummary, RunResult, Sample, Stats,
 };
+use djkr::output::folder::MANIFEST_NAME;
 use djkr::output::hdf5_file::{hdf5_bytes, RunTables};
 use djkr::output::timeseries::{events_table, SERIES};
 use djkr::output::{cycles::cycle_table, OutputError, RunWriter, TimeSeriesWriter};
@@ -225,12 +226,12 @@ fn write_run_with_id(dir: &Path, csv: bool, n: usize) -> (Vec<Sample>, RunResult
     (samples, res, run_id)
 }
 
-/// The files in `dir`, but the lock file every run writer leaves.
+/// The files in `dir`, but the lock file and the record of its files every run writer leaves.
 fn names_in(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|n| n != LOCK_NAME)
+        .filter(|n| n != LOCK_NAME && n != MANIFEST_NAME)
         .collect();
     v.sort();
     v
@@ -864,20 +865,39 @@ fn a_writer_dropped_or_aborted_leaves_no_output_and_keeps_an_earlier_run() {
 }
 
 #[test]
-fn stale_partials_are_cleared_and_other_files_kept() {
+fn stale_partials_are_cleared_only_when_recorded_and_other_files_kept() {
+    use std::os::unix::fs::MetadataExt;
     let dir = tempfile::tempdir().unwrap();
-    write_run(dir.path(), true, 100);
-    // Killed runs left partials behind (untagged from older versions, tagged from this one) ...
-    std::fs::write(dir.path().join(".summary.json.partial"), b"{garbage").unwrap();
-    std::fs::write(dir.path().join(".run.h5.1764-99.partial"), b"half").unwrap();
-    // ... next to files that are not djkr's.
-    std::fs::write(dir.path().join(".notes.partial"), b"mine").unwrap();
-    std::fs::write(dir.path().join("run.h5.bak"), b"mine").unwrap();
-    write_run(dir.path(), false, 100);
+    let d = dir.path();
+    write_run(d, true, 100);
+    // A killed run left two partials it recorded in the lock file (name and inode) ...
+    std::fs::write(d.join(".run.h5.1764-99.a1b2c3.partial"), b"half").unwrap();
+    std::fs::write(d.join(".timeseries.csv.1764-99.d4e5f6.partial"), b"half").unwrap();
+    let ino = |n: &str| std::fs::metadata(d.join(n)).unwrap().ino();
+    // ... and one whose name a user has since taken for a file of their own (another inode).
+    std::fs::write(d.join(".cycles.csv.1764-99.g7h8i9.partial"), b"mine").unwrap();
+    let lock = format!(
+        "djkr lock\npid 99\npartial .run.h5.1764-99.a1b2c3.partial {}\n\
+         partial .timeseries.csv.1764-99.d4e5f6.partial {}\n\
+         partial .cycles.csv.1764-99.g7h8i9.partial {}\n",
+        ino(".run.h5.1764-99.a1b2c3.partial"),
+        ino(".timeseries.csv.1764-99.d4e5f6.partial"),
+        ino(".cycles.csv.1764-99.g7h8i9.partial") + 1
+    );
+    std::fs::write(d.join(LOCK_NAME), lock).unwrap();
+    // Files that look like djkr's partials but that djkr did not record are not its to delete.
+    std::fs::write(d.join(".summary.json.partial"), b"mine").unwrap();
+    std::fs::write(d.join(".run.h5.1764-98.partial"), b"mine").unwrap();
+    std::fs::write(d.join(".notes.partial"), b"mine").unwrap();
+    std::fs::write(d.join("run.h5.bak"), b"mine").unwrap();
+    write_run(d, false, 100);
     assert_eq!(
-        names_in(dir.path()),
+        names_in(d),
         vec![
+            ".cycles.csv.1764-99.g7h8i9.partial",
             ".notes.partial",
+            ".run.h5.1764-98.partial",
+            ".summary.json.partial",
             "cycles.csv",
             "events.csv",
             "run.h5",
@@ -886,6 +906,12 @@ fn stale_partials_are_cleared_and_other_files_kept() {
             "timeseries.csv"
         ]
     );
+    for n in [
+        ".summary.json.partial",
+        ".cycles.csv.1764-99.g7h8i9.partial",
+    ] {
+        assert_eq!(std::fs::read(d.join(n)).unwrap(), b"mine");
+    }
     // The earlier run's CSV files stay (djkr never deletes what a user may hold); summary.json
     // lists the files of this run only, with their sizes.
     let j = read_json(&dir.path().join("summary.json"));
@@ -904,6 +930,11 @@ fn a_second_writer_into_a_busy_directory_is_refused() {
     let msg = err.to_string();
     assert!(
         msg.contains("another djkr run") && msg.contains(".djkr.lock"),
+        "{msg}"
+    );
+    // The holder is named by its process id (here this test's).
+    assert!(
+        msg.contains(&format!("pid {}", std::process::id())),
         "{msg}"
     );
     drop(first);

@@ -51,6 +51,10 @@ pub struct AccuracyArgs {
     /// Output directory [default: out/accuracy-<scenario name>, or out/accuracy-imposed-area].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Overwrite files in --out that djkr did not write under the names this command writes;
+    /// without it such a file stops the command before any work. Nothing else is touched.
+    #[arg(long)]
+    force: bool,
     /// Study the imposed-area method instead: quadrature nodes vs error, closed form vs exact.
     #[arg(long)]
     imposed_area: bool,
@@ -127,6 +131,7 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join(format!("accuracy-{}", out_name(file))));
+    super::common::claim_out(&out, &["work_precision.csv", "work_precision.md"], a.force)?;
     eprintln!(
         "reference: implicit at rtol {:e}, checked by dp8 …",
         cfg.reference_rtol
@@ -298,7 +303,11 @@ fn imposed_area(a: &AccuracyArgs) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| PathBuf::from("out").join("accuracy-imposed-area"));
-    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
+    super::common::claim_out(
+        &out,
+        &["quadrature.csv", "closed_form_map.csv", "imposed_area.md"],
+        a.force,
+    )?;
 
     eprintln!("quadrature study …");
     let q = accuracy::quadrature_study(&nodes, repeats);

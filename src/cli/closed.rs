@@ -88,6 +88,10 @@ pub struct BetaFitArgs {
     /// Write the error curve and the ratio table as CSV (and plots) into this directory.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Overwrite files in --out that djkr did not write under the names this command writes;
+    /// without it such a file stops the command before any work. Nothing else is touched.
+    #[arg(long)]
+    force: bool,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -161,6 +165,11 @@ pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
         beta_max: bhi,
         beta_points: bn,
     };
+    if let Some(dir) = &a.out {
+        let names = ["beta_error_curve.csv", "beta_ratios.csv"];
+        let plots = ["beta_error_curve.png", "beta_error_curve.svg"];
+        super::common::claim_out(dir, &[&names[..], &plots[..]].concat(), a.force)?;
+    }
     eprintln!(
         "computing {} exact pull-offs ({} n x {} speed ratios)...",
         cfg.n_values.len() * cfg.speed_ratios.len(),

@@ -235,6 +235,18 @@ pub fn print_table(title: &str, rows: &[(&str, String)]) {
     }
 }
 
+/// Take the folder `out` for a command's files before any work: a folder (created if missing;
+/// a file or a dangling link there is named), none of `names` a file djkr did not write (the
+/// names the command writes, or those of them known before it runs: a file of the user's under
+/// another is refused when its turn comes). `force` (`--force`) lets djkr overwrite such files.
+pub fn claim_out(out: &std::path::Path, names: &[&str], force: bool) -> Result<()> {
+    djkr::output::folder::claim(out, names, force)?;
+    if force {
+        djkr::output::folder::force_overwrite(out);
+    }
+    Ok(())
+}
+
 /// Write a file atomically (see [`djkr::output::write_atomic`]).
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     Ok(djkr::output::write_atomic(path, bytes)?)

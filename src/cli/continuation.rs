@@ -78,6 +78,10 @@ pub struct ContinueArgs {
     /// Output directory [default: out/<scenario name>-continue].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Overwrite files in --out that djkr did not write under the names this command writes;
+    /// without it such a file stops the command before any work. Nothing else is touched.
+    #[arg(long)]
+    force: bool,
     /// Print a JSON summary (SI values) instead of a table.
     #[arg(long)]
     json: bool,
@@ -169,6 +173,11 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     let flags = parse_flags(a)?;
     let problem = problem(a, &flags)?;
     let set = settings(a, &flags)?;
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| default_out(&a.file, "continue"));
+    super::common::claim_out(&out, &["branch.png", "branch.svg"], a.force)?;
     let computed = compute(a, &flags, &problem, &set)?;
     let rep = write_outputs(a, &flags, &problem, &computed)?;
     if a.json {
@@ -337,7 +346,6 @@ fn write_outputs(
         .out
         .clone()
         .unwrap_or_else(|| default_out(&a.file, "continue"));
-    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
     let fold_tables = c
         .curves
         .as_ref()

@@ -19,6 +19,10 @@ pub struct FiguresArgs {
     /// Speed correction β of eq. (24) for the dashed (closed-form) curves (> 0).
     #[arg(long, default_value = "2.5", allow_hyphen_values = true)]
     beta: String,
+    /// Overwrite files in --out that djkr did not write under the names this command writes;
+    /// without it such a file stops the command before any work. Nothing else is touched.
+    #[arg(long)]
+    force: bool,
     #[command(flatten)]
     material: MaterialArgs,
 }
@@ -43,6 +47,7 @@ pub fn figures(a: &FiguresArgs) -> Result<()> {
     if which.is_empty() {
         bail!("--only: no figure named");
     }
+    super::common::claim_out(&a.out, &[], a.force)?;
     eprintln!(
         "writing {} figure group(s) into {} ...",
         which.len(),

@@ -3,6 +3,7 @@
 
 use anyhow::{bail, Result};
 use clap::Args;
+use djkr::output::folder;
 use djkr::sweep::files::{self, Manifest};
 use std::path::PathBuf;
 
@@ -12,11 +13,18 @@ pub struct PlotArgs {
     /// A run folder (holding run.h5, from `djkr run`) or a sweep folder (holding sweep.json,
     /// from `djkr sweep`).
     dir: PathBuf,
+    /// Overwrite files in DIR that djkr did not write under the names of the figures; without
+    /// it such a file is refused before anything is drawn. Nothing else in DIR is touched.
+    #[arg(long)]
+    force: bool,
 }
 
 /// Run `djkr plot`.
 pub fn plot(a: &PlotArgs) -> Result<()> {
+    // Two `djkr plot` on one folder at once both succeed: neither takes the folder's lock (a
+    // run or sweep may hold it), each writes its own partials and the renames are serialised.
     let files: Vec<PathBuf> = if a.dir.join(djkr::output::HDF5_NAME).exists() {
+        folder::check_names(&a.dir, &djkr::run_plot::RUN_PLOT_FILES, a.force)?;
         let (png, svg) = djkr::run_plot::plot_run_dir(&a.dir)?;
         vec![png, svg]
     } else if a.dir.join(files::MANIFEST_NAME).exists() {
@@ -24,6 +32,11 @@ pub fn plot(a: &PlotArgs) -> Result<()> {
         let manifest: Manifest = serde_json::from_str(&text).map_err(|e| {
             anyhow::anyhow!("{}: not a djkr sweep description: {e}", a.dir.display())
         })?;
+        folder::check_names(
+            &a.dir,
+            &djkr::sweep::plots::plot_file_names(&manifest),
+            a.force,
+        )?;
         let rows = files::read_rows(&a.dir, &manifest)?;
         let points = djkr::sweep::stats::point_stats(&rows);
         djkr::sweep::plots::sweep_plots(&a.dir, &manifest, &points, &rows)?

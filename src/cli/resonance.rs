@@ -47,6 +47,10 @@ pub struct ResonanceArgs {
     /// out/<scenario name>-resonance].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Overwrite files in --out that djkr did not write under the names this command writes;
+    /// without it such a file stops the command before any work. Nothing else is touched.
+    #[arg(long)]
+    force: bool,
     /// Skip the harmonic-balance predictor.
     #[arg(long)]
     no_harmonic_balance: bool,
@@ -84,6 +88,18 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
         SweepArg::Both => api::Sweeps::Both,
     };
     let dirs = if which == api::Sweeps::Both { 2 } else { 1 };
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| default_out(&a.file, "resonance"));
+    let names = [
+        "resonance.csv",
+        "resonance.h5",
+        "resonance.png",
+        "resonance.svg",
+    ];
+    let phase = ["resonance-phase.png", "resonance-phase.svg"];
+    super::common::claim_out(&out, &[&names[..], &phase[..]].concat(), a.force)?;
     let bar = progress_bar((n * dirs) as u64, "sweep");
     let progress = |d: Direction, p: &SweepPoint| {
         bar.inc(1);
@@ -101,11 +117,6 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     bar.finish_and_clear();
     let (sweeps, lin, wall) = (&res.sweeps, &res.linearisation, res.wall_s);
 
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| default_out(&a.file, "resonance"));
-    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
     let mut files = write_tables(&out, &scn, &res, &opts)?;
     let (fig, phase) = figures(
         &a.file,

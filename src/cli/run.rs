@@ -42,6 +42,11 @@ pub struct RunArgs {
     #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "4",
           value_parser = clap::value_parser!(u16).range(1..=256))]
     sensitivity: Option<u16>,
+    /// Overwrite files in --out that djkr did not write under the names this run publishes
+    /// (summary.json, run.h5, the CSV files, run.png/svg); without it such a file stops the run
+    /// before it starts. Nothing else in the folder is touched.
+    #[arg(long)]
+    force: bool,
     #[command(flatten)]
     set: SetArgs,
 }
@@ -175,7 +180,10 @@ fn ending_of(outcome: &Outcome) -> Ending {
 pub fn run(a: &RunArgs) -> Result<()> {
     let mut scn = load_scenario(&a.file, &a.set)?;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.file, ""));
-    let mut writer = RunWriter::create(&out, &scn, a.csv || scn.output.csv)
+    let plot = a.plot || scn.output.plot;
+    let figures = djkr::run_plot::RUN_PLOT_FILES;
+    let extra: &[&str] = if plot { &figures } else { &[] };
+    let mut writer = RunWriter::create_with(&out, &scn, a.csv || scn.output.csv, extra, a.force)
         .with_context(|| format!("--out {}", out.display()))?;
     signals::install(
         "stopping: the run keeps what it computed and writes its files (again to quit at once)",
@@ -233,7 +241,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
     let paths = writer
         .finish_with(&result, &ending)
         .with_context(|| format!("writing results into {}", out.display()))?;
-    let plots = if a.plot || scn.output.plot {
+    let plots = if plot {
         match djkr::run_plot::plot_run_dir(&out) {
             Ok((png, svg)) => vec![png, svg],
             Err(e) if ok => {

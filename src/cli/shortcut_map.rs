@@ -32,6 +32,10 @@ pub struct ShortcutMapArgs {
     /// out/<scenario name>-shortcut-map].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Overwrite files in --out that djkr did not write under the names this command writes;
+    /// without it such a file stops the command before any work. Nothing else is touched.
+    #[arg(long)]
+    force: bool,
     /// Print a JSON summary (SI values) instead of a table.
     #[arg(long)]
     json: bool,
@@ -75,6 +79,21 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     let freqs = sweep::frequencies(flo, fhi, nf);
     let amps = log_space(alo, ahi, na);
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| default_out(&a.file, "shortcut-map"));
+    let maps = ["shortcut-map-force", "shortcut-map-delta"];
+    let mut names = vec![
+        "shortcut-map.csv".to_string(),
+        "shortcut-map.h5".to_string(),
+    ];
+    names.extend(
+        maps.iter()
+            .flat_map(|m| [format!("{m}.png"), format!("{m}.svg")]),
+    );
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    super::common::claim_out(&out, &names, a.force)?;
     let bar = progress_bar((nf * na) as u64, "map");
     let progress = |c: &MapCell| {
         bar.inc(1);
@@ -86,11 +105,6 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     };
     let m = smap::shortcut_map(&problem, &start, &freqs, &amps, &opts, &progress);
     bar.finish_and_clear();
-    let out = a
-        .out
-        .clone()
-        .unwrap_or_else(|| default_out(&a.file, "shortcut-map"));
-    std::fs::create_dir_all(&out).with_context(|| format!("--out {}", out.display()))?;
     let mut files = write_tables(&out, &scn, &m)?;
     files.extend(write_maps(
         &out,

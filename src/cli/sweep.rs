@@ -39,6 +39,9 @@ pub struct MergeArgs {
     /// Folder for the merged sweep.csv, sweep.h5, points.csv and plots.
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
+    /// Overwrite files in --out that djkr did not write under the names the merge publishes.
+    #[arg(long)]
+    force: bool,
 }
 
 /// Flags of a sweep.
@@ -81,6 +84,11 @@ pub struct SweepRunArgs {
     /// Also keep each run's own folder (DIR/runs/pPPPP-mMM: run.h5, summary.json).
     #[arg(long)]
     keep_runs: bool,
+    /// Overwrite files in --out that djkr did not write under the names the sweep publishes
+    /// (sweep.json, progress.csv, sweep.csv, sweep.h5, points.csv, the plots); without it such
+    /// a file stops the sweep before it starts. Nothing else in the folder is touched.
+    #[arg(long)]
+    force: bool,
     /// Run only the K-th of N disjoint slices of the runs (K from 1), or `slurm` to take them
     /// from SLURM_ARRAY_TASK_ID and SLURM_ARRAY_TASK_COUNT; merge with `djkr sweep merge`.
     #[arg(long, value_name = "K/N")]
@@ -177,7 +185,16 @@ fn run(a: &SweepRunArgs) -> Result<()> {
     }
     let shard = parse_shard(a.shard.as_deref())?;
     let manifest = Manifest::of(&sweep, shard);
-    let opened = files::open(&out, manifest, a.resume).context("--out")?;
+    // The lock in `opened` is held to the end of the sweep: a second sweep is refused at once.
+    let opened = files::open(&out, manifest, a.resume, a.force).context("--out")?;
+    let runs_dir = out.join(files::RUNS_DIR);
+    if a.keep_runs && std::fs::symlink_metadata(&runs_dir).is_ok_and(|m| !m.is_dir()) {
+        bail!(
+            "--keep-runs: {} is not a folder: move it away (djkr keeps the runs' folders there)",
+            runs_dir.display()
+        );
+    }
+    let _lock = opened.lock;
     let manifest = opened.manifest;
     let mut progress = opened.progress;
     let mut rows: Vec<Row> = opened.done;
@@ -439,6 +456,9 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
             sweep.runs()
         );
     }
+    djkr::output::folder::prepare(out)?;
+    let _lock = djkr::output::folder::DirLock::acquire(out)?;
+    djkr::output::folder::check_names(out, &[files::MANIFEST_NAME, "sweep.sbatch"], a.force)?;
     std::fs::create_dir_all(out.join("slurm"))
         .with_context(|| format!("--out {}", out.display()))?;
     let manifest = Manifest::of(sweep, None);
@@ -498,7 +518,7 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
 
 /// Run `djkr sweep merge`.
 fn merge(m: &MergeArgs) -> Result<()> {
-    let merged = files::merge(&m.dirs, &m.out)?;
+    let merged = files::merge(&m.dirs, &m.out, m.force)?;
     println!(
         "merged {} folder(s): {} run(s), {} failed",
         m.dirs.len(),

@@ -1,19 +1,26 @@
 //! Atomic file output: the one way djkr puts a file on disk.
 //!
-//! A file is written in full under its hidden partial name beside the target (`DIR/.NAME.partial`),
-//! flushed to disk, and only then renamed into place, so an interrupted or failed writer never
-//! leaves a file that looks complete. [`write_atomic`] does this for one file; a writer that
-//! must commit several files together (the run writer: `summary.json` last, see
-//! [`super::RunWriter`]) stages each as an [`AtomicFile`] and commits them in order once all are
-//! written. An [`AtomicFile`] dropped without [`AtomicFile::commit`] removes its partial.
+//! A file is written in full under a hidden partial name beside the target, flushed, and only
+//! then renamed into place, so an interrupted or failed writer never leaves a file that looks
+//! complete. [`write_atomic`] does this for one file; a writer that must commit several files
+//! together (the run writer: `summary.json` last, see [`super::RunWriter`]) stages each as an
+//! [`AtomicFile`] and commits them in order once all are written
+//! ([`super::folder::commit_all`]). An [`AtomicFile`] dropped without committing removes its
+//! partial.
 //!
-//! Single files ([`write_atomic`]) use the fixed partial name `.NAME.partial`; the run writer tags
-//! its partials with the run id (`.NAME.<run_id>.partial`, [`tagged_partial_path`]) and holds the
-//! directory's lock, under which it clears what killed runs left behind.
+//! **Partials are never a path a user can plant.** Each partial is created new
+//! (`O_CREAT | O_EXCL | O_NOFOLLOW`) under a name no one can guess, `DIR/.NAME.XXXXXX.partial`
+//! (`DIR/.NAME.TAG.XXXXXX.partial` for a run's files, tagged with its run id), with random
+//! characters that are drawn again should the name exist: a symbolic link or file planted under
+//! any name is never opened, written or followed. Committing checks the target first (through
+//! the folder's manifest, [`super::folder`]): a directory, a symbolic link or another file that
+//! is not a regular one is never replaced, nor a user's file without `--force`.
 
 use std::fs::{self, File};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+
+use tempfile::TempPath;
 
 use super::OutputError;
 
@@ -24,45 +31,65 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
     }
 }
 
-/// The hidden partial name under which `target` is written: `DIR/.NAME.partial`.
-pub fn partial_path(target: &Path) -> PathBuf {
+/// Create a new partial file for `target` in its folder, `.NAME.[TAG.]XXXXXX.partial`, opened
+/// for writing: created exclusively, never through a symbolic link, readable as any other file
+/// the user creates (mode 0666 less the umask, not the 0600 of a temporary file).
+fn create_partial(target: &Path, tag: Option<&str>) -> Result<(File, TempPath), OutputError> {
     let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    target.with_file_name(format!(".{name}.partial"))
+    let dir = match target.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let prefix = match tag {
+        Some(t) => format!(".{name}.{t}."),
+        None => format!(".{name}."),
+    };
+    let made = tempfile::Builder::new()
+        .prefix(&prefix)
+        .suffix(".partial")
+        .rand_bytes(6)
+        .make_in(dir, |path| {
+            let mut o = fs::OpenOptions::new();
+            o.read(true).write(true).create_new(true);
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::OpenOptionsExt;
+                o.mode(0o666).custom_flags(libc::O_NOFOLLOW);
+            }
+            o.open(path)
+        })
+        .map_err(|source| OutputError::Io {
+            path: dir.join(format!("{prefix}XXXXXX.partial")),
+            source,
+        })?;
+    Ok(made.into_parts())
 }
 
-/// The hidden partial name of `target` for one writer: `DIR/.NAME.TAG.partial` (a run writer
-/// tags its partials with its run id, so two writers never share one).
-pub fn tagged_partial_path(target: &Path, tag: &str) -> PathBuf {
-    let name = target
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    target.with_file_name(format!(".{name}.{tag}.partial"))
-}
-
-/// A file being written atomically: its content goes to the partial name until [`commit`]
-/// renames it into place. Dropped uncommitted, it removes the partial.
-///
-/// [`commit`]: AtomicFile::commit
+/// A file being written atomically: its content goes to a fresh partial file until it is
+/// committed ([`AtomicFile::commit`], [`super::folder::commit_all`]). Dropped uncommitted, it
+/// removes the partial.
 #[derive(Debug)]
 pub struct AtomicFile {
     target: PathBuf,
-    partial: PathBuf,
-    committed: bool,
+    partial: TempPath,
+    /// A file djkr appends to after publishing it (its manifest record ignores size and time).
+    append: bool,
 }
 
 impl AtomicFile {
-    /// Reserve `target` under its partial name tagged `tag`, to be written by the caller (e.g.
-    /// streamed during a run) at [`AtomicFile::partial`]; nothing is created yet.
-    pub fn reserve(target: &Path, tag: &str) -> Self {
-        Self {
+    /// Create `target`'s partial (tagged `tag`), empty, to be written by the caller (e.g.
+    /// streamed during a run) at [`AtomicFile::partial`] through the returned handle.
+    pub fn create(target: &Path, tag: &str) -> Result<(Self, File), OutputError> {
+        let (file, partial) = create_partial(target, Some(tag))?;
+        let staged = Self {
             target: target.to_path_buf(),
-            partial: tagged_partial_path(target, tag),
-            committed: false,
-        }
+            partial,
+            append: false,
+        };
+        Ok((staged, file))
     }
 
     /// Where the content is written until the commit.
@@ -70,21 +97,21 @@ impl AtomicFile {
         &self.partial
     }
 
-    /// Write `bytes` as the content of `target` (under its partial name, flushed to disk).
+    /// Write `bytes` as the content of `target` (under a partial name, flushed to disk).
     pub fn write(target: &Path, bytes: &[u8]) -> Result<Self, OutputError> {
         Self::write_with(target, |w| w.write_all(bytes))
     }
 
-    /// Let `fill` write the content of `target` through a buffer (under its partial name,
+    /// Let `fill` write the content of `target` through a buffer (under a partial name,
     /// flushed to disk). For content too large to build in memory first.
     pub fn write_with(
         target: &Path,
         fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
     ) -> Result<Self, OutputError> {
-        Self::fill(target, partial_path(target), true, fill)
+        Self::fill(target, None, true, fill)
     }
 
-    /// As [`AtomicFile::write_with`], under the partial name tagged `tag`, flushed to disk only
+    /// As [`AtomicFile::write_with`], under a partial name tagged `tag`, flushed to disk only
     /// when `sync` (the run writer's choice: README, "Output").
     pub fn write_tagged(
         target: &Path,
@@ -92,23 +119,23 @@ impl AtomicFile {
         sync: bool,
         fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
     ) -> Result<Self, OutputError> {
-        Self::fill(target, tagged_partial_path(target, tag), sync, fill)
+        Self::fill(target, Some(tag), sync, fill)
     }
 
     fn fill(
         target: &Path,
-        partial: PathBuf,
+        tag: Option<&str>,
         sync: bool,
         fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
     ) -> Result<Self, OutputError> {
+        let (f, partial) = create_partial(target, tag)?;
+        // On error `staged` is dropped, which removes the partial.
         let staged = Self {
             target: target.to_path_buf(),
             partial,
-            committed: false,
+            append: false,
         };
-        // On error `staged` is dropped here, which removes the partial.
-        let p = staged.partial.as_path();
-        let f = File::create(p).map_err(io_err(p))?;
+        let p: &Path = &staged.partial;
         let mut w = BufWriter::with_capacity(1 << 16, f);
         fill(&mut w).map_err(io_err(p))?;
         let f = w.into_inner().map_err(|e| OutputError::Io {
@@ -121,20 +148,56 @@ impl AtomicFile {
         Ok(staged)
     }
 
+    /// As [`AtomicFile::write`], not flushed to disk: for djkr's record of a folder, whose loss
+    /// in a crash of the machine costs only a `--force` at the next run (a sync is ~3.5 ms).
+    pub(super) fn write_unsynced(target: &Path, bytes: &[u8]) -> Result<Self, OutputError> {
+        Self::fill(target, None, false, |w| w.write_all(bytes))
+    }
+
+    /// Mark this as a file djkr appends to once published (a sweep's `progress.csv`).
+    pub fn appending(mut self) -> Self {
+        self.append = true;
+        self
+    }
+
+    /// Whether this is a file djkr appends to.
+    pub fn appends(&self) -> bool {
+        self.append
+    }
+
     /// The file this will become.
     pub fn target(&self) -> &Path {
         &self.target
     }
 
-    /// Put the partial in place of the target (replacing an earlier file of that name:
-    /// [`replace`]).
-    pub fn commit(mut self) -> Result<PathBuf, OutputError> {
-        replace(&self.partial, &self.target).map_err(io_err(&self.target))?;
-        self.committed = true;
-        Ok(self.target.clone())
+    /// Put the partial in place of the target and record it as djkr's in the folder's manifest;
+    /// a target that is not djkr's is refused (see [`super::folder::commit_all`]).
+    pub fn commit(self) -> Result<PathBuf, OutputError> {
+        let dir = match self.target.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let mut done = super::folder::commit_all(&dir, vec![self])?;
+        Ok(done.pop().unwrap_or_default())
+    }
+
+    /// Put the partial in place of the target ([`replace`]), unchecked: for the folder code,
+    /// which has checked the target.
+    pub(super) fn rename_into_place(self) -> Result<(), OutputError> {
+        let Self {
+            target, partial, ..
+        } = self;
+        let from = partial.to_path_buf();
+        match replace(&from, &target) {
+            Ok(()) => {
+                // Moved away (or swapped and removed): nothing left to remove on drop.
+                let _ = partial.keep();
+                Ok(())
+            }
+            Err(e) => Err(io_err(&target)(e)),
+        }
     }
 }
-
 /// Move `from` to `to`, replacing a file there, in one step that every reader sees whole: `to`
 /// is always either the old file or the new one.
 ///
@@ -145,14 +208,16 @@ impl AtomicFile {
 /// for the swap and the removal. djkr makes no promise that rename-over would have kept (README,
 /// "Crash safety"): without `[output] fsync` a crash of the machine within the write-back delay
 /// may lose what a rename published either way. Where the swap is not supported (another
-/// system, a file system without it) or there is no file to replace, a plain rename; a directory
-/// in the way is never swapped out (the rename fails on it, naming it, as it always did).
+/// system, a file system without it) or there is no file to replace, a plain rename. Only a
+/// regular file is ever swapped out: a directory in the way makes the rename fail, naming it, and
+/// a symbolic link is replaced itself, never followed (the callers refuse both before: the
+/// folder's checks in [`super::folder`]).
 pub fn replace(from: &Path, to: &Path) -> std::io::Result<()> {
     #[cfg(target_os = "linux")]
-    if fs::symlink_metadata(to).is_ok_and(|m| !m.is_dir()) && exchange(from, to).is_ok() {
+    if fs::symlink_metadata(to).is_ok_and(|m| m.file_type().is_file()) && exchange(from, to).is_ok()
+    {
         // `from` now holds the replaced file. Failing to remove it loses nothing: it keeps
-        // its hidden partial name, which a later write of the same file replaces (and a later
-        // run into the directory clears).
+        // the hidden partial name.
         let _ = fs::remove_file(from);
         return Ok(());
     }
@@ -187,15 +252,8 @@ fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
     }
 }
 
-impl Drop for AtomicFile {
-    fn drop(&mut self) {
-        if !self.committed {
-            let _ = fs::remove_file(&self.partial);
-        }
-    }
-}
-
 /// Write one file atomically (see the module doc): figures, tables, sweeps, studies.
+/// Refuses, naming it, to replace a file djkr did not write ([`super::folder`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     AtomicFile::write(path, bytes)?.commit().map(|_| ())
 }
@@ -218,18 +276,29 @@ mod tests {
         write_atomic(&p, b"one").unwrap();
         write_atomic(&p, b"two").unwrap();
         assert_eq!(fs::read(&p).unwrap(), b"two");
+        let partial;
         {
             let staged = AtomicFile::write(&p, b"three").unwrap();
-            assert!(partial_path(&p).exists());
+            partial = staged.partial().to_path_buf();
+            assert!(partial.exists());
+            let name = partial.file_name().unwrap().to_str().unwrap();
+            assert!(
+                name.starts_with(".a.txt.") && name.ends_with(".partial"),
+                "{name}"
+            );
             assert_eq!(staged.target(), p);
         }
-        assert!(!partial_path(&p).exists());
+        assert!(!partial.exists());
         assert_eq!(fs::read(&p).unwrap(), b"two");
         let failed = AtomicFile::write_with(&p, |_| Err(std::io::Error::other("boom")));
         assert!(failed.unwrap_err().to_string().contains("boom"));
-        assert!(!partial_path(&p).exists());
-        let names: Vec<_> = fs::read_dir(dir.path()).unwrap().flatten().collect();
-        assert_eq!(names.len(), 1);
+        let mut names: Vec<_> = fs::read_dir(dir.path())
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().into_string().unwrap())
+            .collect();
+        names.sort();
+        assert_eq!(names, [".djkr-manifest.json", "a.txt"]);
     }
 
     #[test]
@@ -256,5 +325,36 @@ mod tests {
         fs::write(&new, b"third").unwrap();
         assert!(replace(&new, &d).is_err());
         assert_eq!(fs::read(d.join("inside")).unwrap(), b"keep");
+        // A symbolic link is replaced itself: its target is neither written nor swapped away.
+        #[cfg(unix)]
+        {
+            let victim = dir.path().join("victim");
+            fs::write(&victim, b"precious").unwrap();
+            let link = dir.path().join("link");
+            std::os::unix::fs::symlink(&victim, &link).unwrap();
+            replace(&new, &link).unwrap();
+            assert_eq!(fs::read(&victim).unwrap(), b"precious");
+            assert!(fs::symlink_metadata(&link).unwrap().is_file());
+            assert_eq!(fs::read(&link).unwrap(), b"third");
+        }
+    }
+
+    #[test]
+    fn partials_are_new_files_that_no_planted_link_redirects() {
+        let dir = tempfile::tempdir().unwrap();
+        let victim = dir.path().join("victim");
+        fs::write(&victim, b"precious").unwrap();
+        let target = dir.path().join("out.png");
+        #[cfg(unix)]
+        for name in [".out.png.partial", ".out.png.tag.partial"] {
+            std::os::unix::fs::symlink(&victim, dir.path().join(name)).unwrap();
+        }
+        let staged =
+            AtomicFile::write_tagged(&target, "tag", false, |w| w.write_all(b"png")).unwrap();
+        assert!(fs::symlink_metadata(staged.partial()).unwrap().is_file());
+        staged.commit().unwrap();
+        write_atomic(&target, b"png2").unwrap();
+        assert_eq!(fs::read(&victim).unwrap(), b"precious");
+        assert_eq!(fs::read(&target).unwrap(), b"png2");
     }
 }

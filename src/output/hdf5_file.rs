@@ -180,11 +180,13 @@ fn extendable(compress: bool, chunk: usize) -> Storage {
 }
 
 impl H5Stream {
-    /// Create the file at `path` with its datasets empty (the period datasets are created with
-    /// the first period record) and open it for appending. hdf5-pure syncs it once, when it is
-    /// finished (`SyncPolicy::OnClose`).
+    /// Write the file at `path`, just created empty and open as `handle` (a partial of a name no
+    /// one can plant: [`super::atomic`]), with its datasets empty (the period datasets are
+    /// created with the first period record), and open it for appending. hdf5-pure syncs it
+    /// once, when it is finished (`SyncPolicy::OnClose`).
     pub fn create(
         path: &Path,
+        mut handle: std::fs::File,
         scenario: &Scenario,
         run_id: &str,
         compress: bool,
@@ -207,7 +209,8 @@ impl H5Stream {
         let mut g = b.create_group("cycles");
         g.set_attr("description", vstr(CYCLES_DESCRIPTION));
         b.add_group(g.finish());
-        b.write(path).map_err(err)?;
+        b.finish_to(&mut handle).map_err(err)?;
+        drop(handle);
         let file = File::open_rw_with_options(
             path,
             FileAccessProperties::new().with_sync_policy(SyncPolicy::OnClose),

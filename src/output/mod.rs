@@ -15,18 +15,21 @@
 //! ends, as are the results. Both ways give files of the same content ([`hdf5_file`] has the
 //! layout).
 //!
-//! **Atomic output.** Every file is written under a hidden partial name tagged with the run's id
-//! (`DIR/.run.h5.<run_id>.partial`, ...) and renamed into place only when the run has ended,
-//! `summary.json` last: its presence marks complete files, and it records the size of every
-//! other file of the run (`file_bytes`) and how the run ended (`status`: a run stopped by a
-//! budget or failed mid-way is published by [`RunWriter::finish_with`]). A run that is killed,
-//! or whose writer is dropped without finishing, leaves no `run.h5`/`summary.json` of its own, and files of an
-//! earlier complete run in the directory stay untouched. A writer holds an exclusive lock on
+//! **Atomic output.** Every file is written under a hidden partial name of its own, created new
+//! and never through a symbolic link (`DIR/.run.h5.<run_id>.XXXXXX.partial`, ...: [`atomic`]),
+//! and renamed into place only when the run has ended, `summary.json` last: its presence marks
+//! complete files, and it records the size of every other file of the run (`file_bytes`) and
+//! how the run ended (`status`: a run stopped by a budget or failed mid-way is published by
+//! [`RunWriter::finish_with`]). A run that is killed, or whose writer is dropped without
+//! finishing, leaves no `run.h5`/`summary.json` of its own, and files of an earlier complete run
+//! in the directory stay untouched. A writer holds an exclusive lock on
 //! `DIR/.djkr.lock` from [`RunWriter::create`] to its end, so a second run into the same
-//! directory fails at once, naming the directory, instead of interleaving; the holder of the
-//! lock removes partials that killed runs left behind. Files djkr did not write are never
-//! removed: an earlier run's CSV files stay when this run writes none (`files` in summary.json
-//! lists this run's).
+//! directory fails at once, naming the directory and the holder's process id, instead of
+//! interleaving; the lock file records the partials the holder created, and the next holder
+//! removes those a killed run left behind. Files djkr did not write are never removed or
+//! replaced ([`folder`]: a name the run would publish that holds a file of the user's is refused
+//! before the run, unless `--force`); an earlier run's CSV files stay when this run writes none
+//! (`files` in summary.json lists this run's).
 //!
 //! **What is flushed when.** By default nothing is `fsync`ed: a rename makes each file appear
 //! whole or not at all to every process, so a killed or crashed djkr (time limit, out of memory,
@@ -44,13 +47,14 @@
 
 pub mod atomic;
 pub mod cycles;
+pub mod folder;
 pub mod hdf5_file;
 mod stream;
 pub mod summary;
 pub mod table;
 pub mod timeseries;
 
-use std::fs::{self, File};
+use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -113,15 +117,49 @@ pub enum OutputError {
         /// What hdf5-pure said.
         message: String,
     },
-    /// Another run holds the output directory.
+    /// Another run or sweep holds the output directory.
     #[error(
-        "{}: another djkr run is writing into this directory (it holds {LOCK_NAME}); wait for \
-         it or choose another --out",
-        dir.display()
+        "{}: another djkr run or sweep is writing into this directory ({}, holding {LOCK_NAME}); \
+         wait for it or choose another --out",
+        dir.display(),
+        holder.map_or("another process".to_string(), |p| format!("pid {p}"))
     )]
     Busy {
         /// The output directory.
         dir: PathBuf,
+        /// The process id of the holder, when its lock file says.
+        holder: Option<u32>,
+    },
+    /// Files djkr is about to publish exist and djkr did not write them.
+    #[error(
+        "{}: {} {} there and not written by djkr: move {it} away, choose another --out, or add \
+         --force to overwrite {it} (nothing else in the folder is touched)",
+        dir.display(),
+        names.join(", "),
+        if names.len() == 1 { "is already" } else { "are already" },
+        it = if names.len() == 1 { "it" } else { "them" }
+    )]
+    Clash {
+        /// The output directory.
+        dir: PathBuf,
+        /// The clashing names.
+        names: Vec<String>,
+    },
+    /// A name djkr writes (or its own record or lock) is not a regular file.
+    #[error("{}: is {what}; remove it or choose another --out", path.display())]
+    NotRegular {
+        /// The path.
+        path: PathBuf,
+        /// What it is.
+        what: String,
+    },
+    /// The output directory is not a folder.
+    #[error("{}: is {what}, not a folder; choose a folder for --out (it is created if missing)", path.display())]
+    NotAFolder {
+        /// The path given.
+        path: PathBuf,
+        /// What it is.
+        what: String,
     },
     /// The run's samples would not fit on the disk.
     #[error(
@@ -222,21 +260,38 @@ pub struct RunWriter {
     error: Option<OutputError>,
     sections: Vec<(String, serde_json::Value)>,
     // Last: released after the partials are gone.
-    _lock: Option<File>,
+    lock: Option<folder::DirLock>,
 }
 
 impl RunWriter {
     /// Prepare to write a run of `scenario` into `dir` (created if missing), with CSV files when
     /// `csv` is true (compression and syncing from `[output]`). Fails early, before the run,
-    /// when `dir` cannot be created or written, when another run holds it, or when the samples
-    /// the scenario asks for would not fit on its disk. Partials that killed runs left there are
-    /// removed.
+    /// when `dir` cannot be created or written, when another run holds it, when a file the run
+    /// would publish exists and djkr did not write it ([`OutputError::Clash`]: see
+    /// [`RunWriter::create_with`] for `--force`), or when the samples the scenario asks for
+    /// would not fit on its disk. Partials that killed runs recorded in the lock are removed.
     pub fn create(dir: &Path, scenario: &Scenario, csv: bool) -> Result<Self, OutputError> {
-        fs::create_dir_all(dir).map_err(io_err(dir))?;
-        let lock = lock_dir(dir)?;
-        if lock.is_some() {
-            remove_stale_partials(dir);
+        Self::create_with(dir, scenario, csv, &[], false)
+    }
+
+    /// [`RunWriter::create`], also claiming `extra` names the caller will write into `dir`
+    /// after the run (`run.png`, `run.svg`), and with `force` overwriting files of these names
+    /// that djkr did not write (`--force`; nothing else in the folder is touched).
+    pub fn create_with(
+        dir: &Path,
+        scenario: &Scenario,
+        csv: bool,
+        extra: &[&str],
+        force: bool,
+    ) -> Result<Self, OutputError> {
+        folder::prepare(dir)?;
+        let lock = folder::DirLock::acquire(dir)?;
+        let mut names = vec![HDF5_NAME, SUMMARY_NAME];
+        if csv {
+            names.extend(CSV_NAMES);
         }
+        names.extend(extra);
+        folder::check_names(dir, &names, force)?;
         let options = Options {
             csv,
             compress: scenario.output.compress,
@@ -256,8 +311,15 @@ impl RunWriter {
             model: None,
             error: None,
             sections: Vec::new(),
-            _lock: lock,
+            lock,
         })
+    }
+
+    /// Record a partial this writer created in the directory's lock (see [`folder::DirLock`]).
+    fn note_partial(&self, file: &AtomicFile) {
+        if let Some(l) = &self.lock {
+            l.note_partial(file.partial());
+        }
     }
 
     /// The output directory.
@@ -318,6 +380,10 @@ impl RunWriter {
                 (self.options.csv, self.options.compress),
                 model,
             )?;
+            self.note_partial(&st.h5_file);
+            for (file, _) in &st.csv {
+                self.note_partial(file);
+            }
             self.stream = Some(Background::spawn(st, addr)?);
         }
         let full = std::mem::replace(&mut self.rows, Rows::new());
@@ -423,9 +489,10 @@ impl RunWriter {
             fsync,
             |w| w.write_all(json.as_bytes()),
         )?);
-        for file in staged {
-            file.commit()?;
+        for f in &staged {
+            self.note_partial(f);
         }
+        folder::commit_all(&self.dir, staged)?;
         if fsync {
             atomic::sync_dir(&self.dir);
         }
@@ -506,45 +573,6 @@ impl Observer for RunWriter {
         cycles::push_cycle(&mut self.rows.cycles, c);
         self.cycles += 1;
         self.maybe_flush();
-    }
-}
-
-/// Take the directory's lock: `Ok(None)` when the file system cannot lock (the run goes on
-/// unprotected, as before locks existed), [`OutputError::Busy`] when another run holds it.
-fn lock_dir(dir: &Path) -> Result<Option<File>, OutputError> {
-    let path = dir.join(LOCK_NAME);
-    let file = fs::OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(&path)
-        .map_err(io_err(&path))?;
-    match file.try_lock() {
-        Ok(()) => Ok(Some(file)),
-        Err(fs::TryLockError::WouldBlock) => Err(OutputError::Busy {
-            dir: dir.to_path_buf(),
-        }),
-        Err(fs::TryLockError::Error(_)) => Ok(None),
-    }
-}
-
-/// Remove the partial files killed runs left in `dir` (`.NAME.partial`, `.NAME.<id>.partial`
-/// for the run's file names only: nothing djkr did not write). Called under the lock.
-fn remove_stale_partials(dir: &Path) {
-    let Ok(entries) = fs::read_dir(dir) else {
-        return;
-    };
-    let ours = |name: &str| {
-        name.ends_with(".partial")
-            && [HDF5_NAME, SUMMARY_NAME]
-                .into_iter()
-                .chain(CSV_NAMES)
-                .any(|n| name.starts_with(&format!(".{n}.")))
-    };
-    for e in entries.flatten() {
-        if e.file_name().to_str().is_some_and(ours) {
-            let _ = fs::remove_file(e.path());
-        }
     }
 }
 

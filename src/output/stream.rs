@@ -122,8 +122,8 @@ impl Streaming {
         (csv, compress): (bool, bool),
         model: Option<Model>,
     ) -> Result<Self, OutputError> {
-        let h5_file = AtomicFile::reserve(&dir.join(HDF5_NAME), run_id);
-        let h5 = H5Stream::create(h5_file.partial(), scenario, run_id, compress)?;
+        let (h5_file, handle) = AtomicFile::create(&dir.join(HDF5_NAME), run_id)?;
+        let h5 = H5Stream::create(h5_file.partial(), handle, scenario, run_id, compress)?;
         let mut st = Streaming {
             h5,
             h5_file,
@@ -141,9 +141,8 @@ impl Streaming {
                 st.cycles.schema(),
             ];
             for (name, schema) in CSV_NAMES.into_iter().zip(schemas) {
-                let file = AtomicFile::reserve(&dir.join(name), run_id);
+                let (file, out) = AtomicFile::create(&dir.join(name), run_id)?;
                 let p = file.partial().to_path_buf();
-                let out = File::create(&p).map_err(io_err(&p))?;
                 let w = CsvWriter::new(BufWriter::with_capacity(1 << 16, out), &schema)
                     .map_err(io_err(&p))?;
                 st.csv.push((file, w));

@@ -16,8 +16,11 @@
 //! ```
 //!
 //! The rows already done are those of `sweep.csv` and `progress.csv` together; `--resume` skips
-//! them and appends the rest to `progress.csv`. Two sweeps writing into one folder at the same
-//! time are not supported.
+//! them and appends the rest to `progress.csv`. A sweep holds the folder's lock
+//! (`DIR/.djkr.lock`, [`DirLock`]) from [`open`] to its end, so a second sweep (or run) into the
+//! folder is refused at once, naming the holder's process id; and the files above are djkr's
+//! by its record in the folder ([`crate::output::folder`]): a file of the user's under one of
+//! these names stops the sweep before it starts, unless `--force`.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::Write;
@@ -27,7 +30,8 @@ use hdf5_pure::{AttrValue, FileBuilder};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::output::atomic::{sync_dir, write_atomic};
+use crate::output::atomic::{sync_dir, write_atomic, AtomicFile};
+use crate::output::folder::{self, DirLock};
 use crate::output::table::text_attr;
 use crate::output::OutputError;
 use crate::plot::PlotError;
@@ -373,9 +377,12 @@ impl Progress {
     }
 }
 
-/// A sweep folder opened to run in: its manifest, the rows already done, the progress file.
+/// A sweep folder opened to run in: its manifest, the rows already done, the progress file,
+/// and the folder's lock, held as long as this lives.
 #[derive(Debug)]
 pub struct Opened {
+    /// The folder's lock (`None` where the file system cannot lock).
+    pub lock: Option<DirLock>,
     /// The manifest (written or checked).
     pub manifest: Manifest,
     /// Rows already done (`--resume`), sorted.
@@ -384,12 +391,47 @@ pub struct Opened {
     pub progress: Progress,
 }
 
-/// Open `dir` for `manifest`'s sweep. A folder that already holds a sweep is refused unless
-/// `resume`, and then it must be the same sweep (same shard too). With `resume` and no sweep in
-/// the folder, the sweep starts afresh.
-pub fn open(dir: &Path, manifest: Manifest, resume: bool) -> Result<Opened, FilesError> {
-    fs::create_dir_all(dir).map_err(io(dir))?;
-    let done = match Manifest::read(dir)? {
+/// The files a sweep (or a merge) publishes in its folder, claimed before it starts.
+fn result_names(manifest: &Manifest) -> Vec<String> {
+    let mut names: Vec<String> = [MANIFEST_NAME, ROWS_CSV_NAME, ROWS_H5_NAME, POINTS_CSV_NAME]
+        .map(String::from)
+        .to_vec();
+    names.extend(super::plots::plot_file_names(manifest));
+    names
+}
+
+/// Take `dir` for a sweep or merge: a folder (created if missing), its lock held, none of the
+/// `names` to publish a file of the user's (unless `force`).
+fn claim(dir: &Path, names: &[String], force: bool) -> Result<Option<DirLock>, FilesError> {
+    folder::prepare(dir)?;
+    let lock = DirLock::acquire(dir)?;
+    folder::check_names(dir, names, force)?;
+    Ok(lock)
+}
+
+/// The sweep description in `dir` that djkr wrote (or, under `--force`, one that reads as
+/// one); a file of the user's that `--force` lets djkr replace counts as none.
+fn own_manifest(dir: &Path) -> Result<Option<Manifest>, FilesError> {
+    match Manifest::read(dir) {
+        Err(_) if !folder::is_owned(dir, MANIFEST_NAME) => Ok(None),
+        other => other,
+    }
+}
+
+/// Open `dir` for `manifest`'s sweep, holding its lock. A folder that already holds a sweep is
+/// refused unless `resume`, and then it must be the same sweep (same shard too). With `resume`
+/// and no sweep in the folder, the sweep starts afresh. Files of the user's under the names
+/// the sweep writes are refused unless `force`.
+pub fn open(
+    dir: &Path,
+    manifest: Manifest,
+    resume: bool,
+    force: bool,
+) -> Result<Opened, FilesError> {
+    let mut names = result_names(&manifest);
+    names.push(PROGRESS_NAME.into());
+    let lock = claim(dir, &names, force)?;
+    let done = match own_manifest(dir)? {
         Some(old) => {
             if !resume {
                 return Err(invalid(
@@ -434,32 +476,47 @@ pub fn open(dir: &Path, manifest: Manifest, resume: bool) -> Result<Opened, File
     let header = crate::output::table::Table::from_schema(&row_schema(&keys))
         .map(|t| t.to_csv())
         .unwrap_or_default();
-    if path.exists() {
-        // Cut a torn last line (a writer killed mid-line) before appending.
+    // A resumed sweep's progress file is djkr's (claimed above): cut a torn last line (a writer
+    // killed mid-line) before appending. Otherwise it starts afresh, published as every file.
+    let mut fresh = done.is_empty() || !folder::is_owned(dir, PROGRESS_NAME);
+    if !fresh {
         let text = fs::read(&path).map_err(io(&path))?;
         let keep = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
         if keep < text.len() {
-            let f = OpenOptions::new()
-                .write(true)
-                .open(&path)
+            open_nofollow(&path, false)?
+                .set_len(keep as u64)
                 .map_err(io(&path))?;
-            f.set_len(keep as u64).map_err(io(&path))?;
         }
-        if keep == 0 {
-            fs::write(&path, header.as_bytes()).map_err(io(&path))?;
-        }
-    } else {
-        fs::write(&path, header.as_bytes()).map_err(io(&path))?;
+        fresh = keep == 0;
     }
-    let file = OpenOptions::new()
-        .append(true)
-        .open(&path)
-        .map_err(io(&path))?;
+    if fresh {
+        AtomicFile::write(&path, header.as_bytes())?
+            .appending()
+            .commit()?;
+    }
+    let file = open_nofollow(&path, true)?;
     Ok(Opened {
+        lock,
         manifest,
         done,
         progress: Progress { file, keys, path },
     })
+}
+
+/// Open djkr's own `path` for writing (appending when `append`), never through a symbolic link.
+fn open_nofollow(path: &Path, append: bool) -> Result<File, FilesError> {
+    let mut o = OpenOptions::new();
+    if append {
+        o.append(true);
+    } else {
+        o.write(true);
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        o.custom_flags(libc::O_NOFOLLOW);
+    }
+    o.open(path).map_err(io(path))
 }
 
 /// Write the tables and plots of `rows` into `dir` (atomically, each file) and, when the sweep
@@ -525,10 +582,8 @@ pub fn write_results(
     written.extend(super::plots::sweep_plots(dir, manifest, &points, rows)?);
 
     if complete {
-        let p = dir.join(PROGRESS_NAME);
-        if p.exists() {
-            fs::remove_file(&p).map_err(io(&p))?;
-        }
+        // Only djkr's own progress file (its record in the folder), never one of that name.
+        folder::remove_owned(dir, PROGRESS_NAME)?;
     }
     sync_dir(dir);
     Ok(written)
@@ -548,8 +603,10 @@ pub struct Merged {
 }
 
 /// Merge the shard folders `dirs` of one sweep into `out`: the same files as the unsharded
-/// sweep. Every folder must hold a shard of the same sweep, every run exactly once.
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, FilesError> {
+/// sweep. Every folder must hold a shard of the same sweep, every run exactly once. `out` is
+/// locked while it is written; files of the user's under the names it writes are refused
+/// unless `force`.
+pub fn merge(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Merged, FilesError> {
     let Some(first) = dirs.first() else {
         return Err(invalid(out, "merge: no shard folders given"));
     };
@@ -606,8 +663,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<Merged, FilesError> {
     manifest.shard = None;
     rows.sort_by_key(|r| (r.point, r.member));
     check_every_run_once(out, &manifest, &rows, &seen_shards)?;
-    fs::create_dir_all(out).map_err(io(out))?;
-    if let Some(old) = Manifest::read(out)? {
+    let _lock = claim(out, &result_names(&manifest), force)?;
+    if let Some(old) = own_manifest(out)? {
         if let Some(what) = old.difference(&manifest) {
             return Err(invalid(
                 out,

@@ -78,6 +78,20 @@ fn varying(points: &[PointStats], nkeys: usize) -> Vec<usize> {
         .collect()
 }
 
+/// The files [`sweep_plots`] may write for a sweep described by `manifest` (the phase figure
+/// only for an ensemble; which of the others depends on the rows), claimed before a sweep or
+/// `djkr plot` writes into a folder.
+pub fn plot_file_names(manifest: &Manifest) -> Vec<String> {
+    let mut stems = vec![AMPLIFICATION, AMPLIFICATION_MAP];
+    if manifest.ensemble.is_some() {
+        stems.push(PHASE);
+    }
+    stems
+        .iter()
+        .flat_map(|s| [format!("{s}.png"), format!("{s}.svg")])
+        .collect()
+}
+
 /// Draw the figures that fit the sweep; returns the files written.
 pub fn sweep_plots(
     dir: &Path,

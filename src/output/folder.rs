@@ -1,0 +1,594 @@
+//! Output folders: which files in a folder djkr may replace or delete, and who is writing there.
+//!
+//! A folder given as `--out` may hold anything of the user's (`--out .` is fine). djkr keeps
+//! its own record of what it wrote there, `DIR/.djkr-manifest.json` ([`MANIFEST_NAME`]): for
+//! each file it published, the file's identity when published (device, inode, size and
+//! modification time to the nanosecond; for a file djkr appends to, such as a sweep's
+//! `progress.csv`, device and inode only). A file is djkr's when it is a regular file whose
+//! identity matches its record; anything else under a name djkr is about to publish is a
+//! *clash*, refused before any work ([`check_names`]) and again at the moment of replacing it
+//! ([`commit_all`]) unless the user gave `--force` for the folder ([`force_overwrite`]). A name
+//! that is a directory, a symbolic link or another non-regular file is refused even with
+//! `--force`.
+//!
+//! Why the identity and not a content hash: a run file can be gigabytes, and hashing it at every
+//! later run into the folder would cost seconds; the identity costs one `stat`. A rename (which
+//! is how djkr publishes) keeps inode, size and time, while a user who edits a file in place
+//! changes its time and one who saves a new one over it changes its inode: either way the file
+//! is then the user's, and protected. Only a deliberate forgery (same inode, `touch -d` to the
+//! nanosecond) would pass, and that user could delete the file anyway.
+//!
+//! Deleting: djkr removes only regular files it can prove it wrote: a partial recorded (name and
+//! inode) in the folder's lock file by the writer that created it ([`DirLock::note_partial`]),
+//! which the next holder of the lock removes when a killed writer left it, and a file recorded in
+//! the manifest ([`remove_owned`], a complete sweep's `progress.csv`). Nothing is recognised by
+//! its name alone, since a name can be planted.
+//!
+//! Locks: a run or a sweep holds `DIR/.djkr.lock` ([`DirLock`]) for its whole life and writes
+//! its process id into it, so that a second writer is refused at once, naming the holder. The
+//! manifest itself is read and replaced under a short lock on the folder ([`FolderGuard`]), so
+//! that writers that do not hold the life lock (two `djkr plot` on one folder) both succeed.
+
+use std::collections::BTreeMap;
+use std::fs::{self, File, Metadata};
+use std::io::{Read, Seek, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+use serde::{Deserialize, Serialize};
+
+use super::atomic::AtomicFile;
+use super::{OutputError, LOCK_NAME};
+
+/// djkr's record of the files it wrote in a folder.
+pub const MANIFEST_NAME: &str = ".djkr-manifest.json";
+
+/// The first line of a lock file djkr wrote (an empty lock file is an older djkr's).
+const LOCK_HEADER: &str = "djkr lock";
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
+    move |source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// What a file is that djkr did not expect (for error messages).
+fn kind_of(m: &Metadata) -> &'static str {
+    let t = m.file_type();
+    if t.is_dir() {
+        return "a directory";
+    }
+    if t.is_symlink() {
+        return "a symbolic link";
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_fifo() {
+            return "a FIFO";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+        if t.is_block_device() || t.is_char_device() {
+            return "a device";
+        }
+    }
+    "not a regular file"
+}
+
+/// Make `dir` usable as an output folder: create it when missing; refuse, naming the path and
+/// what it is, a file, a dangling symbolic link or anything else that is not a folder (instead
+/// of the bare "File exists" the system gives).
+pub fn prepare(dir: &Path) -> Result<(), OutputError> {
+    let not_folder = |what: String| OutputError::NotAFolder {
+        path: dir.to_path_buf(),
+        what,
+    };
+    match fs::symlink_metadata(dir) {
+        Ok(m) if m.is_dir() => return Ok(()),
+        Ok(m) if m.file_type().is_symlink() => {
+            let target = fs::read_link(dir)
+                .map(|t| t.display().to_string())
+                .unwrap_or_default();
+            return match fs::metadata(dir) {
+                Ok(t) if t.is_dir() => Ok(()),
+                Ok(t) => Err(not_folder(format!(
+                    "a symbolic link to {target}, which is {}",
+                    if t.is_file() { "a file" } else { kind_of(&t) }
+                ))),
+                Err(_) => Err(not_folder(format!(
+                    "a dangling symbolic link (to {target}, which does not exist)"
+                ))),
+            };
+        }
+        Ok(m) if m.is_file() => return Err(not_folder("a file".into())),
+        Ok(m) => return Err(not_folder(kind_of(&m).into())),
+        Err(_) => {}
+    }
+    fs::create_dir_all(dir).map_err(io_err(dir))
+}
+
+/// The identity of a file djkr published (see the module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+struct Stamp {
+    dev: u64,
+    ino: u64,
+    size: u64,
+    mtime_ns: i64,
+    /// A file djkr appends to: compared by device and inode only.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    append: bool,
+}
+
+impl Stamp {
+    fn of(m: &Metadata, append: bool) -> Stamp {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            Stamp {
+                dev: m.dev(),
+                ino: m.ino(),
+                size: m.size(),
+                mtime_ns: m.mtime().saturating_mul(1_000_000_000) + m.mtime_nsec(),
+                append,
+            }
+        }
+        #[cfg(not(unix))]
+        {
+            let mtime_ns = m
+                .modified()
+                .ok()
+                .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                .map_or(0, |d| d.as_nanos() as i64);
+            Stamp {
+                dev: 0,
+                ino: 0,
+                size: m.len(),
+                mtime_ns,
+                append,
+            }
+        }
+    }
+
+    /// Whether `m` is still the file this stamp recorded.
+    fn matches(&self, m: &Metadata) -> bool {
+        let now = Stamp::of(m, self.append);
+        m.file_type().is_file()
+            && now.dev == self.dev
+            && now.ino == self.ino
+            && (self.append || (now.size == self.size && now.mtime_ns == self.mtime_ns))
+    }
+}
+
+/// The manifest's content.
+#[derive(Debug, Default, Serialize, Deserialize)]
+struct Record {
+    /// What this file is, for a reader who finds it.
+    #[serde(default)]
+    about: String,
+    /// The files djkr published in the folder, by name.
+    #[serde(default)]
+    files: BTreeMap<String, Stamp>,
+    /// In a folder without a record, the files of a run an older djkr wrote there, by name, with
+    /// their sizes ([`legacy_run`]).
+    #[serde(skip)]
+    legacy: BTreeMap<String, u64>,
+}
+
+impl Record {
+    /// The folder's record (empty when there is none). A manifest that is not a regular file or
+    /// not djkr's JSON is refused, naming it: djkr cannot tell then what is its own.
+    fn read(dir: &Path) -> Result<Record, OutputError> {
+        let path = dir.join(MANIFEST_NAME);
+        let Some(mut f) = open_nofollow(&path, false)? else {
+            return Ok(Record {
+                legacy: legacy_run(dir),
+                ..Record::default()
+            });
+        };
+        let mut text = String::new();
+        f.read_to_string(&mut text).map_err(io_err(&path))?;
+        serde_json::from_str(&text).map_err(|e| OutputError::NotRegular {
+            path: path.clone(),
+            what: format!("not djkr's record of the folder ({e}); move it away"),
+        })
+    }
+
+    /// Replace the folder's manifest with this record (a partial of a unique name, renamed).
+    fn write(&mut self, dir: &Path) -> Result<(), OutputError> {
+        self.about = "djkr's record of the files it wrote in this folder: it replaces or deletes \
+                      only these (README, \"Output folders\")"
+            .into();
+        // A run of an older djkr keeps its files djkr's once the folder has a record.
+        for (name, size) in std::mem::take(&mut self.legacy) {
+            if let Ok(m) = fs::symlink_metadata(dir.join(&name)) {
+                if m.file_type().is_file() && m.len() == size {
+                    self.files.entry(name).or_insert(Stamp::of(&m, false));
+                }
+            }
+        }
+        let text = serde_json::to_string_pretty(self).unwrap_or_default();
+        let target = dir.join(MANIFEST_NAME);
+        let file = AtomicFile::write_unsynced(&target, text.as_bytes())?;
+        file.rename_into_place()
+    }
+
+    /// Whether the file at `dir/name` is djkr's.
+    fn owns(&self, dir: &Path, name: &str) -> bool {
+        let meta = fs::symlink_metadata(dir.join(name));
+        match (self.files.get(name), self.legacy.get(name), meta) {
+            (Some(s), _, Ok(m)) => s.matches(&m),
+            (None, Some(&size), Ok(m)) => m.file_type().is_file() && m.len() == size,
+            _ => false,
+        }
+    }
+}
+
+/// A run folder that a djkr older than this record wrote: its `summary.json`, a JSON object with
+/// the run's `run_id` and `file_bytes` (the size of every other file of the run), is djkr's own
+/// record of that run. The files it lists, at those sizes, and `summary.json` itself count as
+/// djkr's, so that rerunning into such a folder needs no `--force`. Empty for anything else.
+fn legacy_run(dir: &Path) -> BTreeMap<String, u64> {
+    let mut files = BTreeMap::new();
+    let path = dir.join(super::SUMMARY_NAME);
+    let Ok(Some(f)) = open_nofollow(&path, false) else {
+        return files;
+    };
+    let Ok(len) = f.metadata().map(|m| m.len()) else {
+        return files;
+    };
+    // A summary lists at most 10 000 events: a few MB; anything larger is not one.
+    if len > 64 << 20 {
+        return files;
+    }
+    let Ok(v) = serde_json::from_reader::<_, serde_json::Value>(std::io::BufReader::new(f)) else {
+        return files;
+    };
+    let (Some(_), Some(bytes)) = (v["run_id"].as_str(), v["file_bytes"].as_object()) else {
+        return files;
+    };
+    for (name, size) in bytes {
+        if let (Some(size), false) = (
+            size.as_u64(),
+            name.contains(['/', '\\']) || name.starts_with('.'),
+        ) {
+            files.insert(name.clone(), size);
+        }
+    }
+    files.insert(super::SUMMARY_NAME.to_string(), len);
+    files
+}
+
+/// Open `path` without following a symbolic link (and without blocking on a FIFO); `None` when
+/// it does not exist; refused, naming it, when it is not a regular file.
+fn open_nofollow(path: &Path, write: bool) -> Result<Option<File>, OutputError> {
+    let mut o = fs::OpenOptions::new();
+    o.read(true);
+    if write {
+        o.write(true).create(true).truncate(false);
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        o.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
+    }
+    let f = match o.open(path) {
+        Ok(f) => f,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => {
+            return Err(match fs::symlink_metadata(path) {
+                Ok(m) if !m.is_file() => OutputError::NotRegular {
+                    path: path.to_path_buf(),
+                    what: kind_of(&m).into(),
+                },
+                _ => OutputError::Io {
+                    path: path.to_path_buf(),
+                    source: e,
+                },
+            })
+        }
+    };
+    let m = f.metadata().map_err(io_err(path))?;
+    if !m.is_file() {
+        return Err(OutputError::NotRegular {
+            path: path.to_path_buf(),
+            what: kind_of(&m).into(),
+        });
+    }
+    Ok(Some(f))
+}
+
+/// A short exclusive lock on the folder itself (a `flock` of the directory), under which the
+/// manifest is read, files are replaced and the manifest rewritten. Best effort: where the
+/// folder cannot be locked (a file system without `flock` on directories), nothing waits.
+pub struct FolderGuard {
+    _dir: Option<File>,
+}
+
+impl FolderGuard {
+    /// Wait for the folder's short lock.
+    pub fn lock(dir: &Path) -> FolderGuard {
+        let d = File::open(dir).ok().filter(|d| d.lock().is_ok());
+        FolderGuard { _dir: d }
+    }
+}
+
+/// Folders where the user asked `--force` (canonical paths): a clash there is overwritten.
+static FORCED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// Let djkr replace files of the user's in `dir` under the names it publishes (`--force`).
+pub fn force_overwrite(dir: &Path) {
+    if let (Ok(d), Ok(mut v)) = (fs::canonicalize(dir), FORCED.lock()) {
+        v.push(d);
+    }
+}
+
+fn forced(dir: &Path) -> bool {
+    match (fs::canonicalize(dir), FORCED.lock()) {
+        (Ok(d), Ok(v)) => v.contains(&d),
+        _ => false,
+    }
+}
+
+/// Refuse before any work to publish `names` in `dir` when one of them is not a regular file
+/// (always) or a file djkr did not write (unless `force`, which then lets djkr replace them).
+pub fn check_names<S: AsRef<str>>(dir: &Path, names: &[S], force: bool) -> Result<(), OutputError> {
+    let _guard = FolderGuard::lock(dir);
+    let record = Record::read(dir)?;
+    let mut clashes = Vec::new();
+    for name in names {
+        let name = name.as_ref();
+        let path = dir.join(name);
+        match fs::symlink_metadata(&path) {
+            Err(_) => {}
+            Ok(m) if !m.file_type().is_file() => {
+                return Err(OutputError::NotRegular {
+                    path,
+                    what: format!("{}, where djkr writes a file", kind_of(&m)),
+                })
+            }
+            Ok(_) if record.owns(dir, name) => {}
+            Ok(_) => clashes.push(name.to_string()),
+        }
+    }
+    if clashes.is_empty() {
+        return Ok(());
+    }
+    if force {
+        force_overwrite(dir);
+        return Ok(());
+    }
+    Err(OutputError::Clash {
+        dir: dir.to_path_buf(),
+        names: clashes,
+    })
+}
+
+/// [`prepare`] `dir`, then [`check_names`]: the start of every command that writes `names`
+/// into a folder the user named.
+pub fn claim<S: AsRef<str>>(dir: &Path, names: &[S], force: bool) -> Result<(), OutputError> {
+    prepare(dir)?;
+    check_names(dir, names, force)
+}
+
+/// Put the staged `files` (all in `dir`) in place, in order, and record them in the manifest,
+/// under the folder's short lock. A target that is not a regular file, or a file djkr did not
+/// write in a folder without `--force`, is refused, naming it (the files before it are in place
+/// and recorded; the rest are removed).
+pub fn commit_all(dir: &Path, files: Vec<AtomicFile>) -> Result<Vec<PathBuf>, OutputError> {
+    let _guard = FolderGuard::lock(dir);
+    let mut record = Record::read(dir)?;
+    let mut done = Vec::new();
+    let mut result = Ok(());
+    for f in files {
+        let target = f.target().to_path_buf();
+        let name = target
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        match fs::symlink_metadata(&target) {
+            Ok(m) if !m.file_type().is_file() => {
+                result = Err(OutputError::NotRegular {
+                    path: target,
+                    what: format!("{}, where djkr writes a file", kind_of(&m)),
+                });
+                break;
+            }
+            Ok(_) if !record.owns(dir, &name) && !forced(dir) => {
+                result = Err(OutputError::Clash {
+                    dir: dir.to_path_buf(),
+                    names: vec![name],
+                });
+                break;
+            }
+            _ => {}
+        }
+        let append = f.appends();
+        if let Err(e) = f.rename_into_place() {
+            result = Err(e);
+            break;
+        }
+        if let Ok(m) = fs::symlink_metadata(&target) {
+            record.files.insert(name, Stamp::of(&m, append));
+        }
+        done.push(target);
+    }
+    if !done.is_empty() {
+        record.write(dir)?;
+    }
+    result.map(|()| done)
+}
+
+/// Remove `dir/name` if it is djkr's (recorded in the manifest and unchanged), and its record;
+/// `Ok(false)` leaves a file that is not djkr's where it is.
+pub fn remove_owned(dir: &Path, name: &str) -> Result<bool, OutputError> {
+    let _guard = FolderGuard::lock(dir);
+    let mut record = Record::read(dir)?;
+    if !record.owns(dir, name) {
+        return Ok(false);
+    }
+    let path = dir.join(name);
+    fs::remove_file(&path).map_err(io_err(&path))?;
+    record.files.remove(name);
+    record.write(dir)?;
+    Ok(true)
+}
+
+/// Whether `dir/name` is a file djkr wrote (recorded in the folder's manifest, unchanged since).
+pub fn is_owned(dir: &Path, name: &str) -> bool {
+    Record::read(dir).is_ok_and(|r| r.owns(dir, name))
+}
+
+/// The exclusive lock on `DIR/.djkr.lock` that a run or a sweep holds for its whole life. The
+/// file holds `djkr lock`, the holder's process id (`pid N`), and one line `partial NAME INODE`
+/// per partial file the holder created, so that the next holder removes what a killed one left
+/// (only regular files of that name and inode).
+#[derive(Debug)]
+pub struct DirLock {
+    file: File,
+    path: PathBuf,
+}
+
+impl DirLock {
+    /// Take the lock of `dir` (a folder: [`prepare`] first). `Ok(None)` when the file system
+    /// cannot lock (the writer goes on unprotected, as before locks existed);
+    /// [`OutputError::Busy`] naming the holder's process id when another process holds it.
+    pub fn acquire(dir: &Path) -> Result<Option<DirLock>, OutputError> {
+        let path = dir.join(LOCK_NAME);
+        let Some(mut file) = open_nofollow(&path, true)? else {
+            return Err(io_err(&path)(std::io::ErrorKind::NotFound.into()));
+        };
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(fs::TryLockError::WouldBlock) => {
+                let mut text = String::new();
+                let _ = file.read_to_string(&mut text);
+                let holder = text
+                    .lines()
+                    .find_map(|l| l.strip_prefix("pid "))
+                    .and_then(|p| p.trim().parse().ok());
+                return Err(OutputError::Busy {
+                    dir: dir.to_path_buf(),
+                    holder,
+                });
+            }
+            Err(fs::TryLockError::Error(_)) => return Ok(None),
+        }
+        let mut text = String::new();
+        file.read_to_string(&mut text).map_err(io_err(&path))?;
+        if !text.is_empty() && !text.starts_with(LOCK_HEADER) {
+            return Err(OutputError::NotRegular {
+                path,
+                what: "a file that is not djkr's lock file (djkr reserves this name); move it away"
+                    .into(),
+            });
+        }
+        for line in text.lines() {
+            let mut it = line.split(' ');
+            if let (Some("partial"), Some(name), Some(ino)) = (it.next(), it.next(), it.next()) {
+                remove_recorded_partial(dir, name, ino);
+            }
+        }
+        let lock = DirLock { file, path };
+        lock.rewrite()?;
+        Ok(Some(lock))
+    }
+
+    /// Start the lock file afresh: the header and this process's id, written in place at a fixed
+    /// width, and the file cut after them only when it holds more (partials a holder recorded).
+    /// Truncating the file to nothing first cost 1.9 ms a run on ext4 (its allocation on
+    /// truncate-to-zero), a tenth of a short run.
+    fn rewrite(&self) -> Result<(), OutputError> {
+        let head = format!("{LOCK_HEADER}\npid {:>10}\n", std::process::id());
+        let mut f = &self.file;
+        f.rewind()
+            .and_then(|()| f.write_all(head.as_bytes()))
+            .and_then(|()| f.metadata())
+            .and_then(|m| {
+                if m.len() > head.len() as u64 {
+                    f.set_len(head.len() as u64)
+                } else {
+                    Ok(())
+                }
+            })
+            .map_err(io_err(&self.path))
+    }
+
+    /// Record the partial file at `path` (in the locked folder: its name is recorded), so that
+    /// the next holder removes it if this process is killed before it is renamed into place or
+    /// removed. (A partial renamed or removed in time is gone by then: nothing to remove.)
+    pub fn note_partial(&self, path: &Path) {
+        let (Some(name), Ok(m)) = (path.file_name(), fs::symlink_metadata(path)) else {
+            return;
+        };
+        let name = name.to_string_lossy();
+        if name.contains([' ', '\n']) {
+            return;
+        }
+        let ino = Stamp::of(&m, false).ino;
+        let mut f = &self.file;
+        let _ = f
+            .seek(std::io::SeekFrom::End(0))
+            .and_then(|_| writeln!(f, "partial {name} {ino}"));
+    }
+}
+
+/// Remove the partial `dir/name` a killed holder of the lock recorded, if it is still the
+/// regular file of that inode with a partial's name.
+fn remove_recorded_partial(dir: &Path, name: &str, ino: &str) {
+    if !(name.starts_with('.') && name.ends_with(".partial")) || name.contains('/') {
+        return;
+    }
+    let path = dir.join(name);
+    if let Ok(m) = fs::symlink_metadata(&path) {
+        if m.file_type().is_file() && ino.parse() == Ok(Stamp::of(&m, false).ino) {
+            let _ = fs::remove_file(&path);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_file_changed_in_place_or_replaced_is_no_longer_djkrs() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        AtomicFile::write(&d.join("a.txt"), b"one")
+            .unwrap()
+            .commit()
+            .unwrap();
+        assert!(is_owned(d, "a.txt"));
+        check_names(d, &["a.txt", "b.txt"], false).unwrap();
+        // Replaced by a file of the user's (a new inode).
+        fs::remove_file(d.join("a.txt")).unwrap();
+        fs::write(d.join("a.txt"), b"mine").unwrap();
+        assert!(!is_owned(d, "a.txt"));
+        let err = check_names(d, &["a.txt"], false).unwrap_err();
+        assert!(matches!(err, OutputError::Clash { .. }), "{err}");
+        assert!(!remove_owned(d, "a.txt").unwrap());
+        assert_eq!(fs::read(d.join("a.txt")).unwrap(), b"mine");
+    }
+
+    #[test]
+    fn prepare_names_what_is_in_the_way() {
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("f");
+        fs::write(&f, b"x").unwrap();
+        let msg = prepare(&f).unwrap_err().to_string();
+        assert!(msg.contains("is a file") && msg.contains("/f"), "{msg}");
+        #[cfg(unix)]
+        {
+            let l = dir.path().join("l");
+            std::os::unix::fs::symlink(dir.path().join("nowhere"), &l).unwrap();
+            let msg = prepare(&l).unwrap_err().to_string();
+            assert!(msg.contains("dangling symbolic link"), "{msg}");
+            assert!(msg.contains("nowhere"), "{msg}");
+        }
+        prepare(&dir.path().join("new/sub")).unwrap();
+        assert!(dir.path().join("new/sub").is_dir());
+    }
+}
