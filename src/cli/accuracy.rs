@@ -116,6 +116,7 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         .unwrap_or("implicit,dp8,dopri5,dop853,auto");
     let mut cfg = study_config(a, methods_text)?;
     cfg.validate()?;
+    let scn = load_scenario(file, &a.set)?;
     a.set.refuse_replaced(
         "accuracy",
         &[
@@ -125,7 +126,6 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
             ("solver.max_wall_s", "--max-wall"),
         ],
     )?;
-    let scn = load_scenario(file, &a.set)?;
     cfg.methods = runnable_methods(&scn, &cfg.methods, methods_text, file)?;
     let out = a
         .out

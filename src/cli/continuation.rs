@@ -224,6 +224,10 @@ fn parse_flags(a: &ContinueArgs) -> Result<Flags> {
 /// ranges are values the scenario accepts.
 fn problem(a: &ContinueArgs, flags: &Flags) -> Result<Problem> {
     let (param, (p0, p1), rtol) = (flags.param, flags.range, flags.rtol);
+    let overrides = a.set.overrides()?;
+    let source = ScenarioSource::read(&a.file)?;
+    // The file with its overrides, before any value of KEY: a bad --set is named as such.
+    let scenario_name = source.scenario(&overrides)?.source_name;
     let param_key = flags.param.name();
     a.set.refuse_replaced(
         "continue",
@@ -232,10 +236,6 @@ fn problem(a: &ContinueArgs, flags: &Flags) -> Result<Problem> {
             (param_key, "--param with --range"),
         ],
     )?;
-    let overrides = a.set.overrides()?;
-    let source = ScenarioSource::read(&a.file)?;
-    // The file with its overrides, before any value of KEY: a bad --set is named as such.
-    let scenario_name = source.scenario(&overrides)?.source_name;
     // The branch: KEY free; with --fold-param, KEY2 held at the start of its range.
     let mut fixed = overrides.clone();
     if let Some((q, (q0, _))) = &flags.fold {

@@ -70,12 +70,12 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
         Dimension::Frequency,
         limits::RESONANCE_FREQUENCIES,
     )?;
+    let scn = load_scenario(&a.file, &a.steady.set)?;
     let mut replaced = vec![("solver.rtol", "--rtol"), ("base.frequency", "--freq")];
     if a.amp.is_some() {
         replaced.push(("base.amplitude", "--amp alone"));
     }
     a.steady.set.refuse_replaced("resonance", &replaced)?;
-    let scn = load_scenario(&a.file, &a.steady.set)?;
     let (mut problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     if let Some(t) = &a.amp {

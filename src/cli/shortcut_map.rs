@@ -66,6 +66,7 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
             limits::MAP_CELLS
         );
     }
+    let scn = load_scenario(&a.file, &a.steady.set)?;
     a.steady.set.refuse_replaced(
         "shortcut-map",
         &[
@@ -74,7 +75,6 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
             ("base.amplitude", "--amp"),
         ],
     )?;
-    let scn = load_scenario(&a.file, &a.steady.set)?;
     let (problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     let freqs = sweep::frequencies(flo, fhi, nf);

@@ -30,10 +30,10 @@ pub struct ValidateArgs {
 /// Run `djkr validate`.
 pub fn validate(a: &ValidateArgs) -> Result<()> {
     let opts = a.steady.options()?;
+    let scn = load_scenario(&a.file, &a.steady.set)?;
     a.steady
         .set
         .refuse_replaced("validate", &[("solver.rtol", "--rtol")])?;
-    let scn = load_scenario(&a.file, &a.steady.set)?;
     let bar = ProgressBar::new_spinner();
     bar.set_message("finding the periodic steady state");
     bar.enable_steady_tick(Duration::from_millis(200));
