@@ -66,7 +66,7 @@ pub fn required_speed(a: &RequiredSpeedArgs) -> Result<()> {
     print_table(
         &format!("Vibration speed for amplification {target} (β = {beta})"),
         &rows,
-    );
+    )?;
     Ok(())
 }
 
@@ -198,14 +198,14 @@ pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
                 format!("{plo_r:.4} .. {phi_r:.4}"),
             ),
         ],
-    );
-    println!("\n  error curve (β, error):");
+    )?;
+    outln!("\n  error curve (β, error):")?;
     for (b, e) in fit
         .error_curve
         .iter()
         .step_by((fit.error_curve.len() / 15).max(1))
     {
-        println!("    {b:8.4}  {e:.4e}");
+        outln!("    {b:8.4}  {e:.4e}")?;
     }
     Ok(())
 }

@@ -206,17 +206,18 @@ pub fn reject_unused(given: &[(&str, bool)], mode: &str) -> Result<()> {
 /// write `null`): [`djkr::api::finite_json`].
 pub fn print_json(report: &impl serde::Serialize) -> Result<()> {
     let v = djkr::api::finite_json(report)?;
-    println!("{}", serde_json::to_string_pretty(&v)?);
+    outln!("{}", serde_json::to_string_pretty(&v)?)?;
     Ok(())
 }
 
 /// A two-column table of (label, value with unit) rows, aligned (no value shown as `-0.0`).
-pub fn print_table(title: &str, rows: &[(&str, String)]) {
-    println!("{title}");
+pub fn print_table(title: &str, rows: &[(&str, String)]) -> anyhow::Result<()> {
+    outln!("{title}")?;
     let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
     for (k, v) in rows {
-        println!("  {k:<w$}  {}", no_negative_zero(v));
+        outln!("  {k:<w$}  {}", no_negative_zero(v))?;
     }
+    Ok(())
 }
 
 /// Write a file atomically (see [`djkr::output::write_atomic`]).

@@ -173,7 +173,7 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     if a.json {
         print_json(&rep)
     } else {
-        print_report(&a.file, &rep);
+        print_report(&a.file, &rep)?;
         Ok(())
     }
 }
@@ -559,8 +559,8 @@ fn fold_figure(file: &Path, b: &Branch, q: &Parameter, curves: &[FoldCurve]) -> 
     fig.with_series(Series::new("folds of the branch", x, y, Style::Markers).with_color(4))
 }
 
-fn print_report(file: &Path, r: &ContinuationReport) {
-    println!(
+fn print_report(file: &Path, r: &ContinuationReport) -> anyhow::Result<()> {
+    outln!(
         "{}: branch of periodic orbits in {} over {}..{} {} — {} points, {} steps ({} refused), {} periods, {:.3} s",
         file.display(),
         r.parameter,
@@ -572,7 +572,7 @@ fn print_report(file: &Path, r: &ContinuationReport) {
         r.rejected,
         r.periods,
         r.wall_s
-    );
+    )?;
     let show = |label: &str, list: &[report::Marked]| {
         for m in list {
             let v = m.values.first().map_or(f64::NAN, |x| x.1);
@@ -582,22 +582,23 @@ fn print_report(file: &Path, r: &ContinuationReport) {
                 .map(|x| format!("{x:.9}"))
                 .collect::<Vec<_>>()
                 .join(", ");
-            println!(
+            outln!(
                 "  {label:<16} {} = {v:.10e} {}, |δ_A/X_b| = {:.5}, a_m = {:.6} mm, |μ| = {mu}",
                 r.parameter,
                 r.unit,
                 m.delta_amp_over_xb,
                 m.a_mean * 1e3
-            );
+            )?;
         }
+        Ok::<(), super::out::StdoutError>(())
     };
-    show("fold", &r.folds);
-    show("period doubling", &r.period_doublings);
-    show("Neimark-Sacker", &r.neimark_sacker);
-    show("branch point", &r.branch_points);
-    show("grazing", &r.grazing);
+    show("fold", &r.folds)?;
+    show("period doubling", &r.period_doublings)?;
+    show("Neimark-Sacker", &r.neimark_sacker)?;
+    show("branch point", &r.branch_points)?;
+    show("grazing", &r.grazing)?;
     for j in &r.sweep_jumps {
-        println!(
+        outln!(
             "  sweep {:<4} jumps between {} and {} {} (|δ_A/X_b| {:.4} → {})",
             j.direction,
             format_f64(j.from),
@@ -606,34 +607,35 @@ fn print_report(file: &Path, r: &ContinuationReport) {
             j.delta_amp_over_xb_before,
             j.delta_amp_over_xb_after
                 .map_or("missing".to_string(), |v| format!("{v:.4}"))
-        );
+        )?;
     }
     if let (Some(k2), Some(curves)) = (&r.fold_parameter, &r.fold_curves) {
-        println!(
+        outln!(
             "  {} fold curve(s) in ({}, {}), {:.3} s",
             curves.len(),
             r.parameter,
             k2,
             r.fold_wall_s.unwrap_or(f64::NAN)
-        );
+        )?;
         if let Some(c) = &r.cusp {
             let v: Vec<String> = c
                 .values
                 .iter()
                 .map(|(k, v)| format!("{k} = {v:.9e}"))
                 .collect();
-            println!(
+            outln!(
                 "  cusp: {}, |δ_A/X_b| = {:.5}",
                 v.join(", "),
                 c.delta_amp_over_xb
-            );
+            )?;
         }
     }
     for n in &r.notes {
-        println!("  {n}");
+        outln!("  {n}")?;
     }
-    println!("\nwrote:");
+    outln!("\nwrote:")?;
     for p in &r.files {
-        println!("  {p}");
+        outln!("  {p}")?;
     }
+    Ok(())
 }

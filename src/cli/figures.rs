@@ -50,7 +50,7 @@ pub fn figures(a: &FiguresArgs) -> Result<()> {
     );
     let files = write_figures(&a.out, &which, &m, &law, beta)?;
     for f in files {
-        println!("{}", f.display());
+        outln!("{}", f.display())?;
     }
     Ok(())
 }

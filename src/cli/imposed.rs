@@ -67,9 +67,9 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             ("F_m mean force", fmt_force(c.force_mean)),
             ("contact fraction", format!("{:.6}", c.contact_fraction)),
         ],
-    );
+    )?;
     for n in notes {
-        println!("  note: {n}");
+        outln!("  note: {n}")?;
     }
     Ok(())
 }
@@ -228,9 +228,9 @@ fn report(r: &PullOffReport, json_out: bool) -> Result<()> {
                 format!("{:.6}", r.amplification),
             ),
         ],
-    );
+    )?;
     for n in &r.notes {
-        println!("  note: {n}");
+        outln!("  note: {n}")?;
     }
     Ok(())
 }
@@ -284,7 +284,7 @@ fn comparators(
                 ("eq. (6), (mω/c)^2 corrected", fmt_force(eq6)),
                 ("eq. (7), c → ∞", fmt_force(eq7)),
             ],
-        );
+        )?;
         return Ok(());
     } else {
         let delta_amp = match (&a.delta_amp, a_amp) {

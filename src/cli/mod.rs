@@ -1,6 +1,9 @@
 //! Command-line front end. Each subcommand parses its flags, calls the library and reports
 //! (a readable table with units, or `--json` with SI values).
 
+#[macro_use]
+mod out;
+
 mod accuracy;
 mod closed;
 mod common;
@@ -125,6 +128,11 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         // A sweep stopped by Ctrl-C has said how to resume; 130 is the shell's code for SIGINT.
         Err(e) if e.is::<sweep::Interrupted>() => ExitCode::from(130),
+        // A full disk under `> file` is not bad input: the command ran, its listing was lost.
+        Err(e) if e.chain().any(|c| c.is::<out::StdoutError>()) => {
+            eprintln!("error: {}", error_text(&e));
+            ExitCode::from(1)
+        }
         Err(e) => {
             eprintln!("error: {}", error_text(&e));
             ExitCode::from(2)

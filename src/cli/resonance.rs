@@ -123,7 +123,7 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     if a.json {
         print_json(&report)
     } else {
-        print_report(&a.file, &report);
+        print_report(&a.file, &report)?;
         Ok(())
     }
 }
@@ -228,17 +228,17 @@ fn figures(
     (fig, phase)
 }
 
-fn print_report(file: &Path, r: &ResonanceReport) {
+fn print_report(file: &Path, r: &ResonanceReport) -> anyhow::Result<()> {
     let (lo, hi) = r.range;
-    println!(
+    outln!(
         "{}: frequency response {lo}–{hi} Hz ({} frequencies), X_b = {:.4} µm, {:.2} s",
         file.display(),
         r.frequencies,
         r.amplitude * 1e6,
         r.wall_s
-    );
+    )?;
     if let (Some(k), Some(f)) = (r.contact_stiffness, r.linear_resonance_frequency) {
-        println!(
+        outln!(
             "  linear transfer (k_c = 3/2 K a_0 = {k:.1} N/m): f_r = {f:.3} Hz{}",
             r.linear_peak
                 .map(|p| format!(
@@ -246,41 +246,50 @@ fn print_report(file: &Path, r: &ResonanceReport) {
                     p.height, p.frequency
                 ))
                 .unwrap_or_default()
-        );
+        )?;
     }
     for sw in r.sweeps() {
-        print!(
+        out!(
             "  sweep {:<4}: {}/{} steady states ({} by shooting), {} periods, {:.2} s",
-            sw.direction, sw.found, r.frequencies, sw.by_shooting, sw.cycles, sw.wall_s
-        );
+            sw.direction,
+            sw.found,
+            r.frequencies,
+            sw.by_shooting,
+            sw.cycles,
+            sw.wall_s
+        )?;
         if let Some(p) = sw.peak {
-            print!(
+            out!(
                 "; peak |δ_A/X_b| = {:.4} at {:.3} Hz",
-                p.height, p.frequency
-            );
+                p.height,
+                p.frequency
+            )?;
             if let (Some(s), Some(h)) = (p.shift_from_linear, p.height_over_linear) {
-                print!(" (shift {s:+.3} Hz, height ×{h:.4} of linear)");
+                out!(" (shift {s:+.3} Hz, height ×{h:.4} of linear)")?;
             }
         }
-        println!();
+        outln!()?;
         if let Some(p) = sw.harmonic_balance_peak {
-            println!(
+            outln!(
                 "              harmonic balance peak {:.4} at {:.3} Hz",
-                p.height, p.frequency
-            );
+                p.height,
+                p.frequency
+            )?;
         }
     }
     if let Some(d) = r.max_up_down_difference {
-        println!(
+        outln!(
             "  largest up/down difference in |δ_A/X_b|: {:.3e} at {:.3} Hz",
-            d.delta_amp_over_xb, d.frequency
-        );
+            d.delta_amp_over_xb,
+            d.frequency
+        )?;
     }
     for note in &r.notes {
-        println!("  {note}");
+        outln!("  {note}")?;
     }
-    println!("\nwrote:");
+    outln!("\nwrote:")?;
     for p in &r.files {
-        println!("  {p}");
+        outln!("  {p}")?;
     }
+    Ok(())
 }

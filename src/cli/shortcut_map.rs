@@ -95,7 +95,7 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     if a.json {
         print_json(&report)
     } else {
-        print_report(&a.file, &report);
+        print_report(&a.file, &report)?;
         Ok(())
     }
 }
@@ -190,45 +190,55 @@ fn write_maps(
     Ok(vec![fp, fs, dp, ds])
 }
 
-fn print_report(file: &Path, r: &ShortcutMapReport) {
+fn print_report(file: &Path, r: &ShortcutMapReport) -> anyhow::Result<()> {
     let (nf, na) = (r.frequencies.len(), r.amplitudes.len());
-    println!(
+    outln!(
         "{}: imposed-area shortcut vs time domain over {nf} frequencies × {na} amplitudes, {:.2} s, {} periods",
         file.display(),
         r.wall_s,
         r.cycles
-    );
-    println!(
+    )?;
+    outln!(
         "  steady states found: {}/{} ({} by time-stepping, {} losing contact)",
-        r.found, r.cells, r.by_time_stepping, r.contact_lost
-    );
+        r.found,
+        r.cells,
+        r.by_time_stepping,
+        r.contact_lost
+    )?;
     let (f, d) = (&r.force_error, &r.delta_amp_error);
-    println!(
+    outln!(
         "  |mean-force error|: {:.2e} … {:.2e}; < 1 %: {} cells, < 5 %: {}",
-        f.min_abs, f.max_abs, f.below_1_percent, f.below_5_percent
-    );
-    println!(
+        f.min_abs,
+        f.max_abs,
+        f.below_1_percent,
+        f.below_5_percent
+    )?;
+    outln!(
         "  |δ_A error|:        {:.2e} … {:.2e}; < 1 %: {} cells, < 5 %: {}",
-        d.min_abs, d.max_abs, d.below_1_percent, d.below_5_percent
-    );
-    println!("\n  force error (%), rows X_b (µm), columns f (Hz):");
-    print!("  {:>10}", "");
+        d.min_abs,
+        d.max_abs,
+        d.below_1_percent,
+        d.below_5_percent
+    )?;
+    outln!("\n  force error (%), rows X_b (µm), columns f (Hz):")?;
+    out!("  {:>10}", "")?;
     for f in &r.frequencies {
-        print!("{f:>9.1}");
+        out!("{f:>9.1}")?;
     }
-    println!();
+    outln!()?;
     for (ia, xb) in r.amplitudes.iter().enumerate() {
-        print!("  {:>10.4}", xb * 1e6);
+        out!("  {:>10.4}", xb * 1e6)?;
         for i_f in 0..nf {
             match r.force_error_grid.get(ia * nf + i_f).copied().flatten() {
-                Some(e) => print!("{:>9.2}", e * 100.0),
-                None => print!("{:>9}", "—"),
+                Some(e) => out!("{:>9.2}", e * 100.0)?,
+                None => out!("{:>9}", "—")?,
             }
         }
-        println!();
+        outln!()?;
     }
-    println!("\nwrote:");
+    outln!("\nwrote:")?;
     for p in &r.files {
-        println!("  {p}");
+        outln!("  {p}")?;
     }
+    Ok(())
 }

@@ -303,10 +303,10 @@ fn finish(
         executed.wall,
         new_wall,
         jobs,
-    );
-    println!("\nwrote:");
+    )?;
+    outln!("\nwrote:")?;
     for p in &written {
-        println!("  {}", p.display());
+        outln!("  {}", p.display())?;
     }
     if !complete {
         let shard = manifest
@@ -333,9 +333,9 @@ fn report(
     wall: f64,
     runs_wall: f64,
     jobs: usize,
-) {
+) -> anyhow::Result<()> {
     let failed = rows.iter().filter(|r| r.result.is_err()).count();
-    println!(
+    outln!(
         "{}: {} point(s) x {} member(s){}; {} run(s) in this folder, {failed} failed",
         manifest.scenario,
         sweep.grid().points(),
@@ -345,21 +345,21 @@ fn report(
             .map(|s| format!(", shard {}/{}", s.index, s.count))
             .unwrap_or_default(),
         rows.len()
-    );
+    )?;
     if ran > 0 {
-        println!(
+        outln!(
             "  ran {ran} in {wall:.3} s on {jobs} thread(s); the runs' own wall time adds up to \
              {runs_wall:.3} s ({:.2} runs' seconds per second)",
             runs_wall / wall.max(1e-9)
-        );
+        )?;
     }
     let points = djkr::sweep::stats::point_stats(rows);
     if points.len() <= 40 {
         let names: Vec<String> = manifest.keys.iter().map(|k| k.name.clone()).collect();
-        println!(
+        outln!(
             "  point  {}  amplification  pull-off force",
             names.join("  ")
-        );
+        )?;
         for p in &points {
             let keys: Vec<String> = p.keys.iter().map(ToString::to_string).collect();
             let amp = if p.amplification.n >= 2 {
@@ -370,7 +370,7 @@ fn report(
             } else {
                 format!("{:.4}", p.amplification.mean)
             };
-            println!(
+            outln!(
                 "  {:>5}  {}  {amp}  {}{}",
                 p.point,
                 keys.join("  "),
@@ -380,17 +380,19 @@ fn report(
                 } else {
                     String::new()
                 }
-            );
+            )?;
         }
     }
     if let Some(r) = rows.iter().find(|r| r.result.is_err()) {
         if let Err(e) = &r.result {
-            println!(
+            outln!(
                 "  first failure: point {} member {}: {e}",
-                r.point, r.member
-            );
+                r.point,
+                r.member
+            )?;
         }
     }
+    Ok(())
 }
 
 fn absolute(p: &Path) -> Result<PathBuf> {
@@ -446,39 +448,39 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
     };
     let sbatch = out.join("sweep.sbatch");
     djkr::output::write_atomic(&sbatch, script.text().as_bytes())?;
-    println!(
+    outln!(
         "{}: {} run(s) in {shards} Slurm array task(s) of about {} run(s), {} thread(s) each.",
         file.display(),
         sweep.runs(),
         sweep.runs().div_ceil(shards),
         script.cpus_per_task
-    );
-    println!(
+    )?;
+    outln!(
         "wrote {}\n\nsubmit it with:\n  sbatch {}",
         sbatch.display(),
         sbatch.display()
-    );
-    println!(
+    )?;
+    outln!(
         "\nEach task writes {}/shards/K; the first submits the merge step, which runs when every \
          task has succeeded and writes sweep.csv, points.csv, sweep.h5 and the plots into {}.",
         out.display(),
         out.display()
-    );
+    )?;
     Ok(())
 }
 
 /// Run `djkr sweep merge`.
 fn merge(m: &MergeArgs) -> Result<()> {
     let merged = files::merge(&m.dirs, &m.out)?;
-    println!(
+    outln!(
         "merged {} folder(s): {} run(s), {} failed",
         m.dirs.len(),
         merged.rows,
         merged.failed
-    );
-    println!("wrote:");
+    )?;
+    outln!("wrote:")?;
     for p in &merged.files {
-        println!("  {}", p.display());
+        outln!("  {}", p.display())?;
     }
     Ok(())
 }

@@ -1,0 +1,155 @@
+//! Issue 24 (hardening, round 3), the command-line part: a full stdout, ranges of every
+//! command's flags, `solver.event_tol`, quoting in errors, the Slurm script's values,
+//! validation gaps, `--jobs` and the whole-command budget of `resonance` and `shortcut-map`.
+//! Every child process runs under a deadline; none may panic.
+
+#![allow(dead_code)] // helpers for the tests of later commits
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// What a djkr run left: exit code (`None`: killed by a signal), stdout, stderr.
+struct Run {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+/// Run djkr with `args` in `cwd` with `stdout` as its standard output (piped when `None`),
+/// killed after `limit`.
+fn djkr_with(cwd: &Path, args: &[&str], stdout: Option<Stdio>, limit: Duration) -> Run {
+    let piped = stdout.is_none();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args(args)
+        .current_dir(cwd)
+        .stdin(Stdio::null())
+        .stdout(stdout.unwrap_or_else(Stdio::piped))
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("djkr binary runs");
+    let out = if piped { child.stdout.take() } else { None };
+    let mut err = child.stderr.take().unwrap();
+    let t_out = std::thread::spawn(move || {
+        let mut s = String::new();
+        if let Some(mut o) = out {
+            o.read_to_string(&mut s).ok();
+        }
+        s
+    });
+    let t_err = std::thread::spawn(move || {
+        let mut s = String::new();
+        err.read_to_string(&mut s).ok();
+        s
+    });
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break Some(s);
+        }
+        if t0.elapsed() > limit {
+            child.kill().ok();
+            child.wait().ok();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let stdout = t_out.join().unwrap();
+    let stderr = t_err.join().unwrap();
+    assert!(
+        status.is_some(),
+        "djkr {args:?} did not finish within {limit:?}; stderr: {stderr}"
+    );
+    let r = Run {
+        code: status.and_then(|s| s.code()),
+        stdout,
+        stderr,
+    };
+    assert!(
+        !r.stderr.contains("panicked"),
+        "djkr {args:?} panicked: {}",
+        r.stderr
+    );
+    r
+}
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn djkr(args: &[&str]) -> Run {
+    djkr_with(root(), args, None, Duration::from_secs(120))
+}
+
+/// Exit status 2 and every needle in stderr; returns stderr.
+fn refused(args: &[&str], needles: &[&str]) -> String {
+    let r = djkr(args);
+    assert_eq!(r.code, Some(2), "djkr {args:?}: {}", r.stderr);
+    for n in needles {
+        assert!(
+            r.stderr.contains(n),
+            "djkr {args:?}: '{n}' missing from: {}",
+            r.stderr
+        );
+    }
+    r.stderr
+}
+
+/// Exit status 0; returns the run.
+fn ok(args: &[&str]) -> Run {
+    let r = djkr(args);
+    assert_eq!(r.code, Some(0), "djkr {args:?}: {}", r.stderr);
+    r
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+#[allow(dead_code)]
+fn manifest(rel: &str) -> PathBuf {
+    root().join(rel)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Defect 8: a full stdout is a clean error with exit status 1, never a panic (exit 101).
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_stdout_is_a_clean_error_with_exit_status_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let run_out = dir.path().join("run");
+    let fig_out = dir.path().join("figs");
+    let cases: Vec<Vec<&str>> = vec![
+        vec![
+            "cycle", "--freq", "400", "--a-mean", "1mm", "--a-amp", "1mm",
+        ],
+        vec![
+            "cycle", "--freq", "400", "--a-mean", "1mm", "--a-amp", "1mm", "--json",
+        ],
+        vec![
+            "pulloff", "--freq", "400", "--a-amp", "0.5mm", "--method", "approx",
+        ],
+        vec!["required-speed", "--amplification", "3"],
+        vec!["check", "tests/sweep/tiny.toml"],
+        vec!["run", "tests/sweep/tiny.toml", "--out", s(&run_out)],
+        vec!["figures", "--out", s(&fig_out)],
+    ];
+    for args in &cases {
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let r = djkr_with(root(), args, Some(full.into()), Duration::from_secs(120));
+        assert_eq!(r.code, Some(1), "djkr {args:?}: {}", r.stderr);
+        assert!(
+            r.stderr.contains("writing to standard output")
+                && r.stderr.contains("No space left on device"),
+            "djkr {args:?}: {}",
+            r.stderr
+        );
+    }
+    // The run's files were written before the listing failed.
+    assert!(run_out.join("summary.json").is_file());
+}
