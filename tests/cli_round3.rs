@@ -153,3 +153,53 @@ fn a_full_stdout_is_a_clean_error_with_exit_status_1() {
     // The run's files were written before the listing failed.
     assert!(run_out.join("summary.json").is_file());
 }
+
+// ---------------------------------------------------------------------------------------------
+// Defect 12: values written into sweep.sbatch follow Slurm's grammar; nothing is written else.
+
+#[test]
+fn slurm_values_that_could_inject_a_command_are_refused_naming_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("job");
+    let base = [
+        "sweep",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "base.amplitude=1um,2um",
+        "--slurm",
+        "--out",
+        s(&out),
+    ];
+    for (flag, value) in [
+        ("--slurm-partition", "batch\necho pwned"),
+        ("--slurm-partition", "batch;id"),
+        ("--slurm-partition", "a b"),
+        ("--slurm-partition", "$(id)"),
+        ("--slurm-time", "1:00:00\necho pwned"),
+        ("--slurm-time", "1h"),
+        ("--slurm-time", "1:2:3:4"),
+    ] {
+        let mut args = base.to_vec();
+        args.extend([flag, value]);
+        let e = refused(&args, &[flag]);
+        assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+        assert!(!out.exists(), "{flag} {value:?}: wrote {}", out.display());
+    }
+    // A newline in --out would end the #SBATCH --output line.
+    let bad_out = dir.path().join("x\necho pwned");
+    let mut args = base.to_vec();
+    args[6] = s(&bad_out);
+    refused(&args, &["--out", "control character"]);
+    // Every format sbatch documents is accepted, and lands in the script as given.
+    for t in ["90", "30:00", "2:00:00", "1-12", "1-12:30", "1-12:30:00"] {
+        let mut args = base.to_vec();
+        args.extend(["--slurm-time", t, "--slurm-partition", "gpu-a100,long_q"]);
+        ok(&args);
+        let script = std::fs::read_to_string(out.join("sweep.sbatch")).unwrap();
+        assert!(
+            script.contains(&format!("#SBATCH --time={t}\n")),
+            "{script}"
+        );
+        assert!(script.contains("#SBATCH --partition=gpu-a100,long_q\n"));
+    }
+}

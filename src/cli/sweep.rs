@@ -86,10 +86,12 @@ pub struct SweepRunArgs {
     /// With --slurm: array tasks [default: one per 64 runs, at most 1000].
     #[arg(long, value_name = "N", requires = "slurm")]
     shards: Option<usize>,
-    /// With --slurm: the tasks' time limit (#SBATCH --time), e.g. 2:00:00.
+    /// With --slurm: the tasks' time limit (#SBATCH --time), in a format sbatch accepts:
+    /// MINUTES, MM:SS, HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS or UNLIMITED, e.g. 2:00:00.
     #[arg(long, value_name = "TIME", requires = "slurm")]
     slurm_time: Option<String>,
-    /// With --slurm: the partition (#SBATCH --partition).
+    /// With --slurm: the partition (#SBATCH --partition): a name of letters, digits, '_', '-'
+    /// and '.', or a comma-separated list of them; anything else is refused.
     #[arg(long, value_name = "NAME", requires = "slurm")]
     slurm_partition: Option<String>,
 }
@@ -400,8 +402,38 @@ fn absolute(p: &Path) -> Result<PathBuf> {
         .with_context(|| format!("{}: cannot make the path absolute", p.display()))
 }
 
+/// Refuse a value that `sweep.sbatch` would quote but that does not fit Slurm's grammar
+/// (`--slurm-partition`, `--slurm-time`) or holds a control character (a path, a `--set`):
+/// written into an `#SBATCH` or comment line, a newline would start a command of its own.
+fn check_script_values(a: &SweepRunArgs, file: &Path, out: &Path, exe: &Path) -> Result<()> {
+    use djkr::sweep::slurm::{check_partition, check_script_text, check_time};
+    use djkr::text::excerpt;
+    if let Some(p) = &a.slurm_partition {
+        check_partition(p)
+            .map_err(|e| anyhow::anyhow!("--slurm-partition = {}: {e}", excerpt(p)))?;
+    }
+    if let Some(t) = &a.slurm_time {
+        check_time(t).map_err(|e| anyhow::anyhow!("--slurm-time = {}: {e}", excerpt(t)))?;
+    }
+    let paths = [
+        ("the scenario file", file),
+        ("--out", out),
+        ("the djkr binary", exe),
+    ];
+    for (what, p) in paths {
+        let text = p.to_string_lossy();
+        check_script_text(&text).map_err(|e| anyhow::anyhow!("{what} {}: {e}", excerpt(&text)))?;
+    }
+    for set in &a.set {
+        check_script_text(set).map_err(|e| anyhow::anyhow!("--set {}: {e}", excerpt(set)))?;
+    }
+    Ok(())
+}
+
 /// `--slurm`: write the manifest and DIR/sweep.sbatch; run nothing.
 fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()> {
+    let exe = std::env::current_exe().context("locating the djkr binary")?;
+    check_script_values(a, file, out, &exe)?;
     if a.shard.is_some() {
         bail!("--slurm writes a job whose tasks take --shard K/N themselves: drop --shard");
     }
