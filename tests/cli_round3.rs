@@ -203,3 +203,43 @@ fn slurm_values_that_could_inject_a_command_are_refused_naming_the_flag() {
         assert!(script.contains("#SBATCH --partition=gpu-a100,long_q\n"));
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Defect 6 (the cap): --jobs beyond the available parallelism is capped, with a warning.
+
+#[test]
+fn jobs_beyond_the_cores_are_capped_with_a_warning() {
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("sw");
+    let r = ok(&[
+        "sweep",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "base.amplitude=1um,2um",
+        "--jobs",
+        "100000000",
+        "--out",
+        s(&out),
+    ]);
+    let want = format!("--jobs 100000000: capped at {cores}, the available parallelism");
+    assert!(r.stderr.contains(&want), "{}", r.stderr);
+    assert!(
+        r.stdout.contains(&format!("on {cores} thread(s)")),
+        "{}",
+        r.stdout
+    );
+    // Within the cores: no warning.
+    let out1 = dir.path().join("sw1");
+    let r = ok(&[
+        "sweep",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "base.amplitude=1um,2um",
+        "--jobs",
+        "1",
+        "--out",
+        s(&out1),
+    ]);
+    assert!(!r.stderr.contains("capped"), "{}", r.stderr);
+}

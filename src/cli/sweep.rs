@@ -65,7 +65,9 @@ pub struct SweepRunArgs {
     /// Output folder [default: out/<scenario name>-sweep].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Runs at a time [default: one per core].
+    /// Runs at a time [default: one per core]; capped, with a warning, at the available
+    /// parallelism (cores the process may use), so that each run's solver.max_wall_s stays
+    /// wall time. With --slurm: the CPUs per array task.
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
     /// Continue the sweep in --out, skipping the runs already done (a folder without a sweep
@@ -166,9 +168,11 @@ fn run(a: &SweepRunArgs) -> Result<()> {
     let mut rows: Vec<Row> = opened.done;
     let todo = files::remaining(&sweep, &manifest, &rows);
     let owned = rows.len() + todo.len();
-    let jobs = a
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let (jobs, warning) = capped_jobs(a.jobs, cores);
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
+    }
     install_stop_handler();
     if !rows.is_empty() {
         eprintln!(
@@ -180,6 +184,24 @@ fn run(a: &SweepRunArgs) -> Result<()> {
     let keep_runs = a.keep_runs.then(|| out.join(files::RUNS_DIR));
     let executed = execute(&sweep, &todo, jobs, keep_runs, &mut progress, &mut rows);
     finish(&sweep, &manifest, &out, &mut rows, owned, jobs, executed)
+}
+
+/// The runs at a time: `requested` (`--jobs`), at most `cores` (the available parallelism),
+/// and a warning when capped. More threads than cores share them, so each run's
+/// `solver.max_wall_s` would be spent partly waiting (`--jobs 64` on 2 cores failed 62 of 64
+/// runs on a 1 s budget that every run met with `--jobs 2`).
+fn capped_jobs(requested: Option<usize>, cores: usize) -> (usize, Option<String>) {
+    match requested {
+        Some(j) if j > cores => (
+            cores,
+            Some(format!(
+                "--jobs {j}: capped at {cores}, the available parallelism of this machine \
+                 (more runs at a time would share the cores, and solver.max_wall_s is wall time)"
+            )),
+        ),
+        Some(j) => (j, None),
+        None => (cores, None),
+    }
 }
 
 /// `--out` left out: out/<scenario name>-sweep.
