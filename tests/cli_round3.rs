@@ -243,3 +243,47 @@ fn jobs_beyond_the_cores_are_capped_with_a_warning() {
     ]);
     assert!(!r.stderr.contains("capped"), "{}", r.stderr);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Defect 10: solver.event_tol is bounded where the answer stops converging (measured).
+
+#[test]
+fn a_coarse_event_tol_is_refused_and_a_loose_one_warned_about() {
+    // 1e-3 s gave amplification 2.12 instead of 9.57, exit 0.
+    for v in ["1e-3", "3e-5", "1.1e-6"] {
+        let set = format!("solver.event_tol={v}");
+        refused(
+            &["run", "tests/sweep/tiny.toml", "--set", &set],
+            &["solver.event_tol", "must not exceed 1e-6 (s)"],
+        );
+        refused(
+            &["check", "tests/sweep/tiny.toml", "--set", &set],
+            &["solver.event_tol"],
+        );
+    }
+    // Within the bound but above 1e-9 s: runs, with a warning in the summary.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let r = ok(&[
+        "run",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "solver.event_tol=1e-6",
+        "--out",
+        s(&out),
+    ]);
+    assert!(r
+        .stderr
+        .contains("solver.event_tol = 1e-6 s is above 1e-9 s"));
+    assert!(r.stdout.contains("amplification 9.570"), "{}", r.stdout);
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("solver.event_tol = 1e-6 s is above 1e-9 s"));
+    // The default and tight values: no warning.
+    let r = ok(&[
+        "check",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "solver.event_tol=1e-9",
+    ]);
+    assert!(!r.stderr.contains("event_tol"), "{}", r.stderr);
+}

@@ -86,7 +86,27 @@ pub const UPPER_BOUNDS: &[(&str, f64, &str)] = &[
         1e7,
         "more than 1e7 samples per second of simulated time",
     ),
+    (
+        "solver.event_tol",
+        MAX_EVENT_TOL,
+        "coarser event location changes the answer (contacts lost that are not, \
+         tests/sweep/tiny.toml's amplification 2.12 instead of 9.57 at 1e-3 s)",
+    ),
 ];
+
+/// Largest `solver.event_tol` (s). Measured on the bundled scenarios and the sweep tests: every
+/// contact-loss count, and every pull-off but that of the chaotic light-protocol-300hz (13.3 to
+/// 14.4 at any tolerance), is the same from 1e-12 s to 1e-5 s; from 3e-5 s spurious contact losses
+/// appear (light-protocol-300hz: 6 instead of 1; gentle-unload-300hz: 3 instead of 1), from
+/// 3e-4 s the pull-off moves by a factor of 4 (tiny: 2.29 instead of 9.57). A run with many
+/// impacts (scenarios/impacts.toml, 151) loses digits earlier, hence the warning above
+/// [`EVENT_TOL_WARN`].
+pub const MAX_EVENT_TOL: f64 = 1e-6;
+
+/// `solver.event_tol` (s) above which a scenario gets a warning: impacts.toml's mean-force
+/// amplification moves by 7e-6 (relative) at 1e-8 s, 1.7e-4 at 1e-7 s and 4e-3 at 1e-6 s
+/// against its value at the default 1e-12 s.
+pub const EVENT_TOL_WARN: f64 = 1e-9;
 
 /// Lower bounds of positive scenario values, by dotted key: below them the relations of the
 /// model underflow (`w0 = 2.4e-299` gives a jump-in radius of 1e-103 m, and the run never
@@ -227,6 +247,14 @@ pub fn scenario_warnings(s: &Scenario) -> Vec<String> {
         if let Some(w) = static_radius(m, p).and_then(|a| small_contact_warning(&what, a, m.r)) {
             out.push(w);
         }
+    }
+    if s.solver.event_tol > EVENT_TOL_WARN {
+        out.push(format!(
+            "solver.event_tol = {:e} s is above {EVENT_TOL_WARN:e} s: events are located \
+             coarsely, and a run with many impacts loses digits (scenarios/impacts.toml: 2e-4 \
+             relative at 1e-7 s, 4e-3 at 1e-6 s)",
+            s.solver.event_tol
+        ));
     }
     out
 }
