@@ -287,3 +287,107 @@ fn a_coarse_event_tol_is_refused_and_a_loose_one_warned_about() {
     ]);
     assert!(!r.stderr.contains("event_tol"), "{}", r.stderr);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Defect 13: check refuses what run cannot start, naming the key; units everywhere; both mus.
+
+#[test]
+fn check_refuses_what_run_cannot_start_naming_the_key() {
+    for (set, key, why) in [
+        ("spring.stiffness=5e-324", "spring.stiffness", "subnormal"),
+        (
+            "sphere.mass=1e-300",
+            "sphere.mass",
+            "must be at least 1e-20 (kg)",
+        ),
+        (
+            "sphere.mass=1e-100",
+            "sphere.mass",
+            "must be at least 1e-20 (kg)",
+        ),
+        ("sphere.gravity=1e-310", "sphere.gravity", "subnormal"),
+        ("damping.c=1e-310", "damping.c", "subnormal"),
+        ("base.amplitude=1e-310", "base.amplitude", "subnormal"),
+        (
+            "output.sample_rate=1e-310",
+            "output.sample_rate",
+            "subnormal",
+        ),
+    ] {
+        refused(
+            &["check", "tests/sweep/tiny.toml", "--set", set],
+            &[key, why],
+        );
+        refused(&["run", "tests/sweep/tiny.toml", "--set", set], &[key, why]);
+    }
+    // 0 stays what it was: a massless sphere is the quasi-static balance (refused here only
+    // because this scenario has damping, as before).
+    refused(
+        &["check", "tests/sweep/tiny.toml", "--set", "sphere.mass=0"],
+        &["mass = 0 with damping"],
+    );
+    ok(&[
+        "check",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "sphere.mass=0",
+        "--set",
+        "damping.c=0",
+    ]);
+}
+
+#[test]
+fn every_quantity_takes_its_units_and_both_micro_signs() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |sets: &[&str], name: &str| -> String {
+        let out = dir.path().join(name);
+        let mut args = vec!["run", "tests/sweep/tiny.toml", "--out", s(&out)];
+        for set in sets {
+            args.extend(["--set", set]);
+        }
+        ok(&args);
+        let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&summary).unwrap();
+        v["pull_off"]["amplification"].to_string()
+    };
+    // The same run, spelled with and without units: gravity in m/s^2 (a factor of 1, so the
+    // same number as 9.81), the base amplitude with u, the micro sign and the Greek mu (the
+    // same factor 1e-6 each).
+    let si = run(&["sphere.gravity=9.81", "base.amplitude=\"10um\""], "si");
+    for (i, (g, xb)) in [
+        ("\"9.81m/s^2\"", "\"10um\""),
+        ("\"9.81 m/s2\"", "\"10\u{b5}m\""),
+        ("9.81", "\"10\u{3bc}m\""),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let g = format!("sphere.gravity={g}");
+        let xb = format!("base.amplitude={xb}");
+        assert_eq!(run(&[&g, &xb], &format!("u{i}")), si, "{g} {xb}");
+    }
+    refused(
+        &[
+            "check",
+            "tests/sweep/tiny.toml",
+            "--set",
+            "sphere.gravity=9.81m/s",
+        ],
+        &["sphere.gravity", "unknown unit"],
+    );
+    // And in a flag: --radius 51μm is 51 µm.
+    let a = ok(&[
+        "pulloff",
+        "--freq",
+        "400",
+        "--a-amp",
+        "0.5mm",
+        "--radius",
+        "51\u{3bc}m",
+        "--json",
+    ]);
+    let b = ok(&[
+        "pulloff", "--freq", "400", "--a-amp", "0.5mm", "--radius", "51um", "--json",
+    ]);
+    assert_eq!(a.stdout, b.stdout);
+}

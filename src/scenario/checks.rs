@@ -108,7 +108,8 @@ pub const MAX_EVENT_TOL: f64 = 1e-6;
 /// against its value at the default 1e-12 s.
 pub const EVENT_TOL_WARN: f64 = 1e-9;
 
-/// Lower bounds of positive scenario values, by dotted key: below them the relations of the
+/// Lower bounds of positive scenario values, by dotted key (0 stays allowed where a key may be
+/// 0: `sphere.mass = 0` is the quasi-static balance): below them the relations of the
 /// model underflow (`w0 = 2.4e-299` gives a jump-in radius of 1e-103 m, and the run never
 /// ended).
 pub const LOWER_BOUNDS: &[(&str, f64, &str)] = &[
@@ -123,6 +124,12 @@ pub const LOWER_BOUNDS: &[(&str, f64, &str)] = &[
         "adhesion.n",
         1e-3,
         "Gent-Schultz exponents lie well above 1e-3",
+    ),
+    (
+        "sphere.mass",
+        1e-20,
+        "lighter than a 20 nm sphere: its time scale 2 pi sqrt(m/k) falls below the rounding of \
+         the run's time, and the state overflows (0 = quasi-static force balance)",
     ),
 ];
 

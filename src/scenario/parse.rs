@@ -451,7 +451,7 @@ const MASS: Quantity = q(Some(Dimension::Mass), "kg");
 const FORCE: Quantity = q(Some(Dimension::Force), "N");
 const STIFFNESS: Quantity = q(Some(Dimension::Stiffness), "N/m");
 const DAMPING: Quantity = q(Some(Dimension::Damping), "N s/m");
-const ACCELERATION: Quantity = q(None, "m/s^2");
+const ACCELERATION: Quantity = q(Some(Dimension::Acceleration), "m/s^2");
 const DIMENSIONLESS: Quantity = q(None, "dimensionless");
 const ANGLE: Quantity = q(Some(Dimension::Angle), "rad");
 const RATE: Quantity = q(Some(Dimension::Frequency), "samples per second");
@@ -698,7 +698,8 @@ impl Parser<'_> {
             }
         }
         if let Some((min, why)) = checks::lower_bound(&s.key(k)) {
-            if n.v < min {
+            // 0 is checked by the caller (allowed for the keys >= 0).
+            if n.v != 0.0 && n.v < min {
                 return Err(self.value_err(
                     &s.key(k),
                     &n.shown,
@@ -731,7 +732,17 @@ impl Parser<'_> {
     }
 
     fn non_negative(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if n.v.is_finite() && n.v >= 0.0 {
+        if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
+            // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
+            Err(self.value_err(
+                &s.key(k),
+                &n.shown,
+                format!(
+                    "is subnormal (below {:e}): must be 0 or a normal finite number > 0 ({unit})",
+                    f64::MIN_POSITIVE
+                ),
+            ))
+        } else if n.v.is_finite() && n.v >= 0.0 {
             self.bounded(s, k, n, unit)
         } else {
             Err(self.value_err(

@@ -73,7 +73,7 @@ pub fn key_kind(key: &SetKey) -> Option<KeyKind> {
         ("adhesion", "n") => bare("1"),
         ("adhesion", "law" | "file") => KeyKind::Text,
         ("sphere", "mass") => num(D::Mass, "kg"),
-        ("sphere", "gravity") => bare("m/s^2"),
+        ("sphere", "gravity") => num(D::Acceleration, "m/s^2"),
         ("spring", "stiffness") => num(D::Stiffness, "N/m"),
         ("spring", "rigid") => KeyKind::Text,
         ("damping", "c") => num(D::Damping, "N s/m"),
