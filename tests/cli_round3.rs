@@ -391,3 +391,125 @@ fn every_quantity_takes_its_units_and_both_micro_signs() {
     ]);
     assert_eq!(a.stdout, b.stdout);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Defect 9: the ranges of the scenario keys apply to every command's flags.
+
+#[test]
+fn command_flags_meet_the_ranges_of_the_scenario_keys() {
+    let c = |extra: &[&'static str]| {
+        let mut v = vec![
+            "cycle", "--freq", "400", "--a-mean", "1mm", "--a-amp", "1mm",
+        ];
+        v.extend_from_slice(extra);
+        v
+    };
+    // The reproducer: NaN with exit 0 (and an internal error with --json).
+    for json in [false, true] {
+        let mut args = vec![
+            "cycle", "--freq", "1e300", "--a-mean", "1e300", "--a-amp", "1e300",
+        ];
+        if json {
+            args.push("--json");
+        }
+        let e = refused(&args, &["--freq = 1e300", "[1e-6, 1e6]", "base.frequency"]);
+        assert!(!e.contains("NaN") && !e.contains("internal"), "{e}");
+    }
+    refused(
+        &[
+            "cycle", "--freq", "1e15", "--a-mean", "1mm", "--a-amp", "1mm",
+        ],
+        &["--freq = 1e15"],
+    );
+    refused(
+        &[
+            "cycle", "--freq", "400", "--a-mean", "1e300", "--a-amp", "1mm",
+        ],
+        &["--a-mean = 1e300", "exceed the sphere's radius"],
+    );
+    refused(
+        &[
+            "cycle", "--freq", "400", "--a-mean", "1mm", "--a-amp", "1e300", "--json",
+        ],
+        &["--a-amp = 1e300", "exceed the sphere's radius"],
+    );
+    for (flag, value, key) in [
+        ("--modulus", "1e20", "material.K"),
+        ("--modulus", "0.5", "material.K"),
+        ("--radius", "100", "material.R"),
+        ("--w0", "1e-12", "material.w0"),
+        ("--v0", "1e6", "adhesion.v0"),
+        ("--n", "50", "adhesion.n"),
+    ] {
+        refused(&c(&[flag, value]), &[flag, key]);
+        let r = refused(
+            &["pulloff", "--freq", "400", "--a-amp", "0.5mm", flag, value],
+            &[flag, key],
+        );
+        assert!(!r.contains("NaN"));
+    }
+    refused(&c(&["--radius", "1e-310"]), &["--radius", "subnormal"]);
+    refused(
+        &["pulloff", "--freq", "1e300", "--a-amp", "1e300"],
+        &["--freq = 1e300"],
+    );
+    refused(
+        &["pulloff", "--freq", "400", "--a-amp", "1e300"],
+        &["--a-amp = 1e300"],
+    );
+    refused(
+        &[
+            "pulloff", "--freq", "400", "--a-amp", "1mm", "--method", "approx", "--beta", "1e300",
+        ],
+        &["--beta = 1e300", "[1e-2, 1e2]"],
+    );
+    refused(
+        &["required-speed", "--amplification", "3", "--beta", "1e300"],
+        &["--beta = 1e300"],
+    );
+    // An error quotes the value as typed, not a 300-digit rendering of it.
+    let e = refused(
+        &["required-speed", "--amplification", "1e300"],
+        &["--amplification = 1e300:"],
+    );
+    assert!(e.len() < 300, "{e}");
+    refused(
+        &[
+            "pulloff",
+            "--freq",
+            "400",
+            "--method",
+            "shui",
+            "--mass",
+            "1e-300",
+            "--damping",
+            "1",
+            "--base-amp",
+            "1um",
+        ],
+        &["--mass", "sphere.mass"],
+    );
+    refused(
+        &[
+            "resonance",
+            "scenarios/resonance-400hz.toml",
+            "--freq",
+            "1e300:1e301:2",
+        ],
+        &["--freq = 1e300", "base.frequency"],
+    );
+    refused(
+        &[
+            "shortcut-map",
+            "scenarios/resonance-400hz.toml",
+            "--freq",
+            "300:400:2",
+            "--amp",
+            "1um:5:2",
+        ],
+        &["--amp = 5", "base.amplitude"],
+    );
+    // Within the ranges, the answers are as before.
+    let r = ok(&c(&["--json"]));
+    assert!(r.stdout.contains("\"force_mean\""));
+}

@@ -11,8 +11,8 @@ use djkr::units::Dimension;
 use std::path::{Path, PathBuf};
 
 pub use djkr::api::{
-    fmt_force, fmt_len, limits, no_negative_zero, non_negative_quantity, omega_from,
-    positive_quantity,
+    beta_from, fmt_force, fmt_len, key_non_negative_quantity, key_positive_quantity, limits,
+    no_negative_zero, non_negative_quantity, omega_from, positive_quantity,
 };
 
 /// `--set KEY=VALUE`: scenario values overridden from the command line, shared by every command
@@ -52,19 +52,23 @@ pub struct MaterialArgs {
     /// Scenario file whose [material] and [adhesion] sections to use (flags below override it).
     #[arg(long, value_name = "FILE", allow_hyphen_values = true)]
     pub material: Option<PathBuf>,
-    /// JKR elastic constant K = 4E*/3 [default 9.33MPa]. Units: Pa, kPa, MPa, GPa.
+    /// JKR elastic constant K = 4E*/3 [default 9.33MPa], in [1 Pa, 1e13 Pa] as material.K.
+    /// Units: Pa, kPa, MPa, GPa.
     #[arg(long = "modulus", value_name = "K", allow_hyphen_values = true)]
     pub k: Option<String>,
-    /// Sphere radius R [default 51mm]. Units: m, cm, mm, um, nm.
+    /// Sphere radius R [default 51mm], at most 10 m as material.R. Units: m, cm, mm, um (µm,
+    /// μm), nm.
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     pub radius: Option<String>,
-    /// Quasi-static work of adhesion w0 [default 240mJ/m^2]. Units: J/m^2, mJ/m^2.
+    /// Quasi-static work of adhesion w0 [default 240mJ/m^2], in [1e-9, 1e4] J/m^2 as
+    /// material.w0. Units: J/m^2, mJ/m^2.
     #[arg(long, value_name = "W0", allow_hyphen_values = true)]
     pub w0: Option<String>,
-    /// Gent–Schultz reference speed v0 (C = v0^-n) [default 0.0445mm/s]. Units: m/s, mm/s, um/s.
+    /// Gent–Schultz reference speed v0 (C = v0^-n) [default 0.0445mm/s], in [1e-15, 1e3] m/s as
+    /// adhesion.v0. Units: m/s, mm/s, um/s.
     #[arg(long, value_name = "V0", allow_hyphen_values = true)]
     pub v0: Option<String>,
-    /// Gent–Schultz exponent n > 0 [default 0.531].
+    /// Gent–Schultz exponent n [default 0.531], in [1e-3, 10] as adhesion.n.
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub n: Option<String>,
 }
@@ -82,13 +86,13 @@ impl MaterialArgs {
                 .with_context(|| format!("--material {}", path.display()))?;
         }
         if let Some(t) = &self.k {
-            m.k = positive_quantity("--modulus", t, Dimension::Pressure)?;
+            m.k = key_positive_quantity("--modulus", t, Dimension::Pressure, "material.K")?;
         }
         if let Some(t) = &self.radius {
-            m.r = positive_quantity("--radius", t, Dimension::Length)?;
+            m.r = key_positive_quantity("--radius", t, Dimension::Length, "material.R")?;
         }
         if let Some(t) = &self.w0 {
-            m.w0 = positive_quantity("--w0", t, Dimension::EnergyPerArea)?;
+            m.w0 = key_positive_quantity("--w0", t, Dimension::EnergyPerArea, "material.w0")?;
             match &mut law {
                 Law::Constant(c) => c.w0 = m.w0,
                 Law::GentSchultz(gs) => gs.w0 = m.w0,
@@ -110,10 +114,10 @@ impl MaterialArgs {
                 ),
             };
             if let Some(t) = &self.v0 {
-                gs.v0 = positive_quantity("--v0", t, Dimension::Speed)?;
+                gs.v0 = key_positive_quantity("--v0", t, Dimension::Speed, "adhesion.v0")?;
             }
             if let Some(t) = &self.n {
-                gs.n = positive_quantity("--n", t, Dimension::Dimensionless)?;
+                gs.n = key_positive_quantity("--n", t, Dimension::Dimensionless, "adhesion.n")?;
             }
         }
         Ok((m, law))

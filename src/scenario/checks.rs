@@ -159,6 +159,44 @@ pub fn lower_bound(key: &str) -> Option<(f64, &'static str)> {
         .map(|&(_, min, why)| (min, why))
 }
 
+/// Why `v` (SI, finite) is outside the range of the scenario key `key` (`unit`: its SI unit, for
+/// the message), or `None` within it: the bounds of [`UPPER_BOUNDS`] and [`LOWER_BOUNDS`], and
+/// for `base.frequency` [[`MIN_FREQUENCY`], [`MAX_FREQUENCY`]]. The one range table, applied to
+/// a scenario's values by the parser and to the commands' flags that set the same quantity
+/// (`--modulus` is `material.K`, `--freq` is `base.frequency`, ...).
+pub fn key_range_error(key: &str, v: f64, unit: &str) -> Option<String> {
+    if generic_key(key) == "base.frequency" && !(MIN_FREQUENCY..=MAX_FREQUENCY).contains(&v) {
+        return Some(format!(
+            "must lie in [{MIN_FREQUENCY:e}, {MAX_FREQUENCY:e}] ({unit}): a period longer than 1e6 \
+             s outlasts any run, one shorter than 1 us is below the time resolution of a long run"
+        ));
+    }
+    if let Some((max, why)) = upper_bound(key) {
+        if v > max {
+            return Some(format!("must not exceed {max:e} ({unit}): {why}"));
+        }
+    }
+    if let Some((min, why)) = lower_bound(key) {
+        // 0 is the caller's to allow or refuse (allowed for the keys >= 0).
+        if v != 0.0 && v < min {
+            return Some(format!("must be at least {min:e} ({unit}): {why}"));
+        }
+    }
+    None
+}
+
+/// Why a contact radius given to `djkr cycle` or `djkr pulloff` (`a`, m: a_A, or a_m + a_A) is
+/// out of range on a sphere of radius `r`, or `None`: a contact wider than the sphere is not a
+/// contact of it (JKR's own range, a << R, is warned about from [`SMALL_CONTACT_LIMIT`] R).
+pub fn contact_radius_error(a: f64, r: f64) -> Option<String> {
+    (a > r).then(|| {
+        format!(
+            "the contact radius would exceed the sphere's radius R = {r:e} m (a contact wider than \
+             the sphere; JKR assumes a << R, warned above {SMALL_CONTACT_LIMIT} R)"
+        )
+    })
+}
+
 /// The warning for a contact radius `a` on a sphere of radius `r` beyond
 /// [`SMALL_CONTACT_LIMIT`] R (`what` names the radius: "the contact reaches a_m + a_A"); `None`
 /// within the range.

@@ -688,26 +688,11 @@ impl Parser<'_> {
     /// The value, or an error when it exceeds the largest value the model carries for this key
     /// ([`checks::upper_bound`]).
     fn bounded(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if let Some((max, why)) = checks::upper_bound(&s.key(k)) {
-            if n.v > max {
-                return Err(self.value_err(
-                    &s.key(k),
-                    &n.shown,
-                    format!("must not exceed {max:e} ({unit}): {why}"),
-                ));
-            }
+        match checks::key_range_error(&s.key(k), n.v, unit) {
+            // base.frequency's range is checked (with its own message) by `base`.
+            Some(e) if s.key(k) != "base.frequency" => Err(self.value_err(&s.key(k), &n.shown, e)),
+            _ => Ok(n.v),
         }
-        if let Some((min, why)) = checks::lower_bound(&s.key(k)) {
-            // 0 is checked by the caller (allowed for the keys >= 0).
-            if n.v != 0.0 && n.v < min {
-                return Err(self.value_err(
-                    &s.key(k),
-                    &n.shown,
-                    format!("must be at least {min:e} ({unit}): {why}"),
-                ));
-            }
-        }
-        Ok(n.v)
     }
 
     fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
