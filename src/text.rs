@@ -28,6 +28,22 @@ pub fn excerpt(text: &str) -> String {
     out
 }
 
+/// A line of a file that did not parse as what djkr expected, described without its content:
+/// the file may be one the user did not mean to show (`adhesion.file = "/etc/shadow"`), so a
+/// message gives the line's number (the caller's) and its shape, never its text.
+pub fn unquoted_line(line: &str) -> String {
+    let fields = line
+        .split([',', ';', '\t', ' '])
+        .filter(|s| !s.is_empty())
+        .collect::<Vec<_>>();
+    let numbers = fields.iter().filter(|f| f.parse::<f64>().is_ok()).count();
+    format!(
+        "(a line of {} characters, not shown: {} field(s), {numbers} of them numbers)",
+        line.chars().count(),
+        fields.len()
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -46,6 +62,16 @@ mod tests {
         assert_eq!(
             excerpt(&mus).chars().filter(|&c| c == 'µ').count(),
             EXCERPT_CHARS
+        );
+    }
+
+    #[test]
+    fn a_line_of_a_file_is_described_not_shown() {
+        let d = unquoted_line("daemon:*:19000:0:99999:7:::");
+        assert!(!d.contains("daemon") && !d.contains("19000"), "{d}");
+        assert_eq!(
+            unquoted_line("1e-3, abc"),
+            "(a line of 9 characters, not shown: 2 field(s), 1 of them numbers)"
         );
     }
 }

@@ -513,3 +513,58 @@ fn command_flags_meet_the_ranges_of_the_scenario_keys() {
     let r = ok(&c(&["--json"]));
     assert!(r.stdout.contains("\"force_mean\""));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Defect 11: errors quote at most ~80 characters, and no line of a file that failed to parse.
+
+#[test]
+fn errors_quote_little_and_never_a_line_of_a_foreign_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let tiny = std::fs::read_to_string(root().join("tests/sweep/tiny.toml")).unwrap();
+    // A tabulated law pointed at a file that is not a table: its lines are not shown.
+    let tab = tiny.replace(
+        "law = \"gent-schultz\"\nv0 = 4.45e-5\nn = 0.531",
+        "law = \"tabulated\"\nfile = \"law.csv\"",
+    );
+    std::fs::write(d.join("tab.toml"), &tab).unwrap();
+    std::fs::write(d.join("law.csv"), "speed,w\n0,0.24\n1e-3,0.2\n").unwrap();
+    let secret = "daemon:*:19000:0:99999:7:::secret-line";
+    std::fs::write(d.join("secret"), format!("root:x:0:0\n{secret}\n")).unwrap();
+    let set = format!("adhesion.file={}", d.join("secret").display());
+    let e = refused(
+        &["check", s(&d.join("tab.toml")), "--set", &set],
+        &["line 2"],
+    );
+    assert!(!e.contains("daemon") && !e.contains("secret-line"), "{e}");
+    // A value of 900 kB is quoted to its first 80 characters.
+    let big = tiny.replace("R = 0.051", &format!("R = \"{}mm\"", "1".repeat(900_000)));
+    std::fs::write(d.join("big.toml"), big).unwrap();
+    let e = refused(
+        &["check", s(&d.join("big.toml"))],
+        &["material.R", "bytes in all"],
+    );
+    assert!(e.len() < 400, "{} bytes", e.len());
+    // So is a long --set.
+    let long = format!("material.R={}", "9".repeat(100_000));
+    let e = refused(
+        &["check", "tests/sweep/tiny.toml", "--set", &long],
+        &["material.R"],
+    );
+    assert!(e.len() < 600, "{} bytes", e.len());
+    // A gs-fit record with one long line: neither echoed nor shown.
+    std::fs::write(
+        d.join("rec.csv"),
+        format!("t,a,F\n{}\n", "x".repeat(1_000_000)),
+    )
+    .unwrap();
+    let e = refused(&["gs-fit", s(&d.join("rec.csv"))], &["line 2", "not shown"]);
+    assert!(e.len() < 400 && !e.contains("xxxx"), "{} bytes", e.len());
+    std::fs::write(
+        d.join("rec2.csv"),
+        format!("t [s],a [{}],F [N]\n0,1,2\n", "q".repeat(100_000)),
+    )
+    .unwrap();
+    let e = refused(&["gs-fit", s(&d.join("rec2.csv"))], &["unknown unit"]);
+    assert!(e.len() < 600, "{} bytes", e.len());
+}

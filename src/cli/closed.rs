@@ -104,7 +104,10 @@ pub struct BetaFitArgs {
 fn range(flag: &str, text: &str) -> Result<(f64, f64, usize)> {
     let parts: Vec<&str> = text.split(':').collect();
     let bad = || {
-        anyhow::anyhow!("{flag} = {text}: expected MIN:MAX:COUNT with 0 < MIN < MAX and COUNT >= 1")
+        anyhow::anyhow!(
+            "{flag} = {shown_text}: expected MIN:MAX:COUNT with 0 < MIN < MAX and COUNT >= 1",
+            shown_text = djkr::text::excerpt(text)
+        )
     };
     if parts.len() != 3 {
         return Err(bad());

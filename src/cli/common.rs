@@ -98,9 +98,8 @@ impl MaterialArgs {
                 Law::GentSchultz(gs) => gs.w0 = m.w0,
                 Law::Saturated(s) => s.base.w0 = m.w0,
                 Law::Tabulated(_) => bail!(
-                    "--w0 = {t}: {} has a tabulated law, whose w0 is its table's w(0); edit the table instead",
-                    self.origin()
-                ),
+                    "--w0 = {shown_t}: {} has a tabulated law, whose w0 is its table's w(0); edit the table instead",
+                    self.origin(), shown_t = djkr::text::excerpt(t)),
             }
         }
         if self.v0.is_some() || self.n.is_some() {
@@ -189,7 +188,10 @@ pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
 /// counted).
 pub fn limit_count(flag: &str, text: &str, count: usize, max: usize, what: &str) -> Result<()> {
     if count > max {
-        bail!("{flag} = {text}: {count} {what}, more than the limit of {max}");
+        bail!(
+            "{flag} = {shown_text}: {count} {what}, more than the limit of {max}",
+            shown_text = djkr::text::excerpt(text)
+        );
     }
     Ok(())
 }

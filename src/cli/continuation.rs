@@ -89,18 +89,20 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
     let parts: Vec<&str> = text.split(':').collect();
     if parts.len() != 2 {
         bail!(
-            "{flag} = {text}: expected START:STOP for {} ({}), e.g. 340:600",
+            "{flag} = {shown_text}: expected START:STOP for {} ({}), e.g. 340:600",
             p.name(),
-            p.info.unit
+            p.info.unit,
+            shown_text = djkr::text::excerpt(text)
         );
     }
     let a = parse_quantity(flag, parts[0].trim(), p.info.dimension)?;
     let b = parse_quantity(flag, parts[1].trim(), p.info.dimension)?;
     if !(a.is_finite() && b.is_finite()) || a == b {
         bail!(
-            "{flag} = {text}: START and STOP must be finite and differ ({} in {})",
+            "{flag} = {shown_text}: START and STOP must be finite and differ ({} in {})",
             p.name(),
-            p.info.unit
+            p.info.unit,
+            shown_text = djkr::text::excerpt(text)
         );
     }
     Ok((a, b))
@@ -110,7 +112,10 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
 fn tolerance(flag: &str, text: &str, lo: f64, hi: f64) -> Result<f64> {
     let v = parse_quantity(flag, text, djkr::units::Dimension::Dimensionless)?;
     if !(v.is_finite() && v > lo && v < hi) {
-        bail!("{flag} = {text}: must be in ({lo:e}, {hi:e})");
+        bail!(
+            "{flag} = {shown_text}: must be in ({lo:e}, {hi:e})",
+            shown_text = djkr::text::excerpt(text)
+        );
     }
     Ok(v)
 }
@@ -120,7 +125,10 @@ fn check_ends(flag: &str, text: &str, family: &Family, values: &[[f64; 2]]) -> R
     for v in values {
         let n = family.params().len();
         if let Err(e) = family.setup(&v[..n]) {
-            bail!("{flag} = {text}: {e}");
+            bail!(
+                "{flag} = {shown_text}: {e}",
+                shown_text = djkr::text::excerpt(text)
+            );
         }
     }
     Ok(())

@@ -52,6 +52,7 @@ use crate::error::ParamError;
 use crate::input::{self, InputError, InputKind};
 use crate::jkr;
 use crate::material::Material;
+use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// The scenario-file format version this parser reads.
@@ -94,7 +95,7 @@ pub enum ScenarioError {
         message: String,
     },
     /// A value of the wrong type or out of range.
-    #[error("{file}: {key} = {value}: {allowed}")]
+    #[error("{file}: {} = {}: {allowed}", excerpt(.key), excerpt(.value))]
     Value {
         /// The file.
         file: String,
@@ -106,7 +107,7 @@ pub enum ScenarioError {
         allowed: String,
     },
     /// A key or section that is missing, unknown, or in conflict with another.
-    #[error("{file}: {key}: {message}")]
+    #[error("{file}: {}: {message}", excerpt(.key))]
     Key {
         /// The file.
         file: String,
@@ -127,7 +128,7 @@ pub enum ScenarioError {
     /// A `--set KEY=VALUE` override that does not fit the file (a stage it does not have), or
     /// whose value the file's rules reject: named by the override rather than by the file's key
     /// and value.
-    #[error("--set {set}: {message}")]
+    #[error("--set {}: {message}", excerpt(.set))]
     Override {
         /// The file the override was applied to.
         file: String,

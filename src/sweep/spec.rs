@@ -26,7 +26,7 @@ pub const MAX_SPEC_VALUES: usize = 1_000_000;
 
 /// A SPEC that cannot be read, or a key that no file takes: `--set KEY=SPEC: what is wrong`.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("--set {set}: {message}")]
+#[error("--set {}: {message}", crate::text::excerpt(.set))]
 pub struct SpecError {
     /// `KEY=SPEC` as given.
     pub set: String,
