@@ -3,10 +3,8 @@
 //! validation gaps, `--jobs` and the whole-command budget of `resonance` and `shortcut-map`.
 //! Every child process runs under a deadline; none may panic.
 
-#![allow(dead_code)] // helpers for the tests of later commits
-
 use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -105,11 +103,6 @@ fn ok(args: &[&str]) -> Run {
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
-}
-
-#[allow(dead_code)]
-fn manifest(rel: &str) -> PathBuf {
-    root().join(rel)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -567,4 +560,75 @@ fn errors_quote_little_and_never_a_line_of_a_foreign_file() {
     .unwrap();
     let e = refused(&["gs-fit", s(&d.join("rec2.csv"))], &["unknown unit"]);
     assert!(e.len() < 600, "{} bytes", e.len());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Defect 14 (last item): solver.max_wall_s bounds the whole of resonance and shortcut-map.
+
+/// Run djkr with a deadline, timing it.
+fn timed(args: &[&str]) -> (Run, Duration) {
+    let t0 = Instant::now();
+    let r = djkr_with(root(), args, None, Duration::from_secs(120));
+    (r, t0.elapsed())
+}
+
+#[test]
+fn max_wall_s_bounds_the_whole_resonance_and_shortcut_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let res = dir.path().join("res");
+    // impacts.toml: about 0.1 s per frequency on one core, 41 x 2 frequencies.
+    let (r, wall) = timed(&[
+        "resonance",
+        "scenarios/impacts.toml",
+        "--freq",
+        "200:400:41",
+        "--set",
+        "solver.max_wall_s=1",
+        "--out",
+        s(&res),
+    ]);
+    assert_eq!(r.code, Some(3), "{}", r.stderr);
+    assert!(wall < Duration::from_secs(15), "{wall:?}");
+    assert!(
+        r.stderr.contains("budget of the whole resonance command") && r.stderr.contains("of 41 up"),
+        "{}",
+        r.stderr
+    );
+    // What was computed is in the files.
+    let csv = std::fs::read_to_string(res.join("resonance.csv")).unwrap();
+    assert!(csv.lines().count() >= 2, "{csv}");
+    assert!(res.join("resonance.h5").is_file());
+    let map = dir.path().join("map");
+    let (r, wall) = timed(&[
+        "shortcut-map",
+        "scenarios/impacts.toml",
+        "--freq",
+        "200:400:20",
+        "--amp",
+        "100um:400um:10",
+        "--set",
+        "solver.max_wall_s=1",
+        "--out",
+        s(&map),
+    ]);
+    assert_eq!(r.code, Some(3), "{}", r.stderr);
+    assert!(wall < Duration::from_secs(15), "{wall:?}");
+    assert!(
+        r.stderr
+            .contains("budget of the whole shortcut-map command")
+            && r.stderr.contains("of 200 cells"),
+        "{}",
+        r.stderr
+    );
+    assert!(map.join("shortcut-map.csv").is_file());
+    // Within the budget: exit 0, as before.
+    let (r, _) = timed(&[
+        "resonance",
+        "scenarios/resonance-400hz.toml",
+        "--freq",
+        "390:410:3",
+        "--out",
+        s(&dir.path().join("ok")),
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
 }

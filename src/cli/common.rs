@@ -226,6 +226,66 @@ pub fn print_table(title: &str, rows: &[(&str, String)]) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A command stopped by its whole-command budget (`solver.max_wall_s` of `resonance` and
+/// `shortcut-map`) after writing what it computed: `main` prints it and exits with status 3,
+/// the status of a run stopped by a budget.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BudgetStopped(pub String);
+
+/// The wall-clock budget of a whole command: a watchdog thread raises a cancellation flag when
+/// `seconds` have passed, which every simulator the command builds polls (the scenario's
+/// `solver.cancel`, [`djkr::cancel`]); the command then stops with what it has computed. Dropped
+/// when the command is done, it ends its watchdog at once.
+pub struct CommandBudget {
+    flag: std::sync::Arc<djkr::cancel::CancelFlag>,
+    done: Option<std::sync::mpsc::Sender<()>>,
+    watchdog: Option<std::thread::JoinHandle<()>>,
+    /// The budget (s).
+    pub seconds: f64,
+}
+
+impl CommandBudget {
+    /// Start the clock: `seconds` from now (a budget beyond any run's is never reached).
+    pub fn start(seconds: f64) -> Self {
+        let flag = std::sync::Arc::new(djkr::cancel::CancelFlag::acquire());
+        let (done, wait) = std::sync::mpsc::channel::<()>();
+        let raise = std::sync::Arc::clone(&flag);
+        let limit =
+            std::time::Duration::try_from_secs_f64(seconds).unwrap_or(std::time::Duration::MAX);
+        let watchdog = std::thread::spawn(move || {
+            if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = wait.recv_timeout(limit) {
+                raise.cancel();
+            }
+        });
+        Self {
+            flag,
+            done: Some(done),
+            watchdog: Some(watchdog),
+            seconds,
+        }
+    }
+
+    /// The token to put into the scenario's solver settings.
+    pub fn token(&self) -> djkr::cancel::Cancel {
+        self.flag.token()
+    }
+
+    /// True once the budget has run out.
+    pub fn exhausted(&self) -> bool {
+        self.flag.is_cancelled()
+    }
+}
+
+impl Drop for CommandBudget {
+    fn drop(&mut self) {
+        drop(self.done.take());
+        if let Some(w) = self.watchdog.take() {
+            let _ = w.join();
+        }
+    }
+}
+
 /// Write a file atomically (see [`djkr::output::write_atomic`]).
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     Ok(djkr::output::write_atomic(path, bytes)?)

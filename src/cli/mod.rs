@@ -87,6 +87,8 @@ enum Command {
     Validate(validate::ValidateArgs),
     /// Frequency response by continuation (up and down sweeps): |δ_A/X_b|, phase, F_m, a_m, a_A
     /// per frequency with the linear transfer and harmonic balance; CSV, HDF5 and plots.
+    /// solver.max_wall_s (--set, or the scenario's; default 600 s) bounds the whole command: when
+    /// it runs out, the files hold the frequencies computed so far and djkr exits with status 3.
     Resonance(resonance::ResonanceArgs),
     /// Continue the periodic orbit in one scenario key (pseudo-arclength, through folds):
     /// stable and unstable branches, Floquet multipliers, folds, period doublings,
@@ -95,6 +97,9 @@ enum Command {
     Continue(continuation::ContinueArgs),
     /// Map the error of the imposed-area shortcut against the time-domain steady state over a
     /// grid of frequency and base amplitude (mean force, δ_A); CSV, HDF5 and colour maps.
+    /// solver.max_wall_s (--set, or the scenario's; default 600 s) bounds the whole command: when
+    /// it runs out, the cells not computed are marked so in the files and djkr exits with
+    /// status 3.
     ShortcutMap(shortcut_map::ShortcutMapArgs),
     /// Speed vs accuracy: a work-precision study of the integrators on a scenario FILE (errors
     /// against a converged reference, median wall time, steps, RHS evaluations; CSV, table,
@@ -128,6 +133,11 @@ pub fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         // A sweep stopped by Ctrl-C has said how to resume; 130 is the shell's code for SIGINT.
         Err(e) if e.is::<sweep::Interrupted>() => ExitCode::from(130),
+        // Stopped by a budget after writing what it computed (resonance, shortcut-map).
+        Err(e) if e.is::<common::BudgetStopped>() => {
+            eprintln!("stopped: {}", error_text(&e));
+            ExitCode::from(3)
+        }
         // A full disk under `> file` is not bad input: the command ran, its listing was lost.
         Err(e) if e.chain().any(|c| c.is::<out::StdoutError>()) => {
             eprintln!("error: {}", error_text(&e));

@@ -2,7 +2,10 @@
 //! steady state), with the linear transfer and harmonic balance alongside; writes
 //! `resonance.csv`, `resonance.h5` and plots, prints a summary.
 
-use super::common::{limits, load_scenario, positive_quantity, print_json, write_atomic};
+use super::common::{
+    limits, load_scenario, positive_quantity, print_json, write_atomic, BudgetStopped,
+    CommandBudget,
+};
 use super::steady::{default_out, progress_bar, range, stem, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
@@ -65,7 +68,11 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
         Dimension::Frequency,
         limits::RESONANCE_FREQUENCIES,
     )?;
-    let scn = load_scenario(&a.file, &a.steady.set)?;
+    let mut scn = load_scenario(&a.file, &a.steady.set)?;
+    // solver.max_wall_s bounds the whole command, not each frequency (401 frequencies with 1 s
+    // took 62 s): every steady state polls the budget's flag.
+    let budget = CommandBudget::start(scn.solver.max_wall_s);
+    scn.solver.cancel = budget.token();
     let (mut problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     if let Some(t) = &a.amp {
@@ -121,11 +128,28 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     );
     report.files = files.iter().map(|p| p.display().to_string()).collect();
     if a.json {
-        print_json(&report)
+        print_json(&report)?;
     } else {
         print_report(&a.file, &report)?;
-        Ok(())
     }
+    if budget.exhausted() {
+        let done: Vec<String> = sweeps
+            .iter()
+            .map(|s| {
+                let solved = s.points.iter().filter(|p| p.steady.is_some()).count();
+                format!("{solved} of {n} {}", s.direction.name())
+            })
+            .collect();
+        return Err(BudgetStopped(format!(
+            "solver.max_wall_s = {} s, the budget of the whole resonance command, ran out: \
+             steady states for {} frequencies; {} holds them",
+            budget.seconds,
+            done.join(", "),
+            out.display()
+        ))
+        .into());
+    }
+    Ok(())
 }
 
 /// `resonance.csv` (all sweeps in one table) and `resonance.h5` (one group per direction).

@@ -2,7 +2,9 @@
 //! time-domain steady state over frequency × base amplitude; writes `shortcut-map.csv`,
 //! `shortcut-map.h5` and colour maps, prints a summary.
 
-use super::common::{limits, load_scenario, print_json, write_atomic};
+use super::common::{
+    limits, load_scenario, print_json, write_atomic, BudgetStopped, CommandBudget,
+};
 use super::steady::{default_out, progress_bar, range, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -61,7 +63,10 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
             limits::MAP_CELLS
         );
     }
-    let scn = load_scenario(&a.file, &a.steady.set)?;
+    let mut scn = load_scenario(&a.file, &a.steady.set)?;
+    // solver.max_wall_s bounds the whole command, not each cell.
+    let budget = CommandBudget::start(scn.solver.max_wall_s);
+    scn.solver.cancel = budget.token();
     let (problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     let freqs = sweep::frequencies(flo, fhi, nf);
@@ -93,11 +98,22 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     let mut report = ShortcutMapReport::new(&m);
     report.files = files.iter().map(|p| p.display().to_string()).collect();
     if a.json {
-        print_json(&report)
+        print_json(&report)?;
     } else {
         print_report(&a.file, &report)?;
-        Ok(())
     }
+    if budget.exhausted() {
+        let solved = m.cells.iter().filter(|c| c.error.is_none()).count();
+        return Err(BudgetStopped(format!(
+            "solver.max_wall_s = {} s, the budget of the whole shortcut-map command, ran out: \
+             {solved} of {} cells computed; {} holds them (the others carry their error)",
+            budget.seconds,
+            m.cells.len(),
+            out.display()
+        ))
+        .into());
+    }
+    Ok(())
 }
 
 /// `shortcut-map.csv` and `shortcut-map.h5` (group `cells`).
