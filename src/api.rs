@@ -614,6 +614,13 @@ pub fn pull_off(
     omega: f64,
     method: PullOffMethod,
 ) -> Result<PullOffReport, ParamError> {
+    // A contact wider than the sphere is refused, as by `djkr pulloff --a-amp` (which checks
+    // it first, naming its flag): here for the callers that pass a_A as a number.
+    if let PullOffMethod::Exact { a_amp } | PullOffMethod::Approx { a_amp, .. } = method {
+        if let Some(e) = contact_radius_error(a_amp, m.r) {
+            return Err(ParamError::new("a_amp", format!("{a_amp:e}"), e));
+        }
+    }
     let (mut r, a_amp) = match method {
         PullOffMethod::Exact { a_amp } => {
             let p = imposed_area::pull_off(m, law, omega, a_amp)?;
@@ -970,6 +977,24 @@ pub fn sweep<S: AsRef<str>>(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_contact_wider_than_the_sphere_is_refused() {
+        let (m, law) = default_material();
+        let e = pull_off(&m, &law, 2513.0, PullOffMethod::Exact { a_amp: 1e300 }).unwrap_err();
+        assert!(e
+            .to_string()
+            .starts_with("a_amp = 1e300: the contact radius would exceed"));
+        let e = cycle(
+            &m,
+            &law,
+            Arg::new("freq", "400"),
+            Arg::new("a_mean", "1mm"),
+            Arg::new("a_amp", "1"),
+        )
+        .unwrap_err();
+        assert_eq!(e.name, "a_amp");
+    }
+
     #[test]
     fn a_non_finite_result_names_its_inputs() {
         let inputs = [Arg::new("--freq", "400"), Arg::new("--a-amp", "1mm")];
