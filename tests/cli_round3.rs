@@ -374,13 +374,13 @@ fn every_quantity_takes_its_units_and_both_micro_signs() {
         "--freq",
         "400",
         "--a-amp",
-        "0.5mm",
+        "5um",
         "--radius",
         "51\u{3bc}m",
         "--json",
     ]);
     let b = ok(&[
-        "pulloff", "--freq", "400", "--a-amp", "0.5mm", "--radius", "51um", "--json",
+        "pulloff", "--freq", "400", "--a-amp", "5um", "--radius", "51um", "--json",
     ]);
     assert_eq!(a.stdout, b.stdout);
 }
