@@ -422,7 +422,7 @@ impl TabulatedLaw {
                 _ => {
                     return Err(ParamError::new(
                         format!("{source}: line {}", i + 1),
-                        line,
+                        crate::text::unquoted_line(line),
                         "expected two numbers: speed (m/s, > 0 healing), w (J/m^2)",
                     ))
                 }

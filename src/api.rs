@@ -38,7 +38,7 @@ use crate::output::summary::{summary_json, SummaryFiles};
 use crate::output::table::Table;
 use crate::output::{cycles, OutputError, OutputPaths, RunWriter, TimeSeriesWriter};
 use crate::run_plot::RunPlotError;
-use crate::scenario::checks::small_contact_warning;
+use crate::scenario::checks::{contact_radius_error, small_contact_warning};
 use crate::scenario::overrides::{Override, OverrideError};
 use crate::scenario::parse::ScenarioError;
 use crate::scenario::{Initial, Scenario};
@@ -48,6 +48,7 @@ use crate::steady::{crosscheck, Options, Problem, SteadyError};
 use crate::sweep::{
     rows_table, run_all, Axis, Ensemble, Grid, RunOptions, SpecError, Sweep, SweepError,
 };
+use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// Limits on the grids and lists of the commands that take ranges: each bounds the work one
@@ -230,41 +231,145 @@ pub fn non_negative_quantity(name: &str, text: &str, dim: Dimension) -> Result<f
     })
 }
 
-/// Angular frequency from a frequency argument (Hz, > 0).
+/// Parse a quantity that sets the scenario key `key` (`--modulus` sets `material.K`), > 0 and
+/// normal, within that key's range ([`crate::scenario::checks::key_range_error`]: the same
+/// table the scenario parser applies).
+pub fn key_positive_quantity(
+    name: &str,
+    text: &str,
+    dim: Dimension,
+    key: &str,
+) -> Result<f64, ParamError> {
+    let v = positive_quantity(name, text, dim)?;
+    key_range(name, text, dim, key, v)
+}
+
+/// As [`key_positive_quantity`], for a quantity that may be 0 (`--base-amp`, `base.amplitude`).
+pub fn key_non_negative_quantity(
+    name: &str,
+    text: &str,
+    dim: Dimension,
+    key: &str,
+) -> Result<f64, ParamError> {
+    let v = non_negative_quantity(name, text, dim)?;
+    key_range(name, text, dim, key, v)
+}
+
+/// `v` (parsed from `text`) within the range of `key`, subnormals refused.
+fn key_range(name: &str, text: &str, dim: Dimension, key: &str, v: f64) -> Result<f64, ParamError> {
+    let unit = match dim.si() {
+        "" => "dimensionless",
+        u => u,
+    };
+    if v > 0.0 && v < f64::MIN_POSITIVE {
+        return Err(ParamError::new(
+            name,
+            excerpt(text),
+            format!(
+                "is subnormal (below {:e}): must be a normal finite number ({unit})",
+                f64::MIN_POSITIVE
+            ),
+        ));
+    }
+    match crate::scenario::checks::key_range_error(key, v, unit) {
+        Some(e) => Err(ParamError::new(
+            name,
+            excerpt(text),
+            format!("{e} (as {key})"),
+        )),
+        None => Ok(v),
+    }
+}
+
+/// The range of the speed correction β of eq. (24) (`--beta`): it is of order 1 (the paper's
+/// 2.5; `djkr beta-fit` finds it between 0.5 and 10 for n from 0.1 to 0.9).
+pub const BETA_RANGE: (f64, f64) = (1e-2, 1e2);
+
+/// Parse β of eq. (24), within [`BETA_RANGE`].
+pub fn beta_from(name: &str, text: &str) -> Result<f64, ParamError> {
+    let b = positive_quantity(name, text, Dimension::Dimensionless)?;
+    let (lo, hi) = BETA_RANGE;
+    if !(lo..=hi).contains(&b) {
+        return Err(ParamError::new(
+            name,
+            excerpt(text),
+            format!(
+                "must lie in [{lo:e}, {hi:e}] (dimensionless): the speed correction of eq. (24) \
+                 is of order 1 (the paper's 2.5)"
+            ),
+        ));
+    }
+    Ok(b)
+}
+
+/// Angular frequency from a frequency argument (Hz), within the range of `base.frequency`.
 pub fn omega_from(name: &str, text: &str) -> Result<f64, ParamError> {
-    Ok(2.0 * std::f64::consts::PI * positive_quantity(name, text, Dimension::Frequency)?)
+    let f = key_positive_quantity(name, text, Dimension::Frequency, "base.frequency")?;
+    Ok(2.0 * std::f64::consts::PI * f)
+}
+
+/// Refuse a result that holds a non-finite number (`values`: each with its name), naming the
+/// inputs it came from (`inputs`: `--freq = 400, --a-mean = 1mm`, as the caller spells them):
+/// the inputs are within their ranges but beyond what double precision carries together.
+pub fn finite_result(inputs: &[Arg], values: &[(&str, f64)]) -> Result<(), ParamError> {
+    let Some((bad, v)) = values.iter().find(|(_, v)| !v.is_finite()) else {
+        return Ok(());
+    };
+    let (last, first) = inputs.split_last().expect("at least one input");
+    let mut name = String::new();
+    for a in first {
+        name.push_str(&format!("{} = {}, ", a.name, excerpt(a.text)));
+    }
+    name.push_str(last.name);
+    Err(ParamError::new(
+        name,
+        excerpt(last.text),
+        format!(
+            "the result is not finite ({bad} = {v}): these inputs together are beyond what the \
+             computation carries in double precision"
+        ),
+    ))
 }
 
 /// Parse START:STOP:COUNT with units, 0 < START ≤ STOP, 1 ≤ COUNT ≤ `max` (START = STOP when
-/// COUNT = 1 is not required: COUNT = 1 gives START).
+/// COUNT = 1 is not required: COUNT = 1 gives START). A grid of frequencies or lengths sets the
+/// base's frequency or amplitude, and is held to the range of `base.frequency` or
+/// `base.amplitude`.
 pub fn range(
     name: &str,
     text: &str,
     dim: Dimension,
     max: usize,
 ) -> Result<(f64, f64, usize), ApiError> {
+    let shown = excerpt(text);
     let parts: Vec<&str> = text.split(':').collect();
     if parts.len() != 3 {
         return Err(ApiError::Invalid(format!(
-            "{name} = {text}: expected START:STOP:COUNT, e.g. 300:500:101"
+            "{name} = {shown}: expected START:STOP:COUNT, e.g. 300:500:101"
         )));
     }
-    let lo = positive_quantity(name, parts[0].trim(), dim)?;
-    let hi = positive_quantity(name, parts[1].trim(), dim)?;
+    // The ranges are those of the base's frequency and amplitude, the keys these grids set.
+    let parse = |t: &str| match dim {
+        Dimension::Frequency => key_positive_quantity(name, t, dim, "base.frequency"),
+        Dimension::Length => key_positive_quantity(name, t, dim, "base.amplitude"),
+        _ => positive_quantity(name, t, dim),
+    };
+    let lo = parse(parts[0].trim())?;
+    let hi = parse(parts[1].trim())?;
     let n: usize = parts[2].trim().parse().map_err(|_| {
         ApiError::Invalid(format!(
-            "{name} = {text}: COUNT = {} must be an integer >= 1",
-            parts[2]
+            "{name} = {shown}: COUNT = {} must be an integer >= 1",
+            excerpt(parts[2])
         ))
     })?;
     if n == 0 || n > max {
         return Err(ApiError::Invalid(format!(
-            "{name} = {text}: COUNT = {n} must be in 1..={max} (the limit of this command)"
+            "{name} = {shown}: COUNT = {n} must be in 1..={max} (the limit of this command)"
         )));
     }
     if hi < lo {
         return Err(ApiError::Invalid(format!(
-            "{name} = {text}: STOP must be >= START"
+            "{name} = {shown}: STOP must be >= START"
         )));
     }
     Ok((lo, hi, n))
@@ -422,7 +527,29 @@ pub fn cycle(
             ),
         ));
     }
+    if let Some(e) = contact_radius_error(amp, m.r) {
+        return Err(ParamError::new(a_amp.name, excerpt(a_amp.text), e));
+    }
+    if let Some(e) = contact_radius_error(mean + amp, m.r) {
+        return Err(ParamError::new(
+            a_mean.name,
+            excerpt(a_mean.text),
+            format!("with {} = {}: {e}", a_amp.name, excerpt(a_amp.text)),
+        ));
+    }
     let c = imposed_area::cycle(m, law, omega, mean, amp)?;
+    finite_result(
+        &[freq, a_mean, a_amp],
+        &[
+            ("a_m", c.a_mean),
+            ("delta_m", c.delta_mean),
+            ("delta_s", c.delta_sin),
+            ("delta_c", c.delta_cos),
+            ("delta_A", c.delta_amp),
+            ("F_m", c.force_mean),
+            ("contact fraction", c.contact_fraction),
+        ],
+    )?;
     // The same small-contact rule as `pulloff` and `run`.
     let notes = small_contact_warning(
         "the contact reaches a_m + a_A",
@@ -505,6 +632,13 @@ pub fn pull_off(
     omega: f64,
     method: PullOffMethod,
 ) -> Result<PullOffReport, ParamError> {
+    // A contact wider than the sphere is refused, as by `djkr pulloff --a-amp` (which checks
+    // it first, naming its flag): here for the callers that pass a_A as a number.
+    if let PullOffMethod::Exact { a_amp } | PullOffMethod::Approx { a_amp, .. } = method {
+        if let Some(e) = contact_radius_error(a_amp, m.r) {
+            return Err(ParamError::new("a_amp", format!("{a_amp:e}"), e));
+        }
+    }
     let (mut r, a_amp) = match method {
         PullOffMethod::Exact { a_amp } => {
             let p = imposed_area::pull_off(m, law, omega, a_amp)?;
@@ -824,7 +958,8 @@ impl Sweeps {
             "down" => Ok(Sweeps::Down),
             "both" => Ok(Sweeps::Both),
             _ => Err(ApiError::Invalid(format!(
-                "{name} = {text}: must be up, down or both"
+                "{name} = {}: must be up, down or both",
+                excerpt(text)
             ))),
         }
     }
@@ -926,6 +1061,36 @@ pub fn sweep<S: AsRef<str>>(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_contact_wider_than_the_sphere_is_refused() {
+        let (m, law) = default_material();
+        let e = pull_off(&m, &law, 2513.0, PullOffMethod::Exact { a_amp: 1e300 }).unwrap_err();
+        assert!(e
+            .to_string()
+            .starts_with("a_amp = 1e300: the contact radius would exceed"));
+        let e = cycle(
+            &m,
+            &law,
+            Arg::new("freq", "400"),
+            Arg::new("a_mean", "1mm"),
+            Arg::new("a_amp", "1"),
+        )
+        .unwrap_err();
+        assert_eq!(e.name, "a_amp");
+    }
+
+    #[test]
+    fn a_non_finite_result_names_its_inputs() {
+        let inputs = [Arg::new("--freq", "400"), Arg::new("--a-amp", "1mm")];
+        assert!(finite_result(&inputs, &[("F_m", 1.0)]).is_ok());
+        let e = finite_result(&inputs, &[("F_m", 1.0), ("delta_m", f64::NAN)]).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "--freq = 400, --a-amp = 1mm: the result is not finite (delta_m = NaN): these inputs \
+             together are beyond what the computation carries in double precision"
+        );
+    }
+
     use super::*;
 
     #[test]

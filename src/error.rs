@@ -3,9 +3,10 @@
 
 use thiserror::Error;
 
-/// A parameter outside its allowed range, or malformed.
+/// A parameter outside its allowed range, or malformed. Its message quotes the value (and the
+/// name, which may hold a file's path) through [`crate::text::excerpt`]: at most 80 characters.
 #[derive(Debug, Clone, PartialEq, Error)]
-#[error("{name} = {value}: {allowed}")]
+#[error("{} = {}: {allowed}", crate::text::excerpt(.name), crate::text::excerpt(.value))]
 pub struct ParamError {
     /// Name of the parameter as the user spells it (flag, scenario key, or symbol).
     pub name: String,

@@ -103,11 +103,14 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<UnloadingRow>, ParamErr
             if nums.iter().all(Option::is_some) {
                 return Err(ParamError::new(
                     where_(),
-                    line,
+                    crate::text::unquoted_line(line),
                     "expected a header line naming the columns t, a, F before the data",
                 ));
             }
-            columns = Some(header_columns(&cols).map_err(|m| ParamError::new(where_(), line, m))?);
+            columns = Some(
+                header_columns(&cols)
+                    .map_err(|m| ParamError::new(where_(), crate::text::unquoted_line(line), m))?,
+            );
             continue;
         };
         let value = |c: &RecordColumn| -> Option<f64> {
@@ -119,7 +122,7 @@ pub fn parse_csv(text: &str, source: &str) -> Result<Vec<UnloadingRow>, ParamErr
             _ => {
                 return Err(ParamError::new(
                     where_(),
-                    line,
+                    crate::text::unquoted_line(line),
                     "expected finite numbers in the columns t, a and F",
                 ))
             }
@@ -189,7 +192,9 @@ fn header_columns(cells: &[String]) -> Result<[RecordColumn; 3], String> {
             let to_si = factor(*dim, &unit).ok_or_else(|| {
                 let allowed: Vec<&str> = dim.units().iter().map(|(u, _)| *u).collect();
                 format!(
-                    "column '{cell}': unknown unit '{unit}' for {label}: expected one of {}",
+                    "column '{}': unknown unit '{}' for {label}: expected one of {}",
+                    crate::text::excerpt(cell),
+                    crate::text::excerpt(&unit),
                     allowed.join(", ")
                 )
             })?;

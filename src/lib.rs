@@ -36,5 +36,6 @@ pub mod scenario;
 pub mod sensitivity;
 pub mod steady;
 pub mod sweep;
+pub mod text;
 pub mod transfer;
 pub mod units;

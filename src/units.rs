@@ -25,6 +25,8 @@ pub enum Dimension {
     Force,
     /// Newtons per metre.
     Stiffness,
+    /// Metres per second squared (gravity).
+    Acceleration,
     /// Newton seconds per metre.
     Damping,
     /// Radians (angles).
@@ -66,6 +68,7 @@ impl Dimension {
             Dimension::Mass => &[("kg", 1.0), ("g", 1e-3), ("mg", 1e-6)],
             Dimension::Force => &[("N", 1.0), ("mN", 1e-3), ("uN", 1e-6), ("µN", 1e-6)],
             Dimension::Stiffness => &[("N/m", 1.0), ("N/mm", 1e3), ("kN/m", 1e3)],
+            Dimension::Acceleration => &[("m/s^2", 1.0), ("m/s2", 1.0), ("mm/s^2", 1e-3)],
             Dimension::Damping => &[("Ns/m", 1.0), ("N*s/m", 1.0), ("kg/s", 1.0)],
             Dimension::Angle => &[("rad", 1.0), ("deg", std::f64::consts::PI / 180.0)],
             Dimension::Dimensionless => &[],
@@ -84,6 +87,7 @@ impl Dimension {
             Dimension::Mass => "kg",
             Dimension::Force => "N",
             Dimension::Stiffness => "N/m",
+            Dimension::Acceleration => "m/s^2",
             Dimension::Damping => "N s/m",
             Dimension::Angle => "rad",
             Dimension::Dimensionless => "",
@@ -112,7 +116,11 @@ pub fn parse_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, Par
         .map(|(i, _)| i)
         .unwrap_or(t.len());
     let (num, unit) = t.split_at(split);
-    let unit = unit.trim();
+    // The micro prefix has two spellings in Unicode: the micro sign U+00B5 (what the tables
+    // list) and the Greek small letter mu U+03BC (what a Greek keyboard or a copy from a paper
+    // gives). Both are accepted.
+    let unit = unit.trim().replace('\u{3bc}', "\u{b5}");
+    let unit = unit.as_str();
     let allowed_units = || {
         let list: Vec<&str> = dim.units().iter().map(|(u, _)| *u).collect();
         if list.is_empty() {
@@ -273,5 +281,38 @@ mod tests {
         assert!(parse_quantity("--n", "abc", Dimension::Dimensionless).is_err());
         assert!(parse_quantity("--n", "1mm", Dimension::Dimensionless).is_err());
         assert!(parse_quantity("--n", "inf", Dimension::Dimensionless).is_err());
+    }
+
+    #[test]
+    fn both_micro_signs_and_accelerations_are_accepted() {
+        let micro = "\u{b5}";
+        let mu = "\u{3bc}";
+        for (dim, unit, si) in [
+            (Dimension::Length, "m", 1e-6),
+            (Dimension::Speed, "m/s", 1e-6),
+            (Dimension::Time, "s", 1e-6),
+            (Dimension::Force, "N", 1e-6),
+        ] {
+            for prefix in [micro, mu, "u"] {
+                let text = format!("3{prefix}{unit}");
+                let v = parse_quantity("x", &text, dim).unwrap();
+                assert!((v - 3.0 * si).abs() <= 1e-15 * si, "{text}: {v}");
+            }
+            // Every unit listed with the micro sign is there in ASCII too.
+            for (u, _) in dim.units() {
+                if let Some(rest) = u.strip_prefix(micro) {
+                    assert!(dim.units().iter().any(|(a, _)| *a == format!("u{rest}")));
+                }
+            }
+        }
+        assert_eq!(
+            parse_quantity("g", "9.81m/s^2", Dimension::Acceleration).unwrap(),
+            9.81
+        );
+        assert_eq!(
+            parse_quantity("g", "9.81 m/s2", Dimension::Acceleration).unwrap(),
+            9.81
+        );
+        assert!(parse_quantity("g", "9.81m/s", Dimension::Acceleration).is_err());
     }
 }

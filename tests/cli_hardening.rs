@@ -268,9 +268,10 @@ fn impossible_scenes_are_refused_at_validation() {
 
 #[test]
 fn contacts_beyond_the_small_contact_range_are_warned_everywhere() {
-    // cycle: text and JSON.
+    // cycle: text and JSON (a_m + a_A = 31 mm: beyond 0.2 R, within R; a contact wider than R
+    // is refused since issue 24).
     let r = djkr(&[
-        "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1e10", "--json",
+        "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "30mm", "--json",
     ]);
     assert_eq!(r.code, Some(0), "{}", r.stderr);
     let v: serde_json::Value = serde_json::from_str(&r.stdout).unwrap();
@@ -285,7 +286,7 @@ fn contacts_beyond_the_small_contact_range_are_warned_everywhere() {
         r.stderr
     );
     let r = djkr(&[
-        "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1e10",
+        "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "30mm",
     ]);
     assert!(r.stdout.contains("note: outside the model"), "{}", r.stdout);
     let r = djkr(&[

@@ -256,23 +256,24 @@ fn write_study(study: &accuracy::Study, out: &Path) -> Result<()> {
         &accuracy::study_figure(study, Measure::PullOffForce),
         &out.join("work_precision_pull_off"),
     )?;
-    println!("{table}");
+    outln!("{table}")?;
     print_written(
         out,
         &[png, svg, png2, svg2],
         &["work_precision.csv", "work_precision.md"],
-    );
+    )?;
     Ok(())
 }
 
-fn print_written(out: &Path, plots: &[PathBuf], files: &[&str]) {
-    println!("wrote:");
+fn print_written(out: &Path, plots: &[PathBuf], files: &[&str]) -> anyhow::Result<()> {
+    outln!("wrote:")?;
     for f in files {
-        println!("  {}", out.join(f).display());
+        outln!("  {}", out.join(f).display())?;
     }
     for p in plots {
-        println!("  {}", p.display());
+        outln!("  {}", p.display())?;
     }
+    Ok(())
 }
 
 fn imposed_area(a: &AccuracyArgs) -> Result<()> {
@@ -373,11 +374,11 @@ fn imposed_area(a: &AccuracyArgs) -> Result<()> {
         table += &format!("\n{failed} grid points had no exact pull-off (grey in the map).\n");
     }
     write_atomic(&out.join("imposed_area.md"), table.as_bytes())?;
-    println!("{table}");
+    outln!("{table}")?;
     print_written(
         &out,
         &[qp, qs, mp, ms],
         &["quadrature.csv", "closed_form_map.csv", "imposed_area.md"],
-    );
+    )?;
     Ok(())
 }

@@ -1,7 +1,8 @@
 //! `djkr required-speed` (eq. 29) and `djkr beta-fit` (Fig. 3(b) and β ≈ 2.5, checked).
 
 use super::common::{
-    limit_count, limits, positive_quantity, print_json, print_table, reject_unused, MaterialArgs,
+    beta_from, key_positive_quantity, limit_count, limits, positive_quantity, print_json,
+    print_table, reject_unused, MaterialArgs,
 };
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -17,7 +18,7 @@ pub struct RequiredSpeedArgs {
     /// Target pull-off amplification F_m,po/F0 (≥ 1).
     #[arg(long, value_name = "A", allow_hyphen_values = true)]
     amplification: String,
-    /// Speed correction β of eq. (24) (> 0).
+    /// Speed correction β of eq. (24), in [0.01, 100].
     #[arg(long, default_value = "2.5", allow_hyphen_values = true)]
     beta: String,
     /// Print one JSON object of SI values.
@@ -42,9 +43,13 @@ pub fn required_speed(a: &RequiredSpeedArgs) -> Result<()> {
         &a.amplification,
         Dimension::Dimensionless,
     )?;
-    let beta = positive_quantity("--beta", &a.beta, Dimension::Dimensionless)?;
-    let v = closed_form::vibration_speed_for_amplification(&law, target, beta)
-        .map_err(|e| e.renamed("--amplification"))?;
+    let beta = beta_from("--beta", &a.beta)?;
+    let v = closed_form::vibration_speed_for_amplification(&law, target, beta).map_err(|e| {
+        djkr::error::ParamError {
+            value: djkr::text::excerpt(&a.amplification),
+            ..e.renamed("--amplification")
+        }
+    })?;
     let printed = closed_form::vibration_speed_as_printed(&law, target, beta).ok();
     if a.json {
         let mut o = json!({ "speed": v, "amplification": target, "beta": beta });
@@ -66,7 +71,7 @@ pub fn required_speed(a: &RequiredSpeedArgs) -> Result<()> {
     print_table(
         &format!("Vibration speed for amplification {target} (β = {beta})"),
         &rows,
-    );
+    )?;
     Ok(())
 }
 
@@ -103,7 +108,10 @@ pub struct BetaFitArgs {
 fn range(flag: &str, text: &str) -> Result<(f64, f64, usize)> {
     let parts: Vec<&str> = text.split(':').collect();
     let bad = || {
-        anyhow::anyhow!("{flag} = {text}: expected MIN:MAX:COUNT with 0 < MIN < MAX and COUNT >= 1")
+        anyhow::anyhow!(
+            "{flag} = {shown_text}: expected MIN:MAX:COUNT with 0 < MIN < MAX and COUNT >= 1",
+            shown_text = djkr::text::excerpt(text)
+        )
     };
     if parts.len() != 3 {
         return Err(bad());
@@ -158,7 +166,12 @@ pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
     let cfg = BetaFitConfig {
         material: m,
         v0: law.v0,
-        frequency_hz: positive_quantity("--freq", &a.freq, Dimension::Frequency)?,
+        frequency_hz: key_positive_quantity(
+            "--freq",
+            &a.freq,
+            Dimension::Frequency,
+            "base.frequency",
+        )?,
         n_values,
         speed_ratios: beta_fit::log_space(slo, shi, sn),
         beta_min: blo,
@@ -207,14 +220,14 @@ pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
                 format!("{plo_r:.4} .. {phi_r:.4}"),
             ),
         ],
-    );
-    println!("\n  error curve (β, error):");
+    )?;
+    outln!("\n  error curve (β, error):")?;
     for (b, e) in fit
         .error_curve
         .iter()
         .step_by((fit.error_curve.len() / 15).max(1))
     {
-        println!("    {b:8.4}  {e:.4e}");
+        outln!("    {b:8.4}  {e:.4e}")?;
     }
     Ok(())
 }

@@ -11,8 +11,8 @@ use djkr::units::Dimension;
 use std::path::{Path, PathBuf};
 
 pub use djkr::api::{
-    fmt_force, fmt_len, limits, no_negative_zero, non_negative_quantity, omega_from,
-    positive_quantity,
+    beta_from, fmt_force, fmt_len, key_non_negative_quantity, key_positive_quantity, limits,
+    no_negative_zero, non_negative_quantity, omega_from, positive_quantity,
 };
 
 /// `--set KEY=VALUE`: scenario values overridden from the command line, shared by every command
@@ -68,19 +68,23 @@ pub struct MaterialArgs {
     /// Scenario file whose [material] and [adhesion] sections to use (flags below override it).
     #[arg(long, value_name = "FILE", allow_hyphen_values = true)]
     pub material: Option<PathBuf>,
-    /// JKR elastic constant K = 4E*/3 [default 9.33MPa]. Units: Pa, kPa, MPa, GPa.
+    /// JKR elastic constant K = 4E*/3 [default 9.33MPa], in [1 Pa, 1e13 Pa] as material.K.
+    /// Units: Pa, kPa, MPa, GPa.
     #[arg(long = "modulus", value_name = "K", allow_hyphen_values = true)]
     pub k: Option<String>,
-    /// Sphere radius R [default 51mm]. Units: m, cm, mm, um, nm.
+    /// Sphere radius R [default 51mm], at most 10 m as material.R. Units: m, cm, mm, um (µm,
+    /// μm), nm.
     #[arg(long, value_name = "R", allow_hyphen_values = true)]
     pub radius: Option<String>,
-    /// Quasi-static work of adhesion w0 [default 240mJ/m^2]. Units: J/m^2, mJ/m^2.
+    /// Quasi-static work of adhesion w0 [default 240mJ/m^2], in [1e-9, 1e4] J/m^2 as
+    /// material.w0. Units: J/m^2, mJ/m^2.
     #[arg(long, value_name = "W0", allow_hyphen_values = true)]
     pub w0: Option<String>,
-    /// Gent–Schultz reference speed v0 (C = v0^-n) [default 0.0445mm/s]. Units: m/s, mm/s, um/s.
+    /// Gent–Schultz reference speed v0 (C = v0^-n) [default 0.0445mm/s], in [1e-15, 1e3] m/s as
+    /// adhesion.v0. Units: m/s, mm/s, um/s.
     #[arg(long, value_name = "V0", allow_hyphen_values = true)]
     pub v0: Option<String>,
-    /// Gent–Schultz exponent n > 0 [default 0.531].
+    /// Gent–Schultz exponent n [default 0.531], in [1e-3, 10] as adhesion.n.
     #[arg(long, value_name = "N", allow_hyphen_values = true)]
     pub n: Option<String>,
 }
@@ -98,21 +102,20 @@ impl MaterialArgs {
                 .with_context(|| format!("--material {}", path.display()))?;
         }
         if let Some(t) = &self.k {
-            m.k = positive_quantity("--modulus", t, Dimension::Pressure)?;
+            m.k = key_positive_quantity("--modulus", t, Dimension::Pressure, "material.K")?;
         }
         if let Some(t) = &self.radius {
-            m.r = positive_quantity("--radius", t, Dimension::Length)?;
+            m.r = key_positive_quantity("--radius", t, Dimension::Length, "material.R")?;
         }
         if let Some(t) = &self.w0 {
-            m.w0 = positive_quantity("--w0", t, Dimension::EnergyPerArea)?;
+            m.w0 = key_positive_quantity("--w0", t, Dimension::EnergyPerArea, "material.w0")?;
             match &mut law {
                 Law::Constant(c) => c.w0 = m.w0,
                 Law::GentSchultz(gs) => gs.w0 = m.w0,
                 Law::Saturated(s) => s.base.w0 = m.w0,
                 Law::Tabulated(_) => bail!(
-                    "--w0 = {t}: {} has a tabulated law, whose w0 is its table's w(0); edit the table instead",
-                    self.origin()
-                ),
+                    "--w0 = {shown_t}: {} has a tabulated law, whose w0 is its table's w(0); edit the table instead",
+                    self.origin(), shown_t = djkr::text::excerpt(t)),
             }
         }
         if self.v0.is_some() || self.n.is_some() {
@@ -126,10 +129,10 @@ impl MaterialArgs {
                 ),
             };
             if let Some(t) = &self.v0 {
-                gs.v0 = positive_quantity("--v0", t, Dimension::Speed)?;
+                gs.v0 = key_positive_quantity("--v0", t, Dimension::Speed, "adhesion.v0")?;
             }
             if let Some(t) = &self.n {
-                gs.n = positive_quantity("--n", t, Dimension::Dimensionless)?;
+                gs.n = key_positive_quantity("--n", t, Dimension::Dimensionless, "adhesion.n")?;
             }
         }
         Ok((m, law))
@@ -201,7 +204,10 @@ pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
 /// counted).
 pub fn limit_count(flag: &str, text: &str, count: usize, max: usize, what: &str) -> Result<()> {
     if count > max {
-        bail!("{flag} = {text}: {count} {what}, more than the limit of {max}");
+        bail!(
+            "{flag} = {shown_text}: {count} {what}, more than the limit of {max}",
+            shown_text = djkr::text::excerpt(text)
+        );
     }
     Ok(())
 }
@@ -222,16 +228,77 @@ pub fn reject_unused(given: &[(&str, bool)], mode: &str) -> Result<()> {
 /// write `null`): [`djkr::api::finite_json`].
 pub fn print_json(report: &impl serde::Serialize) -> Result<()> {
     let v = djkr::api::finite_json(report)?;
-    println!("{}", serde_json::to_string_pretty(&v)?);
+    outln!("{}", serde_json::to_string_pretty(&v)?)?;
     Ok(())
 }
 
 /// A two-column table of (label, value with unit) rows, aligned (no value shown as `-0.0`).
-pub fn print_table(title: &str, rows: &[(&str, String)]) {
-    println!("{title}");
+pub fn print_table(title: &str, rows: &[(&str, String)]) -> anyhow::Result<()> {
+    outln!("{title}")?;
     let w = rows.iter().map(|r| r.0.chars().count()).max().unwrap_or(0);
     for (k, v) in rows {
-        println!("  {k:<w$}  {}", no_negative_zero(v));
+        outln!("  {k:<w$}  {}", no_negative_zero(v))?;
+    }
+    Ok(())
+}
+
+/// A command stopped by its whole-command budget (`solver.max_wall_s` of `resonance` and
+/// `shortcut-map`) after writing what it computed: `main` prints it and exits with status 3,
+/// the status of a run stopped by a budget.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BudgetStopped(pub String);
+
+/// The wall-clock budget of a whole command: a watchdog thread raises a cancellation flag when
+/// `seconds` have passed, which every simulator the command builds polls (the scenario's
+/// `solver.cancel`, [`djkr::cancel`]); the command then stops with what it has computed. Dropped
+/// when the command is done, it ends its watchdog at once.
+pub struct CommandBudget {
+    flag: std::sync::Arc<djkr::cancel::CancelFlag>,
+    done: Option<std::sync::mpsc::Sender<()>>,
+    watchdog: Option<std::thread::JoinHandle<()>>,
+    /// The budget (s).
+    pub seconds: f64,
+}
+
+impl CommandBudget {
+    /// Start the clock: `seconds` from now (a budget beyond any run's is never reached).
+    pub fn start(seconds: f64) -> Self {
+        let flag = std::sync::Arc::new(djkr::cancel::CancelFlag::acquire());
+        let (done, wait) = std::sync::mpsc::channel::<()>();
+        let raise = std::sync::Arc::clone(&flag);
+        let limit =
+            std::time::Duration::try_from_secs_f64(seconds).unwrap_or(std::time::Duration::MAX);
+        let watchdog = std::thread::spawn(move || {
+            if let Err(std::sync::mpsc::RecvTimeoutError::Timeout) = wait.recv_timeout(limit) {
+                raise.cancel();
+            }
+        });
+        Self {
+            flag,
+            done: Some(done),
+            watchdog: Some(watchdog),
+            seconds,
+        }
+    }
+
+    /// The token to put into the scenario's solver settings.
+    pub fn token(&self) -> djkr::cancel::Cancel {
+        self.flag.token()
+    }
+
+    /// True once the budget has run out.
+    pub fn exhausted(&self) -> bool {
+        self.flag.is_cancelled()
+    }
+}
+
+impl Drop for CommandBudget {
+    fn drop(&mut self) {
+        drop(self.done.take());
+        if let Some(w) = self.watchdog.take() {
+            let _ = w.join();
+        }
     }
 }
 

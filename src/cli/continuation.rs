@@ -94,18 +94,20 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
     let parts: Vec<&str> = text.split(':').collect();
     if parts.len() != 2 {
         bail!(
-            "{flag} = {text}: expected START:STOP for {} ({}), e.g. 340:600",
+            "{flag} = {shown_text}: expected START:STOP for {} ({}), e.g. 340:600",
             p.name(),
-            p.info.unit
+            p.info.unit,
+            shown_text = djkr::text::excerpt(text)
         );
     }
     let a = parse_quantity(flag, parts[0].trim(), p.info.dimension)?;
     let b = parse_quantity(flag, parts[1].trim(), p.info.dimension)?;
     if !(a.is_finite() && b.is_finite()) || a == b {
         bail!(
-            "{flag} = {text}: START and STOP must be finite and differ ({} in {})",
+            "{flag} = {shown_text}: START and STOP must be finite and differ ({} in {})",
             p.name(),
-            p.info.unit
+            p.info.unit,
+            shown_text = djkr::text::excerpt(text)
         );
     }
     Ok((a, b))
@@ -115,7 +117,10 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
 fn tolerance(flag: &str, text: &str, lo: f64, hi: f64) -> Result<f64> {
     let v = parse_quantity(flag, text, djkr::units::Dimension::Dimensionless)?;
     if !(v.is_finite() && v > lo && v < hi) {
-        bail!("{flag} = {text}: must be in ({lo:e}, {hi:e})");
+        bail!(
+            "{flag} = {shown_text}: must be in ({lo:e}, {hi:e})",
+            shown_text = djkr::text::excerpt(text)
+        );
     }
     Ok(v)
 }
@@ -125,7 +130,10 @@ fn check_ends(flag: &str, text: &str, family: &Family, values: &[[f64; 2]]) -> R
     for v in values {
         let n = family.params().len();
         if let Err(e) = family.setup(&v[..n]) {
-            bail!("{flag} = {text}: {e}");
+            bail!(
+                "{flag} = {shown_text}: {e}",
+                shown_text = djkr::text::excerpt(text)
+            );
         }
     }
     Ok(())
@@ -183,7 +191,7 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     if a.json {
         print_json(&rep)
     } else {
-        print_report(&a.file, &rep);
+        print_report(&a.file, &rep)?;
         Ok(())
     }
 }
@@ -580,8 +588,8 @@ fn fold_figure(file: &Path, b: &Branch, q: &Parameter, curves: &[FoldCurve]) -> 
     fig.with_series(Series::new("folds of the branch", x, y, Style::Markers).with_color(4))
 }
 
-fn print_report(file: &Path, r: &ContinuationReport) {
-    println!(
+fn print_report(file: &Path, r: &ContinuationReport) -> anyhow::Result<()> {
+    outln!(
         "{}: branch of periodic orbits in {} over {}..{} {} — {} points, {} steps ({} refused), {} periods, {:.3} s",
         file.display(),
         r.parameter,
@@ -593,7 +601,7 @@ fn print_report(file: &Path, r: &ContinuationReport) {
         r.rejected,
         r.periods,
         r.wall_s
-    );
+    )?;
     let show = |label: &str, list: &[report::Marked]| {
         for m in list {
             let v = m.values.first().map_or(f64::NAN, |x| x.1);
@@ -603,26 +611,27 @@ fn print_report(file: &Path, r: &ContinuationReport) {
                 .map(|x| format!("{x:.9}"))
                 .collect::<Vec<_>>()
                 .join(", ");
-            println!(
+            outln!(
                 "  {label:<16} {} = {} {}, |δ_A/X_b| = {:.5}, a_m = {:.6} mm, |μ| = {mu}",
                 r.parameter,
                 format_sig(v, 9),
                 r.unit,
                 m.delta_amp_over_xb,
                 m.a_mean * 1e3
-            );
+            )?;
         }
+        Ok::<(), super::out::StdoutError>(())
     };
-    show("fold", &r.folds);
+    show("fold", &r.folds)?;
     if r.folds.is_empty() {
-        println!("  no fold in range");
+        outln!("  no fold in range")?;
     }
-    show("period doubling", &r.period_doublings);
-    show("Neimark-Sacker", &r.neimark_sacker);
-    show("branch point", &r.branch_points);
-    show("grazing", &r.grazing);
+    show("period doubling", &r.period_doublings)?;
+    show("Neimark-Sacker", &r.neimark_sacker)?;
+    show("branch point", &r.branch_points)?;
+    show("grazing", &r.grazing)?;
     for j in &r.sweep_jumps {
-        println!(
+        outln!(
             "  sweep {:<4} jumps between {} and {} {} (|δ_A/X_b| {:.4} → {})",
             j.direction,
             format_f64(j.from),
@@ -631,34 +640,35 @@ fn print_report(file: &Path, r: &ContinuationReport) {
             j.delta_amp_over_xb_before,
             j.delta_amp_over_xb_after
                 .map_or("missing".to_string(), |v| format!("{v:.4}"))
-        );
+        )?;
     }
     if let (Some(k2), Some(curves)) = (&r.fold_parameter, &r.fold_curves) {
-        println!(
+        outln!(
             "  {} fold curve(s) in ({}, {}), {:.3} s",
             curves.len(),
             r.parameter,
             k2,
             r.fold_wall_s.unwrap_or(f64::NAN)
-        );
+        )?;
         if let Some(c) = &r.cusp {
             let v: Vec<String> = c
                 .values
                 .iter()
                 .map(|(k, v)| format!("{k} = {}", format_sig(*v, 9)))
                 .collect();
-            println!(
+            outln!(
                 "  cusp: {}, |δ_A/X_b| = {:.5}",
                 v.join(", "),
                 c.delta_amp_over_xb
-            );
+            )?;
         }
     }
     for n in &r.notes {
-        println!("  {n}");
+        outln!("  {n}")?;
     }
-    println!("\nwrote:");
+    outln!("\nwrote:")?;
     for p in &r.files {
-        println!("  {p}");
+        outln!("  {p}")?;
     }
+    Ok(())
 }

@@ -38,7 +38,8 @@ pub fn figures(a: &FiguresArgs) -> Result<()> {
             .map(|t| {
                 FigureId::parse(t).ok_or_else(|| {
                     anyhow::anyhow!(
-                        "--only = {t}: unknown figure; allowed: fig2, fig3a, fig3b, fig4-8"
+                        "--only = {shown_t}: unknown figure; allowed: fig2, fig3a, fig3b, fig4-8",
+                        shown_t = djkr::text::excerpt(t)
                     )
                 })
             })
@@ -55,7 +56,7 @@ pub fn figures(a: &FiguresArgs) -> Result<()> {
     );
     let files = write_figures(&a.out, &which, &m, &law, beta)?;
     for f in files {
-        println!("{}", f.display());
+        outln!("{}", f.display())?;
     }
     Ok(())
 }

@@ -90,9 +90,9 @@ pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
             ),
             ("reduced χ²", format!("{:.3}", fit.chi2_reduced)),
         ],
-    );
+    )?;
     if out_of_contact > 0 {
-        println!(
+        outln!(
             "  note: fitted the last stretch in contact, data rows {}..{} of {}; left out {} {} \
              out of contact (a = 0, e.g. after pull-off)",
             span.start + 1,
@@ -100,10 +100,10 @@ pub fn gs_fit(a: &GsFitArgs) -> Result<()> {
             all.len(),
             out_of_contact,
             if out_of_contact == 1 { "row" } else { "rows" }
-        );
+        )?;
     }
     if fit.n_at_bound {
-        println!("  note: n sits at the edge of its search range: the data may not constrain it");
+        outln!("  note: n sits at the edge of its search range: the data may not constrain it")?;
     }
     Ok(())
 }

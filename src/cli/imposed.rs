@@ -1,8 +1,8 @@
 //! `djkr cycle` and `djkr pulloff`: the imposed-area method, the closed form and the comparators.
 
 use super::common::{
-    fmt_force, fmt_len, non_negative_quantity, omega_from, positive_quantity, print_json,
-    print_table, reject_unused, MaterialArgs,
+    beta_from, fmt_force, fmt_len, key_non_negative_quantity, key_positive_quantity,
+    non_negative_quantity, omega_from, print_json, print_table, reject_unused, MaterialArgs,
 };
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
@@ -13,13 +13,13 @@ use serde_json::json;
 /// Flags of `djkr cycle`.
 #[derive(Args, Debug)]
 pub struct CycleArgs {
-    /// Vibration frequency f = ω/2π (> 0). Units: Hz, kHz.
+    /// Vibration frequency f = ω/2π, in [1e-6, 1e6] Hz as base.frequency. Units: Hz, kHz.
     #[arg(long, value_name = "HZ", allow_hyphen_values = true)]
     freq: String,
     /// Imposed mean contact radius a_m (≥ −a_A; below a_A the cycle is truncated at a = 0).
     #[arg(long, value_name = "M", allow_hyphen_values = true)]
     a_mean: String,
-    /// Amplitude a_A of the contact-radius oscillation (≥ 0).
+    /// Amplitude a_A of the contact-radius oscillation (≥ 0, a_m + a_A ≤ R).
     #[arg(long, value_name = "M", allow_hyphen_values = true)]
     a_amp: String,
     /// Print one JSON object of SI values instead of a table.
@@ -67,9 +67,9 @@ pub fn cycle(a: &CycleArgs) -> Result<()> {
             ("F_m mean force", fmt_force(c.force_mean)),
             ("contact fraction", format!("{:.6}", c.contact_fraction)),
         ],
-    );
+    )?;
     for n in notes {
-        println!("  note: {n}");
+        outln!("  note: {n}")?;
     }
     Ok(())
 }
@@ -96,7 +96,7 @@ pub enum PulloffMethod {
 /// Flags of `djkr pulloff`.
 #[derive(Args, Debug)]
 pub struct PulloffArgs {
-    /// Vibration frequency f = ω/2π (> 0). Units: Hz, kHz.
+    /// Vibration frequency f = ω/2π, in [1e-6, 1e6] Hz as base.frequency. Units: Hz, kHz.
     #[arg(long, value_name = "HZ", allow_hyphen_values = true)]
     freq: String,
     /// Amplitude a_A of the contact-radius oscillation (≥ 0). For `yi` it sets δ_A = 2a_A²/R
@@ -106,7 +106,7 @@ pub struct PulloffArgs {
     /// Method.
     #[arg(long, value_enum, default_value_t = PulloffMethod::Exact)]
     method: PulloffMethod,
-    /// Speed correction β of eq. (24) for `approx` (> 0) [default: 2.5].
+    /// Speed correction β of eq. (24) for `approx`, in [0.01, 100] [default: 2.5].
     #[arg(long, allow_hyphen_values = true)]
     beta: Option<String>,
     /// δ_A amplitude in the closed form (`approx`): as derived from eqs. (14)−(15)
@@ -114,13 +114,13 @@ pub struct PulloffArgs {
     /// [default: derived].
     #[arg(long, value_enum)]
     delta_form: Option<DeltaForm>,
-    /// Sphere mass m for `shui` (> 0). Units: kg, g.
+    /// Sphere mass m for `shui`, in [1e-20, 1e4] kg as sphere.mass. Units: kg, g.
     #[arg(long, value_name = "KG", allow_hyphen_values = true)]
     mass: Option<String>,
-    /// Damping c for `shui` (≥ 0). Units: Ns/m.
+    /// Damping c for `shui`, in (0, 1e9] N s/m as damping.c. Units: Ns/m.
     #[arg(long, value_name = "C", allow_hyphen_values = true)]
     damping: Option<String>,
-    /// Base amplitude X_b for `shui` (≥ 0).
+    /// Base amplitude X_b for `shui`, in [0, 1] m as base.amplitude.
     #[arg(long, value_name = "M", allow_hyphen_values = true)]
     base_amp: Option<String>,
     /// Indentation amplitude δ_A for `yi` (≥ 0).
@@ -176,7 +176,13 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
     let (m, law) = a.material.resolve()?;
     let omega = omega_from("--freq", &a.freq)?;
     let a_amp = match &a.a_amp {
-        Some(t) => Some(non_negative_quantity("--a-amp", t, Dimension::Length)?),
+        Some(t) => {
+            let v = non_negative_quantity("--a-amp", t, Dimension::Length)?;
+            if let Some(e) = djkr::scenario::checks::contact_radius_error(v, m.r) {
+                bail!("--a-amp = {}: {e}", djkr::text::excerpt(t));
+            }
+            Some(v)
+        }
         None => None,
     };
     let need_a_amp = || {
@@ -190,7 +196,7 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
         },
         PulloffMethod::Approx => {
             let beta = match &a.beta {
-                Some(t) => positive_quantity("--beta", t, Dimension::Dimensionless)?,
+                Some(t) => beta_from("--beta", t)?,
                 None => djkr::closed_form::BETA_PAPER,
             };
             let form = match a.delta_form.unwrap_or(DeltaForm::Derived) {
@@ -206,10 +212,31 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
         PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
     };
     let r = api::pull_off(&m, &law, omega, method)?;
+    pull_off_finite(a, &r)?;
     for w in &r.warnings {
         eprintln!("warning: {w}");
     }
     report(&r, a.json)
+}
+
+/// Refuse a pull-off that holds a non-finite number, naming the flags it came from.
+fn pull_off_finite(a: &PulloffArgs, r: &PullOffReport) -> Result<()> {
+    let mut inputs = vec![Arg::new("--freq", &a.freq)];
+    for (name, t) in [("--a-amp", &a.a_amp), ("--delta-amp", &a.delta_amp)] {
+        if let Some(t) = t {
+            inputs.push(Arg::new(name, t));
+        }
+    }
+    Ok(api::finite_result(
+        &inputs,
+        &[
+            ("a_m", r.a_mean),
+            ("delta_m", r.delta_mean),
+            ("delta_A", r.delta_amp),
+            ("F_m", r.force),
+            ("amplification", r.amplification),
+        ],
+    )?)
 }
 
 fn report(r: &PullOffReport, json_out: bool) -> Result<()> {
@@ -228,9 +255,9 @@ fn report(r: &PullOffReport, json_out: bool) -> Result<()> {
                 format!("{:.6}", r.amplification),
             ),
         ],
-    );
+    )?;
     for n in &r.notes {
-        println!("  note: {n}");
+        outln!("  note: {n}")?;
     }
     Ok(())
 }
@@ -249,22 +276,45 @@ fn comparators(
                 .ok_or_else(|| anyhow::anyhow!("--method shui needs {flag} (Shui et al.'s eq. 5 is a sphere/contact oscillator)"))
         };
         let s = cmp::ShuiSystem {
-            mass: positive_quantity("--mass", &need("--mass", &a.mass)?, Dimension::Mass)?,
-            damping: positive_quantity(
+            mass: key_positive_quantity(
+                "--mass",
+                &need("--mass", &a.mass)?,
+                Dimension::Mass,
+                "sphere.mass",
+            )?,
+            damping: key_positive_quantity(
                 "--damping",
                 &need("--damping", &a.damping)?,
                 Dimension::Damping,
+                "damping.c",
             )?,
-            base_amplitude: non_negative_quantity(
+            base_amplitude: key_non_negative_quantity(
                 "--base-amp",
                 &need("--base-amp", &a.base_amp)?,
                 Dimension::Length,
+                "base.amplitude",
             )?,
             omega,
         };
         let p = cmp::shui_pull_off(m, &s)?;
         let eq6 = cmp::shui_pull_off_eq6(&s);
         let eq7 = cmp::shui_pull_off_eq7(&s);
+        let inputs = [
+            Arg::new("--freq", &a.freq),
+            Arg::new("--mass", a.mass.as_deref().unwrap_or_default()),
+            Arg::new("--damping", a.damping.as_deref().unwrap_or_default()),
+            Arg::new("--base-amp", a.base_amp.as_deref().unwrap_or_default()),
+        ];
+        api::finite_result(
+            &inputs,
+            &[
+                ("a_m", p.a_mean),
+                ("F_m", p.force),
+                ("amplification", p.amplification),
+                ("eq. (6)", eq6),
+                ("eq. (7)", eq7),
+            ],
+        )?;
         if a.json {
             return print_json(&json!({
                 "method": "shui",
@@ -284,7 +334,7 @@ fn comparators(
                 ("eq. (6), (mω/c)^2 corrected", fmt_force(eq6)),
                 ("eq. (7), c → ∞", fmt_force(eq7)),
             ],
-        );
+        )?;
         return Ok(());
     } else {
         let delta_amp = match (&a.delta_amp, a_amp) {
@@ -292,7 +342,9 @@ fn comparators(
             (None, Some(aa)) => cmp::yi_indentation_amplitude_from_area_amplitude(m, aa),
             (None, None) => bail!("--method yi needs --delta-amp or --a-amp (then δ_A = 2 a_A²/R)"),
         };
-        api::pull_off(m, law, omega, api::PullOffMethod::Yi { delta_amp })?
+        let r = api::pull_off(m, law, omega, api::PullOffMethod::Yi { delta_amp })?;
+        pull_off_finite(a, &r)?;
+        r
     };
     report(&r, a.json)
 }

@@ -1,6 +1,9 @@
 //! Command-line front end. Each subcommand parses its flags, calls the library and reports
 //! (a readable table with units, or `--json` with SI values).
 
+#[macro_use]
+mod out;
+
 mod accuracy;
 mod closed;
 mod common;
@@ -95,6 +98,8 @@ enum Command {
     Validate(validate::ValidateArgs),
     /// Frequency response by continuation (up and down sweeps): |δ_A/X_b|, phase, F_m, a_m, a_A
     /// per frequency with the linear transfer and harmonic balance; CSV, HDF5 and plots.
+    /// solver.max_wall_s (--set, or the scenario's; default 600 s) bounds the whole command: when
+    /// it runs out, the files hold the frequencies computed so far and djkr exits with status 3.
     Resonance(resonance::ResonanceArgs),
     /// Continue the periodic orbit in one scenario key (pseudo-arclength, through folds):
     /// stable and unstable branches, Floquet multipliers, folds, period doublings,
@@ -103,6 +108,9 @@ enum Command {
     Continue(continuation::ContinueArgs),
     /// Map the error of the imposed-area shortcut against the time-domain steady state over a
     /// grid of frequency and base amplitude (mean force, δ_A); CSV, HDF5 and colour maps.
+    /// solver.max_wall_s (--set, or the scenario's; default 600 s) bounds the whole command: when
+    /// it runs out, the cells not computed are marked so in the files and djkr exits with
+    /// status 3.
     ShortcutMap(shortcut_map::ShortcutMapArgs),
     /// Speed vs accuracy: a work-precision study of the integrators on a scenario FILE (errors
     /// against a converged reference, median wall time, steps, RHS evaluations; CSV, table,
@@ -151,6 +159,16 @@ pub fn main() -> ExitCode {
                 error_text(&e)
             );
             ExitCode::from(code)
+        }
+        // Stopped by a budget after writing what it computed (resonance, shortcut-map).
+        Err(e) if e.is::<common::BudgetStopped>() => {
+            eprintln!("stopped: {}", error_text(&e));
+            ExitCode::from(3)
+        }
+        // A full disk under `> file` is not bad input: the command ran, its listing was lost.
+        Err(e) if e.chain().any(|c| c.is::<out::StdoutError>()) => {
+            eprintln!("error: {}", error_text(&e));
+            ExitCode::from(1)
         }
         Err(e) => {
             eprintln!("error: {}", error_text(&e));

@@ -46,9 +46,9 @@ pub fn plot(a: &PlotArgs) -> Result<()> {
             a.dir.display()
         );
     };
-    println!("wrote:");
+    outln!("wrote:")?;
     for p in &files {
-        println!("  {}", p.display());
+        outln!("  {}", p.display())?;
     }
     Ok(())
 }

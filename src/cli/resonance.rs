@@ -2,7 +2,10 @@
 //! steady state), with the linear transfer and harmonic balance alongside; writes
 //! `resonance.csv`, `resonance.h5` and plots, prints a summary.
 
-use super::common::{limits, load_scenario, positive_quantity, print_json, write_atomic};
+use super::common::{
+    limits, load_scenario, positive_quantity, print_json, write_atomic, BudgetStopped,
+    CommandBudget,
+};
 use super::steady::{default_out, progress_bar, range, stem, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
@@ -70,12 +73,16 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
         Dimension::Frequency,
         limits::RESONANCE_FREQUENCIES,
     )?;
-    let scn = load_scenario(&a.file, &a.steady.set)?;
+    let mut scn = load_scenario(&a.file, &a.steady.set)?;
     let mut replaced = vec![("solver.rtol", "--rtol"), ("base.frequency", "--freq")];
     if a.amp.is_some() {
         replaced.push(("base.amplitude", "--amp alone"));
     }
     a.steady.set.refuse_replaced("resonance", &replaced)?;
+    // solver.max_wall_s bounds the whole command, not each frequency (401 frequencies with 1 s
+    // took 62 s): every steady state polls the budget's flag.
+    let budget = CommandBudget::start(scn.solver.max_wall_s);
+    scn.solver.cancel = budget.token();
     let (mut problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     if let Some(t) = &a.amp {
@@ -138,11 +145,28 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     );
     report.files = files.iter().map(|p| p.display().to_string()).collect();
     if a.json {
-        print_json(&report)
+        print_json(&report)?;
     } else {
-        print_report(&a.file, &report);
-        Ok(())
+        print_report(&a.file, &report)?;
     }
+    if budget.exhausted() {
+        let done: Vec<String> = sweeps
+            .iter()
+            .map(|s| {
+                let solved = s.points.iter().filter(|p| p.steady.is_some()).count();
+                format!("{solved} of {n} {}", s.direction.name())
+            })
+            .collect();
+        return Err(BudgetStopped(format!(
+            "solver.max_wall_s = {} s, the budget of the whole resonance command, ran out: \
+             steady states for {} frequencies; {} holds them",
+            budget.seconds,
+            done.join(", "),
+            out.display()
+        ))
+        .into());
+    }
+    Ok(())
 }
 
 /// `resonance.csv` (all sweeps in one table) and `resonance.h5` (one group per direction).
@@ -246,17 +270,17 @@ fn figures(
     (fig, phase)
 }
 
-fn print_report(file: &Path, r: &ResonanceReport) {
+fn print_report(file: &Path, r: &ResonanceReport) -> anyhow::Result<()> {
     let (lo, hi) = r.range;
-    println!(
+    outln!(
         "{}: frequency response {lo}–{hi} Hz ({} frequencies), X_b = {:.4} µm, {:.2} s",
         file.display(),
         r.frequencies,
         r.amplitude * 1e6,
         r.wall_s
-    );
+    )?;
     if let (Some(k), Some(f)) = (r.contact_stiffness, r.linear_resonance_frequency) {
-        println!(
+        outln!(
             "  linear transfer (k_c = 3/2 K a_0 = {k:.1} N/m): f_r = {f:.3} Hz{}",
             r.linear_peak
                 .map(|p| format!(
@@ -264,41 +288,50 @@ fn print_report(file: &Path, r: &ResonanceReport) {
                     p.height, p.frequency
                 ))
                 .unwrap_or_default()
-        );
+        )?;
     }
     for sw in r.sweeps() {
-        print!(
+        out!(
             "  sweep {:<4}: {}/{} steady states ({} by shooting), {} periods, {:.2} s",
-            sw.direction, sw.found, r.frequencies, sw.by_shooting, sw.cycles, sw.wall_s
-        );
+            sw.direction,
+            sw.found,
+            r.frequencies,
+            sw.by_shooting,
+            sw.cycles,
+            sw.wall_s
+        )?;
         if let Some(p) = sw.peak {
-            print!(
+            out!(
                 "; peak |δ_A/X_b| = {:.4} at {:.3} Hz",
-                p.height, p.frequency
-            );
+                p.height,
+                p.frequency
+            )?;
             if let (Some(s), Some(h)) = (p.shift_from_linear, p.height_over_linear) {
-                print!(" (shift {s:+.3} Hz, height ×{h:.4} of linear)");
+                out!(" (shift {s:+.3} Hz, height ×{h:.4} of linear)")?;
             }
         }
-        println!();
+        outln!()?;
         if let Some(p) = sw.harmonic_balance_peak {
-            println!(
+            outln!(
                 "              harmonic balance peak {:.4} at {:.3} Hz",
-                p.height, p.frequency
-            );
+                p.height,
+                p.frequency
+            )?;
         }
     }
     if let Some(d) = r.max_up_down_difference {
-        println!(
+        outln!(
             "  largest up/down difference in |δ_A/X_b|: {:.3e} at {:.3} Hz",
-            d.delta_amp_over_xb, d.frequency
-        );
+            d.delta_amp_over_xb,
+            d.frequency
+        )?;
     }
     for note in &r.notes {
-        println!("  {note}");
+        outln!("  {note}")?;
     }
-    println!("\nwrote:");
+    outln!("\nwrote:")?;
     for p in &r.files {
-        println!("  {p}");
+        outln!("  {p}")?;
     }
+    Ok(())
 }

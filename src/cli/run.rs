@@ -292,16 +292,16 @@ pub fn run(a: &RunArgs) -> Result<()> {
         // Exactly the summary.json just written (its non-finite rule included).
         let text = std::fs::read_to_string(&paths.summary)
             .with_context(|| format!("reading back {}", paths.summary.display()))?;
-        println!("{}", text.trim_end());
+        outln!("{}", text.trim_end())?;
     } else {
-        print_summary(&scn, &result, &ending, sens.as_ref(), &warnings);
-        println!("\nwrote:");
+        print_summary(&scn, &result, &ending, sens.as_ref(), &warnings)?;
+        outln!("\nwrote:")?;
         for p in paths
             .all()
             .into_iter()
             .chain(plots.iter().map(PathBuf::as_path))
         {
-            println!("  {}", p.display());
+            outln!("  {}", p.display())?;
         }
     }
     match ended {
@@ -355,7 +355,7 @@ fn significant(x: f64, digits: usize) -> String {
 /// Print a summary line without a `-0.0`.
 macro_rules! summary_line {
     ($($t:tt)*) => {
-        println!("{}", super::common::no_negative_zero(&format!($($t)*)))
+        outln!("{}", super::common::no_negative_zero(&format!($($t)*)))?
     };
 }
 
@@ -365,7 +365,7 @@ fn print_summary(
     ending: &Ending,
     sens: Option<&Sensitivity>,
     warnings: &[String],
-) {
+) -> anyhow::Result<()> {
     summary_line!(
         "{}: {} stage(s), method {}",
         scn.source_name,
@@ -390,16 +390,21 @@ fn print_summary(
         None if vibrating => 4,
         None => 7,
     };
-    print_pull_off(scn, r, digits);
-    print_sensitivity(sens, vibrating && r.detached);
-    print_run_stats(r);
+    print_pull_off(scn, r, digits)?;
+    print_sensitivity(sens, vibrating && r.detached)?;
+    print_run_stats(r)?;
     for w in warnings {
         summary_line!("  warning            {w}");
     }
+    Ok(())
 }
 
 /// The pull-off force and time (to `digits` significant digits), or why there is none.
-fn print_pull_off(scn: &djkr::scenario::Scenario, r: &RunResult, digits: usize) {
+fn print_pull_off(
+    scn: &djkr::scenario::Scenario,
+    r: &RunResult,
+    digits: usize,
+) -> anyhow::Result<()> {
     let f0 = scn.rig.material.static_pull_off_force();
     if !checks::pull_off_recorded(r) {
         summary_line!(
@@ -429,11 +434,12 @@ fn print_pull_off(scn: &djkr::scenario::Scenario, r: &RunResult, digits: usize) 
             r.pull_off.time
         );
     }
+    Ok(())
 }
 
 /// What `--sensitivity` measured; without it, for a pull-off under vibration
 /// (`vibrating_pull_off`), a pointer to it.
-fn print_sensitivity(sens: Option<&Sensitivity>, vibrating_pull_off: bool) {
+fn print_sensitivity(sens: Option<&Sensitivity>, vibrating_pull_off: bool) -> anyhow::Result<()> {
     match sens {
         Some(s) if s.sensitive => {
             summary_line!(
@@ -472,10 +478,11 @@ fn print_sensitivity(sens: Option<&Sensitivity>, vibrating_pull_off: bool) {
         }
         None => {}
     }
+    Ok(())
 }
 
 /// The events by kind, the solver's work and the final state.
-fn print_run_stats(r: &RunResult) {
+fn print_run_stats(r: &RunResult) -> anyhow::Result<()> {
     let counts: Vec<(String, u64)> = r
         .event_counts
         .by_kind()
@@ -507,6 +514,7 @@ fn print_run_stats(r: &RunResult) {
         f.delta * 1e6,
         f.force * 1e3
     );
+    Ok(())
 }
 
 /// Run `djkr check`.
@@ -516,7 +524,7 @@ pub fn check(a: &CheckArgs) -> Result<()> {
     for f in &a.files {
         match ScenarioSource::read(f).and_then(|src| src.scenario(&overrides)) {
             Ok(s) => {
-                println!(
+                outln!(
                     "{}: ok ({} stage(s), law {}, {})",
                     s.source_name,
                     s.stages.len(),
@@ -526,7 +534,7 @@ pub fn check(a: &CheckArgs) -> Result<()> {
                     } else {
                         "no base motion"
                     }
-                );
+                )?;
                 for w in checks::scenario_warnings(&s) {
                     eprintln!("warning: {}: {w}", s.source_name);
                 }

@@ -2,7 +2,9 @@
 //! time-domain steady state over frequency × base amplitude; writes `shortcut-map.csv`,
 //! `shortcut-map.h5` and colour maps, prints a summary.
 
-use super::common::{limits, load_scenario, print_json, write_atomic};
+use super::common::{
+    limits, load_scenario, print_json, write_atomic, BudgetStopped, CommandBudget,
+};
 use super::steady::{default_out, progress_bar, range, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -66,7 +68,7 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
             limits::MAP_CELLS
         );
     }
-    let scn = load_scenario(&a.file, &a.steady.set)?;
+    let mut scn = load_scenario(&a.file, &a.steady.set)?;
     a.steady.set.refuse_replaced(
         "shortcut-map",
         &[
@@ -75,6 +77,9 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
             ("base.amplitude", "--amp"),
         ],
     )?;
+    // solver.max_wall_s bounds the whole command, not each cell.
+    let budget = CommandBudget::start(scn.solver.max_wall_s);
+    scn.solver.cancel = budget.token();
     let (problem, start) =
         Problem::from_plan(&scn.plan()).with_context(|| format!("{}", a.file.display()))?;
     let freqs = sweep::frequencies(flo, fhi, nf);
@@ -116,11 +121,22 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     let mut report = ShortcutMapReport::new(&m);
     report.files = files.iter().map(|p| p.display().to_string()).collect();
     if a.json {
-        print_json(&report)
+        print_json(&report)?;
     } else {
-        print_report(&a.file, &report);
-        Ok(())
+        print_report(&a.file, &report)?;
     }
+    if budget.exhausted() {
+        let solved = m.cells.iter().filter(|c| c.error.is_none()).count();
+        return Err(BudgetStopped(format!(
+            "solver.max_wall_s = {} s, the budget of the whole shortcut-map command, ran out: \
+             {solved} of {} cells computed; {} holds them (the others carry their error)",
+            budget.seconds,
+            m.cells.len(),
+            out.display()
+        ))
+        .into());
+    }
+    Ok(())
 }
 
 /// `shortcut-map.csv` and `shortcut-map.h5` (group `cells`).
@@ -213,45 +229,55 @@ fn write_maps(
     Ok(vec![fp, fs, dp, ds])
 }
 
-fn print_report(file: &Path, r: &ShortcutMapReport) {
+fn print_report(file: &Path, r: &ShortcutMapReport) -> anyhow::Result<()> {
     let (nf, na) = (r.frequencies.len(), r.amplitudes.len());
-    println!(
+    outln!(
         "{}: imposed-area shortcut vs time domain over {nf} frequencies × {na} amplitudes, {:.2} s, {} periods",
         file.display(),
         r.wall_s,
         r.cycles
-    );
-    println!(
+    )?;
+    outln!(
         "  steady states found: {}/{} ({} by time-stepping, {} losing contact)",
-        r.found, r.cells, r.by_time_stepping, r.contact_lost
-    );
+        r.found,
+        r.cells,
+        r.by_time_stepping,
+        r.contact_lost
+    )?;
     let (f, d) = (&r.force_error, &r.delta_amp_error);
-    println!(
+    outln!(
         "  |mean-force error|: {:.2e} … {:.2e}; < 1 %: {} cells, < 5 %: {}",
-        f.min_abs, f.max_abs, f.below_1_percent, f.below_5_percent
-    );
-    println!(
+        f.min_abs,
+        f.max_abs,
+        f.below_1_percent,
+        f.below_5_percent
+    )?;
+    outln!(
         "  |δ_A error|:        {:.2e} … {:.2e}; < 1 %: {} cells, < 5 %: {}",
-        d.min_abs, d.max_abs, d.below_1_percent, d.below_5_percent
-    );
-    println!("\n  force error (%), rows X_b (µm), columns f (Hz):");
-    print!("  {:>10}", "");
+        d.min_abs,
+        d.max_abs,
+        d.below_1_percent,
+        d.below_5_percent
+    )?;
+    outln!("\n  force error (%), rows X_b (µm), columns f (Hz):")?;
+    out!("  {:>10}", "")?;
     for f in &r.frequencies {
-        print!("{f:>9.1}");
+        out!("{f:>9.1}")?;
     }
-    println!();
+    outln!()?;
     for (ia, xb) in r.amplitudes.iter().enumerate() {
-        print!("  {:>10.4}", xb * 1e6);
+        out!("  {:>10.4}", xb * 1e6)?;
         for i_f in 0..nf {
             match r.force_error_grid.get(ia * nf + i_f).copied().flatten() {
-                Some(e) => print!("{:>9.2}", e * 100.0),
-                None => print!("{:>9}", "—"),
+                Some(e) => out!("{:>9.2}", e * 100.0)?,
+                None => out!("{:>9}", "—")?,
             }
         }
-        println!();
+        outln!()?;
     }
-    println!("\nwrote:");
+    outln!("\nwrote:")?;
     for p in &r.files {
-        println!("  {p}");
+        outln!("  {p}")?;
     }
+    Ok(())
 }

@@ -69,7 +69,9 @@ pub struct SweepRunArgs {
     /// Output folder [default: out/<scenario name>-sweep].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Runs at a time [default: one per core].
+    /// Runs at a time [default: one per core]; capped, with a warning, at the available
+    /// parallelism (cores the process may use), so that each run's solver.max_wall_s stays
+    /// wall time. With --slurm: the CPUs per array task.
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
     /// Continue the sweep in --out: runs not yet done, and again those whose row is `stopped`
@@ -100,10 +102,12 @@ pub struct SweepRunArgs {
     /// With --slurm: array tasks [default: one per 64 runs, at most 1000].
     #[arg(long, value_name = "N", requires = "slurm")]
     shards: Option<usize>,
-    /// With --slurm: the tasks' time limit (#SBATCH --time), e.g. 2:00:00.
+    /// With --slurm: the tasks' time limit (#SBATCH --time), in a format sbatch accepts:
+    /// MINUTES, MM:SS, HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS or UNLIMITED, e.g. 2:00:00.
     #[arg(long, value_name = "TIME", requires = "slurm")]
     slurm_time: Option<String>,
-    /// With --slurm: the partition (#SBATCH --partition).
+    /// With --slurm: the partition (#SBATCH --partition): a name of letters, digits, '_', '-'
+    /// and '.', or a comma-separated list of them; anything else is refused.
     #[arg(long, value_name = "NAME", requires = "slurm")]
     slurm_partition: Option<String>,
 }
@@ -209,9 +213,11 @@ fn run(a: &SweepRunArgs) -> Result<()> {
     };
     let todo = files::remaining(&sweep, &manifest, &rows);
     let owned = rows.len() + todo.len();
-    let jobs = a
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, usize::from));
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    let (jobs, warning) = capped_jobs(a.jobs, cores);
+    if let Some(w) = warning {
+        eprintln!("warning: {w}");
+    }
     install_stop_handler();
     if !rows.is_empty() || retried > 0 {
         eprintln!(
@@ -228,6 +234,24 @@ fn run(a: &SweepRunArgs) -> Result<()> {
     let keep_runs = a.keep_runs.then(|| out.join(files::RUNS_DIR));
     let executed = execute(&sweep, &todo, jobs, keep_runs, &mut progress, &mut rows);
     finish(&sweep, &manifest, &out, &mut rows, owned, jobs, executed)
+}
+
+/// The runs at a time: `requested` (`--jobs`), at most `cores` (the available parallelism),
+/// and a warning when capped. More threads than cores share them, so each run's
+/// `solver.max_wall_s` would be spent partly waiting (`--jobs 64` on 2 cores failed 62 of 64
+/// runs on a 1 s budget that every run met with `--jobs 2`).
+fn capped_jobs(requested: Option<usize>, cores: usize) -> (usize, Option<String>) {
+    match requested {
+        Some(j) if j > cores => (
+            cores,
+            Some(format!(
+                "--jobs {j}: capped at {cores}, the available parallelism of this machine \
+                 (more runs at a time would share the cores, and solver.max_wall_s is wall time)"
+            )),
+        ),
+        Some(j) => (j, None),
+        None => (cores, None),
+    }
 }
 
 /// `--out` left out: out/<scenario name>-sweep.
@@ -345,10 +369,10 @@ fn finish(
         executed.wall,
         new_wall,
         jobs,
-    );
-    println!("\nwrote:");
+    )?;
+    outln!("\nwrote:")?;
     for p in &written {
-        println!("  {}", p.display());
+        outln!("  {}", p.display())?;
     }
     if !complete {
         let shard = manifest
@@ -375,10 +399,10 @@ fn report(
     wall: f64,
     runs_wall: f64,
     jobs: usize,
-) {
+) -> anyhow::Result<()> {
     let stopped = rows.iter().filter(|r| r.stopped).count();
     let failed = rows.iter().filter(|r| r.result.is_err()).count() - stopped;
-    println!(
+    outln!(
         "{}: {} point(s) x {} member(s){}; {} run(s) in this folder, {failed} failed, {stopped} \
          stopped by a budget",
         manifest.scenario,
@@ -389,21 +413,21 @@ fn report(
             .map(|s| format!(", shard {}/{}", s.index, s.count))
             .unwrap_or_default(),
         rows.len()
-    );
+    )?;
     if ran > 0 {
-        println!(
+        outln!(
             "  ran {ran} in {wall:.3} s on {jobs} thread(s); the runs' own wall time adds up to \
              {runs_wall:.3} s ({:.2} runs' seconds per second)",
             runs_wall / wall.max(1e-9)
-        );
+        )?;
     }
     let points = djkr::sweep::stats::point_stats(rows);
     if points.len() <= 40 {
         let names: Vec<String> = manifest.keys.iter().map(|k| k.name.clone()).collect();
-        println!(
+        outln!(
             "  point  {}  amplification  pull-off force",
             names.join("  ")
-        );
+        )?;
         for p in &points {
             let keys: Vec<String> = p.keys.iter().map(ToString::to_string).collect();
             let amp = if p.amplification.n >= 2 {
@@ -414,7 +438,7 @@ fn report(
             } else {
                 format!("{:.4}", p.amplification.mean)
             };
-            println!(
+            outln!(
                 "  {:>5}  {}  {amp}  {}{}",
                 p.point,
                 keys.join("  "),
@@ -424,19 +448,20 @@ fn report(
                 } else {
                     String::new()
                 }
-            );
+            )?;
         }
     }
     if let Some(r) = rows.iter().find(|r| r.result.is_err()) {
         if let Err(e) = &r.result {
-            println!(
+            outln!(
                 "  first {}: point {} member {}: {e}",
                 if r.stopped { "stop" } else { "failure" },
                 r.point,
                 r.member
-            );
+            )?;
         }
     }
+    Ok(())
 }
 
 fn absolute(p: &Path) -> Result<PathBuf> {
@@ -444,8 +469,38 @@ fn absolute(p: &Path) -> Result<PathBuf> {
         .with_context(|| format!("{}: cannot make the path absolute", p.display()))
 }
 
+/// Refuse a value that `sweep.sbatch` would quote but that does not fit Slurm's grammar
+/// (`--slurm-partition`, `--slurm-time`) or holds a control character (a path, a `--set`):
+/// written into an `#SBATCH` or comment line, a newline would start a command of its own.
+fn check_script_values(a: &SweepRunArgs, file: &Path, out: &Path, exe: &Path) -> Result<()> {
+    use djkr::sweep::slurm::{check_partition, check_script_text, check_time};
+    use djkr::text::excerpt;
+    if let Some(p) = &a.slurm_partition {
+        check_partition(p)
+            .map_err(|e| anyhow::anyhow!("--slurm-partition = {}: {e}", excerpt(p)))?;
+    }
+    if let Some(t) = &a.slurm_time {
+        check_time(t).map_err(|e| anyhow::anyhow!("--slurm-time = {}: {e}", excerpt(t)))?;
+    }
+    let paths = [
+        ("the scenario file", file),
+        ("--out", out),
+        ("the djkr binary", exe),
+    ];
+    for (what, p) in paths {
+        let text = p.to_string_lossy();
+        check_script_text(&text).map_err(|e| anyhow::anyhow!("{what} {}: {e}", excerpt(&text)))?;
+    }
+    for set in &a.set {
+        check_script_text(set).map_err(|e| anyhow::anyhow!("--set {}: {e}", excerpt(set)))?;
+    }
+    Ok(())
+}
+
 /// `--slurm`: write the manifest and DIR/sweep.sbatch; run nothing.
 fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()> {
+    let exe = std::env::current_exe().context("locating the djkr binary")?;
+    check_script_values(a, file, out, &exe)?;
     if a.shard.is_some() {
         bail!("--slurm writes a job whose tasks take --shard K/N themselves: drop --shard");
     }
@@ -495,39 +550,39 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
     };
     let sbatch = out.join("sweep.sbatch");
     djkr::output::write_atomic(&sbatch, script.text().as_bytes())?;
-    println!(
+    outln!(
         "{}: {} run(s) in {shards} Slurm array task(s) of about {} run(s), {} thread(s) each.",
         file.display(),
         sweep.runs(),
         sweep.runs().div_ceil(shards),
         script.cpus_per_task
-    );
-    println!(
+    )?;
+    outln!(
         "wrote {}\n\nsubmit it with:\n  sbatch {}",
         sbatch.display(),
         sbatch.display()
-    );
-    println!(
+    )?;
+    outln!(
         "\nEach task writes {}/shards/K; the first submits the merge step, which runs when every \
          task has succeeded and writes sweep.csv, points.csv, sweep.h5 and the plots into {}.",
         out.display(),
         out.display()
-    );
+    )?;
     Ok(())
 }
 
 /// Run `djkr sweep merge`.
 fn merge(m: &MergeArgs) -> Result<()> {
     let merged = files::merge(&m.dirs, &m.out, m.force)?;
-    println!(
+    outln!(
         "merged {} folder(s): {} run(s), {} failed",
         m.dirs.len(),
         merged.rows,
         merged.failed
-    );
-    println!("wrote:");
+    )?;
+    outln!("wrote:")?;
     for p in &merged.files {
-        println!("  {}", p.display());
+        outln!("  {}", p.display())?;
     }
     Ok(())
 }

@@ -43,7 +43,7 @@ pub fn validate(a: &ValidateArgs) -> Result<()> {
     if a.json {
         print_json(&report)?;
     } else {
-        print_report(&a.file, &report);
+        print_report(&a.file, &report)?;
     }
     if let Some(e) = djkr::api::force_balance_violation(&report) {
         bail!(e);
@@ -98,15 +98,15 @@ fn layout(rows: &[Vec<String>]) -> String {
     out
 }
 
-fn print_report(file: &Path, r: &ValidateReport) {
+fn print_report(file: &Path, r: &ValidateReport) -> anyhow::Result<()> {
     let s = &r.steady;
-    println!(
+    outln!(
         "{}: periodic steady state at f = {} Hz, X_b = {:.6} µm",
         file.display(),
         r.frequency,
         r.amplitude * 1e6
-    );
-    println!(
+    )?;
+    outln!(
         "  found by {}: {} Newton iterations, {} periods integrated, residual {:.2e}, {:.1} ms{}",
         s.method.name(),
         s.newton_iterations,
@@ -118,11 +118,11 @@ fn print_report(file: &Path, r: &ValidateReport) {
         } else {
             ""
         }
-    );
+    )?;
     if let Some(f) = r.linear_resonance {
-        println!("  linear resonance √((k + k_c)/m)/2π = {f:.3} Hz (k_c = 3/2 K a_0)");
+        outln!("  linear resonance √((k + k_c)/m)/2π = {f:.3} Hz (k_c = 3/2 K a_0)")?;
     }
-    println!();
+    outln!()?;
     let header = |names: [&str; 7]| {
         std::iter::once(String::new())
             .chain(names.iter().map(|n| n.to_string()))
@@ -140,20 +140,20 @@ fn print_report(file: &Path, r: &ValidateReport) {
             rows.push(row(label, p, scales));
         }
     }
-    print!("{}", layout(&rows));
-    println!("\nrelative difference from the time domain, % (δ_s, δ_c relative to δ_A):");
+    out!("{}", layout(&rows))?;
+    outln!("\nrelative difference from the time domain, % (δ_s, δ_c relative to δ_A):")?;
     let mut rows = vec![header(["a_m", "a_A", "δ_m", "δ_s", "δ_c", "δ_A", "F_m"])];
     for (_, label, p) in r.relative_difference.labelled() {
         if let Some(p) = p {
             rows.push(row(label, p, [100.0; 7]));
         }
     }
-    print!("{}", layout(&rows));
+    out!("{}", layout(&rows))?;
     for note in &r.notes {
-        println!("  {note}");
+        outln!("  {note}")?;
     }
     let fb = &r.force_balance;
-    println!(
+    outln!(
         "\nforce balance  <F> = {:.9} mN,  m g - k(<x_s> - x_k) = {:.9} mN,  relative error {:.2e}  ({})",
         fb.force_mean * 1e3,
         fb.predicted * 1e3,
@@ -163,7 +163,8 @@ fn print_report(file: &Path, r: &ValidateReport) {
         } else {
             "VIOLATED: internal inconsistency"
         }
-    );
+    )?;
+    Ok(())
 }
 
 #[cfg(test)]

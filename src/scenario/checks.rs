@@ -86,9 +86,30 @@ pub const UPPER_BOUNDS: &[(&str, f64, &str)] = &[
         1e7,
         "more than 1e7 samples per second of simulated time",
     ),
+    (
+        "solver.event_tol",
+        MAX_EVENT_TOL,
+        "coarser event location changes the answer (contacts lost that are not, \
+         tests/sweep/tiny.toml's amplification 2.12 instead of 9.57 at 1e-3 s)",
+    ),
 ];
 
-/// Lower bounds of positive scenario values, by dotted key: below them the relations of the
+/// Largest `solver.event_tol` (s). Measured on the bundled scenarios and the sweep tests: every
+/// contact-loss count, and every pull-off but that of the chaotic light-protocol-300hz (13.3 to
+/// 14.4 at any tolerance), is the same from 1e-12 s to 1e-5 s; from 3e-5 s spurious contact losses
+/// appear (light-protocol-300hz: 6 instead of 1; gentle-unload-300hz: 3 instead of 1), from
+/// 3e-4 s the pull-off moves by a factor of 4 (tiny: 2.29 instead of 9.57). A run with many
+/// impacts (scenarios/impacts.toml, 151) loses digits earlier, hence the warning above
+/// [`EVENT_TOL_WARN`].
+pub const MAX_EVENT_TOL: f64 = 1e-6;
+
+/// `solver.event_tol` (s) above which a scenario gets a warning: impacts.toml's mean-force
+/// amplification moves by 7e-6 (relative) at 1e-8 s, 1.7e-4 at 1e-7 s and 4e-3 at 1e-6 s
+/// against its value at the default 1e-12 s.
+pub const EVENT_TOL_WARN: f64 = 1e-9;
+
+/// Lower bounds of positive scenario values, by dotted key (0 stays allowed where a key may be
+/// 0: `sphere.mass = 0` is the quasi-static balance): below them the relations of the
 /// model underflow (`w0 = 2.4e-299` gives a jump-in radius of 1e-103 m, and the run never
 /// ended).
 pub const LOWER_BOUNDS: &[(&str, f64, &str)] = &[
@@ -103,6 +124,12 @@ pub const LOWER_BOUNDS: &[(&str, f64, &str)] = &[
         "adhesion.n",
         1e-3,
         "Gent-Schultz exponents lie well above 1e-3",
+    ),
+    (
+        "sphere.mass",
+        1e-20,
+        "lighter than a 20 nm sphere: its time scale 2 pi sqrt(m/k) falls below the rounding of \
+         the run's time, and the state overflows (0 = quasi-static force balance)",
     ),
 ];
 
@@ -130,6 +157,44 @@ pub fn lower_bound(key: &str) -> Option<(f64, &'static str)> {
         .iter()
         .find(|(k, _, _)| *k == key)
         .map(|&(_, min, why)| (min, why))
+}
+
+/// Why `v` (SI, finite) is outside the range of the scenario key `key` (`unit`: its SI unit, for
+/// the message), or `None` within it: the bounds of [`UPPER_BOUNDS`] and [`LOWER_BOUNDS`], and
+/// for `base.frequency` [[`MIN_FREQUENCY`], [`MAX_FREQUENCY`]]. The one range table, applied to
+/// a scenario's values by the parser and to the commands' flags that set the same quantity
+/// (`--modulus` is `material.K`, `--freq` is `base.frequency`, ...).
+pub fn key_range_error(key: &str, v: f64, unit: &str) -> Option<String> {
+    if generic_key(key) == "base.frequency" && !(MIN_FREQUENCY..=MAX_FREQUENCY).contains(&v) {
+        return Some(format!(
+            "must lie in [{MIN_FREQUENCY:e}, {MAX_FREQUENCY:e}] ({unit}): a period longer than 1e6 \
+             s outlasts any run, one shorter than 1 us is below the time resolution of a long run"
+        ));
+    }
+    if let Some((max, why)) = upper_bound(key) {
+        if v > max {
+            return Some(format!("must not exceed {max:e} ({unit}): {why}"));
+        }
+    }
+    if let Some((min, why)) = lower_bound(key) {
+        // 0 is the caller's to allow or refuse (allowed for the keys >= 0).
+        if v != 0.0 && v < min {
+            return Some(format!("must be at least {min:e} ({unit}): {why}"));
+        }
+    }
+    None
+}
+
+/// Why a contact radius given to `djkr cycle` or `djkr pulloff` (`a`, m: a_A, or a_m + a_A) is
+/// out of range on a sphere of radius `r`, or `None`: a contact wider than the sphere is not a
+/// contact of it (JKR's own range, a << R, is warned about from [`SMALL_CONTACT_LIMIT`] R).
+pub fn contact_radius_error(a: f64, r: f64) -> Option<String> {
+    (a > r).then(|| {
+        format!(
+            "the contact radius would exceed the sphere's radius R = {r:e} m (a contact wider than \
+             the sphere; JKR assumes a << R, warned above {SMALL_CONTACT_LIMIT} R)"
+        )
+    })
 }
 
 /// The warning for a contact radius `a` on a sphere of radius `r` beyond
@@ -227,6 +292,14 @@ pub fn scenario_warnings(s: &Scenario) -> Vec<String> {
         if let Some(w) = static_radius(m, p).and_then(|a| small_contact_warning(&what, a, m.r)) {
             out.push(w);
         }
+    }
+    if s.solver.event_tol > EVENT_TOL_WARN {
+        out.push(format!(
+            "solver.event_tol = {:e} s is above {EVENT_TOL_WARN:e} s: events are located \
+             coarsely, and a run with many impacts loses digits (scenarios/impacts.toml: 2e-4 \
+             relative at 1e-7 s, 4e-3 at 1e-6 s)",
+            s.solver.event_tol
+        ));
     }
     out
 }

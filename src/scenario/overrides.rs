@@ -47,7 +47,7 @@ use super::parse::{
 
 /// A malformed override, or one naming a key no scenario file takes.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("--set {set}: {message}")]
+#[error("--set {}: {message}", crate::text::excerpt(.set))]
 pub struct OverrideError {
     /// The override as given (`KEY=VALUE`, or what was given instead).
     pub set: String,

@@ -28,7 +28,7 @@
 //! | `[contact]` | `formation` = `"jump-in"` (default) or `"seed"` with `seed_radius` (m, 0 < r ≤ jump-in radius) |
 //! | `[initial]` | `preload` (N, > 0) or `gap` (m, > 0); absent without a spring: the sphere's weight |
 //! | `[[stage]]` (≥ 1) | `kind`, `speed` (m/s), one of `duration` (s) / `preload` (N) / `until = "pull-off"`, `vibration` (bool), `max_duration` (s, 1e4) |
-//! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `max_memory` (bytes, ≥ 1 MiB, 2 GiB), `event_tol` (s, > 0) |
+//! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `max_memory` (bytes, ≥ 1 MiB, 2 GiB), `event_tol` (s, (0, 1e-6]; a warning above 1e-9) |
 //! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool), `plot` (bool) |
 
 use std::fmt::Display;
@@ -52,6 +52,7 @@ use crate::error::ParamError;
 use crate::input::{self, InputError, InputKind};
 use crate::jkr;
 use crate::material::Material;
+use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// The scenario-file format version this parser reads.
@@ -94,7 +95,7 @@ pub enum ScenarioError {
         message: String,
     },
     /// A value of the wrong type or out of range.
-    #[error("{file}: {key} = {value}: {allowed}")]
+    #[error("{file}: {} = {}: {allowed}", excerpt(.key), excerpt(.value))]
     Value {
         /// The file.
         file: String,
@@ -106,7 +107,7 @@ pub enum ScenarioError {
         allowed: String,
     },
     /// A key or section that is missing, unknown, or in conflict with another.
-    #[error("{file}: {key}: {message}")]
+    #[error("{file}: {}: {message}", excerpt(.key))]
     Key {
         /// The file.
         file: String,
@@ -127,7 +128,7 @@ pub enum ScenarioError {
     /// A `--set KEY=VALUE` override that does not fit the file (a stage it does not have), or
     /// whose value the file's rules reject: named by the override rather than by the file's key
     /// and value.
-    #[error("--set {set}: {message}")]
+    #[error("--set {}: {message}", excerpt(.set))]
     Override {
         /// The file the override was applied to.
         file: String,
@@ -451,7 +452,7 @@ const MASS: Quantity = q(Some(Dimension::Mass), "kg");
 const FORCE: Quantity = q(Some(Dimension::Force), "N");
 const STIFFNESS: Quantity = q(Some(Dimension::Stiffness), "N/m");
 const DAMPING: Quantity = q(Some(Dimension::Damping), "N s/m");
-const ACCELERATION: Quantity = q(None, "m/s^2");
+const ACCELERATION: Quantity = q(Some(Dimension::Acceleration), "m/s^2");
 const DIMENSIONLESS: Quantity = q(None, "dimensionless");
 const ANGLE: Quantity = q(Some(Dimension::Angle), "rad");
 const RATE: Quantity = q(Some(Dimension::Frequency), "samples per second");
@@ -688,25 +689,11 @@ impl Parser<'_> {
     /// The value, or an error when it exceeds the largest value the model carries for this key
     /// ([`checks::upper_bound`]).
     fn bounded(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if let Some((max, why)) = checks::upper_bound(&s.key(k)) {
-            if n.v > max {
-                return Err(self.value_err(
-                    &s.key(k),
-                    &n.shown,
-                    format!("must not exceed {max:e} ({unit}): {why}"),
-                ));
-            }
+        match checks::key_range_error(&s.key(k), n.v, unit) {
+            // base.frequency's range is checked (with its own message) by `base`.
+            Some(e) if s.key(k) != "base.frequency" => Err(self.value_err(&s.key(k), &n.shown, e)),
+            _ => Ok(n.v),
         }
-        if let Some((min, why)) = checks::lower_bound(&s.key(k)) {
-            if n.v < min {
-                return Err(self.value_err(
-                    &s.key(k),
-                    &n.shown,
-                    format!("must be at least {min:e} ({unit}): {why}"),
-                ));
-            }
-        }
-        Ok(n.v)
     }
 
     fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
@@ -731,7 +718,17 @@ impl Parser<'_> {
     }
 
     fn non_negative(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if n.v.is_finite() && n.v >= 0.0 {
+        if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
+            // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
+            Err(self.value_err(
+                &s.key(k),
+                &n.shown,
+                format!(
+                    "is subnormal (below {:e}): must be 0 or a normal finite number > 0 ({unit})",
+                    f64::MIN_POSITIVE
+                ),
+            ))
+        } else if n.v.is_finite() && n.v >= 0.0 {
             self.bounded(s, k, n, unit)
         } else {
             Err(self.value_err(

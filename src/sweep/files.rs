@@ -112,7 +112,7 @@ impl Shard {
     /// Parse `K/N` (1 ≤ K ≤ N).
     pub fn parse(text: &str) -> Result<Shard, String> {
         let bad = || {
-            format!("--shard {text}: expected K/N with 1 <= K <= N, e.g. 3/10 (or 'slurm' in a Slurm array job)")
+            format!("--shard {shown_text}: expected K/N with 1 <= K <= N, e.g. 3/10 (or 'slurm' in a Slurm array job)", shown_text = crate::text::excerpt(text))
         };
         let (k, n) = text.trim().split_once('/').ok_or_else(bad)?;
         let (k, n) = (

@@ -52,6 +52,71 @@ pub fn default_shards(runs: usize) -> usize {
     runs.div_ceil(64).clamp(1, 1000)
 }
 
+/// Check `--slurm-partition`: one partition name or a comma-separated list of them (sbatch
+/// accepts a list and takes the first that can start the job), each of letters, digits, `_`,
+/// `-` and `.`. Anything else (whitespace, a newline, quotes, shell metacharacters) is refused:
+/// the value is written into an `#SBATCH` line, where a newline would start a command.
+pub fn check_partition(text: &str) -> Result<(), String> {
+    let name_ok = |n: &str| {
+        !n.is_empty()
+            && n.len() <= 64
+            && n.chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'))
+    };
+    if !text.is_empty() && text.len() <= 1024 && text.split(',').all(name_ok) {
+        Ok(())
+    } else {
+        Err(
+            "must be a Slurm partition name, or a comma-separated list of them: letters, \
+             digits, '_', '-' and '.', at most 64 characters each"
+                .into(),
+        )
+    }
+}
+
+/// Check `--slurm-time` against the formats `sbatch --time` accepts: `MINUTES`, `MM:SS`,
+/// `HH:MM:SS`, `D-HH`, `D-HH:MM`, `D-HH:MM:SS` (each field a whole number of at most 8 digits),
+/// or `UNLIMITED` / `INFINITE` (any case). Anything else is refused, for the reason of
+/// [`check_partition`].
+pub fn check_time(text: &str) -> Result<(), String> {
+    let field = |f: &str| !f.is_empty() && f.len() <= 8 && f.bytes().all(|b| b.is_ascii_digit());
+    let clock = |t: &str, max_fields: usize| {
+        let parts: Vec<&str> = t.split(':').collect();
+        parts.len() <= max_fields && parts.iter().all(|p| field(p))
+    };
+    let ok = match text.split_once('-') {
+        Some((days, rest)) => field(days) && clock(rest, 3),
+        None => {
+            clock(text, 3)
+                || text.eq_ignore_ascii_case("unlimited")
+                || text.eq_ignore_ascii_case("infinite")
+        }
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(
+            "must be a Slurm time limit: MINUTES, MM:SS, HH:MM:SS, D-HH, D-HH:MM or \
+             D-HH:MM:SS (whole numbers), or UNLIMITED"
+                .into(),
+        )
+    }
+}
+
+/// Check a path or `KEY=SPEC` that goes into the script: no control characters (a newline
+/// would end the comment or `#SBATCH` line that quotes it and start a command).
+pub fn check_script_text(text: &str) -> Result<(), String> {
+    if text.chars().any(char::is_control) {
+        Err(
+            "holds a control character (a newline, a tab, ...): it cannot go into a Slurm \
+             script"
+                .into(),
+        )
+    } else {
+        Ok(())
+    }
+}
+
 impl SlurmScript {
     /// The sweep command of task `$K` (without the shard, threads and folder).
     fn sweep_command(&self) -> String {
@@ -173,5 +238,57 @@ mod tests {
         assert_eq!(default_shards(10), 1);
         assert_eq!(default_shards(640), 10);
         assert_eq!(default_shards(10_000_000), 1000);
+    }
+
+    #[test]
+    fn partition_and_time_follow_slurm_grammar() {
+        for p in ["batch", "gpu-a100", "long_q", "a.b", "short,long"] {
+            assert!(check_partition(p).is_ok(), "{p}");
+        }
+        for p in [
+            "",
+            "a b",
+            "batch\necho pwned",
+            "a;b",
+            "$(id)",
+            "`id`",
+            "a'b",
+            "a\"b",
+            ",",
+            "a,",
+        ] {
+            assert!(check_partition(p).is_err(), "{p:?}");
+        }
+        for t in [
+            "30",
+            "30:00",
+            "2:00:00",
+            "1-12",
+            "1-12:30",
+            "1-12:30:00",
+            "0",
+            "UNLIMITED",
+            "infinite",
+        ] {
+            assert!(check_time(t).is_ok(), "{t}");
+        }
+        for t in [
+            "",
+            "1:00:00\necho pwned",
+            "1h",
+            "1:2:3:4",
+            "1-",
+            "-1",
+            "1-2-3",
+            "1-1:2:3:4",
+            " 30",
+            "30 ",
+            "1.5",
+            "999999999",
+        ] {
+            assert!(check_time(t).is_err(), "{t:?}");
+        }
+        assert!(check_script_text("/scratch/sweep one").is_ok());
+        assert!(check_script_text("/scratch/x\necho pwned").is_err());
     }
 }

@@ -26,7 +26,7 @@ pub const MAX_SPEC_VALUES: usize = 1_000_000;
 
 /// A SPEC that cannot be read, or a key that no file takes: `--set KEY=SPEC: what is wrong`.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("--set {set}: {message}")]
+#[error("--set {}: {message}", crate::text::excerpt(.set))]
 pub struct SpecError {
     /// `KEY=SPEC` as given.
     pub set: String,
@@ -73,7 +73,7 @@ pub fn key_kind(key: &SetKey) -> Option<KeyKind> {
         ("adhesion", "n") => bare("1"),
         ("adhesion", "law" | "file") => KeyKind::Text,
         ("sphere", "mass") => num(D::Mass, "kg"),
-        ("sphere", "gravity") => bare("m/s^2"),
+        ("sphere", "gravity") => num(D::Acceleration, "m/s^2"),
         ("spring", "stiffness") => num(D::Stiffness, "N/m"),
         ("spring", "rigid") => KeyKind::Text,
         ("damping", "c") => num(D::Damping, "N s/m"),
