@@ -904,3 +904,76 @@ fn run_sensitivity_reports_the_spread_and_prints_only_shared_digits() {
 fn read_summary(dir: &Path) -> Value {
     serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
 }
+
+/// Bytes of an HDF5 file that are not dataset storage: the file's size minus every dataset's
+/// stored bytes (contiguous size, or the sum of its chunks), read back with hdf5-pure. What is
+/// left is object headers, group indexes and the global heap collections of string attributes
+/// and string datasets.
+fn non_dataset_bytes(path: &Path) -> u64 {
+    let f = hdf5_pure::File::open(path).unwrap();
+    let mut names: Vec<String> = f.root().datasets().unwrap();
+    for g in f.root().groups().unwrap() {
+        let group = f.group(&g).unwrap();
+        names.extend(
+            group
+                .datasets()
+                .unwrap()
+                .into_iter()
+                .map(|d| format!("{g}/{d}")),
+        );
+    }
+    let stored: u64 = names
+        .iter()
+        .map(|n| {
+            let ds = f.dataset(n).unwrap();
+            match ds.layout().unwrap() {
+                hdf5_pure::Layout::Contiguous { size, .. }
+                | hdf5_pure::Layout::Compact { size } => size,
+                hdf5_pure::Layout::Chunked { .. } => {
+                    ds.chunks().unwrap().iter().map(|c| c.storage_size).sum()
+                }
+                other => panic!("{n}: unexpected layout {other:?}"),
+            }
+        })
+        .sum();
+    std::fs::metadata(path).unwrap().len() - stored
+}
+
+/// Descriptions are rows of /descriptions, not one attribute per dataset: hdf5-pure 0.47 puts
+/// every variable-length string attribute in a 4 KiB global-heap collection of its own. The 1 s
+/// run of docs/accuracy/hold-400hz-1s.toml had 448 265 bytes that were not dataset storage (of
+/// 1 131 913); with the descriptions in a table 257 441. What is left is one collection per
+/// `units` attribute (49 datasets: 200 704 bytes), which must stay a variable-length attribute
+/// for h5py to read it as str: so no dataset may carry any other string attribute.
+#[test]
+fn run_files_spend_no_heap_collection_on_descriptions() {
+    let out = tempfile::tempdir().unwrap();
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/accuracy/hold-400hz-1s.toml");
+    for compress in ["false", "true"] {
+        let od = out.path().join(compress);
+        let set = format!("output.compress={compress}");
+        ok(&[
+            "run",
+            s(&file),
+            "--set",
+            &set,
+            "--out",
+            od.to_str().unwrap(),
+        ]);
+        let h5 = od.join("run.h5");
+        let overhead = non_dataset_bytes(&h5);
+        assert!(
+            overhead <= 270_000,
+            "{compress}: {overhead} bytes are not dataset storage"
+        );
+        let f = hdf5_pure::File::open(&h5).unwrap();
+        let d = djkr::output::table::read_descriptions(&f).unwrap();
+        for (path, _) in h5_datasets(&h5) {
+            let ds = f.dataset(&path).unwrap();
+            let attrs = ds.attrs().unwrap();
+            let names: Vec<&String> = attrs.keys().collect();
+            assert_eq!(names, ["units"], "/{path}");
+            assert!(d.get(&format!("/{path}")).is_some(), "/{path} undescribed");
+        }
+    }
+}

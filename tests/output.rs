@@ -281,8 +281,29 @@ fn check_with_hdf5_pure(n: usize) {
         assert_eq!(bits(&got), bits(&expected_column(&samples, name)), "{name}");
         let attrs = ds.attrs().unwrap();
         assert_eq!(attrs["units"].as_str(), Some(unit), "{name}");
-        assert!(attrs["description"].as_str().is_some_and(|d| !d.is_empty()));
     }
+    // Every dataset and group has its row in /descriptions; a period record is defined, not
+    // named (it used to repeat its name: `a_cos` → 'a_cos').
+    let d = djkr::output::table::read_descriptions(&f).unwrap();
+    for name in f.root().datasets().unwrap() {
+        assert!(
+            d.get(&format!("/{name}")).is_some_and(|t| !t.is_empty()),
+            "{name}"
+        );
+    }
+    for g in f.root().groups().unwrap() {
+        assert!(d.get(&format!("/{g}")).is_some(), "/{g}");
+        for name in f.group(&g).unwrap().datasets().unwrap() {
+            let text = d.get(&format!("/{g}/{name}")).unwrap_or_default();
+            assert!(text.len() > name.len() + 10, "/{g}/{name}: {text:?}");
+        }
+    }
+    assert!(d.get("/cycles/a_cos").unwrap().contains("cos theta"));
+    let harmonics = f.root().attrs().unwrap()["harmonics"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert!(harmonics.contains("x_b = X_b sin theta"), "{harmonics}");
     let stage = f.dataset("stage").unwrap().read_i64().unwrap();
     let want: Vec<i64> = samples.iter().map(|s| s.stage as i64).collect();
     assert_eq!(stage, want);
@@ -490,7 +511,22 @@ fn check_with_h5py(n: usize) {
         dump["attrs"]["pull_off_amplification"]["f64_bits"].as_u64(),
         Some(res.pull_off.amplification.to_bits())
     );
-    assert_eq!(dump["groups"], serde_json::json!(["/cycles", "/events"]));
+    assert_eq!(
+        dump["groups"],
+        serde_json::json!(["/cycles", "/descriptions", "/events"])
+    );
+    // Every `units` attribute reads as str (h5py gives bytes for a fixed-length string), and
+    // every dataset is described in /descriptions (h5py needs `.asstr()` on string datasets).
+    let described: Vec<&str> = ds["/descriptions/path"]["str"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap())
+        .collect();
+    for (path, d) in ds.as_object().unwrap() {
+        assert!(d["attrs"]["units"]["str"].is_string(), "{path}: {d:?}");
+        assert!(described.contains(&path.as_str()), "{path} not described");
+    }
     assert_eq!(
         json_bits(&ds["/cycles/a_sin"]["f64_bits"]),
         bits(&cycles().iter().map(|c| c.a_sin).collect::<Vec<_>>())
