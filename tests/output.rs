@@ -135,6 +135,8 @@ fn result(events: Vec<Event>, final_state: Sample) -> RunResult {
         last_cycle: Some(cycle(2)),
         max_contact_radius: final_state.a,
         envelope: Default::default(),
+        detachment_time: 13.579_246_8,
+        approach_roughness: 2.5e-6,
     }
 }
 
