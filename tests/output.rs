@@ -678,10 +678,18 @@ fn summary_json_has_the_headline_numbers_and_units() {
         ("force", res.pull_off.force),
         ("amplification", res.pull_off.amplification),
         ("time", res.pull_off.time),
+        ("approach_roughness", res.approach_roughness),
     ] {
         let got = exact_number(&text, "\"pull_off\":", key);
         assert_eq!(got.to_bits(), want.to_bits(), "pull_off.{key}");
     }
+    // The force minimum and the final contact loss are two keys, each with its unit.
+    assert_eq!(
+        exact_number(&text, "\"detachment\":", "time").to_bits(),
+        res.detachment_time.to_bits()
+    );
+    assert_eq!(j["units"]["detachment.time"], "s");
+    assert_eq!(j["units"]["pull_off.time"], "s");
     assert_eq!(j["stats"]["steps"], 123_456);
     assert_eq!(j["stats"]["rejected"], 789);
     assert_eq!(j["stats"]["rhs_evals"], 987_654);
@@ -752,12 +760,15 @@ fn non_finite_numbers_are_omitted_from_json_and_listed() {
     res.pull_off.force = f64::NAN;
     res.pull_off.amplification = f64::NAN;
     res.pull_off.time = f64::INFINITY;
+    res.approach_roughness = f64::NAN;
     res.final_state.force = f64::NEG_INFINITY;
     w.finish(&res).unwrap();
     let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
     assert!(!text.contains("null"), "{text}");
     let j: Value = serde_json::from_str(&text).unwrap();
     assert_eq!(j["pull_off"], serde_json::json!({}));
+    // Not detached: no detachment time, and no NaN listed for it.
+    assert_eq!(j["detachment"], serde_json::json!({}));
     assert!(j["final_state"].get("F").is_none());
     assert!(j["final_state"].get("x_s").is_some());
     assert!(j["events"][0]["state"].get("G").is_none());
