@@ -6,7 +6,7 @@
 //! bit-exactly by h5py and by h5dump (tests/output.rs checks with both when they are installed).
 //! It is young and has one maintainer; the file layout below uses only its well-trodden parts
 //! (1-D f64/i64 datasets, contiguous or chunked, optionally with shuffle + deflate, appends to
-//! chunked datasets, variable-length string attributes and one variable-length string dataset).
+//! chunked datasets, variable-length string attributes and variable-length string datasets).
 //! Every group of datasets is a [`super::table::Table`] written by
 //! [`super::table::Table::write_hdf5_with`], the writer of every djkr table.
 //!
@@ -54,8 +54,10 @@ use super::OutputError;
 use crate::dynamics::types::RunResult;
 use crate::scenario::Scenario;
 
-/// Version of the layout above, stored as the root attribute `layout_version`.
-pub const LAYOUT_VERSION: i64 = 1;
+/// Version of the layout above, stored as the root attribute `layout_version`. 2: the
+/// descriptions moved from a `description` attribute per dataset and group to the table
+/// `/descriptions`, and the root attribute `harmonics` was added.
+pub const LAYOUT_VERSION: i64 = 2;
 
 /// Elements per chunk of the extendable event and cycle datasets of a streamed file (the time
 /// series uses [`HDF5_CHUNK`]).
