@@ -136,6 +136,8 @@ fn result(events: Vec<Event>, final_state: Sample) -> RunResult {
         last_cycle: Some(cycle(2)),
         max_contact_radius: final_state.a,
         envelope: Default::default(),
+        detachment_time: 13.579_246_8,
+        approach_roughness: 2.5e-6,
     }
 }
 
@@ -282,8 +284,29 @@ fn check_with_hdf5_pure(n: usize) {
         assert_eq!(bits(&got), bits(&expected_column(&samples, name)), "{name}");
         let attrs = ds.attrs().unwrap();
         assert_eq!(attrs["units"].as_str(), Some(unit), "{name}");
-        assert!(attrs["description"].as_str().is_some_and(|d| !d.is_empty()));
     }
+    // Every dataset and group has its row in /descriptions; a period record is defined, not
+    // named (it used to repeat its name: `a_cos` → 'a_cos').
+    let d = djkr::output::table::read_descriptions(&f).unwrap();
+    for name in f.root().datasets().unwrap() {
+        assert!(
+            d.get(&format!("/{name}")).is_some_and(|t| !t.is_empty()),
+            "{name}"
+        );
+    }
+    for g in f.root().groups().unwrap() {
+        assert!(d.get(&format!("/{g}")).is_some(), "/{g}");
+        for name in f.group(&g).unwrap().datasets().unwrap() {
+            let text = d.get(&format!("/{g}/{name}")).unwrap_or_default();
+            assert!(text.len() > name.len() + 10, "/{g}/{name}: {text:?}");
+        }
+    }
+    assert!(d.get("/cycles/a_cos").unwrap().contains("cos theta"));
+    let harmonics = f.root().attrs().unwrap()["harmonics"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    assert!(harmonics.contains("x_b = X_b sin theta"), "{harmonics}");
     let stage = f.dataset("stage").unwrap().read_i64().unwrap();
     let want: Vec<i64> = samples.iter().map(|s| s.stage as i64).collect();
     assert_eq!(stage, want);
@@ -491,7 +514,22 @@ fn check_with_h5py(n: usize) {
         dump["attrs"]["pull_off_amplification"]["f64_bits"].as_u64(),
         Some(res.pull_off.amplification.to_bits())
     );
-    assert_eq!(dump["groups"], serde_json::json!(["/cycles", "/events"]));
+    assert_eq!(
+        dump["groups"],
+        serde_json::json!(["/cycles", "/descriptions", "/events"])
+    );
+    // Every `units` attribute reads as str (h5py gives bytes for a fixed-length string), and
+    // every dataset is described in /descriptions (h5py needs `.asstr()` on string datasets).
+    let described: Vec<&str> = ds["/descriptions/path"]["str"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| p.as_str().unwrap())
+        .collect();
+    for (path, d) in ds.as_object().unwrap() {
+        assert!(d["attrs"]["units"]["str"].is_string(), "{path}: {d:?}");
+        assert!(described.contains(&path.as_str()), "{path} not described");
+    }
     assert_eq!(
         json_bits(&ds["/cycles/a_sin"]["f64_bits"]),
         bits(&cycles().iter().map(|c| c.a_sin).collect::<Vec<_>>())
@@ -641,10 +679,18 @@ fn summary_json_has_the_headline_numbers_and_units() {
         ("force", res.pull_off.force),
         ("amplification", res.pull_off.amplification),
         ("time", res.pull_off.time),
+        ("approach_roughness", res.approach_roughness),
     ] {
         let got = exact_number(&text, "\"pull_off\":", key);
         assert_eq!(got.to_bits(), want.to_bits(), "pull_off.{key}");
     }
+    // The force minimum and the final contact loss are two keys, each with its unit.
+    assert_eq!(
+        exact_number(&text, "\"detachment\":", "time").to_bits(),
+        res.detachment_time.to_bits()
+    );
+    assert_eq!(j["units"]["detachment.time"], "s");
+    assert_eq!(j["units"]["pull_off.time"], "s");
     assert_eq!(j["stats"]["steps"], 123_456);
     assert_eq!(j["stats"]["rejected"], 789);
     assert_eq!(j["stats"]["rhs_evals"], 987_654);
@@ -715,12 +761,15 @@ fn non_finite_numbers_are_omitted_from_json_and_listed() {
     res.pull_off.force = f64::NAN;
     res.pull_off.amplification = f64::NAN;
     res.pull_off.time = f64::INFINITY;
+    res.approach_roughness = f64::NAN;
     res.final_state.force = f64::NEG_INFINITY;
     w.finish(&res).unwrap();
     let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
     assert!(!text.contains("null"), "{text}");
     let j: Value = serde_json::from_str(&text).unwrap();
     assert_eq!(j["pull_off"], serde_json::json!({}));
+    // Not detached: no detachment time, and no NaN listed for it.
+    assert_eq!(j["detachment"], serde_json::json!({}));
     assert!(j["final_state"].get("F").is_none());
     assert!(j["final_state"].get("x_s").is_some());
     assert!(j["events"][0]["state"].get("G").is_none());

@@ -63,6 +63,13 @@ enum Command {
     /// or "failed"), "reason" and "message" in summary.json. Exit status: 0 ok, 1 the run
     /// failed, 2 bad input (or files that cannot be written), 3 stopped by a budget or SIGTERM,
     /// 130 Ctrl-C (docs/guide/unattended.md).
+    ///
+    /// Two times: summary.json "pull_off.time" is when the pull-off force (the most tensile
+    /// cycle-averaged force under vibration) was reached; "detachment.time" is when the contact
+    /// was lost for good (later). run.h5's cycles/ hold per-period means and first harmonics:
+    /// over the base period from t_start, s(t) ~ s_mean + s_sin sin theta + s_cos cos theta with
+    /// theta = omega (t - t_on), x_b = X_b sin theta (root attribute "harmonics"); every
+    /// dataset is defined in descriptions/ (docs/guide/output.md).
     Run(run::RunArgs),
     /// Validate scenario files without running them.
     Check(run::CheckArgs),

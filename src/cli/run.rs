@@ -391,7 +391,7 @@ fn print_summary(
         None => 7,
     };
     print_pull_off(scn, r, digits)?;
-    print_sensitivity(sens, vibrating && r.detached)?;
+    print_sensitivity(sens, (vibrating && r.detached).then_some(r))?;
     print_run_stats(r)?;
     for w in warnings {
         summary_line!("  warning            {w}");
@@ -438,8 +438,13 @@ fn print_pull_off(
 }
 
 /// What `--sensitivity` measured; without it, for a pull-off under vibration
-/// (`vibrating_pull_off`), a pointer to it.
-fn print_sensitivity(sens: Option<&Sensitivity>, vibrating_pull_off: bool) -> anyhow::Result<()> {
+/// (`vibrating_pull_off`), what the roughness of its approach suggests and how to check it: the
+/// chaos note only where the cycle means fluctuated before the pull-off
+/// ([`djkr::dynamics::ApproachRoughness`]).
+fn print_sensitivity(
+    sens: Option<&Sensitivity>,
+    vibrating_pull_off: Option<&RunResult>,
+) -> anyhow::Result<()> {
     match sens {
         Some(s) if s.sensitive => {
             summary_line!(
@@ -469,14 +474,27 @@ fn print_sensitivity(sens: Option<&Sensitivity>, vibrating_pull_off: bool) -> an
                 s.force_spread
             );
         }
-        None if vibrating_pull_off => {
-            summary_line!(
-                "  note               under vibration the approach to pull-off can be chaotic \
-                 (tiny input changes move it by percent): --sensitivity measures how many \
+        None => match vibrating_pull_off {
+            Some(r) if r.pull_off_likely_sensitive() => summary_line!(
+                "  note               the cycle means fluctuated by up to {:.1} % from period \
+                 to period before the pull-off (a smooth approach stays below {:.0e}): the \
+                 approach is likely chaotic and tiny input changes move the pull-off by percent; \
+                 --sensitivity measures how many digits hold",
+                100.0 * r.approach_roughness,
+                djkr::dynamics::ROUGH_APPROACH
+            ),
+            Some(r) if !r.approach_roughness.is_nan() => summary_line!(
+                "  check              smooth approach to the pull-off (cycle means rough to \
+                 {:.1e}, below {:.0e}): likely deterministic; --sensitivity measures it",
+                r.approach_roughness,
+                djkr::dynamics::ROUGH_APPROACH
+            ),
+            Some(_) => summary_line!(
+                "  check              pull-off under vibration: --sensitivity measures how many \
                  digits hold"
-            );
-        }
-        None => {}
+            ),
+            None => {}
+        },
     }
     Ok(())
 }

@@ -182,7 +182,9 @@ pub fn run_partial(plan: &Plan, obs: &mut dyn Observer) -> Result<Outcome, SimEr
         stopped: false,
         min_force: None,
         min_cycle: None,
+        roughness: ApproachRoughness::new(),
         shaker_at_detach: None,
+        detachment_time: None,
         pending_loss: None,
         detached: false,
         in_pulloff: false,
@@ -332,8 +334,12 @@ struct Protocol<'a> {
     min_force: Option<(f64, f64)>,
     /// Most tensile cycle-mean force (force, cycle end time).
     min_cycle: Option<(f64, f64)>,
+    /// How rough the cycle means were before `min_cycle`.
+    roughness: ApproachRoughness,
     /// Shaker state when detachment was declared.
     shaker_at_detach: Option<bool>,
+    /// Time of the final detachment (the pull-off event).
+    detachment_time: Option<f64>,
     /// Contact loss that may turn out to be the final detachment.
     pending_loss: Option<Event>,
     detached: bool,
@@ -402,8 +408,12 @@ impl Protocol<'_> {
     }
 
     fn record_cycle(&mut self, rec: CycleRecord) {
-        if !self.detached && self.min_cycle.is_none_or(|(f, _)| rec.force_mean < f) {
+        let new_min = !self.detached && self.min_cycle.is_none_or(|(f, _)| rec.force_mean < f);
+        if new_min {
             self.min_cycle = Some((rec.force_mean, rec.t_end));
+        }
+        if !self.detached {
+            self.roughness.record(&rec, new_min);
         }
         self.obs.cycle(&rec);
         self.cycle_count += 1;
@@ -531,6 +541,7 @@ impl Protocol<'_> {
             // The pull-off summary describes the pull-off stage.
             self.min_force = None;
             self.min_cycle = None;
+            self.roughness.reset();
         }
         if let (Some(p), true) = (preload, y.contact) {
             if self.sim.force_of(&y) >= p {
@@ -651,6 +662,7 @@ impl Protocol<'_> {
         };
         self.log(e);
         self.detached = true;
+        self.detachment_time = Some(e.time);
         self.shaker_at_detach = Some(self.sim.drive().shaker);
         self.pending_loss = None;
         true
@@ -692,6 +704,12 @@ impl Protocol<'_> {
             self.min_force.or(self.min_cycle)
         };
         let (force, time) = pick.unwrap_or((0.0, 0.0));
+        // The roughness describes the approach to the most tensile cycle mean: only when that
+        // is the pull-off force.
+        let approach_roughness = match pick {
+            Some(p) if vibrating && Some(p) == self.min_cycle => self.roughness.value(),
+            _ => f64::NAN,
+        };
         let y = *self.sim.state();
         let final_state = self.sim.sample_of(&y, self.stage);
         let stepper = self.sim.stepper();
@@ -739,6 +757,8 @@ impl Protocol<'_> {
                 .as_ref()
                 .map(|e| e.stats())
                 .unwrap_or_default(),
+            detachment_time: self.detachment_time.unwrap_or(f64::NAN),
+            approach_roughness,
         }
     }
 }

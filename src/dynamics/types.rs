@@ -118,6 +118,99 @@ pub struct RunResult {
     pub max_contact_radius: f64,
     /// What envelope following did.
     pub envelope: crate::dynamics::envelope::EnvelopeStats,
+    /// Time of the final detachment (s): the contact loss after which the sphere never touched
+    /// again (the `pull-off` event); NaN without detachment. Later than `pull_off.time`, the
+    /// most tensile force, by the last periods of the unloading.
+    pub detachment_time: f64,
+    /// [`ApproachRoughness`] at the pull-off (NaN when not measured: no three consecutive
+    /// period records before the most tensile cycle mean).
+    pub approach_roughness: f64,
+}
+
+impl RunResult {
+    /// The pull-off happened under vibration and [`ApproachRoughness`] says its approach was
+    /// rough: the pull-off is likely sensitive to tiny input changes (check with `--sensitivity`).
+    pub fn pull_off_likely_sensitive(&self) -> bool {
+        self.detached && self.approach_roughness > ROUGH_APPROACH
+    }
+}
+
+/// Periods before the pull-off over which [`ApproachRoughness`] looks for fluctuating cycle means.
+pub const ROUGHNESS_PERIODS: usize = 16;
+
+/// Roughness of the approach above which a vibrating pull-off is reported as likely sensitive
+/// (chaotic). Measured (`djkr run`, default settings): the heavy rig of
+/// `scenarios/paper-protocol-300hz.toml`, deterministic to 4.5e-12 between twins, has 1.2e-6;
+/// the light rig of `tests/sweep/light-protocol-300hz.toml`, whose pull-off spreads by 3 % over
+/// an ensemble, has 0.27. The threshold sits near their geometric mean, a factor of ~500 from
+/// each.
+pub const ROUGH_APPROACH: f64 = 1e-3;
+
+/// A cheap indicator of a chaotic approach to pull-off, from what a run records anyway: the
+/// largest relative second difference of the cycle-mean force,
+/// |⟨F⟩ₖ₊₁ − 2⟨F⟩ₖ + ⟨F⟩ₖ₋₁| / |⟨F⟩ₖ|, over the [`ROUGHNESS_PERIODS`] periods before the most tensile
+/// cycle mean (the pull-off force). A period-1 orbit under the slow unloading ramp changes its
+/// means smoothly (second differences ~1e-6 of the force); once it loses stability the means
+/// fluctuate from period to period by a sizeable fraction of the force, and twins whose input
+/// differs by one ulp separate (`docs/studies/sensitivity.md`). Only consecutive periods count
+/// (envelope following leaves gaps between records).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ApproachRoughness {
+    /// The last two periods: (end time, cycle-mean force).
+    last: [Option<(f64, f64)>; 2],
+    /// Start time of the newest of them (consecutive periods share their end and start time
+    /// bit for bit: a period starts where the last ended).
+    last_start: f64,
+    /// Second differences centred on the recent periods (NaN where the three are not
+    /// consecutive), newest last.
+    window: std::collections::VecDeque<f64>,
+    /// The indicator at the most tensile cycle mean so far (NaN before the first).
+    at_min: f64,
+}
+
+impl ApproachRoughness {
+    /// No period yet.
+    pub fn new() -> Self {
+        Self {
+            at_min: f64::NAN,
+            ..Self::default()
+        }
+    }
+
+    /// Take the period `rec`; `new_min` says whether its mean is the most tensile so far (the
+    /// indicator is then taken over the periods before it).
+    pub fn record(&mut self, rec: &CycleRecord, new_min: bool) {
+        if new_min {
+            self.at_min = self.window.iter().copied().fold(f64::NAN, f64::max);
+        }
+        let r = match self.last {
+            [Some((t0, f0)), Some((t1, f1))]
+                if t0.to_bits() == self.last_start.to_bits()
+                    && t1.to_bits() == rec.t_start.to_bits() =>
+            {
+                (rec.force_mean - 2.0 * f1 + f0).abs() / f1.abs()
+            }
+            _ => f64::NAN,
+        };
+        if self.last[1].is_some() {
+            if self.window.len() == ROUGHNESS_PERIODS {
+                self.window.pop_front();
+            }
+            self.window.push_back(r);
+        }
+        self.last = [self.last[1], Some((rec.t_end, rec.force_mean))];
+        self.last_start = rec.t_start;
+    }
+
+    /// Forget the periods so far (a new pull-off stage starts its own summary).
+    pub fn reset(&mut self) {
+        *self = Self::new();
+    }
+
+    /// The indicator at the pull-off (NaN when no three consecutive periods preceded it).
+    pub fn value(&self) -> f64 {
+        self.at_min
+    }
 }
 
 /// Events kept in [`RunResult::events`].
@@ -609,4 +702,94 @@ fn describe(s: &Sample) -> String {
         "state: stage {}, x_s = {:e} m, v_s = {:e} m/s, delta = {:e} m, a = {:e} m, a_dot = {:e} m/s, F = {:e} N, G = {:e} J/m^2",
         s.stage, s.x_s, s.v_s, s.delta, s.a, s.a_dot, s.force, s.g
     )
+}
+
+#[cfg(test)]
+mod roughness_tests {
+    use super::*;
+
+    fn period(k: usize, force_mean: f64) -> CycleRecord {
+        let t = k as f64 * 0.01;
+        let mut r = CYCLE0;
+        r.index = k as u64;
+        r.t_start = t;
+        r.t_end = t + 0.01;
+        r.force_mean = force_mean;
+        r
+    }
+
+    const CYCLE0: CycleRecord = CycleRecord {
+        index: 0,
+        stage: 0,
+        t_start: 0.0,
+        t_end: 0.0,
+        force_mean: 0.0,
+        force_sin: 0.0,
+        force_cos: 0.0,
+        delta_mean: 0.0,
+        delta_sin: 0.0,
+        delta_cos: 0.0,
+        a_mean: 0.0,
+        a_sin: 0.0,
+        a_cos: 0.0,
+        x_s_mean: 0.0,
+        x_k_mean: 0.0,
+        spring_mean: 0.0,
+        spring_sin: 0.0,
+        spring_cos: 0.0,
+        work_base: 0.0,
+        work_holder: 0.0,
+        dissipation_damping: 0.0,
+        dissipation_adhesion: 0.0,
+        energy_start: 0.0,
+        energy_end: 0.0,
+    };
+
+    /// Feed `means` as consecutive periods, the minimum tracked as the protocol does.
+    fn roughness(means: &[f64], skip_after: Option<usize>) -> f64 {
+        let mut r = ApproachRoughness::new();
+        let mut min = f64::INFINITY;
+        for (k, &f) in means.iter().enumerate() {
+            // A gap (envelope jump) of 100 periods after `skip_after`.
+            let k = k + if skip_after.is_some_and(|s| k > s) {
+                100
+            } else {
+                0
+            };
+            r.record(&period(k, f), f < min);
+            min = min.min(f);
+        }
+        r.value()
+    }
+
+    #[test]
+    fn a_smooth_approach_is_smooth_and_a_fluctuating_one_rough() {
+        // A ramp with a slowly growing curvature: second differences ~1e-6 of the force.
+        let smooth: Vec<f64> = (0..40)
+            .map(|k| -0.1 - 1e-3 * k as f64 - 1e-7 * (k * k) as f64)
+            .collect();
+        let r = roughness(&smooth, None);
+        assert!(r > 0.0 && r < ROUGH_APPROACH, "{r}");
+        // Period-to-period fluctuations of a few % before the minimum.
+        let mut rough = smooth.clone();
+        rough[30] += 0.005;
+        rough[35] -= 0.003;
+        let r = roughness(&rough, None);
+        assert!(r > ROUGH_APPROACH, "{r}");
+        // After the minimum nothing counts: the means rise again while the contact comes apart.
+        let mut after = smooth.clone();
+        after.extend([-0.1, -0.05, 0.0, -0.02]);
+        assert_eq!(
+            roughness(&after, None).to_bits(),
+            roughness(&smooth, None).to_bits()
+        );
+        // Across a gap between records (an envelope jump, over which the means moved by a
+        // step) no second difference is taken.
+        let mut gap = smooth.clone();
+        gap[30..].iter_mut().for_each(|f| *f -= 0.01);
+        assert!(roughness(&gap, Some(29)) < ROUGH_APPROACH);
+        assert!(roughness(&gap, None) > ROUGH_APPROACH);
+        // Fewer than three consecutive periods: not measured.
+        assert!(roughness(&[-0.1, -0.2], None).is_nan());
+    }
 }

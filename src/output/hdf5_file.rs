@@ -6,7 +6,7 @@
 //! bit-exactly by h5py and by h5dump (tests/output.rs checks with both when they are installed).
 //! It is young and has one maintainer; the file layout below uses only its well-trodden parts
 //! (1-D f64/i64 datasets, contiguous or chunked, optionally with shuffle + deflate, appends to
-//! chunked datasets, variable-length string attributes and one variable-length string dataset).
+//! chunked datasets, variable-length string attributes and variable-length string datasets).
 //! Every group of datasets is a [`super::table::Table`] written by
 //! [`super::table::Table::write_hdf5_with`], the writer of every djkr table.
 //!
@@ -19,36 +19,45 @@
 //!
 //! ```text
 //! /                 attrs: layout_version (i64), djkr_version, run_id (as in summary.json),
-//!                          source, scenario (the file's text),
+//!                          source, scenario (the file's text), harmonics (the convention of
+//!                          the cycles' mean/sin/cos fields: `output::cycles::HARMONIC_CONVENTION`),
 //!                          method, detached (i64 0/1), pull_off_force (N),
 //!                          pull_off_amplification (1), pull_off_time (s),
 //!                          steps, rejected, rhs_evals (u64), wall_s (s)
-//! /t, /x_s, /v_s, /x_b, /x_k, /delta, /a, /a_dot, /F, /G, /w    f64[n]   attrs: units, description
-//! /stage                                                         i64[n]   attrs: units, description
+//! /t, /x_s, /v_s, /x_b, /x_k, /delta, /a, /a_dot, /F, /G, /w    f64[n]   attrs: units
+//! /stage                                                         i64[n]   attrs: units
 //! /events/kind      variable-length strings (impact, contact-loss, pull-off, ...)
 //! /events/time      f64[m] (s)     /events/stage   i64[m]
 //! /events/x_s ... /events/w        f64[m]: the state at each event (same names as above)
 //! /cycles           attrs: count; one dataset per CycleRecord field (index, stage: i64; the rest
-//!                   f64), attrs units, description (`output::cycles::CYCLE_FIELDS`); no datasets
-//!                   when the run recorded no cycle
+//!                   f64), attrs units (`output::cycles::CYCLE_FIELDS`); no datasets when the
+//!                   run recorded no cycle
+//! /descriptions/path, /descriptions/text   strings: the description of every dataset and group
+//!                   above, one row each (`/cycles/a_cos` → its definition), [`run_descriptions`]
 //! ```
 //!
 //! All strings are variable-length UTF-8 (`AttrValue::VarLenString`): fixed-length ones come back
-//! as `bytes` in h5py.
+//! as `bytes` in h5py. Descriptions are a table rather than attributes because hdf5-pure 0.47
+//! gives each variable-length string attribute a 4 KiB global-heap collection of its own: with a
+//! `description` next to every `units`, a 1 s run's file held 448 kB that were not dataset
+//! storage.
 
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use hdf5_pure::{AttrValue, File, FileAccessProperties, FileBuilder, SyncPolicy};
 
-use super::table::{text_attr as vstr, Storage, Table, HDF5_CHUNK};
-use super::timeseries::{events_table, TimeSeriesWriter, EVENT_KIND_DESCRIPTION};
+use super::cycles::{cycle_schema, HARMONIC_CONVENTION};
+use super::table::{text_attr as vstr, Descriptions, Storage, Table, HDF5_CHUNK};
+use super::timeseries::{events_table, TimeSeriesWriter};
 use super::OutputError;
 use crate::dynamics::types::RunResult;
 use crate::scenario::Scenario;
 
-/// Version of the layout above, stored as the root attribute `layout_version`.
-pub const LAYOUT_VERSION: i64 = 1;
+/// Version of the layout above, stored as the root attribute `layout_version`. 2: the
+/// descriptions moved from a `description` attribute per dataset and group to the table
+/// `/descriptions`, and the root attribute `harmonics` was added.
+pub const LAYOUT_VERSION: i64 = 2;
 
 /// Elements per chunk of the extendable event and cycle datasets of a streamed file (the time
 /// series uses [`HDF5_CHUNK`]).
@@ -66,7 +75,24 @@ fn start_attrs(scenario: &Scenario, run_id: &str) -> Vec<(&'static str, AttrValu
         ("run_id", vstr(run_id)),
         ("source", vstr(&scenario.source_name)),
         ("scenario", vstr(&scenario.source_text)),
+        ("harmonics", vstr(HARMONIC_CONVENTION)),
     ]
+}
+
+/// The descriptions of every dataset and group of a run file (the group `/descriptions`): those
+/// of the time series, the events and the period records, from their schemas, whether or not the
+/// run recorded a period (the streamed file knows them before the first period arrives).
+///
+/// A dataset added to the run file gets its row here: from its table's schema
+/// (`d.table("/group", &schema)`) or by hand (`d.add("/group/name", "text")`).
+pub fn run_descriptions() -> Descriptions {
+    let mut d = Descriptions::new();
+    d.table("/", &TimeSeriesWriter::new().table().schema())
+        .add("/events", EVENTS_DESCRIPTION)
+        .table("/events", &events_table(&[]).schema())
+        .add("/cycles", CYCLES_DESCRIPTION)
+        .table("/cycles", &cycle_schema());
+    d
 }
 
 /// Root attributes of the finished run.
@@ -137,16 +163,15 @@ pub fn write_hdf5(
     };
     tables.series.write_hdf5_with(&mut b, storage);
     let mut g = b.create_group("events");
-    g.set_attr("description", vstr(EVENTS_DESCRIPTION));
     tables.events.write_hdf5_with(&mut g, storage);
     b.add_group(g.finish());
     let mut g = b.create_group("cycles");
-    g.set_attr("description", vstr(CYCLES_DESCRIPTION));
     g.set_attr("count", AttrValue::I64(tables.cycles.rows() as i64));
     if !tables.cycles.is_empty() {
         tables.cycles.write_hdf5_with(&mut g, storage);
     }
     b.add_group(g.finish());
+    run_descriptions().write(&mut b);
     b.finish_to(w).map_err(|e| match e {
         hdf5_pure::Error::Io(io) => io,
         other => std::io::Error::other(format!("HDF5 writer: {other}")),
@@ -203,12 +228,11 @@ impl H5Stream {
             .table()
             .write_hdf5_with(&mut b, extendable(compress, HDF5_CHUNK));
         let mut g = b.create_group("events");
-        g.set_attr("description", vstr(EVENTS_DESCRIPTION));
         events_table(&[]).write_hdf5_with(&mut g, extendable(compress, RECORD_CHUNK));
         b.add_group(g.finish());
-        let mut g = b.create_group("cycles");
-        g.set_attr("description", vstr(CYCLES_DESCRIPTION));
+        let g = b.create_group("cycles");
         b.add_group(g.finish());
+        run_descriptions().write(&mut b);
         b.finish_to(&mut handle).map_err(err)?;
         drop(handle);
         let file = File::open_rw_with_options(
@@ -286,7 +310,6 @@ impl H5Stream {
             .create_dataset("kind", |d| {
                 d.with_vlen_strings(kinds);
                 d.set_attr("units", vstr(""));
-                d.set_attr("description", vstr(EVENT_KIND_DESCRIPTION));
             })
             .map_err(err)?;
         let root = self.file.root();

@@ -12,7 +12,8 @@
 //!   "message": "wall-clock budget of solver.max_wall_s = 45 s exhausted at t = ... (the run got to t = 3.2e0 s in stage 1)",
 //!   "method": "dopri5 (auto: ...)",
 //!   "detached": true,
-//!   "pull_off": {"amplification": 1.7, "force": -0.098, "time": 12.3},
+//!   "pull_off": {"amplification": 1.7, "approach_roughness": 1.2e-6, "force": -0.098, "time": 12.3},
+//!   "detachment": {"time": 13.1},
 //!   "stats": {"rejected": 12, "rhs_evals": 7000, "steps": 1000, "wall_s": 0.4},
 //!   "samples": 1000,
 //!   "envelope": {"jumps": 12, "periods_skipped": 3400, "trial_periods": 40, "rejected": 2,
@@ -42,6 +43,17 @@
 //! has no `null`: see the non-finite rule below). A stopped
 //! or failed run's numbers (`final_state`, `pull_off`, `cycles`, `events`, ...) and files
 //! describe the run up to where it ended.
+//!
+//! `pull_off.force` is the pull-off force: under vibration the most tensile cycle-averaged
+//! contact force of the pull-off stage, otherwise the most tensile contact force;
+//! `pull_off.time` is when it was reached (the end of that period). `detachment.time` is when
+//! the contact was lost for good (the `pull-off` event: the last contact loss, after which the
+//! sphere never touched again), later than `pull_off.time` (on the paper protocol at 300 Hz
+//! 21.59 s against 20.83 s); absent without detachment. `pull_off.approach_roughness` is the
+//! largest relative second difference of the cycle-mean force over the 16 periods before the
+//! pull-off (`dynamics::ApproachRoughness`): above 1e-3 the approach fluctuated and the pull-off
+//! is likely sensitive to tiny input changes (`djkr run --sensitivity` measures it); absent
+//! when not measured (no vibration, or no three consecutive periods before the pull-off).
 //!
 //! `warnings` lists what leaves the model's range ([`checks::result_warnings`]: a contact
 //! beyond 0.2 R, no pull-off recorded; always present, empty without).
@@ -179,6 +191,8 @@ pub fn units() -> BTreeMap<String, String> {
         ("pull_off.force", "N"),
         ("pull_off.amplification", "1"),
         ("pull_off.time", "s"),
+        ("pull_off.approach_roughness", "1"),
+        ("detachment.time", "s"),
         ("events.time", "s"),
         ("stats.wall_s", "s"),
         ("stats.steps", "1"),
@@ -203,6 +217,16 @@ pub fn summary_json(
 ) -> String {
     let mut b = Builder::default();
     let pull_off = b.pull_off(result);
+    // Absent (not NaN) without detachment: that is a run's outcome, not a number gone wrong.
+    let mut detachment = Map::new();
+    if result.detached {
+        b.put(
+            &mut detachment,
+            "detachment.",
+            "time",
+            result.detachment_time,
+        );
+    }
     let stats = b.stats(result);
     let final_state = b.state("final_state.", &result.final_state);
     let counts = event_counts(result);
@@ -219,6 +243,7 @@ pub fn summary_json(
         ("method", Value::from(result.method.as_str())),
         ("detached", Value::Bool(result.detached)),
         ("pull_off", Value::Object(pull_off)),
+        ("detachment", Value::Object(detachment)),
         ("stats", Value::Object(stats)),
         ("samples", Value::from(samples)),
         (
@@ -296,6 +321,15 @@ impl Builder {
             po.amplification,
         );
         self.put(&mut pull_off, "pull_off.", "time", po.time);
+        // Absent when not measured (no vibration at the pull-off): not a non-finite number.
+        if !result.approach_roughness.is_nan() {
+            self.put(
+                &mut pull_off,
+                "pull_off.",
+                "approach_roughness",
+                result.approach_roughness,
+            );
+        }
         pull_off
     }
 

@@ -19,8 +19,12 @@
 //!   header line alone.
 //!
 //! **HDF5** ([`Table::write_hdf5`]): one dataset per column in a group (or the root) of an
-//! `hdf5-pure` file, with variable-length UTF-8 string attributes `units` and `description`
-//! (fixed-length strings come back as `bytes` in h5py). Numeric columns are chunked by one rule,
+//! `hdf5-pure` file, with a variable-length UTF-8 string attribute `units` (fixed-length strings
+//! come back as `bytes` in h5py). The descriptions of every dataset and group of a file are rows
+//! of one table, the group `/descriptions` ([`Descriptions`]: datasets `path` and `text`), not
+//! attributes: hdf5-pure 0.47 gives each variable-length string attribute a global-heap
+//! collection of its own, 4 KiB at least, while a string dataset packs its strings into shared
+//! ones (with one `description` attribute per dataset a 1 s run file held ~200 kB of them). Numeric columns are chunked by one rule,
 //! [`HDF5_CHUNK`] elements (a shorter column is one chunk of its length), shuffled and deflated at
 //! [`DEFLATE_LEVEL`]; an empty numeric column is an empty dataset of its type; text columns are
 //! variable-length string datasets.
@@ -663,7 +667,6 @@ fn configure_dataset(ds: &mut DatasetBuilder, c: &Column, storage: Storage) {
         _ => write_fixed(ds, &c.data, storage.compress),
     }
     ds.set_attr("units", text_attr(&c.unit));
-    ds.set_attr("description", text_attr(&c.description));
 }
 
 fn extendable(ds: &mut DatasetBuilder, chunk: usize, compressed: bool) {
@@ -732,9 +735,108 @@ impl Hdf5Group for GroupBuilder {
     }
 }
 
+/// The descriptions of a file's datasets and groups, written as the group `/descriptions`: two
+/// variable-length string datasets of equal length, `path` (the object's absolute path:
+/// `/F`, `/cycles/a_cos`, `/events`) and `text` (what it is: unit, what is averaged or fitted,
+/// over which period). A dataset gets its row from its table's schema
+/// ([`Descriptions::table`]); a group or a dataset written by hand gets one from
+/// [`Descriptions::add`]. Rows follow the order they were added in; the table describes itself.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Descriptions {
+    rows: Vec<(String, String)>,
+}
+
+/// Name of the group holding a file's [`Descriptions`].
+pub const DESCRIPTIONS_GROUP: &str = "descriptions";
+
+impl Descriptions {
+    /// No rows yet.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Describe the object at `path` (absolute: `/events`, `/gaps/t_start`).
+    pub fn add(&mut self, path: &str, text: &str) -> &mut Self {
+        self.rows.push((path.to_string(), text.to_string()));
+        self
+    }
+
+    /// Describe the datasets a table of `schema` writes into the group at `group` (`/` for the
+    /// root, `/events`, ...), one row per column.
+    pub fn table(&mut self, group: &str, schema: &[Field]) -> &mut Self {
+        let prefix = group.trim_end_matches('/');
+        for f in schema {
+            self.add(&format!("{prefix}/{}", f.name), &f.description);
+        }
+        self
+    }
+
+    /// The description of `path`, if it has one.
+    pub fn get(&self, path: &str) -> Option<&str> {
+        self.rows
+            .iter()
+            .find(|(p, _)| p == path)
+            .map(|(_, t)| t.as_str())
+    }
+
+    /// The rows, with the table's own two rows appended, as a table of columns `path` and `text`.
+    pub fn to_table(&self) -> Table {
+        let g = format!("/{DESCRIPTIONS_GROUP}");
+        let mut rows = self.rows.clone();
+        rows.push((
+            g.clone(),
+            "the description of every dataset and group of this file, one per row".into(),
+        ));
+        rows.push((
+            format!("{g}/path"),
+            "absolute path of a dataset or group".into(),
+        ));
+        rows.push((format!("{g}/text"), "what the object at path holds".into()));
+        Table::from_fixed(vec![
+            Column::text(
+                "path",
+                "absolute path of a dataset or group",
+                rows.iter().map(|r| r.0.clone()).collect(),
+            ),
+            Column::text(
+                "text",
+                "what the object at path holds",
+                rows.iter().map(|r| r.1.clone()).collect(),
+            ),
+        ])
+    }
+
+    /// Write the group `/descriptions` into the file being built.
+    pub fn write(&self, b: &mut FileBuilder) {
+        let mut g = b.create_group(DESCRIPTIONS_GROUP);
+        self.to_table().write_hdf5(&mut g);
+        b.add_group(g.finish());
+    }
+}
+
+/// The [`Descriptions`] of a file written by djkr (read back, for tests and readers).
+pub fn read_descriptions(f: &hdf5_pure::File) -> Result<Descriptions, String> {
+    let read = |name: &str| {
+        f.dataset(&format!("{DESCRIPTIONS_GROUP}/{name}"))
+            .and_then(|d| d.read_string())
+            .map_err(|e| format!("/{DESCRIPTIONS_GROUP}/{name}: {e}"))
+    };
+    let (paths, texts) = (read("path")?, read("text")?);
+    if paths.len() != texts.len() {
+        return Err(format!(
+            "/{DESCRIPTIONS_GROUP}: {} paths but {} texts",
+            paths.len(),
+            texts.len()
+        ));
+    }
+    Ok(Descriptions {
+        rows: paths.into_iter().zip(texts).collect(),
+    })
+}
+
 /// An HDF5 file of tables: root attributes (`djkr_version` first), then one group per table
-/// (`name`, `description` attribute, one dataset per column). Returns the file's bytes, or
-/// hdf5-pure's message.
+/// (`name`, one dataset per column), and the [`Descriptions`] of the groups and their datasets.
+/// Returns the file's bytes, or hdf5-pure's message.
 pub fn hdf5_tables(
     root_attrs: &[(&str, AttrValue)],
     groups: &[(&str, &str, &Table)],
@@ -744,12 +846,17 @@ pub fn hdf5_tables(
     for (k, v) in root_attrs {
         b.set_attr(k, v.clone());
     }
+    let mut descriptions = Descriptions::new();
     for (name, description, table) in groups {
         let mut g = b.create_group(name);
-        g.set_attr("description", text_attr(description));
         table.write_hdf5(&mut g);
         b.add_group(g.finish());
+        let path = format!("/{name}");
+        descriptions
+            .add(&path, description)
+            .table(&path, &table.schema());
     }
+    descriptions.write(&mut b);
     b.finish().map_err(|e| e.to_string())
 }
 
@@ -1006,6 +1113,14 @@ mod tests {
         let f = hdf5_pure::File::from_bytes(bytes).unwrap();
         let ds = f.dataset("g/t").unwrap();
         assert_eq!(ds.attrs().unwrap()["units"].as_str(), Some("s"));
+        // Descriptions are rows of /descriptions, not attributes (one heap collection each).
+        assert!(!ds.attrs().unwrap().contains_key("description"));
+        let d = read_descriptions(&f).unwrap();
+        assert_eq!(d.get("/g/t"), Some("time"));
+        assert_eq!(d.get("/g/kind"), Some("what"));
+        assert_eq!(d.get("/g"), Some("group"));
+        assert_eq!(d.get("/big/x"), Some("long"));
+        assert!(d.get("/descriptions/text").is_some());
         assert_eq!(ds.read_f64().unwrap()[2].to_bits(), 0.5f64.to_bits());
         assert_eq!(
             f.dataset("g/kind").unwrap().read_string().unwrap()[1],

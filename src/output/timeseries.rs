@@ -44,7 +44,7 @@ const fn col(
 
 /// The f64 columns of the time series, in file order. The stage index ([`STAGE`]) follows them.
 pub const SERIES: [SeriesColumn; 11] = [
-    col("t", "s", "time", |s| s.t),
+    col("t", "s", "time from the start of the protocol (s)", |s| s.t),
     col("x_s", "m", "sphere position (down positive)", |s| s.x_s),
     col("v_s", "m/s", "sphere velocity (down positive)", |s| s.v_s),
     col("x_b", "m", "base displacement (up positive)", |s| s.x_b),
@@ -269,7 +269,7 @@ pub fn events_table(events: &[Event]) -> Table {
         Column::f64(
             "time",
             "s",
-            "event time",
+            "time at which the event occurred (s)",
             events.iter().map(|e| e.time).collect(),
         ),
         Column::i64(

@@ -32,7 +32,7 @@ use thiserror::Error;
 
 use crate::output::atomic::{sync_dir, write_atomic, AtomicFile};
 use crate::output::folder::{self, DirLock};
-use crate::output::table::text_attr;
+use crate::output::table::{text_attr, Descriptions};
 use crate::output::OutputError;
 use crate::plot::PlotError;
 
@@ -562,12 +562,17 @@ pub fn write_results(
     );
     table.write_hdf5(&mut b);
     let mut g = b.create_group("points");
-    g.set_attr(
-        "description",
-        text_attr("one row per point: the members' statistics (as points.csv)"),
-    );
     ptable.write_hdf5(&mut g);
     b.add_group(g.finish());
+    let mut descriptions = Descriptions::new();
+    descriptions
+        .table("/", &table.schema())
+        .add(
+            "/points",
+            "one row per point: the members' statistics (as points.csv)",
+        )
+        .table("/points", &ptable.schema());
+    descriptions.write(&mut b);
     let bytes = b.finish().map_err(|e| OutputError::Hdf5 {
         path: h5.clone(),
         message: e.to_string(),
