@@ -182,8 +182,10 @@ fn a_run_stopped_by_a_budget_publishes_what_it_computed() {
             .unwrap()
             .parse()
             .unwrap();
+        // A grid sample's time is computed on the grid (k / rate), the final state's by the
+        // integration: where the run stops right at a sample, they may differ by an ulp.
         assert!(
-            last_t > 0.0 && last_t <= t_end,
+            last_t > 0.0 && last_t <= t_end * (1.0 + 4.0 * f64::EPSILON),
             "{name}: {last_t} vs {t_end}"
         );
         assert_eq!(
