@@ -61,6 +61,12 @@ class Run:
     """Work of adhesion w(a_dot) (J/m^2)."""
     stage: npt.NDArray[np.int64]
     """Index of the protocol stage, from 0."""
+    segment: npt.NDArray[np.int64]
+    """Index of the gap-free stretch each sample belongs to: 0 from the start, +1 after each
+    gap (a span envelope following skipped). Never join samples of different segments."""
+    gaps: Dict[str, npt.NDArray[Any]]
+    """The gaps of the time series, the HDF5 ``gaps/`` group: ``t_start`` and ``t_end`` (s, the
+    samples either side) and ``periods`` (base periods skipped), one entry per gap."""
     cycles: Dict[str, npt.NDArray[Any]]
     """Per-period records: the datasets of the HDF5 ``cycles/`` group (``index``, ``stage``,
     ``t_start``, ``t_end``, ``force_mean``, ...)."""
@@ -73,7 +79,8 @@ class Run:
         """The content of ``summary.json`` (without ``out=``: ``files`` and ``file_bytes``
         empty)."""
     def to_pandas(self) -> Any:
-        """The time series as a ``pandas.DataFrame`` (needs pandas)."""
+        """The time series as a ``pandas.DataFrame``, columns ``t`` ... ``w``, ``stage``,
+        ``segment`` (needs pandas)."""
     def __len__(self) -> int: ...
 
 def run(

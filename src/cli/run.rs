@@ -90,6 +90,9 @@ impl Observer for Progress<'_> {
     fn cycle(&mut self, c: &dynamics::CycleRecord) {
         self.inner.cycle(c);
     }
+    fn gap(&mut self, g: &dynamics::types::Gap) {
+        self.inner.gap(g);
+    }
 }
 
 impl Progress<'_> {

@@ -58,7 +58,9 @@ use thiserror::Error;
 
 use crate::dynamics::model::Model;
 use crate::dynamics::simulator::StepSamples;
-use crate::dynamics::types::{CycleRecord, Ending, Event, EventKind, Observer, RunResult, Sample};
+use crate::dynamics::types::{
+    CycleRecord, Ending, Event, EventKind, Gap, Observer, RunResult, Sample,
+};
 use crate::scenario::Scenario;
 pub use atomic::{write_atomic, AtomicFile};
 use stream::{Background, Pending, Rows, Streaming};
@@ -76,6 +78,8 @@ pub const TIMESERIES_CSV_NAME: &str = "timeseries.csv";
 pub const EVENTS_CSV_NAME: &str = "events.csv";
 /// File name of the per-cycle CSV.
 pub const CYCLES_CSV_NAME: &str = "cycles.csv";
+/// File name of the gaps CSV (the HDF5 `/gaps` group).
+pub const GAPS_CSV_NAME: &str = "gaps.csv";
 /// The lock file a run writer holds in its output directory.
 pub const LOCK_NAME: &str = ".djkr.lock";
 
@@ -176,6 +180,8 @@ pub struct OutputPaths {
     pub events_csv: Option<PathBuf>,
     /// `DIR/cycles.csv`, when CSV was requested.
     pub cycles_csv: Option<PathBuf>,
+    /// `DIR/gaps.csv`, when CSV was requested.
+    pub gaps_csv: Option<PathBuf>,
     /// The text written into `summary.json`.
     pub summary_text: String,
 }
@@ -185,10 +191,15 @@ impl OutputPaths {
     pub fn all(&self) -> Vec<&Path> {
         let mut v: Vec<&Path> = vec![self.hdf5.as_path()];
         v.extend(
-            [&self.timeseries_csv, &self.events_csv, &self.cycles_csv]
-                .into_iter()
-                .flatten()
-                .map(PathBuf::as_path),
+            [
+                &self.timeseries_csv,
+                &self.events_csv,
+                &self.cycles_csv,
+                &self.gaps_csv,
+            ]
+            .into_iter()
+            .flatten()
+            .map(PathBuf::as_path),
         );
         v.push(self.summary.as_path());
         v
@@ -215,6 +226,8 @@ pub struct RunWriter {
     kinds: Vec<EventKind>,
     samples: u64,
     cycles: u64,
+    /// The gaps of the time series (24 bytes each, at most one per envelope jump).
+    gaps: Vec<Gap>,
     stream: Option<Background>,
     /// The run's model (a copy, and where it lives) until streaming starts and the writer
     /// thread takes it to build the samples.
@@ -252,6 +265,7 @@ impl RunWriter {
             kinds: Vec::new(),
             samples: 0,
             cycles: 0,
+            gaps: Vec::new(),
             stream: None,
             model: None,
             error: None,
@@ -327,13 +341,20 @@ impl RunWriter {
         Ok(())
     }
 
+    /// The segment index of the samples arriving now (the gaps seen so far).
+    fn segment(&self) -> i64 {
+        i64::try_from(self.gaps.len()).unwrap_or(i64::MAX)
+    }
+
     /// Buffer one built sample.
     fn push_sample(&mut self, s: &Sample) -> bool {
         self.samples += 1;
+        let segment = self.segment();
         if self.stream.is_some() {
-            self.rows.pending.push(Pending::One(*s));
+            self.rows.pending.push(Pending::One(*s, segment));
             self.rows.pending_samples += 1;
         } else {
+            self.rows.series.set_segment(segment);
             self.rows.series.push(s);
         }
         self.maybe_flush()
@@ -374,7 +395,8 @@ impl RunWriter {
                     .map(|k| timeseries::kind_name(*k))
                     .collect();
                 let kinds: Vec<&str> = kinds.iter().map(String::as_str).collect();
-                st.h5.finish(&kinds, self.cycles, result)?;
+                let gaps = timeseries::gaps_table(&self.gaps);
+                st.h5.finish(&kinds, self.cycles, &gaps, result)?;
                 staged.push(st.h5_file);
                 for (file, w) in st.csv {
                     let p = file.partial().to_path_buf();
@@ -387,6 +409,9 @@ impl RunWriter {
                     }
                     staged.push(file);
                 }
+                if self.options.csv {
+                    staged.push(self.stage_gaps_csv()?);
+                }
             }
         }
         let mut files = SummaryFiles {
@@ -397,6 +422,7 @@ impl RunWriter {
             files.timeseries_csv = Some(TIMESERIES_CSV_NAME.to_string());
             files.events_csv = Some(EVENTS_CSV_NAME.to_string());
             files.cycles_csv = Some(CYCLES_CSV_NAME.to_string());
+            files.gaps_csv = Some(GAPS_CSV_NAME.to_string());
         }
         for f in &staged {
             let p = f.partial();
@@ -414,7 +440,7 @@ impl RunWriter {
             self.samples,
             &files,
             &self.run_id,
-            &self.sections,
+            &gaps_section(&self.sections, self.gaps.len()),
         );
         // Last: its presence marks a complete run.
         staged.push(AtomicFile::write_tagged(
@@ -436,6 +462,7 @@ impl RunWriter {
             timeseries_csv: csv(TIMESERIES_CSV_NAME),
             events_csv: csv(EVENTS_CSV_NAME),
             cycles_csv: csv(CYCLES_CSV_NAME),
+            gaps_csv: csv(GAPS_CSV_NAME),
             summary_text: json,
         })
     }
@@ -447,13 +474,14 @@ impl RunWriter {
         staged: &mut Vec<AtomicFile>,
     ) -> Result<(), OutputError> {
         let target = self.target(HDF5_NAME);
+        let gaps = timeseries::gaps_table(&self.gaps);
         staged.push(AtomicFile::write_tagged(
             &target,
             &self.run_id,
             self.options.fsync,
             |w| {
                 hdf5_file::write_hdf5(
-                    self.rows.tables(),
+                    self.rows.tables(&gaps),
                     &self.scenario,
                     &self.run_id,
                     result,
@@ -463,7 +491,7 @@ impl RunWriter {
             },
         )?);
         if self.options.csv {
-            let t = self.rows.tables();
+            let t = self.rows.tables(&gaps);
             for (name, table) in CSV_NAMES.into_iter().zip([t.series, t.events, t.cycles]) {
                 staged.push(AtomicFile::write_tagged(
                     &self.target(name),
@@ -472,8 +500,20 @@ impl RunWriter {
                     |w| table.write_csv(w),
                 )?);
             }
+            staged.push(self.stage_gaps_csv()?);
         }
         Ok(())
+    }
+
+    /// `gaps.csv`, written whole (the gaps are few: at most one per envelope jump).
+    fn stage_gaps_csv(&self) -> Result<AtomicFile, OutputError> {
+        let gaps = timeseries::gaps_table(&self.gaps);
+        AtomicFile::write_tagged(
+            &self.target(GAPS_CSV_NAME),
+            &self.run_id,
+            self.options.fsync,
+            |w| gaps.write_csv(w),
+        )
     }
 
     /// Give up: remove this run's partial files (the same as dropping the writer).
@@ -485,10 +525,11 @@ impl Observer for RunWriter {
         self.push_sample(s)
     }
     fn step_samples(&mut self, model: &Model, step: &StepSamples) -> bool {
+        let segment = self.segment();
         if let Some(bg) = &self.stream {
             if bg.builds_with(model) {
                 self.samples += step.n as u64;
-                self.rows.pending.push(Pending::Step(*step));
+                self.rows.pending.push(Pending::Step(*step, segment));
                 self.rows.pending_samples += step.n;
                 return self.maybe_flush();
             }
@@ -507,6 +548,16 @@ impl Observer for RunWriter {
         self.cycles += 1;
         self.maybe_flush();
     }
+    fn gap(&mut self, g: &Gap) {
+        self.gaps.push(*g);
+    }
+}
+
+/// The summary sections `sections` with `gaps` (the number of gaps in the time series) first.
+pub fn gaps_section(sections: &summary::Sections, gaps: usize) -> Vec<(String, serde_json::Value)> {
+    let mut v = vec![("gaps".to_string(), serde_json::Value::from(gaps as u64))];
+    v.extend(sections.iter().cloned());
+    v
 }
 
 /// Take the directory's lock: `Ok(None)` when the file system cannot lock (the run goes on
@@ -536,7 +587,7 @@ fn remove_stale_partials(dir: &Path) {
     };
     let ours = |name: &str| {
         name.ends_with(".partial")
-            && [HDF5_NAME, SUMMARY_NAME]
+            && [HDF5_NAME, SUMMARY_NAME, GAPS_CSV_NAME]
                 .into_iter()
                 .chain(CSV_NAMES)
                 .any(|n| name.starts_with(&format!(".{n}.")))
