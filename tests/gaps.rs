@@ -330,3 +330,26 @@ fn a_run_without_gaps_has_segment_zero_and_an_empty_gaps_group() {
         .is_empty());
     assert_eq!(summary(dir.path())["gaps"], 0);
 }
+
+#[test]
+fn set_refuses_dense_with_a_clear_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.toml");
+    std::fs::write(
+        &file,
+        "version = 1\n[material]\nK = 1e6\nR = 0.01\nw0 = 0.1\n[sphere]\nmass = 0.001\n\
+         [spring]\nstiffness = 100\n[initial]\ngap = 1e-5\n[[stage]]\nkind = \"hold\"\n\
+         duration = 1\n",
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .arg("check")
+        .arg(&file)
+        .args(["--set", "output.dense=[[1,2]]"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("output.dense"), "{err}");
+    assert!(err.contains("cannot be given with --set"), "{err}");
+}

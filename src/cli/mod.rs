@@ -60,6 +60,15 @@ enum Command {
     /// or "failed"), "reason" and "message" in summary.json. Exit status: 0 ok, 1 the run
     /// failed, 2 bad input (or files that cannot be written), 3 stopped by a budget or SIGTERM,
     /// 130 Ctrl-C (docs/guide/unattended.md).
+    ///
+    /// Gaps: envelope following (solver.envelope = "auto") jumps over base periods where the
+    /// vibration drifts slowly, so the time series has gaps (no sample inside; 2 to thousands
+    /// of periods). run.h5 lists them in /gaps (t_start, t_end: the samples either side;
+    /// periods: periods skipped), /segment numbers the gap-free stretches (0, +1 after each
+    /// gap), summary.json "gaps" counts them, --csv writes gaps.csv. Never draw a line across
+    /// a gap: run.png breaks its lines there and shades the skipped spans. To record an
+    /// interval densely, list it in [output] dense = [[t0, t1], ...] (s); solver.envelope =
+    /// "off" gives no gap at all.
     Run(run::RunArgs),
     /// Validate scenario files without running them.
     Check(run::CheckArgs),

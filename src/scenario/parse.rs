@@ -1431,8 +1431,17 @@ impl Parser<'_> {
     fn dense(&self, key: &str, v: &Value) -> Result<Vec<[f64; 2]>> {
         const ALLOWED: &str =
             "must be a list of [t0, t1] windows in seconds with t0 < t1, e.g. [[2.0, 2.5], [10, 11]]";
-        let Value::Array(list) = v else {
-            return Err(self.value_err(key, show(v), ALLOWED));
+        let list = match v {
+            Value::Array(list) => list,
+            // `--set` hands its values over as text: a list cannot come that way.
+            Value::String(_) => {
+                return Err(self.value_err(
+                    key,
+                    show(v),
+                    format!("{ALLOWED}; a list cannot be given with --set: write it in the scenario file's [output]"),
+                ))
+            }
+            other => return Err(self.value_err(key, show(other), ALLOWED)),
         };
         if list.len() > MAX_DENSE_WINDOWS {
             return Err(self.value_err(
