@@ -37,9 +37,9 @@
 //! and the directory before the run counts as written (about 3.5 ms per file on the reference
 //! machine) for runs whose output must survive a power loss.
 //!
-//! File layouts: [`hdf5_file`] (HDF5), [`summary`] (JSON and its non-finite rule); the three CSV
+//! File layouts: [`hdf5_file`] (HDF5), [`summary`] (JSON and its non-finite rule); the four CSV
 //! files are the tables of the HDF5 file ([`timeseries`], [`timeseries::events_table`],
-//! [`cycles`]) written by [`table`], which writes every table of djkr (runs, resonance sweeps,
+//! [`cycles`], [`timeseries::gaps_table`]) written by [`table`], which writes every table of djkr (runs, resonance sweeps,
 //! shortcut maps, accuracy studies, figures), and every file goes to disk through [`atomic`].
 
 pub mod atomic;
@@ -86,15 +86,15 @@ pub const LOCK_NAME: &str = ".djkr.lock";
 /// The CSV files, written together on request.
 const CSV_NAMES: [&str; 3] = [TIMESERIES_CSV_NAME, EVENTS_CSV_NAME, CYCLES_CSV_NAME];
 
-/// Samples buffered before a run switches to streaming (12 columns × 8 bytes: ≈ 3 MB): a run
+/// Samples buffered before a run switches to streaming (13 columns × 8 bytes: ≈ 3.4 MB): a run
 /// longer than one chunk streams, so that its writer thread starts early.
 pub const SPILL_ROWS: usize = 1 << 15;
 /// Samples per append once streaming (one chunk of every time-series dataset).
 pub const FLUSH_ROWS: usize = 1 << 15;
 
-/// Bytes per sample in the HDF5 file (12 columns of 8 bytes, uncompressed).
-const HDF5_ROW_BYTES: f64 = 96.0;
-/// Bytes per sample in timeseries.csv (12 shortest round-trip numbers and commas, generous).
+/// Bytes per sample in the HDF5 file (13 columns of 8 bytes, uncompressed).
+const HDF5_ROW_BYTES: f64 = 104.0;
+/// Bytes per sample in timeseries.csv (13 shortest round-trip numbers and commas, generous).
 const CSV_ROW_BYTES: f64 = 300.0;
 
 /// Why output could not be written.
