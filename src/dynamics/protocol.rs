@@ -826,3 +826,29 @@ fn minimize(lo: f64, hi: f64, tol: f64, f: impl FnMut(f64) -> f64) -> (f64, f64)
     let (t, fmin) = numerics::brent_minimize(f, lo, hi, f64::EPSILON, tol / 3.0, 100);
     (fmin, t)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dense_room_stops_jumps_short_of_every_window() {
+        let w = [[1.0, 2.0], [3.0, 4.0]];
+        let p = 0.1;
+        // Before the first window: the whole periods that end at or before its start.
+        assert_eq!(dense_room(&w, 0.0, p, 0.0), 9);
+        assert_eq!(dense_room(&w, 0.45, p, 0.0), 5);
+        // A lead of a sample spacing moves the start earlier.
+        assert_eq!(dense_room(&w, 0.0, p, 0.25), 7);
+        // Inside a window (its ends included): no jump.
+        for t in [1.0, 1.5, 2.0, 3.2] {
+            assert_eq!(dense_room(&w, t, p, 0.0), 0, "t = {t}");
+        }
+        // Between windows: up to the next; after the last: unbounded.
+        assert_eq!(dense_room(&w, 2.05, p, 0.0), 9);
+        assert_eq!(dense_room(&w, 4.5, p, 0.0), u64::MAX);
+        assert_eq!(dense_room(&[], 4.5, p, 0.0), u64::MAX);
+        // Closer than a period to the next window: no jump.
+        assert_eq!(dense_room(&w, 0.95, p, 0.0), 0);
+    }
+}
