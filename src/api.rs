@@ -28,7 +28,7 @@ use crate::adhesion::{GentSchultz, Law};
 use crate::closed_form::DeltaAmpForm;
 use crate::comparators;
 use crate::dynamics::types::{
-    CycleRecord, Ending, Event, Observer, Reason, RunResult, Sample, Status,
+    CycleRecord, Ending, Event, Gap, Observer, Reason, RunResult, Sample, Status,
 };
 use crate::dynamics::SimError;
 use crate::error::{non_negative, positive, ParamError};
@@ -739,6 +739,9 @@ pub struct RunRecord {
     pub events: Vec<Event>,
     /// The period records (the HDF5 `cycles/` group's columns).
     pub cycles: Table,
+    /// The gaps of the time series (the HDF5 `gaps/` group's columns,
+    /// [`crate::output::timeseries::gaps_table`]).
+    pub gaps: Table,
     /// The run's result.
     pub result: RunResult,
     /// The text of `summary.json`: the file written into the run folder, or without one the
@@ -751,10 +754,10 @@ pub struct RunRecord {
 }
 
 /// Bytes one time-series sample is charged in memory: the [`crate::output::timeseries::SERIES`]
-/// columns and the stage index, 8 bytes each (the data itself; while a column grows, its buffer
-/// briefly holds up to twice this: the estimate before the run, [`crate::memory::SAMPLE_BYTES`],
-/// counts that peak).
-pub const SAMPLE_BYTES: u64 = 8 * (crate::output::timeseries::SERIES.len() as u64 + 1);
+/// columns, the stage and the segment index, 8 bytes each (the data itself; while a column
+/// grows, its buffer briefly holds up to twice this: the estimate before the run,
+/// [`crate::memory::SAMPLE_BYTES`], counts that peak).
+pub const SAMPLE_BYTES: u64 = 8 * (crate::output::timeseries::SERIES.len() as u64 + 2);
 /// Bytes one event holds in memory.
 pub const EVENT_BYTES: u64 = std::mem::size_of::<Event>() as u64;
 /// Bytes one period record holds in memory (its table row, 8 bytes a column).
@@ -818,6 +821,13 @@ impl Observer for InMemory<'_> {
             w.cycle(c);
         }
     }
+    fn gap(&mut self, g: &Gap) {
+        self.held = self.held.saturating_add(std::mem::size_of::<Gap>() as u64);
+        self.series.gap(g);
+        if let Some(w) = self.writer.as_deref_mut() {
+            w.gap(g);
+        }
+    }
     fn stop_reason(&self) -> Option<Reason> {
         self.over_budget.then_some(Reason::Memory)
     }
@@ -863,6 +873,7 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
     };
     let ending = outcome.ending();
     let result = outcome.result;
+    let gaps = crate::output::timeseries::gaps_table(series.gaps());
     let (series, events) = series.into_parts();
     let samples = series.rows() as u64;
     let (summary, files, plots) = match (writer, out) {
@@ -893,7 +904,7 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
                 samples,
                 &SummaryFiles::default(),
                 &crate::output::new_run_id(),
-                &[],
+                &crate::output::gaps_section(&[], gaps.rows()),
             );
             (text, None, Vec::new())
         }
@@ -902,6 +913,7 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
         series,
         events,
         cycles,
+        gaps,
         result,
         summary,
         files,

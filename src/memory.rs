@@ -23,16 +23,16 @@ use thiserror::Error;
 use crate::dynamics::protocol::Until;
 use crate::scenario::Scenario;
 
-/// Bytes a time-series sample held in memory takes at the peak: 11 `f64` columns and one `i64`
-/// column (96 bytes a row), each column a `Vec` that doubles its capacity when full, so that a
-/// run of n samples holds between 96 n and 192 n bytes depending on where n falls between two
-/// powers of two, and while one column is copied into its doubled buffer the old buffer is still
-/// live (8 bytes a sample more): 200 bytes. Measured, not assumed: `tests/memory_estimate.rs`
-/// counts every byte the heap holds (a counting global allocator) at its peak during
-/// `api::run` for sample counts on both sides of a doubling, and checks that the peak per sample
-/// (less the peak of the same run with 2 samples) never exceeds this figure and comes within
-/// 5 % of it (2¹⁷ samples: 84 bytes a sample; 2¹⁷ + 1: 199.8; 2¹⁸ + 1: 199.9).
-pub const SAMPLE_BYTES: f64 = 200.0;
+/// Bytes a time-series sample held in memory takes at the peak: 11 `f64` columns and two `i64`
+/// columns, stage and segment (104 bytes a row), each column a `Vec` that doubles its capacity
+/// when full, so that a run of n samples holds between 104 n and 208 n bytes depending on where
+/// n falls between two powers of two, and while one column is copied into its doubled buffer
+/// the old buffer is still live (8 bytes a sample more): 216 bytes. Measured, not assumed:
+/// `tests/memory_estimate.rs` counts every byte the heap holds (a counting global allocator) at
+/// its peak during `api::run` for sample counts on both sides of a doubling, and checks that the
+/// peak per sample (less the peak of the same run with 2 samples) never exceeds this figure and
+/// comes within 5 % of it (2¹⁷ samples: 107.8 bytes a sample; 2¹⁷ + 1: 215.8).
+pub const SAMPLE_BYTES: f64 = 216.0;
 
 /// How many samples a run of `scn` is known to take, and the keys that say so.
 #[derive(Debug, Clone, PartialEq)]

@@ -66,6 +66,11 @@ pub enum Style {
     /// One ring (a hollow circle, larger than a marker) per point, no line: drawn over or under
     /// the filled markers of another series at the same points, both stay visible.
     Rings,
+    /// Light vertical bands over the whole height of the plot, drawn under every other series:
+    /// `x` holds their edges in pairs (`[a0, b0, a1, b1, ...]`, one band from each `a` to its
+    /// `b`) and `y` is not used (NaN, so that it leaves the axis range alone). Shades spans of
+    /// time, e.g. those envelope following skipped.
+    Band,
 }
 
 /// One data series of a [`Figure`].
@@ -783,9 +788,33 @@ where
     let gap = px(6.0);
     let radius = px(4.0);
     let ring = px(7.0);
+    // Bands first, under the lines and markers they shade.
+    let (y_lo, y_hi) = {
+        let r = chart.y_range();
+        (r.start, r.end)
+    };
+    for (i, s) in fig.series.iter().enumerate() {
+        if s.style != Style::Band {
+            continue;
+        }
+        let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
+        let bands =
+            s.x.chunks_exact(2)
+                .filter(|b| plottable(b[0], fig.x_log) && plottable(b[1], fig.x_log));
+        chart
+            .draw_series(
+                bands.map(|b| {
+                    Rectangle::new([(b[0], y_lo), (b[1], y_hi)], color.mix(0.18).filled())
+                }),
+            )
+            .map_err(|e| err(&e))?;
+    }
     for (i, s) in fig.series.iter().enumerate() {
         let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
         let line_style = color.stroke_width(stroke);
+        if s.style == Style::Band {
+            continue;
+        }
         for seg in segments(s, fig.x_log, fig.y_log) {
             if matches!(s.style, Style::Line | Style::LineMarkers) {
                 chart
@@ -889,6 +918,13 @@ fn draw_legend<DB: DrawingBackend>(
                     area.draw(&PathElement::new(vec![(a, yc), (a + d + d / 4, yc)], line))
                         .map_err(|e| err(&e))?;
                 }
+            }
+            Style::Band => {
+                area.draw(&Rectangle::new(
+                    [(gx, yc - row_h / 3), (gx + glyph_w, yc + row_h / 3)],
+                    color.mix(0.18).filled(),
+                ))
+                .map_err(|e| err(&e))?;
             }
             Style::Markers | Style::Rings => {}
         }

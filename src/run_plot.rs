@@ -9,7 +9,10 @@
 //!
 //! The time panels mark the stage starts (dashed) and the events (impact, contact loss,
 //! pull-off). Long series are thinned for drawing by keeping each pixel column's extremes (so
-//! the envelope of a vibration is drawn as it is), never averaged.
+//! the envelope of a vibration is drawn as it is), never averaged. Where envelope following
+//! skipped base periods (the file's `/gaps`), every line breaks and the time panels shade the
+//! skipped spans ("envelope: N periods skipped"): a line across a gap would draw a motion
+//! nothing computed.
 
 use std::path::{Path, PathBuf};
 
@@ -63,6 +66,10 @@ pub struct RunSeries {
     pub events: Vec<(String, f64, f64, f64, f64)>,
     /// Per cycle: t_start, t_end (s), ⟨F⟩ (N), ⟨δ⟩ (m), δ_A (m).
     pub cycles: Vec<[f64; 5]>,
+    /// The segment index of each sample (`/segment`; empty in files written before it).
+    pub segment: Vec<i64>,
+    /// Gaps of the time series: t_start, t_end (s), periods skipped (`/gaps`).
+    pub gaps: Vec<(f64, f64, i64)>,
 }
 
 /// Read the series of a run file.
@@ -107,6 +114,24 @@ pub fn read_run(path: &Path) -> Result<RunSeries, RunPlotError> {
         .enumerate()
         .filter_map(|(i, k)| Some((k, *et.get(i)?, *ef.get(i)?, *ea.get(i)?, *ed.get(i)?)))
         .collect();
+    if let Ok(d) = f.dataset("segment") {
+        s.segment = d
+            .read_i64()
+            .map_err(|e| err(format!("dataset segment: {e}")))?;
+    }
+    if f.dataset("gaps/t_start").is_ok() {
+        let (t0, t1) = (f64s("gaps/t_start")?, f64s("gaps/t_end")?);
+        let periods = f
+            .dataset("gaps/periods")
+            .and_then(|d| d.read_i64())
+            .map_err(|e| err(format!("dataset gaps/periods: {e}")))?;
+        s.gaps = t0
+            .into_iter()
+            .zip(t1)
+            .zip(periods)
+            .map(|((a, b), p)| (a, b, p))
+            .collect();
+    }
     if f.dataset("cycles/t_end").is_ok() {
         let (t0, t1, fm, dm, ds, dc) = (
             f64s("cycles/t_start")?,
@@ -131,18 +156,99 @@ pub fn read_run(path: &Path) -> Result<RunSeries, RunPlotError> {
     Ok(s)
 }
 
-/// Keep at most `MAX_POINTS` of (x, y): the extremes of y in each of `MAX_POINTS / 2` buckets,
-/// in order.
-fn thin(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+/// The index ranges of the gap-free stretches of a time series of `n` samples whose segment
+/// indices are `segment` (one stretch when there are none: a file written before them).
+fn stretches(segment: &[i64], n: usize) -> Vec<std::ops::Range<usize>> {
+    if segment.len() != n {
+        return std::iter::once(0..n).collect();
+    }
+    let mut out = Vec::new();
+    let mut start = 0;
+    for i in 1..n {
+        if segment[i] != segment[i - 1] {
+            out.push(start..i);
+            start = i;
+        }
+    }
+    out.push(start..n);
+    out
+}
+
+/// [`thin_to`] within each stretch of `ranges` (about `MAX_POINTS` in all, each stretch its share
+/// and at least its two ends), the stretches separated by a NaN so that no line joins them.
+fn thin_broken(x: &[f64], y: &[f64], ranges: &[std::ops::Range<usize>]) -> (Vec<f64>, Vec<f64>) {
+    let n = x.len().min(y.len()).max(1);
+    let (mut xo, mut yo) = (Vec::new(), Vec::new());
+    for (k, r) in ranges.iter().enumerate() {
+        let r = r.start.min(x.len().min(y.len()))..r.end.min(x.len().min(y.len()));
+        if k > 0 {
+            xo.push(f64::NAN);
+            yo.push(f64::NAN);
+        }
+        let share = (MAX_POINTS * r.len() / n).max(4);
+        let (a, b) = thin_to(&x[r.clone()], &y[r], share);
+        xo.extend(a);
+        yo.extend(b);
+    }
+    (xo, yo)
+}
+
+/// Per-cycle values `(t_end, value)` with a NaN between two records that are not contiguous
+/// (envelope following skipped periods between them), so that no line joins them.
+fn broken_cycles(cycles: &[[f64; 5]], value: impl Fn(&[f64; 5]) -> f64) -> (Vec<f64>, Vec<f64>) {
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for (i, c) in cycles.iter().enumerate() {
+        if let Some(p) = i.checked_sub(1).map(|j| &cycles[j]) {
+            // Contiguous records share a boundary; half a period apart is a skip.
+            if c[0] - p[1] > 0.5 * (p[1] - p[0]) {
+                x.push(f64::NAN);
+                y.push(f64::NAN);
+            }
+        }
+        x.push(c[1]);
+        y.push(value(c));
+    }
+    (x, y)
+}
+
+/// [`thin_broken`] of a series whose stretches are separated by NaN abscissae.
+fn thin_nan(x: &[f64], y: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let mut ranges = Vec::new();
+    let mut start = 0;
+    for (i, v) in x.iter().enumerate() {
+        if v.is_nan() {
+            if i > start {
+                ranges.push(start..i);
+            }
+            start = i + 1;
+        }
+    }
+    if x.len() > start {
+        ranges.push(start..x.len());
+    }
+    thin_broken(x, y, &ranges)
+}
+
+/// The points of a NaN-separated series that stand alone between two breaks (a record between
+/// two skips), which a line does not show: drawn as markers (`None`: there are none).
+fn isolated(x: &[f64], y: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+    let gap = |i: Option<usize>| i.and_then(|i| x.get(i)).is_none_or(|v| v.is_nan());
+    let (lx, ly): (Vec<f64>, Vec<f64>) = (0..x.len().min(y.len()))
+        .filter(|&i| !x[i].is_nan() && gap(i.checked_sub(1)) && gap(Some(i + 1)))
+        .map(|i| (x[i], y[i]))
+        .unzip();
+    // A run without breaks drawn as one line needs none.
+    (!lx.is_empty() && x.iter().any(|v| v.is_nan())).then_some((lx, ly))
+}
+
+/// Keep at most `max` of (x, y): the extremes of y in each of `max / 2` buckets, in order.
+fn thin_to(x: &[f64], y: &[f64], max: usize) -> (Vec<f64>, Vec<f64>) {
     let n = x.len().min(y.len());
-    if n <= MAX_POINTS {
+    if n <= max {
         return (x[..n].to_vec(), y[..n].to_vec());
     }
-    let buckets = MAX_POINTS / 2;
-    let (mut xo, mut yo) = (
-        Vec::with_capacity(MAX_POINTS),
-        Vec::with_capacity(MAX_POINTS),
-    );
+    let buckets = max / 2;
+    let (mut xo, mut yo) = (Vec::with_capacity(max), Vec::with_capacity(max));
     for b in 0..buckets {
         let (lo, hi) = (
             b * n / buckets,
@@ -178,7 +284,7 @@ fn time_panel(
     scale: f64,
     event_value: fn(&(String, f64, f64, f64, f64)) -> f64,
 ) -> Figure {
-    let (tx, ty) = thin(&s.t, y);
+    let (tx, ty) = thin_broken(&s.t, y, &stretches(&s.segment, s.t.len()));
     let ty: Vec<f64> = ty.iter().map(|v| v * scale).collect();
     let (lo, hi) = ty
         .iter()
@@ -187,6 +293,9 @@ fn time_panel(
             (a.min(*v), b.max(*v))
         });
     let mut fig = Figure::new(title, "t (s)", y_label).with_legend(LegendPosition::LowerLeft);
+    if let Some(band) = gap_band(s) {
+        fig.series.push(band);
+    }
     fig.series
         .push(Series::new("", tx, ty, Style::Line).with_color(0));
     if lo.is_finite() && hi.is_finite() {
@@ -225,6 +334,25 @@ fn time_panel(
     fig
 }
 
+/// The shaded spans of the gaps, labelled with the periods skipped in them (`None`: no gap).
+fn gap_band(s: &RunSeries) -> Option<Series> {
+    if s.gaps.is_empty() {
+        return None;
+    }
+    let x: Vec<f64> = s.gaps.iter().flat_map(|g| [g.0, g.1]).collect();
+    let periods: i64 = s.gaps.iter().map(|g| g.2).sum();
+    let y = vec![f64::NAN; x.len()];
+    Some(
+        Series::new(
+            format!("envelope: {periods} periods skipped"),
+            x,
+            y,
+            Style::Band,
+        )
+        .with_color(7),
+    )
+}
+
 /// The six panels of a run's figure.
 pub fn run_panels(s: &RunSeries) -> Vec<Figure> {
     let f = time_panel(
@@ -253,12 +381,15 @@ pub fn run_panels(s: &RunSeries) -> Vec<Figure> {
         "t at the cycle's end (s)",
         "⟨F⟩ (mN)",
     );
-    let (cx, cy) = thin(
-        &s.cycles.iter().map(|c| c[1]).collect::<Vec<_>>(),
-        &s.cycles.iter().map(|c| c[2] * 1e3).collect::<Vec<_>>(),
-    );
+    let (cx, cy) = broken_cycles(&s.cycles, |c| c[2] * 1e3);
+    let (cx, cy) = thin_nan(&cx, &cy);
+    let lone = isolated(&cx, &cy);
     fm.series
         .push(Series::new("", cx, cy, Style::Line).with_color(1));
+    if let Some((x, y)) = lone {
+        fm.series
+            .push(Series::new("", x, y, Style::Markers).with_color(1));
+    }
     if let Some(po) = s.events.iter().find(|e| e.0 == "pull-off") {
         if let Some(best) = s
             .cycles
@@ -301,28 +432,42 @@ pub fn run_panels(s: &RunSeries) -> Vec<Figure> {
             )
         }
     };
-    let (lx, ly): (Vec<f64>, Vec<f64>) =
-        s.t.iter()
-            .zip(s.delta.iter().zip(&s.force))
-            .filter(|(t, _)| **t >= t0 && **t <= t1)
-            .map(|(_, (d, f))| (d * 1e6, f * 1e3))
-            .unzip();
-    let stride = lx.len().div_ceil(MAX_POINTS).max(1);
-    let lx: Vec<f64> = lx.into_iter().step_by(stride).collect();
-    let ly: Vec<f64> = ly.into_iter().step_by(stride).collect();
+    let inside: Vec<usize> = (0..s.t.len().min(s.delta.len()).min(s.force.len()))
+        .filter(|&i| s.t[i] >= t0 && s.t[i] <= t1)
+        .collect();
+    let stride = inside.len().div_ceil(MAX_POINTS).max(1);
+    let seg = |i: usize| s.segment.get(i).copied().unwrap_or(0);
+    let (mut lx, mut ly) = (Vec::new(), Vec::new());
+    let mut prev: Option<usize> = None;
+    for (k, &i) in inside.iter().enumerate() {
+        let ends_stretch = inside.get(k + 1).is_none_or(|&j| seg(j) != seg(i));
+        if k % stride != 0 && !ends_stretch && prev.is_none_or(|p| seg(p) == seg(i)) {
+            continue;
+        }
+        if prev.is_some_and(|p| seg(p) != seg(i)) {
+            // A gap between the two: the loop's line breaks there.
+            lx.push(f64::NAN);
+            ly.push(f64::NAN);
+        }
+        lx.push(s.delta[i] * 1e6);
+        ly.push(s.force[i] * 1e3);
+        prev = Some(i);
+    }
     let mut lp = Figure::new(loop_title, "δ (µm)", "F (mN)");
     lp.series
         .push(Series::new("", lx, ly, Style::Line).with_color(4));
     let mut dp = Figure::new("per-cycle ⟨δ⟩ and δ_A", "t at the cycle's end (s)", "µm")
         .with_legend(LegendPosition::UpperRight);
-    let te: Vec<f64> = s.cycles.iter().map(|c| c[1]).collect();
     for (name, idx, color) in [("⟨δ⟩", 3, 0), ("δ_A", 4, 2)] {
-        let (x, y) = thin(
-            &te,
-            &s.cycles.iter().map(|c| c[idx] * 1e6).collect::<Vec<_>>(),
-        );
+        let (x, y) = broken_cycles(&s.cycles, |c| c[idx] * 1e6);
+        let (x, y) = thin_nan(&x, &y);
+        let lone = isolated(&x, &y);
         dp.series
             .push(Series::new(name, x, y, Style::Line).with_color(color));
+        if let Some((x, y)) = lone {
+            dp.series
+                .push(Series::new("", x, y, Style::Markers).with_color(color));
+        }
     }
     vec![f, fm, a, lp, d, dp]
 }
@@ -363,6 +508,8 @@ mod tests {
             delta: vec![1e-6, -1e-6, -2e-6],
             events: vec![ev("contact-loss"), ev("pull-off")],
             cycles: Vec::new(),
+            segment: Vec::new(),
+            gaps: Vec::new(),
         };
         let panels = run_panels(&s);
         // The time panels: F, a and δ (positions 0, 2, 4).

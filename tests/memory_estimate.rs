@@ -210,7 +210,7 @@ fn the_budget_is_solver_max_memory() {
     let need = 10_000.0 * SAMPLE_BYTES;
     let below = format!("solver.max_memory={}", (need as u64).max(1 << 20));
     assert!(api::run(&scenario(&text, &[&below]), None).is_ok());
-    // 1 MiB (the least max_memory) holds 5242 samples at 200 bytes.
+    // 1 MiB (the least max_memory) holds 4854 samples at 216 bytes.
     let big = scene(1.0, 1e4);
     let e = api::run(&scenario(&big, &["solver.max_memory=1048576"]), None).unwrap_err();
     assert!(e.is_input(), "{e}");

@@ -13,11 +13,12 @@ use std::process::Command;
 use std::sync::OnceLock;
 
 use djkr::dynamics::types::{
-    CycleRecord, Event, EventCounts, EventKind, Observer, PullOffSummary, RunResult, Sample, Stats,
+    CycleRecord, Event, EventCounts, EventKind, Gap, Observer, PullOffSummary, RunResult, Sample,
+    Stats,
 };
 use djkr::output::folder::MANIFEST_NAME;
 use djkr::output::hdf5_file::{hdf5_bytes, RunTables};
-use djkr::output::timeseries::{events_table, SERIES};
+use djkr::output::timeseries::{events_table, gaps_table, SERIES};
 use djkr::output::{cycles::cycle_table, OutputError, RunWriter, TimeSeriesWriter};
 use djkr::output::{FLUSH_ROWS, LOCK_NAME, SPILL_ROWS};
 use djkr::scenario::parse::parse_scenario;
@@ -209,6 +210,9 @@ fn write_run_with_id(dir: &Path, csv: bool, n: usize) -> (Vec<Sample>, RunResult
     };
     let mut next_event = 0;
     for (i, s) in samples.iter().enumerate() {
+        if let Some(g) = gap_before(&samples, i) {
+            w.gap(&g);
+        }
         while next_event < evs.len() && evs[next_event].time <= s.t {
             w.event(&evs[next_event]);
             next_event += 1;
@@ -226,6 +230,17 @@ fn write_run_with_id(dir: &Path, csv: bool, n: usize) -> (Vec<Sample>, RunResult
     assert_eq!(paths.summary, dir.join("summary.json"));
     assert_eq!(paths.timeseries_csv.is_some(), csv);
     (samples, res, run_id)
+}
+
+/// The gap the synthetic runs of [`write_run`] have before sample `i`: before the samples at
+/// a third and at two thirds of a run of 3 or more (in different batches of a streamed one).
+fn gap_before(samples: &[Sample], i: usize) -> Option<Gap> {
+    let n = samples.len();
+    (n >= 3 && (i == n / 3 || i == 2 * n / 3)).then(|| Gap {
+        t_start: samples[i - 1].t,
+        t_end: samples[i].t,
+        periods: 7 + i as u64,
+    })
 }
 
 /// The files in `dir`, but the lock file and the record of its files every run writer leaves.
@@ -516,7 +531,7 @@ fn check_with_h5py(n: usize) {
     );
     assert_eq!(
         dump["groups"],
-        serde_json::json!(["/cycles", "/descriptions", "/events"])
+        serde_json::json!(["/cycles", "/descriptions", "/events", "/gaps"])
     );
     // Every `units` attribute reads as str (h5py gives bytes for a fixed-length string), and
     // every dataset is described in /descriptions (h5py needs `.asstr()` on string datasets).
@@ -530,6 +545,18 @@ fn check_with_h5py(n: usize) {
         assert!(d["attrs"]["units"]["str"].is_string(), "{path}: {d:?}");
         assert!(described.contains(&path.as_str()), "{path} not described");
     }
+    // The gaps: their datasets with units as str, and the segment stepping after each.
+    let gaps: Vec<Gap> = (0..n).filter_map(|i| gap_before(&samples, i)).collect();
+    assert_eq!(
+        json_bits(&ds["/gaps/t_end"]["f64_bits"]),
+        bits(&gaps.iter().map(|g| g.t_end).collect::<Vec<_>>())
+    );
+    assert_eq!(ds["/gaps/t_start"]["attrs"]["units"]["str"], "s");
+    assert_eq!(ds["/gaps/periods"]["attrs"]["units"]["str"], "1");
+    assert_eq!(ds["/segment"]["attrs"]["units"]["str"], "1");
+    let segment = ds["/segment"]["int"].as_array().unwrap();
+    assert_eq!(segment.len(), n);
+    assert_eq!(segment[n - 1].as_i64(), Some(gaps.len() as i64));
     assert_eq!(
         json_bits(&ds["/cycles/a_sin"]["f64_bits"]),
         bits(&cycles().iter().map(|c| c.a_sin).collect::<Vec<_>>())
@@ -558,19 +585,26 @@ fn streamed_file_has_the_content_of_the_file_written_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let (samples, res, run_id) = write_run_with_id(dir.path(), true, N_STREAMED);
     let mut series = TimeSeriesWriter::new();
-    for s in &samples {
+    for (i, s) in samples.iter().enumerate() {
+        if let Some(g) = gap_before(&samples, i) {
+            series.gap(&g);
+        }
         series.push(s);
     }
+    let gaps = gaps_table(series.gaps());
+    assert_eq!(gaps.rows(), 2);
     let tables = RunTables {
         series: series.table(),
         events: &events_table(&res.events),
         cycles: &cycle_table(&cycles()),
+        gaps: &gaps,
     };
     // The streamed CSV files are those written at once, byte for byte.
     for (name, table) in [
         ("timeseries.csv", tables.series),
         ("events.csv", tables.events),
         ("cycles.csv", tables.cycles),
+        ("gaps.csv", tables.gaps),
     ] {
         let text = std::fs::read_to_string(dir.path().join(name)).unwrap();
         assert!(text == table.to_csv(), "{name} differs");
@@ -814,6 +848,7 @@ fn csv_has_units_in_the_header_and_exact_values() {
         vec![
             "cycles.csv",
             "events.csv",
+            "gaps.csv",
             "run.h5",
             "summary.json",
             "timeseries.csv"
@@ -822,8 +857,18 @@ fn csv_has_units_in_the_header_and_exact_values() {
     let (header, rows) = read_csv(&dir.path().join("timeseries.csv"));
     assert_eq!(
         header.join(","),
-        "t [s],x_s [m],v_s [m/s],x_b [m],x_k [m],delta [m],a [m],a_dot [m/s],F [N],G [J/m^2],w [J/m^2],stage [1]"
+        "t [s],x_s [m],v_s [m/s],x_b [m],x_k [m],delta [m],a [m],a_dot [m/s],F [N],G [J/m^2],w [J/m^2],stage [1],segment [1]"
     );
+    // The segment steps by one after each gap (at a third and two thirds of the run).
+    let n = samples.len();
+    for (i, row) in rows.iter().enumerate() {
+        let want = usize::from(i >= n / 3) + usize::from(i >= 2 * n / 3);
+        assert_eq!(row[12], want.to_string(), "segment of sample {i}");
+    }
+    let (header, gap_rows) = read_csv(&dir.path().join("gaps.csv"));
+    assert_eq!(header, ["t_start [s]", "t_end [s]", "periods [1]"]);
+    assert_eq!(gap_rows.len(), 2);
+    assert_eq!(gap_rows[0][1].parse::<f64>().unwrap(), samples[n / 3].t);
     assert_eq!(rows.len(), samples.len());
     for (row, s) in rows.iter().zip(&samples) {
         for (k, def) in SERIES.iter().enumerate() {
@@ -949,6 +994,7 @@ fn stale_partials_are_cleared_only_when_recorded_and_other_files_kept() {
             ".summary.json.partial",
             "cycles.csv",
             "events.csv",
+            "gaps.csv",
             "run.h5",
             "run.h5.bak",
             "summary.json",
@@ -1027,7 +1073,7 @@ fn an_empty_run_writes_valid_files() {
     assert_eq!(cycles.lines().count(), 1, "{cycles}");
     assert!(cycles.starts_with("index [1],stage [1],t_start [s],t_end [s],a_cos [m]"));
     let (header, rows) = read_csv(&dir.path().join("timeseries.csv"));
-    assert_eq!((header.len(), rows.len()), (12, 0));
+    assert_eq!((header.len(), rows.len()), (13, 0));
     let j = read_json(&dir.path().join("summary.json"));
     assert_eq!(j["samples"], 0);
     assert_eq!(j["events"], serde_json::json!([]));

@@ -96,6 +96,7 @@ fn good_files_carry_the_values_written() {
         (1e-9, 1e-11, 10_000_000, 120.0, 1e-13)
     );
     assert_eq!((s.output.sample_rate, s.output.csv), (12000.0, true));
+    assert_eq!(s.output.dense, vec![[1.0, 1.5], [2.5, 3.0]]);
     let last = s.stages[2];
     assert_eq!(last.until, Until::PullOff);
     assert_eq!(last.vibration, Some(true));

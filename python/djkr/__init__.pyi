@@ -70,6 +70,12 @@ class Run:
     """Work of adhesion w(a_dot) (J/m^2)."""
     stage: npt.NDArray[np.int64]
     """Index of the protocol stage, from 0."""
+    segment: npt.NDArray[np.int64]
+    """Index of the gap-free stretch each sample belongs to: 0 from the start, +1 after each
+    gap (a span envelope following skipped). Never join samples of different segments."""
+    gaps: Dict[str, npt.NDArray[Any]]
+    """The gaps of the time series, the HDF5 ``gaps/`` group: ``t_start`` and ``t_end`` (s, the
+    samples either side) and ``periods`` (base periods skipped), one entry per gap."""
     cycles: Dict[str, npt.NDArray[Any]]
     """Per-period records: the datasets of the HDF5 ``cycles/`` group (``index``, ``stage``,
     ``t_start``, ``t_end``, ``force_mean``, ...)."""
@@ -82,7 +88,8 @@ class Run:
         """The content of ``summary.json`` (without ``out=``: ``files`` and ``file_bytes``
         empty)."""
     def to_pandas(self) -> Any:
-        """The time series as a ``pandas.DataFrame`` (needs pandas)."""
+        """The time series as a ``pandas.DataFrame``, columns ``t`` ... ``w``, ``stage``,
+        ``segment`` (needs pandas)."""
     def __len__(self) -> int: ...
 
 def run(
@@ -96,7 +103,7 @@ def run(
 
     The run is held in memory. Where its sample count is known before it starts
     (``[output] sample_rate`` > 0 over the stages with a ``duration``), a run whose samples
-    would take more than ``solver.max_memory`` (default 2 GiB, at 200 bytes a sample) is refused
+    would take more than ``solver.max_memory`` (default 2 GiB, at 216 bytes a sample) is refused
     at once with ``ScenarioError`` naming ``output.sample_rate``, the durations and the
     estimate; lower the rate or raise ``solver.max_memory``. Otherwise the samples, events and
     period records held are capped at ``solver.max_memory`` while it runs: a run that would pass

@@ -43,7 +43,7 @@ use djkr::dynamics::types::Event;
 use djkr::input::{show_limit, InputKind};
 use djkr::material::Material;
 use djkr::output::table::{Column, Data, Table};
-use djkr::output::timeseries::{kind_name, stage_index, SERIES, STAGE};
+use djkr::output::timeseries::{kind_name, stage_index, SEGMENT, SERIES, STAGE};
 use djkr::scenario::parse::{self, ScenarioSource};
 use djkr::steady::{Options, Problem};
 use djkr::units::Dimension;
@@ -767,9 +767,9 @@ fn event_to_py<'py>(py: Python<'py>, e: &Event) -> PyResult<Bound<'py, PyDict>> 
 /// A time-domain run held in memory (what `djkr run` writes into `run.h5`).
 ///
 /// `t, x_s, v_s, x_b, x_k, delta, a, a_dot, F, G, w` are numpy float64 arrays in SI units and
-/// `stage` an int64 array, the datasets of `run.h5` value for value; `events` is a list of
-/// dicts (`kind`, `time`, `stage`, `state`), `cycles` a dict of numpy arrays (the `cycles/`
-/// group), `summary` the content of `summary.json`.
+/// `stage` and `segment` int64 arrays, the datasets of `run.h5` value for value; `events` is a
+/// list of dicts (`kind`, `time`, `stage`, `state`), `cycles` and `gaps` dicts of numpy arrays
+/// (the `cycles/` and `gaps/` groups), `summary` the content of `summary.json`.
 #[pyclass(module = "djkr", frozen)]
 struct Run {
     /// Time (s).
@@ -808,6 +808,12 @@ struct Run {
     /// Stage index (int64).
     #[pyo3(get)]
     stage: Py<PyAny>,
+    /// Segment index (int64): 0 from the start, +1 after each gap of the time series.
+    #[pyo3(get)]
+    segment: Py<PyAny>,
+    /// The gaps of the time series, the HDF5 `gaps/` group: `t_start`, `t_end` (s), `periods`.
+    #[pyo3(get)]
+    gaps: Py<PyDict>,
     /// Per-period records, the HDF5 `cycles/` group.
     #[pyo3(get)]
     cycles: Py<PyDict>,
@@ -820,7 +826,11 @@ struct Run {
 
 /// The names of the time-series arrays, in file order.
 fn series_names() -> Vec<&'static str> {
-    SERIES.iter().map(|c| c.name).chain([STAGE]).collect()
+    SERIES
+        .iter()
+        .map(|c| c.name)
+        .chain([STAGE, SEGMENT])
+        .collect()
 }
 
 #[pymethods]
@@ -855,7 +865,7 @@ impl Run {
         Ok(s)
     }
 
-    /// The time series as a pandas DataFrame (columns `t`, `x_s`, ..., `w`, `stage`).
+    /// The time series as a pandas DataFrame (columns `t`, `x_s`, ..., `w`, `stage`, `segment`).
     fn to_pandas(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         let pd = py.import("pandas").map_err(|e| {
             pyo3::exceptions::PyImportError::new_err(format!(
@@ -897,6 +907,7 @@ impl Run {
             "F" => &self.force,
             "G" => &self.g,
             "w" => &self.w,
+            "segment" => &self.segment,
             _ => &self.stage,
         }
         .clone_ref(py)
@@ -930,6 +941,8 @@ impl Run {
             g: take("G")?,
             w: take("w")?,
             stage: take(STAGE)?,
+            segment: take(SEGMENT)?,
+            gaps: table_to_py(py, rec.gaps)?,
             cycles: table_to_py(py, rec.cycles)?,
             raw_events: rec.events,
             events: OnceLock::new(),

@@ -148,9 +148,33 @@ def test_to_pandas(tmp_path):
     r = djkr.run(TINY)
     df = r.to_pandas()
     assert isinstance(df, pd.DataFrame)
-    assert list(df.columns) == SERIES + ["stage"]
-    for name in SERIES + ["stage"]:
+    assert list(df.columns) == SERIES + ["stage", "segment"]
+    for name in SERIES + ["stage", "segment"]:
         assert_bits_equal(df[name].to_numpy(), getattr(r, name), name)
+
+
+def test_gaps_are_data(tmp_path):
+    """Issue 25, item 1: the issue's scene (the paper protocol with R = 10 mm, 1 g, 200 N/m)
+    skips base periods; `segment` and `gaps` say where, as run.h5 does."""
+    text = (ROOT / "scenarios/paper-protocol-400hz.toml").read_text()
+    text = text.replace("R = 0.051 ", "R = 0.010 ").replace("mass = 0.25 ", "mass = 0.001 ")
+    text = text.replace("stiffness = 2000.0 ", "stiffness = 200.0 ")
+    r = djkr.run(text, out=tmp_path / "run")
+    assert r.segment.dtype == np.int64 and len(r.segment) == len(r.t)
+    g = r.gaps
+    assert set(g) == {"t_start", "t_end", "periods"} and len(g["t_start"]) > 0
+    assert r.summary["gaps"] == len(g["t_start"])
+    steps = np.nonzero(np.diff(r.segment))[0]
+    assert r.segment[0] == 0 and set(np.diff(r.segment)) <= {0, 1}
+    assert_bits_equal(r.t[steps], g["t_start"], "t_start")
+    assert_bits_equal(r.t[steps + 1], g["t_end"], "t_end")
+    with h5py.File(tmp_path / "run" / "run.h5") as f:
+        assert_bits_equal(f["segment"][:], r.segment, "segment")
+        for k in g:
+            assert_bits_equal(f["gaps"][k][:], g[k], k)
+            assert isinstance(f["gaps"][k].attrs["units"], str)
+            assert f["gaps"][k].attrs["description"]
+    assert list(r.to_pandas()["segment"]) == list(r.segment)
 
 
 CYCLES = [

@@ -56,20 +56,20 @@ def test_a_run_too_large_for_memory_is_refused_at_once():
         f'djkr.run("{TINY}", set={{"stage[0].duration": 1e3, "output.sample_rate": 1e7}})')
     assert seconds < 1.0, seconds
     for needle in ["output.sample_rate = 10000000 1/s", "stage[0].duration = 1000 s",
-                   "1.000e10 samples", "2.000e12 bytes", "1.8 TiB",
+                   "1.000e10 samples", "2.160e12 bytes", "2.0 TiB",
                    "solver.max_memory = 2147483648 bytes (2.0 GiB)", "raise solver.max_memory",
                    "lower output.sample_rate"]:
         assert needle in message, (needle, message)
 
 
 def test_max_memory_is_the_budget():
-    # The 0.05 s hold at 1e5/s: 5001 samples known, 1 000 200 bytes at 200 bytes a sample,
-    # under 1 MiB (1 048 576 bytes); at 1.1e5/s, 5501 samples, 1 100 200 bytes: over.
+    # The 0.05 s hold at 9e4/s: 4501 samples known, 972 216 bytes at 216 bytes a sample,
+    # under 1 MiB (1 048 576 bytes); at 1.1e5/s, 5501 samples, 1 188 216 bytes: over.
     # Under the budget the run is not refused up front; its unload, whose length is not known
     # before it runs, then meets the cap while running (reason "memory") or ends first.
     budget = {"solver.max_memory": MIB}
     try:
-        djkr.run(TINY, set={**budget, "output.sample_rate": 1e5})
+        djkr.run(TINY, set={**budget, "output.sample_rate": 9e4})
     except RuntimeError as e:
         assert not isinstance(e, djkr.ScenarioError)
         assert e.run.summary["reason"] == "memory", e.run.summary

@@ -70,6 +70,15 @@ enum Command {
     /// over the base period from t_start, s(t) ~ s_mean + s_sin sin theta + s_cos cos theta with
     /// theta = omega (t - t_on), x_b = X_b sin theta (root attribute "harmonics"); every
     /// dataset is defined in descriptions/ (docs/guide/output.md).
+    ///
+    /// Gaps: envelope following (solver.envelope = "auto") jumps over base periods where the
+    /// vibration drifts slowly, so the time series has gaps (no sample inside; 2 to thousands
+    /// of periods). run.h5 lists them in /gaps (t_start, t_end: the samples either side;
+    /// periods: periods skipped), /segment numbers the gap-free stretches (0, +1 after each
+    /// gap), summary.json "gaps" counts them, --csv writes gaps.csv. Never draw a line across
+    /// a gap: run.png breaks its lines there and shades the skipped spans. To record an
+    /// interval densely, list it in [output] dense = [[t0, t1], ...] (s); solver.envelope =
+    /// "off" gives no gap at all.
     Run(run::RunArgs),
     /// Validate scenario files without running them.
     Check(run::CheckArgs),

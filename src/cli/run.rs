@@ -25,7 +25,7 @@ pub struct RunArgs {
     /// Output directory for summary.json and run.h5 (created if needed) [default: out/<scenario name>].
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
-    /// Also write timeseries.csv and events.csv.
+    /// Also write timeseries.csv, events.csv, cycles.csv and gaps.csv.
     #[arg(long)]
     csv: bool,
     /// Print the summary as JSON (SI values) instead of a table.
@@ -94,6 +94,9 @@ impl Observer for Progress<'_> {
     }
     fn cycle(&mut self, c: &dynamics::CycleRecord) {
         self.inner.cycle(c);
+    }
+    fn gap(&mut self, g: &dynamics::types::Gap) {
+        self.inner.gap(g);
     }
 }
 

@@ -117,6 +117,9 @@ pub struct Plan<'a> {
     pub solver: Solver,
     /// Time-series samples per second of simulated time (0: every accepted step).
     pub sample_rate: f64,
+    /// Windows `[t0, t1]` of time (s; sorted, disjoint) that must be recorded densely:
+    /// envelope following never jumps into or across them (`[output] dense`).
+    pub dense: &'a [[f64; 2]],
 }
 
 /// Run a protocol from its initial state, feeding `obs` with samples, events and cycle records.
@@ -179,6 +182,9 @@ pub fn run_partial(plan: &Plan, obs: &mut dyn Observer) -> Result<Outcome, SimEr
         sample_dt,
         next_sample: 0.0,
         wants_samples,
+        last_sample_t: None,
+        pending_gap: None,
+        dense: plan.dense,
         stopped: false,
         min_force: None,
         min_cycle: None,
@@ -288,8 +294,14 @@ pub fn initial_state(rig: &Rig, initial: &Initial, m: &Model) -> Result<(State, 
 }
 
 /// The samples of `seg` for (y0.t, y1.t]: on the grid `next_sample` + k `sample_dt` (advanced
-/// past them), or the step's end alone without a grid (`sample_dt` = 0).
-fn step_samples(seg: &Segment, stage: usize, next_sample: &mut f64, sample_dt: f64) -> StepSamples {
+/// past them), or the step's end alone without a grid (`sample_dt` = 0); and the time of the
+/// last of them.
+fn step_samples(
+    seg: &Segment,
+    stage: usize,
+    next_sample: &mut f64,
+    sample_dt: f64,
+) -> (StepSamples, f64) {
     let mut step = StepSamples {
         k0: Knot::from(&seg.y0),
         k1: Knot::from(&seg.y1),
@@ -299,15 +311,18 @@ fn step_samples(seg: &Segment, stage: usize, next_sample: &mut f64, sample_dt: f
         dt: sample_dt.max(0.0),
         n: 0,
     };
+    // The last sample's time, accumulated as `StepSamples::each` accumulates it.
+    let mut last = seg.y1.t;
     if step.dt == 0.0 {
         step.n = 1;
     } else {
         while *next_sample <= seg.y1.t {
             step.n += 1;
+            last = *next_sample;
             *next_sample += sample_dt;
         }
     }
-    step
+    (step, last)
 }
 
 /// A protocol run in progress.
@@ -328,6 +343,13 @@ struct Protocol<'a> {
     next_sample: f64,
     /// The observer uses samples (`Observer::wants_samples`).
     wants_samples: bool,
+    /// Time of the last sample handed to the observer.
+    last_sample_t: Option<f64>,
+    /// A gap whose first sample after is still to come: its start (the last sample's time)
+    /// and the periods skipped so far.
+    pending_gap: Option<(f64, u64)>,
+    /// `[output] dense`: windows envelope following keeps out of.
+    dense: &'a [[f64; 2]],
     /// The observer asked to stop.
     stopped: bool,
     /// Most tensile force candidate (force, time).
@@ -375,8 +397,8 @@ impl Protocol<'_> {
         if self.stopped || !self.wants_samples {
             return;
         }
-        let step = step_samples(seg, self.stage, &mut self.next_sample, self.sample_dt);
-        self.emit(&step);
+        let (step, last) = step_samples(seg, self.stage, &mut self.next_sample, self.sample_dt);
+        self.emit(&step, last);
     }
 
     /// [`Protocol::output`] of the step just taken, read in place (two states, 470 bytes).
@@ -387,12 +409,30 @@ impl Protocol<'_> {
         let Some(seg) = self.sim.segment() else {
             return;
         };
-        let step = step_samples(seg, self.stage, &mut self.next_sample, self.sample_dt);
-        self.emit(&step);
+        let (step, last) = step_samples(seg, self.stage, &mut self.next_sample, self.sample_dt);
+        self.emit(&step, last);
     }
 
-    fn emit(&mut self, step: &StepSamples) {
-        if step.n > 0 && !self.obs.step_samples(self.sim.model(), step) {
+    /// Hand the samples of a step (the last at `last`) to the observer, after the gap before
+    /// them if there is one.
+    fn emit(&mut self, step: &StepSamples, last: f64) {
+        if step.n == 0 {
+            return;
+        }
+        if let Some((t_start, periods)) = self.pending_gap.take() {
+            let t_end = if step.dt > 0.0 {
+                step.t_first
+            } else {
+                step.k1.t
+            };
+            self.obs.gap(&Gap {
+                t_start,
+                t_end,
+                periods,
+            });
+        }
+        self.last_sample_t = Some(last);
+        if !self.obs.step_samples(self.sim.model(), step) {
             self.stopped = true;
         }
     }
@@ -624,10 +664,23 @@ impl Protocol<'_> {
         } else {
             0
         };
-        if env.at_boundary(&mut self.sim, rec, room)? == 0 {
+        // A window starts one sample spacing early: the first sample after a jump that lands
+        // just before it is still outside it.
+        let room = room.min(dense_room(self.dense, t, self.sim.period(), self.sample_dt));
+        let jumped = env.at_boundary(&mut self.sim, rec, room)?;
+        if jumped == 0 {
             return Ok(());
         }
         let z = *self.sim.state();
+        let skips_samples = self.sample_dt <= 0.0 || self.next_sample <= z.t;
+        if let Some((_, periods)) = self.pending_gap.as_mut() {
+            // No sample since the last jump: one gap holds both.
+            *periods += jumped;
+        } else if skips_samples && self.wants_samples {
+            if let Some(t0) = self.last_sample_t {
+                self.pending_gap = Some((t0, jumped));
+            }
+        }
         if self.sample_dt > 0.0 {
             // The time grid resumes after the jump.
             if self.next_sample <= z.t {
@@ -763,9 +816,59 @@ impl Protocol<'_> {
     }
 }
 
+/// How many base periods of length `period` envelope following may jump from time `t` without
+/// entering a window of `dense` (sorted, disjoint `[t0, t1]`, each widened by `lead` before
+/// its start): none inside a window, the whole periods before the next window's start
+/// otherwise (unbounded after the last).
+fn dense_room(dense: &[[f64; 2]], t: f64, period: f64, lead: f64) -> u64 {
+    for &[t0, t1] in dense {
+        if t > t1 {
+            continue;
+        }
+        let t0 = t0 - lead;
+        if t >= t0 {
+            return 0;
+        }
+        // A margin of 1e-9 periods keeps a landing point rounded up from entering the window.
+        let n = ((t0 - t) / period - 1e-9).floor();
+        return if n.is_finite() && n > 0.0 {
+            n as u64
+        } else {
+            0
+        };
+    }
+    u64::MAX
+}
+
 /// Minimise `f` over [lo, hi] to about `tol` in t with Brent's method: (min, argmin).
 fn minimize(lo: f64, hi: f64, tol: f64, f: impl FnMut(f64) -> f64) -> (f64, f64) {
     // `brent_minimize` converges to ≈ 3 (rel_tol |t| + abs_tol).
     let (t, fmin) = numerics::brent_minimize(f, lo, hi, f64::EPSILON, tol / 3.0, 100);
     (fmin, t)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dense_room_stops_jumps_short_of_every_window() {
+        let w = [[1.0, 2.0], [3.0, 4.0]];
+        let p = 0.1;
+        // Before the first window: the whole periods that end at or before its start.
+        assert_eq!(dense_room(&w, 0.0, p, 0.0), 9);
+        assert_eq!(dense_room(&w, 0.45, p, 0.0), 5);
+        // A lead of a sample spacing moves the start earlier.
+        assert_eq!(dense_room(&w, 0.0, p, 0.25), 7);
+        // Inside a window (its ends included): no jump.
+        for t in [1.0, 1.5, 2.0, 3.2] {
+            assert_eq!(dense_room(&w, t, p, 0.0), 0, "t = {t}");
+        }
+        // Between windows: up to the next; after the last: unbounded.
+        assert_eq!(dense_room(&w, 2.05, p, 0.0), 9);
+        assert_eq!(dense_room(&w, 4.5, p, 0.0), u64::MAX);
+        assert_eq!(dense_room(&[], 4.5, p, 0.0), u64::MAX);
+        // Closer than a period to the next window: no jump.
+        assert_eq!(dense_room(&w, 0.95, p, 0.0), 0);
+    }
 }

@@ -35,6 +35,21 @@ pub struct Sample {
     pub stage: usize,
 }
 
+/// A gap in the time series: envelope following jumped over whole base periods between two
+/// consecutive samples, so nothing was computed between them and a line drawn from one to the
+/// other would invent a motion that did not happen. `t_start` and `t_end` are the times of the
+/// two samples (the last before the jump, the first after it); `periods` is the number of base
+/// periods skipped between them (those of every jump between the two samples).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Gap {
+    /// Time of the last sample before the gap (s).
+    pub t_start: f64,
+    /// Time of the first sample after the gap (s).
+    pub t_end: f64,
+    /// Base periods skipped (not integrated) between the two samples.
+    pub periods: u64,
+}
+
 /// Kinds of events the driver locates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -353,6 +368,12 @@ pub trait Observer {
     fn cycle(&mut self, c: &CycleRecord) {
         let _ = c;
     }
+    /// A gap in the time series: the samples handed over next start a new segment. Called
+    /// before the first sample after the gap, so that an observer counting gaps knows the
+    /// segment of every sample as it arrives.
+    fn gap(&mut self, g: &Gap) {
+        let _ = g;
+    }
     /// Why this observer asked the run to stop, when it did for a reason of its own that the
     /// run's status should carry (an in-memory observer over its memory budget:
     /// [`Reason::Memory`]). `None` (the default): a stop that is not the run's to report (e.g.
@@ -380,6 +401,8 @@ pub struct Recorder {
     pub events: Vec<Event>,
     /// Cycle records, in time order.
     pub cycles: Vec<CycleRecord>,
+    /// Gaps in the time series, in time order.
+    pub gaps: Vec<Gap>,
 }
 
 impl Observer for Recorder {
@@ -392,6 +415,9 @@ impl Observer for Recorder {
     }
     fn cycle(&mut self, c: &CycleRecord) {
         self.cycles.push(*c);
+    }
+    fn gap(&mut self, g: &Gap) {
+        self.gaps.push(*g);
     }
 }
 

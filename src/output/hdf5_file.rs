@@ -25,13 +25,17 @@
 //!                          pull_off_amplification (1), pull_off_time (s),
 //!                          steps, rejected, rhs_evals (u64), wall_s (s)
 //! /t, /x_s, /v_s, /x_b, /x_k, /delta, /a, /a_dot, /F, /G, /w    f64[n]   attrs: units
-//! /stage                                                         i64[n]   attrs: units
+//! /stage, /segment                                               i64[n]   attrs: units
+//!                   (segment: 0 from the start, +1 after each gap of the time series)
 //! /events/kind      variable-length strings (impact, contact-loss, pull-off, ...)
 //! /events/time      f64[m] (s)     /events/stage   i64[m]
 //! /events/x_s ... /events/w        f64[m]: the state at each event (same names as above)
 //! /cycles           attrs: count; one dataset per CycleRecord field (index, stage: i64; the rest
 //!                   f64), attrs units (`output::cycles::CYCLE_FIELDS`); no datasets when the
 //!                   run recorded no cycle
+//! /gaps             attrs: count; t_start, t_end f64[g] (s), periods i64[g]: the spans envelope
+//!                   following skipped, each between two consecutive samples (empty datasets
+//!                   when the time series has no gap)
 //! /descriptions/path, /descriptions/text   strings: the description of every dataset and group
 //!                   above, one row each (`/cycles/a_cos` → its definition), [`run_descriptions`]
 //! ```
@@ -49,7 +53,7 @@ use hdf5_pure::{AttrValue, File, FileAccessProperties, FileBuilder, SyncPolicy};
 
 use super::cycles::{cycle_schema, HARMONIC_CONVENTION};
 use super::table::{text_attr as vstr, Descriptions, Storage, Table, HDF5_CHUNK};
-use super::timeseries::{events_table, TimeSeriesWriter};
+use super::timeseries::{events_table, gaps_table, TimeSeriesWriter, GAPS_DESCRIPTION};
 use super::OutputError;
 use crate::dynamics::types::RunResult;
 use crate::scenario::Scenario;
@@ -91,7 +95,9 @@ pub fn run_descriptions() -> Descriptions {
         .add("/events", EVENTS_DESCRIPTION)
         .table("/events", &events_table(&[]).schema())
         .add("/cycles", CYCLES_DESCRIPTION)
-        .table("/cycles", &cycle_schema());
+        .table("/cycles", &cycle_schema())
+        .add("/gaps", GAPS_DESCRIPTION)
+        .table("/gaps", &gaps_table(&[]).schema());
     d
 }
 
@@ -123,6 +129,8 @@ pub struct RunTables<'a> {
     pub events: &'a Table,
     /// Period records.
     pub cycles: &'a Table,
+    /// Gaps of the time series ([`super::timeseries::gaps_table`]).
+    pub gaps: &'a Table,
 }
 
 /// Serialise a whole run at once (layout in the module doc).
@@ -170,6 +178,10 @@ pub fn write_hdf5(
     if !tables.cycles.is_empty() {
         tables.cycles.write_hdf5_with(&mut g, storage);
     }
+    b.add_group(g.finish());
+    let mut g = b.create_group("gaps");
+    g.set_attr("count", AttrValue::I64(tables.gaps.rows() as i64));
+    tables.gaps.write_hdf5_with(&mut g, storage);
     b.add_group(g.finish());
     run_descriptions().write(&mut b);
     b.finish_to(w).map_err(|e| match e {
@@ -232,6 +244,8 @@ impl H5Stream {
         b.add_group(g.finish());
         let g = b.create_group("cycles");
         b.add_group(g.finish());
+        let g = b.create_group("gaps");
+        b.add_group(g.finish());
         run_descriptions().write(&mut b);
         b.finish_to(&mut handle).map_err(err)?;
         drop(handle);
@@ -293,12 +307,13 @@ impl H5Stream {
             .map_err(err)
     }
 
-    /// Write the event kinds (`kinds`, one per event), the period count and the results, and
-    /// close the file.
+    /// Write the event kinds (`kinds`, one per event), the period count, the gaps (a
+    /// [`super::timeseries::gaps_table`]) and the results, and close the file.
     pub fn finish(
         self,
         kinds: &[&str],
         cycle_count: u64,
+        gaps: &Table,
         result: &RunResult,
     ) -> Result<(), OutputError> {
         let err = |e: hdf5_pure::Error| OutputError::Hdf5 {
@@ -320,6 +335,21 @@ impl H5Stream {
             .group("cycles")
             .and_then(|g| g.set_attr("count", AttrValue::I64(cycle_count as i64)))
             .map_err(err)?;
+        let group = self.file.group("gaps").map_err(err)?;
+        group
+            .set_attr("count", AttrValue::I64(gaps.rows() as i64))
+            .map_err(err)?;
+        gaps.create_hdf5_in(
+            &group,
+            Storage {
+                compress: self.compress,
+                extendable: None,
+            },
+        )
+        .map_err(|message| OutputError::Hdf5 {
+            path: self.path.clone(),
+            message,
+        })?;
         self.file.commit().map_err(err)?;
         self.file.close().map_err(err)
     }

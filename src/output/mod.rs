@@ -40,9 +40,9 @@
 //! and the directory before the run counts as written (about 3.5 ms per file on the reference
 //! machine) for runs whose output must survive a power loss.
 //!
-//! File layouts: [`hdf5_file`] (HDF5), [`summary`] (JSON and its non-finite rule); the three CSV
+//! File layouts: [`hdf5_file`] (HDF5), [`summary`] (JSON and its non-finite rule); the four CSV
 //! files are the tables of the HDF5 file ([`timeseries`], [`timeseries::events_table`],
-//! [`cycles`]) written by [`table`], which writes every table of djkr (runs, resonance sweeps,
+//! [`cycles`], [`timeseries::gaps_table`]) written by [`table`], which writes every table of djkr (runs, resonance sweeps,
 //! shortcut maps, accuracy studies, figures), and every file goes to disk through [`atomic`].
 
 pub mod atomic;
@@ -62,7 +62,9 @@ use thiserror::Error;
 
 use crate::dynamics::model::Model;
 use crate::dynamics::simulator::StepSamples;
-use crate::dynamics::types::{CycleRecord, Ending, Event, EventKind, Observer, RunResult, Sample};
+use crate::dynamics::types::{
+    CycleRecord, Ending, Event, EventKind, Gap, Observer, RunResult, Sample,
+};
 use crate::scenario::Scenario;
 pub use atomic::{write_atomic, AtomicFile};
 use stream::{Background, Pending, Rows, Streaming};
@@ -80,21 +82,23 @@ pub const TIMESERIES_CSV_NAME: &str = "timeseries.csv";
 pub const EVENTS_CSV_NAME: &str = "events.csv";
 /// File name of the per-cycle CSV.
 pub const CYCLES_CSV_NAME: &str = "cycles.csv";
+/// File name of the gaps CSV (the HDF5 `/gaps` group).
+pub const GAPS_CSV_NAME: &str = "gaps.csv";
 /// The lock file a run writer holds in its output directory.
 pub const LOCK_NAME: &str = ".djkr.lock";
 
 /// The CSV files, written together on request.
 const CSV_NAMES: [&str; 3] = [TIMESERIES_CSV_NAME, EVENTS_CSV_NAME, CYCLES_CSV_NAME];
 
-/// Samples buffered before a run switches to streaming (12 columns × 8 bytes: ≈ 3 MB): a run
+/// Samples buffered before a run switches to streaming (13 columns × 8 bytes: ≈ 3.4 MB): a run
 /// longer than one chunk streams, so that its writer thread starts early.
 pub const SPILL_ROWS: usize = 1 << 15;
 /// Samples per append once streaming (one chunk of every time-series dataset).
 pub const FLUSH_ROWS: usize = 1 << 15;
 
-/// Bytes per sample in the HDF5 file (12 columns of 8 bytes, uncompressed).
-const HDF5_ROW_BYTES: f64 = 96.0;
-/// Bytes per sample in timeseries.csv (12 shortest round-trip numbers and commas, generous).
+/// Bytes per sample in the HDF5 file (13 columns of 8 bytes, uncompressed).
+const HDF5_ROW_BYTES: f64 = 104.0;
+/// Bytes per sample in timeseries.csv (13 shortest round-trip numbers and commas, generous).
 const CSV_ROW_BYTES: f64 = 300.0;
 
 /// Why output could not be written.
@@ -214,6 +218,8 @@ pub struct OutputPaths {
     pub events_csv: Option<PathBuf>,
     /// `DIR/cycles.csv`, when CSV was requested.
     pub cycles_csv: Option<PathBuf>,
+    /// `DIR/gaps.csv`, when CSV was requested.
+    pub gaps_csv: Option<PathBuf>,
     /// The text written into `summary.json`.
     pub summary_text: String,
 }
@@ -223,10 +229,15 @@ impl OutputPaths {
     pub fn all(&self) -> Vec<&Path> {
         let mut v: Vec<&Path> = vec![self.hdf5.as_path()];
         v.extend(
-            [&self.timeseries_csv, &self.events_csv, &self.cycles_csv]
-                .into_iter()
-                .flatten()
-                .map(PathBuf::as_path),
+            [
+                &self.timeseries_csv,
+                &self.events_csv,
+                &self.cycles_csv,
+                &self.gaps_csv,
+            ]
+            .into_iter()
+            .flatten()
+            .map(PathBuf::as_path),
         );
         v.push(self.summary.as_path());
         v
@@ -253,6 +264,8 @@ pub struct RunWriter {
     kinds: Vec<EventKind>,
     samples: u64,
     cycles: u64,
+    /// The gaps of the time series (24 bytes each, at most one per envelope jump).
+    gaps: Vec<Gap>,
     stream: Option<Background>,
     /// The run's model (a copy, and where it lives) until streaming starts and the writer
     /// thread takes it to build the samples.
@@ -289,6 +302,7 @@ impl RunWriter {
         let mut names = vec![HDF5_NAME, SUMMARY_NAME];
         if csv {
             names.extend(CSV_NAMES);
+            names.push(GAPS_CSV_NAME);
         }
         names.extend(extra);
         folder::check_names(dir, &names, force)?;
@@ -307,6 +321,7 @@ impl RunWriter {
             kinds: Vec::new(),
             samples: 0,
             cycles: 0,
+            gaps: Vec::new(),
             stream: None,
             model: None,
             error: None,
@@ -393,13 +408,20 @@ impl RunWriter {
         Ok(())
     }
 
+    /// The segment index of the samples arriving now (the gaps seen so far).
+    fn segment(&self) -> i64 {
+        i64::try_from(self.gaps.len()).unwrap_or(i64::MAX)
+    }
+
     /// Buffer one built sample.
     fn push_sample(&mut self, s: &Sample) -> bool {
         self.samples += 1;
+        let segment = self.segment();
         if self.stream.is_some() {
-            self.rows.pending.push(Pending::One(*s));
+            self.rows.pending.push(Pending::One(*s, segment));
             self.rows.pending_samples += 1;
         } else {
+            self.rows.series.set_segment(segment);
             self.rows.series.push(s);
         }
         self.maybe_flush()
@@ -440,7 +462,8 @@ impl RunWriter {
                     .map(|k| timeseries::kind_name(*k))
                     .collect();
                 let kinds: Vec<&str> = kinds.iter().map(String::as_str).collect();
-                st.h5.finish(&kinds, self.cycles, result)?;
+                let gaps = timeseries::gaps_table(&self.gaps);
+                st.h5.finish(&kinds, self.cycles, &gaps, result)?;
                 staged.push(st.h5_file);
                 for (file, w) in st.csv {
                     let p = file.partial().to_path_buf();
@@ -453,6 +476,9 @@ impl RunWriter {
                     }
                     staged.push(file);
                 }
+                if self.options.csv {
+                    staged.push(self.stage_gaps_csv()?);
+                }
             }
         }
         let mut files = SummaryFiles {
@@ -463,6 +489,7 @@ impl RunWriter {
             files.timeseries_csv = Some(TIMESERIES_CSV_NAME.to_string());
             files.events_csv = Some(EVENTS_CSV_NAME.to_string());
             files.cycles_csv = Some(CYCLES_CSV_NAME.to_string());
+            files.gaps_csv = Some(GAPS_CSV_NAME.to_string());
         }
         for f in &staged {
             let p = f.partial();
@@ -480,7 +507,7 @@ impl RunWriter {
             self.samples,
             &files,
             &self.run_id,
-            &self.sections,
+            &gaps_section(&self.sections, self.gaps.len()),
         );
         // Last: its presence marks a complete run.
         staged.push(AtomicFile::write_tagged(
@@ -503,6 +530,7 @@ impl RunWriter {
             timeseries_csv: csv(TIMESERIES_CSV_NAME),
             events_csv: csv(EVENTS_CSV_NAME),
             cycles_csv: csv(CYCLES_CSV_NAME),
+            gaps_csv: csv(GAPS_CSV_NAME),
             summary_text: json,
         })
     }
@@ -514,13 +542,14 @@ impl RunWriter {
         staged: &mut Vec<AtomicFile>,
     ) -> Result<(), OutputError> {
         let target = self.target(HDF5_NAME);
+        let gaps = timeseries::gaps_table(&self.gaps);
         staged.push(AtomicFile::write_tagged(
             &target,
             &self.run_id,
             self.options.fsync,
             |w| {
                 hdf5_file::write_hdf5(
-                    self.rows.tables(),
+                    self.rows.tables(&gaps),
                     &self.scenario,
                     &self.run_id,
                     result,
@@ -530,7 +559,7 @@ impl RunWriter {
             },
         )?);
         if self.options.csv {
-            let t = self.rows.tables();
+            let t = self.rows.tables(&gaps);
             for (name, table) in CSV_NAMES.into_iter().zip([t.series, t.events, t.cycles]) {
                 staged.push(AtomicFile::write_tagged(
                     &self.target(name),
@@ -539,8 +568,20 @@ impl RunWriter {
                     |w| table.write_csv(w),
                 )?);
             }
+            staged.push(self.stage_gaps_csv()?);
         }
         Ok(())
+    }
+
+    /// `gaps.csv`, written whole (the gaps are few: at most one per envelope jump).
+    fn stage_gaps_csv(&self) -> Result<AtomicFile, OutputError> {
+        let gaps = timeseries::gaps_table(&self.gaps);
+        AtomicFile::write_tagged(
+            &self.target(GAPS_CSV_NAME),
+            &self.run_id,
+            self.options.fsync,
+            |w| gaps.write_csv(w),
+        )
     }
 
     /// Give up: remove this run's partial files (the same as dropping the writer).
@@ -552,10 +593,11 @@ impl Observer for RunWriter {
         self.push_sample(s)
     }
     fn step_samples(&mut self, model: &Model, step: &StepSamples) -> bool {
+        let segment = self.segment();
         if let Some(bg) = &self.stream {
             if bg.builds_with(model) {
                 self.samples += step.n as u64;
-                self.rows.pending.push(Pending::Step(*step));
+                self.rows.pending.push(Pending::Step(*step, segment));
                 self.rows.pending_samples += step.n;
                 return self.maybe_flush();
             }
@@ -574,6 +616,16 @@ impl Observer for RunWriter {
         self.cycles += 1;
         self.maybe_flush();
     }
+    fn gap(&mut self, g: &Gap) {
+        self.gaps.push(*g);
+    }
+}
+
+/// The summary sections `sections` with `gaps` (the number of gaps in the time series) first.
+pub fn gaps_section(sections: &summary::Sections, gaps: usize) -> Vec<(String, serde_json::Value)> {
+    let mut v = vec![("gaps".to_string(), serde_json::Value::from(gaps as u64))];
+    v.extend(sections.iter().cloned());
+    v
 }
 
 /// A run id unique on this machine: the start time and the process id.

@@ -33,13 +33,13 @@ use crate::dynamics::simulator::StepSamples;
 use crate::dynamics::types::Sample;
 use crate::scenario::Scenario;
 
-/// A sample not built yet, or built already.
+/// A sample not built yet, or built already, with its segment index (the `segment` column).
 #[derive(Debug, Clone, Copy)]
 pub(super) enum Pending {
     /// A sample handed over as it is.
-    One(Sample),
+    One(Sample, i64),
     /// The samples of one step, built by the writer thread.
-    Step(StepSamples),
+    Step(StepSamples, i64),
 }
 
 /// The rows buffered since the last write to disk.
@@ -68,11 +68,13 @@ impl Rows {
         }
     }
 
-    pub fn tables(&self) -> RunTables<'_> {
+    /// The buffered tables, with the run's `gaps` (kept by the run writer).
+    pub fn tables<'a>(&'a self, gaps: &'a Table) -> RunTables<'a> {
         RunTables {
             series: self.series.table(),
             events: &self.events,
             cycles: &self.cycles,
+            gaps,
         }
     }
 
@@ -160,8 +162,12 @@ impl Streaming {
         self.write_series(self.buf.len() - self.buf.len() % FLUSH_ROWS)?;
         for p in &rows.pending {
             match p {
-                Pending::One(s) => self.push(s)?,
-                Pending::Step(step) => {
+                Pending::One(s, segment) => {
+                    self.buf.set_segment(*segment);
+                    self.push(s)?;
+                }
+                Pending::Step(step, segment) => {
+                    self.buf.set_segment(*segment);
                     let Some(m) = self.model.take() else {
                         return Err(self.h5_error("a step's samples without a model".into()));
                     };

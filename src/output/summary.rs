@@ -101,6 +101,8 @@ pub struct SummaryFiles {
     pub events_csv: Option<String>,
     /// The cycles CSV, when written.
     pub cycles_csv: Option<String>,
+    /// The gaps CSV, when written.
+    pub gaps_csv: Option<String>,
     /// The size in bytes of each file above (`file_bytes`): a reader can tell a file that a
     /// machine crash truncated after the run from a complete one.
     pub bytes: Vec<(String, u64)>,
@@ -398,6 +400,9 @@ fn file_map(files: &SummaryFiles) -> Map<String, Value> {
     }
     if let Some(f) = &files.cycles_csv {
         file_map.insert("cycles_csv".into(), Value::String(f.clone()));
+    }
+    if let Some(f) = &files.gaps_csv {
+        file_map.insert("gaps_csv".into(), Value::String(f.clone()));
     }
     file_map
 }

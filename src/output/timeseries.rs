@@ -6,7 +6,7 @@
 //! to the HDF5 file in batches ([`super::RunWriter`]: memory independent of run length).
 
 use super::table::{Cell, Column, Data, Field, Table};
-use crate::dynamics::types::{Event, EventKind, Observer, Sample};
+use crate::dynamics::types::{Event, EventKind, Gap, Observer, Sample};
 
 /// One f64 time-series column: the same name in HDF5 (dataset), JSON (key) and, with its unit,
 /// in the CSV header (`F [N]`).
@@ -42,7 +42,8 @@ const fn col(
     }
 }
 
-/// The f64 columns of the time series, in file order. The stage index ([`STAGE`]) follows them.
+/// The f64 columns of the time series, in file order. The stage index ([`STAGE`]) and the segment
+/// index ([`SEGMENT`]) follow them.
 pub const SERIES: [SeriesColumn; 11] = [
     col("t", "s", "time from the start of the protocol (s)", |s| s.t),
     col("x_s", "m", "sphere position (down positive)", |s| s.x_s),
@@ -95,6 +96,19 @@ pub const STAGE_UNIT: &str = "1";
 pub const STAGE_DESCRIPTION: &str =
     "index of the protocol stage ([[stage]] in the scenario, 0-based)";
 
+/// Name of the segment-index column (int64 in HDF5).
+pub const SEGMENT: &str = "segment";
+/// Description of the segment index.
+pub const SEGMENT_DESCRIPTION: &str =
+    "index of the gap-free stretch of the time series the sample belongs to: 0 from the start, \
+     +1 after each gap (a span envelope following skipped, listed in /gaps); never draw a line \
+     between samples of different segments";
+
+/// Description of the `/gaps` group.
+pub const GAPS_DESCRIPTION: &str =
+    "spans of the time series that envelope following jumped over (no sample inside): each gap \
+     lies between two consecutive samples, where /segment steps by one";
+
 impl SeriesColumn {
     /// This column's schema.
     pub fn field(&self) -> Field {
@@ -102,11 +116,39 @@ impl SeriesColumn {
     }
 }
 
-/// The time-series schema: [`SERIES`], then the stage index (int64).
+/// The time-series schema: [`SERIES`], then the stage index and the segment index (int64).
 pub fn series_schema() -> Vec<Field> {
     let mut s: Vec<Field> = SERIES.iter().map(SeriesColumn::field).collect();
     s.push(Field::i64(STAGE, STAGE_UNIT, STAGE_DESCRIPTION));
+    s.push(Field::i64(SEGMENT, "1", SEGMENT_DESCRIPTION));
     s
+}
+
+/// The gaps as a table: `t_start`, `t_end` (s) and `periods` (int64). The HDF5 `/gaps` group and
+/// `gaps.csv`.
+pub fn gaps_table(gaps: &[Gap]) -> Table {
+    Table::from_fixed(vec![
+        Column::f64(
+            "t_start",
+            "s",
+            "time of the last sample before the gap",
+            gaps.iter().map(|g| g.t_start).collect(),
+        ),
+        Column::f64(
+            "t_end",
+            "s",
+            "time of the first sample after the gap",
+            gaps.iter().map(|g| g.t_end).collect(),
+        ),
+        Column::i64(
+            "periods",
+            "1",
+            "base periods envelope following skipped (did not integrate) between the two samples",
+            gaps.iter()
+                .map(|g| i64::try_from(g.periods).unwrap_or(i64::MAX))
+                .collect(),
+        ),
+    ])
 }
 
 /// Buffers a run's samples (as a table of [`series_schema`]) and events; the writers read them
@@ -115,6 +157,10 @@ pub fn series_schema() -> Vec<Field> {
 pub struct TimeSeriesWriter {
     table: Table,
     events: Vec<Event>,
+    /// The segment index of the samples pushed next.
+    segment: i64,
+    /// The gaps seen, in time order.
+    gaps: Vec<Gap>,
 }
 
 impl Default for TimeSeriesWriter {
@@ -130,6 +176,8 @@ impl Default for TimeSeriesWriter {
                     .collect(),
             ),
             events: Vec::new(),
+            segment: 0,
+            gaps: Vec::new(),
         }
     }
 }
@@ -173,6 +221,22 @@ impl TimeSeriesWriter {
         &self.events
     }
 
+    /// The gaps seen, in time order.
+    pub fn gaps(&self) -> &[Gap] {
+        &self.gaps
+    }
+
+    /// The segment index the next sample gets.
+    pub fn segment(&self) -> i64 {
+        self.segment
+    }
+
+    /// Set the segment index of the samples pushed from here on (a writer whose samples arrive
+    /// with their segment, not through [`Observer::gap`]).
+    pub fn set_segment(&mut self, segment: i64) {
+        self.segment = segment;
+    }
+
     /// The samples as a table and the events, by value (a run kept in memory).
     pub fn into_parts(self) -> (Table, Vec<Event>) {
         (self.table, self.events)
@@ -201,7 +265,9 @@ impl TimeSeriesWriter {
             *x = def.value(s);
         }
         // The schema is SERIES then the stage: the row always fits.
-        let pushed = self.table.push_numeric_row(&row, &[stage_index(s.stage)]);
+        let pushed = self
+            .table
+            .push_numeric_row(&row, &[stage_index(s.stage), self.segment]);
         debug_assert!(pushed.is_ok(), "{pushed:?}");
     }
 }
@@ -213,6 +279,10 @@ impl Observer for TimeSeriesWriter {
     }
     fn event(&mut self, e: &Event) {
         self.events.push(*e);
+    }
+    fn gap(&mut self, g: &Gap) {
+        self.gaps.push(*g);
+        self.segment += 1;
     }
 }
 
@@ -298,7 +368,8 @@ mod tests {
     fn schemas_are_valid_tables() {
         assert!(Table::from_schema(&series_schema()).is_ok());
         let t = TimeSeriesWriter::new();
-        assert_eq!(t.table().columns().len(), 12);
+        assert_eq!(t.table().columns().len(), 13);
+        assert!(Table::from_schema(&gaps_table(&[]).schema()).is_ok());
         assert_eq!(events_table(&[]).columns().len(), 13);
     }
 

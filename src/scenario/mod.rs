@@ -17,7 +17,7 @@ pub use crate::dynamics::{Method, Solver};
 pub use crate::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder, Rig, Sphere};
 
 /// Output settings.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Output {
     /// Time-series samples per second of simulated time; 0 = every accepted step.
     pub sample_rate: f64,
@@ -30,6 +30,9 @@ pub struct Output {
     pub fsync: bool,
     /// Also draw the run's figure (`run.png`, `run.svg`; same as `run --plot`).
     pub plot: bool,
+    /// Windows `[t0, t1]` (s; sorted, disjoint) recorded densely: envelope following never
+    /// jumps into or across them, so the time series has no gap there.
+    pub dense: Vec<[f64; 2]>,
 }
 
 impl Default for Output {
@@ -40,6 +43,7 @@ impl Default for Output {
             compress: false,
             fsync: false,
             plot: false,
+            dense: Vec::new(),
         }
     }
 }
@@ -77,6 +81,7 @@ impl Scenario {
             stages: &self.stages,
             solver: self.solver,
             sample_rate: self.output.sample_rate,
+            dense: &self.output.dense,
         }
     }
 

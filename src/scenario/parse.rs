@@ -29,7 +29,7 @@
 //! | `[initial]` | `preload` (N, > 0) or `gap` (m, > 0); absent without a spring: the sphere's weight |
 //! | `[[stage]]` (≥ 1) | `kind`, `speed` (m/s), one of `duration` (s) / `preload` (N) / `until = "pull-off"`, `vibration` (bool), `max_duration` (s, 1e4) |
 //! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `max_memory` (bytes, ≥ 1 MiB, 2 GiB), `event_tol` (s, (0, 1e-6]; a warning above 1e-9) |
-//! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool), `plot` (bool) |
+//! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool), `plot` (bool), `dense` (list of `[t0, t1]` windows, s, t0 < t1; merged when they overlap) |
 
 use std::fmt::Display;
 use std::path::{Path, PathBuf};
@@ -391,7 +391,11 @@ pub const SOLVER_KEYS: &[&str] = &[
     "envelope_tol",
 ];
 /// Keys of `[output]`.
-pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv", "compress", "fsync", "plot"];
+pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv", "compress", "fsync", "plot", "dense"];
+
+/// The most windows `[output] dense` may list (each is checked at every period boundary that
+/// envelope following considers; far more than a protocol has stages).
+pub const MAX_DENSE_WINDOWS: usize = 10_000;
 
 /// The name of the one section that is a list of tables (`[[stage]]`, keys `stage[N].KEY`).
 pub const STAGE_SECTION: &str = "stage";
@@ -1412,8 +1416,78 @@ impl Parser<'_> {
         if let Some(b) = self.boolean(&s, "plot")? {
             out.plot = b;
         }
+        if let Some(v) = s.table.get("dense") {
+            out.dense = self.dense(&s.key("dense"), v)?;
+        }
         Ok(out)
     }
+
+    /// `[output] dense`: a list of `[t0, t1]` windows (s, numbers or strings with a time unit),
+    /// each finite with t0 < t1; sorted and overlapping or touching windows merged, at most
+    /// [`MAX_DENSE_WINDOWS`].
+    fn dense(&self, key: &str, v: &Value) -> Result<Vec<[f64; 2]>> {
+        const ALLOWED: &str =
+            "must be a list of [t0, t1] windows in seconds with t0 < t1, e.g. [[2.0, 2.5], [10, 11]]";
+        let list = match v {
+            Value::Array(list) => list,
+            // `--set` hands its values over as text: a list cannot come that way.
+            Value::String(_) => {
+                return Err(self.value_err(
+                    key,
+                    show(v),
+                    format!("{ALLOWED}; a list cannot be given with --set: write it in the scenario file's [output]"),
+                ))
+            }
+            other => return Err(self.value_err(key, show(other), ALLOWED)),
+        };
+        if list.len() > MAX_DENSE_WINDOWS {
+            return Err(self.value_err(
+                key,
+                format!("({} windows)", list.len()),
+                format!("at most {MAX_DENSE_WINDOWS} windows"),
+            ));
+        }
+        let mut windows = Vec::with_capacity(list.len());
+        for (i, w) in list.iter().enumerate() {
+            let wkey = format!("{key}[{i}]");
+            let pair = match w {
+                Value::Array(p) if p.len() == 2 => p,
+                other => return Err(self.value_err(&wkey, show(other), ALLOWED)),
+            };
+            let mut ts = [0.0; 2];
+            for (t, x) in ts.iter_mut().zip(pair) {
+                *t = match x {
+                    Value::Integer(n) => *n as f64,
+                    Value::Float(f) => *f,
+                    Value::String(text) => parse_quantity(&wkey, text, Dimension::Time)
+                        .map_err(|e| self.value_err(&wkey, show(x), e.allowed))?,
+                    other => return Err(self.value_err(&wkey, show(other), ALLOWED)),
+                };
+            }
+            if !(ts[0].is_finite() && ts[1].is_finite() && ts[0] < ts[1]) {
+                return Err(self.value_err(
+                    &wkey,
+                    show(w),
+                    "must be a window [t0, t1] of finite times in seconds with t0 < t1",
+                ));
+            }
+            windows.push(ts);
+        }
+        Ok(merge_windows(windows))
+    }
+}
+
+/// Windows sorted by their start, with overlapping or touching ones merged into one.
+pub fn merge_windows(mut windows: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+    windows.sort_by(|a, b| a[0].total_cmp(&b[0]));
+    let mut merged: Vec<[f64; 2]> = Vec::with_capacity(windows.len());
+    for w in windows {
+        match merged.last_mut() {
+            Some(last) if w[0] <= last[1] => last[1] = last[1].max(w[1]),
+            _ => merged.push(w),
+        }
+    }
+    merged
 }
 
 /// Identity of a law table's file as last read: path, size, modification time and inode. A

@@ -368,6 +368,11 @@ impl Observer for SweepObserver<'_> {
             w.cycle(c);
         }
     }
+    fn gap(&mut self, g: &crate::dynamics::types::Gap) {
+        if let Some(w) = self.inner.as_deref_mut() {
+            w.gap(g);
+        }
+    }
 }
 
 /// How to run a sweep's runs.

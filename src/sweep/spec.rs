@@ -94,7 +94,7 @@ pub fn key_kind(key: &SetKey) -> Option<KeyKind> {
         ("solver", "max_wall_s" | "event_tol") => num(D::Time, "s"),
         ("solver", "method" | "envelope") => KeyKind::Text,
         ("output", "sample_rate") => num(D::Frequency, "1/s"),
-        ("output", "csv" | "plot" | "compress" | "fsync") => KeyKind::Text,
+        ("output", "csv" | "plot" | "compress" | "fsync" | "dense") => KeyKind::Text,
         _ => return None,
     })
 }
