@@ -170,10 +170,12 @@ def test_gaps_are_data(tmp_path):
     assert_bits_equal(r.t[steps + 1], g["t_end"], "t_end")
     with h5py.File(tmp_path / "run" / "run.h5") as f:
         assert_bits_equal(f["segment"][:], r.segment, "segment")
+        described = dict(zip(f["descriptions/path"].asstr()[:], f["descriptions/text"].asstr()[:]))
         for k in g:
             assert_bits_equal(f["gaps"][k][:], g[k], k)
             assert isinstance(f["gaps"][k].attrs["units"], str)
-            assert f["gaps"][k].attrs["description"]
+            assert described[f"/gaps/{k}"]
+        assert described["/segment"]
     assert list(r.to_pandas()["segment"]) == list(r.segment)
 
 
