@@ -1314,60 +1314,26 @@ impl Parser<'_> {
             }
             solver.atol = n.v;
         }
-        if let Some(v) = s.table.get("max_steps") {
-            let ok = match v {
-                Value::Integer(i) if *i >= 1 => Some(*i as u64),
-                Value::Float(f)
-                    if f.is_finite() && *f >= 1.0 && f.fract() == 0.0 && *f <= 9.0e15 =>
-                {
-                    Some(*f as u64)
-                }
-                _ => None,
-            };
-            solver.max_steps = ok.ok_or_else(|| {
-                self.value_err(
-                    &s.key("max_steps"),
-                    show(v),
-                    "must be a whole number >= 1 (steps)",
-                )
-            })?;
+        if let Some(n) =
+            self.whole_number(&s, "max_steps", 1, "must be a whole number >= 1 (steps)")?
+        {
+            solver.max_steps = n;
         }
-        if let Some(v) = s.table.get("max_events") {
-            let ok = match v {
-                Value::Integer(i) if *i >= 1 => Some(*i as u64),
-                Value::Float(f)
-                    if f.is_finite() && *f >= 1.0 && f.fract() == 0.0 && *f <= 9.0e15 =>
-                {
-                    Some(*f as u64)
-                }
-                _ => None,
-            };
-            solver.max_events = ok.ok_or_else(|| {
-                self.value_err(
-                    &s.key("max_events"),
-                    show(v),
-                    "must be a whole number >= 1 (contact events)",
-                )
-            })?;
+        if let Some(n) = self.whole_number(
+            &s,
+            "max_events",
+            1,
+            "must be a whole number >= 1 (contact events)",
+        )? {
+            solver.max_events = n;
         }
-        if let Some(v) = s.table.get("max_memory") {
-            let min = crate::dynamics::stepper::MIN_MAX_MEMORY;
-            let ok = match v {
-                Value::Integer(i) if *i >= min as i64 => Some(*i as u64),
-                Value::Float(f)
-                    if f.is_finite() && *f >= min as f64 && f.fract() == 0.0 && *f <= 9.0e15 =>
-                {
-                    Some(*f as u64)
-                }
-                _ => None,
-            };
-            solver.max_memory = ok.ok_or_else(|| {
-                self.value_err(
-                    &s.key("max_memory"),
-                    show(v),
-                    "must be a whole number of bytes >= 1048576 (1 MiB; default 2147483648 = 2 GiB)",
-                )
-            })?;
+        if let Some(n) = self.whole_number(
+            &s,
+            "max_memory",
+            crate::dynamics::stepper::MIN_MAX_MEMORY,
+            "must be a whole number of bytes >= 1048576 (1 MiB; default 2147483648 = 2 GiB)",
+        )? {
+            solver.max_memory = n;
         }
         if let Some(w) = self.opt_positive(&s, "max_wall_s", TIME)? {
             solver.max_wall_s = w;
@@ -1392,6 +1358,25 @@ impl Parser<'_> {
             solver.envelope_tol = n.v;
         }
         Ok(solver)
+    }
+
+    /// The whole number `k` of section `s`, at least `min` (an integer, or a float with no
+    /// fraction up to 9e15, as TOML writes large numbers); `allowed` is the error's range.
+    fn whole_number(&self, s: &Section, k: &str, min: u64, allowed: &str) -> Result<Option<u64>> {
+        let Some(v) = s.table.get(k) else {
+            return Ok(None);
+        };
+        let ok = match v {
+            Value::Integer(i) if *i >= 0 && *i as u64 >= min => Some(*i as u64),
+            Value::Float(f)
+                if f.is_finite() && *f >= min as f64 && f.fract() == 0.0 && *f <= 9.0e15 =>
+            {
+                Some(*f as u64)
+            }
+            _ => None,
+        };
+        ok.map(Some)
+            .ok_or_else(|| self.value_err(&s.key(k), show(v), allowed))
     }
 
     fn output(&self, top: &Section) -> Result<Output> {
