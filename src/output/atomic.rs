@@ -2,11 +2,12 @@
 //!
 //! A file is written in full under a hidden partial name beside the target, flushed, and only
 //! then renamed into place, so an interrupted or failed writer never leaves a file that looks
-//! complete. [`write_atomic`] does this for one file; a writer that must commit several files
-//! together (the run writer: `summary.json` last, see [`super::RunWriter`]) stages each as an
-//! [`AtomicFile`] and commits them in order once all are written
-//! ([`super::folder::commit_all`]). An [`AtomicFile`] dropped without committing removes its
-//! partial.
+//! complete. This module stages the partial ([`AtomicFile`]) and renames it into place; the
+//! folder policy above it ([`super::folder`]) decides whether a target may be replaced and
+//! records what djkr wrote: [`super::folder::write_atomic`] for one file,
+//! [`super::folder::commit_all`] for a writer that must commit several files together (the run
+//! writer: `summary.json` last, see [`super::RunWriter`]). An [`AtomicFile`] dropped without
+//! committing removes its partial.
 //!
 //! **Partials are never a path a user can plant.** Each partial is created new
 //! (`O_CREAT | O_EXCL | O_NOFOLLOW`) under a name no one can guess, `DIR/.NAME.XXXXXX.partial`
@@ -69,7 +70,7 @@ fn create_partial(target: &Path, tag: Option<&str>) -> Result<(File, TempPath), 
 }
 
 /// A file being written atomically: its content goes to a fresh partial file until it is
-/// committed ([`AtomicFile::commit`], [`super::folder::commit_all`]). Dropped uncommitted, it
+/// committed ([`super::folder::commit`], [`super::folder::commit_all`]). Dropped uncommitted, it
 /// removes the partial.
 #[derive(Debug)]
 pub struct AtomicFile {
@@ -170,17 +171,6 @@ impl AtomicFile {
         &self.target
     }
 
-    /// Put the partial in place of the target and record it as djkr's in the folder's manifest;
-    /// a target that is not djkr's is refused (see [`super::folder::commit_all`]).
-    pub fn commit(self) -> Result<PathBuf, OutputError> {
-        let dir = match self.target.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let mut done = super::folder::commit_all(&dir, vec![self])?;
-        Ok(done.pop().unwrap_or_default())
-    }
-
     /// Put the partial in place of the target ([`replace`]), unchecked: for the folder code,
     /// which has checked the target.
     pub(super) fn rename_into_place(self) -> Result<(), OutputError> {
@@ -252,12 +242,6 @@ fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
     }
 }
 
-/// Write one file atomically (see the module doc): figures, tables, sweeps, studies.
-/// Refuses, naming it, to replace a file djkr did not write ([`super::folder`]).
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
-    AtomicFile::write(path, bytes)?.commit().map(|_| ())
-}
-
 /// Make the renames in `dir` durable (best effort: not every file system can sync a directory).
 pub fn sync_dir(dir: &Path) {
     if let Ok(d) = File::open(dir) {
@@ -267,6 +251,7 @@ pub fn sync_dir(dir: &Path) {
 
 #[cfg(test)]
 mod tests {
+    use super::super::folder::{commit, write_atomic};
     use super::*;
 
     #[test]
@@ -352,7 +337,7 @@ mod tests {
         let staged =
             AtomicFile::write_tagged(&target, "tag", false, |w| w.write_all(b"png")).unwrap();
         assert!(fs::symlink_metadata(staged.partial()).unwrap().is_file());
-        staged.commit().unwrap();
+        commit(staged).unwrap();
         write_atomic(&target, b"png2").unwrap();
         assert_eq!(fs::read(&victim).unwrap(), b"precious");
         assert_eq!(fs::read(&target).unwrap(), b"png2");

@@ -373,6 +373,23 @@ pub fn claim<S: AsRef<str>>(dir: &Path, names: &[S], force: bool) -> Result<(), 
     check_names(dir, names, force)
 }
 
+/// Put `file` in place of its target and record it as djkr's in its folder's manifest; a target
+/// that is not djkr's is refused ([`commit_all`]).
+pub fn commit(file: AtomicFile) -> Result<PathBuf, OutputError> {
+    let dir = match file.target().parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut done = commit_all(&dir, vec![file])?;
+    Ok(done.pop().unwrap_or_default())
+}
+
+/// Write one file atomically ([`super::atomic`]): figures, tables, sweeps, studies. Refuses,
+/// naming it, to replace a file djkr did not write.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    commit(AtomicFile::write(path, bytes)?).map(|_| ())
+}
+
 /// Put the staged `files` (all in `dir`) in place, in order, and record them in the manifest,
 /// under the folder's short lock. A target that is not a regular file, or a file djkr did not
 /// write in a folder without `--force`, is refused, naming it (the files before it are in place
@@ -557,10 +574,7 @@ mod tests {
     fn a_file_changed_in_place_or_replaced_is_no_longer_djkrs() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        AtomicFile::write(&d.join("a.txt"), b"one")
-            .unwrap()
-            .commit()
-            .unwrap();
+        commit(AtomicFile::write(&d.join("a.txt"), b"one").unwrap()).unwrap();
         assert!(is_owned(d, "a.txt"));
         check_names(d, &["a.txt", "b.txt"], false).unwrap();
         // Replaced by a file of the user's (a new inode).

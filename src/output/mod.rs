@@ -66,7 +66,8 @@ use crate::dynamics::types::{
     CycleRecord, Ending, Event, EventKind, Gap, Observer, RunResult, Sample,
 };
 use crate::scenario::Scenario;
-pub use atomic::{write_atomic, AtomicFile};
+pub use atomic::AtomicFile;
+pub use folder::write_atomic;
 use stream::{Background, Pending, Rows, Streaming};
 pub use summary::SummaryFiles;
 pub use table::{Column, CsvWriter, Field, Table};

@@ -535,11 +535,9 @@ impl Table {
         w.write_rows(self)
     }
 
-    /// Write the table as the CSV file `path`, atomically ([`super::atomic`]).
+    /// Write the table as the CSV file `path`, atomically ([`super::folder::commit`]).
     pub fn save_csv(&self, path: &Path) -> Result<(), OutputError> {
-        AtomicFile::write_with(path, |w| self.write_csv(w))?
-            .commit()
-            .map(|_| ())
+        super::folder::commit(AtomicFile::write_with(path, |w| self.write_csv(w))?).map(|_| ())
     }
 
     /// The table as CSV text.

@@ -30,7 +30,8 @@ use hdf5_pure::{AttrValue, FileBuilder};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
-use crate::output::atomic::{sync_dir, write_atomic, AtomicFile};
+use crate::output::atomic::{sync_dir, AtomicFile};
+use crate::output::folder::write_atomic;
 use crate::output::folder::{self, DirLock};
 use crate::output::table::{text_attr, Descriptions};
 use crate::output::OutputError;
@@ -490,9 +491,7 @@ pub fn open(
         fresh = keep == 0;
     }
     if fresh {
-        AtomicFile::write(&path, header.as_bytes())?
-            .appending()
-            .commit()?;
+        folder::commit(AtomicFile::write(&path, header.as_bytes())?.appending())?;
     }
     let file = open_nofollow(&path, true)?;
     Ok(Opened {
