@@ -380,6 +380,22 @@ pub fn overrides<S: AsRef<str>>(sets: &[S]) -> Result<Vec<Override>, OverrideErr
     sets.iter().map(|t| Override::parse(t.as_ref())).collect()
 }
 
+/// The first override of `overrides` whose key a command takes from elsewhere (`replaced`: the
+/// key and where its value comes from), with that place: the command line and Python refuse it,
+/// each in its own words, so that an override is honoured or refused, never silently ignored.
+pub fn replaced_override<'a>(
+    overrides: &[Override],
+    replaced: &[(&str, &'a str)],
+) -> Option<(String, &'a str)> {
+    overrides.iter().find_map(|o| {
+        let key = o.key().to_string();
+        replaced
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, how)| (key, *how))
+    })
+}
+
 /// The material and adhesion law of the commands that take one, when none is given: the
 /// paper's Fig. 2 set (K 9.33 MPa, R 51 mm, w0 240 mJ/m², v0 0.0445 mm/s, n 0.531).
 pub fn default_material() -> (Material, Law) {

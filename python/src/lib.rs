@@ -385,18 +385,17 @@ fn key_text(k: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
 /// Refuse a `set=` key that `command` takes from elsewhere (`replaced`: key and where its value
 /// comes from): an override is honoured or refused, never silently ignored.
 fn refuse_replaced(sets: &[String], command: &str, replaced: &[(&str, &str)]) -> PyResult<()> {
-    for text in sets {
-        let key = text
-            .split_once('=')
-            .map_or(text.as_str(), |(k, _)| k)
-            .trim();
-        if let Some((_, how)) = replaced.iter().find(|(k, _)| *k == key) {
-            return Err(input_err(format!(
-                "set={{'{key}': ...}}: has no effect on {command}: {how}"
-            )));
-        }
+    // A malformed override is reported later, where the scenario is built, in the same words
+    // as before.
+    let Ok(overrides) = api::overrides(sets) else {
+        return Ok(());
+    };
+    match api::replaced_override(&overrides, replaced) {
+        Some((key, how)) => Err(input_err(format!(
+            "set={{'{key}': ...}}: has no effect on {command}: {how}"
+        ))),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// What `validate` and `resonance` integrate with instead of the scenario's `solver.rtol`.

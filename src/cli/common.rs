@@ -42,13 +42,10 @@ impl SetArgs {
     /// Refuse a `--set` of a key that `command` takes from a flag of its own instead
     /// (`replaced`: key and flag): an override is honoured or refused, never silently ignored.
     pub fn refuse_replaced(&self, command: &str, replaced: &[(&str, &str)]) -> Result<()> {
-        for o in self.overrides()? {
-            let key = o.key().to_string();
-            if let Some((_, flag)) = replaced.iter().find(|(k, _)| *k == key) {
-                bail!("--set {key} has no effect on {command}: use {flag}");
-            }
+        match djkr::api::replaced_override(&self.overrides()?, replaced) {
+            Some((key, flag)) => bail!("--set {key} has no effect on {command}: use {flag}"),
+            None => Ok(()),
         }
-        Ok(())
     }
 }
 
