@@ -130,7 +130,7 @@ pub enum ApiError {
     /// The run started and ended early: stopped by a budget (`solver.max_steps`, `max_wall_s`,
     /// `max_events`, `max_memory`) or failed mid-way. What it computed is kept in `record`
     /// (and, with a run folder, published there with its status).
-    #[error("{source_name}: run {}: {}", .ending.status.name(), .ending.message.as_deref().unwrap_or(""))]
+    #[error("{source_name}: run {}: {}", .ending.status().name(), .ending.message.as_deref().unwrap_or(""))]
     Ended {
         /// The scenario's name.
         source_name: String,
@@ -935,7 +935,7 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
         files,
         plots,
     };
-    match ending.status {
+    match ending.status() {
         Status::Ok => Ok(record),
         _ if ending.reason == Some(Reason::Sigint) => Err(ApiError::Cancelled),
         _ => Err(ApiError::Ended {

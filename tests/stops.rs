@@ -118,7 +118,7 @@ fn the_step_budget_message_states_the_budget_set_and_the_steps_taken() {
         "{m}"
     );
     let ending = o.ending();
-    assert_eq!(ending.status, Status::Stopped);
+    assert_eq!(ending.status(), Status::Stopped);
     assert_eq!(ending.reason, Some(Reason::MaxSteps));
 }
 
@@ -379,7 +379,7 @@ fn the_memory_budget_stops_a_run_kept_in_memory() {
     let ApiError::Ended { ending, record, .. } = &e else {
         panic!("expected a stopped run, got {e}");
     };
-    assert_eq!(ending.status, Status::Stopped);
+    assert_eq!(ending.status(), Status::Stopped);
     assert_eq!(ending.reason, Some(Reason::Memory));
     assert!(e.to_string().contains("max_memory"), "{e}");
     let samples = record.series.rows() as u64;

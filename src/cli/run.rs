@@ -133,7 +133,7 @@ impl RunEnded {
     /// The exit status: 1 for a failed run, 3 for one stopped by a budget or SIGTERM, 130 for
     /// Ctrl-C.
     pub fn exit_status(&self) -> u8 {
-        match (self.ending.status, self.ending.reason) {
+        match (self.ending.status(), self.ending.reason) {
             (Status::Failed, _) => 1,
             (_, Some(Reason::Sigint)) => 130,
             _ => 3,
@@ -146,7 +146,7 @@ impl std::fmt::Display for RunEnded {
         write!(
             f,
             "run {} ({}): {}; what it computed is in {} (its summary.json says how it ended)",
-            self.ending.status.name(),
+            self.ending.status().name(),
             self.ending.reason.map_or("", |r| r.name()),
             self.ending.message.as_deref().unwrap_or(""),
             self.dir.display(),
@@ -221,7 +221,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         }
     };
     let ending = ending_of(&outcome);
-    let ok = ending.status == Status::Ok;
+    let ok = ending.status() == Status::Ok;
     let result = outcome.result;
     let sens = match a.sensitivity {
         Some(n) if ok => match sensitivity(&scn, &result, n.into()) {
@@ -380,7 +380,7 @@ fn print_summary(
             "  {:<18} {message}; what follows is the run up to there",
             format!(
                 "{} ({})",
-                ending.status.name().to_uppercase(),
+                ending.status().name().to_uppercase(),
                 reason.name()
             )
         );

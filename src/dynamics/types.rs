@@ -647,8 +647,6 @@ impl Reason {
 /// its end) and a `message` saying what stopped it, when and in which stage.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Ending {
-    /// `ok`, `stopped` or `failed`.
-    pub status: Status,
     /// Why it stopped or failed (`None` when ok).
     pub reason: Option<Reason>,
     /// What happened, where (`None` when ok).
@@ -659,7 +657,6 @@ impl Ending {
     /// A run that went through its stages.
     pub fn ok() -> Self {
         Ending {
-            status: Status::Ok,
             reason: None,
             message: None,
         }
@@ -668,10 +665,14 @@ impl Ending {
     /// A run ended early for `reason`, with `message` saying what happened.
     pub fn early(reason: Reason, message: String) -> Self {
         Ending {
-            status: reason.status(),
             reason: Some(reason),
             message: Some(message),
         }
+    }
+
+    /// `ok`, `stopped` or `failed`: what its reason implies.
+    pub fn status(&self) -> Status {
+        self.reason.map_or(Status::Ok, Reason::status)
     }
 }
 

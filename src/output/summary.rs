@@ -241,7 +241,7 @@ pub fn summary_json(
         ("run_id", Value::from(run_id)),
         ("scenario", Value::from(scenario.source_name.as_str())),
         ("overrides", Value::from(scenario.overrides.clone())),
-        ("status", Value::from(ending.status.name())),
+        ("status", Value::from(ending.status().name())),
         ("method", Value::from(result.method.as_str())),
         ("detached", Value::Bool(result.detached)),
         ("pull_off", Value::Object(pull_off)),

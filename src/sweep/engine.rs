@@ -275,14 +275,14 @@ impl Sweep {
             if let Err(e) = w.finish_with(&result, &ending) {
                 return failed(&format!("run folder: {e}"));
             }
-            if scn.output.plot && ending.status == Status::Ok {
+            if scn.output.plot && ending.status() == Status::Ok {
                 if let Err(e) = crate::run_plot::plot_run_dir(&dir) {
                     return failed(&format!("run plot: {e}"));
                 }
             }
         }
         let message = ending.message.as_deref().unwrap_or_default();
-        match ending.status {
+        match ending.status() {
             Status::Ok => Some(Row {
                 point: id.point,
                 member: id.member,
