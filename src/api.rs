@@ -37,12 +37,12 @@ use crate::material::Material;
 use crate::output::summary::{summary_json, SummaryFiles};
 use crate::output::table::Table;
 use crate::output::{cycles, OutputError, OutputPaths, RunWriter, TimeSeriesWriter};
+use crate::reports::steady::{self as report, ValidateReport};
 use crate::run_plot::RunPlotError;
 use crate::scenario::checks::{contact_radius_error, small_contact_warning};
 use crate::scenario::overrides::{Override, OverrideError};
 use crate::scenario::parse::ScenarioError;
 use crate::scenario::{Initial, Scenario};
-use crate::steady::report::{self, ValidateReport};
 use crate::steady::sweep::{self as steady_sweep, Direction, Linearisation, SweepPoint};
 use crate::steady::{crosscheck, Options, Problem, SteadyError};
 use crate::sweep::{

@@ -328,26 +328,7 @@ pub fn gs_soft_spring_unload(speed: f64) -> Scenario {
 // Vibration
 // ------------------------------------------------------------------------------------------
 
-/// The light rig: the paper's material with `law`, a 3 g sphere (g = 9.81 m/s²) held by a
-/// 200 N/m spring, light sphere damping c = 0.02 N s/m, no base motion, jump-in contact
-/// formation. (k_c = 3/2 K a ≈ 16 kN/m at 20 mN: resonance near 370 Hz.)
-pub fn light_rig(law: Law) -> Rig {
-    Rig {
-        material: Material::PAPER,
-        law,
-        sphere: Sphere {
-            mass: 3e-3,
-            gravity: 9.81,
-        },
-        holder: Holder::Spring { stiffness: 200.0 },
-        damping: Some(Damping {
-            c: 0.02,
-            on: DampingOn::Sphere,
-        }),
-        base: None,
-        formation: ContactFormation::JumpIn,
-    }
-}
+pub use crate::rig::light_rig;
 
 /// [`light_rig`] with the paper's Gent–Schultz law and a base shaking at `frequency` (Hz) with
 /// amplitude `xb` (m), starting in JKR equilibrium under a 20 mN preload; one hold stage of

@@ -8,34 +8,21 @@
 #![warn(missing_docs)]
 
 pub mod accuracy;
-pub mod adhesion;
 pub mod api;
-pub mod beta_fit;
-pub mod cancel;
 pub mod catalogue;
-pub mod closed_form;
-pub mod comparators;
 pub mod continuation;
-pub mod describing;
-pub mod dynamics;
-pub mod error;
 pub mod figures;
-pub mod gs_fit;
-pub mod imposed_area;
 pub mod input;
-pub mod jkr;
-pub mod material;
 pub mod memory;
-pub mod numerics;
 pub mod output;
 pub mod plot;
-pub mod quadrature;
-pub mod rig;
+pub mod reports;
 pub mod run_plot;
 pub mod scenario;
 pub mod sensitivity;
-pub mod steady;
 pub mod sweep;
-pub mod text;
-pub mod transfer;
-pub mod units;
+
+pub use djkr_core::{
+    adhesion, beta_fit, cancel, closed_form, comparators, describing, dynamics, error, gs_fit,
+    imposed_area, jkr, material, numerics, quadrature, rig, steady, text, transfer, units,
+};

@@ -235,9 +235,8 @@ pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
 fn write_beta_outputs(dir: &std::path::Path, fit: &beta_fit::BetaFit) -> Result<()> {
     use djkr::plot::{render, Figure, Series, Style};
     std::fs::create_dir_all(dir)?;
-    fit.error_curve_table()
-        .save_csv(&dir.join("beta_error_curve.csv"))?;
-    fit.ratios_table().save_csv(&dir.join("beta_ratios.csv"))?;
+    djkr::reports::beta_fit::error_curve_table(fit).save_csv(&dir.join("beta_error_curve.csv"))?;
+    djkr::reports::beta_fit::ratios_table(fit).save_csv(&dir.join("beta_ratios.csv"))?;
     let fig = Figure::new(
         "β refit: error of the closed form",
         "β",

@@ -781,7 +781,6 @@ mod tests {
     #[test]
     fn fast_forms_match_library() {
         use crate::adhesion::{GentSchultz, SaturatedGentSchultz};
-        let base = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
         let laws = [
             Law::GentSchultz(GentSchultz::PAPER),
             Law::GentSchultz(GentSchultz {
@@ -798,9 +797,8 @@ mod tests {
             }),
         ];
         for law in laws {
-            let mut s = base.clone();
-            s.rig.law = law;
-            let m = resolve(&s.rig, RunScales::default()).unwrap();
+            let (rig, _) = crate::dynamics::test_hold(law);
+            let m = resolve(&rig, RunScales::default()).unwrap();
             for &a in &[1e-5, 1.2e-3, 3e-2] {
                 for &d in &[-1e-5, 0.0, 1e-7, 2e-5, 1e-3] {
                     let (g0, g1) = (
@@ -838,8 +836,10 @@ mod tests {
     /// route's phase ω(t − t_on) (a few ulp of θ ≈ 10³ rad here, ~1e-13).
     #[test]
     fn advanced_kinematics_match_direct() {
-        let s = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
-        let m = resolve(&s.rig, RunScales::default()).unwrap();
+        let (rig, _) = crate::dynamics::test_hold(crate::adhesion::Law::GentSchultz(
+            crate::adhesion::GentSchultz::PAPER,
+        ));
+        let m = resolve(&rig, RunScales::default()).unwrap();
         // θ0 ≈ 10³ rad, and θ0 = 0.5 rad with t_on = 0, where the times round to far below the
         // series' error and it is tested alone (to ~1e-15).
         for (t0, t_on) in [(0.7123, 0.3), (0.5 / m.omega, 0.0)] {

@@ -326,6 +326,27 @@ fn spring_end_radius(
     Ok(crate::numerics::bisect(lo, hi, 0.0, |a| f(a) <= 0.0).1)
 }
 
+/// The light rig: the paper's material with `law`, a 3 g sphere (g = 9.81 m/s²) held by a
+/// 200 N/m spring, light sphere damping c = 0.02 N s/m, no base motion, jump-in contact
+/// formation. (k_c = 3/2 K a ≈ 16 kN/m at 20 mN: resonance near 370 Hz.)
+pub fn light_rig(law: Law) -> Rig {
+    Rig {
+        material: Material::PAPER,
+        law,
+        sphere: Sphere {
+            mass: 3e-3,
+            gravity: 9.81,
+        },
+        holder: Holder::Spring { stiffness: 200.0 },
+        damping: Some(Damping {
+            c: 0.02,
+            on: DampingOn::Sphere,
+        }),
+        base: None,
+        formation: ContactFormation::JumpIn,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

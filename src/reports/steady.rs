@@ -9,12 +9,12 @@
 
 use serde::Serialize;
 
-use super::crosscheck::{Comparison, ForceBalance, Prediction};
-use super::map::{MapCell, ShortcutMap};
-use super::sweep::{self, Linearisation, Sweep, SweepPoint};
-use super::{Steady, SteadyMethod};
 use crate::describing::HarmonicBalance;
 use crate::output::{Column, Table};
+use crate::steady::crosscheck::{Comparison, ForceBalance, Prediction};
+use crate::steady::map::{MapCell, ShortcutMap};
+use crate::steady::sweep::{self, Linearisation, Sweep, SweepPoint};
+use crate::steady::{Steady, SteadyMethod};
 
 /// The root attribute `missing` of `resonance.h5` and `shortcut-map.h5`.
 pub const MISSING: &str =
@@ -603,7 +603,7 @@ pub fn sweeps_table(sweeps: &[Sweep]) -> Table {
     }
     all.unwrap_or_else(|| {
         sweep_table(&Sweep {
-            direction: super::sweep::Direction::Up,
+            direction: sweep::Direction::Up,
             amplitude: f64::NAN,
             points: Vec::new(),
             cycles: 0,

@@ -68,7 +68,7 @@
 
 pub mod crosscheck;
 pub mod map;
-pub mod report;
+
 pub mod sweep;
 
 use crate::adhesion::AdhesionLaw;

@@ -680,7 +680,6 @@ mod tests {
     fn newton_stage_matches_bracketing_solve() {
         use crate::adhesion::{ConstantW, GentSchultz};
         use crate::dynamics::model::{resolve, Drive};
-        let base = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
         let laws = [
             Law::GentSchultz(GentSchultz::PAPER),
             Law::GentSchultz(GentSchultz {
@@ -692,9 +691,8 @@ mod tests {
         let drive = Drive::held(0.0, true);
         let mut checked = 0;
         for law in laws {
-            let mut sc = base.clone();
-            sc.rig.law = law;
-            let model = match resolve(&sc.rig, sc.run_scales()) {
+            let (rig, scales) = crate::dynamics::test_hold(law);
+            let model = match resolve(&rig, scales) {
                 Ok(m) => m,
                 Err(e) => panic!("{e}"),
             };
@@ -741,7 +739,7 @@ mod tests {
                                     assert!(
                                         (st.a - ar).abs() <= 1e-11 * ar,
                                         "{:?} dd {dd:e} hg {hg:e}: {} vs {ar}",
-                                        sc.rig.law,
+                                        rig.law,
                                         st.a
                                     );
                                     checked += 1;

@@ -224,7 +224,6 @@
 //!   saved < 0.3 % (its steps are 6× shorter than DP8's, and the straddle error scales as
 //!   h^(2+1/n)); its Newton iteration in z stops after 2 residuals on most stages.
 
-pub mod catalogue;
 pub mod control;
 pub mod dp8;
 pub mod envelope;
@@ -243,3 +242,25 @@ pub use protocol::{run, run_partial, Plan};
 pub use simulator::{Segment, Settings, Simulator, StepSamples, Stop};
 pub use stepper::{EnvelopeMode, Method, Solver, Stepper};
 pub use types::*;
+
+/// The scene the unit tests of the model and the steppers share: the light rig
+/// ([`crate::rig::light_rig`]) with `law`, its base shaking at 400 Hz with 5 µm, held for 1 s
+/// under a 20 mN preload (the root crate's `catalogue::vibrating_hold(5e-6, 400.0, 1.0)`).
+#[cfg(test)]
+pub(crate) fn test_hold(law: crate::adhesion::Law) -> (crate::rig::Rig, model::RunScales) {
+    use protocol::{Initial, Stage, StageKind, Until};
+    let mut rig = crate::rig::light_rig(law);
+    rig.base = Some(crate::rig::BaseMotion {
+        amplitude: 5e-6,
+        frequency: 400.0,
+        phase: 0.0,
+    });
+    let hold = Stage {
+        kind: StageKind::Hold,
+        speed: 0.0,
+        until: Until::Duration(1.0),
+        vibration: Some(true),
+        max_duration: 1e7,
+    };
+    (rig, protocol::run_scales(&Initial::Preload(0.02), &[hold]))
+}
