@@ -5,7 +5,7 @@
 //! time-domain simulator ([`crate::dynamics`]), the linear transfer ([`crate::transfer`]),
 //! harmonic balance ([`crate::describing`]) and the periodic steady state ([`crate::steady`]).
 //! A scenario file is a rig plus an initial state, a protocol, solver and output settings
-//! ([`crate::scenario::Scenario`]).
+//! (the `djkr` crate's `Scenario`).
 //!
 //! Coordinates (docs/MODEL.md): x_s sphere position (down +), x_b base displacement (up +), x_k
 //! the far end of the holding spring (down +), δ = x_s + x_b the indentation (> 0 compresses).

@@ -8,8 +8,8 @@
 //! contact radius:  G_s(a, δ) = w(ȧ),  G_s = 3K u|u|/(8πa),  u = a²/R − δ
 //! ```
 //!
-//! Entry points: [`crate::scenario::Scenario::simulate`]`(&mut dyn Observer) -> Result<RunResult,
-//! SimError>` for a whole protocol ([`protocol::run`] on a [`protocol::Plan`]), and
+//! Entry points: [`protocol::run`]`(&Plan, &mut dyn Observer) -> Result<RunResult, SimError>` for
+//! a whole protocol (the `djkr` crate's `Scenario::simulate` builds the [`protocol::Plan`]), and
 //! [`simulator::Simulator`], whose `step()` advances one accepted step (or to the next event,
 //! period boundary or target) for callers that drive the time loop themselves (steady-state
 //! shooting, continuation, envelope following).
@@ -18,8 +18,8 @@
 //! integrated state, [`stepper`] the one interface of the methods ([`esdirk`] the implicit
 //! stepper, [`dp8`] the explicit DP8 stepper, [`ode_adapter`] the `ode_solvers` methods, and
 //! `auto`'s choice and rescues), [`control`] step-size control, [`events`] event location,
-//! [`envelope`] envelope following, and [`catalogue`] the reference scenes shared by tests and
-//! benchmarks.
+//! and [`envelope`] envelope following. The reference scenes shared by tests and benchmarks are
+//! the `djkr` crate's `catalogue`.
 //!
 //! # Methods
 //!
@@ -148,7 +148,7 @@
 //!   asserted in `tests/dynamics.rs` (`contact_loss_radius_has_negligible_effect`). A loss by
 //!   collapse leaves the elastic energy still in the vanishing contact unintegrated (the
 //!   adhesion would dissipate it in that last instant), as a jump-in releases 0.6 π w0 a_J²:
-//!   [`crate::catalogue::cycle_balances`] accounts for both steps.
+//!   the `djkr` crate's `catalogue::cycle_balances` accounts for both steps.
 //! - **Impact**: out of contact, δ rises through 0. Contact forms at the jump-in radius
 //!   (`JumpIn`) or the seed radius (`Seed`); a backward-Euler kick of 10⁻⁷ t_char then supplies
 //!   the (possibly enormous, but finite) healing rate of the new state for the next step.
@@ -184,7 +184,7 @@
 //! Measured numbers are not kept here: they live in generated documents that carry their date,
 //! commit, machine and the command that regenerates them (index: `docs/studies/README.md`), and
 //! the tests assert the claims, with a margin over the measured values, on the scenes of
-//! [`crate::catalogue`] that the benchmarks time:
+//! the `djkr` crate's `catalogue` that the benchmarks time:
 //! - `docs/studies/checks.md` (`cargo run --release --example study_checks`; asserted in
 //!   `tests/dynamics.rs`, `tests/restart.rs`): the fixed-step orders (4 for the implicit method,
 //!   8 for DP8, on the ramp-driven free oscillator, whose drive depends on time so that a wrong
