@@ -159,6 +159,8 @@ fn python_package_passes_its_pytest_suite() {
             "-m",
             "pytest",
             "-q",
+            // One line per skipped test, with its reason (the notebook's without nbclient).
+            "-rs",
             "-p",
             "no:cacheprovider",
             "python/tests",

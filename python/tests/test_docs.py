@@ -22,8 +22,9 @@ import djkr
 STUB = Path(djkr.__file__).resolve().parent / "__init__.pyi"
 # The stub in the source tree (the installed package's copy is the same file, installed).
 SOURCE_STUB = Path(__file__).resolve().parents[1] / "djkr" / "__init__.pyi"
-FUNCTIONS = ["run", "cycle", "pulloff", "validate", "resonance", "sweep", "points"]
-CLASSES = ["Run", "ScenarioError", "ScenarioTypeError"]
+# Every public name: a function added to the binding is held to the same rules.
+FUNCTIONS = [n for n in djkr.__all__ if not inspect.isclass(getattr(djkr, n))]
+CLASSES = [n for n in djkr.__all__ if inspect.isclass(getattr(djkr, n))]
 
 
 def runtime_doc(path):
@@ -97,7 +98,8 @@ def test_stub_docstrings_equal_the_runtime_ones():
 def test_every_public_name_is_in_the_stub_with_the_same_parameters():
     tree = ast.parse(SOURCE_STUB.read_text())
     stubs = {n.name: n for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
-    assert sorted(djkr.__all__) == sorted(FUNCTIONS + CLASSES)
+    assert set(FUNCTIONS) >= {"run", "cycle", "pulloff", "validate", "resonance", "sweep", "points"}
+    assert set(CLASSES) == {"Run", "ScenarioError", "ScenarioTypeError"}
     for name in FUNCTIONS:
         params = [a.arg for a in stubs[name].args.args]
         assert list(inspect.signature(getattr(djkr, name)).parameters) == params, name
