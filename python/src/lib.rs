@@ -1153,7 +1153,7 @@ fn run(
         let rec = match api::run(&s, out.as_deref()) {
             Ok(rec) => Ok(rec),
             Err(e @ ApiError::Ended { .. }) => {
-                let message = e.to_string();
+                let message = python_words(&e.to_string());
                 match e {
                     ApiError::Ended { record, .. } => Err((message, record)),
                     e => return Err(e),
@@ -1714,20 +1714,32 @@ fn sweep_words(e: ApiError, fixed: &[SetKey]) -> ApiError {
                 )
             }
         }
-        // The one override an ensemble's message names is a swept key (`base.phase`).
-        ApiError::Sweep(SweepError::Ensemble { members, message }) => {
-            let mut message = message.clone();
-            if let Some(i) = message.find("--set") {
-                if let Some((key, _, rest)) = override_item(&message[i + 5..]) {
-                    let arg = if fixed.iter().any(|k| k.to_string() == key) {
-                        "set"
-                    } else {
-                        "grid"
-                    };
-                    message = format!("{}{arg}={{'{key}': ...}}{rest}", &message[..i]);
+        // A point's scenario (`point 3: FILE --set K=V ...: ...`) and the ensemble's clash with
+        // a swept `base.phase` name the point's overrides: each by the argument it came from.
+        ApiError::Sweep(e @ (SweepError::Point { .. } | SweepError::Ensemble { .. })) => {
+            let text = e.to_string();
+            let mut out = String::with_capacity(text.len());
+            let mut rest = text.as_str();
+            while let Some(i) = rest.find("--set") {
+                out.push_str(&rest[..i]);
+                match override_item(&rest[i + 5..]) {
+                    Some((key, value, next)) => {
+                        let arg = if fixed.iter().any(|k| k.to_string() == key) {
+                            "set"
+                        } else {
+                            "grid"
+                        };
+                        out.push_str(&format!("{arg}={{'{key}': {}}}", python_value(value)));
+                        rest = next;
+                    }
+                    None => {
+                        out.push_str("--set");
+                        rest = &rest[i + 5..];
+                    }
                 }
             }
-            format!("ensemble = {members}: {}", python_words(&message))
+            out.push_str(rest);
+            python_words(&out)
         }
         ApiError::Spec(s) => format!(
             "grid={{'{}': ...}}: {}",

@@ -350,8 +350,18 @@ def test_bad_input_raises_scenario_error_with_the_cli_message():
         djkr.sweep(TINY, set={"base.amplitude": "1um,2um"})
     with pytest.raises(djkr.ScenarioError, match=r"^grid=\{'base.amplitude': \.\.\.\}: base.amplitude is also in set="):
         djkr.sweep(TINY, set={"base.amplitude": "1um"}, grid={"base.amplitude": [1e-6, 2e-6]})
-    with pytest.raises(djkr.ScenarioError, match=r"^ensemble = 2: .* which grid=\{'base.phase': \.\.\.\} also sets"):
+    with pytest.raises(djkr.ScenarioError, match=r"^ensemble = 2: .* which grid=\{'base.phase': '1,2'\} also sets"):
         djkr.sweep(TINY, grid={"base.phase": [1, 2]}, ensemble=2)
+    # A point whose scenario is invalid names its overrides by the argument they came from.
+    no_freq = (ROOT / TINY).read_text().replace("frequency = 300.0", "")
+    with pytest.raises(djkr.ScenarioError,
+                       match=r"^point 0: <string> set=\{'solver.rtol': 1e-09\} grid=\{'base.amplitude': 1e-06\}: base.frequency: missing"):
+        djkr.sweep(no_freq, set={"solver.rtol": 1e-9}, grid={"base.amplitude": [1e-6, 2e-6]})
+    # A run that a budget stopped: a RuntimeError, in Python's words too.
+    with pytest.raises(RuntimeError) as e:
+        djkr.run(TINY, set={"solver.max_steps": 50})
+    assert str(e.value).startswith(f"{TINY} set={{'solver.max_steps': 50}}: run stopped: step budget exhausted")
+    assert "--set" not in str(e.value)
     with pytest.raises(djkr.ScenarioError, match=r"^ensemble = 0: must be"):
         djkr.sweep(TINY, ensemble=0)
     with pytest.raises(djkr.ScenarioError, match=r"^seed = 3: seeds the ensemble's phases; give ensemble=N"):
