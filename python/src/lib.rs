@@ -8,8 +8,12 @@
 //!   float reaches the parser as its shortest round-trip text, so `0.0005` and `"0.0005"` are
 //!   the same number. A scenario is a path (`str` without a line break, or `os.PathLike`), a
 //!   TOML string, or a dict with the file's structure; `set=` is a dict of `--set` overrides.
+//! - Help: each function's and class's doc comment is its Python docstring (numpydoc: parameters
+//!   with units, returns, raises, an example); `djkr/__init__.pyi` holds the same text, generated
+//!   by `python python/tests/test_docs.py --write` and checked by that test.
 //! - Errors: bad input raises `djkr.ScenarioError` (a `ValueError`) with the command line's
-//!   message; a run that a budget stopped or that failed raises `RuntimeError` whose `run`
+//!   message in Python's words ([`python_words`]: `set={'base.amplitude': '-1um'}`, not
+//!   `--set base.amplitude=-1um`); a run that a budget stopped or that failed raises `RuntimeError` whose `run`
 //!   attribute is the run up to there (its summary's `status`, `reason`, `message` say how it
 //!   ended); a panic never crosses into Python (it becomes a `RuntimeError`).
 //! - Long calls (`run`, `validate`, `resonance`, `sweep`) run on a worker thread with the
