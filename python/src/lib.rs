@@ -2,7 +2,7 @@
 //!
 //! Every function is thin over [`djkr::api`], the calls the command line makes too, so a
 //! function's dict has the keys and numbers of the command's `--json` (or the columns of its
-//! CSV table), and [`run`]'s arrays are the datasets of `djkr run`'s `run.h5`.
+//! CSV table), and `run`'s arrays are the datasets of `djkr run`'s `run.h5`.
 //!
 //! - Arguments: quantities are SI floats or strings with units (`"400Hz"`, `"0.5mm"`); a
 //!   float reaches the parser as its shortest round-trip text, so `0.0005` and `"0.0005"` are
@@ -12,12 +12,12 @@
 //!   with units, returns, raises, an example); `djkr/__init__.pyi` holds the same text, generated
 //!   by `python python/tests/test_docs.py --write` and checked by that test.
 //! - Errors: bad input raises `djkr.ScenarioError` (a `ValueError`) with the command line's
-//!   message in Python's words ([`python_words`]: `set={'base.amplitude': '-1um'}`, not
+//!   message in Python's words (`python_words`: `set={'base.amplitude': '-1um'}`, not
 //!   `--set base.amplitude=-1um`); a run that a budget stopped or that failed raises `RuntimeError` whose `run`
 //!   attribute is the run up to there (its summary's `status`, `reason`, `message` say how it
 //!   ended); a panic never crosses into Python (it becomes a `RuntimeError`).
 //! - Long calls (`run`, `validate`, `resonance`, `sweep`) run on a worker thread with the
-//!   interpreter lock released; the main thread polls for signals every [`POLL`] and on Ctrl-C
+//!   interpreter lock released; the main thread polls for signals every `POLL` (20 ms) and on Ctrl-C
 //!   raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
 //!   stop (tens of microseconds of simulation) and raises `KeyboardInterrupt`. Other Python
 //!   threads (which Python never interrupts) run them in place, without the lock.
