@@ -13,12 +13,13 @@
 //!   by `python python/tests/test_docs.py --write` and checked by that test.
 //! - Errors: bad input raises `djkr.ScenarioError` (a `ValueError`) with the command line's
 //!   message in Python's words (`python_words`: `set={'base.amplitude': '-1um'}`, not
-//!   `--set base.amplitude=-1um`); a run that a budget stopped or that failed raises `RuntimeError` whose `run`
-//!   attribute is the run up to there (its summary's `status`, `reason`, `message` say how it
-//!   ended); a panic never crosses into Python (it becomes a `RuntimeError`).
+//!   `--set base.amplitude=-1um`); a run that a budget stopped or that failed raises
+//!   `RuntimeError` whose `run` attribute is the run up to there (its summary's `status`,
+//!   `reason`, `message` say how it ended); a panic never crosses into Python (it becomes a
+//!   `RuntimeError`).
 //! - Long calls (`run`, `validate`, `resonance`, `sweep`) run on a worker thread with the
-//!   interpreter lock released; the main thread polls for signals every `POLL` (20 ms) and on Ctrl-C
-//!   raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
+//!   interpreter lock released; the main thread polls for signals every `POLL` (20 ms) and on
+//!   Ctrl-C raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
 //!   stop (tens of microseconds of simulation) and raises `KeyboardInterrupt`. Other Python
 //!   threads (which Python never interrupts) run them in place, without the lock.
 
