@@ -2,7 +2,9 @@
 //! directory, then its pytest suite (`python/tests`), which compares every function with the
 //! command line's output for the same input: `djkr.run`'s arrays with `run.h5` bit for bit,
 //! `cycle`, `pulloff` and `validate` with `--json`, `resonance` and `sweep` with their CSV
-//! tables, `set=` with `--set`, errors with the command's message, Ctrl-C, and the example.
+//! tables, `set=` with `--set`, errors with the command's message, Ctrl-C, the example, the
+//! docstrings against the type stub, and the example notebook (executed with nbclient, its key
+//! numbers against the command line's).
 //!
 //! The venv (pytest, numpy, h5py, pandas, matplotlib, maturin from the package index) is made
 //! once. The package is rebuilt only when the sources it is built from changed since the last
@@ -28,6 +30,9 @@ const PACKAGES: [&str; 6] = [
     "matplotlib",
 ];
 const IMPORTS: [&str; 6] = ["maturin", "numpy", "pytest", "h5py", "pandas", "matplotlib"];
+/// What `python/tests/test_notebook.py` executes the example notebook with: installed into the
+/// venv only with `DJKR_TEST_INSTALL=1`; without them that one test skips.
+const NOTEBOOK_PACKAGES: [&str; 3] = ["nbclient", "nbformat", "ipykernel"];
 
 /// Files whose change means the installed package is stale.
 fn sources(root: &Path) -> Vec<PathBuf> {
@@ -114,6 +119,14 @@ fn python_package_passes_its_pytest_suite() {
         }
     };
     let bin = py.parent().expect("venv bin directory").to_path_buf();
+    if tools::may_install() && !tools::runs(&py, "import nbclient, nbformat, ipykernel") {
+        let ok = Command::new(&py)
+            .args(["-m", "pip", "install", "--quiet"])
+            .args(NOTEBOOK_PACKAGES)
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(ok, "pip install {} failed", NOTEBOOK_PACKAGES.join(" "));
+    }
     let stamp_file = bin.join("../djkr-sources.stamp");
     let want = stamp(root);
     let fresh = std::fs::read_to_string(&stamp_file).is_ok_and(|s| s == want)
@@ -146,6 +159,8 @@ fn python_package_passes_its_pytest_suite() {
             "-m",
             "pytest",
             "-q",
+            // One line per skipped test, with its reason (the notebook's without nbclient).
+            "-rs",
             "-p",
             "no:cacheprovider",
             "python/tests",

@@ -1,11 +1,39 @@
 """djkr: dynamic JKR adhesion of a sphere on a vibrating viscoelastic substrate.
 
-``run``, ``cycle``, ``pulloff``, ``validate``, ``resonance`` and ``sweep`` give what the djkr
-commands of the same names report, in SI units: ``cycle``, ``pulloff`` and ``validate`` the
-object of ``--json``, ``resonance`` and ``sweep`` the columns of ``resonance.csv`` and
-``sweep.csv`` as numpy arrays, ``run`` a ``Run`` with the datasets of ``run.h5`` as numpy arrays
-and the content of ``summary.json``. Bad input raises ``ScenarioError`` (a ``ValueError``) with
-the command line's message (``ScenarioTypeError``, also a ``TypeError``, for a wrong type). Long calls release the interpreter lock and stop on Ctrl-C.
+Each function gives what the ``djkr`` command of the same name reports, in SI units:
+
+- ``run(scenario, set=, out=)``: a time-domain run, a ``Run`` holding the datasets of
+  ``run.h5`` as numpy arrays and the content of ``summary.json``;
+- ``cycle`` and ``pulloff``: the imposed-area cycle and the pull-off (``--json``'s dict);
+- ``validate``: the periodic steady state compared with the predictors (``--json``'s dict);
+- ``resonance``: the frequency response, the columns of ``resonance.csv`` as numpy arrays;
+- ``sweep``: a study over scenario keys, the columns of ``sweep.csv`` (one value per run), and
+  ``points``: the per-point statistics of its rows, the columns of ``points.csv``.
+
+A *scenario* is a path (``str`` without a line break, or ``os.PathLike``), a TOML string, or a
+dict with the file's structure (``{"version": 1, "material": {...}, "stage": [{...}]}``).
+``set`` is a dict of overrides, as the command line's ``--set``: ``{"base.amplitude": "30um",
+"stage[3].speed": 1e-3}``. Quantities are SI floats or strings with units (``"400Hz"``,
+``"0.5mm"``). ``help(djkr.run)`` and the others say each argument's unit and what comes back.
+
+Bad input raises ``ScenarioError`` (a ``ValueError``) with the command line's message in
+Python's words (``set={'base.amplitud': ...}: unknown key; ...``); an argument of the wrong
+type ``ScenarioTypeError`` (both a ``ScenarioError`` and a ``TypeError``). No input takes the
+interpreter down: a scenario dict or TOML string larger than a scenario file may be (1 MiB,
+once written as TOML), nested more than 80 deep or containing itself is refused, and so is
+``set=`` or ``grid=`` of more than 1 MiB of text. A run that a budget stopped or that failed
+mid-way raises ``RuntimeError`` whose ``run`` attribute is the ``Run`` up to there. Long calls
+release the interpreter lock and stop within a fraction of a second on Ctrl-C
+(``KeyboardInterrupt``).
+
+Examples
+--------
+>>> import djkr, pandas as pd
+>>> r = djkr.run("scenarios/paper-protocol-300hz.toml")
+>>> r.summary["pull_off"]["amplification"]
+>>> rows = djkr.sweep("scenarios/paper-protocol-300hz.toml",
+...                   grid={"base.amplitude": ["10um", "30um"]}, ensemble=4)
+>>> pd.DataFrame(djkr.points(rows))
 """
 
 from ._djkr import (
@@ -14,6 +42,7 @@ from ._djkr import (
     ScenarioTypeError,
     __version__,
     cycle,
+    points,
     pulloff,
     resonance,
     run,
@@ -26,6 +55,7 @@ __all__ = [
     "ScenarioError",
     "ScenarioTypeError",
     "cycle",
+    "points",
     "pulloff",
     "resonance",
     "run",

@@ -1,26 +1,39 @@
 """djkr: dynamic JKR adhesion of a sphere on a vibrating viscoelastic substrate.
 
-Every function gives what the command of the same name reports, in SI units: ``cycle``,
-``pulloff`` and ``validate`` the object of ``--json``; ``resonance`` and ``sweep`` the columns
-of ``resonance.csv`` and ``sweep.csv``; ``run`` the datasets of ``run.h5`` and the content of
-``summary.json``.
+Each function gives what the ``djkr`` command of the same name reports, in SI units:
+
+- ``run(scenario, set=, out=)``: a time-domain run, a ``Run`` holding the datasets of
+  ``run.h5`` as numpy arrays and the content of ``summary.json``;
+- ``cycle`` and ``pulloff``: the imposed-area cycle and the pull-off (``--json``'s dict);
+- ``validate``: the periodic steady state compared with the predictors (``--json``'s dict);
+- ``resonance``: the frequency response, the columns of ``resonance.csv`` as numpy arrays;
+- ``sweep``: a study over scenario keys, the columns of ``sweep.csv`` (one value per run), and
+  ``points``: the per-point statistics of its rows, the columns of ``points.csv``.
 
 A *scenario* is a path (``str`` without a line break, or ``os.PathLike``), a TOML string, or a
 dict with the file's structure (``{"version": 1, "material": {...}, "stage": [{...}]}``).
-``set`` is a dict of ``--set`` overrides, ``{"base.amplitude": "30um", "stage[3].speed": 1e-3}``.
-Quantities are SI floats or strings with units (``"400Hz"``, ``"0.5mm"``).
+``set`` is a dict of overrides, as the command line's ``--set``: ``{"base.amplitude": "30um",
+"stage[3].speed": 1e-3}``. Quantities are SI floats or strings with units (``"400Hz"``,
+``"0.5mm"``). ``help(djkr.run)`` and the others say each argument's unit and what comes back.
 
-Bad input raises ``ScenarioError`` (a ``ValueError``) with the command line's message, an
-argument of the wrong type ``ScenarioTypeError`` (both a ``ScenarioError`` and a ``TypeError``).
-No input takes the interpreter down: a scenario dict or TOML string larger than a scenario file
-may be (1 MiB, once written as TOML), nested more than 80 deep (the TOML parser's limit) or
-containing itself is refused with ``ScenarioError``, and so is ``set=`` or ``grid=`` of more
-than 1 MiB of text. A run that a budget stopped (``solver.max_steps``, ``max_wall_s``,
-``max_events``, ``max_memory``) or that failed mid-way raises ``RuntimeError`` whose ``run``
-attribute is the ``Run`` up to there (``e.run.summary["status"]`` is ``"stopped"`` or
-``"failed"``, with ``"reason"`` and ``"message"``). Long calls release the interpreter lock and
-stop within a fraction of a second on Ctrl-C (``KeyboardInterrupt``; with ``out``, the folder is
-written with reason ``SIGINT``).
+Bad input raises ``ScenarioError`` (a ``ValueError``) with the command line's message in
+Python's words (``set={'base.amplitud': ...}: unknown key; ...``); an argument of the wrong
+type ``ScenarioTypeError`` (both a ``ScenarioError`` and a ``TypeError``). No input takes the
+interpreter down: a scenario dict or TOML string larger than a scenario file may be (1 MiB,
+once written as TOML), nested more than 80 deep or containing itself is refused, and so is
+``set=`` or ``grid=`` of more than 1 MiB of text. A run that a budget stopped or that failed
+mid-way raises ``RuntimeError`` whose ``run`` attribute is the ``Run`` up to there. Long calls
+release the interpreter lock and stop within a fraction of a second on Ctrl-C
+(``KeyboardInterrupt``).
+
+Examples
+--------
+>>> import djkr, pandas as pd
+>>> r = djkr.run("scenarios/paper-protocol-300hz.toml")
+>>> r.summary["pull_off"]["amplification"]
+>>> rows = djkr.sweep("scenarios/paper-protocol-300hz.toml",
+...                   grid={"base.amplitude": ["10um", "30um"]}, ensemble=4)
+>>> pd.DataFrame(djkr.points(rows))
 """
 
 import os
@@ -37,14 +50,45 @@ Scenario = Union[str, "os.PathLike[str]", Mapping[str, Any]]
 SetValue = Union[float, int, str, bool]
 
 class ScenarioError(ValueError):
-    """Bad input: a scenario, an override, an argument or a grid that djkr refuses."""
+    """Bad input: a scenario, an override, an argument or a grid that djkr refuses.
+
+    A ValueError. The message is the command line's, in Python's words: it names the file or the
+    argument (``set={'base.amplitude': '-1um'}``, ``grid=``, ``freq``), the key, the value and what is
+    allowed. Every function raises it before any work starts when it can: a sweep checks every
+    point first.
+
+    Examples
+    --------
+    >>> try:
+    ...     djkr.run("scenarios/impacts.toml", set={"base.amplitud": "30um"})
+    ... except djkr.ScenarioError as e:
+    ...     print(e)   # set={'base.amplitud': ...}: unknown key; ...
+    """
 
 class ScenarioTypeError(ScenarioError, TypeError):
     """Bad input of the wrong type (a list where a number goes, an int where a dict goes):
-    caught by ``except ScenarioError`` and by ``except TypeError``."""
+    caught by ``except ScenarioError`` and by ``except TypeError``.
+    """
 
 class Run:
-    """A time-domain run held in memory: the datasets of ``run.h5`` value for value."""
+    """A time-domain run held in memory: what ``djkr run`` writes into ``run.h5``.
+
+    Made by ``djkr.run``. The time series are numpy arrays of one value per sample, in SI units,
+    equal value for value to the datasets of ``run.h5``: ``t`` (s), ``x_s``, ``v_s``, ``x_b``,
+    ``x_k``, ``delta``, ``a`` (m or m/s), ``a_dot`` (m/s), ``F`` (N), ``G``, ``w`` (J/m^2) as
+    float64, ``stage`` and ``segment`` as int64 (each attribute's help says its sign convention).
+    ``events`` is a list of dicts (``kind``, ``time``, ``stage``, ``state``), ``cycles`` and
+    ``gaps`` dicts of numpy arrays (the ``cycles/`` and ``gaps/`` groups), ``summary`` the
+    content of ``summary.json``. ``len(run)`` is the number of samples.
+
+    Examples
+    --------
+    >>> import djkr
+    >>> r = djkr.run("scenarios/paper-protocol-300hz.toml")
+    >>> r.t.shape, r.F.dtype                     # (samples,), float64
+    >>> r.summary["pull_off"]["force"]           # N
+    >>> r.to_pandas().plot(x="t", y="F")
+    """
 
     t: npt.NDArray[np.float64]
     """Time (s)."""
@@ -72,24 +116,33 @@ class Run:
     """Index of the protocol stage, from 0."""
     segment: npt.NDArray[np.int64]
     """Index of the gap-free stretch each sample belongs to: 0 from the start, +1 after each
-    gap (a span envelope following skipped). Never join samples of different segments."""
+    gap (a span envelope following skipped). Never join samples of different segments.
+    """
     gaps: Dict[str, npt.NDArray[Any]]
     """The gaps of the time series, the HDF5 ``gaps/`` group: ``t_start`` and ``t_end`` (s, the
-    samples either side) and ``periods`` (base periods skipped), one entry per gap."""
+    samples either side) and ``periods`` (base periods skipped), one entry per gap.
+    """
     cycles: Dict[str, npt.NDArray[Any]]
     """Per-period records: the datasets of the HDF5 ``cycles/`` group (``index``, ``stage``,
-    ``t_start``, ``t_end``, ``force_mean``, ...)."""
+    ``t_start``, ``t_end``, ``force_mean``, ...).
+    """
     @property
     def events(self) -> List[Dict[str, Any]]:
-        """Every event in time order: ``kind``, ``time`` (s), ``stage`` and ``state`` (the
-        time-series values at the event)."""
+        """Every event of the run, in time order: dicts with ``kind`` (str), ``time`` (s),
+        ``stage`` (int, from 0) and ``state`` (the time-series values at the event, as in
+        ``summary.json``).
+        """
     @property
     def summary(self) -> Dict[str, Any]:
-        """The content of ``summary.json`` (without ``out=``: ``files`` and ``file_bytes``
-        empty)."""
+        """The content of ``summary.json`` as a dict (without ``out=``: ``files`` and
+        ``file_bytes`` empty). ``summary["pull_off"]`` has ``force`` (N), ``amplification`` (1)
+        and ``time`` (s); ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
+        """
     def to_pandas(self) -> Any:
-        """The time series as a ``pandas.DataFrame``, columns ``t`` ... ``w``, ``stage``,
-        ``segment`` (needs pandas)."""
+        """The time series as a ``pandas.DataFrame``: columns ``t``, ``x_s``, ``v_s``, ``x_b``,
+        ``x_k``, ``delta``, ``a``, ``a_dot``, ``F``, ``G``, ``w``, ``stage``, ``segment``, one row per
+        sample (needs pandas).
+        """
     def __len__(self) -> int: ...
 
 def run(
@@ -97,19 +150,54 @@ def run(
     set: Optional[Mapping[str, SetValue]] = None,
     out: Optional[Union[str, "os.PathLike[str]"]] = None,
 ) -> Run:
-    """Run a scenario (``djkr run``); with ``out``, also write the run folder ``djkr run --out``
-    writes (``run.h5``, ``summary.json``, and the CSV files and figure its ``[output]`` asks
-    for).
+    """Run a scenario with the time-domain simulator, as ``djkr run`` does.
 
-    The run is held in memory. Where its sample count is known before it starts
-    (``[output] sample_rate`` > 0 over the stages with a ``duration``), a run whose samples
-    would take more than ``solver.max_memory`` (default 2 GiB, at 216 bytes a sample) is refused
-    at once with ``ScenarioError`` naming ``output.sample_rate``, the durations and the
-    estimate; lower the rate or raise ``solver.max_memory``. Otherwise the samples, events and
-    period records held are capped at ``solver.max_memory`` while it runs: a run that would pass
-    it stops with reason ``"memory"``. A run stopped by a budget or failed mid-way raises
-    ``RuntimeError`` with the partial ``Run`` as its ``run`` attribute (and, with ``out``, its
-    folder written with the status)."""
+    The run is held in memory; with ``out`` it is also written into a run folder, file for file
+    the one ``djkr run FILE --out DIR`` writes.
+
+    Parameters
+    ----------
+    scenario : str, os.PathLike or dict
+        A scenario file's path (a ``str`` without a line break), a TOML string, or a dict with the
+        file's structure, ``{"version": 1, "material": {...}, "stage": [{...}]}``.
+    set : dict, optional
+        Overrides of scenario keys, as ``--set KEY=VALUE``: ``{"base.amplitude": "30um",
+        "stage[3].speed": 1e-3}``. A value is a number (SI units), a string with a unit or a bool.
+    out : str or os.PathLike, optional
+        A folder for ``run.h5``, ``summary.json`` and the CSV files and figure the scenario's
+        ``[output]`` asks for.
+
+    Returns
+    -------
+    Run
+        One value per sample in each time-series array (``t`` in s, ``x_s`` and ``delta`` in m,
+        ``F`` in N, ...), the ``events``, the per-period records ``cycles`` and ``summary``, the
+        content of ``summary.json`` (``summary["pull_off"]["force"]`` in N).
+
+    Raises
+    ------
+    ScenarioError
+        Bad input: the message names the file or argument, the key, the value and what is allowed.
+        Also a run whose known sample count (``[output] sample_rate`` > 0 over stages with a
+        ``duration``) would take more than ``solver.max_memory`` (default 2 GiB, 216 bytes a
+        sample): lower the rate or raise ``solver.max_memory``. A run whose sample count is not
+        known before it starts stops with reason ``"memory"`` when it would pass that budget.
+    RuntimeError
+        The run stopped on a budget (``solver.max_steps``, ``max_wall_s``, ``max_events``,
+        ``max_memory``) or failed mid-way: the exception's ``run`` attribute is the ``Run`` up to
+        there (``e.run.summary["status"]``, ``["reason"]``, ``["message"]``); with ``out``, the
+        folder is written with that status.
+    KeyboardInterrupt
+        Ctrl-C stops the run within a fraction of a second (with ``out``, the folder is written
+        with reason ``SIGINT``).
+
+    Examples
+    --------
+    >>> import djkr
+    >>> r = djkr.run("scenarios/paper-protocol-300hz.toml", set={"base.amplitude": "30um"})
+    >>> r.summary["pull_off"]["amplification"]   # F_po / (-3/2 pi R w0)
+    >>> df = r.to_pandas()                        # columns t, x_s, ..., stage, segment
+    """
 
 def cycle(
     freq: Quantity,
@@ -117,10 +205,45 @@ def cycle(
     a_amp: Quantity,
     material: Optional[Scenario] = None,
 ) -> Dict[str, Any]:
-    """One imposed-area cycle a(t) = a_mean + a_amp sin(2 pi freq t) (``djkr cycle --json``):
-    ``a_mean``, ``a_mean_imposed``, ``a_amp``, ``delta_mean``, ``delta_amp``, ``delta_sin``,
-    ``delta_cos``, ``force_mean``, ``contact_fraction``, ``notes``. ``material``: a scenario
-    whose ``[material]`` and ``[adhesion]`` are used (default: the paper's Fig. 2 set)."""
+    """One imposed-area cycle a(t) = a_mean + a_amp sin(2 pi freq t), as ``djkr cycle --json``.
+
+    The contact radius is imposed; the indentation and force follow from the adhesion law over one
+    period (the paper's Sec. 2.1, the imposed-area method).
+
+    Parameters
+    ----------
+    freq : float or str
+        Frequency (Hz, > 0): ``400`` or ``"400Hz"``, ``"0.4kHz"``.
+    a_mean : float or str
+        Imposed mean contact radius (m): ``0.002`` or ``"2mm"``. May be smaller than ``a_amp``
+        (the contact is then lost for part of the cycle) or negative.
+    a_amp : float or str
+        Amplitude of the contact radius (m, >= 0): ``"0.5mm"``.
+    material : str, os.PathLike or dict, optional
+        A scenario whose ``[material]`` and ``[adhesion]`` are used (default: the paper's Fig. 2
+        set, K 9.33 MPa, R 51 mm, w0 240 mJ/m^2, Gent-Schultz v0 0.0445 mm/s, n 0.531).
+
+    Returns
+    -------
+    dict
+        ``a_mean`` (m, the mean of max(a, 0), the paper's a posteriori a_m), ``a_mean_imposed``
+        (m), ``a_amp`` (m), ``delta_mean`` (m), ``delta_amp`` (m, first-harmonic amplitude
+        hypot(delta_sin, delta_cos)), ``delta_sin`` and ``delta_cos`` (m, its coefficients),
+        ``force_mean`` (N, compressive positive), ``contact_fraction`` (1, of the period in
+        contact) and ``notes`` (list of str: where the answer leaves the model's range; each is
+        also issued as a ``RuntimeWarning``).
+
+    Raises
+    ------
+    ScenarioError
+        An argument out of range or malformed (named as in Python: ``freq = -400: ...``).
+
+    Examples
+    --------
+    >>> import djkr
+    >>> c = djkr.cycle("400Hz", "2mm", "0.5mm")
+    >>> c["force_mean"], c["delta_amp"]           # N, m
+    """
 
 def pulloff(
     freq: Quantity,
@@ -129,16 +252,88 @@ def pulloff(
     beta: Optional[Quantity] = None,
     material: Optional[Scenario] = None,
 ) -> Dict[str, Any]:
-    """The pull-off for a vibration (``djkr pulloff --json``): ``method``, ``a_mean``,
-    ``delta_mean``, ``delta_amp``, ``force``, ``amplification``, ``notes``. ``beta`` (approx
-    only) defaults to 2.5."""
+    """The pull-off force under a vibration of the contact radius, as ``djkr pulloff --json``.
+
+    Parameters
+    ----------
+    freq : float or str
+        Vibration frequency (Hz, > 0): ``400`` or ``"400Hz"``.
+    a_amp : float or str
+        Amplitude of the contact radius (m, >= 0): ``"0.5mm"``.
+    method : {"exact", "approx", "yi"}, optional
+        ``"exact"`` (default): the minimum over a_m of the imposed-area cycle's mean force;
+        ``"approx"``: the paper's closed form with exponent ``beta``; ``"yi"``: Yi et al.'s
+        comparator. (``"shui"`` needs the rig: use the command line.)
+    beta : float, optional
+        The closed form's exponent (``method="approx"`` only; default 2.5, the paper's).
+    material : str, os.PathLike or dict, optional
+        A scenario whose ``[material]`` and ``[adhesion]`` are used (default: the paper's Fig. 2
+        set).
+
+    Returns
+    -------
+    dict
+        ``method`` (str, in words), ``a_mean`` (m, mean contact radius at pull-off),
+        ``delta_mean`` and ``delta_amp`` (m, mean indentation and its first-harmonic amplitude at
+        pull-off), ``force`` (N, negative: tensile), ``amplification`` (1, force over the JKR
+        pull-off -3/2 pi R w0) and ``notes`` (list of str; warnings are also issued as
+        ``RuntimeWarning``).
+
+    Raises
+    ------
+    ScenarioError
+        An argument out of range, an unknown method, or ``beta`` with a method other than
+        ``"approx"``.
+
+    Examples
+    --------
+    >>> import djkr
+    >>> p = djkr.pulloff(400, "0.5mm")
+    >>> p["force"], p["amplification"]            # N, 1
+    >>> djkr.pulloff(400, "0.5mm", method="approx", beta=3.0)["amplification"]
+    """
 
 def validate(
     scenario: Scenario,
     set: Optional[Mapping[str, SetValue]] = None,
 ) -> Dict[str, Any]:
-    """The periodic steady state compared with the imposed-area method, the linear transfer,
-    the printed equations and harmonic balance (``djkr validate --json``)."""
+    """The periodic steady state compared with the predictors, as ``djkr validate --json``.
+
+    Finds the steady state of the scenario's vibrating contact (shooting on the time-domain model,
+    integrated at rtol 1e-10) and compares it with the imposed-area method, the linear transfer,
+    the paper's printed equations and harmonic balance.
+
+    Parameters
+    ----------
+    scenario : str, os.PathLike or dict
+        A scenario (path, TOML string or dict, as for ``run``) with a ``[base]`` vibration and a
+        mean load.
+    set : dict, optional
+        Overrides of scenario keys, as for ``run``. ``solver.rtol`` is refused (the steady state is
+        integrated at rtol 1e-10).
+
+    Returns
+    -------
+    dict
+        The object of ``djkr validate --json``: ``frequency`` (Hz), ``amplitude`` (m, X_b),
+        ``linear_resonance_frequency`` (Hz), and one dict per method, ``steady``,
+        ``time_domain``, ``imposed_area``, ``linear_transfer``, ``paper_transfer``,
+        ``paper_far_from_resonance``, ``harmonic_balance``, with ``relative_difference`` between
+        them and the ``force_balance`` check (SI units throughout).
+
+    Raises
+    ------
+    ScenarioError
+        Bad input, or a scenario that has no periodic steady state to find (no ``[base]``).
+    RuntimeError
+        The steady-state search failed.
+
+    Examples
+    --------
+    >>> import djkr
+    >>> v = djkr.validate("scenarios/resonance-400hz.toml", set={"base.amplitude": "0.3um"})
+    >>> v["relative_difference"]
+    """
 
 def resonance(
     scenario: Scenario,
@@ -146,19 +341,149 @@ def resonance(
     sweep: Literal["up", "down", "both"] = "both",
     set: Optional[Mapping[str, SetValue]] = None,
 ) -> Dict[str, npt.NDArray[Any]]:
-    """The frequency response by continuation over ``freq = (start, stop, n)``
-    (``djkr resonance``): the columns of ``resonance.csv`` by name (``direction``,
-    ``frequency``, ``delta_amp_over_xb``, ...)."""
+    """The frequency response by continuation, as ``djkr resonance``.
+
+    Steady states at ``n`` evenly spaced frequencies, each started from the last (up, down or
+    both sweeps), with the linear transfer and harmonic balance beside them.
+
+    Parameters
+    ----------
+    scenario : str, os.PathLike or dict
+        A scenario with a ``[base]`` vibration and a mean load (as for ``validate``).
+    freq : (start, stop, n) or str
+        Frequencies (Hz): ``(380, 420, 41)``, ``("0.38kHz", "420Hz", 41)`` or ``"380:420:41"``;
+        ``stop >= start``, ``1 <= n <= 2001``.
+    sweep : {"up", "down", "both"}, optional
+        Direction (default ``"both"``, the two in parallel).
+    set : dict, optional
+        Overrides of scenario keys, as for ``run`` (``solver.rtol`` and ``base.frequency`` are
+        refused: the call sets them).
+
+    Returns
+    -------
+    dict of numpy arrays
+        The columns of ``resonance.csv``, one value per (direction, frequency): ``direction``
+        (str), ``frequency`` (Hz), ``delta_amp_over_xb`` (1, |delta_A / X_b|), ``phase`` (rad),
+        ``delta_mean``, ``delta_sin``, ``delta_cos`` (m), ``force_mean``, ``force_amp`` (N),
+        ``a_mean``, ``a_amp`` (m), ``cycles``, ``residual``, ``contact_lost``, ``method``, the
+        linear transfer's ``linear_delta_amp_over_xb`` and ``linear_phase``, harmonic balance's
+        ``hb_*``, and ``error`` (str, empty when the point converged).
+
+    Raises
+    ------
+    ScenarioError
+        Bad input (``freq`` out of order or too long, an unknown ``sweep``, ...).
+
+    Examples
+    --------
+    >>> import djkr, pandas as pd
+    >>> r = pd.DataFrame(djkr.resonance("scenarios/resonance-400hz.toml", freq=(380, 420, 21)))
+    >>> up = r[r.direction == "up"]
+    >>> up.frequency[up.delta_amp_over_xb.idxmax()]   # Hz, the resonance peak
+    """
 
 def sweep(
     scenario: Scenario,
     grid: Optional[Mapping[str, Union[str, Sequence[SetValue], SetValue]]] = None,
     ensemble: Optional[int] = None,
-    seed: int = 0,
+    seed: Optional[int] = None,
     jobs: Optional[int] = None,
+    set: Optional[Mapping[str, SetValue]] = None,
 ) -> Dict[str, npt.NDArray[Any]]:
-    """A study (``djkr sweep``): the Cartesian grid of ``grid`` (a list of values, or a SPEC
-    string ``"10um:60um:6"``, ``"1um:100um:5log"``, per key; the first key varies slowest),
-    ``ensemble`` members per point with the base phase drawn from ``seed``, on ``jobs`` threads
-    (default: every core). The columns of ``sweep.csv`` by name, one row per run sorted by
-    (point, member)."""
+    """A study over scenario keys, as ``djkr sweep``: one run per grid point and ensemble member.
+
+    The grid is the Cartesian product of ``grid``'s values (the first key varies slowest). The
+    keys of ``set`` keep one value each, beside the grid: ``djkr.sweep(F, grid={"K": SPEC},
+    set={"K2": V})`` runs what ``djkr sweep F --set K2=V --set K=SPEC`` runs, rows and columns.
+
+    Parameters
+    ----------
+    scenario : str, os.PathLike or dict
+        The scenario every run starts from (path, TOML string or dict, as for ``run``).
+    grid : dict, optional
+        The swept keys and their values: a list (``["10um", "30um"]``, ``[1e-5, 3e-5]``, a numpy
+        array) or a SPEC string, ``"10um,30um"``, ``"10um:60um:6"`` (linear, ends included) or
+        ``"1um:100um:5log"``. Any key ``set`` takes (``base.frequency``, ``stage[3].speed``,
+        ``adhesion.n``, ``solver.method``, ...).
+    ensemble : int, optional
+        Members per point (>= 1), each with the base phase at shaker-on drawn uniformly in
+        ``[0, 2 pi)`` from (seed, point, member).
+    seed : int, optional
+        Seed of the ensemble's phases (default 0; only with ``ensemble``).
+    jobs : int, optional
+        Runs at a time (default: one per core).
+    set : dict, optional
+        Fixed overrides (one value per key, not in ``grid``), as for ``run``; each is also a
+        column of the rows, as on the command line.
+
+    Returns
+    -------
+    dict of numpy arrays
+        The columns of ``sweep.csv``, one value per run, sorted by (point, member): ``point``,
+        ``member``, one column per ``set`` key then per ``grid`` key (SI value, or text),
+        ``phase`` (rad), ``status`` (``"ok"``, ``"stopped"``, ``"error"``), ``error`` (str),
+        ``pull_off_force`` (N), ``pull_off_amplification`` (1), ``pull_off_time`` (s),
+        ``detached``, ``steps``, ``rhs_evals``, ``wall_s`` (s), and the last cycle's
+        ``force_mean`` (N), ``delta_mean`` and ``delta_amp`` (m). NaN where a run failed.
+        ``pandas.DataFrame(rows)`` makes a table of it; ``djkr.points(rows)`` the per-point
+        statistics.
+
+    Raises
+    ------
+    ScenarioError
+        Bad input, named by its argument: ``grid={'base.amplitude': [..., '-1um', ...]} (point 1):
+        must be a finite number >= 0 (m)``. Every point is checked before any run starts.
+    KeyboardInterrupt
+        Ctrl-C: no new run starts, running ones are abandoned.
+
+    Examples
+    --------
+    >>> import djkr, pandas as pd
+    >>> rows = djkr.sweep("scenarios/paper-protocol-300hz.toml",
+    ...                   grid={"base.amplitude": ["10um", "30um", "60um"]},
+    ...                   set={"stage[2].duration": 0.2}, ensemble=4, seed=1)
+    >>> pd.DataFrame(rows).groupby("base.amplitude").pull_off_amplification.mean()
+    >>> djkr.points(rows)["pull_off_amplification_std"]
+    """
+
+def points(
+    rows: Union[Mapping[str, Any], Any],
+) -> Dict[str, npt.NDArray[Any]]:
+    """The per-point statistics of a sweep's rows: the columns of ``points.csv``.
+
+    The same names and values as the ``points.csv`` that ``djkr sweep`` writes for the same sweep:
+    for each point, the statistics of the pull-off force and amplification over its members that
+    ran (status ``"ok"``, finite values).
+
+    Parameters
+    ----------
+    rows : dict of arrays or pandas.DataFrame
+        What ``djkr.sweep`` returned (or a selection of its rows, or ``pandas.DataFrame`` of it).
+        Read: ``point``, ``member``, the swept keys (the columns between ``member`` and
+        ``phase``; numeric or text by dtype), ``status``, ``pull_off_force`` and
+        ``pull_off_amplification``.
+
+    Returns
+    -------
+    dict of numpy arrays
+        One value per point, in point order: ``point``, the swept keys, ``members`` (rows of the
+        point), ``failed`` (of them, runs that did not end ``"ok"``), then for
+        ``pull_off_force`` (N) and ``pull_off_amplification`` (1) each ``_mean``, ``_std``
+        (sample standard deviation, n - 1; NaN below two members), ``_min``, ``_max``, ``_q05``,
+        ``_q50``, ``_q95`` (quantiles as numpy's default, linear). The standard error of the mean
+        is ``_std / sqrt(members - failed)``.
+
+    Raises
+    ------
+    ScenarioError
+        ``rows`` lacks a column, or its columns differ in length or hold the wrong kind of value.
+
+    Examples
+    --------
+    >>> import djkr, numpy as np
+    >>> rows = djkr.sweep("scenarios/paper-protocol-300hz.toml",
+    ...                   grid={"base.amplitude": ["10um", "30um"]}, ensemble=4)
+    >>> p = djkr.points(rows)
+    >>> sem = p["pull_off_amplification_std"] / np.sqrt(p["members"] - p["failed"])
+    >>> # plt.errorbar(p["base.amplitude"], p["pull_off_amplification_mean"], yerr=sem)
+    """

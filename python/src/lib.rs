@@ -2,19 +2,24 @@
 //!
 //! Every function is thin over [`djkr::api`], the calls the command line makes too, so a
 //! function's dict has the keys and numbers of the command's `--json` (or the columns of its
-//! CSV table), and [`run`]'s arrays are the datasets of `djkr run`'s `run.h5`.
+//! CSV table), and `run`'s arrays are the datasets of `djkr run`'s `run.h5`.
 //!
 //! - Arguments: quantities are SI floats or strings with units (`"400Hz"`, `"0.5mm"`); a
 //!   float reaches the parser as its shortest round-trip text, so `0.0005` and `"0.0005"` are
 //!   the same number. A scenario is a path (`str` without a line break, or `os.PathLike`), a
 //!   TOML string, or a dict with the file's structure; `set=` is a dict of `--set` overrides.
+//! - Help: each function's and class's doc comment is its Python docstring (numpydoc: parameters
+//!   with units, returns, raises, an example); `djkr/__init__.pyi` holds the same text, generated
+//!   by `python python/tests/test_docs.py --write` and checked by that test.
 //! - Errors: bad input raises `djkr.ScenarioError` (a `ValueError`) with the command line's
-//!   message; a run that a budget stopped or that failed raises `RuntimeError` whose `run`
-//!   attribute is the run up to there (its summary's `status`, `reason`, `message` say how it
-//!   ended); a panic never crosses into Python (it becomes a `RuntimeError`).
+//!   message in Python's words (`python_words`: `set={'base.amplitude': '-1um'}`, not
+//!   `--set base.amplitude=-1um`); a run that a budget stopped or that failed raises
+//!   `RuntimeError` whose `run` attribute is the run up to there (its summary's `status`,
+//!   `reason`, `message` say how it ended); a panic never crosses into Python (it becomes a
+//!   `RuntimeError`).
 //! - Long calls (`run`, `validate`, `resonance`, `sweep`) run on a worker thread with the
-//!   interpreter lock released; the main thread polls for signals every [`POLL`] and on Ctrl-C
-//!   raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
+//!   interpreter lock released; the main thread polls for signals every `POLL` (20 ms) and on
+//!   Ctrl-C raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
 //!   stop (tens of microseconds of simulation) and raises `KeyboardInterrupt`. Other Python
 //!   threads (which Python never interrupts) run them in place, without the lock.
 
@@ -44,16 +49,24 @@ use djkr::input::{show_limit, InputKind};
 use djkr::material::Material;
 use djkr::output::table::{Column, Data, Table};
 use djkr::output::timeseries::{kind_name, stage_index, SEGMENT, SERIES, STAGE};
+use djkr::scenario::overrides::SetKey;
 use djkr::scenario::parse::{self, ScenarioSource};
 use djkr::steady::{Options, Problem};
+use djkr::sweep::stats::{point_stats, points_table};
+use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
 use djkr::units::Dimension;
 
 create_exception!(
     djkr,
     ScenarioError,
     PyValueError,
-    "Bad input: a scenario, an override, an argument or a grid that djkr refuses. The message \
-     is the command line's and names the file, key or argument, the value and what is allowed."
+    "Bad input: a scenario, an override, an argument or a grid that djkr refuses.\n\n\
+     A ValueError. The message is the command line's, in Python's words: it names the file or \
+     the\nargument (``set={'base.amplitude': '-1um'}``, ``grid=``, ``freq``), the key, the value \
+     and what is\nallowed. Every function raises it before any work starts when it can: a \
+     sweep checks every\npoint first.\n\nExamples\n--------\n>>> try:\n...     \
+     djkr.run(\"scenarios/impacts.toml\", set={\"base.amplitud\": \"30um\"})\n... except \
+     djkr.ScenarioError as e:\n...     print(e)   # set={'base.amplitud': ...}: unknown key; ..."
 );
 
 /// How often the calling thread looks for Ctrl-C while a long call runs.
@@ -62,11 +75,109 @@ const POLL: Duration = Duration::from_millis(20);
 // ---------------------------------------------------------------------------------------------
 // errors, panics, threads
 
+/// A library error as Python's exception, in Python's words ([`python_words`]): a malformed or
+/// unknown `set=` key is `set={'base.amplitud': ...}: unknown key; ...` (its value plays no
+/// part), every other override is named with its value, `set={'base.amplitude': '-1um'}: ...`.
 fn api_err(e: ApiError) -> PyErr {
     match e {
         ApiError::Cancelled => PyKeyboardInterrupt::new_err("cancelled"),
-        e if e.is_input() => ScenarioError::new_err(e.to_string()),
-        e => PyRuntimeError::new_err(e.to_string()),
+        ApiError::Override(o) => {
+            let key = o.set.split_once('=').map_or(o.set.as_str(), |(k, _)| k);
+            ScenarioError::new_err(format!(
+                "set={{'{}': ...}}: {}",
+                quote(key.trim()),
+                python_words(&o.message)
+            ))
+        }
+        e if e.is_input() => ScenarioError::new_err(python_words(&e.to_string())),
+        e => PyRuntimeError::new_err(python_words(&e.to_string())),
+    }
+}
+
+/// `text`, a message the library words for the command line, in Python's words: each run of
+/// overrides `--set K=V --set K2=V2` becomes `set={'K': V, 'K2': V2}` (a value as Python
+/// writes it: `True`, `1e-06`, `'30um'`), `--ensemble N` and `--seed S` become `ensemble = N`
+/// and `seed = S`, and a flag named alone (`--set does not add stages`) its argument
+/// (`set= does not add stages`).
+fn python_words(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find("--") {
+        out.push_str(&rest[..i]);
+        let flag = &rest[i + 2..];
+        if let Some(after) = flag.strip_prefix("set") {
+            let mut items = Vec::new();
+            let mut cursor = after;
+            while let Some((k, v, next)) = override_item(cursor) {
+                items.push(format!("'{k}': {}", python_value(v)));
+                cursor = next;
+                match next.strip_prefix(" --set") {
+                    Some(n) if override_item(n).is_some() => cursor = n,
+                    _ => break,
+                }
+            }
+            if items.is_empty() {
+                out.push_str("set=");
+            } else {
+                out.push_str(&format!("set={{{}}}", items.join(", ")));
+            }
+            rest = cursor;
+        } else if let Some(name) = ["ensemble", "seed"]
+            .into_iter()
+            .find(|n| flag.starts_with(n))
+        {
+            let after = &flag[name.len()..];
+            let digits = digits_of(after);
+            if digits.is_empty() {
+                out.push_str(&format!("{name}="));
+                rest = after;
+            } else {
+                out.push_str(&format!("{name} = {digits}"));
+                rest = &after[1 + digits.len()..];
+            }
+        } else {
+            out.push_str("--");
+            rest = flag;
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+/// The whole number that ` N...` starts with (`""` if none).
+fn digits_of(after: &str) -> &str {
+    let s = after.strip_prefix(' ').unwrap_or("");
+    let end = s.find(|c: char| !c.is_ascii_digit()).unwrap_or(s.len());
+    &s[..end]
+}
+
+/// ` KEY=VALUE` at the start of `s` (one space first): the key, the value and what follows. A
+/// value ends at a space, at `: `, at `;` or at the end.
+fn override_item(s: &str) -> Option<(&str, &str, &str)> {
+    let item = s.strip_prefix(' ')?;
+    let end = item
+        .char_indices()
+        .find(|&(j, c)| c == ' ' || c == ';' || (c == ':' && item[j + 1..].starts_with(' ')))
+        .map_or(item.len(), |(j, _)| j);
+    let (k, v) = item[..end].split_once('=')?;
+    if k.is_empty()
+        || !k
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "._[]".contains(c))
+    {
+        return None;
+    }
+    Some((k, v, &item[end..]))
+}
+
+/// An override's value as Python writes it: `True`/`False`, a number as it is, text quoted.
+fn python_value(v: &str) -> String {
+    match v {
+        "true" => "True".into(),
+        "false" => "False".into(),
+        _ if v.parse::<f64>().is_ok() => v.into(),
+        _ if v.contains('\'') => format!("\"{v}\""),
+        _ => format!("'{v}'"),
     }
 }
 
@@ -242,7 +353,8 @@ fn scenario_type_error(py: Python<'_>) -> PyResult<&Bound<'_, PyType>> {
             ns.set_item("__module__", "djkr")?;
             ns.set_item(
                 "__doc__",
-                "Bad input of the wrong type: both a ScenarioError and a TypeError.",
+                "Bad input of the wrong type (a list where a number goes, an int where a dict \
+                 goes):\ncaught by ``except ScenarioError`` and by ``except TypeError``.",
             )?;
             let bases = PyTuple::new(
                 py,
@@ -763,12 +875,23 @@ fn event_to_py<'py>(py: Python<'py>, e: &Event) -> PyResult<Bound<'py, PyDict>> 
 // ---------------------------------------------------------------------------------------------
 // Run
 
-/// A time-domain run held in memory (what `djkr run` writes into `run.h5`).
+/// A time-domain run held in memory: what ``djkr run`` writes into ``run.h5``.
 ///
-/// `t, x_s, v_s, x_b, x_k, delta, a, a_dot, F, G, w` are numpy float64 arrays in SI units and
-/// `stage` and `segment` int64 arrays, the datasets of `run.h5` value for value; `events` is a
-/// list of dicts (`kind`, `time`, `stage`, `state`), `cycles` and `gaps` dicts of numpy arrays
-/// (the `cycles/` and `gaps/` groups), `summary` the content of `summary.json`.
+/// Made by ``djkr.run``. The time series are numpy arrays of one value per sample, in SI units,
+/// equal value for value to the datasets of ``run.h5``: ``t`` (s), ``x_s``, ``v_s``, ``x_b``,
+/// ``x_k``, ``delta``, ``a`` (m or m/s), ``a_dot`` (m/s), ``F`` (N), ``G``, ``w`` (J/m^2) as
+/// float64, ``stage`` and ``segment`` as int64 (each attribute's help says its sign convention).
+/// ``events`` is a list of dicts (``kind``, ``time``, ``stage``, ``state``), ``cycles`` and
+/// ``gaps`` dicts of numpy arrays (the ``cycles/`` and ``gaps/`` groups), ``summary`` the
+/// content of ``summary.json``. ``len(run)`` is the number of samples.
+///
+/// Examples
+/// --------
+/// >>> import djkr
+/// >>> r = djkr.run("scenarios/paper-protocol-300hz.toml")
+/// >>> r.t.shape, r.F.dtype                     # (samples,), float64
+/// >>> r.summary["pull_off"]["force"]           # N
+/// >>> r.to_pandas().plot(x="t", y="F")
 #[pyclass(module = "djkr", frozen)]
 struct Run {
     /// Time (s).
@@ -786,34 +909,37 @@ struct Run {
     /// Far end of the holding spring, down positive (m).
     #[pyo3(get)]
     x_k: Py<PyAny>,
-    /// Indentation x_s + x_b (m).
+    /// Indentation x_s + x_b, positive compresses (m).
     #[pyo3(get)]
     delta: Py<PyAny>,
-    /// Contact radius (m).
+    /// Contact radius, 0 out of contact (m).
     #[pyo3(get)]
     a: Py<PyAny>,
     /// Contact-radius rate, healing positive (m/s).
     #[pyo3(get)]
     a_dot: Py<PyAny>,
-    /// Contact force, compressive positive (N).
+    /// Contact force on the sphere, compressive positive (N).
     #[pyo3(get, name = "F")]
     force: Py<PyAny>,
-    /// Energy release rate (J/m²).
+    /// Energy release rate, signed (J/m^2).
     #[pyo3(get, name = "G")]
     g: Py<PyAny>,
-    /// Work of adhesion (J/m²).
+    /// Work of adhesion w(a_dot) (J/m^2).
     #[pyo3(get)]
     w: Py<PyAny>,
-    /// Stage index (int64).
+    /// Index of the protocol stage, from 0.
     #[pyo3(get)]
     stage: Py<PyAny>,
-    /// Segment index (int64): 0 from the start, +1 after each gap of the time series.
+    /// Index of the gap-free stretch each sample belongs to: 0 from the start, +1 after each
+    /// gap (a span envelope following skipped). Never join samples of different segments.
     #[pyo3(get)]
     segment: Py<PyAny>,
-    /// The gaps of the time series, the HDF5 `gaps/` group: `t_start`, `t_end` (s), `periods`.
+    /// The gaps of the time series, the HDF5 ``gaps/`` group: ``t_start`` and ``t_end`` (s, the
+    /// samples either side) and ``periods`` (base periods skipped), one entry per gap.
     #[pyo3(get)]
     gaps: Py<PyDict>,
-    /// Per-period records, the HDF5 `cycles/` group.
+    /// Per-period records: the datasets of the HDF5 ``cycles/`` group (``index``, ``stage``,
+    /// ``t_start``, ``t_end``, ``force_mean``, ...).
     #[pyo3(get)]
     cycles: Py<PyDict>,
     raw_events: Vec<Event>,
@@ -834,8 +960,9 @@ fn series_names() -> Vec<&'static str> {
 
 #[pymethods]
 impl Run {
-    /// Every event of the run, in time order: dicts with `kind`, `time` (s), `stage` and
-    /// `state` (the time-series values at the event, as in `summary.json`).
+    /// Every event of the run, in time order: dicts with ``kind`` (str), ``time`` (s),
+    /// ``stage`` (int, from 0) and ``state`` (the time-series values at the event, as in
+    /// ``summary.json``).
     #[getter]
     fn events(&self, py: Python<'_>) -> PyResult<Py<PyList>> {
         if let Some(l) = self.events.get() {
@@ -850,7 +977,9 @@ impl Run {
         Ok(l)
     }
 
-    /// The content of `summary.json` as a dict.
+    /// The content of ``summary.json`` as a dict (without ``out=``: ``files`` and
+    /// ``file_bytes`` empty). ``summary["pull_off"]`` has ``force`` (N), ``amplification`` (1)
+    /// and ``time`` (s); ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
     #[getter]
     fn summary(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         if let Some(s) = self.summary.get() {
@@ -864,7 +993,9 @@ impl Run {
         Ok(s)
     }
 
-    /// The time series as a pandas DataFrame (columns `t`, `x_s`, ..., `w`, `stage`, `segment`).
+    /// The time series as a ``pandas.DataFrame``: columns ``t``, ``x_s``, ``v_s``, ``x_b``,
+    /// ``x_k``, ``delta``, ``a``, ``a_dot``, ``F``, ``G``, ``w``, ``stage``, ``segment``, one row per
+    /// sample (needs pandas).
     fn to_pandas(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         let pd = py.import("pandas").map_err(|e| {
             pyo3::exceptions::PyImportError::new_err(format!(
@@ -956,7 +1087,53 @@ impl Run {
 // ---------------------------------------------------------------------------------------------
 // functions
 
-/// Run a scenario with the time-domain simulator (`djkr run`).
+/// Run a scenario with the time-domain simulator, as ``djkr run`` does.
+///
+/// The run is held in memory; with ``out`` it is also written into a run folder, file for file
+/// the one ``djkr run FILE --out DIR`` writes.
+///
+/// Parameters
+/// ----------
+/// scenario : str, os.PathLike or dict
+///     A scenario file's path (a ``str`` without a line break), a TOML string, or a dict with the
+///     file's structure, ``{"version": 1, "material": {...}, "stage": [{...}]}``.
+/// set : dict, optional
+///     Overrides of scenario keys, as ``--set KEY=VALUE``: ``{"base.amplitude": "30um",
+///     "stage[3].speed": 1e-3}``. A value is a number (SI units), a string with a unit or a bool.
+/// out : str or os.PathLike, optional
+///     A folder for ``run.h5``, ``summary.json`` and the CSV files and figure the scenario's
+///     ``[output]`` asks for.
+///
+/// Returns
+/// -------
+/// Run
+///     One value per sample in each time-series array (``t`` in s, ``x_s`` and ``delta`` in m,
+///     ``F`` in N, ...), the ``events``, the per-period records ``cycles`` and ``summary``, the
+///     content of ``summary.json`` (``summary["pull_off"]["force"]`` in N).
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     Bad input: the message names the file or argument, the key, the value and what is allowed.
+///     Also a run whose known sample count (``[output] sample_rate`` > 0 over stages with a
+///     ``duration``) would take more than ``solver.max_memory`` (default 2 GiB, 216 bytes a
+///     sample): lower the rate or raise ``solver.max_memory``. A run whose sample count is not
+///     known before it starts stops with reason ``"memory"`` when it would pass that budget.
+/// RuntimeError
+///     The run stopped on a budget (``solver.max_steps``, ``max_wall_s``, ``max_events``,
+///     ``max_memory``) or failed mid-way: the exception's ``run`` attribute is the ``Run`` up to
+///     there (``e.run.summary["status"]``, ``["reason"]``, ``["message"]``); with ``out``, the
+///     folder is written with that status.
+/// KeyboardInterrupt
+///     Ctrl-C stops the run within a fraction of a second (with ``out``, the folder is written
+///     with reason ``SIGINT``).
+///
+/// Examples
+/// --------
+/// >>> import djkr
+/// >>> r = djkr.run("scenarios/paper-protocol-300hz.toml", set={"base.amplitude": "30um"})
+/// >>> r.summary["pull_off"]["amplification"]   # F_po / (-3/2 pi R w0)
+/// >>> df = r.to_pandas()                        # columns t, x_s, ..., stage, segment
 #[pyfunction]
 #[pyo3(signature = (scenario, set = None, out = None))]
 fn run(
@@ -981,7 +1158,7 @@ fn run(
         let rec = match api::run(&s, out.as_deref()) {
             Ok(rec) => Ok(rec),
             Err(e @ ApiError::Ended { .. }) => {
-                let message = e.to_string();
+                let message = python_words(&e.to_string());
                 match e {
                     ApiError::Ended { record, .. } => Err((message, record)),
                     e => return Err(e),
@@ -1009,7 +1186,44 @@ fn ended_err(py: Python<'_>, message: String, run: Run) -> PyErr {
     }
 }
 
-/// One imposed-area cycle (`djkr cycle --json`).
+/// One imposed-area cycle a(t) = a_mean + a_amp sin(2 pi freq t), as ``djkr cycle --json``.
+///
+/// The contact radius is imposed; the indentation and force follow from the adhesion law over one
+/// period (the paper's Sec. 2.1, the imposed-area method).
+///
+/// Parameters
+/// ----------
+/// freq : float or str
+///     Frequency (Hz, > 0): ``400`` or ``"400Hz"``, ``"0.4kHz"``.
+/// a_mean : float or str
+///     Imposed mean contact radius (m): ``0.002`` or ``"2mm"``. May be smaller than ``a_amp``
+///     (the contact is then lost for part of the cycle) or negative.
+/// a_amp : float or str
+///     Amplitude of the contact radius (m, >= 0): ``"0.5mm"``.
+/// material : str, os.PathLike or dict, optional
+///     A scenario whose ``[material]`` and ``[adhesion]`` are used (default: the paper's Fig. 2
+///     set, K 9.33 MPa, R 51 mm, w0 240 mJ/m^2, Gent-Schultz v0 0.0445 mm/s, n 0.531).
+///
+/// Returns
+/// -------
+/// dict
+///     ``a_mean`` (m, the mean of max(a, 0), the paper's a posteriori a_m), ``a_mean_imposed``
+///     (m), ``a_amp`` (m), ``delta_mean`` (m), ``delta_amp`` (m, first-harmonic amplitude
+///     hypot(delta_sin, delta_cos)), ``delta_sin`` and ``delta_cos`` (m, its coefficients),
+///     ``force_mean`` (N, compressive positive), ``contact_fraction`` (1, of the period in
+///     contact) and ``notes`` (list of str: where the answer leaves the model's range; each is
+///     also issued as a ``RuntimeWarning``).
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     An argument out of range or malformed (named as in Python: ``freq = -400: ...``).
+///
+/// Examples
+/// --------
+/// >>> import djkr
+/// >>> c = djkr.cycle("400Hz", "2mm", "0.5mm")
+/// >>> c["force_mean"], c["delta_amp"]           # N, m
 #[pyfunction]
 #[pyo3(signature = (freq, a_mean, a_amp, material = None))]
 fn cycle(
@@ -1044,7 +1258,45 @@ fn cycle(
     })
 }
 
-/// The pull-off for a vibration (`djkr pulloff --json`).
+/// The pull-off force under a vibration of the contact radius, as ``djkr pulloff --json``.
+///
+/// Parameters
+/// ----------
+/// freq : float or str
+///     Vibration frequency (Hz, > 0): ``400`` or ``"400Hz"``.
+/// a_amp : float or str
+///     Amplitude of the contact radius (m, >= 0): ``"0.5mm"``.
+/// method : {"exact", "approx", "yi"}, optional
+///     ``"exact"`` (default): the minimum over a_m of the imposed-area cycle's mean force;
+///     ``"approx"``: the paper's closed form with exponent ``beta``; ``"yi"``: Yi et al.'s
+///     comparator. (``"shui"`` needs the rig: use the command line.)
+/// beta : float, optional
+///     The closed form's exponent (``method="approx"`` only; default 2.5, the paper's).
+/// material : str, os.PathLike or dict, optional
+///     A scenario whose ``[material]`` and ``[adhesion]`` are used (default: the paper's Fig. 2
+///     set).
+///
+/// Returns
+/// -------
+/// dict
+///     ``method`` (str, in words), ``a_mean`` (m, mean contact radius at pull-off),
+///     ``delta_mean`` and ``delta_amp`` (m, mean indentation and its first-harmonic amplitude at
+///     pull-off), ``force`` (N, negative: tensile), ``amplification`` (1, force over the JKR
+///     pull-off -3/2 pi R w0) and ``notes`` (list of str; warnings are also issued as
+///     ``RuntimeWarning``).
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     An argument out of range, an unknown method, or ``beta`` with a method other than
+///     ``"approx"``.
+///
+/// Examples
+/// --------
+/// >>> import djkr
+/// >>> p = djkr.pulloff(400, "0.5mm")
+/// >>> p["force"], p["amplification"]            # N, 1
+/// >>> djkr.pulloff(400, "0.5mm", method="approx", beta=3.0)["amplification"]
 #[pyfunction]
 #[pyo3(signature = (freq, a_amp, method = None, beta = None, material = None))]
 fn pulloff(
@@ -1109,7 +1361,42 @@ fn pulloff(
     })
 }
 
-/// The periodic steady state compared with the predictors (`djkr validate --json`).
+/// The periodic steady state compared with the predictors, as ``djkr validate --json``.
+///
+/// Finds the steady state of the scenario's vibrating contact (shooting on the time-domain model,
+/// integrated at rtol 1e-10) and compares it with the imposed-area method, the linear transfer,
+/// the paper's printed equations and harmonic balance.
+///
+/// Parameters
+/// ----------
+/// scenario : str, os.PathLike or dict
+///     A scenario (path, TOML string or dict, as for ``run``) with a ``[base]`` vibration and a
+///     mean load.
+/// set : dict, optional
+///     Overrides of scenario keys, as for ``run``. ``solver.rtol`` is refused (the steady state is
+///     integrated at rtol 1e-10).
+///
+/// Returns
+/// -------
+/// dict
+///     The object of ``djkr validate --json``: ``frequency`` (Hz), ``amplitude`` (m, X_b),
+///     ``linear_resonance_frequency`` (Hz), and one dict per method, ``steady``,
+///     ``time_domain``, ``imposed_area``, ``linear_transfer``, ``paper_transfer``,
+///     ``paper_far_from_resonance``, ``harmonic_balance``, with ``relative_difference`` between
+///     them and the ``force_balance`` check (SI units throughout).
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     Bad input, or a scenario that has no periodic steady state to find (no ``[base]``).
+/// RuntimeError
+///     The steady-state search failed.
+///
+/// Examples
+/// --------
+/// >>> import djkr
+/// >>> v = djkr.validate("scenarios/resonance-400hz.toml", set={"base.amplitude": "0.3um"})
+/// >>> v["relative_difference"]
 #[pyfunction]
 #[pyo3(signature = (scenario, set = None))]
 fn validate(
@@ -1139,7 +1426,45 @@ fn validate(
     })
 }
 
-/// The frequency response by continuation (`djkr resonance`): the columns of `resonance.csv`.
+/// The frequency response by continuation, as ``djkr resonance``.
+///
+/// Steady states at ``n`` evenly spaced frequencies, each started from the last (up, down or
+/// both sweeps), with the linear transfer and harmonic balance beside them.
+///
+/// Parameters
+/// ----------
+/// scenario : str, os.PathLike or dict
+///     A scenario with a ``[base]`` vibration and a mean load (as for ``validate``).
+/// freq : (start, stop, n) or str
+///     Frequencies (Hz): ``(380, 420, 41)``, ``("0.38kHz", "420Hz", 41)`` or ``"380:420:41"``;
+///     ``stop >= start``, ``1 <= n <= 2001``.
+/// sweep : {"up", "down", "both"}, optional
+///     Direction (default ``"both"``, the two in parallel).
+/// set : dict, optional
+///     Overrides of scenario keys, as for ``run`` (``solver.rtol`` and ``base.frequency`` are
+///     refused: the call sets them).
+///
+/// Returns
+/// -------
+/// dict of numpy arrays
+///     The columns of ``resonance.csv``, one value per (direction, frequency): ``direction``
+///     (str), ``frequency`` (Hz), ``delta_amp_over_xb`` (1, |delta_A / X_b|), ``phase`` (rad),
+///     ``delta_mean``, ``delta_sin``, ``delta_cos`` (m), ``force_mean``, ``force_amp`` (N),
+///     ``a_mean``, ``a_amp`` (m), ``cycles``, ``residual``, ``contact_lost``, ``method``, the
+///     linear transfer's ``linear_delta_amp_over_xb`` and ``linear_phase``, harmonic balance's
+///     ``hb_*``, and ``error`` (str, empty when the point converged).
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     Bad input (``freq`` out of order or too long, an unknown ``sweep``, ...).
+///
+/// Examples
+/// --------
+/// >>> import djkr, pandas as pd
+/// >>> r = pd.DataFrame(djkr.resonance("scenarios/resonance-400hz.toml", freq=(380, 420, 21)))
+/// >>> up = r[r.direction == "up"]
+/// >>> up.frequency[up.delta_amp_over_xb.idxmax()]   # Hz, the resonance peak
 #[pyfunction]
 #[pyo3(signature = (scenario, freq, sweep = None, set = None))]
 fn resonance(
@@ -1215,9 +1540,62 @@ fn resonance(
     guarded(|| table_to_py(py, table))
 }
 
-/// A study over scenario keys (`djkr sweep`): the columns of `sweep.csv`.
+/// A study over scenario keys, as ``djkr sweep``: one run per grid point and ensemble member.
+///
+/// The grid is the Cartesian product of ``grid``'s values (the first key varies slowest). The
+/// keys of ``set`` keep one value each, beside the grid: ``djkr.sweep(F, grid={"K": SPEC},
+/// set={"K2": V})`` runs what ``djkr sweep F --set K2=V --set K=SPEC`` runs, rows and columns.
+///
+/// Parameters
+/// ----------
+/// scenario : str, os.PathLike or dict
+///     The scenario every run starts from (path, TOML string or dict, as for ``run``).
+/// grid : dict, optional
+///     The swept keys and their values: a list (``["10um", "30um"]``, ``[1e-5, 3e-5]``, a numpy
+///     array) or a SPEC string, ``"10um,30um"``, ``"10um:60um:6"`` (linear, ends included) or
+///     ``"1um:100um:5log"``. Any key ``set`` takes (``base.frequency``, ``stage[3].speed``,
+///     ``adhesion.n``, ``solver.method``, ...).
+/// ensemble : int, optional
+///     Members per point (>= 1), each with the base phase at shaker-on drawn uniformly in
+///     ``[0, 2 pi)`` from (seed, point, member).
+/// seed : int, optional
+///     Seed of the ensemble's phases (default 0; only with ``ensemble``).
+/// jobs : int, optional
+///     Runs at a time (default: one per core).
+/// set : dict, optional
+///     Fixed overrides (one value per key, not in ``grid``), as for ``run``; each is also a
+///     column of the rows, as on the command line.
+///
+/// Returns
+/// -------
+/// dict of numpy arrays
+///     The columns of ``sweep.csv``, one value per run, sorted by (point, member): ``point``,
+///     ``member``, one column per ``set`` key then per ``grid`` key (SI value, or text),
+///     ``phase`` (rad), ``status`` (``"ok"``, ``"stopped"``, ``"error"``), ``error`` (str),
+///     ``pull_off_force`` (N), ``pull_off_amplification`` (1), ``pull_off_time`` (s),
+///     ``detached``, ``steps``, ``rhs_evals``, ``wall_s`` (s), and the last cycle's
+///     ``force_mean`` (N), ``delta_mean`` and ``delta_amp`` (m). NaN where a run failed.
+///     ``pandas.DataFrame(rows)`` makes a table of it; ``djkr.points(rows)`` the per-point
+///     statistics.
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     Bad input, named by its argument: ``grid={'base.amplitude': [..., '-1um', ...]} (point 1):
+///     must be a finite number >= 0 (m)``. Every point is checked before any run starts.
+/// KeyboardInterrupt
+///     Ctrl-C: no new run starts, running ones are abandoned.
+///
+/// Examples
+/// --------
+/// >>> import djkr, pandas as pd
+/// >>> rows = djkr.sweep("scenarios/paper-protocol-300hz.toml",
+/// ...                   grid={"base.amplitude": ["10um", "30um", "60um"]},
+/// ...                   set={"stage[2].duration": 0.2}, ensemble=4, seed=1)
+/// >>> pd.DataFrame(rows).groupby("base.amplitude").pull_off_amplification.mean()
+/// >>> djkr.points(rows)["pull_off_amplification_std"]
 #[pyfunction]
-#[pyo3(signature = (scenario, grid = None, ensemble = None, seed = None, jobs = None))]
+#[pyo3(signature = (scenario, grid = None, ensemble = None, seed = None, jobs = None, set = None))]
 fn sweep(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
@@ -1225,19 +1603,53 @@ fn sweep(
     ensemble: Option<&Bound<'_, PyAny>>,
     seed: Option<&Bound<'_, PyAny>>,
     jobs: Option<&Bound<'_, PyAny>>,
+    set: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Py<PyDict>> {
-    let (scn, axes, ensemble, seed, jobs) = guarded(|| {
+    let (scn, axes, fixed, ensemble, seed, jobs) = guarded(|| {
+        // `set=` first, each key an axis of one value: the sweep of `djkr sweep FILE --set K=V
+        // --set K2=SPEC`, whose rows have a column for K too.
         let mut axes = Vec::new();
+        let mut fixed: Vec<SetKey> = Vec::new();
+        for text in set_texts(set)? {
+            let axis = Axis::parse(&text).map_err(|e| spec_err("set", &e))?;
+            let value = text.split_once('=').map_or("", |(_, v)| v);
+            if axis.values.len() != 1 || fixed.contains(&axis.key) {
+                return Err(input_err(format!(
+                    "set={{'{}': {}}}: {}",
+                    axis.key,
+                    python_value(&quote(value)),
+                    if axis.values.len() != 1 {
+                        format!(
+                            "one value per key in set= ({} here): give the values to sweep in grid=",
+                            axis.values.len()
+                        )
+                    } else {
+                        format!("{} is given twice; give each key once", axis.key)
+                    }
+                )));
+            }
+            fixed.push(axis.key);
+            axes.push(text);
+        }
         let mut bytes = 0;
         if let Some(g) = dict_arg(grid, "grid")? {
             for (k, v) in g.iter() {
                 let key = key_text(&k, "grid")?;
-                let axis = format!("{key}={}", spec_text(&v, &key)?);
-                bytes += axis.len();
+                let text = format!("{key}={}", spec_text(&v, &key)?);
+                bytes += text.len();
                 if bytes > text_limit() {
                     return Err(too_large("grid", None));
                 }
-                axes.push(axis);
+                let axis = Axis::parse(&text).map_err(|e| spec_err("grid", &e))?;
+                if fixed.contains(&axis.key) {
+                    return Err(input_err(format!(
+                        "grid={{'{}': ...}}: {} is also in set=; give each key once (a fixed \
+                         value in set=, the values to sweep in grid=)",
+                        quote(&key),
+                        axis.key
+                    )));
+                }
+                axes.push(text);
             }
         }
         let whole =
@@ -1245,8 +1657,9 @@ fn sweep(
         Ok((
             scenario_of(scenario)?,
             axes,
+            fixed,
             whole(ensemble, "ensemble")?,
-            whole_arg(seed, "seed", 0, u64::MAX)?.unwrap_or(0),
+            whole_arg(seed, "seed", 0, u64::MAX)?,
             whole(jobs, "jobs")?,
         ))
     })?;
@@ -1255,17 +1668,277 @@ fn sweep(
             "jobs = 0: must be a whole number >= 1 (runs at a time)",
         ));
     }
+    if let (None, Some(s)) = (ensemble, seed) {
+        return Err(input_err(format!(
+            "seed = {s}: seeds the ensemble's phases; give ensemble=N too"
+        )));
+    }
     let table = interruptible(py, move |stop| {
         let source = scn.source()?;
         api::sweep(
             source,
             &axes,
-            ensemble.map(|m| (m, seed)),
+            ensemble.map(|m| (m, seed.unwrap_or(0))),
             jobs.unwrap_or(0),
             Some(stop.flag()),
         )
+        .map_err(|e| sweep_words(e, &fixed))
     })?;
     guarded(|| table_to_py(py, table))
+}
+
+/// A `KEY=SPEC` of `sweep`'s `arg` (`"set"` or `"grid"`) that does not parse, in Python's
+/// words: `grid={'base.amplitude': ...}: value 2 '-1um' of the list: ...`.
+fn spec_err(arg: &str, e: &SpecError) -> PyErr {
+    let key = e.set.split_once('=').map_or(e.set.as_str(), |(k, _)| k);
+    input_err(format!(
+        "{arg}={{'{}': ...}}: {}",
+        quote(key.trim()),
+        python_words(&e.message)
+    ))
+}
+
+/// A sweep's error in Python's words, naming the argument a point's key came from: a value
+/// of `set=` (`fixed`) as `set={'base.amplitude': '-1um'}: ...`, one of `grid=` as
+/// `grid={'base.amplitude': [..., '-1um', ...]} (point 1): ...`.
+fn sweep_words(e: ApiError, fixed: &[SetKey]) -> ApiError {
+    let text = match &e {
+        ApiError::Sweep(SweepError::Override {
+            point,
+            set,
+            message,
+        }) => {
+            let (key, value) = set.split_once('=').unwrap_or((set.as_str(), ""));
+            let value = python_value(&quote(value));
+            if fixed.iter().any(|k| k.to_string() == key) {
+                format!("set={{'{key}': {value}}}: {}", python_words(message))
+            } else {
+                format!(
+                    "grid={{'{key}': [..., {value}, ...]}} (point {point}): {}",
+                    python_words(message)
+                )
+            }
+        }
+        // A point's scenario (`point 3: FILE --set K=V ...: ...`) and the ensemble's clash with
+        // a swept `base.phase` name the point's overrides: each by the argument it came from.
+        ApiError::Sweep(e @ (SweepError::Point { .. } | SweepError::Ensemble { .. })) => {
+            let text = e.to_string();
+            let mut out = String::with_capacity(text.len());
+            let mut rest = text.as_str();
+            while let Some(i) = rest.find("--set") {
+                out.push_str(&rest[..i]);
+                match override_item(&rest[i + 5..]) {
+                    Some((key, value, next)) => {
+                        let arg = if fixed.iter().any(|k| k.to_string() == key) {
+                            "set"
+                        } else {
+                            "grid"
+                        };
+                        out.push_str(&format!("{arg}={{'{key}': {}}}", python_value(value)));
+                        rest = next;
+                    }
+                    None => {
+                        out.push_str("--set");
+                        rest = &rest[i + 5..];
+                    }
+                }
+            }
+            out.push_str(rest);
+            python_words(&out)
+        }
+        ApiError::Spec(s) => format!(
+            "grid={{'{}': ...}}: {}",
+            quote(s.set.split_once('=').map_or(s.set.as_str(), |(k, _)| k)),
+            python_words(&s.message)
+        ),
+        _ => return e,
+    };
+    ApiError::Invalid(text)
+}
+
+/// The per-point statistics of a sweep's rows: the columns of ``points.csv``.
+///
+/// The same names and values as the ``points.csv`` that ``djkr sweep`` writes for the same sweep:
+/// for each point, the statistics of the pull-off force and amplification over its members that
+/// ran (status ``"ok"``, finite values).
+///
+/// Parameters
+/// ----------
+/// rows : dict of arrays or pandas.DataFrame
+///     What ``djkr.sweep`` returned (or a selection of its rows, or ``pandas.DataFrame`` of it).
+///     Read: ``point``, ``member``, the swept keys (the columns between ``member`` and
+///     ``phase``; numeric or text by dtype), ``status``, ``pull_off_force`` and
+///     ``pull_off_amplification``.
+///
+/// Returns
+/// -------
+/// dict of numpy arrays
+///     One value per point, in point order: ``point``, the swept keys, ``members`` (rows of the
+///     point), ``failed`` (of them, runs that did not end ``"ok"``), then for
+///     ``pull_off_force`` (N) and ``pull_off_amplification`` (1) each ``_mean``, ``_std``
+///     (sample standard deviation, n - 1; NaN below two members), ``_min``, ``_max``, ``_q05``,
+///     ``_q50``, ``_q95`` (quantiles as numpy's default, linear). The standard error of the mean
+///     is ``_std / sqrt(members - failed)``.
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     ``rows`` lacks a column, or its columns differ in length or hold the wrong kind of value.
+///
+/// Examples
+/// --------
+/// >>> import djkr, numpy as np
+/// >>> rows = djkr.sweep("scenarios/paper-protocol-300hz.toml",
+/// ...                   grid={"base.amplitude": ["10um", "30um"]}, ensemble=4)
+/// >>> p = djkr.points(rows)
+/// >>> sem = p["pull_off_amplification_std"] / np.sqrt(p["members"] - p["failed"])
+/// >>> # plt.errorbar(p["base.amplitude"], p["pull_off_amplification_mean"], yerr=sem)
+#[pyfunction]
+#[pyo3(signature = (rows))]
+fn points(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<Py<PyDict>> {
+    guarded(|| {
+        let (keys, rows) = rows_of(py, rows)?;
+        table_to_py(py, points_table(&keys, &point_stats(&rows)))
+    })
+}
+
+/// The rows of `djkr.sweep` (a dict of its columns, or anything that gives the column names
+/// when iterated and a column by `rows[name]`, such as a pandas DataFrame) as the library's
+/// rows: the key columns are those between `member` and `phase`, numeric or text by their dtype.
+/// Only what `points.csv` reads is taken: `point`, `member`, the keys, `status` and the
+/// pull-off force and amplification.
+fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>, Vec<Row>)> {
+    const WHAT: &str = "expected the rows of djkr.sweep (its dict of columns, or a pandas \
+                        DataFrame of them)";
+    if rows.is_instance_of::<PyString>() {
+        return Err(type_err(format!("rows: {WHAT}, got a str")));
+    }
+    let names = rows
+        .try_iter()
+        .and_then(|it| {
+            it.map(|k| k.and_then(|k| k.extract::<String>()))
+                .collect::<PyResult<Vec<String>>>()
+        })
+        .map_err(|_| type_err(format!("rows: {WHAT}, got {}", type_name(rows))))?;
+    let at = |n: &str| names.iter().position(|x| x == n);
+    let (member_at, phase_at) = match (at("member"), at("phase")) {
+        (Some(m), Some(p)) if m < p => (m, p),
+        _ => {
+            return Err(input_err(format!(
+                "rows: no columns 'member' then 'phase' (the swept keys lie between them): {WHAT}"
+            )))
+        }
+    };
+    let np = py.import("numpy")?;
+    let mut n = None;
+    // A column as a numpy array, all of the same length.
+    let mut column = |name: &str| -> PyResult<Bound<'_, PyAny>> {
+        let c = rows
+            .get_item(name)
+            .map_err(|_| input_err(format!("rows: no column '{}': {WHAT}", quote(name))))?;
+        let a = np.call_method1("asarray", (c,))?;
+        let len = a.len()?;
+        match n {
+            None => n = Some(len),
+            Some(m) if m != len => {
+                return Err(input_err(format!(
+                    "rows: column '{}' has {len} values, 'point' {m}: the columns of one sweep \
+                     have one value per run each",
+                    quote(name)
+                )))
+            }
+            _ => {}
+        }
+        Ok(a)
+    };
+    let kind = |a: &Bound<'_, PyAny>| -> PyResult<String> {
+        a.getattr("dtype")?.getattr("kind")?.extract::<String>()
+    };
+    let whole = |a: Bound<'_, PyAny>, name: &str| -> PyResult<Vec<usize>> {
+        let ok = kind(&a).is_ok_and(|k| k == "i" || k == "u");
+        let v: Option<Vec<i64>> = if ok {
+            a.call_method0("tolist")?.extract().ok()
+        } else {
+            None
+        };
+        v.filter(|v| v.iter().all(|&i| i >= 0))
+            .map(|v| v.into_iter().map(|i| i as usize).collect())
+            .ok_or_else(|| {
+                input_err(format!(
+                    "rows: column '{name}' must hold whole numbers >= 0"
+                ))
+            })
+    };
+    let floats = |a: Bound<'_, PyAny>, name: &str| -> PyResult<Vec<f64>> {
+        a.call_method1("astype", ("float64",))
+            .and_then(|a| a.call_method0("tolist"))
+            .and_then(|l| l.extract())
+            .map_err(|_| input_err(format!("rows: column '{}' must hold numbers", quote(name))))
+    };
+    let texts = |a: Bound<'_, PyAny>| -> PyResult<Vec<String>> {
+        a.call_method0("tolist")?
+            .try_iter()?
+            .map(|x| x.and_then(|x| Ok(x.str()?.to_string())))
+            .collect()
+    };
+    let point = whole(column("point")?, "point")?;
+    let member = whole(column("member")?, "member")?;
+    let mut keys = Vec::new();
+    let mut cells: Vec<Vec<KeyCell>> = Vec::new();
+    for name in &names[member_at + 1..phase_at] {
+        let a = column(name)?;
+        if matches!(kind(&a)?.as_str(), "f" | "i" | "u") {
+            keys.push(KeyColumn {
+                name: name.clone(),
+                unit: Some("1".into()),
+            });
+            cells.push(floats(a, name)?.into_iter().map(KeyCell::Num).collect());
+        } else {
+            keys.push(KeyColumn {
+                name: name.clone(),
+                unit: None,
+            });
+            cells.push(texts(a)?.into_iter().map(KeyCell::Text).collect());
+        }
+    }
+    let phase = floats(column("phase")?, "phase")?;
+    let status = texts(column("status")?)?;
+    let force = floats(column("pull_off_force")?, "pull_off_force")?;
+    let amplification = floats(column("pull_off_amplification")?, "pull_off_amplification")?;
+    let nan = f64::NAN;
+    let mut out = Vec::with_capacity(point.len());
+    for i in 0..point.len() {
+        let result = match status[i].as_str() {
+            "ok" => Ok(RunNumbers {
+                pull_off_force: force[i],
+                pull_off_amplification: amplification[i],
+                pull_off_time: nan,
+                detached: false,
+                steps: 0,
+                rhs_evals: 0,
+                force_mean: nan,
+                delta_mean: nan,
+                delta_amp: nan,
+            }),
+            "stopped" | "error" => Err(status[i].clone()),
+            other => {
+                return Err(input_err(format!(
+                    "rows: status '{}' (row {i}): must be ok, stopped or error",
+                    quote(other)
+                )))
+            }
+        };
+        out.push(Row {
+            point: point[i],
+            member: member[i],
+            keys: cells.iter().map(|c| c[i].clone()).collect(),
+            phase: phase[i],
+            stopped: status[i] == "stopped",
+            result,
+            wall_s: nan,
+        });
+    }
+    Ok((keys, out))
 }
 
 /// A grid value as a sweep SPEC: a string as given (`"10um:60um:6"`, `"10um,30um"`), a list
@@ -1312,5 +1985,6 @@ fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(resonance, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(points, m)?)?;
     Ok(())
 }

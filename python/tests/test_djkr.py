@@ -292,25 +292,43 @@ def test_sweep_columns_equal_cli_csv(tmp_path):
     assert_bits_equal(si["pull_off_force"], strings["pull_off_force"], "pull_off_force")
 
 
+def python_words(message, key, shown):
+    """The command line's `--set KEY=VALUE: rest` as Python words it: `set={'KEY': shown}: rest`
+    (a flag named alone becomes its argument: `--set does not` -> `set= does not`)."""
+    head, rest = message.split(": ", 1)
+    assert head.startswith(f"--set {key}="), head
+    return f"set={{'{key}': {shown}}}: " + rest.replace("--set does not", "set= does not")
+
+
 def test_bad_input_raises_scenario_error_with_the_cli_message():
+    """The command line's message, in Python's words (issue 27): the override named as the
+    `set=` entry it came from, never as `--set`."""
     cases = [
         (lambda: djkr.run(VIB400, set={"base.amplitude": "-1um"}),
-         ["run", VIB400, "--set", "base.amplitude=-1um"], "base.amplitude"),
+         ["run", VIB400, "--set", "base.amplitude=-1um"], ("base.amplitude", "'-1um'")),
+        # An unknown key: the value plays no part (`...`).
         (lambda: djkr.run(VIB400, set={"base.amplitud": "30um"}),
-         ["run", VIB400, "--set", "base.amplitud=30um"], "base.amplitud"),
+         ["run", VIB400, "--set", "base.amplitud=30um"], ("base.amplitud", "...")),
         (lambda: djkr.validate(VIB400, set={"stage[7].speed": 1e-3}),
-         ["validate", VIB400, "--set", "stage[7].speed=0.001"], "stage[7]"),
+         ["validate", VIB400, "--set", "stage[7].speed=0.001"], ("stage[7].speed", "0.001")),
+        (lambda: djkr.run(VIB400, set={"stage[0].vibration": "yes"}),
+         ["run", VIB400, "--set", "stage[0].vibration=yes"], ("stage[0].vibration", "'yes'")),
         (lambda: djkr.run("tests/scenarios/bad/negative-radius.toml"),
-         ["run", "tests/scenarios/bad/negative-radius.toml"], "material.R"),
+         ["run", "tests/scenarios/bad/negative-radius.toml"], None),
     ]
-    for call, args, key in cases:
+    for call, args, named in cases:
         if not (ROOT / args[1]).exists():
             continue
         with pytest.raises(djkr.ScenarioError) as e:
             call()
         assert isinstance(e.value, ValueError)
-        assert str(e.value) == cli_error(*args)
-        assert key in str(e.value)
+        expected = cli_error(*args)
+        if named:
+            expected = python_words(expected, *named)
+        assert str(e.value) == expected
+        assert "--" not in str(e.value)
+    assert str(pytest.raises(djkr.ScenarioError, djkr.run, VIB400, set={"base.amplitud": 1})
+               .value).startswith("set={'base.amplitud': ...}: unknown key")
     # Function arguments are named as in Python.
     with pytest.raises(djkr.ScenarioError, match="^freq = -400: must be a finite number > 0"):
         djkr.cycle(-400, "2mm", "0.5mm")
@@ -318,8 +336,36 @@ def test_bad_input_raises_scenario_error_with_the_cli_message():
         djkr.cycle(400, "-1mm", "0.5mm")
     with pytest.raises(djkr.ScenarioError, match="beta has no effect"):
         djkr.pulloff(400, "0.5mm", beta=3)
-    with pytest.raises(djkr.ScenarioError, match="base.amplitude"):
+    # A sweep names the argument each key came from, and the point.
+    with pytest.raises(djkr.ScenarioError) as e:
         djkr.sweep(TINY, grid={"base.amplitude": ["10um", "-1um"]})
+    rest = cli_error("sweep", TINY, "--set", "base.amplitude=10um,-1um", "--out", "/nonexistent/x")
+    assert rest.startswith("--set base.amplitude=-1um (point 1): ")
+    assert str(e.value) == "grid={'base.amplitude': [..., '-1um', ...]} (point 1): " + rest.split(": ", 1)[1]
+    with pytest.raises(djkr.ScenarioError, match=r"^set=\{'base.amplitude': '-1um'\}: must be a finite number >= 0"):
+        djkr.sweep(TINY, set={"base.amplitude": "-1um"}, grid={"base.frequency": [250, 300]})
+    with pytest.raises(djkr.ScenarioError, match=r"^grid=\{'base.amplitude': \.\.\.\}: value 2 '1m/s' of the list: unknown unit"):
+        djkr.sweep(TINY, grid={"base.amplitude": ["10um", "1m/s"]})
+    with pytest.raises(djkr.ScenarioError, match=r"^set=\{'base.amplitude': '1um,2um'\}: one value per key"):
+        djkr.sweep(TINY, set={"base.amplitude": "1um,2um"})
+    with pytest.raises(djkr.ScenarioError, match=r"^grid=\{'base.amplitude': \.\.\.\}: base.amplitude is also in set="):
+        djkr.sweep(TINY, set={"base.amplitude": "1um"}, grid={"base.amplitude": [1e-6, 2e-6]})
+    with pytest.raises(djkr.ScenarioError, match=r"^ensemble = 2: .* which grid=\{'base.phase': '1,2'\} also sets"):
+        djkr.sweep(TINY, grid={"base.phase": [1, 2]}, ensemble=2)
+    # A point whose scenario is invalid names its overrides by the argument they came from.
+    no_freq = (ROOT / TINY).read_text().replace("frequency = 300.0", "")
+    with pytest.raises(djkr.ScenarioError,
+                       match=r"^point 0: <string> set=\{'solver.rtol': 1e-09\} grid=\{'base.amplitude': 1e-06\}: base.frequency: missing"):
+        djkr.sweep(no_freq, set={"solver.rtol": 1e-9}, grid={"base.amplitude": [1e-6, 2e-6]})
+    # A run that a budget stopped: a RuntimeError, in Python's words too.
+    with pytest.raises(RuntimeError) as e:
+        djkr.run(TINY, set={"solver.max_steps": 50})
+    assert str(e.value).startswith(f"{TINY} set={{'solver.max_steps': 50}}: run stopped: step budget exhausted")
+    assert "--set" not in str(e.value)
+    with pytest.raises(djkr.ScenarioError, match=r"^ensemble = 0: must be"):
+        djkr.sweep(TINY, ensemble=0)
+    with pytest.raises(djkr.ScenarioError, match=r"^seed = 3: seeds the ensemble's phases; give ensemble=N"):
+        djkr.sweep(TINY, seed=3)
     with pytest.raises(djkr.ScenarioError, match="freq"):
         djkr.resonance(RESONANCE, freq=(500, 400, 3))
     with pytest.raises(djkr.ScenarioError, match=r"<dict>: material\.R"):
@@ -502,6 +548,39 @@ def test_calls_from_other_threads_and_forked_processes():
     if "fork" in multiprocessing.get_all_start_methods():
         with multiprocessing.get_context("fork").Pool(2) as pool:
             assert pool.map(_samples, range(2)) == [expected, expected]
+
+
+def test_sweep_set_is_the_cli_fixed_set_and_points_is_points_csv(tmp_path):
+    """Issue 27: `set=` beside `grid=` is the command line's fixed `--set KEY=VALUE` beside the
+    swept keys (rows and columns), and `djkr.points(rows)` is the sweep's points.csv: a numeric
+    and a text key, points whose members all stopped (NaN statistics) and one that ran."""
+    out = tmp_path / "sweep"
+    cli("sweep", TINY, "--set", "base.frequency=280", "--set", "solver.method=dopri5,auto",
+        "--set", "solver.max_steps=300,100000", "--ensemble", "3", "--seed", "2", "--jobs", "2",
+        "--out", out)
+    rows = djkr.sweep(TINY, grid={"solver.method": ["dopri5", "auto"], "solver.max_steps": [300, 100000]},
+                      set={"base.frequency": 280}, ensemble=3, seed=2, jobs=2)
+    assert_columns_equal(rows, csv_columns(out / "sweep.csv"), skip={"wall_s"})
+    assert set(rows["status"]) >= {"ok", "stopped"}
+    # The override took effect: the scenario's own 300 Hz gives other forces.
+    at_300 = djkr.sweep(TINY, grid={"solver.method": ["auto"], "solver.max_steps": [100000]}, ensemble=3, seed=2)
+    assert not np.array_equal(at_300["pull_off_force"], rows["pull_off_force"][-3:])
+    points = djkr.points(rows)
+    assert_columns_equal(points, csv_columns(out / "points.csv"))
+    # The rows as a DataFrame, and in another order, give the same points.
+    df = pd.DataFrame(rows)
+    assert_columns_equal(djkr.points(df), csv_columns(out / "points.csv"))
+    assert_columns_equal(djkr.points(df.iloc[::-1]), csv_columns(out / "points.csv"))
+    # Independently: the last point's mean and sample std over its members, from the rows.
+    last = df[(df.point == 3) & (df.status == "ok")].pull_off_amplification
+    assert points["pull_off_amplification_mean"][3] == pytest.approx(last.mean(), rel=1e-14)
+    assert points["pull_off_amplification_std"][3] == pytest.approx(last.std(ddof=1), rel=1e-12)
+    with pytest.raises(djkr.ScenarioError, match="^rows: no column 'status'"):
+        djkr.points({k: v for k, v in rows.items() if k != "status"})
+    with pytest.raises(djkr.ScenarioError, match="^rows: column 'status' has 2 values"):
+        djkr.points({**rows, "status": rows["status"][:2]})
+    with pytest.raises(TypeError):
+        djkr.points(42)
 
 
 def test_a_set_key_the_call_replaces_is_refused():
