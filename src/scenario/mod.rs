@@ -65,7 +65,7 @@ pub struct Scenario {
     /// overrides, which `overrides` lists).
     pub source_text: String,
     /// Where it came from (path, or `<string>`), followed by its overrides as on the command
-    /// line: `scenarios/x.toml --set base.amplitude=30um`.
+    /// line: `scenarios/impacts.toml --set base.amplitude=30um`.
     pub source_name: String,
     /// The overrides applied to the file's values (`KEY=VALUE`, as given to `--set`), in order;
     /// empty when the file is used as written.
