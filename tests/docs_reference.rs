@@ -238,12 +238,46 @@ fn output_columns() -> String {
             .schema(),
         ),
     ];
+    let branch = example_branch();
+    let tables = tables.into_iter().chain([
+        (
+            "`continue`: `branch.csv`, `branch.h5`",
+            "One row per point of the branch of periodic orbits (here continued in \
+             `base.frequency`).",
+            djkr::continuation::report::branch_table(&branch).schema(),
+        ),
+        (
+            "`continue`: `bifurcations.csv`",
+            "One row per special point of the branch (folds, period doublings, Neimark–Sacker \
+             points, ends).",
+            djkr::continuation::report::special_table(&branch).schema(),
+        ),
+    ]);
     let mut s = String::new();
     for (title, intro, fields) in tables {
         s.push('\n');
         s.push_str(&columns_table(title, intro, &fields));
     }
     s
+}
+
+/// A short branch of `scenarios/resonance-400hz.toml` in `base.frequency` (a fraction of a
+/// second): the branch tables' columns depend on the parameter, so they come from a real one.
+fn example_branch() -> djkr::continuation::branch::Branch {
+    use djkr::continuation::branch;
+    use djkr::continuation::family::{Family, Parameter};
+    let source =
+        djkr::scenario::parse::ScenarioSource::read(&root().join("scenarios/resonance-400hz.toml"))
+            .expect("bundled scenario");
+    let param = Parameter::parse("--param", "base.frequency").expect("parameter");
+    let family = Family::new(source, Vec::new(), vec![param], 1e-10).expect("family");
+    branch::continue_branch(
+        &family,
+        (380.0, 390.0),
+        &branch::Settings::default(),
+        &mut |_| {},
+    )
+    .expect("a short branch")
 }
 
 /// Replace the text between the `BEGIN GENERATED: name` and `END GENERATED` markers of `doc`.

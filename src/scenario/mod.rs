@@ -26,7 +26,7 @@ pub struct Output {
     /// Shuffle + deflate the HDF5 datasets (smaller files, slower writes).
     pub compress: bool,
     /// `fsync` every file and the directory before the run counts as written (survives a power
-    /// loss, not only a killed process; README, "Output").
+    /// loss, not only a killed process; docs/guide/output.md, "Crash safety").
     pub fsync: bool,
     /// Also draw the run's figure (`run.png`, `run.svg`; same as `run --plot`).
     pub plot: bool,
