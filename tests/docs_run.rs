@@ -6,7 +6,9 @@
 //! `examples/`, `benches/` and `python/` linked beside it, the built `djkr` first on `PATH`) and
 //! must exit 0; a ```` ```text output ```` block right after a run block lists lines that its
 //! output (stdout and stderr) must contain, `...` matching any text; a block that cannot run is
-//! fenced ```` ```sh no-run ```` with `<!-- no-run: why -->` on the line above. The README's
+//! fenced ```` ```sh no-run ```` with `<!-- no-run: why -->` on the line above; a block fenced
+//! with `file=PATH` (```` ```toml file=tests/scenarios/good/minimal.toml ````) must equal that
+//! repository file. The README's
 //! ```` ```python ```` blocks run with the Python test venv when it imports `djkr` (made by
 //! `tests/python.rs` under `DJKR_TEST_INSTALL=1`), and are otherwise skipped with one line.
 
@@ -147,6 +149,17 @@ fn run_file(rel: &str, python: Option<&Path>) -> Vec<String> {
                 ));
             }
             last = None;
+            continue;
+        }
+        if let Some(file) = b.attrs.iter().find_map(|a| a.strip_prefix("file=")) {
+            // A block that shows a repository file must show it as it is.
+            match std::fs::read_to_string(root().join(file)) {
+                Ok(text) if text == b.body => {}
+                Ok(_) => problems.push(format!(
+                    "{at}: the block differs from `{file}`; copy the file into it"
+                )),
+                Err(e) => problems.push(format!("{at}: `{file}`: {e}")),
+            }
             continue;
         }
         if b.lang == "text" && b.attrs.iter().any(|a| a == "output") {
