@@ -403,3 +403,64 @@ fn scenario_reference_renders_the_keys_contract() {
     assert!(s.contains("| `solver.rtol` | 1 | `1e-8` |"), "{s}");
     assert_eq!(s.matches("\n## `[solver]`").count(), 1, "{s}");
 }
+
+/// The key paths of a `summary.json` object: top-level keys and the keys of their objects,
+/// except the objects keyed by data (quantity names, file roles, event kinds) or listed whole.
+fn summary_keys(v: &serde_json::Value) -> Vec<String> {
+    const WHOLE: [&str; 7] = [
+        "final_state",
+        "units",
+        "files",
+        "file_bytes",
+        "event_counts",
+        "non_finite",
+        "sensitivity",
+    ];
+    let mut out = Vec::new();
+    for (k, v) in v.as_object().expect("summary.json is an object") {
+        out.push(k.clone());
+        if let (false, Some(o)) = (WHOLE.contains(&k.as_str()), v.as_object()) {
+            out.extend(o.keys().map(|c| format!("{k}.{c}")));
+        }
+    }
+    out
+}
+
+/// Every key of `summary.json` (of a run that went through and of one stopped by a budget) is
+/// named in the output reference, so a key added to the writer without the docs fails here.
+#[test]
+fn summary_json_keys_are_documented() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("docs-summary-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let scenario = root().join("scenarios/paper-protocol-300hz.toml");
+    let mut keys = Vec::new();
+    for (name, extra) in [("ok", None), ("stopped", Some("solver.max_steps=1000"))] {
+        let out = dir.join(name);
+        let mut c = Command::new(env!("CARGO_BIN_EXE_djkr"));
+        c.arg("run").arg(&scenario).arg("--out").arg(&out);
+        if let Some(set) = extra {
+            c.args(["--set", set]);
+        }
+        let status = c.output().expect("djkr runs").status;
+        assert!(status.code().is_some(), "djkr run {name}: {status}");
+        let text = std::fs::read_to_string(out.join("summary.json")).expect("summary.json");
+        let v: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+        keys.extend(summary_keys(&v));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert!(
+        keys.iter().any(|k| k == "reason"),
+        "the stopped run has a reason: {keys:?}"
+    );
+    let doc = std::fs::read_to_string(root().join("docs/guide/output.md")).expect("output.md");
+    let missing: Vec<&String> = keys
+        .iter()
+        .filter(|k| !doc.contains(&format!("`{k}`")))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "summary.json keys not named in docs/guide/output.md (\"summary.json, key by key\"): \
+         {missing:?}"
+    );
+}
