@@ -4,6 +4,24 @@
 //! work of adhesion), [`imposed_area`] (the paper's Sec. 2.1 method), [`closed_form`] (eqs. 16–24,
 //! 29), [`comparators`] (Shui et al., Yi et al.), [`dynamics`] (the time-domain simulator).
 //! I/O lives at the edges: [`scenario::parse`], [`output`], [`plot`], and the CLI.
+//!
+//! Running a scenario from Rust is what `djkr run FILE` does: load and validate the file
+//! ([`scenario::parse::load_scenario`], or [`scenario::parse::load_scenario_with`] for `--set`
+//! overrides), then [`api::run`], which keeps the time series, events and period records in
+//! memory and, given a folder, also writes the run's files there:
+//!
+//! ```
+//! use std::path::Path;
+//! let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper-protocol-300hz.toml");
+//! let scenario = djkr::scenario::parse::load_scenario(&file)?;
+//! let run = djkr::api::run(&scenario, None)?; // Some(dir): also write summary.json and run.h5
+//! let p = &run.result.pull_off;
+//! assert!(p.force < 0.0 && (p.amplification - 1.783).abs() < 1e-3); // N, tensile negative
+//! println!("pull-off {:.4} N, amplification {:.3}, at t = {:.2} s", p.force, p.amplification, p.time);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! The user guide, `docs/guide/`, documents the scenario format, the commands and every output.
 #![deny(clippy::float_cmp)]
 #![warn(missing_docs)]
 

@@ -642,7 +642,7 @@ fn contact_loss_radius_has_negligible_effect() {
 
 /// `auto` takes the implicit method without inertia (rigid link), for a constant w and for
 /// seeded contact formation, and DP8 for a GS sphere with mass (the rule of
-/// `dynamics::driver::auto_engine`; its basis is measured in `docs/studies/methods.md`). That
+/// `dynamics::stepper::auto_method`; its basis is measured in `docs/studies/methods.md`). That
 /// the methods agree on these scenes is `methods_agree_on_gs_unload`.
 #[test]
 fn auto_rule_by_scene() {

@@ -51,7 +51,7 @@ const EXAMPLES: &str = "Examples:
 
 Bare numbers are SI; values with units are welcome (51mm, 9.33MPa, 240mJ/m^2, 0.0445mm/s, 1.5kHz).
 Default material: the paper's Fig. 2 set (K 9.33 MPa, R 51 mm, w0 240 mJ/m^2, v0 0.0445 mm/s, n 0.531).
-Scenario-file keys and every result are documented in README.md.";
+Scenario-file keys, every command and every result are documented in the user guide, docs/guide/.";
 
 #[derive(Subcommand, Debug)]
 enum Command {

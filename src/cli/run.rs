@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 /// Flags of `djkr run`.
 #[derive(Args, Debug)]
 pub struct RunArgs {
-    /// Scenario file (TOML; see README, "Scenario files").
+    /// Scenario file (TOML; see docs/guide/scenarios.md).
     file: PathBuf,
     /// Output directory for summary.json and run.h5 (created if needed) [default: out/<scenario name>].
     #[arg(long, value_name = "DIR")]
@@ -38,7 +38,7 @@ pub struct RunArgs {
     /// Also run N twins (default 4) whose base amplitude (without a base: initial preload or
     /// gap) differs by k·1e-12 relative, in parallel, and report how far the pull-off moves:
     /// under vibration the approach to pull-off can be chaotic, and then only a distribution
-    /// converges (README, "How reproducible is a pull-off?"). Adds `sensitivity` to summary.json.
+    /// converges (docs/guide/numerics.md, "How reproducible is a pull-off?"). Adds `sensitivity` to summary.json.
     #[arg(long, value_name = "N", num_args = 0..=1, default_missing_value = "4",
           value_parser = clap::value_parser!(u16).range(1..=256))]
     sensitivity: Option<u16>,

@@ -47,7 +47,7 @@ pub struct MergeArgs {
 /// Flags of a sweep.
 #[derive(Args, Debug)]
 pub struct SweepRunArgs {
-    /// Scenario file (TOML; see README, "Scenario files").
+    /// Scenario file (TOML; see docs/guide/scenarios.md).
     #[arg(required = true)]
     file: Option<PathBuf>,
     /// A swept key and its values (repeatable; several make the Cartesian grid, first key

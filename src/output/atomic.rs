@@ -113,7 +113,7 @@ impl AtomicFile {
     }
 
     /// As [`AtomicFile::write_with`], under a partial name tagged `tag`, flushed to disk only
-    /// when `sync` (the run writer's choice: README, "Output").
+    /// when `sync` (the run writer's choice: docs/guide/output.md, "Crash safety").
     pub fn write_tagged(
         target: &Path,
         tag: &str,
@@ -195,7 +195,7 @@ impl AtomicFile {
 /// old file, now at `from`, removed, rather than renamed over: ext4 (with its default
 /// `auto_da_alloc`) starts writing the new file's data out from inside a rename over an existing
 /// file, which cost 0.9 ms per 600 kB file here, a tenth of a 1 s run end to end, against 0.06 ms
-/// for the swap and the removal. djkr makes no promise that rename-over would have kept (README,
+/// for the swap and the removal. djkr makes no promise that rename-over would have kept (docs/guide/output.md,
 /// "Crash safety"): without `[output] fsync` a crash of the machine within the write-back delay
 /// may lose what a rename published either way. Where the swap is not supported (another
 /// system, a file system without it) or there is no file to replace, a plain rename. Only a

@@ -32,7 +32,7 @@ pub struct CycleField {
 }
 
 /// The convention of every `*_mean`, `*_sin` and `*_cos` field, written once in the run file's
-/// root attribute `harmonics` and in the README (what `record_cycle` in
+/// root attribute `harmonics` and in docs/guide/output.md (what `record_cycle` in
 /// `dynamics::simulator` computes from quadratures integrated with the solution).
 pub const HARMONIC_CONVENTION: &str = "each cycles/ row covers one base period T = 2 pi/omega \
 from t_start to t_end = t_start + T, starting where the base phase theta = omega (t - t_on) is a \

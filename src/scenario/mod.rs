@@ -26,7 +26,7 @@ pub struct Output {
     /// Shuffle + deflate the HDF5 datasets (smaller files, slower writes).
     pub compress: bool,
     /// `fsync` every file and the directory before the run counts as written (survives a power
-    /// loss, not only a killed process; README, "Output").
+    /// loss, not only a killed process; docs/guide/output.md, "Crash safety").
     pub fsync: bool,
     /// Also draw the run's figure (`run.png`, `run.svg`; same as `run --plot`).
     pub plot: bool,
@@ -65,7 +65,7 @@ pub struct Scenario {
     /// overrides, which `overrides` lists).
     pub source_text: String,
     /// Where it came from (path, or `<string>`), followed by its overrides as on the command
-    /// line: `scenarios/x.toml --set base.amplitude=30um`.
+    /// line: `scenarios/impacts.toml --set base.amplitude=30um`.
     pub source_name: String,
     /// The overrides applied to the file's values (`KEY=VALUE`, as given to `--set`), in order;
     /// empty when the file is used as written.

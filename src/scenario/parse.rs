@@ -14,7 +14,7 @@
 //! `frequency = "0.3kHz"`) parsed by [`crate::units::parse_quantity`]. Integers are accepted
 //! wherever a number is (`stiffness = 200`).
 //!
-//! The key names are a contract (README, "Scenario files"):
+//! The key names are a contract (docs/guide/scenarios.md and the scenario reference):
 //!
 //! | section | keys (default) |
 //! |---|---|
@@ -400,7 +400,7 @@ pub const MAX_DENSE_WINDOWS: usize = 10_000;
 /// The name of the one section that is a list of tables (`[[stage]]`, keys `stage[N].KEY`).
 pub const STAGE_SECTION: &str = "stage";
 
-/// The sections of a scenario file and the keys each takes, in the order the README lists them:
+/// The sections of a scenario file and the keys each takes, in the order the guide lists them:
 /// the one list that both the parser's unknown-key checks and `--set` read, so a key added to a
 /// section's list is at once accepted in files and settable from the command line.
 pub const SECTIONS: &[(&str, &[&str])] = &[
