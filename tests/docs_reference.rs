@@ -216,12 +216,12 @@ fn output_columns() -> String {
         (
             "`resonance.csv`, `resonance.h5`",
             "One row per frequency and direction of `djkr resonance`.",
-            djkr::steady::report::sweeps_table(&[]).schema(),
+            djkr::reports::steady::sweeps_table(&[]).schema(),
         ),
         (
             "`shortcut-map.csv`, `shortcut-map.h5` `cells/`",
             "One row per cell of `djkr shortcut-map`, row-major in amplitude; NaN where missing.",
-            djkr::steady::report::map_table(&map).schema(),
+            djkr::reports::steady::map_table(&map).schema(),
         ),
         (
             "`continue`: `sweep.csv`",

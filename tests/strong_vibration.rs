@@ -321,7 +321,7 @@ fn a_hold_at_its_periodic_steady_state_jumps_to_its_end() {
     }
 }
 
-/// Step control under a steady shaker follows the last base period (src/dynamics/control.rs):
+/// Step control under a steady shaker follows the last base period (core/src/dynamics/control.rs):
 /// on the compiled peer's benchmark scene (1 s at 400 Hz, X_b = 10 µm, rtol 1e-7, every period
 /// integrated) the elementary controller alone had 24 % of its attempts rejected (1 735 of
 /// 7 388: four overshoots per period in the healing stretch after each turning point, and the
