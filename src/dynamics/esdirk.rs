@@ -680,7 +680,7 @@ mod tests {
     fn newton_stage_matches_bracketing_solve() {
         use crate::adhesion::{ConstantW, GentSchultz};
         use crate::dynamics::model::{resolve, Drive};
-        let base = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
+        let base = crate::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
         let laws = [
             Law::GentSchultz(GentSchultz::PAPER),
             Law::GentSchultz(GentSchultz {

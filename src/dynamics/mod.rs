@@ -18,8 +18,8 @@
 //! integrated state, [`stepper`] the one interface of the methods ([`esdirk`] the implicit
 //! stepper, [`dp8`] the explicit DP8 stepper, [`ode_adapter`] the `ode_solvers` methods, and
 //! `auto`'s choice and rescues), [`control`] step-size control, [`events`] event location,
-//! [`envelope`] envelope following, and [`catalogue`] the reference scenes shared by tests and
-//! benchmarks.
+//! and [`envelope`] envelope following; the reference scenes shared by tests and benchmarks are
+//! [`crate::catalogue`]'s.
 //!
 //! # Methods
 //!
@@ -224,7 +224,6 @@
 //!   saved < 0.3 % (its steps are 6× shorter than DP8's, and the straddle error scales as
 //!   h^(2+1/n)); its Newton iteration in z stops after 2 residuals on most stages.
 
-pub mod catalogue;
 pub mod control;
 pub mod dp8;
 pub mod envelope;
@@ -240,6 +239,6 @@ pub mod types;
 
 pub use model::Model;
 pub use protocol::{run, run_partial, Plan};
-pub use simulator::{Segment, Settings, Simulator, StepSamples, Stop};
+pub use simulator::{Segment, Settings, Simulator, Stop};
 pub use stepper::{EnvelopeMode, Method, Solver, Stepper};
 pub use types::*;

@@ -781,7 +781,7 @@ mod tests {
     #[test]
     fn fast_forms_match_library() {
         use crate::adhesion::{GentSchultz, SaturatedGentSchultz};
-        let base = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
+        let base = crate::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
         let laws = [
             Law::GentSchultz(GentSchultz::PAPER),
             Law::GentSchultz(GentSchultz {
@@ -838,7 +838,7 @@ mod tests {
     /// route's phase ω(t − t_on) (a few ulp of θ ≈ 10³ rad here, ~1e-13).
     #[test]
     fn advanced_kinematics_match_direct() {
-        let s = crate::dynamics::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
+        let s = crate::catalogue::vibrating_hold(5e-6, 400.0, 1.0);
         let m = resolve(&s.rig, RunScales::default()).unwrap();
         // θ0 ≈ 10³ rad, and θ0 = 0.5 rad with t_on = 0, where the times round to far below the
         // series' error and it is tested alone (to ~1e-15).

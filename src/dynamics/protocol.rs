@@ -5,7 +5,7 @@
 
 use super::envelope::{Envelope, EnvelopeSettings};
 use super::model::{self, Drive, Mechanics, Model, NQ};
-use super::simulator::{make_sample, Segment, Settings, Simulator, StepSamples, Stop};
+use super::simulator::{Segment, Settings, Simulator, Stop};
 use super::state::{hermite, Knot, State, Tol};
 use super::stepper::{self, EnvelopeMode, Method, Solver};
 use super::types::*;

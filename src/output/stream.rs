@@ -29,7 +29,7 @@ use super::table::{CsvWriter, Table};
 use super::timeseries::{self, TimeSeriesWriter};
 use super::{cycles, io_err, AtomicFile, OutputError, CSV_NAMES, FLUSH_ROWS, HDF5_NAME};
 use crate::dynamics::model::Model;
-use crate::dynamics::simulator::StepSamples;
+use crate::dynamics::StepSamples;
 use crate::dynamics::types::Sample;
 use crate::scenario::Scenario;
 
