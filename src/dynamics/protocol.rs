@@ -6,7 +6,7 @@
 use super::envelope::{Envelope, EnvelopeSettings};
 use super::model::{self, Drive, Mechanics, Model, NQ};
 use super::simulator::{Segment, Settings, Simulator, Stop};
-use super::state::{hermite, Knot, State, Tol};
+use super::state::{hermite, Knot, State};
 use super::stepper::{self, EnvelopeMode, Method, Solver};
 use super::types::*;
 use crate::jkr;
@@ -156,16 +156,8 @@ pub fn run_partial(plan: &Plan, obs: &mut dyn Observer) -> Result<Outcome, SimEr
     };
     let wants_samples = obs.wants_samples();
     let settings = Settings {
-        tol: Tol {
-            rtol: plan.solver.rtol,
-            atol: plan.solver.atol,
-        },
-        event_tol: plan.solver.event_tol.max(0.0),
-        max_steps: plan.solver.max_steps,
-        max_wall_s: plan.solver.max_wall_s,
-        max_events: plan.solver.max_events,
         interpolated_samples: wants_samples && sample_dt > 0.0,
-        cancel: plan.solver.cancel,
+        ..Settings::from(&plan.solver)
     };
     let formation = plan.rig.formation;
     let sim = Simulator::new(model, stepper, formation, settings, y, drive);

@@ -10,7 +10,7 @@ use super::control::StepControl;
 use super::events::{self, Watch};
 use super::model::{self, q, Drive, Kinematics, Mechanics, Model, NQ};
 use super::state::{State, StepFail, StepOut, Tol};
-use super::stepper::Stepper;
+use super::stepper::{Solver, Stepper};
 use super::types::{make_sample, CycleRecord, EventKind, Sample, SimError, Stats};
 use crate::adhesion::AdhesionLaw;
 use crate::cancel::Cancel;
@@ -38,6 +38,26 @@ pub struct Settings {
     /// Polled with the wall-clock budget: a raised flag stops the run with
     /// [`SimError::Cancelled`].
     pub cancel: Cancel,
+}
+
+impl From<&Solver> for Settings {
+    /// The simulator's settings from a scenario's `[solver]` section: its tolerances and
+    /// budgets as given (a negative `event_tol` taken as 0), samples at step ends
+    /// (`interpolated_samples` false: a caller that interpolates on a time grid sets it).
+    fn from(s: &Solver) -> Self {
+        Self {
+            tol: Tol {
+                rtol: s.rtol,
+                atol: s.atol,
+            },
+            event_tol: s.event_tol.max(0.0),
+            max_steps: s.max_steps,
+            max_wall_s: s.max_wall_s,
+            max_events: s.max_events,
+            interpolated_samples: false,
+            cancel: s.cancel,
+        }
+    }
 }
 
 /// A stretch of the solution between two states of one step, under the drive that held over
