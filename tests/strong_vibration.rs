@@ -1,7 +1,8 @@
 //! Strong vibration: the base phase, the regression points of the strong-vibration issue, and
 //! (opt-in) a scan over base amplitudes.
 
-use djkr::dynamics::{catalogue, EventKind, Recorder};
+use djkr::catalogue;
+use djkr::dynamics::{EventKind, Recorder};
 use djkr::scenario::{Stage, StageKind, Until};
 use std::f64::consts::PI;
 

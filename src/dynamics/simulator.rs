@@ -8,9 +8,10 @@
 
 use super::control::StepControl;
 use super::events::{self, Watch};
+use super::methods::Solver;
 use super::model::{self, q, Drive, Kinematics, Mechanics, Model, NQ};
 use super::state::{State, StepFail, StepOut, Tol};
-use super::stepper::{Solver, Stepper};
+use super::stepper::Stepper;
 use super::types::{make_sample, CycleRecord, EventKind, Sample, SimError, Stats};
 use crate::adhesion::AdhesionLaw;
 use crate::cancel::Cancel;
@@ -890,12 +891,12 @@ impl Simulator {
         if t_lim - y0.t <= snap {
             return Ok(self.absorb_sliver(y0.t, t_bound, t_lim, snap));
         }
-        let kind = self.stepper.kind();
+        let caps = self.stepper.capabilities();
         let offset = self.period_offset(y0.t);
         let prop = self.control.propose(
             y0.t,
             self.h_max(),
-            kind,
+            caps,
             self.settings.interpolated_samples,
             offset,
         );
@@ -917,6 +918,9 @@ impl Simulator {
             Ok(true) => {}
             Ok(false) => return self.no_root(&y0, h),
             Err(e) => return self.failed(&y0, h, e),
+        }
+        if self.stepper.rescued_last() {
+            self.control.not_remembered();
         }
         // The attempt is read where the stepper wrote it (the state with its quadratures is
         // 192 bytes).

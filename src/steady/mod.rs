@@ -75,7 +75,7 @@ use crate::adhesion::AdhesionLaw;
 use crate::dynamics::model::{self, Model, RunScales};
 use crate::dynamics::protocol::{self, Initial, Plan};
 use crate::dynamics::{
-    stepper, CycleRecord, EventKind, Sample, Settings, SimError, Simulator, Solver, Stop,
+    methods, CycleRecord, EventKind, Sample, Settings, SimError, Simulator, Solver, Stop,
 };
 use crate::jkr;
 use crate::rig::{BaseMotion, Rig};
@@ -489,7 +489,7 @@ impl Problem {
         drive.t_on = y.t;
         let mut settings = Settings::from(&self.solver);
         settings.tol.rtol = rtol;
-        let stepper = stepper::build(self.solver.method, &self.rig);
+        let stepper = methods::build(self.solver.method, &self.rig);
         Ok(Simulator::new(
             self.model.clone(),
             stepper,
