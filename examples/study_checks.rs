@@ -295,7 +295,7 @@ fn main() {
     for (m, c) in methods.iter().zip(&cyc).skip(1) {
         let a = cyc[0];
         t.row([
-            format!("{m:?}"),
+            format!("{m}"),
             sci((a.force_mean - c.force_mean).abs() / a.force_sin.abs()),
             sci((c.delta_sin / a.delta_sin - 1.0).abs()),
             sci((c.a_sin / a.a_sin - 1.0).abs()),
@@ -313,7 +313,7 @@ fn main() {
     ]);
     let mut at10 = Vec::new();
     for m in methods {
-        let mut row = vec![format!("{m:?}")];
+        let mut row = vec![format!("{m}")];
         let mut last = 0.0;
         for rtol in [1e-6, 1e-8, 1e-10] {
             let mut s = catalogue::gs_rigid_unload(1e-7);

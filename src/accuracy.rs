@@ -63,17 +63,17 @@ use serde::Serialize;
 use std::f64::consts::PI;
 use std::time::Instant;
 
-pub use crate::dynamics::stepper::method_name;
+pub use crate::dynamics::methods::method_name;
 
-/// Parse a method name ([`crate::dynamics::stepper::METHOD_NAMES`]); `flag` names the source.
+/// Parse a method name ([`crate::dynamics::methods::METHODS`]); `flag` names the source.
 pub fn parse_method(flag: &str, text: &str) -> Result<Method, ParamError> {
-    crate::dynamics::stepper::method_from_name(text.trim()).ok_or_else(|| {
+    crate::dynamics::methods::method_from_name(text.trim()).ok_or_else(|| {
         ParamError::new(
             flag,
             text.trim(),
             format!(
                 "must be one of {}",
-                crate::dynamics::stepper::METHOD_NAMES.join(", ")
+                crate::dynamics::methods::method_names().join(", ")
             ),
         )
     })

@@ -665,3 +665,166 @@ fn auto_rule_by_scene() {
     assert!(r.method.starts_with("dp8"), "{}", r.method);
     assert!(r.detached);
 }
+
+/// A bundled scenario file, with `solver.method` set as `--set solver.method=NAME` sets it.
+fn bundled_with_method(file: &str, name: &str) -> Result<Scenario, String> {
+    use djkr::scenario::overrides::Override;
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenarios")
+        .join(file);
+    let set = Override::parse(&format!("solver.method={name}")).map_err(|e| e.to_string())?;
+    djkr::scenario::parse::load_scenario_with(&path, &[set]).map_err(|e| e.to_string())
+}
+
+/// What each registry entry provides, listed: the stepper it builds on a Gent–Schultz scene
+/// with inertia (the resonance scene) and on a rate-independent one (quasi-static JKR), with the
+/// method named in reports and the capabilities the simulator reads. A new method adds its row
+/// here; a changed capability fails this list.
+#[test]
+fn registry_lists_what_each_method_provides() {
+    use djkr::dynamics::methods::{self, METHODS};
+    use djkr::dynamics::stepper::{Capabilities, Reach};
+    const IMPLICIT: Capabilities = Capabilities {
+        algebraic_radius: true,
+        turning_points: false,
+        period_memory: false,
+        reach: Reach::Full,
+    };
+    const DP8: Capabilities = Capabilities {
+        algebraic_radius: false,
+        turning_points: true,
+        period_memory: true,
+        reach: Reach::HalfForSamples,
+    };
+    const MACRO: Capabilities = Capabilities {
+        algebraic_radius: false,
+        turning_points: false,
+        period_memory: false,
+        reach: Reach::Half,
+    };
+    // (name; on the GS scene with inertia: reported as, capabilities; on the constant-w scene).
+    let expected = [
+        ("auto", ("dp8", DP8), ("implicit", IMPLICIT)),
+        ("dp8", ("dp8", DP8), ("dp8", DP8)),
+        ("dopri5", ("dopri5", MACRO), ("dopri5", MACRO)),
+        ("dop853", ("dop853", MACRO), ("dop853", MACRO)),
+        ("implicit", ("implicit", IMPLICIT), ("implicit", IMPLICIT)),
+    ];
+    let gs = bundled_with_method("resonance-400hz.toml", "auto").unwrap();
+    let constant = bundled_with_method("quasi-static-jkr.toml", "auto").unwrap();
+    let names: Vec<&str> = METHODS.iter().map(|e| e.name).collect();
+    assert_eq!(
+        names,
+        expected.map(|e| e.0),
+        "the registry's names, in order"
+    );
+    assert_eq!(methods::method_names(), names);
+    for (entry, (name, on_gs, on_constant)) in METHODS.iter().zip(expected) {
+        for (rig, (reported, caps)) in [(&gs.rig, on_gs), (&constant.rig, on_constant)] {
+            let stepper = (entry.build)(rig);
+            assert_eq!(stepper.short_name(), reported, "{name}");
+            assert_eq!(stepper.capabilities(), caps, "{name}: {}", stepper.name());
+            // What a report names is itself a method of the registry.
+            assert!(names.contains(&stepper.short_name()), "{name}");
+            // A fresh stepper is the same method.
+            let fresh = stepper.fresh();
+            assert_eq!((fresh.short_name(), fresh.capabilities()), (reported, caps));
+        }
+    }
+    // The constants code names are registry methods, and names and methods map both ways.
+    for m in [
+        Method::Auto,
+        Method::Dp8,
+        Method::Dopri5,
+        Method::Dop853,
+        Method::Implicit,
+    ] {
+        let name = methods::method_name(m);
+        assert_eq!(methods::method_from_name(name), Some(m));
+        assert_eq!(m.to_string(), name);
+    }
+    assert_eq!(methods::methods().count(), METHODS.len());
+    assert_eq!(methods::method_from_name("rk4"), None);
+}
+
+/// The scenario parser accepts exactly the registry's names for `solver.method` (and maps each
+/// to its method); any other name is refused with the registry's list, in its order.
+#[test]
+fn parser_accepts_the_registry_names_for_solver_method() {
+    use djkr::dynamics::methods::{method_from_name, method_names};
+    for name in method_names() {
+        let s = bundled_with_method("resonance-400hz.toml", name)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(Some(s.solver.method), method_from_name(name), "{name}");
+    }
+    let listed = method_names()
+        .iter()
+        .map(|n| format!("\"{n}\""))
+        .collect::<Vec<_>>()
+        .join(", ");
+    for bogus in ["rk4", "DP8", "Implicit"] {
+        let e = bundled_with_method("resonance-400hz.toml", bogus).unwrap_err();
+        assert!(e.contains("solver.method"), "{bogus}: {e}");
+        assert!(
+            e.contains(&format!("must be one of {listed}")),
+            "{bogus}: {e}"
+        );
+    }
+}
+
+/// The capabilities say what the steppers do. `algebraic_radius`: exactly the methods that
+/// declare it run a rate-independent law; the others are refused when the file is read and,
+/// set on the parsed scenario, when the run starts.
+/// `turning_points`: over one period of the vibrating resonance scene, stepped at 1/64 of the
+/// period, only a method that declares it reports a turning point of the contact line (and DP8,
+/// which does, reports the two per period).
+#[test]
+fn capabilities_match_what_the_steppers_do() {
+    use djkr::dynamics::methods::{method_names, METHODS};
+    use djkr::dynamics::state::StepOut;
+    use djkr::dynamics::{model, protocol};
+    let constant = bundled_with_method("quasi-static-jkr.toml", "auto").unwrap();
+    for name in method_names() {
+        let method = djkr::dynamics::methods::method_from_name(name).unwrap();
+        let algebraic = djkr::dynamics::methods::build(method, &constant.rig)
+            .capabilities()
+            .algebraic_radius;
+        let read = bundled_with_method("quasi-static-jkr.toml", name);
+        assert_eq!(read.is_ok(), algebraic, "{name}: {:?}", read.err());
+        let mut s = constant.clone();
+        s.solver.method = method;
+        let r = s.simulate(&mut djkr::dynamics::NoObserver);
+        assert_eq!(r.is_ok(), algebraic, "{name}: {:?}", r.err());
+    }
+    let s = bundled_with_method("resonance-400hz.toml", "auto").unwrap();
+    let m = model::resolve(&s.rig, s.run_scales()).unwrap();
+    let (y0, mut drive) = protocol::initial_state(&s.rig, &s.initial, &m).unwrap();
+    drive.shaker = true;
+    drive.t_on = y0.t;
+    let period = 2.0 * std::f64::consts::PI / m.omega;
+    let tol = djkr::dynamics::state::Tol {
+        rtol: 1e-8,
+        atol: 1e-10,
+    };
+    for entry in METHODS {
+        let mut stepper = (entry.build)(&s.rig);
+        let declared = stepper.capabilities().turning_points;
+        let (mut y, mut turns, mut predicted) = (y0, 0, 0);
+        let mut out = StepOut::default();
+        let mut evals = 0;
+        for _ in 0..64 {
+            stepper
+                .attempt(&m, &drive, &y, period / 64.0, tol, &mut evals, &mut out)
+                .unwrap_or_else(|e| panic!("{}: {e:?}", entry.name));
+            turns += out.kink.is_some() as usize;
+            predicted += out.kink_ahead.is_some() as usize;
+            y = out.y;
+        }
+        if declared {
+            assert!((2..=3).contains(&turns), "{}: {turns} turns", entry.name);
+            assert!(predicted > 0, "{}", entry.name);
+        } else {
+            assert_eq!((turns, predicted), (0, 0), "{}", entry.name);
+        }
+    }
+}

@@ -11,7 +11,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::accuracy::{self, Measure, StudyConfig};
 use djkr::beta_fit::log_space;
-use djkr::dynamics::stepper::method_name;
+use djkr::dynamics::methods::method_name;
 use djkr::dynamics::Method;
 use djkr::error::ParamError;
 use djkr::plot;

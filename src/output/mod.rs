@@ -61,7 +61,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::dynamics::model::Model;
-use crate::dynamics::simulator::StepSamples;
+use crate::dynamics::types::StepSamples;
 use crate::dynamics::types::{
     CycleRecord, Ending, Event, EventKind, Gap, Observer, RunResult, Sample,
 };

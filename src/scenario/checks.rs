@@ -24,8 +24,8 @@
 //! ([`small_contact_warning`]).
 
 use crate::adhesion::AdhesionLaw;
+use crate::dynamics::methods;
 use crate::dynamics::protocol::{initial_state, Initial, Until};
-use crate::dynamics::stepper::{self, StepperKind};
 use crate::dynamics::{model, RunResult, SimError};
 use crate::jkr;
 use crate::material::Material;
@@ -311,13 +311,13 @@ pub fn setup_check(s: &Scenario) -> Result<(), SimError> {
     let plan = s.plan();
     let model = model::resolve(plan.rig, s.run_scales()).map_err(SimError::Setup)?;
     initial_state(plan.rig, &plan.initial, &model)?;
-    let stepper = stepper::build(plan.solver.method, plan.rig);
-    if stepper.kind() != StepperKind::Embedded && s.rig.law.is_rate_independent() {
+    let stepper = methods::build(plan.solver.method, plan.rig);
+    if !stepper.capabilities().algebraic_radius && s.rig.law.is_rate_independent() {
         return Err(SimError::Setup(format!(
             "solver.method = \"{}\" ({}) cannot run a rate-independent adhesion law (the \
              contact radius is algebraic, G = w0, and has no explicit rate): use \"auto\" or \
              \"implicit\"",
-            stepper::method_name(plan.solver.method),
+            methods::method_name(plan.solver.method),
             stepper.name()
         )));
     }

@@ -47,7 +47,7 @@ use crate::adhesion::LAW_NAMES;
 use crate::adhesion::{
     AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw,
 };
-use crate::dynamics::stepper::{method_from_name, EnvelopeMode, METHOD_NAMES};
+use crate::dynamics::methods::{method_from_name, method_names, EnvelopeMode};
 use crate::error::ParamError;
 use crate::input::{self, InputError, InputKind};
 use crate::jkr;
@@ -1291,7 +1291,7 @@ impl Parser<'_> {
             return Ok(solver);
         };
         self.check_keys(&s, SOLVER_KEYS, "")?;
-        if let Some(name) = self.string(&s, "method", &METHOD_NAMES)? {
+        if let Some(name) = self.string(&s, "method", &method_names())? {
             solver.method = method_from_name(name).unwrap_or(Method::Auto);
         }
         if let Some(n) = self.number(&s, "rtol", DIMENSIONLESS)? {
@@ -1330,7 +1330,7 @@ impl Parser<'_> {
         if let Some(n) = self.whole_number(
             &s,
             "max_memory",
-            crate::dynamics::stepper::MIN_MAX_MEMORY,
+            crate::dynamics::methods::MIN_MAX_MEMORY,
             "must be a whole number of bytes >= 1048576 (1 MiB; default 2147483648 = 2 GiB)",
         )? {
             solver.max_memory = n;

@@ -1,6 +1,7 @@
 //! Step-size control: the proposal for the next attempt, its growth after an accepted step and
-//! its shrinking after a rejected one, the turning points of the contact line that DP8's steps
-//! must end on, and what the last base period's attempts teach the next one.
+//! its shrinking after a rejected one, the turning points of the contact line that some methods'
+//! steps must end on, and what the last base period's attempts teach the next one. What applies
+//! to a method is what its [`Capabilities`] say (DP8 has them all), never its name.
 //!
 //! # The last period as a guide
 //! Under a steady shaker the solution repeats from one base period to the next, and so does the
@@ -10,7 +11,8 @@
 //! period integrated) the stretch of fast healing after each turning point of the contact line
 //! took four rejected attempts per period, their errors 3–18 times the tolerance, the error at
 //! one step length growing 40-fold from one step to the next (1 347 rejected attempts of
-//! 7 388, 18 % of the evaluations). So DP8's controller remembers, by their start within the
+//! 7 388, 18 % of the evaluations). So the controller of a method with
+//! [`Capabilities::period_memory`] (DP8) remembers, by their start within the
 //! period, the attempts of the last period that were rejected or whose length the memory itself
 //! held down (guards), with their lengths and errors; ℓ_g, the length a guard's error scales to
 //! 0.7 of the tolerance by err ∝ h⁸, is what it allows from its start s_g. An attempt into
@@ -30,8 +32,7 @@
 //! every rejection goes: an attempt that starts beyond a guard's reach and ends before the next
 //! guard's start is not held (the unit test's model keeps about a quarter of them).
 
-use super::dp8;
-use super::stepper::StepperKind;
+use super::stepper::{Capabilities, Reach};
 
 /// The step-size state carried from one attempt to the next.
 #[derive(Debug, Clone, PartialEq)]
@@ -42,12 +43,14 @@ pub struct StepControl {
     rejected_last: bool,
     /// The current attempt was already shortened to end at a turning point of the contact line.
     kink_cut: bool,
-    /// Predicted time of the next turning point of the contact line (DP8), to end a step there.
+    /// Predicted time of the next turning point of the contact line (a method with
+    /// [`Capabilities::turning_points`]), to end a step there.
     kink_ahead: Option<f64>,
     /// The next attempt's length when the last one was cut back to a turning point (the step
     /// proposal `h` is kept for the step after it).
     h_cut: Option<f64>,
-    /// The last base period's attempts (DP8 under a steady shaker).
+    /// The last base period's attempts (a method with [`Capabilities::period_memory`] under a
+    /// steady shaker).
     memory: PeriodMemory,
     /// The current attempt's start within its base period (s), when the memory applies.
     offset: Option<f64>,
@@ -201,28 +204,32 @@ impl StepControl {
         self.memory.clear();
     }
 
-    /// The next attempt from time `t`, at most `h_max` long: the proposal, cut back to a
-    /// turning point of the contact line where the last attempt straddled one, or ended on the
-    /// predicted one (DP8). Macro steps, and DP8's long steps when samples are interpolated on a
-    /// time grid, are kept to half of `h_max` (1/16 of a base period: cubic Hermite error
-    /// ≈ (ωh)⁴/384 ≈ 6e-5 of the amplitude, against 1e-3 at 1/8). `offset`: `t`'s time since
-    /// the start of its base period under a steady shaker (`None` otherwise); DP8's attempts
-    /// then follow the last period's (module docs).
+    /// The next attempt from time `t`, at most `h_max` long, for a method that provides `caps`:
+    /// the proposal, cut back to a turning point of the contact line where the last attempt
+    /// straddled one, or ended on the predicted one ([`Capabilities::turning_points`]); kept to
+    /// half of `h_max` as [`Capabilities::reach`] says (1/16 of a base period: cubic Hermite
+    /// error ≈ (ωh)⁴/384 ≈ 6e-5 of the amplitude, against 1e-3 at 1/8). `offset`: `t`'s time
+    /// since the start of its base period under a steady shaker (`None` otherwise); the
+    /// attempts of a method with [`Capabilities::period_memory`] then follow the last period's
+    /// (module docs).
     pub fn propose(
         &mut self,
         t: f64,
         h_max: f64,
-        kind: StepperKind,
+        caps: Capabilities,
         interpolated_samples: bool,
         offset: Option<f64>,
     ) -> Proposal {
         let mut h = self.h.min(h_max);
-        if kind == StepperKind::Macro
-            || (kind == StepperKind::TurningPoints && interpolated_samples)
-        {
+        let halved = match caps.reach {
+            Reach::Full => false,
+            Reach::HalfForSamples => interpolated_samples,
+            Reach::Half => true,
+        };
+        if halved {
             h = h.min(0.5 * h_max);
         }
-        self.offset = offset.filter(|_| kind == StepperKind::TurningPoints);
+        self.offset = offset.filter(|_| caps.period_memory);
         if let Some(s) = self.offset {
             let cap = self.memory.cap(s, h, h_max);
             // At most a factor MEMORY_SHRINK: a guard only corrects the controller's overshoot.
@@ -234,7 +241,7 @@ impl StepControl {
         if let Some(hc) = self.h_cut.take() {
             h = h.min(hc);
             shortened = true;
-        } else if let (StepperKind::TurningPoints, Some(tk)) = (kind, self.kink_ahead) {
+        } else if let (true, Some(tk)) = (caps.turning_points, self.kink_ahead) {
             // End the step at the predicted turning point rather than cut it afterwards.
             let d = tk - t;
             if d > 0.05 * h && d < h {
@@ -302,13 +309,18 @@ impl StepControl {
         self.kink_ahead = kink_ahead;
     }
 
+    /// The current attempt is not to guide the next period: a rescue method took it
+    /// ([`super::stepper::Stepper::rescued_last`]; where a rescuing implicit method takes over,
+    /// in deep healing, the step collapses for reasons the next period need not share).
+    pub fn not_remembered(&mut self) {
+        self.offset = None;
+    }
+
     /// Keep the attempt of length `h` (error `err`, controller exponent `e`) for the next
     /// period, when the memory applies.
     fn remember(&mut self, err: f64, e: f64, h: f64, rejected: bool) {
         if let Some(s) = self.offset.take() {
-            // DP8's own attempts only: where a rescuing implicit method takes over (deep
-            // healing), the step collapses for reasons the next period need not share.
-            if (rejected || self.guarded) && err.is_finite() && e == dp8::ERR_EXP {
+            if (rejected || self.guarded) && err.is_finite() {
                 self.memory.remember(Guard::new(s, h, err, e));
             }
         }
@@ -318,6 +330,14 @@ impl StepControl {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The capabilities of DP8, whose steps the period memory was made for.
+    const DP8: Capabilities = Capabilities {
+        algebraic_radius: false,
+        turning_points: true,
+        period_memory: true,
+        reach: Reach::HalfForSamples,
+    };
 
     /// Steps of a model problem over `periods` base periods of length 1 under the controller,
     /// with (`memory`) or without the last period as a guide: an attempt of length h from s
@@ -344,13 +364,7 @@ mod tests {
             let mut s = 0.0;
             while s < 1.0 - 1e-12 {
                 let t = p as f64 + s;
-                let prop = c.propose(
-                    t,
-                    0.125,
-                    StepperKind::TurningPoints,
-                    false,
-                    memory.then_some(s),
-                );
+                let prop = c.propose(t, 0.125, DP8, false, memory.then_some(s));
                 let clipped = prop.h >= 1.0 - s;
                 let h = prop.h.min(1.0 - s);
                 let err = (h / smallest(s, s + h)).powi(8);
@@ -401,24 +415,16 @@ mod tests {
     #[test]
     fn the_memory_never_lengthens_a_proposal() {
         let mut c = StepControl::new(0.05);
-        let h = c
-            .propose(0.0, 0.125, StepperKind::TurningPoints, false, Some(0.0))
-            .h;
+        let h = c.propose(0.0, 0.125, DP8, false, Some(0.0)).h;
         c.reject(9.0, 0.125, h);
-        let h = c
-            .propose(0.0, 0.125, StepperKind::TurningPoints, false, Some(0.0))
-            .h;
+        let h = c.propose(0.0, 0.125, DP8, false, Some(0.0)).h;
         c.accept(1e-6, 0.125, h, false, None);
         c.next_period();
         let mut plain = c.clone();
         plain.forget_periods();
         for s in [0.0, 0.001, 0.0125, 0.5] {
-            let with = c
-                .clone()
-                .propose(s, 0.125, StepperKind::TurningPoints, false, Some(s));
-            let without = plain
-                .clone()
-                .propose(s, 0.125, StepperKind::TurningPoints, false, None);
+            let with = c.clone().propose(s, 0.125, DP8, false, Some(s));
+            let without = plain.clone().propose(s, 0.125, DP8, false, None);
             assert!(with.h <= without.h, "{s}: {} > {}", with.h, without.h);
         }
     }

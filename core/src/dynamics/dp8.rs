@@ -23,6 +23,7 @@
 
 use super::model::{Drive, Kinematics, Mechanics, Model, NQ};
 use super::state::{State, StepFail, StepOut, Tol};
+use super::stepper::{Capabilities, Reach, Stepper};
 
 /// Stage coefficients a_ij (row i = stage i + 1 of Hairer's numbering; 12 stages).
 const A: [[f64; 12]; 12] = [
@@ -582,6 +583,173 @@ fn turning_points(
         turning_point(k, model.w0)
     };
     (kink, g.root(1.0, 2.5, 3).map(|s| y.t + s * h))
+}
+
+/// djkr's explicit DOP853 ([`step`]) as a [`Stepper`], with its first-same-as-last evaluation carried from one
+/// step to the next.
+#[derive(Debug, Default, Clone)]
+pub struct Dp8 {
+    /// Two slots for the rates at a step's ends and the states they belong to: a step reads its
+    /// start from one and writes its end into the other, so they are never moved.
+    fsal: [Fsal; 2],
+    /// The slot holding the rates at the current state, if any.
+    cur: Option<usize>,
+    /// Refuse steps in deep healing ([`StepFail::Stiff`]) for a rescue method to take.
+    stiffness_switch: bool,
+}
+
+/// |∂ȧ/∂a| h beyond which DP8 hands a healing step to the implicit method. DOP853's stability
+/// interval on the negative real axis reaches about −6; at the switch the explicit steps are
+/// stability-limited, not accuracy-limited, and in deep healing (G ≈ 1e-6 w0, ∂ȧ/∂a ≈ −1e13/s)
+/// they would fall below what the time resolves late in a long run (h < 8 ε t).
+pub const DP8_STIFFNESS_LIMIT: f64 = 3.0;
+
+/// The rates and quadrature integrands at the end of DP8's last step, with what identifies the
+/// state they belong to (kept small: the cache is written on every step).
+#[derive(Debug, Clone, Default)]
+struct Fsal {
+    t: f64,
+    x: f64,
+    v: f64,
+    a: f64,
+    contact: bool,
+    rates: Rates,
+    fq: [f64; NQ],
+}
+
+impl Fsal {
+    /// Label the rates held as those at `y`.
+    fn label(&mut self, y: &State) {
+        self.t = y.t;
+        self.x = y.x;
+        self.v = y.v;
+        self.a = y.a;
+        self.contact = y.contact;
+    }
+
+    /// True for the very state the rates belong to (an identity test, hence bitwise; the time
+    /// to a few ulp, as a step's end time is recomputed).
+    fn belongs_to(&self, y: &State) -> bool {
+        let same = |p: f64, q: f64| p.to_bits() == q.to_bits();
+        (self.t - y.t).abs() <= 8.0 * f64::EPSILON * y.t.abs()
+            && same(self.x, y.x)
+            && same(self.v, y.v)
+            && same(self.a, y.a)
+            && self.contact == y.contact
+    }
+}
+
+impl Dp8 {
+    /// DP8 that refuses deep-healing steps (for [`super::rescue::Rescued`]): `attempt` fails with
+    /// [`StepFail::Stiff`] where |∂ȧ/∂a| h > [`DP8_STIFFNESS_LIMIT`] at the step's start.
+    pub fn with_stiffness_switch() -> Self {
+        Self {
+            stiffness_switch: true,
+            ..Self::default()
+        }
+    }
+}
+
+impl Stepper for Dp8 {
+    fn fresh(&self) -> Box<dyn Stepper> {
+        Box::new(Dp8 {
+            stiffness_switch: self.stiffness_switch,
+            ..Dp8::default()
+        })
+    }
+    fn name(&self) -> &'static str {
+        "explicit DP8: Dormand-Prince 8(5,3), djkr's stepper"
+    }
+    fn short_name(&self) -> &'static str {
+        "dp8"
+    }
+    /// An explicit method (no algebraic contact radius) whose accuracy needs steps that end on
+    /// the turning points of the contact line, whose long steps are halved for interpolated
+    /// samples, and whose controller overshoots the same stretch of every period unless the
+    /// last period guides it.
+    fn capabilities(&self) -> Capabilities {
+        Capabilities {
+            algebraic_radius: false,
+            turning_points: true,
+            period_memory: true,
+            reach: Reach::HalfForSamples,
+        }
+    }
+    fn attempt(
+        &mut self,
+        model: &Model,
+        drive: &Drive,
+        y: &State,
+        h: f64,
+        tol: Tol,
+        evals: &mut u64,
+        out: &mut StepOut,
+    ) -> Result<(), StepFail> {
+        let mut extra = 0;
+        let cur = match self.cur {
+            Some(c) if self.fsal[c].belongs_to(y) => c,
+            _ => {
+                extra = 1;
+                match rates_at(model, drive, y) {
+                    Ok((rates, fq)) => {
+                        let f = &mut self.fsal[0];
+                        (f.rates, f.fq) = (rates, fq);
+                        f.label(y);
+                        self.cur = Some(0);
+                        0
+                    }
+                    Err(e) => {
+                        self.cur = None;
+                        *evals += extra;
+                        return Err(e);
+                    }
+                }
+            }
+        };
+        // The step's start from slot `cur`, its end into the other.
+        let (lo, hi) = self.fsal.split_at_mut(1);
+        let (start, end) = if cur == 0 {
+            (&lo[0], &mut hi[0])
+        } else {
+            (&hi[0], &mut lo[0])
+        };
+        let result = if self.stiffness_switch
+            && y.contact
+            && model.healing_stiffness(y.a, start.rates.g, start.rates.fa) * h > DP8_STIFFNESS_LIMIT
+        {
+            Err(StepFail::Stiff)
+        } else {
+            step(
+                model,
+                drive,
+                y,
+                &start.rates,
+                &start.fq,
+                h,
+                tol,
+                out,
+                &mut end.rates,
+                &mut end.fq,
+            )
+        };
+        match result {
+            Ok(()) => {
+                out.evals += extra;
+                end.label(&out.y);
+                self.cur = Some(1 - cur);
+                Ok(())
+            }
+            Err(e) => {
+                // A failed attempt is retried from the same state with a shorter step (the
+                // rates at y stay in their slot).
+                *evals += extra;
+                Err(e)
+            }
+        }
+    }
+    fn reset(&mut self) {
+        self.cur = None;
+    }
 }
 
 #[cfg(test)]

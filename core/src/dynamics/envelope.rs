@@ -101,9 +101,8 @@
 
 use super::simulator::Simulator;
 use super::state::State;
-use super::types::{CycleRecord, SimError};
+use super::types::{CycleRecord, EnvelopeStats, SimError};
 use crate::jkr;
-use serde::Serialize;
 
 /// Settings of envelope following.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -125,21 +124,6 @@ impl Default for EnvelopeSettings {
             max_multiplier: 0.999,
         }
     }
-}
-
-/// What envelope following did in a run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
-pub struct EnvelopeStats {
-    /// Accepted envelope steps (jumps).
-    pub jumps: u64,
-    /// Base periods jumped over (not integrated).
-    pub periods_skipped: u64,
-    /// Trial periods integrated (Newton iterations and Jacobians).
-    pub trial_periods: u64,
-    /// Rejected envelope steps.
-    pub rejected: u64,
-    /// Jumps to the end of a stage from its periodic steady state (counted in `jumps` too).
-    pub steady_jumps: u64,
 }
 
 /// What [`Envelope::fresh_jacobian`] found.

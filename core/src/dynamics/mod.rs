@@ -15,9 +15,11 @@
 //! shooting, continuation, envelope following).
 //! [`types`] holds the results and the observer interface (samples, events, and per-cycle
 //! records through `Observer::cycle`), [`model`] the pure physics of one instant, [`state`] the
-//! integrated state, [`stepper`] the one interface of the methods ([`esdirk`] the implicit
-//! stepper, [`dp8`] the explicit DP8 stepper, [`ode_adapter`] the `ode_solvers` methods, and
-//! `auto`'s choice and rescues), [`control`] step-size control, [`events`] event location,
+//! integrated state, [`stepper`] the one interface of the methods and the capabilities each
+//! declares ([`esdirk`] the implicit stepper, [`dp8`] the explicit DP8 stepper, [`ode_adapter`]
+//! the `ode_solvers` methods, [`rescue`] a method rescued by another, each implementing it),
+//! [`methods`] the registry of method names, `auto`'s choice and the solver settings,
+//! [`control`] step-size control, [`events`] event location,
 //! and [`envelope`] envelope following. The reference scenes shared by tests and benchmarks are
 //! the `djkr` crate's `catalogue`.
 //!
@@ -95,7 +97,7 @@
 //! [`SimError::Explicit`] naming time and state; a finite-time collapse a → 0 (step-size
 //! underflow in contact) is handed to the simulator like a failed implicit stage.
 //!
-//! **Auto** ([`stepper::auto_method`]): the implicit method for a rate-independent law (a is
+//! **Auto** ([`methods::auto_method`]): the implicit method for a rate-independent law (a is
 //! algebraic: no explicit rate), for seeded contact formation (healing from G ≈ 0 after every
 //! impact) and without inertia (rigid link, m = 0: there neither method wins everywhere); DP8
 //! otherwise, taking single steps implicitly where a DP8 stage meets G ≤ 0 (counted in
@@ -110,7 +112,7 @@
 //!   cycle about as fast and far more accurate);
 //! - without inertia (rigid link, m = 0) the two trade places: DP8 is faster on a slow GS unload,
 //!   slower under a 400 Hz base (its reduced right-hand side solves the position twice); `auto`
-//!   takes the implicit method ([`stepper::auto_method`] quotes the measured ratios);
+//!   takes the implicit method ([`methods::auto_method`] quotes the measured ratios);
 //! - constant w, seeded contact: the implicit method (`auto`);
 //! - Dopri5, Dop853: only for comparison (a trial stage meeting G ≤ 0 ends the run; per-span
 //!   restarts).
@@ -229,18 +231,21 @@ pub mod dp8;
 pub mod envelope;
 pub mod esdirk;
 pub mod events;
+pub mod methods;
 pub mod model;
 pub mod ode_adapter;
 pub mod protocol;
+pub mod rescue;
 pub mod simulator;
 pub mod state;
 pub mod stepper;
 pub mod types;
 
+pub use methods::{EnvelopeMode, Method, Solver};
 pub use model::Model;
 pub use protocol::{run, run_partial, Plan};
-pub use simulator::{Segment, Settings, Simulator, StepSamples, Stop};
-pub use stepper::{EnvelopeMode, Method, Solver, Stepper};
+pub use simulator::{Segment, Settings, Simulator, Stop};
+pub use stepper::Stepper;
 pub use types::*;
 
 /// The scene the unit tests of the model and the steppers share: the light rig

@@ -26,6 +26,7 @@
 
 use super::model::{Drive, Mechanics, Model, NQ};
 use super::state::{State, StepFail, StepOut, Tol};
+use super::stepper::{Capabilities, Reach, Stepper};
 use crate::adhesion::AdhesionLaw;
 use crate::jkr;
 use ode_solvers::dop_shared::{IntegrationError, OutputType};
@@ -349,4 +350,66 @@ fn end_state(
         contact: y.contact,
         q,
     })
+}
+
+/// `ode_solvers`' Dopri5 or Dop853 as a macro-step engine ([`macro_step`]) behind
+/// [`Stepper`].
+#[derive(Debug, Clone, Copy)]
+pub struct OdeSolvers {
+    method: OdeMethod,
+    /// The last inner step (s), to start the next macro step with.
+    h_inner: f64,
+}
+
+impl OdeSolvers {
+    /// The given `ode_solvers` method.
+    pub fn new(method: OdeMethod) -> Self {
+        Self {
+            method,
+            h_inner: 0.0,
+        }
+    }
+}
+
+impl Stepper for OdeSolvers {
+    fn fresh(&self) -> Box<dyn Stepper> {
+        Box::new(OdeSolvers::new(self.method))
+    }
+    fn name(&self) -> &'static str {
+        match self.method {
+            OdeMethod::Dopri5 => "explicit Dopri5 (ode_solvers)",
+            OdeMethod::Dop853 => "explicit Dop853 (ode_solvers)",
+        }
+    }
+    fn short_name(&self) -> &'static str {
+        match self.method {
+            OdeMethod::Dopri5 => "dopri5",
+            OdeMethod::Dop853 => "dop853",
+        }
+    }
+    /// Explicit (no algebraic contact radius), and each attempt a macro step with the crate's
+    /// own inner control, kept to half the longest step.
+    fn capabilities(&self) -> Capabilities {
+        Capabilities {
+            algebraic_radius: false,
+            turning_points: false,
+            period_memory: false,
+            reach: Reach::Half,
+        }
+    }
+    fn attempt(
+        &mut self,
+        model: &Model,
+        drive: &Drive,
+        y: &State,
+        h: f64,
+        tol: Tol,
+        _evals: &mut u64,
+        out: &mut StepOut,
+    ) -> Result<(), StepFail> {
+        let (o, hi) = macro_step(model, drive, y, h, tol, self.method, self.h_inner)?;
+        self.h_inner = hi;
+        *out = o;
+        Ok(())
+    }
 }

@@ -4,10 +4,10 @@
 //! the samples handed to the observer.
 
 use super::envelope::{Envelope, EnvelopeSettings};
+use super::methods::{self, EnvelopeMode, Method, Solver};
 use super::model::{self, Drive, Mechanics, Model, NQ};
-use super::simulator::{make_sample, Segment, Settings, Simulator, StepSamples, Stop};
-use super::state::{hermite, Knot, State, Tol};
-use super::stepper::{self, EnvelopeMode, Method, Solver};
+use super::simulator::{Segment, Settings, Simulator, Stop};
+use super::state::{hermite, Knot, State};
 use super::types::*;
 use crate::jkr;
 use crate::numerics;
@@ -138,8 +138,8 @@ pub fn run_partial(plan: &Plan, obs: &mut dyn Observer) -> Result<Outcome, SimEr
     let model = model::resolve(plan.rig, run_scales(&plan.initial, plan.stages))
         .map_err(SimError::Setup)?;
     let (y, drive) = initial_state(plan.rig, &plan.initial, &model)?;
-    let stepper = stepper::build(plan.solver.method, plan.rig);
-    if stepper.kind() != stepper::StepperKind::Embedded && model.rate_independent {
+    let stepper = methods::build(plan.solver.method, plan.rig);
+    if !stepper.capabilities().algebraic_radius && model.rate_independent {
         return Err(SimError::Explicit {
             method: stepper.name().into(),
             t: 0.0,
@@ -156,16 +156,8 @@ pub fn run_partial(plan: &Plan, obs: &mut dyn Observer) -> Result<Outcome, SimEr
     };
     let wants_samples = obs.wants_samples();
     let settings = Settings {
-        tol: Tol {
-            rtol: plan.solver.rtol,
-            atol: plan.solver.atol,
-        },
-        event_tol: plan.solver.event_tol.max(0.0),
-        max_steps: plan.solver.max_steps,
-        max_wall_s: plan.solver.max_wall_s,
-        max_events: plan.solver.max_events,
         interpolated_samples: wants_samples && sample_dt > 0.0,
-        cancel: plan.solver.cancel,
+        ..Settings::from(&plan.solver)
     };
     let formation = plan.rig.formation;
     let sim = Simulator::new(model, stepper, formation, settings, y, drive);
@@ -767,20 +759,17 @@ impl Protocol<'_> {
         let final_state = self.sim.sample_of(&y, self.stage);
         let stepper = self.sim.stepper();
         // A short name (README, "Methods"): what ran, `(auto)` when auto chose it, and how many
-        // steps DP8 handed to the implicit method.
+        // steps a rescue method took (DP8 handed to the implicit method).
         let r = stepper.rescues();
         let mut m = if method == Method::Auto {
-            let ran = match stepper.kind() {
-                stepper::StepperKind::Embedded => "implicit",
-                _ => "dp8",
-            };
+            let ran = stepper.short_name();
             if r.total() > 0 {
-                format!("{ran} (auto; {} steps implicit)", r.total())
+                format!("{ran} (auto; {} steps {})", r.total(), r.by)
             } else {
                 format!("{ran} (auto)")
             }
         } else {
-            stepper::method_name(method).to_string()
+            methods::method_name(method).to_string()
         };
         if let Some(e) = self.envelope.as_ref().map(|e| e.stats()) {
             if e.jumps > 0 {

@@ -8,10 +8,11 @@
 
 use super::control::StepControl;
 use super::events::{self, Watch};
+use super::methods::Solver;
 use super::model::{self, q, Drive, Kinematics, Mechanics, Model, NQ};
-use super::state::{Knot, State, StepFail, StepOut, Tol};
+use super::state::{State, StepFail, StepOut, Tol};
 use super::stepper::Stepper;
-use super::types::{CycleRecord, EventKind, Sample, SimError, Stats};
+use super::types::{make_sample, CycleRecord, EventKind, Sample, SimError, Stats};
 use crate::adhesion::AdhesionLaw;
 use crate::cancel::Cancel;
 use crate::jkr;
@@ -38,6 +39,26 @@ pub struct Settings {
     /// Polled with the wall-clock budget: a raised flag stops the run with
     /// [`SimError::Cancelled`].
     pub cancel: Cancel,
+}
+
+impl From<&Solver> for Settings {
+    /// The simulator's settings from a scenario's `[solver]` section: its tolerances and
+    /// budgets as given (a negative `event_tol` taken as 0), samples at step ends
+    /// (`interpolated_samples` false: a caller that interpolates on a time grid sets it).
+    fn from(s: &Solver) -> Self {
+        Self {
+            tol: Tol {
+                rtol: s.rtol,
+                atol: s.atol,
+            },
+            event_tol: s.event_tol.max(0.0),
+            max_steps: s.max_steps,
+            max_wall_s: s.max_wall_s,
+            max_events: s.max_events,
+            interpolated_samples: false,
+            cancel: s.cancel,
+        }
+    }
 }
 
 /// A stretch of the solution between two states of one step, under the drive that held over
@@ -870,12 +891,12 @@ impl Simulator {
         if t_lim - y0.t <= snap {
             return Ok(self.absorb_sliver(y0.t, t_bound, t_lim, snap));
         }
-        let kind = self.stepper.kind();
+        let caps = self.stepper.capabilities();
         let offset = self.period_offset(y0.t);
         let prop = self.control.propose(
             y0.t,
             self.h_max(),
-            kind,
+            caps,
             self.settings.interpolated_samples,
             offset,
         );
@@ -897,6 +918,9 @@ impl Simulator {
             Ok(true) => {}
             Ok(false) => return self.no_root(&y0, h),
             Err(e) => return self.failed(&y0, h, e),
+        }
+        if self.stepper.rescued_last() {
+            self.control.not_remembered();
         }
         // The attempt is read where the stepper wrote it (the state with its quadratures is
         // 192 bytes).
@@ -1140,88 +1164,5 @@ impl Simulator {
                 Ok(None)
             }
         }
-    }
-}
-
-/// Build the time-series sample of a state.
-pub fn make_sample(m: &Model, drive: &Drive, y: &State, stage: usize) -> Sample {
-    knot_sample(m, drive, &Knot::from(y), stage)
-}
-
-/// The time-series samples of one step on the output grid: `n` samples at `t_first`,
-/// `t_first + dt`, … (the times accumulated by repeated addition, as the driver's grid is),
-/// interpolated on the step ([`Knot::hermite`]); with `dt = 0`, the one sample at its end.
-/// The driver hands them to [`super::types::Observer::step_samples`] a step at a time, so that
-/// an observer may build them elsewhere (the run writer's thread).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct StepSamples {
-    /// The step's start.
-    pub k0: Knot,
-    /// The step's end.
-    pub k1: Knot,
-    /// The prescribed motions over it.
-    pub drive: Drive,
-    /// The stage index.
-    pub stage: usize,
-    /// The first sample's time (s).
-    pub t_first: f64,
-    /// The grid spacing (s); 0: the one sample at the step's end.
-    pub dt: f64,
-    /// Number of samples.
-    pub n: usize,
-}
-
-impl StepSamples {
-    /// Build the samples in time order, handing each to `f`; stops (and returns `false`) when
-    /// `f` does.
-    pub fn each(&self, m: &Model, mut f: impl FnMut(&Sample) -> bool) -> bool {
-        if self.dt <= 0.0 {
-            return self.n == 0 || f(&knot_sample(m, &self.drive, &self.k1, self.stage));
-        }
-        let mut t = self.t_first;
-        for _ in 0..self.n {
-            let k = Knot::hermite(&self.k0, &self.k1, t);
-            if !f(&knot_sample(m, &self.drive, &k, self.stage)) {
-                return false;
-            }
-            t += self.dt;
-        }
-        true
-    }
-
-    /// The sample at the step's end (which need not be on the grid): for progress displays.
-    pub fn end(&self, m: &Model) -> Sample {
-        knot_sample(m, &self.drive, &self.k1, self.stage)
-    }
-}
-
-/// The time-series sample at a knot.
-fn knot_sample(m: &Model, drive: &Drive, y: &Knot, stage: usize) -> Sample {
-    let kin = drive.at(m, y.t);
-    let delta = y.x + kin.xb;
-    let (a, adot, f, g, w) = if y.contact {
-        (
-            y.a,
-            y.adot,
-            jkr::contact_force(&m.mat, y.a, delta),
-            jkr::signed_energy_release_rate(&m.mat, y.a, delta),
-            m.work_of_adhesion(y.adot),
-        )
-    } else {
-        (0.0, 0.0, 0.0, 0.0, m.w0)
-    };
-    Sample {
-        t: y.t,
-        x_s: y.x,
-        v_s: y.v,
-        x_b: kin.xb,
-        x_k: kin.xk,
-        delta,
-        a,
-        a_dot: adot,
-        force: f,
-        g,
-        w,
-        stage,
     }
 }

@@ -1,8 +1,9 @@
 //! What a time-domain run produces, and how observers (writers, progress bars, steady-state
 //! detectors) watch it. These types are the contract between the driver and the output writers.
 
-use super::model::Model;
-use super::simulator::StepSamples;
+use super::model::{Drive, Model};
+use super::state::{Knot, State};
+use crate::jkr;
 use serde::Serialize;
 use thiserror::Error;
 
@@ -132,7 +133,7 @@ pub struct RunResult {
     /// The largest contact radius at the end of any accepted step (m).
     pub max_contact_radius: f64,
     /// What envelope following did.
-    pub envelope: crate::dynamics::envelope::EnvelopeStats,
+    pub envelope: EnvelopeStats,
     /// Time of the final detachment (s): the contact loss after which the sphere never touched
     /// again (the `pull-off` event); NaN without detachment. Later than `pull_off.time`, the
     /// most tensile force, by the last periods of the unloading.
@@ -148,6 +149,21 @@ impl RunResult {
     pub fn pull_off_likely_sensitive(&self) -> bool {
         self.detached && self.approach_roughness > ROUGH_APPROACH
     }
+}
+
+/// What envelope following did in a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+pub struct EnvelopeStats {
+    /// Accepted envelope steps (jumps).
+    pub jumps: u64,
+    /// Base periods jumped over (not integrated).
+    pub periods_skipped: u64,
+    /// Trial periods integrated (Newton iterations and Jacobians).
+    pub trial_periods: u64,
+    /// Rejected envelope steps.
+    pub rejected: u64,
+    /// Jumps to the end of a stage from its periodic steady state (counted in `jumps` too).
+    pub steady_jumps: u64,
 }
 
 /// Periods before the pull-off over which [`ApproachRoughness`] looks for fluctuating cycle means.
@@ -729,6 +745,89 @@ fn describe(s: &Sample) -> String {
         "state: stage {}, x_s = {:e} m, v_s = {:e} m/s, delta = {:e} m, a = {:e} m, a_dot = {:e} m/s, F = {:e} N, G = {:e} J/m^2",
         s.stage, s.x_s, s.v_s, s.delta, s.a, s.a_dot, s.force, s.g
     )
+}
+
+/// Build the time-series sample of a state.
+pub fn make_sample(m: &Model, drive: &Drive, y: &State, stage: usize) -> Sample {
+    knot_sample(m, drive, &Knot::from(y), stage)
+}
+
+/// The time-series samples of one step on the output grid: `n` samples at `t_first`,
+/// `t_first + dt`, … (the times accumulated by repeated addition, as the driver's grid is),
+/// interpolated on the step ([`Knot::hermite`]); with `dt = 0`, the one sample at its end.
+/// The driver hands them to [`Observer::step_samples`] a step at a time, so that
+/// an observer may build them elsewhere (the run writer's thread).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepSamples {
+    /// The step's start.
+    pub k0: Knot,
+    /// The step's end.
+    pub k1: Knot,
+    /// The prescribed motions over it.
+    pub drive: Drive,
+    /// The stage index.
+    pub stage: usize,
+    /// The first sample's time (s).
+    pub t_first: f64,
+    /// The grid spacing (s); 0: the one sample at the step's end.
+    pub dt: f64,
+    /// Number of samples.
+    pub n: usize,
+}
+
+impl StepSamples {
+    /// Build the samples in time order, handing each to `f`; stops (and returns `false`) when
+    /// `f` does.
+    pub fn each(&self, m: &Model, mut f: impl FnMut(&Sample) -> bool) -> bool {
+        if self.dt <= 0.0 {
+            return self.n == 0 || f(&knot_sample(m, &self.drive, &self.k1, self.stage));
+        }
+        let mut t = self.t_first;
+        for _ in 0..self.n {
+            let k = Knot::hermite(&self.k0, &self.k1, t);
+            if !f(&knot_sample(m, &self.drive, &k, self.stage)) {
+                return false;
+            }
+            t += self.dt;
+        }
+        true
+    }
+
+    /// The sample at the step's end (which need not be on the grid): for progress displays.
+    pub fn end(&self, m: &Model) -> Sample {
+        knot_sample(m, &self.drive, &self.k1, self.stage)
+    }
+}
+
+/// The time-series sample at a knot.
+fn knot_sample(m: &Model, drive: &Drive, y: &Knot, stage: usize) -> Sample {
+    let kin = drive.at(m, y.t);
+    let delta = y.x + kin.xb;
+    let (a, adot, f, g, w) = if y.contact {
+        (
+            y.a,
+            y.adot,
+            jkr::contact_force(&m.mat, y.a, delta),
+            jkr::signed_energy_release_rate(&m.mat, y.a, delta),
+            m.work_of_adhesion(y.adot),
+        )
+    } else {
+        (0.0, 0.0, 0.0, 0.0, m.w0)
+    };
+    Sample {
+        t: y.t,
+        x_s: y.x,
+        v_s: y.v,
+        x_b: kin.xb,
+        x_k: kin.xk,
+        delta,
+        a,
+        a_dot: adot,
+        force: f,
+        g,
+        w,
+        stage,
+    }
 }
 
 #[cfg(test)]

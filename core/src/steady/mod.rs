@@ -74,9 +74,8 @@ pub mod sweep;
 use crate::adhesion::AdhesionLaw;
 use crate::dynamics::model::{self, Model, RunScales};
 use crate::dynamics::protocol::{self, Initial, Plan};
-use crate::dynamics::state::Tol;
 use crate::dynamics::{
-    stepper, CycleRecord, EventKind, Sample, Settings, SimError, Simulator, Solver, Stop,
+    methods, CycleRecord, EventKind, Sample, Settings, SimError, Simulator, Solver, Stop,
 };
 use crate::jkr;
 use crate::rig::{BaseMotion, Rig};
@@ -488,19 +487,9 @@ impl Problem {
         let (y, mut drive) = protocol::initial_state(&self.rig, start, &self.model)?;
         drive.shaker = true;
         drive.t_on = y.t;
-        let settings = Settings {
-            tol: Tol {
-                rtol,
-                atol: self.solver.atol,
-            },
-            event_tol: self.solver.event_tol.max(0.0),
-            max_steps: self.solver.max_steps,
-            max_wall_s: self.solver.max_wall_s,
-            max_events: self.solver.max_events,
-            interpolated_samples: false,
-            cancel: self.solver.cancel,
-        };
-        let stepper = stepper::build(self.solver.method, &self.rig);
+        let mut settings = Settings::from(&self.solver);
+        settings.tol.rtol = rtol;
+        let stepper = methods::build(self.solver.method, &self.rig);
         Ok(Simulator::new(
             self.model.clone(),
             stepper,
