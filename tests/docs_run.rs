@@ -124,8 +124,16 @@ fn path_with_djkr() -> std::ffi::OsString {
     .expect("PATH")
 }
 
-/// The Python of the test venv when it imports djkr.
+/// The Python of the test venv when it imports djkr: built here under `DJKR_TEST_INSTALL=1` (as
+/// tests/python.rs builds it, so that a fresh CI runs the tour's Python block too), otherwise
+/// only an existing one.
 fn venv_python() -> Option<PathBuf> {
+    if tools::may_install() {
+        return match tools::djkr_python() {
+            Ok(py) => Some(py),
+            Err(why) => panic!("the Python blocks need the test venv: {why}"),
+        };
+    }
     let py = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("python-venv/bin/python");
     (py.exists() && tools::runs(&py, "import djkr")).then_some(py)
 }
@@ -211,7 +219,7 @@ fn run_file(rel: &str, python: Option<&Path>) -> Vec<String> {
     if skipped_python {
         tools::skipped(
             &format!("the Python blocks of {rel} (tests/docs_run.rs)"),
-            "no venv under target/tmp/python-venv that imports djkr (tests/python.rs makes it)",
+            "no venv under target/tmp/python-venv that imports djkr (DJKR_TEST_INSTALL=1 makes it)",
         );
     }
     let _ = std::fs::remove_dir_all(&dir);

@@ -15,6 +15,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::time::Instant;
 
 /// The environment variable that allows the tests to install what they need.
 pub const INSTALL_VAR: &str = "DJKR_TEST_INSTALL";
@@ -175,4 +176,147 @@ pub fn apt_install(packages: &[&str]) -> Result<(), String> {
         .copied()
         .chain(packages.iter().copied())
         .collect::<Vec<_>>())
+}
+
+const PACKAGES: [&str; 6] = [
+    "maturin>=1.5,<2",
+    "numpy",
+    "pytest",
+    "h5py",
+    "pandas",
+    "matplotlib",
+];
+const IMPORTS: [&str; 6] = ["maturin", "numpy", "pytest", "h5py", "pandas", "matplotlib"];
+/// What `python/tests/test_notebook.py` executes the example notebook with: installed into the
+/// venv only with `DJKR_TEST_INSTALL=1`; without them that one test skips.
+const NOTEBOOK_PACKAGES: [&str; 3] = ["nbclient", "nbformat", "ipykernel"];
+
+/// Files whose change means the installed package is stale.
+fn sources(root: &Path) -> Vec<PathBuf> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                if p.file_name()
+                    .is_some_and(|n| n == "tests" || n == "__pycache__")
+                {
+                    continue;
+                }
+                walk(&p, out);
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = vec![
+        root.join("Cargo.toml"),
+        root.join("Cargo.lock"),
+        root.join("python/Cargo.toml"),
+        root.join("python/pyproject.toml"),
+    ];
+    walk(&root.join("src"), &mut files);
+    walk(&root.join("core/src"), &mut files);
+    files.push(root.join("core/Cargo.toml"));
+    walk(&root.join("python/src"), &mut files);
+    walk(&root.join("python/djkr"), &mut files);
+    files.sort();
+    files
+}
+
+/// FNV-1a over the files' paths and contents.
+fn stamp(root: &Path) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    for f in sources(root) {
+        eat(f
+            .strip_prefix(root)
+            .unwrap_or(&f)
+            .to_string_lossy()
+            .as_bytes());
+        eat(&std::fs::read(&f).unwrap_or_default());
+    }
+    format!("{h:016x}\n")
+}
+
+/// A command without the variables cargo sets for this test binary (they describe the `djkr`
+/// package, not the nested build of the extension).
+/// `c` without the variables cargo sets for the crate under test, so that a build it starts
+/// (maturin) sees the environment of a plain shell.
+pub fn clean(mut c: Command) -> Command {
+    for (k, _) in std::env::vars_os() {
+        let k = k.to_string_lossy();
+        let per_crate = [
+            "CARGO_PKG_",
+            "CARGO_MANIFEST_",
+            "CARGO_CRATE_",
+            "CARGO_BIN_",
+            "CARGO_TARGET_TMPDIR",
+            "CARGO_PRIMARY_PACKAGE",
+            "CARGO_RUSTC_CURRENT_DIR",
+        ];
+        if per_crate.iter().any(|p| k.starts_with(p)) {
+            c.env_remove(k.as_ref());
+        }
+    }
+    c
+}
+
+/// The interpreter of the test venv `target/tmp/python-venv` with the `python/` package built
+/// from this checkout and installed (rebuilt when a source of it changed since: a stamp of the
+/// sources, `core/src` included), or why there is none. Installs only under [`may_install`]
+/// (see [`venv`]); the notebook's packages (nbclient …) are added then too.
+pub fn djkr_python() -> Result<PathBuf, String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let py = venv("python-venv", &PACKAGES, &IMPORTS)?;
+    let bin = py.parent().expect("venv bin directory").to_path_buf();
+    if may_install() && !runs(&py, "import nbclient, nbformat, ipykernel") {
+        let ok = Command::new(&py)
+            .args(["-m", "pip", "install", "--quiet"])
+            .args(NOTEBOOK_PACKAGES)
+            .status()
+            .is_ok_and(|s| s.success());
+        if !ok {
+            return Err(format!(
+                "pip install {} failed",
+                NOTEBOOK_PACKAGES.join(" ")
+            ));
+        }
+    }
+    let stamp_file = bin.join("../djkr-sources.stamp");
+    let want = stamp(root);
+    let fresh =
+        std::fs::read_to_string(&stamp_file).is_ok_and(|s| s == want) && runs(&py, "import djkr");
+    if !fresh {
+        let _ = std::fs::remove_file(&stamp_file);
+        let t0 = Instant::now();
+        // maturin (in the venv, on PATH) builds in this workspace's target directory; no build
+        // isolation, so nothing is downloaded per build.
+        let path = std::env::join_paths(std::iter::once(bin.clone()).chain(std::env::split_paths(
+            &std::env::var_os("PATH").unwrap_or_default(),
+        )))
+        .expect("PATH");
+        let mut pip = clean(Command::new(&py));
+        pip.args(["-m", "pip", "install", "--quiet", "--no-build-isolation"])
+            .args(["--no-deps", "--force-reinstall"])
+            .arg(root.join("python"))
+            .env("PATH", path);
+        let status = pip.status().map_err(|e| format!("pip: {e}"))?;
+        if !status.success() {
+            return Err(format!("pip install ./python failed: {status}"));
+        }
+        std::fs::write(&stamp_file, &want).map_err(|e| format!("{}: {e}", stamp_file.display()))?;
+        eprintln!(
+            "built and installed the djkr Python package in {:.1} s",
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    Ok(py)
 }
