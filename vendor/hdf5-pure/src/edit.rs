@@ -310,9 +310,9 @@ use crate::source::{BaseOffsetSource, BytesSource, MetadataCacheConfig, Source};
 use crate::superblock::Superblock;
 use crate::type_builders::{
     AttrValue, DatasetBuilder, ObjectRefPatch, ObjectRefTarget, VlStringStaging,
-    build_attr_message, build_global_heap_collections, make_f32_type, make_f64_type, make_i8_type,
-    make_i16_type, make_i32_type, make_i64_type, make_u8_type, make_u16_type, make_u32_type,
-    make_u64_type, patch_vl_refs, patch_vl_refs_masked, write_reference_address,
+    build_attr_message, make_f32_type, make_f64_type, make_i8_type, make_i16_type, make_i32_type,
+    make_i64_type, make_u8_type, make_u16_type, make_u32_type, make_u64_type,
+    pack_shared_attr_heap, patch_vl_refs_masked, patch_vl_slots, write_reference_address,
 };
 use crate::width::UintWidth;
 use crate::{DatatypeByteOrder, signature};
@@ -482,8 +482,10 @@ impl AppenderClaim {
 struct PendingVlAttr {
     /// The attribute message, its global-heap references still placeholders.
     msg: crate::attribute::AttributeMessage,
-    /// The collections whose real addresses those references need.
-    collections: Vec<Vec<u8>>,
+    /// djkr patch: the attribute's strings, whose heap objects are placed (in
+    /// collections shared with the other attributes of its header) and patched
+    /// into those references in the apply phase.
+    collections: Vec<String>,
     /// The creation index this attribute keeps, taken from the message it
     /// replaces on a header that tracks attribute creation order. `None` asks
     /// for the object's next unused index when the message is appended — which
@@ -6763,18 +6765,28 @@ impl WriteEngine {
             // Stable on purpose: this is a partition, and the relative order
             // within each half is what the paragraph above promises.
             group_datasets.sort_by_key(|fd| fd.reference_targets.is_some());
-            for mut fd in group_datasets {
-                // Place each variable-length attribute's global heap collection
-                // and patch its placeholder heap address. Unlike VL-string
-                // *data* (`vl_string_staging`, refused when chunked below), a
-                // chunked/extensible dataset can carry a VL *attribute* just
-                // fine — attributes live in the object header, not inside a
-                // chunk, so patching them here before either apply branch runs
-                // covers both.
-                for (idx, collections) in std::mem::take(&mut fd.vl_attrs) {
-                    let addrs = self.place_vl_collections(&collections)?;
-                    patch_vl_refs(&mut fd.attrs[idx].raw_data, &addrs);
+            // Place the variable-length attributes' global heap objects and
+            // patch their placeholder heap addresses. Unlike VL-string *data*
+            // (`vl_string_staging`, refused when chunked below), a
+            // chunked/extensible dataset can carry a VL *attribute* just fine —
+            // attributes live in the object header, not inside a chunk, so
+            // patching them here before either apply branch runs covers both.
+            // djkr patch: the attributes of all of this group's new datasets
+            // share collections, instead of taking one (4 KiB) each.
+            let vl_attrs: Vec<Vec<(usize, Vec<String>)>> = group_datasets
+                .iter_mut()
+                .map(|fd| std::mem::take(&mut fd.vl_attrs))
+                .collect();
+            let mut shared: Vec<(&mut Vec<u8>, &[String])> = Vec::new();
+            for (fd, vl) in group_datasets.iter_mut().zip(&vl_attrs) {
+                for (i, attr) in fd.attrs.iter_mut().enumerate() {
+                    if let Some((_, strings)) = vl.iter().find(|(idx, _)| *idx == i) {
+                        shared.push((&mut attr.raw_data, strings.as_slice()));
+                    }
                 }
+            }
+            self.place_shared_vl_attrs(shared)?;
+            for mut fd in group_datasets {
                 // Resolve an object-reference dataset's per-element targets now
                 // that every earlier-placed object in this commit is in
                 // `path_addr` (chunked datasets never carry these —
@@ -9595,15 +9607,19 @@ impl WriteEngine {
         attrs: EditedAttrs,
     ) -> Result<(), Error> {
         match attrs {
-            EditedAttrs::Compact(pending) => {
+            EditedAttrs::Compact(mut pending) => {
+                // djkr patch: the attributes this edit sets share collections.
+                self.place_shared_vl_attrs(
+                    pending
+                        .iter_mut()
+                        .map(|p| (&mut p.msg.raw_data, p.collections.as_slice())),
+                )?;
                 for pending in pending {
                     let PendingVlAttr {
-                        mut msg,
-                        collections,
+                        msg,
                         creation_index,
+                        ..
                     } = pending;
-                    let addrs = self.place_vl_collections(&collections)?;
-                    patch_vl_refs(&mut msg.raw_data, &addrs);
                     *region = put_attr_message(
                         region,
                         &msg.name,
@@ -9614,10 +9630,15 @@ impl WriteEngine {
                 Ok(())
             }
             EditedAttrs::Dense(mut dense) => {
-                for (idx, collections) in std::mem::take(&mut dense.vl) {
-                    let addrs = self.place_vl_collections(&collections)?;
-                    patch_vl_refs(&mut dense.set.attrs[idx].raw_data, &addrs);
+                // djkr patch: the attributes this edit sets share collections.
+                let vl = std::mem::take(&mut dense.vl);
+                let mut shared: Vec<(&mut Vec<u8>, &[String])> = Vec::new();
+                for (i, attr) in dense.set.attrs.iter_mut().enumerate() {
+                    if let Some((_, strings)) = vl.iter().find(|(idx, _)| *idx == i) {
+                        shared.push((&mut attr.raw_data, strings.as_slice()));
+                    }
                 }
+                self.place_shared_vl_attrs(shared)?;
                 self.append_dense_attrs(region, dense.set)
             }
         }
@@ -10123,6 +10144,33 @@ impl WriteEngine {
                 Ok(self.superblock.base_address.relative(addr)?.get())
             })
             .collect()
+    }
+
+    /// djkr patch (vendor/hdf5-pure/README-djkr.md): place the heap objects of
+    /// several variable-length attributes — each given as its message's
+    /// placeholder references and its strings — in global heap collections
+    /// they share ([`pack_shared_attr_heap`]), and patch every reference with
+    /// its collection's address and its object index. Upstream places one
+    /// collection, at least 4 KiB, per attribute.
+    ///
+    /// Sharing is safe for the same reason the C library shares: an attribute's
+    /// collection is never reclaimed when the attribute is replaced or removed
+    /// (only a dataset overwrite's own collections are, see
+    /// [`resolve_overwrite_bytes`](Self::resolve_overwrite_bytes)).
+    fn place_shared_vl_attrs<'a>(
+        &mut self,
+        attrs: impl IntoIterator<Item = (&'a mut Vec<u8>, &'a [String])>,
+    ) -> Result<(), Error> {
+        let (raws, strings): (Vec<&mut Vec<u8>>, Vec<&[String]>) = attrs.into_iter().unzip();
+        if raws.is_empty() {
+            return Ok(());
+        }
+        let (collections, slots) = pack_shared_attr_heap(strings.into_iter());
+        let addrs = self.place_vl_collections(&collections)?;
+        for (raw, slots) in raws.into_iter().zip(slots) {
+            patch_vl_slots(raw, &slots, &addrs);
+        }
+        Ok(())
     }
 
     /// Resolve a staged value overwrite's element bytes: place any global heap
@@ -11395,9 +11443,11 @@ struct FlatDataset {
     /// finite maxshape the fixed-array or single-chunk one.
     maxshape: Option<Vec<MaxExtent>>,
     /// Variable-length attributes still carrying a placeholder heap address:
-    /// (index into `attrs`, that attribute's global heap collections).
-    /// Resolved in the apply loop right before this dataset's header is built.
-    vl_attrs: Vec<(usize, Vec<Vec<u8>>)>,
+    /// (index into `attrs`, that attribute's strings — djkr patch: placed in
+    /// global heap collections shared by the attributes of the datasets one
+    /// group gains in the commit). Resolved in the apply loop before this
+    /// dataset's header is built.
+    vl_attrs: Vec<(usize, Vec<String>)>,
     /// Whether `attrs` goes in a fractal heap rather than the object header,
     /// decided by `file_writer::needs_dense_attrs` where the set was validated
     /// against what that heap can represent.
@@ -11981,10 +12031,10 @@ fn flatten_dataset(db: DatasetBuilder, name: LinkNameBuf) -> Result<FlatDataset,
     // element of a variable-length string attribute; stage its self-contained
     // global heap collections here (no address of their own to resolve yet) and
     // record which `attrs` slot they patch once the apply loop places them.
-    let mut vl_attrs: Vec<(usize, Vec<Vec<u8>>)> = Vec::new();
+    let mut vl_attrs: Vec<(usize, Vec<String>)> = Vec::new();
     for (i, (_, v)) in db.attrs.iter().enumerate() {
         if let Some(strings) = v.var_len_strings() {
-            vl_attrs.push((i, build_global_heap_collections(strings)));
+            vl_attrs.push((i, strings.to_vec())); // djkr patch: placed shared
         }
     }
     // Appended last, and recorded as such: `raw` can still grow before the
@@ -13056,7 +13106,7 @@ fn apply_compact_attr_ops(
                     }
                     pending_vl.push(PendingVlAttr {
                         msg,
-                        collections: build_global_heap_collections(strings),
+                        collections: strings.to_vec(), // djkr patch
                         creation_index,
                     });
                 } else {
@@ -13149,7 +13199,7 @@ struct DenseAttrEdit {
     /// A variable-length attribute the object already had is not in this list and
     /// needs no patch: it was read back carrying the addresses it is stored with,
     /// and they name collections in this same file.
-    vl: Vec<(usize, Vec<Vec<u8>>)>,
+    vl: Vec<(usize, Vec<String>)>, // djkr patch: strings, placed shared
 }
 
 /// Apply attribute edits to an object's header `region`, choosing the storage
@@ -13265,7 +13315,7 @@ fn plan_attr_ops<S: Source + ?Sized>(
         match op {
             AttrOp::Set { name, value } => {
                 let msg = build_attr_message(name, value);
-                let collections = value.var_len_strings().map(build_global_heap_collections);
+                let collections = value.var_len_strings().map(<[String]>::to_vec); // djkr patch
                 match set.iter_mut().find(|slot| &slot.msg.name == name) {
                     // Setting an attribute the object already has replaces it
                     // where it stands, so a repeated `set_attr` does not reorder
@@ -13375,7 +13425,7 @@ struct DenseAttrSlot {
     msg: crate::attribute::AttributeMessage,
     /// Global heap collections still to be placed, for a variable-length
     /// attribute *this edit* sets.
-    collections: Option<Vec<Vec<u8>>>,
+    collections: Option<Vec<String>>, // djkr patch: strings, placed shared
     /// The creation index the object records for it, where it tracks the order.
     creation_index: Option<u16>,
 }

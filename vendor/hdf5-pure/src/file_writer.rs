@@ -46,7 +46,7 @@ use crate::shared_message::DatatypeLocation;
 use crate::superblock::Superblock;
 use crate::type_builders::{
     AttrSpec, CommittedDatatype, DatasetBuilder, FinishedGroup, GroupBuilder, VlStringStaging,
-    build_global_heap_collections, patch_vl_refs, patch_vl_refs_masked, write_reference_address,
+    pack_shared_attr_heap, patch_vl_refs_masked, patch_vl_slots, write_reference_address,
 };
 use crate::width::LengthWidth;
 use crate::width::OffsetWidth;
@@ -2187,9 +2187,15 @@ impl FileWriter {
 
         // Build global heap collections for variable-length string attributes.
         // Track which attribute messages need VL patching, across root, groups, and datasets.
+        // djkr patch (vendor/hdf5-pure/README-djkr.md): an attribute no longer
+        // carries collections of its own; its strings go into the collections
+        // every attribute of the file shares (`attr_heap` below), and `slots`
+        // says where each landed.
         struct VlPatch {
-            /// The attribute's collections, in the order their objects appear.
-            collections: Vec<Vec<u8>>,
+            /// The attribute's strings, one heap object per element.
+            strings: Vec<String>,
+            /// Per element: (index into `attr_heap`, 1-based object index).
+            slots: Vec<(usize, u32)>,
             attr_index: usize, // index into the relevant attrs Vec
         }
 
@@ -2214,7 +2220,8 @@ impl FileWriter {
             for (i, (_n, v)) in attrs_raw.iter().enumerate() {
                 if let Some(strings) = v.var_len_strings() {
                     patches.push(VlPatch {
-                        collections: build_global_heap_collections(strings),
+                        strings: strings.to_vec(),
+                        slots: Vec::new(),
                         attr_index: i,
                     });
                 }
@@ -2222,7 +2229,26 @@ impl FileWriter {
             patches
         }
 
-        let vl_root = collect_vl_patches(&self.root_attrs);
+        let mut vl_root = collect_vl_patches(&self.root_attrs);
+
+        // djkr patch: pack every variable-length attribute's strings into shared
+        // global heap collections (4 KiB each, as the C library fills them)
+        // rather than a 4 KiB collection per attribute.
+        let (attr_heap, attr_slots) = pack_shared_attr_heap(
+            vl_root
+                .iter()
+                .chain(grp_vl.iter().flatten())
+                .chain(ds_vl.iter().flatten())
+                .map(|p| p.strings.as_slice()),
+        );
+        for (patch, slots) in vl_root
+            .iter_mut()
+            .chain(grp_vl.iter_mut().flatten())
+            .chain(ds_vl.iter_mut().flatten())
+            .zip(attr_slots)
+        {
+            patch.slots = slots;
+        }
 
         let mut root_attrs: Vec<AttributeMessage> = Vec::new();
         for (n, v) in &self.root_attrs {
@@ -3039,20 +3065,25 @@ impl FileWriter {
             let mut gcol_cursor = meta;
             let mut elem_gcol: Vec<(usize, Vec<u64>)> = Vec::new();
             {
+                // djkr patch: the shared attribute collections, placed once.
+                let addrs = place_collections(&attr_heap, &mut gcol_cursor);
                 for patch in &vl_root {
-                    let addrs = place_collections(&patch.collections, &mut gcol_cursor);
-                    patch_vl_refs(&mut root_attrs[patch.attr_index].raw_data, &addrs);
+                    patch_vl_slots(
+                        &mut root_attrs[patch.attr_index].raw_data,
+                        &patch.slots,
+                        &addrs,
+                    );
                 }
                 for (gi, patches) in grp_vl.iter().enumerate() {
                     for patch in patches {
-                        let addrs = place_collections(&patch.collections, &mut gcol_cursor);
-                        patch_vl_refs(&mut groups[gi].attrs[patch.attr_index].raw_data, &addrs);
+                        let raw = &mut groups[gi].attrs[patch.attr_index].raw_data;
+                        patch_vl_slots(raw, &patch.slots, &addrs);
                     }
                 }
                 for (di, patches) in ds_vl.iter().enumerate() {
                     for patch in patches {
-                        let addrs = place_collections(&patch.collections, &mut gcol_cursor);
-                        patch_vl_refs(&mut all_ds[di].attrs[patch.attr_index].raw_data, &addrs);
+                        let raw = &mut all_ds[di].attrs[patch.attr_index].raw_data;
+                        patch_vl_slots(raw, &patch.slots, &addrs);
                     }
                 }
                 for (i, d) in all_ds.iter().enumerate() {
@@ -3432,19 +3463,9 @@ impl FileWriter {
                 }
             }
             // Global heap collections.
-            for patch in &vl_root {
-                emit_collections(sink, &patch.collections)?;
-            }
-            for patches in &grp_vl {
-                for patch in patches {
-                    emit_collections(sink, &patch.collections)?;
-                }
-            }
-            for patches in &ds_vl {
-                for patch in patches {
-                    emit_collections(sink, &patch.collections)?;
-                }
-            }
+            // djkr patch: the shared attribute collections, where the
+            // per-attribute ones were.
+            emit_collections(sink, &attr_heap)?;
             for (i, d) in all_ds.iter().enumerate() {
                 if early_gcol.contains(&i) {
                     continue; // emitted right after the superblock
@@ -3543,20 +3564,25 @@ impl FileWriter {
         let mut gcol_total_size = 0usize;
         if has_vl {
             let mut gcol_cursor = cursor2 as u64;
+            // djkr patch: the shared attribute collections, placed once.
+            let addrs = place_collections(&attr_heap, &mut gcol_cursor);
             for patch in &vl_root {
-                let addrs = place_collections(&patch.collections, &mut gcol_cursor);
-                patch_vl_refs(&mut root_attrs[patch.attr_index].raw_data, &addrs);
+                patch_vl_slots(
+                    &mut root_attrs[patch.attr_index].raw_data,
+                    &patch.slots,
+                    &addrs,
+                );
             }
             for (gi, patches) in grp_vl.iter().enumerate() {
                 for patch in patches {
-                    let addrs = place_collections(&patch.collections, &mut gcol_cursor);
-                    patch_vl_refs(&mut groups[gi].attrs[patch.attr_index].raw_data, &addrs);
+                    let raw = &mut groups[gi].attrs[patch.attr_index].raw_data;
+                    patch_vl_slots(raw, &patch.slots, &addrs);
                 }
             }
             for (di, patches) in ds_vl.iter().enumerate() {
                 for patch in patches {
-                    let addrs = place_collections(&patch.collections, &mut gcol_cursor);
-                    patch_vl_refs(&mut all_ds[di].attrs[patch.attr_index].raw_data, &addrs);
+                    let raw = &mut all_ds[di].attrs[patch.attr_index].raw_data;
+                    patch_vl_slots(raw, &patch.slots, &addrs);
                 }
             }
             // Dataset-element VL references. The references live in the
@@ -3732,19 +3758,9 @@ impl FileWriter {
         }
 
         // Global heap collections
-        for patch in &vl_root {
-            emit_collections(sink, &patch.collections)?;
-        }
-        for patches in &grp_vl {
-            for patch in patches {
-                emit_collections(sink, &patch.collections)?;
-            }
-        }
-        for patches in &ds_vl {
-            for patch in patches {
-                emit_collections(sink, &patch.collections)?;
-            }
-        }
+        // djkr patch: the shared attribute collections, where the
+        // per-attribute ones were.
+        emit_collections(sink, &attr_heap)?;
         // Dataset-element VL string collections, in the same order their
         // addresses were assigned above.
         for (i, d) in all_ds.iter().enumerate() {

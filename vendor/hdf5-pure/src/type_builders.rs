@@ -1014,6 +1014,7 @@ pub(crate) const MAX_HEAP_OBJECTS: usize = u16::MAX as usize;
 
 /// Build the global heap collections holding the given strings, splitting them
 /// across as many collections as their count needs.
+#[allow(dead_code)] // djkr patch: its callers now share collections
 pub(crate) fn build_global_heap_collections(strings: &[String]) -> Vec<Vec<u8>> {
     let objects: Vec<&[u8]> = strings.iter().map(|s| s.as_bytes()).collect();
     build_global_heap_collections_from_bytes(&objects)
@@ -1101,11 +1102,93 @@ fn build_global_heap_collection_bytes(objects: &[&[u8]]) -> Vec<u8> {
     buf
 }
 
+// ---- djkr patch (vendor/hdf5-pure/README-djkr.md): shared attribute heaps ----
+
+/// Size a shared attribute collection is filled up to: the C library's minimum
+/// collection size (`H5HG_MINSIZE`), which is also the size of the
+/// collections it fills with attribute strings. An object too large for one
+/// gets a collection of its own, sized to fit.
+pub(crate) const SHARED_ATTR_COLLECTION_SIZE: usize = 4096;
+
+/// Pack the heap objects of many variable-length attributes into shared global
+/// heap collections, in order, instead of one collection (at least 4 KiB) per
+/// attribute.
+///
+/// `attrs` yields each attribute's objects (one per element, in element order).
+/// Returns the collections and, per attribute in the same order, each
+/// element's slot: the index of its collection in the returned list and its
+/// 1-based object index within that collection, for [`patch_vl_slots`].
+/// A collection is closed when the next object would take it past
+/// [`SHARED_ATTR_COLLECTION_SIZE`] or past [`MAX_HEAP_OBJECTS`] objects.
+pub(crate) fn pack_shared_attr_heap<'a>(
+    attrs: impl Iterator<Item = &'a [String]>,
+) -> (Vec<Vec<u8>>, Vec<Vec<(usize, u32)>>) {
+    // Collection header (16) and the free-space marker's object header (16).
+    const FIXED: usize = 16 + 16;
+    let mut groups: Vec<Vec<&[u8]>> = Vec::new();
+    let mut used = 0usize;
+    let mut slots = Vec::new();
+    for strings in attrs {
+        let mut attr_slots = Vec::with_capacity(strings.len());
+        for s in strings {
+            let obj = s.as_bytes();
+            let need = 16 + ((obj.len() + 7) & !7);
+            let fits = groups.last().is_some_and(|g| {
+                g.len() < MAX_HEAP_OBJECTS && used + need <= SHARED_ATTR_COLLECTION_SIZE
+            });
+            if !fits {
+                groups.push(Vec::new());
+                used = FIXED;
+            }
+            let collection = groups.len() - 1;
+            let group = groups.last_mut().expect("a collection was opened above");
+            group.push(obj);
+            used += need;
+            #[expect(
+                clippy::cast_possible_truncation,
+                reason = "a collection holds at most MAX_HEAP_OBJECTS (u16::MAX) objects"
+            )]
+            attr_slots.push((collection, group.len() as u32));
+        }
+        slots.push(attr_slots);
+    }
+    let collections = groups
+        .iter()
+        .map(|g| build_global_heap_collection_bytes(g))
+        .collect();
+    (collections, slots)
+}
+
+/// Patch an attribute's variable-length references with the placed addresses
+/// of the shared collections ([`pack_shared_attr_heap`]): element `i` names
+/// object `slots[i].1` of the collection at `collection_addresses[slots[i].0]`.
+/// Both the address and the object index are written, since the index the
+/// attribute message was built with assumed a collection of its own.
+pub(crate) fn patch_vl_slots(
+    raw_data: &mut [u8],
+    slots: &[(usize, u32)],
+    collection_addresses: &[u64],
+) {
+    debug_assert_eq!(
+        raw_data.len(),
+        slots.len() * VL_REF_SIZE,
+        "an attribute routed through the shared heap must hold one reference per slot"
+    );
+    for (i, &(collection, index)) in slots.iter().enumerate() {
+        let at = i * VL_REF_SIZE + 4; // skip sequence_length
+        raw_data[at..at + 8].copy_from_slice(&collection_addresses[collection].to_le_bytes());
+        raw_data[at + 8..at + 12].copy_from_slice(&index.to_le_bytes());
+    }
+}
+
+// ---- end djkr patch ----
+
 /// Patch VL attribute references with the actual global heap collection
 /// addresses. The raw_data contains VL references with placeholder addresses
 /// (0), one per attribute element, each holding an object of the collection its
 /// position selects (see [`build_global_heap_collections_from_bytes`]);
 /// `collection_addresses` gives those collections' placed addresses in order.
+#[allow(dead_code)] // djkr patch: its callers now share collections
 pub(crate) fn patch_vl_refs(raw_data: &mut [u8], collection_addresses: &[u64]) {
     // Only a value that writes whole variable-length references reaches a heap,
     // and [`AttrValue::var_len_strings`] is what decides which values those are.
