@@ -550,6 +550,35 @@ fn a_one_second_run_file_is_compact_and_its_units_read_as_str() {
     );
 }
 
+/// A text attribute longer than a shared 4 KiB heap collection (the scenario's text, here with a
+/// 12 kB comment of two- and three-byte characters) gets a collection of its own and reads back
+/// whole in h5py, next to the `units` packed in the shared ones.
+#[test]
+fn a_scenario_text_longer_than_a_heap_collection_reads_back_whole() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(root.join("docs/accuracy/hold-400hz-1s.toml")).unwrap();
+    let long = format!("# {}\n{text}", "é 中 ".repeat(2000));
+    assert!(long.len() > 12_000);
+    let file = dir.path().join("long.toml");
+    std::fs::write(&file, &long).unwrap();
+    let out = dir.path().join("long");
+    let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .arg("run")
+        .arg(&file)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let Some((_, units)) = overhead_and_units(&out.join("run.h5")) else {
+        return;
+    };
+    assert!(units > 50, "{units}");
+    let dump = h5py_dump(&out.join("run.h5")).unwrap();
+    assert_eq!(dump["attrs"]["scenario"]["str"], long.as_str());
+}
+
 /// The same bound for a streamed file (datasets created empty and extended, the period records
 /// and gaps added to the open file): its bytes that are not dataset storage stay under 200 kB,
 /// and every `units` attribute reads as `str`.
