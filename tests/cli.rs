@@ -1073,12 +1073,13 @@ fn non_dataset_bytes(path: &Path) -> u64 {
     std::fs::metadata(path).unwrap().len() - stored
 }
 
-/// Descriptions are rows of /descriptions, not one attribute per dataset: hdf5-pure 0.47 puts
-/// every variable-length string attribute in a 4 KiB global-heap collection of its own. The 1 s
-/// run of docs/accuracy/hold-400hz-1s.toml had 448 265 bytes that were not dataset storage (of
-/// 1 131 913); with the descriptions in a table 257 441. What is left is one collection per
-/// `units` attribute (49 datasets: 200 704 bytes), which must stay a variable-length attribute
-/// for h5py to read it as str: so no dataset may carry any other string attribute.
+/// Descriptions are rows of /descriptions, not one attribute per dataset: hdf5-pure 0.47 as
+/// released puts every variable-length string attribute in a 4 KiB global-heap collection of its
+/// own. The 1 s run of docs/accuracy/hold-400hz-1s.toml had 448 265 bytes that were not dataset
+/// storage (of 1 131 913); with the descriptions in a table 257 441, one collection per `units`
+/// attribute (which must stay a variable-length attribute for h5py to read it as str) making
+/// most of it. The vendored hdf5-pure shares collections among attributes (30 kB;
+/// tests/output.rs checks that with h5py); here no dataset may carry any other attribute.
 #[test]
 fn run_files_spend_no_heap_collection_on_descriptions() {
     let out = tempfile::tempdir().unwrap();
@@ -1097,9 +1098,9 @@ fn run_files_spend_no_heap_collection_on_descriptions() {
         let h5 = od.join("run.h5");
         let overhead = non_dataset_bytes(&h5);
         let f = hdf5_pure::File::open(&h5).unwrap();
-        // Each string attribute costs one 4 KiB collection; everything else (object headers,
-        // group indexes, the collections of the string datasets) stays small. 257 441 bytes
-        // here, of which 55 string attributes (49 `units`, 6 at the root) are 225 280.
+        // With collections of their own, each string attribute would cost 4 KiB; with the
+        // vendored hdf5-pure's shared ones, the attributes, object headers, group indexes and
+        // the collections of the string datasets take 30 kB together.
         let is_text = |v: &hdf5_pure::AttrValue| v.as_str().is_some();
         let mut strings = f
             .root()

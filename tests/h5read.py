@@ -9,7 +9,8 @@ compare bit-exactly, NaN included. Each value is tagged with how h5py returned i
   {"str": "..."}                     a Python str (variable-length UTF-8 string)
   {"bytes": "..."}                   bytes (a fixed-length string: what we must NOT write)
   {"f64_bits": n} / {"int": n}       a scalar
-  dataset: {"dtype": "float64", "shape": [n], "f64_bits": [...]} or "int": [...] or "str": [...]
+  dataset: {"dtype": "float64", "shape": [n], "f64_bits": [...]} or "int": [...] or "str": [...],
+           and "storage_size": the bytes its data takes in the file (h5py get_storage_size())
 Exit status 3 when h5py is not importable (the test then skips, or fails under CI).
 """
 import json
@@ -43,7 +44,8 @@ def attrs(obj):
 
 def dataset(d):
     out = {"dtype": str(d.dtype), "shape": list(d.shape), "attrs": attrs(d),
-           "chunks": list(d.chunks) if d.chunks else None, "compression": d.compression}
+           "chunks": list(d.chunks) if d.chunks else None, "compression": d.compression,
+           "storage_size": d.id.get_storage_size()}
     if d.dtype.kind == "f":
         out["f64_bits"] = [int(x) for x in np.asarray(d[()], dtype="<f8").view("<u8")]
     elif d.dtype.kind in "iu":

@@ -22,9 +22,10 @@
 //! `hdf5-pure` file, with a variable-length UTF-8 string attribute `units` (fixed-length strings
 //! come back as `bytes` in h5py). The descriptions of every dataset and group of a file are rows
 //! of one table, the group `/descriptions` ([`Descriptions`]: datasets `path` and `text`), not
-//! attributes: hdf5-pure 0.47 gives each variable-length string attribute a global-heap
-//! collection of its own, 4 KiB at least, while a string dataset packs its strings into shared
-//! ones (with one `description` attribute per dataset a 1 s run file held ~200 kB of them). Numeric columns are chunked by one rule,
+//! attributes: hdf5-pure 0.47 as released gives each variable-length string attribute a
+//! global-heap collection of its own, 4 KiB at least, while a string dataset packs its strings into
+//! shared ones (with one `description` attribute per dataset a 1 s run file held ~200 kB of them;
+//! the vendored copy, `vendor/hdf5-pure`, shares them for attributes too). Numeric columns are chunked by one rule,
 //! [`HDF5_CHUNK`] elements (a shorter column is one chunk of its length), shuffled and deflated at
 //! [`DEFLATE_LEVEL`]; an empty numeric column is an empty dataset of its type; text columns are
 //! variable-length string datasets.
