@@ -748,7 +748,7 @@ fn describe(s: &Sample) -> String {
 }
 
 /// Build the time-series sample of a state.
-pub fn make_sample(m: &Model, drive: &Drive, y: &State, stage: usize) -> Sample {
+pub(crate) fn make_sample(m: &Model, drive: &Drive, y: &State, stage: usize) -> Sample {
     knot_sample(m, drive, &Knot::from(y), stage)
 }
 
