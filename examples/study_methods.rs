@@ -1,6 +1,6 @@
 //! Which integrator when: every method on the catalogue scenes, timed (minimum wall over
 //! repeats, robust to load) with its error against a converged reference; the basis of the
-//! `auto` rule (`dynamics::stepper::auto_method`) and of the method tables in README and the
+//! `auto` rule (`dynamics::methods::auto_method`) and of the method tables in README and the
 //! module docs of `djkr::dynamics`. Also `ode_solvers`' own Dop853/Dopri5 on a closed-form
 //! oscillator (why djkr has its own DP8).
 //!

@@ -27,10 +27,10 @@ use thiserror::Error;
 use crate::adhesion::{GentSchultz, Law};
 use crate::closed_form::DeltaAmpForm;
 use crate::comparators;
-use crate::dynamics::types::{
+use crate::dynamics::SimError;
+use crate::dynamics::{
     CycleRecord, Ending, Event, Gap, Observer, Reason, RunResult, Sample, Status,
 };
-use crate::dynamics::SimError;
 use crate::error::{non_negative, positive, ParamError};
 use crate::imposed_area::{self, Cycle};
 use crate::material::Material;

@@ -42,5 +42,5 @@ pub mod sweep;
 
 pub use djkr_core::{
     adhesion, beta_fit, cancel, closed_form, comparators, describing, dynamics, error, gs_fit,
-    imposed_area, jkr, material, numerics, quadrature, rig, steady, text, transfer, units,
+    imposed_area, jkr, material, quadrature, rig, steady, text, transfer, units,
 };

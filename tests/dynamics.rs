@@ -476,13 +476,13 @@ fn ramp_oscillator_orders(
     steps: impl Fn(
         &djkr::dynamics::model::Model,
         &djkr::dynamics::model::Drive,
-        djkr::dynamics::state::State,
+        djkr::dynamics::State,
         f64,
         usize,
-    ) -> djkr::dynamics::state::State,
+    ) -> djkr::dynamics::State,
 ) -> (f64, f64) {
     use djkr::dynamics::model::{resolve, Drive, NQ};
-    use djkr::dynamics::state::State;
+    use djkr::dynamics::State;
     // Without gravity, so that the spring end starts at the sphere (the drive below).
     let mut s = catalogue::soft_spring_jkr();
     s.initial = Initial::Gap(-x0);
@@ -522,7 +522,7 @@ fn ramp_oscillator_orders(
 }
 
 /// Fixed steps ignore the error estimate.
-const NO_CONTROL: djkr::dynamics::state::Tol = djkr::dynamics::state::Tol {
+const NO_CONTROL: djkr::dynamics::Tol = djkr::dynamics::Tol {
     rtol: 1.0,
     atol: 1.0,
 };
@@ -531,10 +531,10 @@ const NO_CONTROL: djkr::dynamics::state::Tol = djkr::dynamics::state::Tol {
 /// (closed form): halving h divides the error by ≈ 2⁴.
 #[test]
 fn esdirk_fixed_step_order_is_four() {
-    use djkr::dynamics::esdirk::step;
+    use djkr::dynamics::kernels::esdirk_step;
     let (p1, p2) = ramp_oscillator_orders(-1.0, 40, |model, drive, mut y, h, n| {
         for _ in 0..n {
-            y = step(model, drive, &y, h, NO_CONTROL).unwrap().y;
+            y = esdirk_step(model, drive, &y, h, NO_CONTROL).unwrap().y;
         }
         y
     });
@@ -549,13 +549,13 @@ fn esdirk_fixed_step_order_is_four() {
 /// time (the `ode_solvers` Dop853 tableau's c₁₂ = 0) would show as order 1.
 #[test]
 fn dp8_fixed_step_order_is_eight() {
-    use djkr::dynamics::dp8::{rates_at, step};
+    use djkr::dynamics::kernels::{dp8_step, rates_at};
     let (p1, p2) = ramp_oscillator_orders(-1e-3, 10, |model, drive, mut y, h, n| {
         let (mut k, mut fq) = rates_at(model, drive, &y).unwrap();
-        let mut o = djkr::dynamics::state::StepOut::default();
+        let mut o = djkr::dynamics::StepOut::default();
         for _ in 0..n {
             let (mut k1, mut fq1) = (k, fq);
-            step(
+            dp8_step(
                 model, drive, &y, &k, &fq, h, NO_CONTROL, &mut o, &mut k1, &mut fq1,
             )
             .unwrap();
@@ -642,7 +642,7 @@ fn contact_loss_radius_has_negligible_effect() {
 
 /// `auto` takes the implicit method without inertia (rigid link), for a constant w and for
 /// seeded contact formation, and DP8 for a GS sphere with mass (the rule of
-/// `dynamics::stepper::auto_method`; its basis is measured in `docs/studies/methods.md`). That
+/// `dynamics::methods::auto_method`; its basis is measured in `docs/studies/methods.md`). That
 /// the methods agree on these scenes is `methods_agree_on_gs_unload`.
 #[test]
 fn auto_rule_by_scene() {
@@ -683,7 +683,7 @@ fn bundled_with_method(file: &str, name: &str) -> Result<Scenario, String> {
 #[test]
 fn registry_lists_what_each_method_provides() {
     use djkr::dynamics::methods::{self, METHODS};
-    use djkr::dynamics::stepper::{Capabilities, Reach};
+    use djkr::dynamics::{Capabilities, Reach};
     const IMPLICIT: Capabilities = Capabilities {
         algebraic_radius: true,
         turning_points: false,
@@ -781,7 +781,7 @@ fn parser_accepts_the_registry_names_for_solver_method() {
 #[test]
 fn capabilities_match_what_the_steppers_do() {
     use djkr::dynamics::methods::{method_names, METHODS};
-    use djkr::dynamics::state::StepOut;
+    use djkr::dynamics::StepOut;
     use djkr::dynamics::{model, protocol};
     let constant = bundled_with_method("quasi-static-jkr.toml", "auto").unwrap();
     for name in method_names() {
@@ -802,7 +802,7 @@ fn capabilities_match_what_the_steppers_do() {
     drive.shaker = true;
     drive.t_on = y0.t;
     let period = 2.0 * std::f64::consts::PI / m.omega;
-    let tol = djkr::dynamics::state::Tol {
+    let tol = djkr::dynamics::Tol {
         rtol: 1e-8,
         atol: 1e-10,
     };

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use djkr::dynamics::types::{
+use djkr::dynamics::{
     CycleRecord, Event, EventCounts, EventKind, Gap, Observer, PullOffSummary, RunResult, Sample,
     Stats,
 };

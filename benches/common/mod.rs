@@ -50,12 +50,12 @@ impl OneRhs {
 
     /// Evaluate once; returns ȧ (the caller passes it to `black_box`).
     #[inline]
-    pub fn call(&mut self) -> Result<f64, djkr::dynamics::state::StepFail> {
+    pub fn call(&mut self) -> Result<f64, djkr::dynamics::StepFail> {
         self.dt += 1e-12;
         let kin =
             self.drive
                 .at_advanced(&self.model, 1e-4 + self.dt, self.phase0, black_box(self.dt));
-        djkr::dynamics::dp8::rates(
+        djkr::dynamics::kernels::rates(
             &self.model,
             &kin,
             black_box(self.d0 - kin.xb + 1e-7),

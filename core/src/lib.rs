@@ -5,18 +5,30 @@
 //! lives in the `djkr` crate above it. SI units throughout; compressive forces are positive and
 //! the sphere's position is measured downwards (the sign conventions of `docs/MODEL.md`).
 //!
-//! The pieces a user composes:
+//! The pieces a user composes are re-exported at the crate root:
 //!
-//! - the material and the laws: [`material::Material`], [`adhesion::Law`] (Gent–Schultz, its
-//!   saturated and tabulated variants, a constant work of adhesion), the contact relations of
-//!   [`jkr`];
-//! - the rig: [`rig::Rig`] (sphere, spring, damping, base motion, contact formation);
+//! - the material and the laws: [`Material`], [`Law`] (Gent–Schultz [`GentSchultz`], its
+//!   saturated and tabulated variants [`SaturatedGentSchultz`] and [`TabulatedLaw`], a constant
+//!   work of adhesion [`ConstantW`]) and the interface they share, [`AdhesionLaw`]; the contact
+//!   relations are in [`jkr`];
+//! - the rig: [`Rig`] and its parts ([`Sphere`], [`Holder`], [`Damping`], [`DampingOn`],
+//!   [`BaseMotion`], [`ContactFormation`]);
+//! - the time-domain simulator: a [`Plan`] (rig, [`Initial`] state, [`Stage`]s of a
+//!   [`StageKind`] each ending [`Until`] a condition, a [`Solver`] naming a [`Method`]) run by
+//!   [`run`] into an [`Observer`] (or [`NoObserver`]), giving a [`RunResult`] (its [`Event`]s,
+//!   [`Sample`]s and [`CycleRecord`]s through the observer) or a [`SimError`]; the [`Simulator`]
+//!   for callers that drive the time loop themselves;
+//! - periodic steady states: a [`SteadyProblem`] solved with [`SteadyOptions`] into a
+//!   [`Steady`] orbit or a [`SteadyError`] (frequency sweeps in [`steady::sweep`]);
+//! - harmonic balance: [`harmonic_balance`] gives a [`HarmonicBalance`] (more in [`describing`]);
 //! - the paper's shortcut and closed forms: [`imposed_area`], [`closed_form`], [`comparators`],
-//!   [`transfer`], [`describing`] (harmonic balance);
-//! - the time-domain simulator: a [`dynamics::Plan`] (rig, initial state, stages, solver) run by
-//!   [`dynamics::run`] into an [`dynamics::Observer`], giving a [`dynamics::RunResult`];
-//! - periodic steady states ([`steady`]) and, in the `djkr` crate for now, their continuation;
-//! - fits of measured records: [`gs_fit`], [`beta_fit`].
+//!   [`transfer`]; fits of measured records: [`gs_fit`], [`beta_fit`];
+//! - what the layers above share: [`units`] (names and scales of quantities), [`text`] (number
+//!   formatting), [`error`] (range checks), [`cancel`] (cooperative cancellation),
+//!   [`quadrature`] (the rules the imposed-area method integrates with).
+//!
+//! The modules hold the rest of each subject; the integrators' internals (step-size control,
+//! event location, envelope following, the steppers) are private to [`dynamics`].
 //!
 //! # Example: a quasi-static pull-off is JKR's
 //!
@@ -24,11 +36,9 @@
 //! work of adhesion, leaves the surface at the load-controlled JKR pull-off force −3/2 π R w:
 //!
 //! ```
-//! use djkr_core::adhesion::{ConstantW, Law};
-//! use djkr_core::dynamics::protocol::{Initial, Stage, StageKind, Until};
-//! use djkr_core::dynamics::{run, NoObserver, Plan, Solver};
 //! use djkr_core::jkr::load_controlled_pull_off_force;
 //! use djkr_core::rig::light_rig;
+//! use djkr_core::{run, ConstantW, Initial, Law, NoObserver, Plan, Solver, Stage, StageKind, Until};
 //!
 //! let w = 0.24; // J/m²
 //! let rig = light_rig(Law::Constant(ConstantW { w0: w }));
@@ -67,10 +77,20 @@ pub mod gs_fit;
 pub mod imposed_area;
 pub mod jkr;
 pub mod material;
-pub mod numerics;
+pub(crate) mod numerics;
 pub mod quadrature;
 pub mod rig;
 pub mod steady;
 pub mod text;
 pub mod transfer;
 pub mod units;
+
+pub use adhesion::{AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw};
+pub use describing::{solve as harmonic_balance, HarmonicBalance};
+pub use dynamics::{
+    run, CycleRecord, Event, Initial, Method, NoObserver, Observer, Plan, RunResult, Sample,
+    SimError, Simulator, Solver, Stage, StageKind, Until,
+};
+pub use material::Material;
+pub use rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder, Rig, Sphere};
+pub use steady::{Options as SteadyOptions, Problem as SteadyProblem, Steady, SteadyError};

@@ -44,7 +44,7 @@ use djkr::adhesion::Law;
 use djkr::api::{self, ApiError, Arg};
 use djkr::cancel::{Cancel, CancelFlag};
 use djkr::closed_form::{DeltaAmpForm, BETA_PAPER};
-use djkr::dynamics::types::Event;
+use djkr::dynamics::Event;
 use djkr::input::{show_limit, InputKind};
 use djkr::material::Material;
 use djkr::output::table::{Column, Data, Table};

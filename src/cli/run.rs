@@ -95,7 +95,7 @@ impl Observer for Progress<'_> {
     fn cycle(&mut self, c: &dynamics::CycleRecord) {
         self.inner.cycle(c);
     }
-    fn gap(&mut self, g: &dynamics::types::Gap) {
+    fn gap(&mut self, g: &dynamics::Gap) {
         self.inner.gap(g);
     }
 }

@@ -10,7 +10,7 @@
 
 use super::table::{Cell, Column, Data, Field, Table};
 use super::timeseries::stage_index;
-use crate::dynamics::types::CycleRecord;
+use crate::dynamics::CycleRecord;
 
 /// How a cycle field is read from a record.
 #[derive(Debug, Clone, Copy)]

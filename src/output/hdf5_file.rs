@@ -57,7 +57,7 @@ use super::cycles::{cycle_schema, HARMONIC_CONVENTION};
 use super::table::{text_attr as vstr, Descriptions, Storage, Table, HDF5_CHUNK};
 use super::timeseries::{events_table, gaps_table, TimeSeriesWriter, GAPS_DESCRIPTION};
 use super::OutputError;
-use crate::dynamics::types::RunResult;
+use crate::dynamics::RunResult;
 use crate::scenario::Scenario;
 
 /// Version of the layout above, stored as the root attribute `layout_version`. 2: the

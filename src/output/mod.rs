@@ -61,10 +61,8 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::dynamics::model::Model;
-use crate::dynamics::types::StepSamples;
-use crate::dynamics::types::{
-    CycleRecord, Ending, Event, EventKind, Gap, Observer, RunResult, Sample,
-};
+use crate::dynamics::StepSamples;
+use crate::dynamics::{CycleRecord, Ending, Event, EventKind, Gap, Observer, RunResult, Sample};
 use crate::scenario::Scenario;
 pub use atomic::AtomicFile;
 pub use folder::write_atomic;

@@ -29,8 +29,8 @@ use super::table::{CsvWriter, Table};
 use super::timeseries::{self, TimeSeriesWriter};
 use super::{cycles, io_err, AtomicFile, OutputError, CSV_NAMES, FLUSH_ROWS, HDF5_NAME};
 use crate::dynamics::model::Model;
-use crate::dynamics::types::Sample;
-use crate::dynamics::types::StepSamples;
+use crate::dynamics::Sample;
+use crate::dynamics::StepSamples;
 use crate::scenario::Scenario;
 
 /// A sample not built yet, or built already, with its segment index (the `segment` column).

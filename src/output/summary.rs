@@ -83,7 +83,7 @@ use serde_json::{Map, Value};
 use super::cycles::cycle_table;
 use super::table::Data;
 use super::timeseries::{kind_name, stage_index, SERIES, STAGE, STAGE_UNIT};
-use crate::dynamics::types::{CycleRecord, Ending, RunResult, Sample};
+use crate::dynamics::{CycleRecord, Ending, RunResult, Sample};
 use crate::scenario::{checks, Scenario};
 
 /// Version of the summary layout, stored as `format_version`.

@@ -368,7 +368,7 @@ impl Observer for SweepObserver<'_> {
             w.cycle(c);
         }
     }
-    fn gap(&mut self, g: &crate::dynamics::types::Gap) {
+    fn gap(&mut self, g: &crate::dynamics::Gap) {
         if let Some(w) = self.inner.as_deref_mut() {
             w.gap(g);
         }

@@ -63,14 +63,14 @@ pub struct Method(&'static str);
 impl Method {
     /// Let djkr choose ([`auto_method`]) and report the choice.
     pub const Auto: Method = Method::registered("auto");
-    /// Explicit Dormand–Prince 8(5,3), djkr's own stepper ([`super::dp8`]; steps rejected at
+    /// Explicit Dormand–Prince 8(5,3), djkr's own stepper (`dynamics/dp8.rs`; steps rejected at
     /// the healing singularity, no restarts).
     pub const Dp8: Method = Method::registered("dp8");
-    /// Explicit Dormand–Prince 5(4) (`ode_solvers`, [`super::ode_adapter`]).
+    /// Explicit Dormand–Prince 5(4) (`ode_solvers`, `dynamics/ode_adapter.rs`).
     pub const Dopri5: Method = Method::registered("dopri5");
-    /// Explicit Dormand–Prince 8(5,3) (`ode_solvers`, [`super::ode_adapter`]).
+    /// Explicit Dormand–Prince 8(5,3) (`ode_solvers`, `dynamics/ode_adapter.rs`).
     pub const Dop853: Method = Method::registered("dop853");
-    /// Implicit, root-solved update of the contact radius ([`super::esdirk`]; robust at the
+    /// Implicit, root-solved update of the contact radius (`dynamics/esdirk.rs`; robust at the
     /// healing singularity).
     pub const Implicit: Method = Method::registered("implicit");
 
@@ -162,7 +162,7 @@ pub fn build(method: Method, rig: &Rig) -> Box<dyn Stepper> {
 ///   stays;
 /// - **DP8** otherwise, several times faster than the implicit method at equal accuracy on the
 ///   scenes with inertia, taking single steps implicitly where a DP8 stage meets G ≤ 0 or the
-///   contact heals so deeply that DP8's steps would be stability-limited ([`Rescued`]).
+///   contact heals so deeply that DP8's steps would be stability-limited (`Rescued`).
 pub fn auto_method(rig: &Rig) -> Method {
     if rig.law.is_rate_independent()
         || matches!(rig.formation, ContactFormation::Seed(_))
@@ -174,7 +174,7 @@ pub fn auto_method(rig: &Rig) -> Method {
     }
 }
 
-/// `auto`'s stepper: the implicit method, or DP8 rescued by it ([`Rescued`]) for single steps in
+/// `auto`'s stepper: the implicit method, or DP8 rescued by it (`Rescued`) for single steps in
 /// deep healing or where a DP8 stage meets G ≤ 0, as [`auto_method`] chooses.
 fn build_auto(rig: &Rig) -> Box<dyn Stepper> {
     if auto_method(rig) == Method::Dp8 {
@@ -184,7 +184,7 @@ fn build_auto(rig: &Rig) -> Box<dyn Stepper> {
     }
 }
 
-/// Whether envelope following may skip periods ([`super::envelope`]).
+/// Whether envelope following may skip periods (`dynamics/envelope.rs`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum EnvelopeMode {
     /// Where the shaker runs steadily and the error estimate allows.

@@ -8,20 +8,25 @@
 //! contact radius:  G_s(a, δ) = w(ȧ),  G_s = 3K u|u|/(8πa),  u = a²/R − δ
 //! ```
 //!
-//! Entry points: [`protocol::run`]`(&Plan, &mut dyn Observer) -> Result<RunResult, SimError>` for
-//! a whole protocol (the `djkr` crate's `Scenario::simulate` builds the [`protocol::Plan`]), and
-//! [`simulator::Simulator`], whose `step()` advances one accepted step (or to the next event,
+//! Entry points: [`run`]`(&Plan, &mut dyn Observer) -> Result<RunResult, SimError>` for
+//! a whole protocol (the `djkr` crate's `Scenario::simulate` builds the [`Plan`]), and
+//! [`Simulator`], whose `step()` advances one accepted step (or to the next event,
 //! period boundary or target) for callers that drive the time loop themselves (steady-state
 //! shooting, continuation, envelope following).
-//! [`types`] holds the results and the observer interface (samples, events, and per-cycle
-//! records through `Observer::cycle`), [`model`] the pure physics of one instant, [`state`] the
-//! integrated state, [`stepper`] the one interface of the methods and the capabilities each
-//! declares ([`esdirk`] the implicit stepper, [`dp8`] the explicit DP8 stepper, [`ode_adapter`]
-//! the `ode_solvers` methods, [`rescue`] a method rescued by another, each implementing it),
-//! [`methods`] the registry of method names, `auto`'s choice and the solver settings,
-//! [`control`] step-size control, [`events`] event location,
-//! and [`envelope`] envelope following. The reference scenes shared by tests and benchmarks are
-//! the `djkr` crate's `catalogue`.
+//!
+//! What a user composes is re-exported here: the plan and its stages ([`Plan`], [`Initial`],
+//! [`Stage`], [`StageKind`], [`Until`]), the solver settings ([`Solver`], [`Method`]), the
+//! results and the observer interface ([`RunResult`], [`Sample`], [`Event`], [`CycleRecord`],
+//! [`Observer`]), the simulator ([`Simulator`], [`Stop`]), and the one interface of the
+//! integrators with the state it steps ([`Stepper`], [`Capabilities`], [`State`], [`StepOut`],
+//! [`Tol`]). Three namespaces are public: [`model`], the pure physics of one instant;
+//! [`protocol`], the stages and the run; [`methods`], the registry of method names, `auto`'s
+//! choice and the solver settings. [`kernels`] exposes single steps for tests and benches.
+//! The rest is internal (files under `core/src/dynamics/`): `esdirk` the implicit stepper,
+//! `dp8` the explicit DP8 stepper, `ode_adapter` the `ode_solvers` methods, `rescue` a method
+//! rescued by another, `control` step-size control, `events` event location, `envelope`
+//! envelope following, `simulator`, `state`, `stepper` and `types` (re-exported above). The
+//! reference scenes shared by tests and benchmarks are the `djkr` crate's `catalogue`.
 //!
 //! # Methods
 //!
@@ -38,7 +43,7 @@
 //! and increasing through the wanted root (the stable branch). L-stability removes the healing
 //! stiffness ∂ȧ/∂a ≈ −4aȧ/(nRu).
 //!
-//! *Stage solve* ([`esdirk`]): safeguarded Newton with the analytic dρ/da (closed forms of
+//! *Stage solve* (`esdirk`): safeguarded Newton with the analytic dρ/da (closed forms of
 //! ∂x/∂a of the stage's linear mechanics, ∂G_s/∂a, dw/dȧ). For Gent–Schultz with n < 1 the
 //! unknown is the law variable z = sign(ȧ)(|ȧ|/v0)^n instead of a: w(z) is C¹ with slope −w0
 //! and a(z) = c_i + hγ v0 sign(z)|z|^(1/n) is C¹, so the residual is regular through the turning
@@ -51,8 +56,8 @@
 //! Newton step unconditionally made the 1 s / 400 Hz outputs 100× less accurate; the measured-K
 //! test leaves them unchanged to < 1 %.) Fall-back for the other laws, a
 //! non-monotone residual or no convergence in 12 iterations: the derivative-free secant /
-//! bracketing + Brent search (`roots`, [`crate::numerics::RelativeConvergency`]), which keeps
-//! every former guarantee (a root with a > 0 or [`state::StepFail::NoRoot`]).
+//! bracketing + Brent search (`roots`, `numerics::RelativeConvergency`), which keeps
+//! every former guarantee (a root with a > 0 or [`StepFail::NoRoot`]).
 //!
 //! Error norm: x_s, v_s, a (RMS of err/(atol·scale + rtol·|y|), scales: the larger of the jump-in
 //! indentation a_J²/R, X_b and the initial gap; that length × 2π/t_char; a_J); elementary step
@@ -62,7 +67,7 @@
 //! error norm (they do not feed back; the steps the state needs resolve them: the per-cycle
 //! momentum and energy balances they carry hold to integration accuracy, `docs/studies/checks.md`).
 //!
-//! **DP8** ([`dp8`]): Dormand & Prince's explicit 8(5,3) pair (Hairer's `DOP853` coefficients;
+//! **DP8** (`dp8`): Dormand & Prince's explicit 8(5,3) pair (Hairer's `DOP853` coefficients;
 //! order conditions and the fixed-step order 8 are tested), djkr's own stepper, taking
 //! one step at a time in the simulator's loop like the implicit one, with ȧ = law⁻¹(G) in closed
 //! form. What makes an explicit method work on this problem:
@@ -226,27 +231,40 @@
 //!   saved < 0.3 % (its steps are 6× shorter than DP8's, and the straddle error scales as
 //!   h^(2+1/n)); its Newton iteration in z stops after 2 residuals on most stages.
 
-pub mod control;
-pub mod dp8;
-pub mod envelope;
-pub mod esdirk;
-pub mod events;
+mod control;
+mod dp8;
+mod envelope;
+mod esdirk;
+mod events;
 pub mod methods;
 pub mod model;
-pub mod ode_adapter;
+mod ode_adapter;
 pub mod protocol;
-pub mod rescue;
-pub mod simulator;
-pub mod state;
-pub mod stepper;
-pub mod types;
+mod rescue;
+mod simulator;
+mod state;
+mod stepper;
+mod types;
 
 pub use methods::{EnvelopeMode, Method, Solver};
 pub use model::Model;
-pub use protocol::{run, run_partial, Plan};
+pub use protocol::{run, run_partial, Initial, Plan, Stage, StageKind, Until};
 pub use simulator::{Segment, Settings, Simulator, Stop};
-pub use stepper::Stepper;
+pub use state::{State, StepFail, StepOut, Tol};
+pub use stepper::{Capabilities, Reach, Stepper};
 pub use types::*;
+
+/// Single steps and right-hand sides of the two integrators written for djkr, outside a run.
+///
+/// A simulation never needs these: [`run`] and [`Simulator`] choose and drive the steppers.
+/// They are public so that the root crate's observed-order tests (`tests/dynamics.rs`, which
+/// take their scenes from the `djkr` catalogue) can step the implicit and DP8 methods with
+/// fixed steps, and so that the criterion benches (`benches/common`) can time one DP8
+/// right-hand side on its own.
+pub mod kernels {
+    pub use super::dp8::{rates, rates_at, step as dp8_step, Rates};
+    pub use super::esdirk::step as esdirk_step;
+}
 
 /// The scene the unit tests of the model and the steppers share: the light rig
 /// ([`crate::rig::light_rig`]) with `law`, its base shaking at 400 Hz with 5 µm, held for 1 s

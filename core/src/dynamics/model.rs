@@ -1,8 +1,8 @@
 //! The resolved model of a scene and the pure physics of one instant: positions of the drive
 //! (spring end, base), the mechanical balance, quadrature integrands and the total energy.
 //!
-//! Everything here is allocation-free and SI. The simulator ([`super::simulator`]) owns the time loop;
-//! the steppers ([`super::stepper`]) call these functions at their stages.
+//! Everything here is allocation-free and SI. The simulator ([`super::Simulator`]) owns the time loop;
+//! the steppers ([`super::Stepper`]) call these functions at their stages.
 
 use crate::adhesion::{AdhesionLaw, Law};
 use crate::jkr;

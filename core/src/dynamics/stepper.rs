@@ -42,7 +42,7 @@ pub struct Capabilities {
     pub turning_points: bool,
     /// Under a steady shaker, the attempts of the last base period that were rejected (or held
     /// down) guide the lengths of the next period's attempts at the same place
-    /// ([`super::control`]). For a method whose difficulty along the period is repeatable and
+    /// (`dynamics/control.rs`). For a method whose difficulty along the period is repeatable and
     /// whose controller would otherwise overshoot it every period anew (DP8's long steps into
     /// the fast healing after a turning point).
     pub period_memory: bool,

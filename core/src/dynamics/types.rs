@@ -748,13 +748,13 @@ fn describe(s: &Sample) -> String {
 }
 
 /// Build the time-series sample of a state.
-pub fn make_sample(m: &Model, drive: &Drive, y: &State, stage: usize) -> Sample {
+pub(crate) fn make_sample(m: &Model, drive: &Drive, y: &State, stage: usize) -> Sample {
     knot_sample(m, drive, &Knot::from(y), stage)
 }
 
 /// The time-series samples of one step on the output grid: `n` samples at `t_first`,
 /// `t_first + dt`, … (the times accumulated by repeated addition, as the driver's grid is),
-/// interpolated on the step ([`Knot::hermite`]); with `dt = 0`, the one sample at its end.
+/// interpolated on the step (`Knot::hermite`); with `dt = 0`, the one sample at its end.
 /// The driver hands them to [`Observer::step_samples`] a step at a time, so that
 /// an observer may build them elsewhere (the run writer's thread).
 #[derive(Debug, Clone, Copy, PartialEq)]
