@@ -38,9 +38,11 @@ use crate::output::OutputError;
 use crate::plot::PlotError;
 
 use super::engine::{RunId, Sweep};
+use super::plots::{plot_file_names, sweep_plots};
+pub use super::row::KeyInfo;
 use super::row::{parse_rows_csv, row_schema, rows_table, KeyColumn, Row};
 use super::spec::SpecForm;
-use super::stats::{point_stats, points_table};
+use super::stats::{point_stats, points_table, PointStats};
 
 /// `sweep.json`.
 pub const MANIFEST_NAME: &str = "sweep.json";
@@ -157,17 +159,6 @@ impl Shard {
     pub fn contains(&self, index: usize) -> bool {
         index % self.count == self.index - 1
     }
-}
-
-/// A swept key as `sweep.json` describes it.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct KeyInfo {
-    /// The key.
-    pub name: String,
-    /// SI unit (`None`: text).
-    pub unit: Option<String>,
-    /// Given as a log range (the plots use a log axis).
-    pub log: bool,
 }
 
 /// `sweep.json`: what a sweep is, so that a resume or a merge can check it is the same one.
@@ -306,6 +297,12 @@ impl Manifest {
         Ok(())
     }
 
+    /// The figures a sweep of this description may draw ([`plot_file_names`]), claimed before a
+    /// sweep or `djkr plot` writes into a folder.
+    pub fn plot_file_names(&self) -> Vec<String> {
+        plot_file_names(self.ensemble.is_some())
+    }
+
     /// Whether run `index` belongs to this folder.
     pub fn owns(&self, index: usize) -> bool {
         index < self.runs && self.shard.is_none_or(|s| s.contains(index))
@@ -397,7 +394,7 @@ fn result_names(manifest: &Manifest) -> Vec<String> {
     let mut names: Vec<String> = [MANIFEST_NAME, ROWS_CSV_NAME, ROWS_H5_NAME, POINTS_CSV_NAME]
         .map(String::from)
         .to_vec();
-    names.extend(super::plots::plot_file_names(manifest));
+    names.extend(manifest.plot_file_names());
     names
 }
 
@@ -583,7 +580,7 @@ pub fn write_results(
     ptable.save_csv(&pcsv)?;
     written.push(pcsv);
 
-    written.extend(super::plots::sweep_plots(dir, manifest, &points, rows)?);
+    written.extend(draw_plots(dir, manifest, &points, rows)?);
 
     if complete {
         // Only djkr's own progress file (its record in the folder), never one of that name.
@@ -591,6 +588,24 @@ pub fn write_results(
     }
     sync_dir(dir);
     Ok(written)
+}
+
+/// Draw the figures that fit the sweep described by `manifest` from its `points` and `rows`
+/// ([`sweep_plots`]); returns the files written.
+pub fn draw_plots(
+    dir: &Path,
+    manifest: &Manifest,
+    points: &[PointStats],
+    rows: &[Row],
+) -> Result<Vec<PathBuf>, PlotError> {
+    sweep_plots(
+        dir,
+        &manifest.keys,
+        manifest.zip,
+        manifest.ensemble.is_some(),
+        points,
+        rows,
+    )
 }
 
 /// What a merge found and wrote.
