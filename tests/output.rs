@@ -302,7 +302,7 @@ fn check_with_hdf5_pure(n: usize) {
     }
     // Every dataset and group has its row in /descriptions; a period record is defined, not
     // named (it used to repeat its name: `a_cos` → 'a_cos').
-    let d = djkr::output::table::read_descriptions(&f).unwrap();
+    let d = djkr::output::hdf5_file::read_descriptions(&f).unwrap();
     for name in f.root().datasets().unwrap() {
         assert!(
             d.get(&format!("/{name}")).is_some_and(|t| !t.is_empty()),

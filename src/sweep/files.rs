@@ -26,14 +26,13 @@ use std::fs::{self, File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use hdf5_pure::{AttrValue, FileBuilder};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::output::atomic::{sync_dir, AtomicFile};
 use crate::output::folder::write_atomic;
 use crate::output::folder::{self, DirLock};
-use crate::output::table::{text_attr, Descriptions};
+use crate::output::hdf5_file::{hdf5_tables, Attr};
 use crate::output::OutputError;
 use crate::plot::PlotError;
 
@@ -535,44 +534,34 @@ pub fn write_results(
     written.push(csv);
 
     let h5 = dir.join(ROWS_H5_NAME);
-    let mut b = FileBuilder::new();
-    b.set_attr("djkr_version", text_attr(env!("CARGO_PKG_VERSION")));
-    b.set_attr("source", text_attr(&manifest.command()));
-    b.set_attr("scenario", text_attr(&manifest.scenario_text));
-    b.set_attr("set", text_attr(&manifest.set.join("\n")));
-    b.set_attr("zip", AttrValue::I64(i64::from(manifest.zip)));
-    b.set_attr(
-        "ensemble",
-        AttrValue::I64(manifest.ensemble.map_or(0, |n| n as i64)),
-    );
-    b.set_attr(
-        "seed",
-        AttrValue::I64(manifest.seed.map_or(0, |s| s as i64)),
-    );
-    b.set_attr("points", AttrValue::I64(manifest.points as i64));
-    b.set_attr("members", AttrValue::I64(manifest.members as i64));
-    b.set_attr("runs", AttrValue::I64(manifest.runs as i64));
-    b.set_attr(
-        "layout",
-        text_attr("one row per run at the root (as sweep.csv); group points: as points.csv"),
-    );
-    table.write_hdf5(&mut b);
-    let mut g = b.create_group("points");
-    ptable.write_hdf5(&mut g);
-    b.add_group(g.finish());
-    let mut descriptions = Descriptions::new();
-    descriptions
-        .table("/", &table.schema())
-        .add(
-            "/points",
-            "one row per point: the members' statistics (as points.csv)",
-        )
-        .table("/points", &ptable.schema());
-    descriptions.write(&mut b);
-    let bytes = b.finish().map_err(|e| OutputError::Hdf5 {
-        path: h5.clone(),
-        message: e.to_string(),
-    })?;
+    let attrs = [
+        ("source", Attr::text(&manifest.command())),
+        ("scenario", Attr::text(&manifest.scenario_text)),
+        ("set", Attr::text(&manifest.set.join("\n"))),
+        ("zip", Attr::I64(i64::from(manifest.zip))),
+        (
+            "ensemble",
+            Attr::I64(manifest.ensemble.map_or(0, |n| n as i64)),
+        ),
+        ("seed", Attr::I64(manifest.seed.map_or(0, |s| s as i64))),
+        ("points", Attr::I64(manifest.points as i64)),
+        ("members", Attr::I64(manifest.members as i64)),
+        ("runs", Attr::I64(manifest.runs as i64)),
+        (
+            "layout",
+            Attr::text("one row per run at the root (as sweep.csv); group points: as points.csv"),
+        ),
+    ];
+    let groups = [(
+        "points",
+        "one row per point: the members' statistics (as points.csv)",
+        &ptable,
+    )];
+    let bytes =
+        hdf5_tables(&attrs, Some(&table), &groups).map_err(|message| OutputError::Hdf5 {
+            path: h5.clone(),
+            message,
+        })?;
     write_atomic(&h5, &bytes)?;
     written.push(h5);
 
