@@ -252,7 +252,7 @@ fn figures(
         phase = phase.with_series(series(&|p| p.steady.as_ref().map(|s| s.transfer_phase())));
         if harmonic {
             let (x, y) = report::sorted_by_frequency(&sw.points, |p| {
-                p.harmonic.map(|h| h.delta_amp / amplitude)
+                p.harmonic.map(|h| h.harmonics.delta_amp / amplitude)
             });
             let name = format!("harmonic balance, {}", sw.direction.name());
             fig = fig.with_series(Series::new(name, x, y, Style::Dashed).with_color(3 + i));

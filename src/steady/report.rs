@@ -267,7 +267,7 @@ impl SweepSummary {
     fn new(sw: &Sweep, linear: Option<Peak>) -> Self {
         let found = sw.points.iter().filter_map(|p| p.steady.as_ref());
         let (hx, hy) = sorted_by_frequency(&sw.points, |p| {
-            p.harmonic.map(|h| h.delta_amp / sw.amplitude)
+            p.harmonic.map(|h| h.harmonics.delta_amp / sw.amplitude)
         });
         let hb: Vec<(f64, f64)> = hx.into_iter().zip(hy).collect();
         Self {
@@ -558,19 +558,19 @@ fn predictor_columns(p: &[SweepPoint], xb: f64) -> Vec<Column> {
             "hb_delta_amp_over_xb",
             "1",
             "harmonic balance |delta_1|/X_b",
-            &|h| h.delta_amp / xb,
+            &|h| h.harmonics.delta_amp / xb,
         ),
         hb(
             "hb_phase",
             "rad",
             "harmonic balance: phase of delta_1",
-            &|h| h.delta_cos.atan2(h.delta_sin),
+            &|h| h.harmonics.delta_cos.atan2(h.harmonics.delta_sin),
         ),
         hb(
             "hb_force_mean",
             "N",
             "harmonic balance: mean contact force",
-            &|h| h.force_mean,
+            &|h| h.harmonics.force_mean,
         ),
         hb(
             "hb_a_mean",
