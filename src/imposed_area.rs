@@ -656,6 +656,38 @@ mod tests {
     }
 
     #[test]
+    fn harmonics_are_flat_in_json_in_field_order() {
+        // The shared Harmonics type sits inside Cycle, flattened: the JSON a user reads keeps
+        // the keys and order it had when they were fields of Cycle itself.
+        let c = cycle(&M, &GentSchultz::PAPER, 100.0, 0.5e-3, 0.2e-3).unwrap();
+        let v = serde_json::to_value(c).unwrap();
+        let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+        let text = serde_json::to_string(&c).unwrap();
+        let mut in_text = keys.clone();
+        in_text.sort_by_key(|k| text.find(&format!("\"{k}\"")).unwrap());
+        assert_eq!(
+            in_text,
+            [
+                "a_mean_imposed",
+                "a_amp",
+                "a_mean",
+                "delta_mean",
+                "delta_sin",
+                "delta_cos",
+                "delta_amp",
+                "force_mean",
+                "force_sin",
+                "force_cos",
+                "force_slope",
+                "contact_fraction",
+                "evaluations"
+            ]
+        );
+        assert_eq!(v["delta_amp"].as_f64(), Some(c.harmonics.delta_amp));
+        assert_eq!(v["force_cos"].as_f64(), Some(c.harmonics.force_cos));
+    }
+
+    #[test]
     fn mean_truncated_radius_and_contact_fraction() {
         let law = GentSchultz::PAPER;
         let a_a = 1e-3;
