@@ -1,6 +1,6 @@
 //! Every HDF5 file djkr writes is assembled here, the one module that writes with `hdf5-pure`:
 //! the run file (below), the files of tables ([`hdf5_tables`]: `sweep.h5`, `resonance.h5`,
-//! `branch.h5`, the shortcut maps) and the table writer they share ([`Table::write_hdf5`]).
+//! `branch.h5`, the shortcut maps) and the table writer they share ([`TableHdf5`]).
 //! Callers give tables ([`super::table::Table`]) and root attributes ([`Attr`]); none of them
 //! names an `hdf5-pure` type.
 //!
@@ -25,7 +25,7 @@
 //! (1-D f64/i64 datasets, contiguous or chunked, optionally with shuffle + deflate, appends to
 //! chunked datasets, variable-length string attributes and variable-length string datasets).
 //! Every group of datasets is a [`super::table::Table`] written by
-//! [`super::table::Table::write_hdf5_with`], the writer of every djkr table.
+//! [`TableHdf5::write_hdf5_with`], the writer of every djkr table.
 //!
 //! Storage: a run written at the end ([`hdf5_bytes`]) has contiguous datasets, or chunked and
 //! deflated ones with `[output] compress = true`; a streamed run ([`H5Stream`]) has extendable
@@ -130,28 +130,55 @@ const EVENTS_DESCRIPTION: &str = "located events: kind, time, stage and the stat
 const CYCLES_DESCRIPTION: &str =
     "exact averages and first harmonics over each base period while the shaker is on";
 
-/// The HDF5 form of a table (layout in the module doc).
-impl Table {
-    /// Write every column as a dataset of `group` (a file's root or a group), with `units` and
-    /// `description` attributes (chunking and compression in the module doc).
-    pub fn write_hdf5(&self, group: &mut impl Hdf5Group) {
+/// The HDF5 form of a table (layout in the module doc): the writer's methods on [`Table`],
+/// kept here rather than in `output::table` so that the table stays free of any file format.
+pub trait TableHdf5 {
+    /// Write every column as a dataset of `group` (a file's root or a group), with a `units`
+    /// attribute (chunking and compression in the module doc).
+    fn write_hdf5(&self, group: &mut impl Hdf5Group);
+
+    /// As [`TableHdf5::write_hdf5`], with a storage choice: compressed or not, and extendable
+    /// (every numeric dataset chunked, unlimited, so that rows can be appended:
+    /// [`TableHdf5::append_hdf5_rows`]; text columns are then left out, to be written whole at
+    /// the end).
+    fn write_hdf5_with(&self, group: &mut impl Hdf5Group, storage: Storage);
+
+    /// As [`TableHdf5::write_hdf5_with`], into a group of a file open for editing (a table
+    /// whose first rows arrive after the file was created).
+    fn create_hdf5_in(&self, group: &hdf5_pure::Group, storage: Storage) -> Result<(), String>;
+
+    /// Append the rows in `rows` to the extendable datasets of the open file `file` under
+    /// `prefix` (`""` for the root, `"events/"`, ...), one dataset per numeric column (text
+    /// columns are skipped).
+    fn append_hdf5_rows(
+        &self,
+        file: &hdf5_pure::File,
+        prefix: &str,
+        rows: Range<usize>,
+    ) -> Result<(), String>;
+}
+
+/// The columns a table writes under `storage` (text columns are left out of extendable
+/// datasets).
+fn stored_columns(t: &Table, storage: Storage) -> impl Iterator<Item = &Column> {
+    t.columns()
+        .iter()
+        .filter(move |c| storage.extendable.is_none() || c.data.kind() != Kind::Text)
+}
+
+impl TableHdf5 for Table {
+    fn write_hdf5(&self, group: &mut impl Hdf5Group) {
         self.write_hdf5_with(group, Storage::default());
     }
 
-    /// As [`Table::write_hdf5`], with a storage choice: compressed or not, and extendable (every
-    /// numeric dataset chunked, unlimited, so that rows can be appended:
-    /// [`Table::append_hdf5_rows`]; text columns are then left out, to be written whole at the
-    /// end).
-    pub fn write_hdf5_with(&self, group: &mut impl Hdf5Group, storage: Storage) {
-        for c in self.stored_columns(storage) {
+    fn write_hdf5_with(&self, group: &mut impl Hdf5Group, storage: Storage) {
+        for c in stored_columns(self, storage) {
             configure_dataset(group.create_dataset(&c.name), c, storage);
         }
     }
 
-    /// As [`Table::write_hdf5_with`], into a group of a file open for editing (a table whose
-    /// first rows arrive after the file was created).
-    pub fn create_hdf5_in(&self, group: &hdf5_pure::Group, storage: Storage) -> Result<(), String> {
-        for c in self.stored_columns(storage) {
+    fn create_hdf5_in(&self, group: &hdf5_pure::Group, storage: Storage) -> Result<(), String> {
+        for c in stored_columns(self, storage) {
             group
                 .create_dataset(&c.name, |ds| configure_dataset(ds, c, storage))
                 .map_err(|e| format!("creating {}: {e}", c.name))?;
@@ -159,16 +186,7 @@ impl Table {
         Ok(())
     }
 
-    fn stored_columns(&self, storage: Storage) -> impl Iterator<Item = &Column> {
-        self.columns()
-            .iter()
-            .filter(move |c| storage.extendable.is_none() || c.data.kind() != Kind::Text)
-    }
-
-    /// Append the rows in `rows` to the extendable datasets of the open file `file` under
-    /// `prefix` (`""` for the root, `"events/"`, ...), one dataset per numeric column (text
-    /// columns are skipped).
-    pub fn append_hdf5_rows(
+    fn append_hdf5_rows(
         &self,
         file: &hdf5_pure::File,
         prefix: &str,
@@ -295,13 +313,11 @@ impl Hdf5Group for GroupBuilder {
     }
 }
 
-impl Descriptions {
-    /// Write the group `/descriptions` into the file being built.
-    pub fn write(&self, b: &mut FileBuilder) {
-        let mut g = b.create_group(DESCRIPTIONS_GROUP);
-        self.to_table().write_hdf5(&mut g);
-        b.add_group(g.finish());
-    }
+/// Write the group `/descriptions` holding `d` into the file being built.
+pub fn write_descriptions(d: &Descriptions, b: &mut FileBuilder) {
+    let mut g = b.create_group(DESCRIPTIONS_GROUP);
+    d.to_table().write_hdf5(&mut g);
+    b.add_group(g.finish());
 }
 
 /// The [`Descriptions`] of a file written by djkr (read back, for tests and readers).
@@ -354,7 +370,7 @@ pub fn hdf5_tables(
             .add(&path, description)
             .table(&path, &table.schema());
     }
-    descriptions.write(&mut b);
+    write_descriptions(&descriptions, &mut b);
     b.finish().map_err(|e| e.to_string())
 }
 
@@ -470,7 +486,7 @@ pub fn write_hdf5(
     g.set_attr("count", AttrValue::I64(tables.gaps.rows() as i64));
     tables.gaps.write_hdf5_with(&mut g, storage);
     b.add_group(g.finish());
-    run_descriptions().write(&mut b);
+    write_descriptions(&run_descriptions(), &mut b);
     b.finish_to(w).map_err(|e| match e {
         hdf5_pure::Error::Io(io) => io,
         other => std::io::Error::other(format!("HDF5 writer: {other}")),
@@ -533,7 +549,7 @@ impl H5Stream {
         b.add_group(g.finish());
         let g = b.create_group("gaps");
         b.add_group(g.finish());
-        run_descriptions().write(&mut b);
+        write_descriptions(&run_descriptions(), &mut b);
         b.finish_to(&mut handle).map_err(err)?;
         drop(handle);
         let file = File::open_rw_with_options(
