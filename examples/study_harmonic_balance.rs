@@ -112,7 +112,7 @@ fn main() {
                             format!("{:.3e}", h.a_amp),
                             e.map_or("—".into(), |e| format!("{:.0}", e.stiffness)),
                             e.map_or("—".into(), |e| sci(e.damping)),
-                            format!("{:.5}", h.force_mean),
+                            format!("{:.5}", h.harmonics.force_mean),
                             format!("{:.3}", h.contact_fraction),
                         ]);
                     }
@@ -148,7 +148,7 @@ fn main() {
                 imposed_area::cycle(&M, &gs, omega, a0, aa),
             ) {
                 (Ok(e), Ok(c)) => {
-                    let w1 = PI * omega * e.damping * c.delta_amp * c.delta_amp;
+                    let w1 = PI * omega * e.damping * c.harmonics.delta_amp * c.harmonics.delta_amp;
                     let la = if aa >= 1e-7 {
                         sci(loop_area(&gs, omega, a0, aa))
                     } else {
@@ -159,7 +159,7 @@ fn main() {
                         format!("{aa:.0e}"),
                         format!("{:.1}", e.stiffness),
                         sci(e.damping),
-                        sci(c.delta_amp),
+                        sci(c.harmonics.delta_amp),
                         sci(w1),
                         la,
                     ]);
@@ -296,7 +296,7 @@ fn main() {
                     format!("{:.4}", h.transfer().phase()),
                     format!("{:.4e}", h.a_mean),
                     format!("{:.3e}", h.a_amp),
-                    format!("{:.5}", h.force_mean),
+                    format!("{:.5}", h.harmonics.force_mean),
                     e.map_or("—".into(), |e| format!("{:.0}", e.stiffness)),
                     e.map_or("—".into(), |e| sci(e.damping)),
                 ]);
@@ -316,7 +316,7 @@ fn main() {
                     format!("{:.4}", h.transfer().phase()),
                     format!("{:.4e}", h.a_mean),
                     format!("{:.3e}", h.a_amp),
-                    format!("{:.5}", h.force_mean),
+                    format!("{:.5}", h.harmonics.force_mean),
                     String::new(),
                     String::new(),
                 ]),

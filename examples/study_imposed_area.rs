@@ -89,9 +89,9 @@ fn worst_case(doc: &mut String) {
                                 worst[i] = (f64::NAN, format!("failed: n {n} f {f} a_m {a_m:e}"));
                                 continue;
                             };
-                            let e = (c.force_mean / r.force_mean - 1.0).abs();
-                            let ed = ((c.delta_mean - r.delta_mean).abs()
-                                + (c.delta_amp - r.delta_amp).abs())
+                            let e = (c.harmonics.force_mean / r.harmonics.force_mean - 1.0).abs();
+                            let ed = ((c.harmonics.delta_mean - r.harmonics.delta_mean).abs()
+                                + (c.harmonics.delta_amp - r.harmonics.delta_amp).abs())
                                 / dscale;
                             if e > worst[i].0 {
                                 worst[i] = (
@@ -162,14 +162,14 @@ fn convergence_table(doc: &mut String) {
             let mut row = vec![
                 format!("{n}"),
                 format!("{a_m:.7e}"),
-                sci((r.force_mean / r2.force_mean - 1.0).abs()),
+                sci((r.harmonics.force_mean / r2.harmonics.force_mean - 1.0).abs()),
             ];
             for rule in &rules {
                 row.push(match cycle_with(&M, &law, omega, a_m, a_amp, rule) {
                     Ok(c) => format!(
                         "{} / {}",
-                        sci((c.force_mean / r.force_mean - 1.0).abs()),
-                        sci((c.delta_amp / r.delta_amp - 1.0).abs())
+                        sci((c.harmonics.force_mean / r.harmonics.force_mean - 1.0).abs()),
+                        sci((c.harmonics.delta_amp / r.harmonics.delta_amp - 1.0).abs())
                     ),
                     Err(e) => format!("failed: {e}"),
                 });
@@ -222,7 +222,7 @@ fn pull_off_study(args: &Args, doc: &mut String) {
         for j in 0..=nscan {
             let a = -a_amp + (hi + a_amp) * j as f64 / nscan as f64;
             if let Ok(c) = cycle(&M, &law, omega, a, a_amp) {
-                best = best.min(c.force_mean);
+                best = best.min(c.harmonics.force_mean);
             }
         }
         let rel = (best - p.force) / p.force.abs();
@@ -231,8 +231,8 @@ fn pull_off_study(args: &Args, doc: &mut String) {
         if a_amp > 0.0 {
             am_lo = am_lo.min(p.cycle.a_mean);
             am_hi = am_hi.max(p.cycle.a_mean);
-            dm_lo = dm_lo.min(p.cycle.delta_mean);
-            dm_hi = dm_hi.max(p.cycle.delta_mean);
+            dm_lo = dm_lo.min(p.cycle.harmonics.delta_mean);
+            dm_hi = dm_hi.max(p.cycle.harmonics.delta_mean);
         }
         csv.row([
             format!("{f}"),
@@ -241,8 +241,8 @@ fn pull_off_study(args: &Args, doc: &mut String) {
             format!("{:e}", p.cycle.a_mean),
             format!("{:e}", p.force),
             format!("{}", p.amplification),
-            format!("{:e}", p.cycle.delta_mean),
-            format!("{:e}", p.cycle.delta_amp),
+            format!("{:e}", p.cycle.harmonics.delta_mean),
+            format!("{:e}", p.cycle.harmonics.delta_amp),
             p.local_minima.len().to_string(),
             format!("{best:e}"),
             format!("{rel:e}"),
@@ -369,7 +369,7 @@ fn multiple_minima(doc: &mut String) {
                         let a = -a_amp + (hi + a_amp) * j as f64 / nscan as f64;
                         cycle(&M, &law, omega, a, a_amp)
                             .ok()
-                            .map(|c| (a, c.force_mean))
+                            .map(|c| (a, c.harmonics.force_mean))
                     })
                     .collect();
                 let mins: Vec<(f64, f64)> = (1..vals.len().saturating_sub(1))

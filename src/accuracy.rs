@@ -1044,7 +1044,11 @@ pub fn quadrature_study(node_counts: &[usize], repeats: usize) -> QuadratureStud
             let r2 = imposed_area::cycle_with(&m, &law, om, a_m, a_amp, &reference2).ok()?;
             let a_top = a_m + a_amp;
             let dscale = a_top * a_top / m.r + jkr::equilibrium_edge_opening(&m, a_top, m.w0);
-            Some((r, (r2.force_mean / r.force_mean - 1.0).abs(), dscale))
+            Some((
+                r,
+                (r2.harmonics.force_mean / r.harmonics.force_mean - 1.0).abs(),
+                dscale,
+            ))
         })
         .collect();
     let reference_uncertainty = refs.iter().flatten().map(|x| x.1).fold(0.0, f64::max);
@@ -1066,14 +1070,15 @@ pub fn quadrature_study(node_counts: &[usize], repeats: usize) -> QuadratureStud
                     times.push(t.elapsed().as_secs_f64());
                 }
                 let Some(c) = c else { continue };
-                let e = rel(c.force_mean, r.force_mean, 1e-300);
+                let e = rel(c.harmonics.force_mean, r.harmonics.force_mean, 1e-300);
                 if e > worst.0 {
                     worst = (
                         e,
                         format!("n {n}, f {f} Hz, a_A {a_amp:e} m, a_m {a_m:e} m"),
                     );
                 }
-                let ed = ((c.delta_mean - r.delta_mean).abs() + (c.delta_amp - r.delta_amp).abs())
+                let ed = ((c.harmonics.delta_mean - r.harmonics.delta_mean).abs()
+                    + (c.harmonics.delta_amp - r.harmonics.delta_amp).abs())
                     / dscale;
                 worst_d = worst_d.max(ed);
             }

@@ -511,11 +511,11 @@ impl CycleReport {
             "a_mean": c.a_mean,
             "a_mean_imposed": c.a_mean_imposed,
             "a_amp": c.a_amp,
-            "delta_mean": c.delta_mean,
-            "delta_amp": c.delta_amp,
-            "delta_sin": c.delta_sin,
-            "delta_cos": c.delta_cos,
-            "force_mean": c.force_mean,
+            "delta_mean": c.harmonics.delta_mean,
+            "delta_amp": c.harmonics.delta_amp,
+            "delta_sin": c.harmonics.delta_sin,
+            "delta_cos": c.harmonics.delta_cos,
+            "force_mean": c.harmonics.force_mean,
             "contact_fraction": c.contact_fraction,
             "notes": self.notes,
         })
@@ -558,11 +558,11 @@ pub fn cycle(
         &[freq, a_mean, a_amp],
         &[
             ("a_m", c.a_mean),
-            ("delta_m", c.delta_mean),
-            ("delta_s", c.delta_sin),
-            ("delta_c", c.delta_cos),
-            ("delta_A", c.delta_amp),
-            ("F_m", c.force_mean),
+            ("delta_m", c.harmonics.delta_mean),
+            ("delta_s", c.harmonics.delta_sin),
+            ("delta_c", c.harmonics.delta_cos),
+            ("delta_A", c.harmonics.delta_amp),
+            ("F_m", c.harmonics.force_mean),
             ("contact fraction", c.contact_fraction),
         ],
     )?;
@@ -682,8 +682,8 @@ pub fn pull_off(
             let r = PullOffReport {
                 method: "exact (imposed-area method, Sec. 2.1)",
                 a_mean: p.cycle.a_mean,
-                delta_mean: p.cycle.delta_mean,
-                delta_amp: p.cycle.delta_amp,
+                delta_mean: p.cycle.harmonics.delta_mean,
+                delta_amp: p.cycle.harmonics.delta_amp,
                 force: p.force,
                 amplification: p.amplification,
                 notes,
@@ -849,6 +849,83 @@ impl Observer for InMemory<'_> {
     }
 }
 
+/// How a run is written into its folder: what `djkr run` takes from its flags (`--csv`,
+/// `--plot`, `--force`) and [`run`] from the scenario's `[output]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FolderOptions {
+    /// Also the CSV files.
+    pub csv: bool,
+    /// Also the run's figure (`run.png`, `run.svg`), drawn from `run.h5` once it is written.
+    pub plot: bool,
+    /// Overwrite files of the names the run publishes that djkr did not write.
+    pub force: bool,
+}
+
+impl FolderOptions {
+    /// As the scenario's `[output]` section asks (`force` off).
+    pub fn of(scn: &Scenario) -> Self {
+        Self {
+            csv: scn.output.csv,
+            plot: scn.output.plot,
+            force: false,
+        }
+    }
+}
+
+/// Open `dir` for a run of `scn`: the folder's lock and record, and every name the run will
+/// publish claimed before it starts (the figure's too with `o.plot`), so that a file of the
+/// user's under one of them stops the run before any work (unless `o.force`). The writer is the
+/// observer that streams the run into the folder; [`close_run_folder`] finishes it.
+pub fn open_run_folder(
+    scn: &Scenario,
+    dir: &Path,
+    o: FolderOptions,
+) -> Result<RunWriter, OutputError> {
+    let extra: &[&str] = if o.plot {
+        &crate::run_plot::RUN_PLOT_FILES
+    } else {
+        &[]
+    };
+    RunWriter::create_with(dir, scn, o.csv, extra, o.force)
+}
+
+/// What [`close_run_folder`] wrote.
+#[derive(Debug)]
+pub struct RunFolderFiles {
+    /// The run's files (summary, HDF5, CSV).
+    pub paths: OutputPaths,
+    /// The figure's files (empty without `plot`, or when drawing failed).
+    pub plots: Vec<PathBuf>,
+    /// Why the figure could not be drawn (the run's files are written all the same: the caller
+    /// decides whether that fails the run).
+    pub plot_error: Option<RunPlotError>,
+}
+
+/// Finish the run written by `writer` into `dir` (its `result` and how it ended), then draw its
+/// figure from the finished `run.h5` when `plot`.
+pub fn close_run_folder(
+    writer: RunWriter,
+    dir: &Path,
+    result: &RunResult,
+    ending: &Ending,
+    plot: bool,
+) -> Result<RunFolderFiles, OutputError> {
+    let paths = writer.finish_with(result, ending)?;
+    let (plots, plot_error) = if plot {
+        match crate::run_plot::plot_run_dir(dir) {
+            Ok((png, svg)) => (vec![png, svg], None),
+            Err(e) => (Vec::new(), Some(e)),
+        }
+    } else {
+        (Vec::new(), None)
+    };
+    Ok(RunFolderFiles {
+        paths,
+        plots,
+        plot_error,
+    })
+}
+
 /// Run `scn` and keep its samples, events and period records in memory; with `out`, also write
 /// the run folder `djkr run --out` writes (`run.h5`, `summary.json`, the CSV files and figure
 /// its `[output]` asks for), by the same writer. A run whose known samples would not fit in
@@ -859,15 +936,16 @@ impl Observer for InMemory<'_> {
 /// its run folder is published with its status.
 pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
     crate::memory::check_in_memory(scn)?;
-    let mut writer = match out {
-        Some(dir) => Some(
-            RunWriter::create(dir, scn, scn.output.csv).map_err(|error| ApiError::Output {
-                context: format!("out = {}", dir.display()),
-                error,
-            })?,
-        ),
-        None => None,
-    };
+    let mut writer =
+        match out {
+            Some(dir) => Some(open_run_folder(scn, dir, FolderOptions::of(scn)).map_err(
+                |error| ApiError::Output {
+                    context: format!("out = {}", dir.display()),
+                    error,
+                },
+            )?),
+            None => None,
+        };
     let mut obs = InMemory {
         series: TimeSeriesWriter::new(),
         cycles: cycles::cycle_table(&[]),
@@ -894,23 +972,24 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
     let samples = series.rows() as u64;
     let (summary, files, plots) = match (writer, out) {
         (Some(w), Some(dir)) => {
-            let paths = w
-                .finish_with(&result, &ending)
-                .map_err(|error| ApiError::Output {
-                    context: format!("writing results into {}", dir.display()),
-                    error,
-                })?;
-            let plots = if scn.output.plot {
-                let (png, svg) =
-                    crate::run_plot::plot_run_dir(dir).map_err(|error| ApiError::Plot {
-                        dir: dir.to_path_buf(),
+            let written =
+                close_run_folder(w, dir, &result, &ending, scn.output.plot).map_err(|error| {
+                    ApiError::Output {
+                        context: format!("writing results into {}", dir.display()),
                         error,
-                    })?;
-                vec![png, svg]
-            } else {
-                Vec::new()
-            };
-            (paths.summary_text.clone(), Some(paths), plots)
+                    }
+                })?;
+            if let Some(error) = written.plot_error {
+                return Err(ApiError::Plot {
+                    dir: dir.to_path_buf(),
+                    error,
+                });
+            }
+            (
+                written.paths.summary_text.clone(),
+                Some(written.paths),
+                written.plots,
+            )
         }
         _ => {
             let text = summary_json(

@@ -165,8 +165,8 @@ pub fn fig3a(
                 let a_m = 0.1e-3 + (4e-3 - 0.1e-3) * i as f64 / (n - 1) as f64;
                 let cyc = imposed_area::cycle(m, law, omega, a_m, a_amp)?;
                 c.a_mean.push(cyc.a_mean);
-                c.delta_mean.push(cyc.delta_mean);
-                c.force_mean.push(cyc.force_mean);
+                c.delta_mean.push(cyc.harmonics.delta_mean);
+                c.force_mean.push(cyc.harmonics.force_mean);
                 c.approx_delta_mean
                     .push(closed_form::mean_indentation(m, a_m, w_eff));
                 c.approx_force_mean
@@ -346,13 +346,13 @@ pub fn figs4to8_table(rows: &[TableRow]) -> Table {
             "exact_delta_mean",
             "m",
             "exact: mean indentation at pull-off",
-            |r| r.exact.cycle.delta_mean,
+            |r| r.exact.cycle.harmonics.delta_mean,
         ),
         col(
             "exact_delta_amp",
             "m",
             "exact: indentation amplitude at pull-off",
-            |r| r.exact.cycle.delta_amp,
+            |r| r.exact.cycle.harmonics.delta_amp,
         ),
         col("exact_force", "N", "exact: pull-off force", |r| {
             r.exact.force
@@ -562,7 +562,7 @@ fn figs4to8_figures(rows: &[TableRow], beta: f64) -> Vec<(&'static str, Figure)>
             "fig5",
             "Fig. 5: mean indentation at pull-off",
             "δ_m,po (µm)",
-            |r| (r.a_amp * 1e3, r.exact.cycle.delta_mean * 1e6),
+            |r| (r.a_amp * 1e3, r.exact.cycle.harmonics.delta_mean * 1e6),
             |r| (r.a_amp * 1e3, r.approx.delta_mean * 1e6),
             false,
         ),
@@ -570,7 +570,7 @@ fn figs4to8_figures(rows: &[TableRow], beta: f64) -> Vec<(&'static str, Figure)>
             "fig6",
             "Fig. 6: indentation amplitude at pull-off",
             "δ_A,po (µm)",
-            |r| (r.a_amp * 1e3, r.exact.cycle.delta_amp * 1e6),
+            |r| (r.a_amp * 1e3, r.exact.cycle.harmonics.delta_amp * 1e6),
             |r| (r.a_amp * 1e3, r.approx.delta_amp * 1e6),
             false,
         ),
@@ -588,8 +588,8 @@ fn figs4to8_figures(rows: &[TableRow], beta: f64) -> Vec<(&'static str, Figure)>
             "δ_A,po (µm)",
             |r| {
                 (
-                    r.exact.cycle.delta_mean * 1e6,
-                    r.exact.cycle.delta_amp * 1e6,
+                    r.exact.cycle.harmonics.delta_mean * 1e6,
+                    r.exact.cycle.harmonics.delta_amp * 1e6,
                 )
             },
             |r| (r.approx.delta_mean * 1e6, r.approx.delta_amp * 1e6),

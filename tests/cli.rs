@@ -1117,7 +1117,7 @@ fn run_files_spend_no_heap_collection_on_descriptions() {
             overhead <= 4096 * strings as u64 + 40_000 && overhead <= 300_000,
             "{compress}: {overhead} bytes are not dataset storage ({strings} string attributes)"
         );
-        let d = djkr::output::table::read_descriptions(&f).unwrap();
+        let d = djkr::output::hdf5_file::read_descriptions(&f).unwrap();
         for (path, _) in h5_datasets(&h5) {
             let ds = f.dataset(&path).unwrap();
             let attrs = ds.attrs().unwrap();

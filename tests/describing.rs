@@ -124,12 +124,12 @@ fn check_harmonics<L: AdhesionLaw>(name: &str, law: &L) {
         let b = brute_force(law, omega, a_m, a_a);
         let c = imposed_area::cycle(&M, law, omega, a_m, a_a).unwrap();
         let got = [
-            c.delta_mean,
-            c.delta_sin,
-            c.delta_cos,
-            c.force_mean,
-            c.force_sin,
-            c.force_cos,
+            c.harmonics.delta_mean,
+            c.harmonics.delta_sin,
+            c.harmonics.delta_cos,
+            c.harmonics.force_mean,
+            c.harmonics.force_sin,
+            c.harmonics.force_cos,
         ];
         // Means relative to themselves, harmonics relative to their amplitude.
         let scales = [
@@ -301,26 +301,26 @@ fn residuals_and_mean_force_identity_at_the_solution() {
         assert!(h.contact_fraction >= 1.0, "{tag}");
         // Recompute the three equations from the reported fields.
         let weight = s.mass * s.gravity;
-        let spring = s.stiffness * (h.delta_mean - h.x_k);
-        let r0 = h.force_mean - (weight - spring);
+        let spring = s.stiffness * (h.harmonics.delta_mean - h.x_k);
+        let r0 = h.harmonics.force_mean - (weight - spring);
         assert!(
-            r0.abs() <= 1e-10 * (h.force_mean.abs() + spring.abs() + weight),
+            r0.abs() <= 1e-10 * (h.harmonics.force_mean.abs() + spring.abs() + weight),
             "{tag}: {r0}"
         );
         let (a, d) = (s.stiffness - s.mass * omega * omega, s.damping * omega);
-        let (xs, xc) = (h.delta_sin - xb, h.delta_cos);
+        let (xs, xc) = (h.harmonics.delta_sin - xb, h.harmonics.delta_cos);
         let (r1, r2, scale) = match on {
             DampingOn::Sphere => (
-                h.force_sin + a * xs - d * xc,
-                h.force_cos + a * xc + d * xs,
-                h.force_sin.hypot(h.force_cos) + a.hypot(d) * xs.hypot(xc),
+                h.harmonics.force_sin + a * xs - d * xc,
+                h.harmonics.force_cos + a * xc + d * xs,
+                h.harmonics.force_sin.hypot(h.harmonics.force_cos) + a.hypot(d) * xs.hypot(xc),
             ),
             DampingOn::Contact => (
-                h.force_sin + a * xs - d * h.delta_cos,
-                h.force_cos + a * xc + d * h.delta_sin,
-                h.force_sin.hypot(h.force_cos)
+                h.harmonics.force_sin + a * xs - d * h.harmonics.delta_cos,
+                h.harmonics.force_cos + a * xc + d * h.harmonics.delta_sin,
+                h.harmonics.force_sin.hypot(h.harmonics.force_cos)
                     + a.abs() * xs.hypot(xc)
-                    + d * h.delta_sin.hypot(h.delta_cos),
+                    + d * h.harmonics.delta_sin.hypot(h.harmonics.delta_cos),
             ),
         };
         assert!(r1.hypot(r2) <= 1e-10 * scale, "{tag}: {r1} {r2} / {scale}");
@@ -332,18 +332,22 @@ fn residuals_and_mean_force_identity_at_the_solution() {
             brute_force_shifted(&cw, omega, h.a_mean, h.a_amp, h.phase)
         };
         let got = [
-            h.delta_mean,
-            h.delta_sin,
-            h.delta_cos,
-            h.force_mean,
-            h.force_sin,
-            h.force_cos,
+            h.harmonics.delta_mean,
+            h.harmonics.delta_sin,
+            h.harmonics.delta_cos,
+            h.harmonics.force_mean,
+            h.harmonics.force_sin,
+            h.harmonics.force_cos,
         ];
-        let dscale = h.delta_amp.max(1e-3 * h.delta_mean.abs());
+        let dscale = h
+            .harmonics
+            .delta_amp
+            .max(1e-3 * h.harmonics.delta_mean.abs());
         let fscale = h
+            .harmonics
             .force_sin
-            .hypot(h.force_cos)
-            .max(1e-3 * h.force_mean.abs());
+            .hypot(h.harmonics.force_cos)
+            .max(1e-3 * h.harmonics.force_mean.abs());
         for i in 0..6 {
             let sc = if i < 3 { dscale } else { fscale };
             assert!(
@@ -415,7 +419,7 @@ fn gent_schultz_hysteresis_is_positive_damping() {
             assert!(e.damping < prev, "{f} {aa}");
             prev = e.damping;
             let c = imposed_area::cycle(&M, &gs, omega, a0, aa).unwrap();
-            let w1 = PI * omega * e.damping * c.delta_amp * c.delta_amp;
+            let w1 = PI * omega * e.damping * c.harmonics.delta_amp * c.harmonics.delta_amp;
             let full = loop_area(&gs, omega, a0, aa);
             assert!(
                 full > 0.0 && w1 / full > 0.5 && w1 / full <= 1.0,
@@ -657,7 +661,7 @@ fn beyond_the_in_contact_range_is_an_error_not_nan() {
         w_anti,
         None,
     ) {
-        Ok(h) => assert!(h.delta_amp.is_finite() && h.residual.is_finite()),
+        Ok(h) => assert!(h.harmonics.delta_amp.is_finite() && h.residual.is_finite()),
         Err(e) => assert!(!format!("{e}").contains("NaN"), "{e}"),
     }
 }
@@ -707,7 +711,7 @@ fn from_a_bundled_scenario() {
     assert!(h.residual <= 1e-10 && h.contact_fraction >= 1.0);
     // Tiny amplitude: the mean force is the preload, the transfer eq. (37)'s (GS: pinned line).
     let t = setup.solve(base.0, 1e-10, None).unwrap();
-    assert!((t.force_mean - p).abs() < 1e-9 * p);
+    assert!((t.harmonics.force_mean - p).abs() < 1e-9 * p);
     let kc = jkr::contact_stiffness(&sc.rig.material, st.a);
     let lin = transfer::linear(&setup.rig, kc, 2.0 * PI * base.0);
     assert!(

@@ -65,8 +65,8 @@ fn figs4_to_8_table_against_jkr_and_the_papers_claims() {
             );
             assert!((r.exact.cycle.a_mean / r.approx.a_mean - 1.0).abs() < 0.05);
         }
-        assert!(r.exact.cycle.delta_mean < 0.0);
-        assert!(r.exact.cycle.delta_mean.abs() < 0.5 * r.exact.cycle.delta_amp);
+        assert!(r.exact.cycle.harmonics.delta_mean < 0.0);
+        assert!(r.exact.cycle.harmonics.delta_mean.abs() < 0.5 * r.exact.cycle.harmonics.delta_amp);
         if r.a_amp >= 0.25e-3 {
             assert!(
                 (1.5e-3..3e-3).contains(&r.exact.cycle.a_mean),

@@ -85,7 +85,7 @@ fn read(dir: &Path) -> Read {
     let i64s = |n: &str| f.dataset(n).unwrap().read_i64().unwrap();
     // Every new dataset carries units and a description (its row in /descriptions), as the
     // others do.
-    let described = djkr::output::table::read_descriptions(&f).unwrap();
+    let described = djkr::output::hdf5_file::read_descriptions(&f).unwrap();
     for name in ["segment", "gaps/t_start", "gaps/t_end", "gaps/periods"] {
         let attrs = f.dataset(name).unwrap().attrs().unwrap();
         assert!(

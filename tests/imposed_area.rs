@@ -32,9 +32,14 @@ fn zero_amplitude_is_classical_jkr() {
     let law = GentSchultz::PAPER;
     for &a in &[0.2e-3, 0.6806e-3, 1.5e-3] {
         let c = cycle(&M, &law, 2.0 * PI * 400.0, a, 0.0).unwrap();
-        assert!(rel(c.delta_mean, jkr::equilibrium_indentation(&M, a, M.w0)) < 1e-12);
-        assert!(rel(c.force_mean, jkr::equilibrium_force(&M, a, M.w0)) < 1e-12);
-        assert_eq!(c.delta_amp, 0.0);
+        assert!(
+            rel(
+                c.harmonics.delta_mean,
+                jkr::equilibrium_indentation(&M, a, M.w0)
+            ) < 1e-12
+        );
+        assert!(rel(c.harmonics.force_mean, jkr::equilibrium_force(&M, a, M.w0)) < 1e-12);
+        assert_eq!(c.harmonics.delta_amp, 0.0);
         assert!(rel(c.a_mean, a) < 1e-15);
     }
     let p = pull_off(&M, &law, 2.0 * PI * 400.0, 0.0).unwrap();
@@ -61,14 +66,16 @@ fn small_amplitude_tends_to_classical_jkr() {
     for &a_a in &[1e-8, 1e-10, 1e-12, 1e-14, 1e-16] {
         let c = cycle(&M, &law, omega, a_m, a_a).unwrap();
         let eps = (a_a * omega / law.v0).powf(law.n);
-        let err = rel(c.force_mean, f_eq);
+        let err = rel(c.harmonics.force_mean, f_eq);
         assert!(
             err <= eps * eps + 10.0 * a_a / a_m,
             "a_A {a_a}: {err} vs eps {eps}"
         );
-        assert!(rel(c.delta_mean, d_eq) <= (eps * eps + 10.0 * a_a / a_m) * u / d_eq.abs());
         assert!(
-            c.delta_amp <= eps * u + 3.0 * a_m * a_a / M.r,
+            rel(c.harmonics.delta_mean, d_eq) <= (eps * eps + 10.0 * a_a / a_m) * u / d_eq.abs()
+        );
+        assert!(
+            c.harmonics.delta_amp <= eps * u + 3.0 * a_m * a_a / M.r,
             "a_A {a_a}: {c:?}"
         );
         assert!(err < last);
@@ -127,23 +134,23 @@ fn folded_cycle_matches_brute_force_in_theta() {
             let dscale =
                 jkr::equilibrium_edge_opening(&M, a_m + a_a, law.work_of_adhesion(-a_a * omega));
             assert!(
-                (c.delta_mean - b[0]).abs() < 1e-10 * dscale,
+                (c.harmonics.delta_mean - b[0]).abs() < 1e-10 * dscale,
                 "n {n} a_m {a_m}: {} vs {}",
-                c.delta_mean,
+                c.harmonics.delta_mean,
                 b[0]
             );
             assert!(
-                (c.delta_sin - b[1]).abs() < 1e-10 * dscale,
+                (c.harmonics.delta_sin - b[1]).abs() < 1e-10 * dscale,
                 "n {n} a_m {a_m}"
             );
             assert!(
-                (c.delta_cos - b[2]).abs() < 1e-10 * dscale,
+                (c.harmonics.delta_cos - b[2]).abs() < 1e-10 * dscale,
                 "n {n} a_m {a_m}"
             );
             assert!(
-                rel(c.force_mean, b[3]) < 1e-10,
+                rel(c.harmonics.force_mean, b[3]) < 1e-10,
                 "n {n} a_m {a_m}: {} vs {}",
-                c.force_mean,
+                c.harmonics.force_mean,
                 b[3]
             );
         }
@@ -169,21 +176,25 @@ fn constant_w_against_closed_forms_and_uniform_average() {
         ds += jkr::equilibrium_edge_opening(&M, a, w) * th.sin();
     }
     let (f, d, ds) = (f / n as f64, d / n as f64, 2.0 * ds / n as f64);
-    assert!(rel(c.force_mean, f) < 1e-12, "{} vs {f}", c.force_mean);
+    assert!(
+        rel(c.harmonics.force_mean, f) < 1e-12,
+        "{} vs {f}",
+        c.harmonics.force_mean
+    );
     let d_mean = (a_m * a_m + 0.5 * a_a * a_a) / M.r - d;
     assert!(
-        (c.delta_mean - d_mean).abs() < 1e-12 * d,
+        (c.harmonics.delta_mean - d_mean).abs() < 1e-12 * d,
         "{} vs {d_mean}",
-        c.delta_mean
+        c.harmonics.delta_mean
     );
     let d_sin = 2.0 * a_m * a_a / M.r - ds;
-    assert!((c.delta_sin - d_sin).abs() < 1e-12 * d);
-    assert!(c.delta_cos.abs() < 1e-13 * d);
+    assert!((c.harmonics.delta_sin - d_sin).abs() < 1e-12 * d);
+    assert!(c.harmonics.delta_cos.abs() < 1e-13 * d);
     // Truncated, constant w: the brute force in θ (graded rule, no folding).
     let c = cycle(&M, &law, 2.0 * PI * 300.0, 0.2e-3, 0.7e-3).unwrap();
     let b = brute_force_in_theta(&law, 2.0 * PI * 300.0, 0.2e-3, 0.7e-3);
-    assert!(rel(c.force_mean, b[3]) < 1e-11);
-    assert!(c.delta_cos.abs() < 1e-13 * d);
+    assert!(rel(c.harmonics.force_mean, b[3]) < 1e-11);
+    assert!(c.harmonics.delta_cos.abs() < 1e-13 * d);
 }
 
 fn reference_cycle<L: AdhesionLaw>(law: &L, omega: f64, a_m: f64, a_a: f64) -> Cycle {
@@ -199,7 +210,7 @@ fn reference_rule_is_converged() {
             let omega = 2.0 * PI * 400.0;
             let r = reference_cycle(&law, omega, a_m, 0.5e-3);
             let r2 = cycle_with(&M, &law, omega, a_m, 0.5e-3, &fine).unwrap();
-            assert!(rel(r.force_mean, r2.force_mean) < 1e-14);
+            assert!(rel(r.harmonics.force_mean, r2.harmonics.force_mean) < 1e-14);
         }
     }
 }
@@ -215,14 +226,14 @@ fn default_rule_reaches_1e9_with_few_evaluations() {
             let r = reference_cycle(&law, omega, a_m, 0.5e-3);
             let c = cycle(&M, &law, omega, a_m, 0.5e-3).unwrap();
             assert!(c.evaluations <= 400, "{}", c.evaluations);
-            let e = rel(c.force_mean, r.force_mean);
+            let e = rel(c.harmonics.force_mean, r.harmonics.force_mean);
             assert!(e < 1e-9, "n {n} a_m {a_m}: error {e:e}");
             // The error decreases with the number of nodes (down to the rounding floor).
             let errs: Vec<f64> = sizes
                 .iter()
                 .map(|&k| {
                     let c = cycle_with(&M, &law, omega, a_m, 0.5e-3, &QuadratureRule::tanh_sinh(k));
-                    rel(c.unwrap().force_mean, r.force_mean)
+                    rel(c.unwrap().harmonics.force_mean, r.harmonics.force_mean)
                 })
                 .collect();
             for w in errs.windows(2) {
@@ -256,12 +267,15 @@ fn tabulated_law_kinks_split_restores_accuracy() {
         let r = cycle_with_kinks(&M, &law, omega, a_m, 0.5e-3, &reference_rule(), &speeds).unwrap();
         let split = cycle_with_kinks(&M, &law, omega, a_m, 0.5e-3, default, &speeds).unwrap();
         let plain = cycle(&M, &law, omega, a_m, 0.5e-3).unwrap();
-        assert!(rel(split.force_mean, r.force_mean) < 1e-9, "{a_m}");
-        let e_plain = rel(plain.force_mean, r.force_mean);
+        assert!(
+            rel(split.harmonics.force_mean, r.harmonics.force_mean) < 1e-9,
+            "{a_m}"
+        );
+        let e_plain = rel(plain.harmonics.force_mean, r.harmonics.force_mean);
         assert!(e_plain > 1e-7 && e_plain < 1e-3, "{e_plain}");
         // The table follows the law it samples to within its interpolation error.
         let g = cycle(&M, &gs, omega, a_m, 0.5e-3).unwrap();
-        assert!(rel(split.force_mean, g.force_mean) < 0.05);
+        assert!(rel(split.harmonics.force_mean, g.harmonics.force_mean) < 0.05);
     }
     // Splitting a smooth law at arbitrary speeds changes nothing beyond rounding.
     let a = cycle(&M, &gs, omega, 2e-3, 0.5e-3).unwrap();
@@ -275,7 +289,7 @@ fn tabulated_law_kinks_split_restores_accuracy() {
         &[0.1, -0.7, 5.0, 1.2566],
     )
     .unwrap();
-    assert!(rel(a.force_mean, b.force_mean) < 1e-11);
+    assert!(rel(a.harmonics.force_mean, b.harmonics.force_mean) < 1e-11);
     assert!(b.evaluations > a.evaluations);
     assert!(cycle_with_kinks(&M, &gs, omega, 2e-3, 0.5e-3, default, &[f64::NAN]).is_err());
 }
@@ -292,7 +306,7 @@ fn dense_scan<L: AdhesionLaw>(
     let mut best = (0.0, f64::INFINITY);
     for j in 0..=n {
         let a = -a_a + h * j as f64;
-        let f = cycle(&M, law, omega, a, a_a).unwrap().force_mean;
+        let f = cycle(&M, law, omega, a, a_a).unwrap().harmonics.force_mean;
         if f < best.1 {
             best = (a, f);
         }
@@ -334,6 +348,7 @@ fn pull_off_minimum_is_certified_by_dense_scan() {
         for s in [-1.0, 1.0] {
             let g = cycle(&M, &law, omega, a + s * 1e-3 * h, a_a)
                 .unwrap()
+                .harmonics
                 .force_mean;
             assert!(g > p.force);
         }
@@ -370,7 +385,10 @@ fn paper_pull_off_facts() {
                 assert!((1.5e-3..2.7e-3).contains(&p.cycle.a_mean), "{p:?}");
             }
             // Fig. 5: δ_m at pull-off is negative and small (well below δ_A, Fig. 6).
-            assert!(p.cycle.delta_mean < 0.0 && p.cycle.delta_mean > -0.3 * p.cycle.delta_amp);
+            assert!(
+                p.cycle.harmonics.delta_mean < 0.0
+                    && p.cycle.harmonics.delta_mean > -0.3 * p.cycle.harmonics.delta_amp
+            );
             // Contact is kept through the cycle at pull-off ("loss of contact ... outside the
             // range observed", Sec. 2.1).
             assert!(p.cycle.contact_fraction == 1.0);

@@ -302,7 +302,7 @@ fn check_with_hdf5_pure(n: usize) {
     }
     // Every dataset and group has its row in /descriptions; a period record is defined, not
     // named (it used to repeat its name: `a_cos` → 'a_cos').
-    let d = djkr::output::table::read_descriptions(&f).unwrap();
+    let d = djkr::output::hdf5_file::read_descriptions(&f).unwrap();
     for name in f.root().datasets().unwrap() {
         assert!(
             d.get(&format!("/{name}")).is_some_and(|t| !t.is_empty()),
@@ -1260,4 +1260,27 @@ fn a_streamed_simulation_holds_the_samples_built_in_memory() {
         let written = std::fs::read_to_string(dir.path().join(name)).unwrap();
         assert!(written == table.to_csv(), "{name} differs");
     }
+}
+
+/// `djkr run` and `api::run` open their folder through the same step
+/// (`api::open_run_folder`): a scenario whose `[output]` asks for the figure claims `run.png`
+/// and `run.svg` before the run starts, so a file of the user's under one of those names stops
+/// the run at once, before any result is written, and is left as it was.
+#[test]
+fn api_run_claims_the_figure_before_the_run_like_the_command_line() {
+    let text = std::fs::read_to_string("scenarios/quasi-static-jkr.toml").unwrap()
+        + "\n[output]\nplot = true\n";
+    let scn = parse_scenario(&text, "scenarios/quasi-static-jkr.toml", None).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let mine = dir.path().join("run.png");
+    std::fs::write(&mine, b"the user's own picture").unwrap();
+    let err = djkr::api::run(&scn, Some(dir.path())).unwrap_err();
+    assert!(
+        matches!(err, djkr::api::ApiError::Output { .. }),
+        "expected the folder to refuse before the run: {err}"
+    );
+    assert!(err.to_string().contains("run.png"), "{err}");
+    assert_eq!(std::fs::read(&mine).unwrap(), b"the user's own picture");
+    assert!(!dir.path().join("summary.json").exists());
+    assert!(!dir.path().join("run.h5").exists());
 }

@@ -304,7 +304,7 @@ fn harmonic_balance_peak_of_a_folded_curve_is_in_its_data() {
     for f in sweep::frequencies(300.0, 500.0, 101).into_iter().rev() {
         if let Ok(h) = lin.setup.solve(f, p.amplitude, guess) {
             guess = Some(h.guess());
-            curve.push((f, h.delta_amp / p.amplitude));
+            curve.push((f, h.harmonics.delta_amp / p.amplitude));
         }
     }
     curve.reverse();

@@ -65,7 +65,7 @@
 use crate::adhesion::AdhesionLaw;
 use crate::dynamics::protocol::Initial;
 use crate::error::ParamError;
-use crate::imposed_area::{self, Cycle};
+use crate::imposed_area::{self, Cycle, Harmonics};
 use crate::jkr;
 use crate::material::Material;
 use crate::rig::{DampingOn, Holder, Rig, StaticError};
@@ -98,20 +98,11 @@ pub struct HarmonicBalance {
     pub a_amp: f64,
     /// Phase ψ of the contact radius relative to the base motion (rad).
     pub phase: f64,
-    /// Mean indentation δ_m = ⟨x_s⟩ (m).
-    pub delta_mean: f64,
-    /// δ_s: coefficient of sin ωt in δ (m).
-    pub delta_sin: f64,
-    /// δ_c: coefficient of cos ωt in δ (m).
-    pub delta_cos: f64,
-    /// |δ1| = hypot(δ_s, δ_c) (m).
-    pub delta_amp: f64,
-    /// Mean contact force F_m (N).
-    pub force_mean: f64,
-    /// F_s: coefficient of sin ωt in F (N).
-    pub force_sin: f64,
-    /// F_c: coefficient of cos ωt in F (N).
-    pub force_cos: f64,
+    /// Mean δ_m = ⟨x_s⟩ and the coefficients of sin ωt and cos ωt in δ, and the same of the
+    /// contact force F (time origin of the base motion; their fields sit at this level in
+    /// JSON).
+    #[serde(flatten)]
+    pub harmonics: Harmonics,
     /// Fraction of the period in contact (< 1: the solution is outside the method's validity).
     pub contact_fraction: f64,
     /// Spring end x_k used (m).
@@ -134,8 +125,8 @@ impl HarmonicBalance {
     /// δ1 / X_b as a [`Transfer`], comparable with [`crate::transfer::linear`].
     pub fn transfer(&self) -> Transfer {
         Transfer {
-            sin: self.delta_sin / self.base_amplitude,
-            cos: self.delta_cos / self.base_amplitude,
+            sin: self.harmonics.delta_sin / self.base_amplitude,
+            cos: self.harmonics.delta_cos / self.base_amplitude,
         }
     }
 
@@ -152,10 +143,10 @@ impl HarmonicBalance {
     /// (N/m, N s/m); `None` at zero amplitude.
     pub fn effective_contact(&self) -> Option<EffectiveContact> {
         effective_from_phasors(
-            self.delta_sin,
-            self.delta_cos,
-            self.force_sin,
-            self.force_cos,
+            self.harmonics.delta_sin,
+            self.harmonics.delta_cos,
+            self.harmonics.force_sin,
+            self.harmonics.force_cos,
             self.omega,
         )
     }
@@ -268,15 +259,20 @@ pub fn effective_contact<L: AdhesionLaw + ?Sized>(
     a_amp: f64,
 ) -> Result<EffectiveContact, ParamError> {
     let c = imposed_area::cycle(m, law, omega, a_mean, a_amp)?;
-    effective_from_phasors(c.delta_sin, c.delta_cos, c.force_sin, c.force_cos, omega).ok_or_else(
-        || {
-            ParamError::new(
-                "a_amp",
-                a_amp,
-                "must give a nonzero indentation harmonic (a_A > 0)",
-            )
-        },
+    effective_from_phasors(
+        c.harmonics.delta_sin,
+        c.harmonics.delta_cos,
+        c.harmonics.force_sin,
+        c.harmonics.force_cos,
+        omega,
     )
+    .ok_or_else(|| {
+        ParamError::new(
+            "a_amp",
+            a_amp,
+            "must give a nonzero indentation harmonic (a_A > 0)",
+        )
+    })
 }
 
 /// Harmonic balance needs a rig whose indentation is not prescribed.
@@ -367,13 +363,19 @@ impl Balance<'_> {
         let a_amp = x[1].exp();
         let cycle =
             imposed_area::cycle(&self.rig.material, &self.rig.law, self.omega, x[0], a_amp).ok()?;
-        let d1 = rot(C::new(cycle.delta_sin, cycle.delta_cos), x[2]);
-        let f1 = rot(C::new(cycle.force_sin, cycle.force_cos), x[2]);
+        let d1 = rot(
+            C::new(cycle.harmonics.delta_sin, cycle.harmonics.delta_cos),
+            x[2],
+        );
+        let f1 = rot(
+            C::new(cycle.harmonics.force_sin, cycle.harmonics.force_cos),
+            x[2],
+        );
         let k = self.rig.spring_stiffness();
         let weight = self.rig.weight();
-        let spring = k * (cycle.delta_mean - self.x_k);
-        let r0 = cycle.force_mean + spring - weight;
-        let s0 = cycle.force_mean.abs() + spring.abs() + weight.abs();
+        let spring = k * (cycle.harmonics.delta_mean - self.x_k);
+        let r0 = cycle.harmonics.force_mean + spring - weight;
+        let s0 = cycle.harmonics.force_mean.abs() + spring.abs() + weight.abs();
         let (r1, s1) = self.harmonic(d1, f1);
         let rel0 = r0.abs() / s0.max(f64::MIN_POSITIVE);
         let rel = rel0.max(r1.norm() / s1.max(f64::MIN_POSITIVE));
@@ -520,7 +522,7 @@ impl Balance<'_> {
         let amp = |la: f64| {
             imposed_area::cycle(&self.rig.material, &self.rig.law, self.omega, a_m, la.exp())
                 .ok()
-                .filter(|c| c.delta_amp > 0.0 && c.delta_amp.is_finite())
+                .filter(|c| c.harmonics.delta_amp > 0.0 && c.harmonics.delta_amp.is_finite())
         };
         let lt = target.ln();
         // Hertz-like start: δ_A ≈ 2 a_m a_A / R.
@@ -528,7 +530,7 @@ impl Balance<'_> {
             .min(0.5 * a_m)
             .ln();
         let mut c = amp(x)?;
-        let mut y = c.delta_amp.ln();
+        let mut y = c.harmonics.delta_amp.ln();
         let mut p = 1.0;
         for _ in 0..40 {
             if (y - lt).abs() < 1e-4 {
@@ -537,7 +539,7 @@ impl Balance<'_> {
             let step = ((lt - y) / p).clamp(-5.0, 5.0);
             let xn = (x + step).min((0.95 * a_m).ln());
             let cn = amp(xn)?;
-            let yn = cn.delta_amp.ln();
+            let yn = cn.harmonics.delta_amp.ln();
             if (xn - x).abs() > 1e-12 {
                 p = ((yn - y) / (xn - x)).clamp(0.05, 3.0);
             }
@@ -558,10 +560,10 @@ impl Balance<'_> {
         for _ in 0..4 {
             let d1 = self.linear_d1(kappa)?;
             let (a_amp, c) = self.match_amplitude(a0, d1.norm())?;
-            let d_theta = C::new(c.delta_sin, c.delta_cos);
+            let d_theta = C::new(c.harmonics.delta_sin, c.harmonics.delta_cos);
             let psi = d1.im.atan2(d1.re) - d_theta.im.atan2(d_theta.re);
             x = Some([a0, a_amp.ln(), psi]);
-            let k_new = C::new(c.force_sin, c.force_cos) / d_theta;
+            let k_new = C::new(c.harmonics.force_sin, c.harmonics.force_cos) / d_theta;
             if !(k_new.re.is_finite() && k_new.im.is_finite()) {
                 break;
             }
@@ -576,13 +578,15 @@ impl Balance<'_> {
             a_mean: x[0],
             a_amp: x[1].exp(),
             phase: psi,
-            delta_mean: e.cycle.delta_mean,
-            delta_sin: e.d1.re,
-            delta_cos: e.d1.im,
-            delta_amp: e.d1.norm(),
-            force_mean: e.cycle.force_mean,
-            force_sin: e.f1.re,
-            force_cos: e.f1.im,
+            harmonics: Harmonics {
+                delta_mean: e.cycle.harmonics.delta_mean,
+                delta_sin: e.d1.re,
+                delta_cos: e.d1.im,
+                delta_amp: e.d1.norm(),
+                force_mean: e.cycle.harmonics.force_mean,
+                force_sin: e.f1.re,
+                force_cos: e.f1.im,
+            },
             contact_fraction: e.cycle.contact_fraction,
             x_k: self.x_k,
             base_amplitude: self.xb,
@@ -622,13 +626,11 @@ fn static_solution(st: &StaticState, xb: f64, omega: f64) -> HarmonicBalance {
         a_mean: st.a,
         a_amp: 0.0,
         phase: 0.0,
-        delta_mean: st.delta,
-        delta_sin: 0.0,
-        delta_cos: 0.0,
-        delta_amp: 0.0,
-        force_mean: st.force,
-        force_sin: 0.0,
-        force_cos: 0.0,
+        harmonics: Harmonics {
+            delta_mean: st.delta,
+            force_mean: st.force,
+            ..Harmonics::default()
+        },
         contact_fraction: 1.0,
         x_k: st.x_k,
         base_amplitude: xb,
@@ -882,7 +884,7 @@ pub fn at_contact_amplitude(
     let k = rig.spring_stiffness();
     let mean = |a_m: f64| -> Option<(f64, Cycle)> {
         let c = imposed_area::cycle(&rig.material, &rig.law, omega, a_m, a_amp).ok()?;
-        let r = c.force_mean + k * (c.delta_mean - st.x_k) - weight;
+        let r = c.harmonics.force_mean + k * (c.harmonics.delta_mean - st.x_k) - weight;
         r.is_finite().then_some((r, c))
     };
     let no_root = |why: &str| {
@@ -900,8 +902,9 @@ pub fn at_contact_amplitude(
         (hi, chi, rhi)
     };
     for _ in 0..200 {
-        let scale =
-            best.1.force_mean.abs() + weight.abs() + (k * (best.1.delta_mean - st.x_k)).abs();
+        let scale = best.1.harmonics.force_mean.abs()
+            + weight.abs()
+            + (k * (best.1.harmonics.delta_mean - st.x_k)).abs();
         if best.2.abs() <= 1e-14 * scale || (hi - lo) <= 1e-15 * hi.abs().max(a_amp) {
             break;
         }
@@ -1004,8 +1007,8 @@ fn bracket_mean_root(
 fn base_phasor(rig: &Rig, omega: f64, c: &Cycle) -> Result<C, DescribingError> {
     let a = rig.spring_stiffness() - rig.mass() * omega * omega;
     let d = rig.damping_coefficient() * omega;
-    let d1 = C::new(c.delta_sin, c.delta_cos);
-    let f1 = C::new(c.force_sin, c.force_cos);
+    let d1 = C::new(c.harmonics.delta_sin, c.harmonics.delta_cos);
+    let f1 = C::new(c.harmonics.force_sin, c.harmonics.force_cos);
     Ok(match rig.damping_on() {
         DampingOn::Sphere => {
             if a.hypot(d) <= 0.0 {

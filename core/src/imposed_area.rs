@@ -44,6 +44,29 @@ use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;
 
+/// The mean and first harmonic of the indentation δ and the contact force F over one period,
+/// δ(θ) ≈ δ_m + δ_s sin θ + δ_c cos θ and F likewise: the numbers every periodic solution of the
+/// contact reports, whether it comes from an imposed contact radius ([`Cycle`], θ the phase of
+/// a(θ)) or from harmonic balance ([`crate::describing::HarmonicBalance`], θ = ωt of the base
+/// motion). One type so that the two are compared and printed field by field.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
+pub struct Harmonics {
+    /// Mean indentation δ_m (m), with δ = 0 out of contact.
+    pub delta_mean: f64,
+    /// First harmonic sine coefficient δ_s = (1/π) ∫ δ sin θ dθ, eq. (26) (m).
+    pub delta_sin: f64,
+    /// First harmonic cosine coefficient δ_c = (1/π) ∫ δ cos θ dθ, eq. (25) (m).
+    pub delta_cos: f64,
+    /// First harmonic amplitude δ_A = |δ1| = hypot(δ_s, δ_c), eq. (27) (m).
+    pub delta_amp: f64,
+    /// Mean contact force F_m (N, positive compressive), with F = 0 out of contact.
+    pub force_mean: f64,
+    /// First harmonic sine coefficient of the force F_s = (1/π) ∫ F sin θ dθ (N).
+    pub force_sin: f64,
+    /// First harmonic cosine coefficient of the force F_c = (1/π) ∫ F cos θ dθ (N).
+    pub force_cos: f64,
+}
+
 /// Cycle averages of one imposed-area cycle (SI).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Cycle {
@@ -53,20 +76,9 @@ pub struct Cycle {
     pub a_amp: f64,
     /// Mean of the truncated radius max(a, 0) over the cycle, the paper's a posteriori a_m (m).
     pub a_mean: f64,
-    /// Mean indentation δ_m (m), with δ = 0 out of contact.
-    pub delta_mean: f64,
-    /// First harmonic sine coefficient δ_s, eq. (26) (m).
-    pub delta_sin: f64,
-    /// First harmonic cosine coefficient δ_c, eq. (25) (m).
-    pub delta_cos: f64,
-    /// First harmonic amplitude δ_A = hypot(δ_s, δ_c), eq. (27) (m).
-    pub delta_amp: f64,
-    /// Mean contact force F_m (N, positive compressive), with F = 0 out of contact.
-    pub force_mean: f64,
-    /// First harmonic sine coefficient of the force F_s = (1/π) ∫ F sin θ dθ (N).
-    pub force_sin: f64,
-    /// First harmonic cosine coefficient of the force F_c = (1/π) ∫ F cos θ dθ (N).
-    pub force_cos: f64,
+    /// Means and first harmonics of δ and F over θ (their fields sit at this level in JSON).
+    #[serde(flatten)]
+    pub harmonics: Harmonics,
     /// dF_m/da_m at fixed ω and a_A (N/m): zero at pull-off.
     pub force_slope: f64,
     /// Fraction of the period in contact (a > 0).
@@ -224,13 +236,7 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
         a_mean_imposed: a_m,
         a_amp: a_a,
         a_mean: 0.0,
-        delta_mean: 0.0,
-        delta_sin: 0.0,
-        delta_cos: 0.0,
-        delta_amp: 0.0,
-        force_mean: 0.0,
-        force_sin: 0.0,
-        force_cos: 0.0,
+        harmonics: Harmonics::default(),
         force_slope: 0.0,
         contact_fraction: 0.0,
         evaluations: 0,
@@ -293,14 +299,14 @@ fn cycle_pieces<L: AdhesionLaw + ?Sized>(
     let (sums, pieces) = integrate_pieces(rule, phi_end, speed, kink_speeds, &node);
     let inv2pi = 0.5 / PI;
     out.a_mean = (a_m * phi_end + a_a * sin_end) / PI;
-    out.delta_mean = sums[0] * inv2pi;
-    out.delta_sin = sums[1] / PI;
-    out.delta_cos = sums[2] / PI;
-    out.delta_amp = out.delta_sin.hypot(out.delta_cos);
-    out.force_mean = sums[3] * inv2pi;
+    out.harmonics.delta_mean = sums[0] * inv2pi;
+    out.harmonics.delta_sin = sums[1] / PI;
+    out.harmonics.delta_cos = sums[2] / PI;
+    out.harmonics.delta_amp = out.harmonics.delta_sin.hypot(out.harmonics.delta_cos);
+    out.harmonics.force_mean = sums[3] * inv2pi;
     out.force_slope = sums[4] * inv2pi;
-    out.force_sin = sums[5] / PI;
-    out.force_cos = sums[6] / PI;
+    out.harmonics.force_sin = sums[5] / PI;
+    out.harmonics.force_cos = sums[6] / PI;
     out.contact_fraction = phi_end / PI;
     out.evaluations = 2 * rule.len() * pieces;
     out
@@ -314,8 +320,8 @@ fn static_cycle<L: AdhesionLaw + ?Sized>(mut out: Cycle, m: &Material, law: &L, 
     let g = (g_coef * a_m).sqrt();
     let sw = w.sqrt();
     out.a_mean = a_m;
-    out.delta_mean = jkr::equilibrium_indentation(m, a_m, w);
-    out.force_mean = jkr::equilibrium_force(m, a_m, w);
+    out.harmonics.delta_mean = jkr::equilibrium_indentation(m, a_m, w);
+    out.harmonics.force_mean = jkr::equilibrium_force(m, a_m, w);
     out.force_slope = 3.0 * k * a_m * a_m / r - 2.25 * k * g * sw;
     out.contact_fraction = 1.0;
     out.evaluations = 1;
@@ -441,7 +447,7 @@ pub fn pull_off<L: AdhesionLaw + ?Sized + Sync>(
     for i in 1..SCAN_POINTS {
         let a1 = lo + span * i as f64 / (SCAN_POINTS - 1) as f64;
         let next = eval(a1);
-        if next.force_mean < best_grid.force_mean {
+        if next.harmonics.force_mean < best_grid.harmonics.force_mean {
             best_grid = next;
         }
         if prev.force_slope < 0.0 && next.force_slope >= 0.0 {
@@ -455,19 +461,21 @@ pub fn pull_off<L: AdhesionLaw + ?Sized + Sync>(
     if minima.is_empty() {
         minima.push(best_grid);
     }
-    let best =
-        minima.iter().copied().fold(
-            minima[0],
-            |b, c| if c.force_mean < b.force_mean { c } else { b },
-        );
+    let best = minima.iter().copied().fold(minima[0], |b, c| {
+        if c.harmonics.force_mean < b.harmonics.force_mean {
+            c
+        } else {
+            b
+        }
+    });
     let f0 = m.static_pull_off_force();
     Ok(PullOff {
         cycle: best,
-        force: best.force_mean,
-        amplification: best.force_mean / f0,
+        force: best.harmonics.force_mean,
+        amplification: best.harmonics.force_mean / f0,
         local_minima: minima
             .iter()
-            .map(|c| (c.a_mean_imposed, c.force_mean))
+            .map(|c| (c.a_mean_imposed, c.harmonics.force_mean))
             .collect(),
         global: certified,
     })
@@ -590,8 +598,14 @@ mod tests {
         ] {
             let c = cycle(&M, &law, omega, a_m, a_a).unwrap();
             let h = 1e-6 * (a_m.abs() + a_a);
-            let fp = cycle(&M, &law, omega, a_m + h, a_a).unwrap().force_mean;
-            let fm = cycle(&M, &law, omega, a_m - h, a_a).unwrap().force_mean;
+            let fp = cycle(&M, &law, omega, a_m + h, a_a)
+                .unwrap()
+                .harmonics
+                .force_mean;
+            let fm = cycle(&M, &law, omega, a_m - h, a_a)
+                .unwrap()
+                .harmonics
+                .force_mean;
             let fd = (fp - fm) / (2.0 * h);
             assert!(
                 (fd - c.force_slope).abs() <= 1e-6 * c.force_slope.abs().max(1.0),
@@ -642,6 +656,38 @@ mod tests {
     }
 
     #[test]
+    fn harmonics_are_flat_in_json_in_field_order() {
+        // The shared Harmonics type sits inside Cycle, flattened: the JSON a user reads keeps
+        // the keys and order it had when they were fields of Cycle itself.
+        let c = cycle(&M, &GentSchultz::PAPER, 100.0, 0.5e-3, 0.2e-3).unwrap();
+        let v = serde_json::to_value(c).unwrap();
+        let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+        let text = serde_json::to_string(&c).unwrap();
+        let mut in_text = keys.clone();
+        in_text.sort_by_key(|k| text.find(&format!("\"{k}\"")).unwrap());
+        assert_eq!(
+            in_text,
+            [
+                "a_mean_imposed",
+                "a_amp",
+                "a_mean",
+                "delta_mean",
+                "delta_sin",
+                "delta_cos",
+                "delta_amp",
+                "force_mean",
+                "force_sin",
+                "force_cos",
+                "force_slope",
+                "contact_fraction",
+                "evaluations"
+            ]
+        );
+        assert_eq!(v["delta_amp"].as_f64(), Some(c.harmonics.delta_amp));
+        assert_eq!(v["force_cos"].as_f64(), Some(c.harmonics.force_cos));
+    }
+
+    #[test]
     fn mean_truncated_radius_and_contact_fraction() {
         let law = GentSchultz::PAPER;
         let a_a = 1e-3;
@@ -686,9 +732,9 @@ mod tests {
         let c = cycle(&M, &law, 100.0, -1e-3, 1e-3).unwrap();
         // Exactly zero, not merely small.
         for v in [
-            c.force_mean,
-            c.delta_mean,
-            c.delta_amp,
+            c.harmonics.force_mean,
+            c.harmonics.delta_mean,
+            c.harmonics.delta_amp,
             c.contact_fraction,
             c.a_mean,
         ] {

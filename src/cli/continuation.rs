@@ -3,8 +3,9 @@
 //! fold curves in two parameters; writes `branch.csv`, `branch.h5`, `bifurcations.csv`,
 //! `sweep.csv`, `fold_curves.csv` and plots, prints a summary.
 
+use super::common::default_out;
 use super::common::{print_json, write_atomic, SetArgs};
-use super::steady::{default_out, progress_bar, stem};
+use super::steady::{progress_bar, stem};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::continuation::branch::{self, Branch, BranchPoint, PointKind};
@@ -12,12 +13,12 @@ use djkr::continuation::family::{Family, Parameter};
 use djkr::continuation::folds::{self, FoldCurve, FoldPointKind};
 use djkr::continuation::report::{self, ContinuationReport};
 use djkr::continuation::sweep::{self, SweepPoint};
-use djkr::output::table::{format_f64, format_sig, hdf5_tables, text_attr};
+use djkr::output::hdf5_file::{hdf5_tables, Attr};
+use djkr::output::table::{format_f64, format_sig};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::scenario::parse::ScenarioSource;
 use djkr::steady::Options;
 use djkr::units::parse_quantity;
-use hdf5_pure::AttrValue;
 use std::path::{Path, PathBuf};
 
 /// Flags of `djkr continue`.
@@ -184,7 +185,7 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
     let out = a
         .out
         .clone()
-        .unwrap_or_else(|| default_out(&a.file, "continue"));
+        .unwrap_or_else(|| default_out(&a.file, "-continue"));
     super::common::claim_out(&out, &["branch.png", "branch.svg"], a.force)?;
     let computed = compute(a, &flags, &problem, &set)?;
     let rep = write_outputs(a, &flags, &problem, &computed)?;
@@ -353,7 +354,7 @@ fn write_outputs(
     let out = a
         .out
         .clone()
-        .unwrap_or_else(|| default_out(&a.file, "continue"));
+        .unwrap_or_else(|| default_out(&a.file, "-continue"));
     let fold_tables = c
         .curves
         .as_ref()
@@ -458,17 +459,17 @@ fn write_tables(
     let attrs = [
         (
             "missing",
-            text_attr("NaN marks a value not produced (see `error`)"),
+            Attr::text("NaN marks a value not produced (see `error`)"),
         ),
-        ("source", text_attr(scenario_name)),
-        ("scenario", text_attr(source.text())),
-        ("parameter", text_attr(info.key)),
-        ("range_start", AttrValue::F64(b.range.0)),
-        ("range_stop", AttrValue::F64(b.range.1)),
-        ("rtol", AttrValue::F64(b.map.rtol)),
+        ("source", Attr::text(scenario_name)),
+        ("scenario", Attr::text(source.text())),
+        ("parameter", Attr::text(info.key)),
+        ("range_start", Attr::F64(b.range.0)),
+        ("range_stop", Attr::F64(b.range.1)),
+        ("rtol", Attr::F64(b.map.rtol)),
     ];
     let h5 = out.join("branch.h5");
-    let bytes = hdf5_tables(&attrs, &groups).map_err(|e| anyhow::anyhow!("HDF5: {e}"))?;
+    let bytes = hdf5_tables(&attrs, None, &groups).map_err(|e| anyhow::anyhow!("HDF5: {e}"))?;
     write_atomic(&h5, &bytes)?;
     files.push(h5);
     Ok(files)

@@ -32,14 +32,10 @@ pub fn plot(a: &PlotArgs) -> Result<()> {
         let manifest: Manifest = serde_json::from_str(&text).map_err(|e| {
             anyhow::anyhow!("{}: not a djkr sweep description: {e}", a.dir.display())
         })?;
-        folder::check_names(
-            &a.dir,
-            &djkr::sweep::plots::plot_file_names(&manifest),
-            a.force,
-        )?;
+        folder::check_names(&a.dir, &manifest.plot_file_names(), a.force)?;
         let rows = files::read_rows(&a.dir, &manifest)?;
         let points = djkr::sweep::stats::point_stats(&rows);
-        djkr::sweep::plots::sweep_plots(&a.dir, &manifest, &points, &rows)?
+        files::draw_plots(&a.dir, &manifest, &points, &rows)?
     } else {
         bail!(
             "{}: neither a run folder (run.h5) nor a sweep folder (sweep.json)",

@@ -2,22 +2,22 @@
 //! steady state), with the linear transfer and harmonic balance alongside; writes
 //! `resonance.csv`, `resonance.h5` and plots, prints a summary.
 
+use super::common::default_out;
 use super::common::{
     limits, load_scenario, positive_quantity, print_json, write_atomic, BudgetStopped,
     CommandBudget,
 };
-use super::steady::{default_out, progress_bar, range, stem, SteadyArgs};
+use super::steady::{progress_bar, range, stem, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use djkr::api;
-use djkr::output::table::{hdf5_tables, text_attr};
+use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::reports::steady::{self as report, ResonanceReport};
 use djkr::scenario::Scenario;
 use djkr::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
 use djkr::steady::{Options, Problem};
 use djkr::units::Dimension;
-use hdf5_pure::AttrValue;
 use std::path::{Path, PathBuf};
 
 /// Sweep direction(s).
@@ -98,7 +98,7 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     let out = a
         .out
         .clone()
-        .unwrap_or_else(|| default_out(&a.file, "resonance"));
+        .unwrap_or_else(|| default_out(&a.file, "-resonance"));
     let names = [
         "resonance.csv",
         "resonance.h5",
@@ -192,18 +192,18 @@ fn write_tables(
         })
         .collect();
     let attrs = [
-        ("missing", text_attr(report::MISSING)),
-        ("source", text_attr(&scn.source_name)),
-        ("scenario", text_attr(&scn.source_text)),
+        ("missing", Attr::text(report::MISSING)),
+        ("source", Attr::text(&scn.source_name)),
+        ("scenario", Attr::text(&scn.source_text)),
         (
             "base_amplitude",
-            AttrValue::F64(sweeps.first().map_or(f64::NAN, |s| s.amplitude)),
+            Attr::F64(sweeps.first().map_or(f64::NAN, |s| s.amplitude)),
         ),
-        ("tolerance", AttrValue::F64(opts.tol)),
-        ("rtol", AttrValue::F64(opts.rtol)),
+        ("tolerance", Attr::F64(opts.tol)),
+        ("rtol", Attr::F64(opts.rtol)),
     ];
     let h5_path = out.join("resonance.h5");
-    let bytes = hdf5_tables(&attrs, &groups).map_err(|e| anyhow::anyhow!("HDF5: {e}"))?;
+    let bytes = hdf5_tables(&attrs, None, &groups).map_err(|e| anyhow::anyhow!("HDF5: {e}"))?;
     write_atomic(&h5_path, &bytes)?;
     Ok(vec![csv_path, h5_path])
 }
@@ -252,7 +252,7 @@ fn figures(
         phase = phase.with_series(series(&|p| p.steady.as_ref().map(|s| s.transfer_phase())));
         if harmonic {
             let (x, y) = report::sorted_by_frequency(&sw.points, |p| {
-                p.harmonic.map(|h| h.delta_amp / amplitude)
+                p.harmonic.map(|h| h.harmonics.delta_amp / amplitude)
             });
             let name = format!("harmonic balance, {}", sw.direction.name());
             fig = fig.with_series(Series::new(name, x, y, Style::Dashed).with_color(3 + i));

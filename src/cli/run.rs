@@ -4,6 +4,7 @@ use super::common::{default_out, law_name, load_scenario, SetArgs};
 use super::signals;
 use anyhow::{Context, Result};
 use clap::Args;
+use djkr::api::{close_run_folder, open_run_folder, FolderOptions};
 use djkr::cancel::Cancel;
 use djkr::dynamics::{
     self, Ending, Event, Model, Observer, Outcome, Reason, RunResult, Sample, SimError, Status,
@@ -183,11 +184,13 @@ fn ending_of(outcome: &Outcome) -> Ending {
 pub fn run(a: &RunArgs) -> Result<()> {
     let mut scn = load_scenario(&a.file, &a.set)?;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.file, ""));
-    let plot = a.plot || scn.output.plot;
-    let figures = djkr::run_plot::RUN_PLOT_FILES;
-    let extra: &[&str] = if plot { &figures } else { &[] };
-    let mut writer = RunWriter::create_with(&out, &scn, a.csv || scn.output.csv, extra, a.force)
-        .with_context(|| format!("--out {}", out.display()))?;
+    let folder = FolderOptions {
+        csv: a.csv || scn.output.csv,
+        plot: a.plot || scn.output.plot,
+        force: a.force,
+    };
+    let mut writer =
+        open_run_folder(&scn, &out, folder).with_context(|| format!("--out {}", out.display()))?;
     signals::install(
         "stopping: the run keeps what it computed and writes its files (again to quit at once)",
     );
@@ -241,28 +244,21 @@ pub fn run(a: &RunArgs) -> Result<()> {
     if let Some(s) = &sens {
         writer.add_summary_section("sensitivity", serde_json::to_value(s)?);
     }
-    let paths = writer
-        .finish_with(&result, &ending)
+    let written = close_run_folder(writer, &out, &result, &ending, folder.plot)
         .with_context(|| format!("writing results into {}", out.display()))?;
-    let plots = if plot {
-        match djkr::run_plot::plot_run_dir(&out) {
-            Ok((png, svg)) => vec![png, svg],
-            Err(e) if ok => {
-                return Err(anyhow::Error::new(e)
-                    .context(format!("drawing the run's figure into {}", out.display())))
-            }
-            // The files of a run that ended early come first: its figure is a bonus.
-            Err(e) => {
-                eprintln!(
-                    "warning: drawing the run's figure into {}: {e}",
-                    out.display()
-                );
-                Vec::new()
-            }
+    let (paths, plots) = (written.paths, written.plots);
+    match written.plot_error {
+        Some(e) if ok => {
+            return Err(anyhow::Error::new(e)
+                .context(format!("drawing the run's figure into {}", out.display())))
         }
-    } else {
-        Vec::new()
-    };
+        // The files of a run that ended early come first: its figure is a bonus.
+        Some(e) => eprintln!(
+            "warning: drawing the run's figure into {}: {e}",
+            out.display()
+        ),
+        None => {}
+    }
     let warnings = checks::result_warnings(&scn, &result);
     for w in &warnings {
         eprintln!("warning: {w}");

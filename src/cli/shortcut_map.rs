@@ -2,20 +2,20 @@
 //! time-domain steady state over frequency × base amplitude; writes `shortcut-map.csv`,
 //! `shortcut-map.h5` and colour maps, prints a summary.
 
+use super::common::default_out;
 use super::common::{
     limits, load_scenario, print_json, write_atomic, BudgetStopped, CommandBudget,
 };
-use super::steady::{default_out, progress_bar, range, SteadyArgs};
+use super::steady::{progress_bar, range, SteadyArgs};
 use anyhow::{Context, Result};
 use clap::Args;
-use djkr::output::table::{hdf5_tables, text_attr};
+use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::plot::{self, Heatmap};
 use djkr::reports::steady::{self as report, ShortcutMapReport};
 use djkr::scenario::Scenario;
 use djkr::steady::map::{self as smap, MapCell, ShortcutMap};
 use djkr::steady::{sweep, Problem};
 use djkr::units::Dimension;
-use hdf5_pure::AttrValue;
 use std::path::{Path, PathBuf};
 
 /// Flags of `djkr shortcut-map`.
@@ -87,7 +87,7 @@ pub fn shortcut_map(a: &ShortcutMapArgs) -> Result<()> {
     let out = a
         .out
         .clone()
-        .unwrap_or_else(|| default_out(&a.file, "shortcut-map"));
+        .unwrap_or_else(|| default_out(&a.file, "-shortcut-map"));
     let maps = ["shortcut-map-force", "shortcut-map-delta"];
     let mut names = vec![
         "shortcut-map.csv".to_string(),
@@ -145,17 +145,14 @@ fn write_tables(out: &Path, scn: &Scenario, m: &ShortcutMap) -> Result<Vec<PathB
     let csv_path = out.join("shortcut-map.csv");
     table.save_csv(&csv_path)?;
     let attrs = [
-        ("missing", text_attr(report::MISSING)),
-        ("source", text_attr(&scn.source_name)),
-        ("scenario", text_attr(&scn.source_text)),
-        (
-            "frequency_count",
-            AttrValue::I64(m.frequencies.len() as i64),
-        ),
-        ("amplitude_count", AttrValue::I64(m.amplitudes.len() as i64)),
+        ("missing", Attr::text(report::MISSING)),
+        ("source", Attr::text(&scn.source_name)),
+        ("scenario", Attr::text(&scn.source_text)),
+        ("frequency_count", Attr::I64(m.frequencies.len() as i64)),
+        ("amplitude_count", Attr::I64(m.amplitudes.len() as i64)),
         (
             "layout",
-            text_attr(
+            Attr::text(
                 "cells row-major in amplitude: index = i_amplitude * frequency_count + i_frequency",
             ),
         ),
@@ -166,7 +163,7 @@ fn write_tables(out: &Path, scn: &Scenario, m: &ShortcutMap) -> Result<Vec<PathB
         &table,
     )];
     let h5_path = out.join("shortcut-map.h5");
-    let bytes = hdf5_tables(&attrs, &groups).map_err(|e| anyhow::anyhow!("HDF5: {e}"))?;
+    let bytes = hdf5_tables(&attrs, None, &groups).map_err(|e| anyhow::anyhow!("HDF5: {e}"))?;
     write_atomic(&h5_path, &bytes)?;
     Ok(vec![csv_path, h5_path])
 }

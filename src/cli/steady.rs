@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use djkr::steady::{Options, Strategy};
 use djkr::units::Dimension;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Duration;
 
 /// How to find the steady state.
@@ -89,11 +89,6 @@ pub fn stem(file: &Path) -> String {
     file.file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "scenario".into())
-}
-
-/// `out/<scenario name>-<suffix>` (the name made safe: [`super::common::out_name`]).
-pub fn default_out(file: &Path, suffix: &str) -> PathBuf {
-    super::common::default_out(file, &format!("-{suffix}"))
 }
 
 /// A progress bar (hidden when stderr is not a terminal).

@@ -183,7 +183,10 @@ fn run(a: &SweepRunArgs) -> Result<()> {
         bail!("--jobs 0: must be a whole number >= 1 (runs at a time)");
     }
     let sweep = build(a, file)?;
-    let out = a.out.clone().unwrap_or_else(|| default_out(file));
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| super::common::default_out(file, "-sweep"));
     if a.slurm {
         return slurm(a, file, &sweep, &out);
     }
@@ -252,15 +255,6 @@ fn capped_jobs(requested: Option<usize>, cores: usize) -> (usize, Option<String>
         Some(j) => (j, None),
         None => (cores, None),
     }
-}
-
-/// `--out` left out: out/<scenario name>-sweep.
-fn default_out(file: &Path) -> PathBuf {
-    let stem = file
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "scenario".into());
-    PathBuf::from("out").join(format!("{stem}-sweep"))
 }
 
 /// `--shard K/N` or `--shard slurm` (from the array task's environment).

@@ -9,8 +9,30 @@ use serde::ser::{Serialize, SerializeMap, Serializer};
 use super::branch::{Branch, BranchEnd, BranchPoint, PointKind};
 use super::folds::{FoldCurve, FoldPoint, FoldPointKind};
 use super::sweep::SweepPoint;
+use crate::dynamics::CycleRecord;
 use crate::output::{Column, Table};
+use crate::reports::steady::{orbit_column, Orbit, OrbitQuantity as Q};
 use crate::steady::Steady;
+
+impl Orbit for BranchPoint {
+    fn record(&self) -> &CycleRecord {
+        &self.cycle
+    }
+
+    fn delta_amp_over_xb(&self) -> f64 {
+        BranchPoint::delta_amp_over_xb(self)
+    }
+}
+
+impl Orbit for FoldPoint {
+    fn record(&self) -> &CycleRecord {
+        &self.cycle
+    }
+
+    fn delta_amp_over_xb(&self) -> f64 {
+        FoldPoint::delta_amp_over_xb(self)
+    }
+}
 
 /// The columns of `branch.csv` and the `branch` group of `branch.h5`, in order (the KEY's own
 /// column, named by the key, is second).
@@ -33,6 +55,7 @@ pub const BRANCH_COLUMNS: [&str; 12] = [
 pub fn branch_table(b: &Branch) -> Table {
     let p = &b.points;
     let f = |g: &dyn Fn(&BranchPoint) -> f64| p.iter().map(g).collect::<Vec<f64>>();
+    let orb = |q: Q, description: &str| orbit_column(q, description, p.iter().map(Some));
     let info = b.parameter.info;
     Table::from_fixed(vec![
         Column::f64(
@@ -42,42 +65,18 @@ pub fn branch_table(b: &Branch) -> Table {
             f(&|x| x.arclength),
         ),
         Column::f64(info.key, info.unit, info.what, f(&|x| x.value)),
-        Column::f64(
-            "delta_amp_over_xb",
-            "1",
+        orb(
+            Q::DeltaAmpOverXb,
             "first-harmonic indentation amplitude |delta_1| / X_b",
-            f(&|x| x.delta_amp_over_xb()),
         ),
-        Column::f64(
-            "phase",
-            "rad",
+        orb(
+            Q::Phase,
             "phase phi of delta_1, delta - delta_m ~ |delta_1| sin(wt + phi)",
-            f(&|x| x.phase()),
         ),
-        Column::f64(
-            "delta_mean",
-            "m",
-            "cycle-mean indentation",
-            f(&|x| x.cycle.delta_mean),
-        ),
-        Column::f64(
-            "force_mean",
-            "N",
-            "cycle-mean contact force (compressive +)",
-            f(&|x| x.cycle.force_mean),
-        ),
-        Column::f64(
-            "a_mean",
-            "m",
-            "cycle-mean contact radius",
-            f(&|x| x.cycle.a_mean),
-        ),
-        Column::f64(
-            "a_amp",
-            "m",
-            "first-harmonic contact-radius amplitude a_A",
-            f(&|x| x.a_amp()),
-        ),
+        orb(Q::DeltaMean, "cycle-mean indentation"),
+        orb(Q::ForceMean, "cycle-mean contact force (compressive +)"),
+        orb(Q::AMean, "cycle-mean contact radius"),
+        orb(Q::AAmp, "first-harmonic contact-radius amplitude a_A"),
         Column::i64(
             "stable",
             "1",
@@ -140,17 +139,15 @@ pub fn special_table(b: &Branch) -> Table {
         ),
         Column::f64("arclength", "1", "pseudo-arclength", f(&|x| x.arclength)),
         Column::f64(info.key, info.unit, info.what, f(&|x| x.value)),
-        Column::f64(
-            "delta_amp_over_xb",
-            "1",
+        orbit_column(
+            Q::DeltaAmpOverXb,
             "|delta_1| / X_b",
-            f(&|x| x.delta_amp_over_xb()),
+            p.iter().copied().map(Some),
         ),
-        Column::f64(
-            "a_mean",
-            "m",
+        orbit_column(
+            Q::AMean,
             "cycle-mean contact radius",
-            f(&|x| x.cycle.a_mean),
+            p.iter().copied().map(Some),
         ),
     ];
     for k in 0..3 {
@@ -162,14 +159,8 @@ pub fn special_table(b: &Branch) -> Table {
 
 /// A sweep's table (`sweep.csv` holds both directions).
 pub fn sweep_table(key: &str, unit: &str, direction: &str, p: &[SweepPoint]) -> Table {
-    let st = |name: &str, unit: &str, description: &str, g: &dyn Fn(&Steady) -> f64| {
-        Column::f64_opt(
-            name,
-            unit,
-            description,
-            p.iter().map(|x| x.steady.as_ref().map(g)),
-        )
-    };
+    let st =
+        |q: Q, description: &str| orbit_column(q, description, p.iter().map(|x| x.steady.as_ref()));
     Table::from_fixed(vec![
         Column::text(
             "direction",
@@ -182,23 +173,12 @@ pub fn sweep_table(key: &str, unit: &str, direction: &str, p: &[SweepPoint]) -> 
             "parameter value",
             p.iter().map(|x| x.value).collect(),
         ),
-        st(
-            "delta_amp_over_xb",
-            "1",
-            "|delta_1| / X_b",
-            &Steady::transfer_magnitude,
-        ),
-        st("phase", "rad", "phase of delta_1", &Steady::transfer_phase),
-        st("delta_mean", "m", "cycle-mean indentation", &|s| {
-            s.cycle.delta_mean
-        }),
-        st("force_mean", "N", "cycle-mean contact force", &|s| {
-            s.cycle.force_mean
-        }),
-        st("a_mean", "m", "cycle-mean contact radius", &|s| {
-            s.cycle.a_mean
-        }),
-        st("a_amp", "m", "contact-radius amplitude", &Steady::a_amp),
+        st(Q::DeltaAmpOverXb, "|delta_1| / X_b"),
+        st(Q::Phase, "phase of delta_1"),
+        st(Q::DeltaMean, "cycle-mean indentation"),
+        st(Q::ForceMean, "cycle-mean contact force"),
+        st(Q::AMean, "cycle-mean contact radius"),
+        st(Q::AAmp, "contact-radius amplitude"),
         Column::text(
             "error",
             "why the steady state is missing (empty when found)",
@@ -217,6 +197,8 @@ pub fn fold_table(keys: [(&str, &str); 2], curves: &[FoldCurve]) -> Table {
         .flat_map(|(i, c)| c.points.iter().map(move |p| (i, p)))
         .collect();
     let f = |g: &dyn Fn(&FoldPoint) -> f64| rows.iter().map(|(_, p)| g(p)).collect::<Vec<f64>>();
+    let orb =
+        |q: Q, description: &str| orbit_column(q, description, rows.iter().map(|(_, p)| Some(*p)));
     Table::from_fixed(vec![
         Column::i64(
             "curve",
@@ -244,18 +226,11 @@ pub fn fold_table(keys: [(&str, &str); 2], curves: &[FoldCurve]) -> Table {
             "second parameter",
             f(&|p| p.values[1]),
         ),
-        Column::f64(
-            "delta_amp_over_xb",
-            "1",
+        orb(
+            Q::DeltaAmpOverXb,
             "|delta_1| / X_b of the orbit at the fold",
-            f(&FoldPoint::delta_amp_over_xb),
         ),
-        Column::f64(
-            "a_mean",
-            "m",
-            "cycle-mean contact radius at the fold",
-            f(&|p| p.cycle.a_mean),
-        ),
+        orb(Q::AMean, "cycle-mean contact radius at the fold"),
     ])
 }
 

@@ -1,4 +1,4 @@
-//! Tables: the one way djkr writes columns of results, as CSV and as HDF5.
+//! Tables: the one way djkr holds columns of results, and their CSV form.
 //!
 //! A [`Table`] is an ordered list of [`Column`]s, each with a name, an SI unit, a one-line
 //! description and its data (f64, i64 or text), all of the same length. Its schema (the columns
@@ -18,39 +18,17 @@
 //! - `,` separated, `\n` line ends, one header line, no comments. A table without rows is its
 //!   header line alone.
 //!
-//! **HDF5** ([`Table::write_hdf5`]): one dataset per column in a group (or the root) of an
-//! `hdf5-pure` file, with a variable-length UTF-8 string attribute `units` (fixed-length strings
-//! come back as `bytes` in h5py). The descriptions of every dataset and group of a file are rows
-//! of one table, the group `/descriptions` ([`Descriptions`]: datasets `path` and `text`), not
-//! attributes: hdf5-pure 0.47 as released gives each variable-length string attribute a
-//! global-heap collection of its own, 4 KiB at least, while a string dataset packs its strings into
-//! shared ones (with one `description` attribute per dataset a 1 s run file held ~200 kB of them;
-//! the vendored copy, `vendor/hdf5-pure`, shares them for attributes too). Numeric columns are chunked by one rule,
-//! [`HDF5_CHUNK`] elements (a shorter column is one chunk of its length), shuffled and deflated at
-//! [`DEFLATE_LEVEL`]; an empty numeric column is an empty dataset of its type; text columns are
-//! variable-length string datasets.
+//! **HDF5**: a table is written as one dataset per column by [`super::hdf5_file`], the one
+//! module that assembles HDF5 files; this module knows no HDF5 (nor any other crate's format).
 
 use std::io::{self, Write};
 use std::ops::Range;
 use std::path::Path;
 
-use hdf5_pure::{
-    make_f64_type, make_i64_type, AttrValue, DatasetBuilder, FileBuilder, GroupBuilder,
-};
 use thiserror::Error;
 
 use super::atomic::AtomicFile;
 use super::OutputError;
-
-/// Elements per chunk of a numeric HDF5 dataset (32 Ki f64 = 256 KiB). Must stay below 65536:
-/// hdf5-pure 0.47 encodes a chunk dimension of 65536 or more in a form libhdf5 rejects ("stored
-/// chunk dimension encoding length does not match"), while its own reader accepts it.
-pub const HDF5_CHUNK: usize = 1 << 15;
-
-/// Deflate level of numeric HDF5 datasets (after the shuffle filter). Measured on a synthetic
-/// 10⁶-sample run (96 MB raw, release build): level 1 gives 47.9 MB in 0.8 s, level 4 gives
-/// 46.5 MB in 3.3 s; shuffled doubles gain little from harder compression.
-pub const DEFLATE_LEVEL: u32 = 1;
 
 /// The type of a column's values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -549,12 +527,6 @@ impl Table {
         String::from_utf8(out).unwrap_or_default()
     }
 
-    /// Write every column as a dataset of `group` (a file's root or a group), with `units` and
-    /// `description` attributes (chunking and compression in the module doc).
-    pub fn write_hdf5(&self, group: &mut impl Hdf5Group) {
-        self.write_hdf5_with(group, Storage::default());
-    }
-
     /// Empty the table (its schema stays): the rows went to disk.
     pub fn clear(&mut self) {
         for c in &mut self.columns {
@@ -566,61 +538,6 @@ impl Table {
         }
     }
 
-    /// As [`Table::write_hdf5`], with a storage choice: compressed or not, and extendable (every
-    /// numeric dataset chunked, unlimited, so that rows can be appended:
-    /// [`Table::append_hdf5_rows`]; text columns are then left out, to be written whole at the
-    /// end).
-    pub fn write_hdf5_with(&self, group: &mut impl Hdf5Group, storage: Storage) {
-        for c in self.stored_columns(storage) {
-            configure_dataset(group.create_dataset(&c.name), c, storage);
-        }
-    }
-
-    /// As [`Table::write_hdf5_with`], into a group of a file open for editing (a table whose
-    /// first rows arrive after the file was created).
-    pub fn create_hdf5_in(&self, group: &hdf5_pure::Group, storage: Storage) -> Result<(), String> {
-        for c in self.stored_columns(storage) {
-            group
-                .create_dataset(&c.name, |ds| configure_dataset(ds, c, storage))
-                .map_err(|e| format!("creating {}: {e}", c.name))?;
-        }
-        Ok(())
-    }
-
-    fn stored_columns(&self, storage: Storage) -> impl Iterator<Item = &Column> {
-        self.columns
-            .iter()
-            .filter(move |c| storage.extendable.is_none() || c.data.kind() != Kind::Text)
-    }
-
-    /// Append the rows in `rows` to the extendable datasets of the open file `file` under
-    /// `prefix` (`""` for the root, `"events/"`, ...), one dataset per numeric column (text
-    /// columns are skipped).
-    pub fn append_hdf5_rows(
-        &self,
-        file: &hdf5_pure::File,
-        prefix: &str,
-        rows: Range<usize>,
-    ) -> Result<(), String> {
-        if rows.is_empty() {
-            return Ok(());
-        }
-        for c in &self.columns {
-            let name = format!("{prefix}{}", c.name);
-            let result = match &c.data {
-                Data::F64(v) => file
-                    .dataset(&name)
-                    .and_then(|mut d| d.append(&v[rows.clone()])),
-                Data::I64(v) => file
-                    .dataset(&name)
-                    .and_then(|mut d| d.append(&v[rows.clone()])),
-                _ => Ok(()),
-            };
-            result.map_err(|e| format!("appending to {name}: {e}"))?;
-        }
-        Ok(())
-    }
-
     /// Drop the first `n` rows (those already written).
     pub fn remove_first_rows(&mut self, n: usize) {
         for c in &mut self.columns {
@@ -630,107 +547,6 @@ impl Table {
                 Data::Text(v) => drop(v.drain(..n.min(v.len()))),
             }
         }
-    }
-}
-
-/// How a table's numeric columns are stored in HDF5.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Storage {
-    /// Shuffle + deflate ([`DEFLATE_LEVEL`]).
-    pub compress: bool,
-    /// Extendable (unlimited, chunked with this many elements per chunk) so that rows can be
-    /// appended during a run; `None`: written once.
-    pub extendable: Option<usize>,
-}
-
-impl Default for Storage {
-    fn default() -> Self {
-        Self {
-            compress: true,
-            extendable: None,
-        }
-    }
-}
-
-/// One column's dataset: data, layout (written once, or extendable) and attributes.
-fn configure_dataset(ds: &mut DatasetBuilder, c: &Column, storage: Storage) {
-    match (&c.data, storage.extendable) {
-        (Data::F64(v), Some(chunk)) => {
-            ds.with_f64_data(v).with_shape(&[v.len() as u64]);
-            extendable(ds, chunk, storage.compress);
-        }
-        (Data::I64(v), Some(chunk)) => {
-            ds.with_i64_data(v).with_shape(&[v.len() as u64]);
-            extendable(ds, chunk, storage.compress);
-        }
-        _ => write_fixed(ds, &c.data, storage.compress),
-    }
-    ds.set_attr("units", text_attr(&c.unit));
-}
-
-fn extendable(ds: &mut DatasetBuilder, chunk: usize, compressed: bool) {
-    ds.with_maxshape(&[hdf5_pure::MaxExtent::Unlimited])
-        .with_chunks(&[chunk as u64]);
-    if compressed {
-        ds.with_shuffle().with_deflate(DEFLATE_LEVEL);
-    }
-}
-
-/// A column written once: the module doc's layout.
-fn write_fixed(ds: &mut DatasetBuilder, data: &Data, compressed: bool) {
-    match data {
-        Data::F64(v) if v.is_empty() => {
-            ds.with_dtype(make_f64_type()).with_shape(&[0]);
-        }
-        Data::F64(v) => {
-            ds.with_f64_data(v);
-            if compressed {
-                compress(ds, v.len());
-            }
-        }
-        Data::I64(v) if v.is_empty() => {
-            ds.with_dtype(make_i64_type()).with_shape(&[0]);
-        }
-        Data::I64(v) => {
-            ds.with_i64_data(v);
-            if compressed {
-                compress(ds, v.len());
-            }
-        }
-        Data::Text(v) => {
-            let refs: Vec<&str> = v.iter().map(String::as_str).collect();
-            ds.with_vlen_strings(&refs);
-        }
-    }
-}
-
-fn compress(ds: &mut DatasetBuilder, len: usize) {
-    let chunk = len.min(HDF5_CHUNK) as u64;
-    ds.with_chunks(&[chunk])
-        .with_shuffle()
-        .with_deflate(DEFLATE_LEVEL);
-}
-
-/// A variable-length UTF-8 string attribute (h5py reads it as `str`).
-pub fn text_attr(s: &str) -> AttrValue {
-    AttrValue::VarLenString(s.to_string())
-}
-
-/// Where a table's datasets go: the root of a file, or a group.
-pub trait Hdf5Group {
-    /// Create dataset `name` here.
-    fn create_dataset(&mut self, name: &str) -> &mut DatasetBuilder;
-}
-
-impl Hdf5Group for FileBuilder {
-    fn create_dataset(&mut self, name: &str) -> &mut DatasetBuilder {
-        FileBuilder::create_dataset(self, name)
-    }
-}
-
-impl Hdf5Group for GroupBuilder {
-    fn create_dataset(&mut self, name: &str) -> &mut DatasetBuilder {
-        GroupBuilder::create_dataset(self, name)
     }
 }
 
@@ -804,59 +620,6 @@ impl Descriptions {
             ),
         ])
     }
-
-    /// Write the group `/descriptions` into the file being built.
-    pub fn write(&self, b: &mut FileBuilder) {
-        let mut g = b.create_group(DESCRIPTIONS_GROUP);
-        self.to_table().write_hdf5(&mut g);
-        b.add_group(g.finish());
-    }
-}
-
-/// The [`Descriptions`] of a file written by djkr (read back, for tests and readers).
-pub fn read_descriptions(f: &hdf5_pure::File) -> Result<Descriptions, String> {
-    let read = |name: &str| {
-        f.dataset(&format!("{DESCRIPTIONS_GROUP}/{name}"))
-            .and_then(|d| d.read_string())
-            .map_err(|e| format!("/{DESCRIPTIONS_GROUP}/{name}: {e}"))
-    };
-    let (paths, texts) = (read("path")?, read("text")?);
-    if paths.len() != texts.len() {
-        return Err(format!(
-            "/{DESCRIPTIONS_GROUP}: {} paths but {} texts",
-            paths.len(),
-            texts.len()
-        ));
-    }
-    Ok(Descriptions {
-        rows: paths.into_iter().zip(texts).collect(),
-    })
-}
-
-/// An HDF5 file of tables: root attributes (`djkr_version` first), then one group per table
-/// (`name`, one dataset per column), and the [`Descriptions`] of the groups and their datasets.
-/// Returns the file's bytes, or hdf5-pure's message.
-pub fn hdf5_tables(
-    root_attrs: &[(&str, AttrValue)],
-    groups: &[(&str, &str, &Table)],
-) -> Result<Vec<u8>, String> {
-    let mut b = FileBuilder::new();
-    b.set_attr("djkr_version", text_attr(env!("CARGO_PKG_VERSION")));
-    for (k, v) in root_attrs {
-        b.set_attr(k, v.clone());
-    }
-    let mut descriptions = Descriptions::new();
-    for (name, description, table) in groups {
-        let mut g = b.create_group(name);
-        table.write_hdf5(&mut g);
-        b.add_group(g.finish());
-        let path = format!("/{name}");
-        descriptions
-            .add(&path, description)
-            .table(&path, &table.schema());
-    }
-    descriptions.write(&mut b);
-    b.finish().map_err(|e| e.to_string())
 }
 
 /// Format an f64 so that it parses back to the same bits: plain notation for magnitudes in
@@ -1090,45 +853,5 @@ mod tests {
             Err(TableError::EmptyName)
         ));
         assert_eq!(t.columns().len(), 3);
-    }
-
-    #[test]
-    fn hdf5_round_trip_with_units() {
-        let mut t = sample();
-        let n = HDF5_CHUNK + 5;
-        let mut big = Table::from_columns(vec![Column::f64(
-            "x",
-            "m",
-            "long",
-            (0..n).map(|i| i as f64 * 0.1).collect(),
-        )])
-        .unwrap();
-        t.append_rows(&sample()).unwrap();
-        let bytes = hdf5_tables(
-            &[("source", text_attr("test"))],
-            &[("g", "group", &t), ("big", "long", &big)],
-        )
-        .unwrap();
-        let f = hdf5_pure::File::from_bytes(bytes).unwrap();
-        let ds = f.dataset("g/t").unwrap();
-        assert_eq!(ds.attrs().unwrap()["units"].as_str(), Some("s"));
-        // Descriptions are rows of /descriptions, not attributes (one heap collection each).
-        assert!(!ds.attrs().unwrap().contains_key("description"));
-        let d = read_descriptions(&f).unwrap();
-        assert_eq!(d.get("/g/t"), Some("time"));
-        assert_eq!(d.get("/g/kind"), Some("what"));
-        assert_eq!(d.get("/g"), Some("group"));
-        assert_eq!(d.get("/big/x"), Some("long"));
-        assert!(d.get("/descriptions/text").is_some());
-        assert_eq!(ds.read_f64().unwrap()[2].to_bits(), 0.5f64.to_bits());
-        assert_eq!(
-            f.dataset("g/kind").unwrap().read_string().unwrap()[1],
-            "say \"x\""
-        );
-        assert_eq!(f.dataset("big/x").unwrap().read_f64().unwrap().len(), n);
-        big = Table::from_schema(&big.schema()).unwrap();
-        let bytes = hdf5_tables(&[], &[("e", "empty", &big)]).unwrap();
-        let f = hdf5_pure::File::from_bytes(bytes).unwrap();
-        assert!(f.dataset("e/x").unwrap().read_f64().unwrap().is_empty());
     }
 }

@@ -10,6 +10,7 @@
 use serde::Serialize;
 
 use crate::describing::HarmonicBalance;
+use crate::dynamics::CycleRecord;
 use crate::output::{Column, Table};
 use crate::steady::crosscheck::{Comparison, ForceBalance, Prediction};
 use crate::steady::map::{MapCell, ShortcutMap};
@@ -19,6 +20,126 @@ use crate::steady::{Steady, SteadyMethod};
 /// The root attribute `missing` of `resonance.h5` and `shortcut-map.h5`.
 pub const MISSING: &str =
     "NaN in a numeric dataset marks a value the method did not produce (see `error`)";
+
+// ---------------------------------------------------------------------------------------------
+// the columns of a periodic orbit, shared with `djkr continue`
+
+/// A periodic orbit as the tables of `djkr resonance` and `djkr continue` print it: a steady
+/// state ([`Steady`]), a point of a continued branch or of a fold curve. Each says how it
+/// divides by the base amplitude (a steady state at X_b = 0 has |δ1|/X_b = 0, a branch point
+/// NaN); phase and a_A follow from the cycle record alike.
+pub trait Orbit {
+    /// The orbit's cycle: exact means and first harmonics over one base period.
+    fn record(&self) -> &CycleRecord;
+
+    /// |δ1| / X_b.
+    fn delta_amp_over_xb(&self) -> f64;
+
+    /// Phase φ (rad) of δ1 with δ − δ_m ≈ |δ1| sin(ωt + φ).
+    fn phase(&self) -> f64 {
+        let c = self.record();
+        c.delta_cos.atan2(c.delta_sin)
+    }
+
+    /// First-harmonic contact-radius amplitude a_A = |a1| (m).
+    fn a_amp(&self) -> f64 {
+        let c = self.record();
+        c.a_sin.hypot(c.a_cos)
+    }
+}
+
+impl Orbit for Steady {
+    fn record(&self) -> &CycleRecord {
+        &self.cycle
+    }
+
+    fn delta_amp_over_xb(&self) -> f64 {
+        self.transfer_magnitude()
+    }
+}
+
+/// A number of a periodic orbit that the steady-state and continuation tables print: its
+/// column's name and SI unit, and how it is read off the [`Orbit`]. The description stays each
+/// table's own (a resonance sweep says "time domain: ...").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OrbitQuantity {
+    /// `delta_amp_over_xb` (1): |δ1| / X_b.
+    DeltaAmpOverXb,
+    /// `phase` (rad): φ of δ1.
+    Phase,
+    /// `delta_mean` (m): cycle-mean indentation.
+    DeltaMean,
+    /// `delta_sin` (m): coefficient of sin ωt in δ.
+    DeltaSin,
+    /// `delta_cos` (m): coefficient of cos ωt in δ.
+    DeltaCos,
+    /// `force_mean` (N): cycle-mean contact force.
+    ForceMean,
+    /// `force_amp` (N): first-harmonic contact-force amplitude.
+    ForceAmp,
+    /// `a_mean` (m): cycle-mean contact radius.
+    AMean,
+    /// `a_amp` (m): first-harmonic contact-radius amplitude.
+    AAmp,
+}
+
+impl OrbitQuantity {
+    /// The column name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::DeltaAmpOverXb => "delta_amp_over_xb",
+            Self::Phase => "phase",
+            Self::DeltaMean => "delta_mean",
+            Self::DeltaSin => "delta_sin",
+            Self::DeltaCos => "delta_cos",
+            Self::ForceMean => "force_mean",
+            Self::ForceAmp => "force_amp",
+            Self::AMean => "a_mean",
+            Self::AAmp => "a_amp",
+        }
+    }
+
+    /// The SI unit.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Self::DeltaAmpOverXb => "1",
+            Self::Phase => "rad",
+            Self::DeltaMean | Self::DeltaSin | Self::DeltaCos | Self::AMean | Self::AAmp => "m",
+            Self::ForceMean | Self::ForceAmp => "N",
+        }
+    }
+
+    /// The value of orbit `o`.
+    pub fn of(self, o: &(impl Orbit + ?Sized)) -> f64 {
+        let c = o.record();
+        match self {
+            Self::DeltaAmpOverXb => o.delta_amp_over_xb(),
+            Self::Phase => o.phase(),
+            Self::DeltaMean => c.delta_mean,
+            Self::DeltaSin => c.delta_sin,
+            Self::DeltaCos => c.delta_cos,
+            Self::ForceMean => c.force_mean,
+            Self::ForceAmp => c.force_sin.hypot(c.force_cos),
+            Self::AMean => c.a_mean,
+            Self::AAmp => o.a_amp(),
+        }
+    }
+}
+
+/// The column of quantity `q` over `orbits`, one row each (NaN where an orbit is missing),
+/// described by `description`.
+pub fn orbit_column<'a, O: Orbit + 'a>(
+    q: OrbitQuantity,
+    description: impl Into<String>,
+    orbits: impl IntoIterator<Item = Option<&'a O>>,
+) -> Column {
+    Column::f64_opt(
+        q.name(),
+        q.unit(),
+        description,
+        orbits.into_iter().map(|o| o.map(|o| q.of(o))),
+    )
+}
 
 // ---------------------------------------------------------------------------------------------
 // validate
@@ -267,7 +388,7 @@ impl SweepSummary {
     fn new(sw: &Sweep, linear: Option<Peak>) -> Self {
         let found = sw.points.iter().filter_map(|p| p.steady.as_ref());
         let (hx, hy) = sorted_by_frequency(&sw.points, |p| {
-            p.harmonic.map(|h| h.delta_amp / sw.amplitude)
+            p.harmonic.map(|h| h.harmonics.delta_amp / sw.amplitude)
         });
         let hb: Vec<(f64, f64)> = hx.into_iter().zip(hy).collect();
         Self {
@@ -445,12 +566,12 @@ pub fn sweep_table(sw: &Sweep) -> Table {
 
 /// The time-domain steady state's columns of [`sweep_table`].
 fn time_domain_columns(p: &[SweepPoint]) -> Vec<Column> {
-    let st = |name: &str, unit: &str, description: &str, f: &dyn Fn(&Steady) -> f64| {
-        Column::f64_opt(
-            name,
-            unit,
+    use OrbitQuantity as Q;
+    let st = |q: Q, description: &str| {
+        orbit_column(
+            q,
             format!("time domain: {description}"),
-            p.iter().map(|x| x.steady.as_ref().map(f)),
+            p.iter().map(|x| x.steady.as_ref()),
         )
     };
     let plain = |name: &str, description: &str, f: &dyn Fn(&Steady) -> f64| {
@@ -463,44 +584,20 @@ fn time_domain_columns(p: &[SweepPoint]) -> Vec<Column> {
     };
     vec![
         st(
-            "delta_amp_over_xb",
-            "1",
+            Q::DeltaAmpOverXb,
             "first-harmonic indentation amplitude |delta_1| / X_b",
-            &|s| s.transfer_magnitude(),
         ),
         st(
-            "phase",
-            "rad",
+            Q::Phase,
             "phase phi of delta_1, delta - delta_m ~ |delta_1| sin(wt + phi)",
-            &|s| s.transfer_phase(),
         ),
-        st("delta_mean", "m", "cycle-mean indentation", &|s| {
-            s.cycle.delta_mean
-        }),
-        st("delta_sin", "m", "coefficient of sin wt in delta", &|s| {
-            s.cycle.delta_sin
-        }),
-        st("delta_cos", "m", "coefficient of cos wt in delta", &|s| {
-            s.cycle.delta_cos
-        }),
-        st("force_mean", "N", "cycle-mean contact force", &|s| {
-            s.cycle.force_mean
-        }),
-        st(
-            "force_amp",
-            "N",
-            "first-harmonic contact-force amplitude",
-            &|s| s.cycle.force_sin.hypot(s.cycle.force_cos),
-        ),
-        st("a_mean", "m", "cycle-mean contact radius", &|s| {
-            s.cycle.a_mean
-        }),
-        st(
-            "a_amp",
-            "m",
-            "first-harmonic contact-radius amplitude",
-            &|s| s.a_amp(),
-        ),
+        st(Q::DeltaMean, "cycle-mean indentation"),
+        st(Q::DeltaSin, "coefficient of sin wt in delta"),
+        st(Q::DeltaCos, "coefficient of cos wt in delta"),
+        st(Q::ForceMean, "cycle-mean contact force"),
+        st(Q::ForceAmp, "first-harmonic contact-force amplitude"),
+        st(Q::AMean, "cycle-mean contact radius"),
+        st(Q::AAmp, "first-harmonic contact-radius amplitude"),
         plain(
             "cycles",
             "base periods integrated for this frequency",
@@ -558,19 +655,19 @@ fn predictor_columns(p: &[SweepPoint], xb: f64) -> Vec<Column> {
             "hb_delta_amp_over_xb",
             "1",
             "harmonic balance |delta_1|/X_b",
-            &|h| h.delta_amp / xb,
+            &|h| h.harmonics.delta_amp / xb,
         ),
         hb(
             "hb_phase",
             "rad",
             "harmonic balance: phase of delta_1",
-            &|h| h.delta_cos.atan2(h.delta_sin),
+            &|h| h.harmonics.delta_cos.atan2(h.harmonics.delta_sin),
         ),
         hb(
             "hb_force_mean",
             "N",
             "harmonic balance: mean contact force",
-            &|h| h.force_mean,
+            &|h| h.harmonics.force_mean,
         ),
         hb(
             "hb_a_mean",

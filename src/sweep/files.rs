@@ -26,21 +26,22 @@ use std::fs::{self, File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use hdf5_pure::{AttrValue, FileBuilder};
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use crate::output::atomic::{sync_dir, AtomicFile};
 use crate::output::folder::write_atomic;
 use crate::output::folder::{self, DirLock};
-use crate::output::table::{text_attr, Descriptions};
+use crate::output::hdf5_file::{hdf5_tables, Attr};
 use crate::output::OutputError;
 use crate::plot::PlotError;
 
 use super::engine::{RunId, Sweep};
+use super::plots::{plot_file_names, sweep_plots};
+pub use super::row::KeyInfo;
 use super::row::{parse_rows_csv, row_schema, rows_table, KeyColumn, Row};
 use super::spec::SpecForm;
-use super::stats::{point_stats, points_table};
+use super::stats::{point_stats, points_table, PointStats};
 
 /// `sweep.json`.
 pub const MANIFEST_NAME: &str = "sweep.json";
@@ -157,17 +158,6 @@ impl Shard {
     pub fn contains(&self, index: usize) -> bool {
         index % self.count == self.index - 1
     }
-}
-
-/// A swept key as `sweep.json` describes it.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct KeyInfo {
-    /// The key.
-    pub name: String,
-    /// SI unit (`None`: text).
-    pub unit: Option<String>,
-    /// Given as a log range (the plots use a log axis).
-    pub log: bool,
 }
 
 /// `sweep.json`: what a sweep is, so that a resume or a merge can check it is the same one.
@@ -306,6 +296,12 @@ impl Manifest {
         Ok(())
     }
 
+    /// The figures a sweep of this description may draw ([`plot_file_names`]), claimed before a
+    /// sweep or `djkr plot` writes into a folder.
+    pub fn plot_file_names(&self) -> Vec<String> {
+        plot_file_names(self.ensemble.is_some())
+    }
+
     /// Whether run `index` belongs to this folder.
     pub fn owns(&self, index: usize) -> bool {
         index < self.runs && self.shard.is_none_or(|s| s.contains(index))
@@ -397,7 +393,7 @@ fn result_names(manifest: &Manifest) -> Vec<String> {
     let mut names: Vec<String> = [MANIFEST_NAME, ROWS_CSV_NAME, ROWS_H5_NAME, POINTS_CSV_NAME]
         .map(String::from)
         .to_vec();
-    names.extend(super::plots::plot_file_names(manifest));
+    names.extend(manifest.plot_file_names());
     names
 }
 
@@ -538,44 +534,34 @@ pub fn write_results(
     written.push(csv);
 
     let h5 = dir.join(ROWS_H5_NAME);
-    let mut b = FileBuilder::new();
-    b.set_attr("djkr_version", text_attr(env!("CARGO_PKG_VERSION")));
-    b.set_attr("source", text_attr(&manifest.command()));
-    b.set_attr("scenario", text_attr(&manifest.scenario_text));
-    b.set_attr("set", text_attr(&manifest.set.join("\n")));
-    b.set_attr("zip", AttrValue::I64(i64::from(manifest.zip)));
-    b.set_attr(
-        "ensemble",
-        AttrValue::I64(manifest.ensemble.map_or(0, |n| n as i64)),
-    );
-    b.set_attr(
-        "seed",
-        AttrValue::I64(manifest.seed.map_or(0, |s| s as i64)),
-    );
-    b.set_attr("points", AttrValue::I64(manifest.points as i64));
-    b.set_attr("members", AttrValue::I64(manifest.members as i64));
-    b.set_attr("runs", AttrValue::I64(manifest.runs as i64));
-    b.set_attr(
-        "layout",
-        text_attr("one row per run at the root (as sweep.csv); group points: as points.csv"),
-    );
-    table.write_hdf5(&mut b);
-    let mut g = b.create_group("points");
-    ptable.write_hdf5(&mut g);
-    b.add_group(g.finish());
-    let mut descriptions = Descriptions::new();
-    descriptions
-        .table("/", &table.schema())
-        .add(
-            "/points",
-            "one row per point: the members' statistics (as points.csv)",
-        )
-        .table("/points", &ptable.schema());
-    descriptions.write(&mut b);
-    let bytes = b.finish().map_err(|e| OutputError::Hdf5 {
-        path: h5.clone(),
-        message: e.to_string(),
-    })?;
+    let attrs = [
+        ("source", Attr::text(&manifest.command())),
+        ("scenario", Attr::text(&manifest.scenario_text)),
+        ("set", Attr::text(&manifest.set.join("\n"))),
+        ("zip", Attr::I64(i64::from(manifest.zip))),
+        (
+            "ensemble",
+            Attr::I64(manifest.ensemble.map_or(0, |n| n as i64)),
+        ),
+        ("seed", Attr::I64(manifest.seed.map_or(0, |s| s as i64))),
+        ("points", Attr::I64(manifest.points as i64)),
+        ("members", Attr::I64(manifest.members as i64)),
+        ("runs", Attr::I64(manifest.runs as i64)),
+        (
+            "layout",
+            Attr::text("one row per run at the root (as sweep.csv); group points: as points.csv"),
+        ),
+    ];
+    let groups = [(
+        "points",
+        "one row per point: the members' statistics (as points.csv)",
+        &ptable,
+    )];
+    let bytes =
+        hdf5_tables(&attrs, Some(&table), &groups).map_err(|message| OutputError::Hdf5 {
+            path: h5.clone(),
+            message,
+        })?;
     write_atomic(&h5, &bytes)?;
     written.push(h5);
 
@@ -583,7 +569,7 @@ pub fn write_results(
     ptable.save_csv(&pcsv)?;
     written.push(pcsv);
 
-    written.extend(super::plots::sweep_plots(dir, manifest, &points, rows)?);
+    written.extend(draw_plots(dir, manifest, &points, rows)?);
 
     if complete {
         // Only djkr's own progress file (its record in the folder), never one of that name.
@@ -591,6 +577,24 @@ pub fn write_results(
     }
     sync_dir(dir);
     Ok(written)
+}
+
+/// Draw the figures that fit the sweep described by `manifest` from its `points` and `rows`
+/// ([`sweep_plots`]); returns the files written.
+pub fn draw_plots(
+    dir: &Path,
+    manifest: &Manifest,
+    points: &[PointStats],
+    rows: &[Row],
+) -> Result<Vec<PathBuf>, PlotError> {
+    sweep_plots(
+        dir,
+        &manifest.keys,
+        manifest.zip,
+        manifest.ensemble.is_some(),
+        points,
+        rows,
+    )
 }
 
 /// What a merge found and wrote.

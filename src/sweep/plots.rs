@@ -15,8 +15,7 @@ use std::path::{Path, PathBuf};
 use crate::output::table::format_f64;
 use crate::plot::{self, Figure, Heatmap, LegendPosition, Series, Style};
 
-use super::files::{KeyInfo, Manifest};
-use super::row::Row;
+use super::row::{KeyInfo, Row};
 use super::spec::KeyCell;
 use super::stats::PointStats;
 
@@ -78,12 +77,12 @@ fn varying(points: &[PointStats], nkeys: usize) -> Vec<usize> {
         .collect()
 }
 
-/// The files [`sweep_plots`] may write for a sweep described by `manifest` (the phase figure
-/// only for an ensemble; which of the others depends on the rows), claimed before a sweep or
-/// `djkr plot` writes into a folder.
-pub fn plot_file_names(manifest: &Manifest) -> Vec<String> {
+/// The files [`sweep_plots`] may write for a sweep (the phase figure only for an `ensemble`;
+/// which of the others depends on the rows), claimed before a sweep or `djkr plot` writes into
+/// a folder.
+pub fn plot_file_names(ensemble: bool) -> Vec<String> {
     let mut stems = vec![AMPLIFICATION, AMPLIFICATION_MAP];
-    if manifest.ensemble.is_some() {
+    if ensemble {
         stems.push(PHASE);
     }
     stems
@@ -92,16 +91,17 @@ pub fn plot_file_names(manifest: &Manifest) -> Vec<String> {
         .collect()
 }
 
-/// Draw the figures that fit the sweep; returns the files written.
+/// Draw the figures that fit a sweep over `keys` (paired by `--zip` when `zip`, with members
+/// when `ensemble`); returns the files written.
 pub fn sweep_plots(
     dir: &Path,
-    manifest: &Manifest,
+    keys: &[KeyInfo],
+    zip: bool,
+    ensemble: bool,
     points: &[PointStats],
     rows: &[Row],
 ) -> Result<Vec<PathBuf>, plot::PlotError> {
-    let keys = &manifest.keys;
     let vary = varying(points, keys.len());
-    let ensemble = manifest.ensemble.is_some();
     let mut files = Vec::new();
     let numeric = |j: usize| keys[j].unit.is_some();
     if let Some(xj) = x_key(keys, points, &vary) {
@@ -109,7 +109,7 @@ pub fn sweep_plots(
         let (png, svg) = plot::render(&fig, &dir.join(AMPLIFICATION))?;
         files.extend([png, svg]);
     }
-    if vary.len() == 2 && !manifest.zip && vary.iter().all(|&j| numeric(j)) {
+    if vary.len() == 2 && !zip && vary.iter().all(|&j| numeric(j)) {
         if let Some(map) = amplification_map(keys, points, (vary[0], vary[1]), ensemble) {
             let (png, svg) = plot::render_heatmap(&map, &dir.join(AMPLIFICATION_MAP))?;
             files.extend([png, svg]);

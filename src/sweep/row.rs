@@ -13,10 +13,23 @@
 
 use std::path::Path;
 
+use serde::{Deserialize, Serialize};
+
 use crate::dynamics::RunResult;
 use crate::output::table::{Column, Field, Table};
 
 use super::spec::KeyCell;
+
+/// A swept key as `sweep.json` describes it: its column and how the plots draw it.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct KeyInfo {
+    /// The key.
+    pub name: String,
+    /// SI unit (`None`: text).
+    pub unit: Option<String>,
+    /// Given as a log range (the plots use a log axis).
+    pub log: bool,
+}
 
 /// The numbers of a run that succeeded.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -226,11 +226,11 @@ pub fn run_imposed(w: &Work) -> Outcome {
     let check_cycle = |c: &imposed_area::Cycle| -> Option<String> {
         let v = [
             c.a_mean,
-            c.delta_mean,
-            c.delta_amp,
-            c.force_mean,
-            c.force_sin,
-            c.force_cos,
+            c.harmonics.delta_mean,
+            c.harmonics.delta_amp,
+            c.harmonics.force_mean,
+            c.harmonics.force_sin,
+            c.harmonics.force_cos,
             c.force_slope,
             c.contact_fraction,
         ];
@@ -276,7 +276,7 @@ pub fn run_imposed(w: &Work) -> Outcome {
                 || {
                     Outcome::Ok(format!(
                         "⟨F⟩ {:.4} mN; ⟨a⟩ {:.4} mm; contact {:.0} %",
-                        c.force_mean * 1e3,
+                        c.harmonics.force_mean * 1e3,
                         c.a_mean * 1e3,
                         c.contact_fraction * 100.0
                     ))

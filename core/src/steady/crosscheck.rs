@@ -167,11 +167,11 @@ pub fn imposed(rig: &Rig, s: &Steady) -> Result<Prediction, String> {
     Ok(Prediction {
         a_mean: Some(ic.a_mean),
         a_amp: Some(a_amp),
-        delta_mean: Some(ic.delta_mean),
-        delta_sin: Some(ic.delta_sin * cs - ic.delta_cos * sn),
-        delta_cos: Some(ic.delta_sin * sn + ic.delta_cos * cs),
-        delta_amp: Some(ic.delta_amp),
-        force_mean: Some(ic.force_mean),
+        delta_mean: Some(ic.harmonics.delta_mean),
+        delta_sin: Some(ic.harmonics.delta_sin * cs - ic.harmonics.delta_cos * sn),
+        delta_cos: Some(ic.harmonics.delta_sin * sn + ic.harmonics.delta_cos * cs),
+        delta_amp: Some(ic.harmonics.delta_amp),
+        force_mean: Some(ic.harmonics.force_mean),
     })
 }
 
@@ -250,11 +250,11 @@ pub fn compare_steady(problem: &Problem, start: &Initial, steady: Steady) -> Com
                     harmonic_balance = Some(Prediction {
                         a_mean: Some(h.a_mean),
                         a_amp: Some(h.a_amp),
-                        delta_mean: Some(h.delta_mean),
-                        delta_sin: Some(h.delta_sin),
-                        delta_cos: Some(h.delta_cos),
-                        delta_amp: Some(h.delta_amp),
-                        force_mean: Some(h.force_mean),
+                        delta_mean: Some(h.harmonics.delta_mean),
+                        delta_sin: Some(h.harmonics.delta_sin),
+                        delta_cos: Some(h.harmonics.delta_cos),
+                        delta_amp: Some(h.harmonics.delta_amp),
+                        force_mean: Some(h.harmonics.force_mean),
                     })
                 }
                 Err(e) => predictor_error = Some(format!("harmonic balance: {e}")),
