@@ -20,6 +20,7 @@ pub mod describing;
 pub mod dynamics;
 pub mod error;
 pub mod figures;
+pub mod fit;
 pub mod gs_fit;
 pub mod imposed_area;
 pub mod input;
