@@ -105,6 +105,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
         .iter()
         .map(|f| fit::initial_value(&source, &starts, f).map_err(anyhow::Error::msg))
         .collect::<Result<Vec<_>>>()?;
+    fit::driver::check_start(&free, &x0)?;
     let model = ForwardModel::new(
         source.clone(),
         data,

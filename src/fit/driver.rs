@@ -329,6 +329,21 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, '_> {
     }
 }
 
+/// Refuse a starting value outside its key's bounds (before anything runs).
+pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
+    for (f, &x) in free.iter().zip(x0) {
+        let t = Transform::new(f, x);
+        if !x.is_finite() || !t.inside(t.y(x)) {
+            return Err(FitError(format!(
+                "--free {}: the starting value {x} {} (the scenario's) lies outside the bounds; \
+                 start inside with --set {}=VALUE",
+                f.given, f.unit, f.key
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// Fit the free keys `free` (starting at `x0`, SI) of `model` to its data.
 pub fn fit(
     model: &ForwardModel,
@@ -356,15 +371,7 @@ pub fn fit(
         .zip(x0)
         .map(|(f, &x)| Transform::new(f, x))
         .collect();
-    for ((f, &x), t) in free.iter().zip(x0).zip(&tr) {
-        if !t.inside(t.y(x)) {
-            return Err(FitError(format!(
-                "--free {}: the starting value {} {} (the scenario's) lies outside the bounds; \
-                 start inside with --set {}=VALUE",
-                f.given, x, f.unit, f.key
-            )));
-        }
-    }
+    check_start(free, x0)?;
     // Start a little inside a bound: at a bound dy/du = 0 and the key could not move.
     let u0: Vec<f64> = x0
         .iter()
