@@ -291,3 +291,95 @@ fn coverage_study_heavy_rig() {
         assert!((1.0 / 1.5..=1.5).contains(&ratio), "param {i}: {ratio}");
     }
 }
+
+/// The law comparison (the paper's open question), on a short protocol (dwells 0.1 s and 0.2 s,
+/// unload at 100 um/s) because the saturated law's runs cost ten times the plain law's. Data
+/// from a saturated law (v_sat = 1 mm/s: the largest amplitude falls > 10 % below the plain
+/// law's) with 2 % noise: fitted by both laws, the saturated law's AIC is lower by more than 10.
+/// Data from the plain law: the saturated fit's v_sat runs to its bound or its AIC is not lower
+/// by more than 2.
+///
+/// Open: with this design (8 rows, 200 and 400 Hz, 1 to 10 um) it FAILS: the plain law with
+/// other constants (n about 0.2) mimics the saturated data (AIC plain 6.0, saturated 7.8), so
+/// these conditions cannot tell the laws apart. A design with a wider range of crack speeds
+/// (data well below and well above v_sat) is needed; the saturated law's runs cost 10 to 40
+/// times the plain law's (its inverse is solved by root finding at every right-hand side), and
+/// at 30 um a single run exceeds 600 s, which is why this is not yet settled.
+#[test]
+#[ignore = "open: the plain law mimics the saturated data over these conditions (see the doc)"]
+fn aic_tells_a_saturated_law_from_the_plain_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let short = [
+        "stage[1].duration=0.1",
+        "stage[2].duration=0.2",
+        "stage[3].speed=100um/s",
+    ];
+    let cond: Vec<(f64, f64)> = [200.0, 400.0]
+        .iter()
+        .flat_map(|&f| [1.0, 2.5, 5.0, 10.0].map(|a| (f, a)))
+        .collect();
+    let sat_law = ["adhesion.law=gent-schultz-saturated", "adhesion.v_sat=1e-3"];
+    let with = |extra: &[&'static str]| -> Vec<&'static str> {
+        short.iter().chain(extra).copied().collect::<Vec<_>>()
+    };
+    let sat = truth(HEAVY, &cond, &with(&sat_law));
+    let plain = truth(HEAVY, &cond, &with(&[]));
+    let last = cond.len() - 1;
+    assert!(
+        sat[last] < 0.9 * plain[last],
+        "saturation must lower the largest amplitude's value by 10 %: {sat:?} {plain:?}"
+    );
+    let sets = |extra: &[&str]| -> Vec<String> {
+        short
+            .iter()
+            .chain(extra)
+            .flat_map(|s| ["--set".to_string(), s.to_string()])
+            .collect()
+    };
+    let fit_both = |name: &str, values: &[f64]| -> (Value, Value) {
+        let data = dir.path().join(format!("{name}.csv"));
+        write_data(&data, &cond, values, 0.02, 11);
+        let mut a = sets(&[]);
+        a.extend(["--free", "adhesion.v0", "--free", "adhesion.n"].map(String::from));
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let p = run_fit(&data, &dir.path().join(format!("{name}-plain")), HEAVY, &a);
+        let mut a = sets(&["adhesion.law=gent-schultz-saturated", "adhesion.v_sat=3e-3"]);
+        a.extend(
+            [
+                "--free",
+                "adhesion.v0",
+                "--free",
+                "adhesion.n",
+                "--free",
+                "adhesion.v_sat=1e-5:1",
+            ]
+            .map(String::from),
+        );
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let s = run_fit(&data, &dir.path().join(format!("{name}-sat")), HEAVY, &a);
+        eprintln!("{name}: plain {p}\nsaturated {s}");
+        (p, s)
+    };
+    let aic = |j: &Value| j["aic"].as_f64().unwrap();
+    let (p, s) = fit_both("saturated-data", &sat);
+    assert!(
+        aic(&p) - aic(&s) > 10.0,
+        "AIC plain {} saturated {}",
+        aic(&p),
+        aic(&s)
+    );
+    let (p, s) = fit_both("plain-data", &plain);
+    let v_sat = param(&s, "adhesion.v_sat");
+    let at_bound = v_sat["sigma"].is_null()
+        && s["notes"].as_array().unwrap().iter().any(|n| {
+            n.as_str()
+                .unwrap()
+                .contains("adhesion.v_sat ran to its bound")
+        });
+    assert!(
+        at_bound || aic(&p) - aic(&s) <= 2.0,
+        "AIC plain {} saturated {}: {s}",
+        aic(&p),
+        aic(&s)
+    );
+}
