@@ -127,6 +127,11 @@ pub struct FitOutcome {
 #[error("{0}")]
 pub struct FitError(pub String);
 
+/// Degrees of freedom: rows − free keys.
+fn dof_of(n: usize, k: usize) -> usize {
+    n.saturating_sub(k)
+}
+
 /// The finite-difference step in `y` for a scenario solved at relative tolerance `rtol`.
 pub fn fd_step(rtol: f64) -> f64 {
     (100.0 * rtol).sqrt().clamp(1e-6, 1e-2)
@@ -481,7 +486,18 @@ pub fn fit(
             | TerminationReason::ResidualsZero
             | TerminationReason::NoImprovementPossible(_)
     ) && !stopped;
-    if st.out_of_iterations {
+    // LM computes a new Jacobian after each accepted step: one Jacobian means that no step
+    // lowered chi2, and the criteria were met by a trust region shrunk to nothing.
+    let stuck = converged && st.iterations <= 1 && chi2 > dof_of(n, k) as f64;
+    if stuck {
+        converged = false;
+        notes.push(
+            "not converged: no step from the start lowered chi2 (the trust region shrank to \
+             nothing); the response may not be smooth at these step sizes (a chaotic rig: try \
+             --ensemble)"
+                .into(),
+        );
+    } else if st.out_of_iterations {
         converged = false;
         notes.push(format!(
             "not converged: {} iterations without meeting the criteria; the estimate is the \
@@ -521,6 +537,12 @@ pub fn fit(
     let values: Vec<f64> = y_best.iter().zip(&tr).map(|(&y, t)| t.x(y)).collect();
     let dof = n - k;
     let reduced = chi2 / dof as f64;
+    if data.has_sigma && reduced > 10.0 {
+        notes.push(format!(
+            "poor fit: reduced chi2 = {reduced:.3e}: the model does not describe the data within \
+             their sigma, or the optimiser is stuck; the sigma of the parameters are not reliable"
+        ));
+    }
     let at_bound: Vec<bool> = y_best
         .iter()
         .zip(&tr)

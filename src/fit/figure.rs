@@ -100,8 +100,8 @@ pub fn fit_figure(model: &ForwardModel, outcome: &FitOutcome) -> Figure {
         fig.series.push(
             Series::new(
                 name,
-                idx.iter().map(|&i| xs[i] / xf).collect(),
-                idx.iter().map(|&i| obs[i] / yf).collect(),
+                idx.iter().map(|&i| xs[i] * xf).collect(),
+                idx.iter().map(|&i| obs[i] * yf).collect(),
                 Style::Markers,
             )
             .with_color(g),
@@ -111,8 +111,8 @@ pub fn fit_figure(model: &ForwardModel, outcome: &FitOutcome) -> Figure {
             let mut by = Vec::new();
             for &i in &idx {
                 let s = outcome.weights[i];
-                bx.extend([xs[i] / xf, xs[i] / xf, f64::NAN]);
-                by.extend([(obs[i] - s) / yf, (obs[i] + s) / yf, f64::NAN]);
+                bx.extend([xs[i] * xf, xs[i] * xf, f64::NAN]);
+                by.extend([(obs[i] - s) * yf, (obs[i] + s) * yf, f64::NAN]);
             }
             fig.series
                 .push(Series::new("", bx, by, Style::Line).with_color(g));
@@ -120,9 +120,9 @@ pub fn fit_figure(model: &ForwardModel, outcome: &FitOutcome) -> Figure {
         fig.series.push(
             Series::new(
                 "",
-                idx.iter().map(|&i| xs[i] / xf).collect(),
+                idx.iter().map(|&i| xs[i] * xf).collect(),
                 idx.iter()
-                    .map(|&i| outcome.prediction.values[i] / yf)
+                    .map(|&i| outcome.prediction.values[i] * yf)
                     .collect(),
                 Style::Line,
             )
