@@ -119,7 +119,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     super::common::claim_out(&out, &FILES, a.force).context("--out")?;
     let _lock = djkr::output::folder::DirLock::acquire(&out)?;
     signals::install(
-        "stopping: the fit ends after the running forward runs; the best estimate so far is \
+        "stopping: running forward runs are abandoned; the best estimate so far is \
          written (Ctrl-C again to quit at once)",
     );
     let per_iteration = model.runs_per_set() * (free.len() + 1);
