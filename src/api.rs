@@ -1166,6 +1166,70 @@ pub fn sweep<S: AsRef<str>>(
     Ok(rows_table(&sweep.key_columns(), &rows))
 }
 
+/// `djkr fit` without files: fit `free` keys (`KEY` or `KEY=LO:HI`) of `source` to the data
+/// CSV `data_text` (named `data_name` in messages), with `set` (`KEY=VALUE`) for every row (a
+/// free key's `--set` is its starting value), an optional ensemble `(members, seed)` and `jobs`
+/// threads (0: one per core). Returns the content of `fit.json`. A raised `stop` is
+/// [`ApiError::Cancelled`].
+#[allow(clippy::too_many_arguments)]
+pub fn fit<S: AsRef<str>, T: AsRef<str>>(
+    source: crate::scenario::parse::ScenarioSource,
+    data_text: &str,
+    data_name: &str,
+    free: &[S],
+    observable: Option<&str>,
+    set: &[T],
+    ensemble: Option<(usize, u64)>,
+    jobs: usize,
+    stop: Option<&AtomicBool>,
+) -> Result<serde_json::Value, ApiError> {
+    use crate::fit::{self as f, FitData, FitOptions, ForwardModel, FreeKey};
+    let free = free
+        .iter()
+        .map(|k| FreeKey::parse(k.as_ref()).map_err(ApiError::Invalid))
+        .collect::<Result<Vec<_>, _>>()?;
+    let all = set
+        .iter()
+        .map(|s| Override::parse(s.as_ref()))
+        .collect::<Result<Vec<_>, _>>()?;
+    let (starts, fixed): (Vec<Override>, Vec<Override>) = all
+        .into_iter()
+        .partition(|o| free.iter().any(|k| k.key == o.key()));
+    let data = FitData::parse(data_text, data_name, observable)
+        .map_err(|e| ApiError::Invalid(e.to_string()))?;
+    let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
+    let scn = source.scenario(&with_starts)?;
+    let x0 = free
+        .iter()
+        .map(|k| f::initial_value(&source, &starts, k).map_err(ApiError::Invalid))
+        .collect::<Result<Vec<_>, _>>()?;
+    f::driver::check_start(&free, &x0).map_err(|e| ApiError::Invalid(e.to_string()))?;
+    if ensemble.is_some_and(|e| e.0 == 0) {
+        return Err(ApiError::Invalid(
+            "ensemble = 0: must be a whole number >= 1 (members per row)".into(),
+        ));
+    }
+    let model = ForwardModel::new(
+        source,
+        data,
+        free.iter().map(|k| k.key).collect(),
+        fixed,
+        ensemble,
+        jobs,
+    )
+    .map_err(ApiError::Invalid)?;
+    let opts = FitOptions {
+        stop,
+        ..FitOptions::default()
+    };
+    let outcome = f::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut |_| {})
+        .map_err(|e| ApiError::Invalid(e.to_string()))?;
+    if outcome.report.interrupted {
+        return Err(ApiError::Cancelled);
+    }
+    serde_json::to_value(&outcome.report).map_err(|e| ApiError::Invalid(e.to_string()))
+}
+
 #[cfg(test)]
 mod tests {
     #[test]

@@ -30,6 +30,7 @@ pub mod api;
 pub mod catalogue;
 pub mod continuation;
 pub mod figures;
+pub mod fit;
 pub mod input;
 pub mod memory;
 pub mod output;

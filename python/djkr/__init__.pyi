@@ -382,6 +382,25 @@ def resonance(
     >>> up.frequency[up.delta_amp_over_xb.idxmax()]   # Hz, the resonance peak
     """
 
+def fit(
+    data: Any,
+    scenario: Scenario,
+    free: Union[str, Sequence[str]],
+    observable: Optional[str] = None,
+    set: Optional[Mapping[str, SetValue]] = None,
+    ensemble: Optional[int] = None,
+    seed: int = 0,
+    jobs: Optional[int] = None,
+) -> Dict[str, Any]:
+    """Fit scenario keys to measured data (``djkr fit``): the content of ``fit.json``
+    (``parameters`` with ``key``, ``value``, ``sigma``, ``unit``, ``initial``; ``correlation``,
+    ``chi2``, ``dof``, ``reduced_chi2``, ``aic``, ``bic``, ``converged``, ``iterations``,
+    ``forward_runs``, ``observable``, ``notes``). ``data`` is a path to a CSV file or a pandas
+    DataFrame with the same column names (``base.amplitude [um]``,
+    ``pull_off_amplification [1]``, ``sigma [1]``); ``free`` a list of ``"adhesion.n"`` or
+    ``"adhesion.v_sat=0.01:100"``; ``set`` values for every row (a free key's is its start)."""
+    ...
+
 def sweep(
     scenario: Scenario,
     grid: Optional[Mapping[str, Union[str, Sequence[SetValue], SetValue]]] = None,

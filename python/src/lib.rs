@@ -1941,6 +1941,98 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
     Ok((keys, out))
 }
 
+/// Fit scenario keys to measured data (`djkr fit`): the content of `fit.json`. `data` is a path
+/// to a CSV file or a pandas DataFrame with the same column names (`base.amplitude [um]`,
+/// `pull_off_amplification [1]`, `sigma [1]`); `free` a list of `"KEY"` or `"KEY=LO:HI"`.
+#[pyfunction]
+#[pyo3(signature = (data, scenario, free, observable = None, set = None, ensemble = None, seed = None, jobs = None))]
+#[allow(clippy::too_many_arguments)]
+fn fit(
+    py: Python<'_>,
+    data: &Bound<'_, PyAny>,
+    scenario: &Bound<'_, PyAny>,
+    free: &Bound<'_, PyAny>,
+    observable: Option<&Bound<'_, PyAny>>,
+    set: Option<&Bound<'_, PyAny>>,
+    ensemble: Option<&Bound<'_, PyAny>>,
+    seed: Option<&Bound<'_, PyAny>>,
+    jobs: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Py<PyAny>> {
+    type Args = (
+        Scenario,
+        (String, String),
+        Vec<String>,
+        Option<String>,
+        Vec<String>,
+        Option<usize>,
+        u64,
+        Option<usize>,
+    );
+    let (scn, (text, name), free, observable, set, ensemble, seed, jobs): Args = guarded(|| {
+        let data = if data.hasattr("to_csv")? {
+            let kw = PyDict::new(py);
+            kw.set_item("index", false)?;
+            let t: String = data.call_method("to_csv", (), Some(&kw))?.extract()?;
+            (t, "<DataFrame>".to_string())
+        } else if let Ok(p) = data.extract::<PathBuf>() {
+            let name = p.display().to_string();
+            let t = std::fs::read_to_string(&p)
+                .map_err(|e| input_err(format!("{name}: cannot read the data file: {e}")))?;
+            (t, name)
+        } else {
+            return Err(type_err(format!(
+                "data: expected a path or a pandas DataFrame, got {}",
+                type_name(data)
+            )));
+        };
+        let free: Vec<String> = if free.is_instance_of::<PyString>() {
+            vec![str_arg(free, "free")?]
+        } else {
+            let mut v = Vec::new();
+            for x in free.try_iter()? {
+                v.push(str_arg(&x?, "free")?);
+            }
+            v
+        };
+        let observable = match observable {
+            Some(o) if !o.is_none() => Some(str_arg(o, "observable")?),
+            _ => None,
+        };
+        let whole =
+            |v, name| whole_arg(v, name, 0, usize::MAX as u64).map(|w| w.map(|w| w as usize));
+        Ok((
+            scenario_of(scenario)?,
+            data,
+            free,
+            observable,
+            set_texts(set)?,
+            whole(ensemble, "ensemble")?,
+            whole_arg(seed, "seed", 0, u64::MAX)?.unwrap_or(0),
+            whole(jobs, "jobs")?,
+        ))
+    })?;
+    if jobs == Some(0) {
+        return Err(input_err(
+            "jobs = 0: must be a whole number >= 1 (runs at a time)",
+        ));
+    }
+    let v = interruptible(py, move |stop| {
+        let source = scn.source()?;
+        api::fit(
+            source,
+            &text,
+            &name,
+            &free,
+            observable.as_deref(),
+            &set,
+            ensemble.map(|m| (m, seed)),
+            jobs.unwrap_or(0),
+            Some(stop.flag()),
+        )
+    })?;
+    guarded(|| json_to_py(py, &v))
+}
+
 /// A grid value as a sweep SPEC: a string as given (`"10um:60um:6"`, `"10um,30um"`), a list
 /// of values joined by commas, a single value alone.
 fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
@@ -1986,5 +2078,6 @@ fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(resonance, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(points, m)?)?;
+    m.add_function(wrap_pyfunction!(fit, m)?)?;
     Ok(())
 }

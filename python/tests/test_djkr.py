@@ -589,3 +589,35 @@ def test_a_set_key_the_call_replaces_is_refused():
         djkr.validate("scenarios/resonance-400hz.toml", set={"solver.rtol": 1e-6})
     with pytest.raises(djkr.ScenarioError, match="has no effect on resonance: the frequencies come from freq="):
         djkr.resonance("scenarios/resonance-400hz.toml", freq=(390, 400, 3), set={"base.frequency": 300})
+
+
+def test_fit_recovers_n_and_equals_the_cli(tmp_path):
+    # Data made by djkr at n = 0.45 (the file has 0.531) on the paper protocol with short dwells
+    # and a fast unload, 1 % sigma, no noise: the fit from the file's n finds 0.45 within its
+    # sigma, and a DataFrame gives the CLI's fit.json.
+    paper = "scenarios/paper-protocol-300hz.toml"
+    short = {"stage[1].duration": 0.1, "stage[2].duration": 0.2, "stage[3].speed": "100um/s"}
+    grid = {"base.amplitude": ["5um", "10um", "15um"], "adhesion.n": [0.45]}
+    grid.update({k: [v] for k, v in short.items()})
+    made = djkr.sweep(paper, grid=grid, jobs=1)
+    amp = made["pull_off_amplification"]
+    df = pd.DataFrame({
+        "base.amplitude [m]": made["base.amplitude"],
+        "pull_off_amplification [1]": amp,
+        "sigma [1]": 0.01 * amp,
+    })
+    got = djkr.fit(df, paper, free=["adhesion.n=0.1:2"], set=short)
+    (p,) = got["parameters"]
+    assert p["key"] == "adhesion.n" and p["unit"] == "1" and p["initial"] == 0.531
+    assert got["converged"] and got["observable"] == "pull_off_amplification", got
+    assert abs(p["value"] - 0.45) < 3 * p["sigma"], got
+    data = tmp_path / "data.csv"
+    df.to_csv(data, index=False)
+    out = tmp_path / "fit"
+    sets = [a for k, v in short.items() for a in ("--set", f"{k}={v}")]
+    cli("fit", data, "--scenario", paper, "--free", "adhesion.n=0.1:2", *sets, "--out", out)
+    expected = json.loads((out / "fit.json").read_text())
+    for k in ("parameters", "correlation", "chi2", "aic", "bic", "forward_runs", "iterations"):
+        assert got[k] == expected[k], k
+    with pytest.raises(djkr.ScenarioError, match="not a numeric key"):
+        djkr.fit(df, paper, free=["adhesion.law"])

@@ -10,6 +10,7 @@ mod common;
 mod continuation;
 mod figures;
 mod fit;
+mod fit_data;
 mod imposed;
 mod plot;
 mod resonance;
@@ -106,6 +107,14 @@ enum Command {
     /// Fit the Gent–Schultz constants w0, v0, n (with uncertainties) to a quasi-static unloading
     /// record (CSV: t, a, F), using eq. (28) for w and −ȧ for the crack speed.
     GsFit(fit::GsFitArgs),
+    /// Fit free scenario keys (adhesion.v0, adhesion.n, adhesion.v_sat, damping.c, ...) to
+    /// measured data (a CSV of conditions and a sweep.csv observable) by weighted least squares
+    /// over the full dynamic model (Levenberg-Marquardt): fit.json (estimates, sigma,
+    /// correlation, chi2, AIC, BIC), residuals.csv, fitted.toml, fit.png/.svg.
+    ///
+    /// Exit status: 0 fitted (fit.json says whether it converged), 2 bad input, 130 Ctrl-C
+    /// (the best estimate so far is written), 3 SIGTERM.
+    Fit(fit_data::FitArgs),
     /// Reproduce the paper's figures (Figs. 2, 3(a), 3(b), 4–8) as CSV + PNG + SVG.
     Figures(figures::FiguresArgs),
     /// Run a scenario to its periodic steady state (shooting, time-stepping as the fallback) and
@@ -149,6 +158,7 @@ pub fn main() -> ExitCode {
         Command::RequiredSpeed(a) => closed::required_speed(&a),
         Command::BetaFit(a) => closed::beta_fit(&a),
         Command::GsFit(a) => fit::gs_fit(&a),
+        Command::Fit(a) => fit_data::fit(&a),
         Command::Figures(a) => figures::figures(&a),
         Command::Validate(a) => validate::validate(&a),
         Command::Resonance(a) => resonance::resonance(&a),

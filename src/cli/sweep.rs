@@ -114,7 +114,7 @@ pub struct SweepRunArgs {
 
 /// A sweep stopped by a signal: exit status 130 after Ctrl-C, 3 after SIGTERM.
 #[derive(Debug)]
-pub struct Interrupted(Option<Signal>);
+pub struct Interrupted(pub Option<Signal>);
 
 impl Interrupted {
     /// 130 after Ctrl-C (the shell's code for SIGINT), 3 after SIGTERM (a stop, as a budget's).

@@ -1,0 +1,264 @@
+//! `djkr fit DATA.csv --scenario FILE --free KEY[=LO:HI]... --out DIR`: thin over [`djkr::fit`].
+
+use super::signals;
+use super::sweep::Interrupted;
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use djkr::fit::{self, FitData, FitEvent, FitOptions, ForwardModel, FreeKey};
+use djkr::scenario::overrides::Override;
+use djkr::scenario::parse::ScenarioSource;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+/// Flags of `djkr fit`.
+#[derive(Args, Debug)]
+#[command(after_help = FIT_HELP)]
+pub struct FitArgs {
+    /// Data CSV: one column per condition named by its scenario key with its unit
+    /// (`base.amplitude [um]`), one observable named as in sweep.csv
+    /// (`pull_off_amplification [1]`), optionally `sigma [unit of the observable]`.
+    data: PathBuf,
+    /// Scenario file (TOML): each data row is it with the row's conditions set.
+    #[arg(long, value_name = "FILE")]
+    scenario: PathBuf,
+    /// A key to fit (repeatable), optionally bounded: adhesion.n, adhesion.v_sat=0.01:100 (units
+    /// welcome; either bound may be left empty). Starts from the scenario's value (or --set's).
+    #[arg(long = "free", value_name = "KEY[=LO:HI]", required = true)]
+    free: Vec<String>,
+    /// The observable column to fit, when the file has several.
+    #[arg(long, value_name = "NAME")]
+    observable: Option<String>,
+    /// A value for every row (repeatable), as `djkr run --set` takes it.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+    /// Predict each row as the mean over N runs with base phases drawn from --seed (the same at
+    /// every evaluation); the ensemble's standard error joins sigma.
+    #[arg(long, value_name = "N")]
+    ensemble: Option<usize>,
+    /// Seed of the ensemble's phases [default: 0].
+    #[arg(long, value_name = "S")]
+    seed: Option<u64>,
+    /// Runs at a time [default: one per core].
+    #[arg(long, value_name = "J")]
+    jobs: Option<usize>,
+    /// Most iterations (Jacobians) of Levenberg–Marquardt.
+    #[arg(long, value_name = "N", default_value_t = 30)]
+    max_iterations: usize,
+    /// Print fit.json on stdout.
+    #[arg(long)]
+    json: bool,
+    /// Output folder for fit.json, residuals.csv, fitted.toml, fit.png, fit.svg
+    /// [default: out/<data name>-fit].
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+    /// Overwrite files of those names in --out that djkr did not write.
+    #[arg(long)]
+    force: bool,
+}
+
+const FIT_HELP: &str = "Example (the law comparison of docs/guide/fit.md):
+  djkr fit data.csv --scenario scenarios/paper-protocol-300hz.toml \\
+      --free adhesion.v0 --free adhesion.n --out out/fit-gs
+Exit status: 0 fitted (fit.json says whether it converged), 2 bad input, 130 Ctrl-C (the best
+estimate so far is written).";
+
+/// The files a fit writes.
+const FILES: [&str; 5] = [
+    "fit.json",
+    "residuals.csv",
+    "fitted.toml",
+    "fit.png",
+    "fit.svg",
+];
+
+/// Run `djkr fit`.
+pub fn fit(a: &FitArgs) -> Result<()> {
+    if a.jobs == Some(0) {
+        bail!("--jobs 0: must be a whole number >= 1 (runs at a time)");
+    }
+    let ensemble = match (a.ensemble, a.seed) {
+        (Some(0), _) => bail!("--ensemble 0: must be a whole number >= 1 (members per row)"),
+        (Some(m), s) => Some((m, s.unwrap_or(0))),
+        (None, Some(s)) => bail!("--seed {s}: seeds the ensemble's phases; add --ensemble N"),
+        (None, None) => None,
+    };
+    let free = a
+        .free
+        .iter()
+        .map(|f| FreeKey::parse(f).map_err(anyhow::Error::msg))
+        .collect::<Result<Vec<_>>>()?;
+    let all_set = a
+        .set
+        .iter()
+        .map(|s| Override::parse(s))
+        .collect::<Result<Vec<_>, _>>()?;
+    // A --set of a free key gives its starting value; the others hold for every row.
+    let (starts, fixed): (Vec<Override>, Vec<Override>) = all_set
+        .into_iter()
+        .partition(|o| free.iter().any(|f| f.key == o.key()));
+    let data = FitData::read(&a.data, a.observable.as_deref())?;
+    let source = ScenarioSource::read(&a.scenario)?;
+    let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
+    let scn = source.scenario(&with_starts)?;
+    let x0 = free
+        .iter()
+        .map(|f| fit::initial_value(&source, &starts, f).map_err(anyhow::Error::msg))
+        .collect::<Result<Vec<_>>>()?;
+    fit::driver::check_start(&free, &x0)?;
+    let model = ForwardModel::new(
+        source.clone(),
+        data,
+        free.iter().map(|f| f.key).collect(),
+        fixed.clone(),
+        ensemble,
+        a.jobs.unwrap_or(0),
+    )
+    .map_err(anyhow::Error::msg)?;
+    let out = a.out.clone().unwrap_or_else(|| default_out(&a.data));
+    super::common::claim_out(&out, &FILES, a.force).context("--out")?;
+    let _lock = djkr::output::folder::DirLock::acquire(&out)?;
+    signals::install(
+        "stopping: running forward runs are abandoned; the best estimate so far is \
+         written (Ctrl-C again to quit at once)",
+    );
+    let per_iteration = model.runs_per_set() * (free.len() + 1);
+    let bar = ProgressBar::new((model.runs_per_set() + 6 * per_iteration) as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed}] {bar:30} {pos}/{len} runs (length grows if the fit needs \
+             more), ETA {eta} {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.enable_steady_tick(Duration::from_millis(200));
+    let opts = FitOptions {
+        max_iterations: a.max_iterations,
+        stop: Some(signals::flag()),
+    };
+    let mut progress = |e: FitEvent| match e {
+        FitEvent::Run => {
+            if bar.position() + 1 >= bar.length().unwrap_or(0) {
+                bar.inc_length(per_iteration as u64);
+            }
+            bar.inc(1);
+        }
+        FitEvent::Best { iteration, chi2 } => {
+            bar.set_message(format!("iteration {iteration}, best chi2 {chi2:.6e}"));
+        }
+    };
+    let outcome = fit::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut progress);
+    bar.finish_and_clear();
+    let outcome = outcome?;
+    let header = format!(
+        "Written by djkr fit: {} with the estimates of {}\nfrom {} (fit.json beside this file). \
+         The original file's comments are not kept.\n{}",
+        source.name(),
+        outcome
+            .report
+            .parameters
+            .iter()
+            .map(|p| format!(
+                "{} = {} {}",
+                p.key,
+                djkr::output::table::format_f64(p.value),
+                p.unit
+            ))
+            .collect::<Vec<_>>()
+            .join(", "),
+        model.data().name,
+        if fixed.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "With {}.",
+                fixed
+                    .iter()
+                    .map(|o| format!("--set {o}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            )
+        }
+    );
+    let toml = fit::fitted_toml(&source, &fixed, &free, &outcome.values, &header)
+        .map_err(anyhow::Error::msg)?;
+    let json = serde_json::to_string_pretty(&outcome.report)?;
+    write(&out, "fit.json", format!("{json}\n").as_bytes())?;
+    write(
+        &out,
+        "residuals.csv",
+        fit::residuals_csv(&model, &outcome).as_bytes(),
+    )?;
+    write(&out, "fitted.toml", toml.as_bytes())?;
+    let fig = fit::figure::fit_figure(&model, &outcome);
+    djkr::plot::render(&fig, &out.join("fit")).context("fit.png/fit.svg")?;
+    for n in &outcome.report.notes {
+        eprintln!("note: {n}");
+    }
+    if a.json {
+        outln!("{json}")?;
+    } else {
+        report(&outcome.report, &out)?;
+    }
+    if outcome.report.interrupted {
+        eprintln!(
+            "stopped: the files in {} hold the best estimate so far",
+            out.display()
+        );
+        return Err(Interrupted(signals::received()).into());
+    }
+    Ok(())
+}
+
+/// Write one of the fit's files atomically.
+fn write(out: &Path, name: &str, bytes: &[u8]) -> Result<()> {
+    djkr::output::write_atomic(&out.join(name), bytes).with_context(|| format!("--out {name}"))
+}
+
+/// `--out` left out: out/<data name>-fit.
+fn default_out(data: &Path) -> PathBuf {
+    super::common::default_out(data, "-fit")
+}
+
+/// The readable report.
+fn report(r: &djkr::fit::FitReport, out: &Path) -> Result<()> {
+    outln!(
+        "fit of {} to {} rows: chi2 {:.4}, dof {}, reduced chi2 {:.4}, AIC {:.3}, BIC {:.3}",
+        r.observable,
+        r.rows,
+        r.chi2,
+        r.dof,
+        r.reduced_chi2,
+        r.aic,
+        r.bic
+    )?;
+    outln!(
+        "  {} in {} iteration(s), {} forward runs, {:.1} s",
+        if r.converged {
+            "converged"
+        } else {
+            "NOT converged"
+        },
+        r.iterations,
+        r.forward_runs,
+        r.wall_s
+    )?;
+    outln!("  key  value ± sigma  (initial)")?;
+    for p in &r.parameters {
+        let s = p
+            .sigma
+            .map_or("(no sigma)".to_string(), |s| format!("{s:.4e}"));
+        outln!(
+            "  {}  {:.6e} ± {s} {}  ({:.6e})",
+            p.key,
+            p.value,
+            p.unit,
+            p.initial
+        )?;
+    }
+    outln!(
+        "wrote fit.json, residuals.csv, fitted.toml, fit.png, fit.svg in {}",
+        out.display()
+    )?;
+    Ok(())
+}

@@ -1,0 +1,653 @@
+//! The fit itself: weighted least squares by Levenberg–Marquardt (the `levenberg-marquardt`
+//! crate, MINPACK's trust-region algorithm over nalgebra) in the optimiser's coordinates `u`
+//! (see [`super::free`]), with finite-difference Jacobians, then the covariance, correlation and
+//! information criteria at the best estimate.
+//!
+//! **Finite-difference step.** The forward model is a numerical integration: its output carries
+//! an error that does not vary smoothly with the parameters, of relative size about the solver's
+//! `rtol` times the error amplification of event location and cycle averaging (taken as 100).
+//! A forward difference with step `h` has truncation error ∝ `h` and noise error ∝ `ε/h`, so the
+//! step that balances them is `h = √ε`: `h = √(100 · rtol)` in the fit coordinate `y` (a relative
+//! step for a key fitted in log space), kept within [1e-6, 1e-2]. With the paper protocol's
+//! `rtol = 1e-8` this is `h = 1e-3`. A step that would leave the bounds is taken backwards.
+//!
+//! **Interruption.** The best parameter set met so far (lowest χ²) is kept at every evaluation;
+//! a stop (Ctrl-C) ends the optimiser and that set is the result, said so in `notes`.
+
+use std::cell::RefCell;
+use std::sync::atomic::AtomicBool;
+
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
+use nalgebra::{storage::Owned, DMatrix, DVector, Dyn};
+use serde::Serialize;
+
+use super::free::{FreeKey, Transform};
+use super::model::{EvalError, ForwardModel, ParamSet, Prediction};
+
+/// What a fit reports as it goes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FitEvent {
+    /// A forward run ended.
+    Run,
+    /// A new best χ² (after `iteration` Jacobians).
+    Best {
+        /// Jacobians computed so far.
+        iteration: usize,
+        /// The χ².
+        chi2: f64,
+    },
+}
+
+/// How to fit.
+#[derive(Debug, Clone, Copy)]
+pub struct FitOptions<'a> {
+    /// Most Jacobians (outer iterations) before giving up.
+    pub max_iterations: usize,
+    /// Raised (Ctrl-C): stop and keep the best estimate.
+    pub stop: Option<&'a AtomicBool>,
+}
+
+impl Default for FitOptions<'_> {
+    fn default() -> Self {
+        FitOptions {
+            max_iterations: 30,
+            stop: None,
+        }
+    }
+}
+
+/// One parameter of `fit.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Parameter {
+    /// The key.
+    pub key: String,
+    /// The estimate (in `unit`).
+    pub value: f64,
+    /// Its standard deviation (in `unit`), or null where the curvature does not support one (a
+    /// bound hit, a parameter that is not identifiable).
+    pub sigma: Option<f64>,
+    /// The key's SI unit.
+    pub unit: String,
+    /// The starting value (the scenario's, in `unit`).
+    pub initial: f64,
+}
+
+/// The content of `fit.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FitReport {
+    /// The estimates.
+    pub parameters: Vec<Parameter>,
+    /// Correlation matrix, in the order of `parameters` (null where undefined).
+    pub correlation: Vec<Vec<Option<f64>>>,
+    /// Σ ((obs − fit)/σ)² at the estimate (σ = 1 in the observable's unit without a sigma column).
+    pub chi2: f64,
+    /// Rows − free keys.
+    pub dof: usize,
+    /// χ² / dof.
+    pub reduced_chi2: f64,
+    /// χ² + 2k.
+    pub aic: f64,
+    /// χ² + k ln n.
+    pub bic: f64,
+    /// Whether the optimiser met its convergence criteria (false when stopped or out of
+    /// iterations).
+    pub converged: bool,
+    /// Jacobians computed (outer iterations).
+    pub iterations: usize,
+    /// Forward runs made.
+    pub forward_runs: usize,
+    /// The observable fitted (as named in sweep.csv).
+    pub observable: String,
+    /// What the numbers need said: bounds hit, parameters not identifiable, no sigma column,
+    /// no convergence, an interruption.
+    pub notes: Vec<String>,
+    /// Data rows.
+    pub rows: usize,
+    /// Wall time of the fit (s).
+    pub wall_s: f64,
+    /// Whether a stop (Ctrl-C) ended the fit (the estimate is the best so far).
+    pub interrupted: bool,
+}
+
+/// A fit's result: the report and what the files need.
+#[derive(Debug, Clone)]
+pub struct FitOutcome {
+    /// `fit.json`.
+    pub report: FitReport,
+    /// The estimates (SI), in the order of the free keys.
+    pub values: ParamSet,
+    /// The prediction at the estimates (None if the fit was stopped before the first one).
+    pub prediction: Prediction,
+    /// The σ each row was weighted with (SI; 1 without a sigma column).
+    pub weights: Vec<f64>,
+}
+
+/// A fit that could not start or whose first evaluation failed.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct FitError(pub String);
+
+/// Degrees of freedom: rows − free keys.
+fn dof_of(n: usize, k: usize) -> usize {
+    n.saturating_sub(k)
+}
+
+/// The finite-difference step in `y` for a scenario solved at relative tolerance `rtol`.
+pub fn fd_step(rtol: f64) -> f64 {
+    (100.0 * rtol).sqrt().clamp(1e-6, 1e-2)
+}
+
+struct State {
+    /// The last evaluation: u and its prediction.
+    last: Option<(Vec<f64>, Prediction)>,
+    /// The best: χ², u, prediction.
+    best: Option<(f64, Vec<f64>, Prediction)>,
+    /// The Jacobian with respect to y (weighted, of the prediction: ∂(pred/w)/∂y) and its u.
+    jac_y: Option<(Vec<f64>, DMatrix<f64>)>,
+    iterations: usize,
+    runs: usize,
+    stopped: bool,
+    failure: Option<String>,
+    out_of_iterations: bool,
+}
+
+struct Problem<'a, 'b> {
+    model: &'a ForwardModel,
+    tr: Vec<Transform>,
+    obs: Vec<f64>,
+    w: Vec<f64>,
+    h: f64,
+    u: DVector<f64>,
+    opts: FitOptions<'a>,
+    state: RefCell<State>,
+    progress: RefCell<&'b mut dyn FnMut(FitEvent)>,
+}
+
+impl Problem<'_, '_> {
+    fn x_of_u(&self, u: &[f64]) -> ParamSet {
+        u.iter()
+            .zip(&self.tr)
+            .map(|(&u, t)| t.x(t.y_of_u(u)))
+            .collect()
+    }
+
+    fn chi2(&self, p: &Prediction) -> f64 {
+        (0..self.obs.len())
+            .map(|i| ((self.obs[i] - p.values[i]) / self.w[i]).powi(2))
+            .sum()
+    }
+
+    /// Run a batch, counting runs and reporting them.
+    fn predict(&self, sets: &[ParamSet]) -> Result<Vec<Prediction>, EvalError> {
+        let mut runs = 0;
+        let r = {
+            let mut progress = self.progress.borrow_mut();
+            self.model.predict(sets, self.opts.stop, &mut || {
+                runs += 1;
+                (*progress)(FitEvent::Run);
+            })
+        };
+        self.state.borrow_mut().runs += runs;
+        r
+    }
+
+    /// The prediction at u (cached for the last u), remembering the best.
+    fn eval(&self, u: &[f64]) -> Result<Prediction, EvalError> {
+        if let Some((lu, p)) = &self.state.borrow().last {
+            if lu.as_slice() == u {
+                return Ok(p.clone());
+            }
+        }
+        let p = self
+            .predict(&[self.x_of_u(u)])?
+            .pop()
+            .ok_or(EvalError::Stopped)?;
+        self.remember(u, &p);
+        Ok(p)
+    }
+
+    fn remember(&self, u: &[f64], p: &Prediction) {
+        let chi2 = self.chi2(p);
+        let mut st = self.state.borrow_mut();
+        st.last = Some((u.to_vec(), p.clone()));
+        if st.best.as_ref().is_none_or(|(b, _, _)| chi2 < *b) {
+            st.best = Some((chi2, u.to_vec(), p.clone()));
+            let iteration = st.iterations;
+            drop(st);
+            (*self.progress.borrow_mut())(FitEvent::Best { iteration, chi2 });
+        }
+    }
+
+    fn note_error(&self, e: EvalError) {
+        let mut st = self.state.borrow_mut();
+        match e {
+            EvalError::Stopped => st.stopped = true,
+            EvalError::Failed(m) => {
+                if st.failure.is_none() {
+                    st.failure = Some(m);
+                }
+            }
+        }
+    }
+
+    /// ∂(pred/w)/∂y at u by forward differences (one batch of k parameter sets).
+    fn jacobian_y(&self, u: &[f64]) -> Result<DMatrix<f64>, EvalError> {
+        if let Some((ju, j)) = &self.state.borrow().jac_y {
+            if ju.as_slice() == u {
+                return Ok(j.clone());
+            }
+        }
+        let base = self.eval(u)?;
+        let k = u.len();
+        let n = self.obs.len();
+        let y: Vec<f64> = u.iter().zip(&self.tr).map(|(&u, t)| t.y_of_u(u)).collect();
+        let mut steps = Vec::with_capacity(k);
+        let mut sets = Vec::with_capacity(k);
+        for j in 0..k {
+            let mut yj = y.clone();
+            let mut h = self.h;
+            if !self.tr[j].inside(y[j] + h) {
+                h = -h;
+            }
+            yj[j] += h;
+            steps.push(h);
+            sets.push(
+                yj.iter()
+                    .zip(&self.tr)
+                    .map(|(&y, t)| t.x(y))
+                    .collect::<Vec<_>>(),
+            );
+        }
+        let preds = self.predict(&sets)?;
+        let mut jac = DMatrix::zeros(n, k);
+        for j in 0..k {
+            for i in 0..n {
+                jac[(i, j)] = (preds[j].values[i] - base.values[i]) / (steps[j] * self.w[i]);
+            }
+        }
+        self.state.borrow_mut().jac_y = Some((u.to_vec(), jac.clone()));
+        Ok(jac)
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, '_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, u: &DVector<f64>) {
+        self.u.copy_from(u);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.u.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let n = self.obs.len();
+        match self.eval(self.u.as_slice()) {
+            Ok(p) => Some(DVector::from_fn(n, |i, _| {
+                (self.obs[i] - p.values[i]) / self.w[i]
+            })),
+            Err(EvalError::Failed(m)) if self.state.borrow().best.is_some() => {
+                // A trial step into a region where a run fails: a residual larger than any
+                // seen, so the optimiser rejects the step and shrinks its trust region.
+                let _ = m;
+                let best = self.state.borrow().best.as_ref().map_or(1.0, |b| b.0);
+                let r = (100.0 * best.max(1.0) / n as f64).sqrt();
+                Some(DVector::from_element(n, r))
+            }
+            Err(e) => {
+                self.note_error(e);
+                None
+            }
+        }
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        {
+            let mut st = self.state.borrow_mut();
+            if st.iterations >= self.opts.max_iterations {
+                st.out_of_iterations = true;
+                return None;
+            }
+            st.iterations += 1;
+        }
+        let u = self.u.as_slice();
+        match self.jacobian_y(u) {
+            Ok(jy) => {
+                // r = (obs − pred)/w, so ∂r/∂u = −∂(pred/w)/∂y · dy/du.
+                let mut j = -jy;
+                for (c, t) in self.tr.iter().enumerate() {
+                    let d = t.dy_du(u[c]);
+                    for i in 0..j.nrows() {
+                        j[(i, c)] *= d;
+                    }
+                }
+                Some(j)
+            }
+            Err(e) => {
+                self.note_error(e);
+                None
+            }
+        }
+    }
+}
+
+/// Refuse a starting value outside its key's bounds (before anything runs).
+pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
+    for (f, &x) in free.iter().zip(x0) {
+        let t = Transform::new(f, x);
+        if !x.is_finite() || !t.inside(t.y(x)) {
+            return Err(FitError(format!(
+                "--free {}: the starting value {x} {} (the scenario's) lies outside the bounds; \
+                 start inside with --set {}=VALUE",
+                f.given, f.unit, f.key
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Fit the free keys `free` (starting at `x0`, SI) of `model` to its data.
+pub fn fit(
+    model: &ForwardModel,
+    free: &[FreeKey],
+    x0: &[f64],
+    rtol: f64,
+    opts: FitOptions,
+    progress: &mut dyn FnMut(FitEvent),
+) -> Result<FitOutcome, FitError> {
+    let t0 = std::time::Instant::now();
+    let data = model.data();
+    let n = data.rows.len();
+    let k = free.len();
+    if k == 0 {
+        return Err(FitError("give at least one --free KEY".into()));
+    }
+    if n <= k {
+        return Err(FitError(format!(
+            "{}: {n} row(s) for {k} free key(s): a fit needs more rows than free keys",
+            data.name
+        )));
+    }
+    let tr: Vec<Transform> = free
+        .iter()
+        .zip(x0)
+        .map(|(f, &x)| Transform::new(f, x))
+        .collect();
+    check_start(free, x0)?;
+    // Start a little inside a bound: at a bound dy/du = 0 and the key could not move.
+    let u0: Vec<f64> = x0
+        .iter()
+        .zip(&tr)
+        .map(|(&x, t)| {
+            let mut y = t.y(x);
+            let span = match (t.lo, t.hi) {
+                (Some(l), Some(h)) => 0.01 * (h - l),
+                _ => 0.01,
+            };
+            if t.lo.is_some_and(|l| y - l < span) {
+                y = t.lo.unwrap_or(y) + span;
+            }
+            if t.hi.is_some_and(|h| h - y < span) {
+                y = t.hi.unwrap_or(y) - span;
+            }
+            t.u_of_y(y)
+        })
+        .collect();
+    let obs: Vec<f64> = data.rows.iter().map(|r| r.observed).collect();
+    let mut notes = Vec::new();
+    // The first evaluation fixes the weights (with an ensemble, its standard errors join sigma).
+    let mut runs0 = 0;
+    let start: Vec<f64> = u0.iter().zip(&tr).map(|(&u, t)| t.x(t.y_of_u(u))).collect();
+    let p0 = model
+        .predict(&[start], opts.stop, &mut || {
+            runs0 += 1;
+            progress(FitEvent::Run);
+        })
+        .map_err(|e| match e {
+            EvalError::Stopped => FitError("stopped before the first evaluation ended".into()),
+            EvalError::Failed(m) => FitError(format!("at the starting values: {m}")),
+        })?
+        .pop()
+        .ok_or_else(|| FitError("no prediction".into()))?;
+    let w: Vec<f64> = (0..n)
+        .map(|i| {
+            if data.has_sigma {
+                let s = data.rows[i].sigma.unwrap_or(1.0);
+                (s * s + p0.se[i] * p0.se[i]).sqrt()
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    if !data.has_sigma {
+        notes.push(format!(
+            "{} has no sigma column: every row weighs the same (sigma = 1 {} in chi2), and the \
+             parameters' sigma are scaled by the reduced chi2",
+            data.name,
+            data.observable.unit()
+        ));
+    }
+    if model.members() > 1 && data.has_sigma {
+        notes.push(format!(
+            "each row's sigma includes the standard error of its {}-member ensemble mean \
+             (at the starting values)",
+            model.members()
+        ));
+    }
+    let problem = Problem {
+        model,
+        tr: tr.clone(),
+        obs: obs.clone(),
+        w: w.clone(),
+        h: fd_step(rtol),
+        u: DVector::from_vec(u0.clone()),
+        opts,
+        state: RefCell::new(State {
+            last: None,
+            best: None,
+            jac_y: None,
+            iterations: 0,
+            runs: runs0,
+            stopped: false,
+            failure: None,
+            out_of_iterations: false,
+        }),
+        progress: RefCell::new(progress),
+    };
+    problem.remember(&u0, &p0);
+    // Convergence: a relative change of chi2 below 1e-5 (chi2 ~ rows, so an absolute change far
+    // below the 1 that moves an estimate by one sigma) or of the scaled parameters below 1e-4;
+    // tighter criteria only chase the forward model's numerical noise.
+    let lm = LevenbergMarquardt::new()
+        .with_ftol(1e-5)
+        .with_xtol(1e-4)
+        .with_gtol(1e-8)
+        .with_patience(100);
+    let (problem, report) = lm.minimize(problem);
+    let mut st = problem.state.borrow_mut();
+    if let Some(m) = st.failure.take() {
+        if st.best.is_none() {
+            return Err(FitError(m));
+        }
+        notes.push(format!("a forward run failed, which ended the fit: {m}"));
+    }
+    let (chi2, u_best, pred) = st
+        .best
+        .clone()
+        .ok_or_else(|| FitError("no estimate".into()))?;
+    let stopped = st.stopped;
+    let mut converged = matches!(
+        report.termination,
+        TerminationReason::Converged { .. }
+            | TerminationReason::Orthogonal
+            | TerminationReason::ResidualsZero
+            | TerminationReason::NoImprovementPossible(_)
+    ) && !stopped;
+    // LM computes a new Jacobian after each accepted step: one Jacobian means that no step
+    // lowered chi2, and the criteria were met by a trust region shrunk to nothing.
+    let stuck = converged && st.iterations <= 1 && chi2 > dof_of(n, k) as f64;
+    if stuck {
+        converged = false;
+        notes.push(
+            "not converged: no step from the start lowered chi2 (the trust region shrank to \
+             nothing); the response may not be smooth at these step sizes (a chaotic rig: try \
+             --ensemble)"
+                .into(),
+        );
+    } else if st.out_of_iterations {
+        converged = false;
+        notes.push(format!(
+            "not converged: {} iterations without meeting the criteria; the estimate is the \
+             best met",
+            opts.max_iterations
+        ));
+    } else if stopped {
+        notes.push(
+            "interrupted: the estimate is the best met so far (lowest chi2), not converged".into(),
+        );
+    } else if !converged {
+        notes.push(format!(
+            "not converged (the optimiser ended: {:?}); the estimate is the best met",
+            report.termination
+        ));
+    }
+    drop(st);
+    // The Jacobian at the estimate (computed unless it is the last one, or the fit was stopped).
+    let jac = if stopped {
+        None
+    } else {
+        match problem.jacobian_y(&u_best) {
+            Ok(j) => Some(j),
+            Err(e) => {
+                notes.push(match e {
+                    EvalError::Stopped => {
+                        "interrupted while computing the uncertainties: no sigma".into()
+                    }
+                    EvalError::Failed(m) => format!("no sigma: a run of the Jacobian failed: {m}"),
+                });
+                None
+            }
+        }
+    };
+    let st = problem.state.borrow();
+    let y_best: Vec<f64> = u_best.iter().zip(&tr).map(|(&u, t)| t.y_of_u(u)).collect();
+    let values: Vec<f64> = y_best.iter().zip(&tr).map(|(&y, t)| t.x(y)).collect();
+    let dof = n - k;
+    let reduced = chi2 / dof as f64;
+    if data.has_sigma && reduced > 10.0 {
+        notes.push(format!(
+            "poor fit: reduced chi2 = {reduced:.3e}: the model does not describe the data within \
+             their sigma, or the optimiser is stuck; the sigma of the parameters are not reliable"
+        ));
+    }
+    let at_bound: Vec<bool> = y_best
+        .iter()
+        .zip(&tr)
+        .map(|(&y, t)| t.at_bound(y))
+        .collect();
+    for (j, f) in free.iter().enumerate() {
+        if at_bound[j] {
+            notes.push(format!(
+                "{} ran to its bound ({} {}): no sigma for it",
+                f.key, values[j], f.unit
+            ));
+        }
+    }
+    // Covariance in y of the keys not at a bound.
+    let mut sigma: Vec<Option<f64>> = vec![None; k];
+    let mut corr: Vec<Vec<Option<f64>>> = vec![vec![None; k]; k];
+    if let Some(jy) = jac {
+        let idx: Vec<usize> = (0..k).filter(|&j| !at_bound[j]).collect();
+        if !idx.is_empty() {
+            let jf = DMatrix::from_fn(n, idx.len(), |i, c| jy[(i, idx[c])]);
+            let svd = jf.svd(false, true);
+            let smax = svd.singular_values.max();
+            let smin = svd.singular_values.min();
+            let resolved = smin > 1e-8 * smax && smax.is_finite();
+            if !resolved {
+                notes.push(format!(
+                    "not identifiable: the Jacobian is singular (singular values {smin:.3e} .. \
+                     {smax:.3e}): the data do not fix {} separately; no sigma",
+                    idx.iter()
+                        .map(|&j| free[j].key.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+            } else if let Some(vt) = svd.v_t {
+                let m = idx.len();
+                let scale = if data.has_sigma { 1.0 } else { reduced };
+                let mut cov = DMatrix::zeros(m, m);
+                for a in 0..m {
+                    for b in 0..m {
+                        cov[(a, b)] = (0..m)
+                            .map(|s| vt[(s, a)] * vt[(s, b)] / svd.singular_values[s].powi(2))
+                            .sum::<f64>()
+                            * scale;
+                    }
+                }
+                for a in 0..m {
+                    let ja = idx[a];
+                    let sy = cov[(a, a)].sqrt();
+                    sigma[ja] = Some(sy * tr[ja].dx_dy(y_best[ja]));
+                    for b in 0..m {
+                        let jb = idx[b];
+                        let c = cov[(a, b)] / (cov[(a, a)] * cov[(b, b)]).sqrt();
+                        corr[ja][jb] = Some(c);
+                        if a < b && c.abs() > 0.999 {
+                            notes.push(format!(
+                                "not identifiable separately: {} and {} are correlated by {c:.4} \
+                                 (> 0.999); their sigma are large and mostly shared",
+                                free[ja].key, free[jb].key
+                            ));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    for (j, f) in free.iter().enumerate() {
+        if let Some(s) = sigma[j] {
+            if !s.is_finite() {
+                sigma[j] = None;
+                notes.push(format!("{}: sigma is not finite; none given", f.key));
+            }
+        }
+    }
+    let parameters = free
+        .iter()
+        .enumerate()
+        .map(|(j, f)| Parameter {
+            key: f.key.to_string(),
+            value: values[j],
+            sigma: sigma[j],
+            unit: f.unit.to_string(),
+            initial: x0[j],
+        })
+        .collect();
+    let report = FitReport {
+        parameters,
+        correlation: corr,
+        chi2,
+        dof,
+        reduced_chi2: reduced,
+        aic: chi2 + 2.0 * k as f64,
+        bic: chi2 + k as f64 * (n as f64).ln(),
+        converged,
+        iterations: st.iterations,
+        forward_runs: st.runs,
+        observable: data.observable.name().to_string(),
+        notes,
+        rows: n,
+        wall_s: t0.elapsed().as_secs_f64(),
+        interrupted: stopped,
+    };
+    Ok(FitOutcome {
+        report,
+        values,
+        prediction: pred,
+        weights: w,
+    })
+}

@@ -1,0 +1,260 @@
+//! The free keys of a fit (`--free KEY[=LO:HI]`) and the coordinates the optimiser moves them in.
+//!
+//! Three coordinates per key:
+//! - `x`, the key's value in SI, as the scenario takes it;
+//! - `y`, the *fit coordinate*: `ln x` for a positive scale (a key with a physical dimension,
+//!   positive at the start and not bounded below by 0 or less), so that a step is relative and
+//!   the estimate can never change sign; otherwise `x / s` with `s` the starting magnitude
+//!   (`adhesion.n`, angles), so that every coordinate is of order one;
+//! - `u`, the optimiser's unbounded coordinate: `y = u` without bounds, and with bounds the
+//!   transforms of MINUIT (James & Roos 1975): `y = lo + (hi − lo)(sin u + 1)/2` for two bounds,
+//!   `y = lo − 1 + √(u² + 1)` for a lower one, `y = hi + 1 − √(u² + 1)` for an upper one. They
+//!   keep every trial inside the bounds without a constrained solver; at a bound `dy/du = 0`,
+//!   which is how a bound that was hit is recognised (and no σ is claimed for it).
+//!
+//! Uncertainties are computed in `y` (the Jacobian with respect to `y`) and carried to `x` by
+//! the derivative: `σ_x = x σ_y` in log space, `σ_x = s σ_y` otherwise.
+
+use crate::scenario::overrides::SetKey;
+use crate::sweep::spec::{key_kind, KeyKind};
+use crate::units::{parse_quantity, Dimension};
+
+/// A free key as given on the command line, parsed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FreeKey {
+    /// The key.
+    pub key: SetKey,
+    /// Its SI unit (`1` for a plain number).
+    pub unit: &'static str,
+    /// The units its values and bounds are read in.
+    pub dim: Dimension,
+    /// Lower bound (SI), if any.
+    pub lo: Option<f64>,
+    /// Upper bound (SI), if any.
+    pub hi: Option<f64>,
+    /// `KEY[=LO:HI]` as given.
+    pub given: String,
+}
+
+impl FreeKey {
+    /// Parse `KEY` or `KEY=LO:HI` (either bound may be left empty: `KEY=0.1:`, `KEY=:2`; units
+    /// welcome). A key must be numeric.
+    pub fn parse(arg: &str) -> Result<FreeKey, String> {
+        let err = |m: String| format!("--free {}: {m}", crate::text::excerpt(arg));
+        let (k, range) = match arg.split_once('=') {
+            Some((k, r)) => (k.trim(), Some(r.trim())),
+            None => (arg.trim(), None),
+        };
+        let key = SetKey::parse(k).map_err(|e| err(e.message))?;
+        let (dim, unit) = match key_kind(&key) {
+            Some(KeyKind::Number { dim, unit }) => (dim.unwrap_or(Dimension::Dimensionless), unit),
+            _ => {
+                return Err(err(format!(
+                    "{key} is not a numeric key: only numbers can be fitted"
+                )))
+            }
+        };
+        let (mut lo, mut hi) = (None, None);
+        if let Some(r) = range {
+            let Some((a, b)) = r.split_once(':') else {
+                return Err(err(
+                    "bounds are LO:HI (either may be empty), e.g. adhesion.v_sat=0.01:100".into(),
+                ));
+            };
+            let bound = |t: &str, which: &str| -> Result<Option<f64>, String> {
+                let t = t.trim();
+                if t.is_empty() {
+                    return Ok(None);
+                }
+                let x = parse_quantity(&key.to_string(), t, dim)
+                    .map_err(|e| err(format!("{which} '{t}': {}", e.allowed)))?;
+                if !x.is_finite() {
+                    return Err(err(format!("{which} '{t}' is not finite")));
+                }
+                Ok(Some(x))
+            };
+            lo = bound(a, "LO")?;
+            hi = bound(b, "HI")?;
+            if let (Some(l), Some(h)) = (lo, hi) {
+                if l >= h {
+                    return Err(err(format!("LO must be below HI ({l} >= {h})")));
+                }
+            }
+        }
+        Ok(FreeKey {
+            key,
+            unit,
+            dim,
+            lo,
+            hi,
+            given: arg.trim().to_string(),
+        })
+    }
+
+    /// Whether the key is fitted in log space when it starts at `x0`: a positive scale (a
+    /// physical dimension other than an angle, a positive start and no bound at or below 0).
+    pub fn log_space(&self, x0: f64) -> bool {
+        !matches!(self.dim, Dimension::Dimensionless | Dimension::Angle)
+            && x0 > 0.0
+            && self.lo.is_none_or(|l| l > 0.0)
+    }
+}
+
+/// How one key maps between `x`, `y` and `u` (see the module documentation).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transform {
+    /// `y = ln x` (else `y = x / scale`).
+    pub log: bool,
+    /// The scale of a linear key.
+    pub scale: f64,
+    /// Bounds in `y`.
+    pub lo: Option<f64>,
+    /// Upper bound in `y`.
+    pub hi: Option<f64>,
+}
+
+impl Transform {
+    /// The transform of `free` starting at `x0`.
+    pub fn new(free: &FreeKey, x0: f64) -> Transform {
+        let log = free.log_space(x0);
+        let scale = if x0 != 0.0 { x0.abs() } else { 1.0 };
+        let to_y = |x: f64| if log { x.ln() } else { x / scale };
+        Transform {
+            log,
+            scale,
+            lo: free.lo.map(to_y),
+            hi: free.hi.map(to_y),
+        }
+    }
+
+    /// `x` from `y`.
+    pub fn x(&self, y: f64) -> f64 {
+        if self.log {
+            y.exp()
+        } else {
+            y * self.scale
+        }
+    }
+
+    /// `y` from `x`.
+    pub fn y(&self, x: f64) -> f64 {
+        if self.log {
+            x.ln()
+        } else {
+            x / self.scale
+        }
+    }
+
+    /// `dx/dy`.
+    pub fn dx_dy(&self, y: f64) -> f64 {
+        if self.log {
+            y.exp()
+        } else {
+            self.scale
+        }
+    }
+
+    /// `y` from `u`.
+    pub fn y_of_u(&self, u: f64) -> f64 {
+        match (self.lo, self.hi) {
+            (None, None) => u,
+            (Some(l), Some(h)) => l + (h - l) * (u.sin() + 1.0) / 2.0,
+            (Some(l), None) => l - 1.0 + (u * u + 1.0).sqrt(),
+            (None, Some(h)) => h + 1.0 - (u * u + 1.0).sqrt(),
+        }
+    }
+
+    /// `dy/du`.
+    pub fn dy_du(&self, u: f64) -> f64 {
+        match (self.lo, self.hi) {
+            (None, None) => 1.0,
+            (Some(l), Some(h)) => (h - l) * u.cos() / 2.0,
+            (Some(_), None) => u / (u * u + 1.0).sqrt(),
+            (None, Some(_)) => -u / (u * u + 1.0).sqrt(),
+        }
+    }
+
+    /// `u` from `y` (a `y` outside the bounds is brought to the nearest one).
+    pub fn u_of_y(&self, y: f64) -> f64 {
+        match (self.lo, self.hi) {
+            (None, None) => y,
+            (Some(l), Some(h)) => {
+                let s = (2.0 * (y - l) / (h - l) - 1.0).clamp(-1.0, 1.0);
+                s.asin()
+            }
+            (Some(l), None) => {
+                let t = (y - l + 1.0).max(1.0);
+                (t * t - 1.0).sqrt()
+            }
+            (None, Some(h)) => {
+                let t = (h - y + 1.0).max(1.0);
+                (t * t - 1.0).sqrt()
+            }
+        }
+    }
+
+    /// Whether `y` lies at a bound (within `tol` of the bounded range, or 1e-6 in `y` for a
+    /// one-sided bound).
+    pub fn at_bound(&self, y: f64) -> bool {
+        let tol = match (self.lo, self.hi) {
+            (Some(l), Some(h)) => 1e-4 * (h - l),
+            _ => 1e-4,
+        };
+        self.lo.is_some_and(|l| y - l <= tol) || self.hi.is_some_and(|h| h - y <= tol)
+    }
+
+    /// Whether `y` lies within the bounds.
+    pub fn inside(&self, y: f64) -> bool {
+        self.lo.is_none_or(|l| y >= l) && self.hi.is_none_or(|h| y <= h)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn free_keys_parse_with_units_and_bounds() {
+        let f = FreeKey::parse("adhesion.v_sat=10mm/s:100").unwrap();
+        assert_eq!(f.lo, Some(0.01));
+        assert_eq!(f.hi, Some(100.0));
+        assert!(f.log_space(1.0));
+        let f = FreeKey::parse("adhesion.n").unwrap();
+        assert!(!f.log_space(0.5));
+        assert!(FreeKey::parse("adhesion.law")
+            .unwrap_err()
+            .contains("not a numeric key"));
+        assert!(FreeKey::parse("adhesion.wobble").is_err());
+        assert!(FreeKey::parse("adhesion.n=2:1")
+            .unwrap_err()
+            .contains("below"));
+        assert!(FreeKey::parse("adhesion.v0=1Hz:2Hz").is_err());
+    }
+
+    #[test]
+    fn transforms_invert_and_stay_inside_bounds() {
+        let f = FreeKey::parse("adhesion.v_sat=0.01:100").unwrap();
+        let t = Transform::new(&f, 0.5);
+        for u in [-10.0, -1.0, 0.0, 0.3, 1.5, 7.0] {
+            let y = t.y_of_u(u);
+            assert!(t.inside(y), "{u} {y}");
+            let x = t.x(y);
+            assert!((0.01 * (1.0 - 1e-12)..=100.0 * (1.0 + 1e-12)).contains(&x));
+        }
+        let y0 = t.y(0.5);
+        assert!((t.y_of_u(t.u_of_y(y0)) - y0).abs() < 1e-12);
+        // dy/du against a central difference.
+        for (f, x0) in [
+            ("adhesion.n=0.1:", 0.5),
+            ("adhesion.n=:2", 0.5),
+            ("adhesion.n", 0.5),
+        ] {
+            let t = Transform::new(&FreeKey::parse(f).unwrap(), x0);
+            let u = t.u_of_y(t.y(x0)) + 0.1;
+            let h = 1e-6;
+            let d = (t.y_of_u(u + h) - t.y_of_u(u - h)) / (2.0 * h);
+            assert!((d - t.dy_du(u)).abs() < 1e-8, "{f}");
+            assert!((t.y_of_u(t.u_of_y(t.y(x0))) - t.y(x0)).abs() < 1e-12, "{f}");
+        }
+    }
+}

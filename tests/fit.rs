@@ -1,0 +1,464 @@
+//! `djkr fit`: recovery of known constants from data djkr made itself (with Gaussian noise), the
+//! fitted scenario reproducing the fitted values, and the one-line refusals of bad input.
+
+use djkr::fit::{FitData, ForwardModel};
+use djkr::scenario::overrides::{Override, SetKey};
+use djkr::scenario::parse::ScenarioSource;
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output};
+
+const HEAVY: &str = "scenarios/paper-protocol-300hz.toml";
+
+fn djkr(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args(args)
+        .output()
+        .expect("djkr runs")
+}
+
+/// A standard normal deviate for (seed, i), by Box–Muller on the ensemble's counter-based
+/// uniform numbers (reproducible, no dependency).
+fn gauss(seed: u64, i: u64) -> f64 {
+    use djkr::sweep::phase::uniform;
+    let u1 = uniform(seed, i, 0).max(1e-300);
+    let u2 = uniform(seed, i, 1);
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// The pull-off amplification djkr predicts for `conditions` (rows of `base.frequency [Hz]`,
+/// `base.amplitude [um]`) on `scenario` with `sets` (`KEY=VALUE`) applied.
+fn truth(scenario: &str, conditions: &[(f64, f64)], sets: &[&str]) -> Vec<f64> {
+    let mut csv =
+        String::from("base.frequency [Hz],base.amplitude [um],pull_off_amplification [1]\n");
+    for (f, a) in conditions {
+        csv.push_str(&format!("{f},{a},0\n"));
+    }
+    let data = FitData::parse(&csv, "truth.csv", None).unwrap();
+    let source = ScenarioSource::read(Path::new(scenario)).unwrap();
+    let fixed: Vec<Override> = sets.iter().map(|s| Override::parse(s).unwrap()).collect();
+    let model = ForwardModel::new(source, data, Vec::<SetKey>::new(), fixed, None, 0).unwrap();
+    model.predict(&[vec![]], None, &mut || {}).unwrap()[0]
+        .values
+        .clone()
+}
+
+/// Write a data file of `values` with `rel` relative Gaussian noise (seed `seed`) and sigma.
+fn write_data(path: &Path, conditions: &[(f64, f64)], values: &[f64], rel: f64, seed: u64) {
+    let mut csv = String::from(
+        "base.frequency [Hz],base.amplitude [um],pull_off_amplification [1],sigma [1]\n",
+    );
+    for (i, ((f, a), v)) in conditions.iter().zip(values).enumerate() {
+        let s = rel * v;
+        let obs = v + s * gauss(seed, i as u64);
+        csv.push_str(&format!("{f},{a},{obs:e},{s:e}\n"));
+    }
+    std::fs::write(path, csv).unwrap();
+}
+
+fn fit_json(out: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(out.join("fit.json")).unwrap()).unwrap()
+}
+
+fn param<'a>(j: &'a Value, key: &str) -> &'a Value {
+    j["parameters"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|p| p["key"] == key)
+        .unwrap_or_else(|| panic!("{key} in {j}"))
+}
+
+/// Run `djkr fit` and return fit.json (panics with stderr on failure).
+fn run_fit(data: &Path, out: &Path, scenario: &str, extra: &[&str]) -> Value {
+    let mut args = vec![
+        "fit",
+        data.to_str().unwrap(),
+        "--scenario",
+        scenario,
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let o = djkr(&args);
+    assert!(
+        o.status.success(),
+        "{:?}: {}",
+        o.status,
+        String::from_utf8_lossy(&o.stderr)
+    );
+    fit_json(out)
+}
+
+/// The heavy rig (paper protocol) with v0 and n moved from the paper's values (4.45e-5 m/s,
+/// 0.531) and 2 % noise: the fit from the paper's values recovers both within 3 sigma, says it
+/// converged, and `djkr run fitted.toml` with a row's conditions gives that row's fitted value
+/// to the bit. Six rows (two frequencies, three amplitudes) keep it short; the full 3 x 6 study
+/// over 20 seeds is `coverage_study_heavy_rig` (--ignored).
+#[test]
+fn fit_recovers_v0_and_n_on_the_heavy_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let (v0, n) = (6e-5, 0.5);
+    let cond: Vec<(f64, f64)> = [300.0, 400.0]
+        .iter()
+        .flat_map(|&f| [10.0, 30.0, 60.0].map(|a| (f, a)))
+        .collect();
+    let sets = [format!("adhesion.v0={v0}"), format!("adhesion.n={n}")];
+    let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
+    let values = truth(HEAVY, &cond, &sets);
+    let data = dir.path().join("data.csv");
+    write_data(&data, &cond, &values, 0.02, 7);
+    let out = dir.path().join("fit");
+    let t0 = std::time::Instant::now();
+    let j = run_fit(
+        &data,
+        &out,
+        HEAVY,
+        &["--free", "adhesion.v0", "--free", "adhesion.n"],
+    );
+    eprintln!(
+        "fit: {} forward runs, {:.1} s wall: {j}",
+        j["forward_runs"],
+        t0.elapsed().as_secs_f64()
+    );
+    assert_eq!(j["converged"], true, "{j}");
+    for (key, t) in [("adhesion.v0", v0), ("adhesion.n", n)] {
+        let p = param(&j, key);
+        let (v, s) = (p["value"].as_f64().unwrap(), p["sigma"].as_f64().unwrap());
+        assert!(s > 0.0 && s < 0.5 * t, "{key}: sigma {s}");
+        assert!((v - t).abs() < 3.0 * s, "{key}: {v} ± {s}, truth {t}");
+    }
+    assert_eq!(param(&j, "adhesion.v0")["unit"], "m/s");
+    assert_eq!(param(&j, "adhesion.v0")["initial"].as_f64(), Some(4.45e-5));
+    let k = 2.0;
+    let chi2 = j["chi2"].as_f64().unwrap();
+    assert_eq!(j["dof"], 4);
+    assert!((j["aic"].as_f64().unwrap() - (chi2 + 2.0 * k)).abs() < 1e-12);
+    assert!((j["bic"].as_f64().unwrap() - (chi2 + k * 6f64.ln())).abs() < 1e-12);
+    assert_eq!(j["observable"], "pull_off_amplification");
+    for f in ["residuals.csv", "fitted.toml", "fit.png", "fit.svg"] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    // fitted.toml reproduces a row's fitted value (row 4: 400 Hz, 30 um).
+    let res = std::fs::read_to_string(out.join("residuals.csv")).unwrap();
+    let row: Vec<&str> = res.lines().nth(5).unwrap().split(',').collect();
+    let run_out = dir.path().join("run");
+    let o = djkr(&[
+        "run",
+        out.join("fitted.toml").to_str().unwrap(),
+        "--set",
+        &format!("base.frequency={}", row[0]),
+        "--set",
+        &format!("base.amplitude={}", row[1]),
+        "--out",
+        run_out.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: Value = serde_json::from_slice(&o.stdout).unwrap();
+    let fitted: f64 = row[4].parse().unwrap();
+    assert_eq!(
+        s["pull_off"]["amplification"].as_f64().unwrap().to_bits(),
+        fitted.to_bits(),
+        "{row:?}"
+    );
+}
+
+/// Bad input is refused with one line and exit status 2, before any run.
+#[test]
+fn bad_input_is_refused_with_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("good.csv");
+    std::fs::write(
+        &good,
+        "base.amplitude [um],pull_off_amplification [1]\n10,1.7\n20,2.1\n30,3\n",
+    )
+    .unwrap();
+    let bad = dir.path().join("bad.csv");
+    std::fs::write(
+        &bad,
+        "base.amplitude [um],pull_off_amplification [1]\n10,1.7\n20,abc\n",
+    )
+    .unwrap();
+    let unknown = dir.path().join("unknown.csv");
+    std::fs::write(
+        &unknown,
+        "base.wobble [um],pull_off_amplification [1]\n10,1.7\n",
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let o = out.to_str().unwrap();
+    let g = good.to_str().unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec![bad.to_str().unwrap(), "--free", "adhesion.n"],
+            "line 3, column 2",
+        ),
+        (
+            vec![unknown.to_str().unwrap(), "--free", "adhesion.n"],
+            "neither a scenario key",
+        ),
+        (vec![g, "--free", "adhesion.wobble"], "adhesion.wobble"),
+        (vec![g, "--free", "adhesion.law"], "not a numeric key"),
+        (
+            vec![g, "--free", "adhesion.n", "--observable", "wall_s"],
+            "does not produce",
+        ),
+        (
+            vec![g, "--free", "adhesion.n", "--observable", "delta_amp"],
+            "no delta_amp column",
+        ),
+        (vec![g, "--free", "base.amplitude"], "both"),
+        (vec![g, "--free", "adhesion.v_sat"], "--set adhesion.v_sat"),
+        (
+            vec![g, "--free", "adhesion.n=0.6:0.9"],
+            "outside the bounds",
+        ),
+    ];
+    for (args, want) in cases {
+        let mut all = vec!["fit"];
+        all.extend(args.iter().copied());
+        all.extend(["--scenario", HEAVY, "--out", o]);
+        let r = djkr(&all);
+        let e = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{all:?}: {e}");
+        assert_eq!(e.trim_end().lines().count(), 1, "{all:?}: {e}");
+        assert!(e.contains(want), "{all:?}: {e}");
+    }
+    assert!(!out.exists(), "a refused fit wrote nothing");
+}
+
+/// Opt-in: the 3 x 6 heavy-rig study over 20 seeds: every estimate within 3 sigma in >= 18 of
+/// 20, and the reported sigma within a factor 1.5 of the estimates' spread.
+#[test]
+#[ignore = "about 20 fits of 18 rows: minutes"]
+fn coverage_study_heavy_rig() {
+    let dir = tempfile::tempdir().unwrap();
+    let (v0, n) = (6e-5, 0.5);
+    let cond: Vec<(f64, f64)> = [200.0, 300.0, 400.0]
+        .iter()
+        .flat_map(|&f| [10.0, 20.0, 30.0, 40.0, 50.0, 60.0].map(|a| (f, a)))
+        .collect();
+    let sets = [format!("adhesion.v0={v0}"), format!("adhesion.n={n}")];
+    let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
+    let values = truth(HEAVY, &cond, &sets);
+    let mut inside = 0;
+    let mut est: Vec<[f64; 2]> = Vec::new();
+    let mut sig: Vec<[f64; 2]> = Vec::new();
+    let seeds = 20;
+    for seed in 0..seeds {
+        let data = dir.path().join(format!("data{seed}.csv"));
+        write_data(&data, &cond, &values, 0.02, 100 + seed);
+        let out = dir.path().join(format!("fit{seed}"));
+        let t0 = std::time::Instant::now();
+        let j = run_fit(
+            &data,
+            &out,
+            HEAVY,
+            &["--free", "adhesion.v0", "--free", "adhesion.n"],
+        );
+        let mut e = [0.0; 2];
+        let mut s = [0.0; 2];
+        let mut ok = true;
+        for (i, (key, t)) in [("adhesion.v0", v0), ("adhesion.n", n)].iter().enumerate() {
+            let p = param(&j, key);
+            e[i] = p["value"].as_f64().unwrap();
+            s[i] = p["sigma"].as_f64().unwrap_or(f64::NAN);
+            ok &= (e[i] - t).abs() < 3.0 * s[i];
+        }
+        eprintln!(
+            "seed {seed}: v0 {:.4e} ± {:.2e}, n {:.4} ± {:.4}, {} runs, {:.1} s, converged {}",
+            e[0],
+            s[0],
+            e[1],
+            s[1],
+            j["forward_runs"],
+            t0.elapsed().as_secs_f64(),
+            j["converged"]
+        );
+        inside += usize::from(ok);
+        est.push(e);
+        sig.push(s);
+    }
+    assert!(inside >= 18, "{inside} of {seeds} within 3 sigma");
+    for i in 0..2 {
+        let m = est.iter().map(|e| e[i]).sum::<f64>() / seeds as f64;
+        let spread =
+            (est.iter().map(|e| (e[i] - m).powi(2)).sum::<f64>() / (seeds - 1) as f64).sqrt();
+        let mean_sigma = sig.iter().map(|s| s[i]).sum::<f64>() / seeds as f64;
+        eprintln!("param {i}: spread {spread:.4e}, mean sigma {mean_sigma:.4e}");
+        let ratio = mean_sigma / spread;
+        assert!((1.0 / 1.5..=1.5).contains(&ratio), "param {i}: {ratio}");
+    }
+}
+
+/// Model values for rows of (`base.frequency [Hz]`, `base.amplitude [um]`, `stage[3].speed
+/// [um/s]`) and a data file of them with `rel` Gaussian noise.
+fn truth3(scenario: &str, rows: &[(f64, f64, f64)], sets: &[&str]) -> Vec<f64> {
+    let mut csv = String::from(
+        "base.frequency [Hz],base.amplitude [um],stage[3].speed [um/s],pull_off_amplification [1]\n",
+    );
+    for (f, a, v) in rows {
+        csv.push_str(&format!("{f},{a},{v},0\n"));
+    }
+    let data = FitData::parse(&csv, "truth.csv", None).unwrap();
+    let source = ScenarioSource::read(Path::new(scenario)).unwrap();
+    let fixed: Vec<Override> = sets.iter().map(|s| Override::parse(s).unwrap()).collect();
+    let model = ForwardModel::new(source, data, Vec::<SetKey>::new(), fixed, None, 0).unwrap();
+    model.predict(&[vec![]], None, &mut || {}).unwrap()[0]
+        .values
+        .clone()
+}
+
+fn write_data3(path: &Path, rows: &[(f64, f64, f64)], values: &[f64], rel: f64, seed: u64) {
+    let mut csv = String::from(
+        "base.frequency [Hz],base.amplitude [um],stage[3].speed [um/s],pull_off_amplification [1],sigma [1]\n",
+    );
+    for (i, ((f, a, v), m)) in rows.iter().zip(values).enumerate() {
+        let s = rel * m;
+        let obs = m + s * gauss(seed, i as u64);
+        csv.push_str(&format!("{f},{a},{v},{obs:e},{s:e}\n"));
+    }
+    std::fs::write(path, csv).unwrap();
+}
+
+/// The law comparison (the paper's open question). Data from a saturated law (v_sat = 1 mm/s)
+/// with 2 % noise, on the paper protocol with short dwells (0.1 s, 0.2 s): two vibrating rows
+/// (300 Hz, 5 and 10 um, unloading at 100 um/s; the saturated values fall > 10 % below the
+/// plain law's) and five rows without vibration unloading at 30 um/s to 3 mm/s, which pin the
+/// law at crack speeds below and above v_sat. (With vibrating rows alone, 200 and 400 Hz at 1 to
+/// 10 um, a plain law with n about 0.2 mimicked the saturated data: AIC 6.0 against 7.8.)
+/// Fitted by both laws, the saturated law's AIC is lower by more than 10. Data from the plain
+/// law: the saturated fit's v_sat runs to its bound or its AIC is not lower by more than 2.
+/// Opt-in: the saturated law's runs cost 10 to 40 times the plain law's (its inverse is solved
+/// by root finding at every right-hand side), minutes in all.
+#[test]
+#[ignore = "the saturated law's fits take minutes"]
+fn aic_tells_a_saturated_law_from_the_plain_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let short = ["stage[1].duration=0.1", "stage[2].duration=0.2"];
+    let mut rows: Vec<(f64, f64, f64)> = vec![(300.0, 5.0, 100.0), (300.0, 10.0, 100.0)];
+    rows.extend([30.0, 100.0, 300.0, 1000.0, 3000.0].map(|v| (300.0, 0.0, v)));
+    let sat_law = ["adhesion.law=gent-schultz-saturated", "adhesion.v_sat=1e-3"];
+    let with = |extra: &[&'static str]| -> Vec<&'static str> {
+        short.iter().chain(extra).copied().collect::<Vec<_>>()
+    };
+    let sat = truth3(HEAVY, &rows, &with(&sat_law));
+    let plain = truth3(HEAVY, &rows, &with(&[]));
+    assert!(
+        sat[1] < 0.9 * plain[1],
+        "saturation must lower the largest amplitude's value by 10 %: {sat:?} {plain:?}"
+    );
+    let sets = |extra: &[&str]| -> Vec<String> {
+        short
+            .iter()
+            .chain(extra)
+            .flat_map(|s| ["--set".to_string(), s.to_string()])
+            .collect()
+    };
+    let fit_both = |name: &str, values: &[f64]| -> (Value, Value) {
+        let data = dir.path().join(format!("{name}.csv"));
+        write_data3(&data, &rows, values, 0.02, 11);
+        let mut a = sets(&[]);
+        a.extend(["--free", "adhesion.v0", "--free", "adhesion.n"].map(String::from));
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let t0 = std::time::Instant::now();
+        let p = run_fit(&data, &dir.path().join(format!("{name}-plain")), HEAVY, &a);
+        let t1 = t0.elapsed().as_secs_f64();
+        let mut a = sets(&["adhesion.law=gent-schultz-saturated", "adhesion.v_sat=3e-3"]);
+        a.extend(
+            [
+                "--free",
+                "adhesion.v0",
+                "--free",
+                "adhesion.n",
+                "--free",
+                "adhesion.v_sat=1e-5:1",
+            ]
+            .map(String::from),
+        );
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let s = run_fit(&data, &dir.path().join(format!("{name}-sat")), HEAVY, &a);
+        eprintln!(
+            "{name}: plain ({t1:.1} s) {p}\nsaturated ({:.1} s) {s}",
+            t0.elapsed().as_secs_f64() - t1
+        );
+        (p, s)
+    };
+    let aic = |j: &Value| j["aic"].as_f64().unwrap();
+    let (p, s) = fit_both("saturated-data", &sat);
+    assert!(
+        aic(&p) - aic(&s) > 10.0,
+        "AIC plain {} saturated {}",
+        aic(&p),
+        aic(&s)
+    );
+    let (p, s) = fit_both("plain-data", &plain);
+    let v_sat = param(&s, "adhesion.v_sat");
+    let at_bound = v_sat["sigma"].is_null()
+        && s["notes"].as_array().unwrap().iter().any(|n| {
+            n.as_str()
+                .unwrap()
+                .contains("adhesion.v_sat ran to its bound")
+        });
+    assert!(
+        at_bound || aic(&p) - aic(&s) <= 2.0,
+        "AIC plain {} saturated {}: {s}",
+        aic(&p),
+        aic(&s)
+    );
+}
+
+/// With an ensemble, a row's prediction is the mean of the members `djkr sweep --ensemble N
+/// --seed S` runs for the same point (the same phases, drawn from (seed, row, member)), and its
+/// standard error is the members' standard deviation over √N: checked against a sweep of the
+/// tiny scenario, to the bit for the mean.
+#[test]
+fn ensemble_rows_are_the_sweeps_members_mean() {
+    use djkr::sweep::{run_all, Axis, Ensemble, Grid, RunOptions, Sweep};
+    let tiny = "tests/sweep/tiny.toml";
+    let source = ScenarioSource::read(Path::new(tiny)).unwrap();
+    let (members, seed) = (3, 5);
+    let grid = Grid::new(
+        vec![Axis::parse("base.amplitude=5e-6,1e-5").unwrap()],
+        false,
+    )
+    .unwrap();
+    let sweep = Sweep::new(source.clone(), grid, Some(Ensemble { members, seed })).unwrap();
+    let rows = run_all(&sweep, &RunOptions::default());
+    let data = FitData::parse(
+        "base.amplitude [m],pull_off_amplification [1]\n5e-6,0\n1e-5,0\n",
+        "d.csv",
+        None,
+    )
+    .unwrap();
+    let model = ForwardModel::new(
+        source,
+        data,
+        Vec::<SetKey>::new(),
+        vec![],
+        Some((members, seed)),
+        0,
+    )
+    .unwrap();
+    let p = model
+        .predict(&[vec![]], None, &mut || {})
+        .unwrap()
+        .remove(0);
+    for point in 0..2 {
+        let v: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.point == point)
+            .map(|r| r.amplification().unwrap())
+            .collect();
+        assert_eq!(v.len(), members);
+        let mean = v.iter().sum::<f64>() / members as f64;
+        assert_eq!(p.values[point].to_bits(), mean.to_bits(), "{v:?}");
+        let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (members - 1) as f64).sqrt();
+        assert!((p.se[point] - sd / (members as f64).sqrt()).abs() <= 1e-12 * sd.max(1.0));
+        assert!(
+            p.se[point] > 0.0,
+            "the phases differ, so the members do: {v:?}"
+        );
+    }
+}
