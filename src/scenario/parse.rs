@@ -38,6 +38,7 @@ use thiserror::Error;
 use toml::{Table, Value};
 
 use super::checks;
+use super::keys::{self, STAGE_SECTION};
 use super::overrides::{self, Override};
 use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
@@ -339,10 +340,6 @@ fn parent_dir(path: &Path) -> PathBuf {
     }
 }
 
-/// Keys of the top level that are not sections.
-pub const TOP_LEVEL_KEYS: &[&str] = &["version"];
-/// Keys of `[material]`.
-pub const MATERIAL_KEYS: &[&str] = &["K", "R", "w0"];
 /// Keys of `[adhesion]` with `law = "constant"`.
 const CONSTANT_LAW_KEYS: &[&str] = &["law"];
 /// Keys of `[adhesion]` with `law = "gent-schultz"`.
@@ -351,82 +348,24 @@ const GS_LAW_KEYS: &[&str] = &["law", "v0", "n"];
 const SATURATED_LAW_KEYS: &[&str] = &["law", "v0", "n", "v_sat"];
 /// Keys of `[adhesion]` with `law = "tabulated"`.
 const TABULATED_LAW_KEYS: &[&str] = &["law", "file"];
-/// Keys of `[adhesion]`, all laws together (each law takes the subset its own list names).
-pub const ADHESION_KEYS: &[&str] = &["law", "v0", "n", "v_sat", "file"];
-/// Keys of `[sphere]`.
-pub const SPHERE_KEYS: &[&str] = &["mass", "gravity"];
-/// Keys of `[spring]`.
-pub const SPRING_KEYS: &[&str] = &["stiffness", "rigid"];
-/// Keys of `[damping]`.
-pub const DAMPING_KEYS: &[&str] = &["c", "on"];
-/// Keys of `[base]`.
-pub const BASE_KEYS: &[&str] = &["amplitude", "frequency", "phase"];
-/// Keys of `[contact]`.
-pub const CONTACT_KEYS: &[&str] = &["formation", "seed_radius"];
-/// Keys of `[initial]`.
-pub const INITIAL_KEYS: &[&str] = &["preload", "gap"];
-/// Keys of each `[[stage]]`.
-pub const STAGE_KEYS: &[&str] = &[
-    "kind",
-    "speed",
-    "duration",
-    "preload",
-    "until",
-    "vibration",
-    "max_duration",
-];
 /// The end conditions of a stage, of which exactly one is given.
 pub const STAGE_END_KEYS: &[&str] = &["duration", "preload", "until"];
-/// Keys of `[solver]`.
-pub const SOLVER_KEYS: &[&str] = &[
-    "method",
-    "rtol",
-    "atol",
-    "max_steps",
-    "max_events",
-    "max_wall_s",
-    "max_memory",
-    "event_tol",
-    "envelope",
-    "envelope_tol",
-];
-/// Keys of `[output]`.
-pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv", "compress", "fsync", "plot", "dense"];
 
 /// The most windows `[output] dense` may list (each is checked at every period boundary that
 /// envelope following considers; far more than a protocol has stages).
 pub const MAX_DENSE_WINDOWS: usize = 10_000;
 
-/// The name of the one section that is a list of tables (`[[stage]]`, keys `stage[N].KEY`).
-pub const STAGE_SECTION: &str = "stage";
-
-/// The sections of a scenario file and the keys each takes, in the order the README lists them:
-/// the one list that both the parser's unknown-key checks and `--set` read, so a key added to a
-/// section's list is at once accepted in files and settable from the command line.
-pub const SECTIONS: &[(&str, &[&str])] = &[
-    ("material", MATERIAL_KEYS),
-    ("adhesion", ADHESION_KEYS),
-    ("sphere", SPHERE_KEYS),
-    ("spring", SPRING_KEYS),
-    ("damping", DAMPING_KEYS),
-    ("base", BASE_KEYS),
-    ("contact", CONTACT_KEYS),
-    ("initial", INITIAL_KEYS),
-    (STAGE_SECTION, STAGE_KEYS),
-    ("solver", SOLVER_KEYS),
-    ("output", OUTPUT_KEYS),
-];
-
-/// The keys section `name` takes (`None`: no such section).
-pub fn section_keys(name: &str) -> Option<&'static [&'static str]> {
-    SECTIONS.iter().find(|(s, _)| *s == name).map(|(_, k)| *k)
+/// The keys of section `name` ([`keys::section_keys`], the one table of keys; `""` for the top
+/// level).
+fn keys_of(name: &str) -> Vec<&'static str> {
+    keys::section_keys(name).unwrap_or_default()
 }
 
 /// The sections as a file writes them: `[material], ..., [[stage]], ...`.
 fn section_list() -> String {
-    SECTIONS
+    keys::SECTIONS
         .iter()
-        .map(|(s, _)| {
+        .map(|s| {
             if *s == STAGE_SECTION {
                 format!("[[{s}]]")
             } else {
@@ -579,7 +518,7 @@ impl Parser<'_> {
 
     fn check_top_level(&self, top: &Section) -> Result<()> {
         for (k, v) in top.table {
-            if !TOP_LEVEL_KEYS.contains(&k.as_str()) && section_keys(k).is_none() {
+            if !keys_of("").contains(&k.as_str()) && !keys::SECTIONS.contains(&k.as_str()) {
                 return Err(match v {
                     Value::Table(_) => self.key_err(
                         &format!("[{k}]"),
@@ -783,7 +722,7 @@ impl Parser<'_> {
                 "missing section: give [material] with K (Pa), R (m) and w0 (J/m^2)",
             )
         })?;
-        self.check_keys(&s, MATERIAL_KEYS, "")?;
+        self.check_keys(&s, &keys_of("material"), "")?;
         let k = self.req_positive(
             &s,
             "K",
@@ -891,7 +830,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "spring")? else {
             return Ok(Holder::None);
         };
-        self.check_keys(&s, SPRING_KEYS, "")?;
+        self.check_keys(&s, &keys_of("spring"), "")?;
         let rigid = self.boolean(&s, "rigid")?;
         let stiffness = self.number(&s, "stiffness", STIFFNESS)?;
         match (rigid, stiffness) {
@@ -925,7 +864,7 @@ impl Parser<'_> {
                  only a rigid link ([spring] rigid = true) needs no mass",
             ));
         };
-        self.check_keys(&s, SPHERE_KEYS, "")?;
+        self.check_keys(&s, &keys_of("sphere"), "")?;
         let mass = match self.number(&s, "mass", MASS)? {
             Some(n) => self.non_negative(&s, "mass", &n, MASS.unit)?,
             None if rigid => 0.0,
@@ -947,7 +886,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "damping")? else {
             return Ok(None);
         };
-        self.check_keys(&s, DAMPING_KEYS, "")?;
+        self.check_keys(&s, &keys_of("damping"), "")?;
         let n = self.required(&s, "c", DAMPING, "damping coefficient c (N s/m, >= 0)")?;
         let c = self.non_negative(&s, "c", &n, DAMPING.unit)?;
         let on = match self.string(&s, "on", &["sphere", "contact"])? {
@@ -961,7 +900,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "base")? else {
             return Ok(None);
         };
-        self.check_keys(&s, BASE_KEYS, "")?;
+        self.check_keys(&s, &keys_of("base"), "")?;
         let na = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
         let amplitude = self.non_negative(&s, "amplitude", &na, LENGTH.unit)?;
         let n = self.required(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
@@ -1005,7 +944,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "contact")? else {
             return Ok(ContactFormation::JumpIn);
         };
-        self.check_keys(&s, CONTACT_KEYS, "")?;
+        self.check_keys(&s, &keys_of("contact"), "")?;
         match self.string(&s, "formation", &["jump-in", "seed"])? {
             Some("seed") => {
                 let n = self.required(
@@ -1051,7 +990,7 @@ impl Parser<'_> {
                 "missing section: give [initial] with preload (N, > 0: static JKR equilibrium under this force) or gap (m, > 0)",
             ));
         };
-        self.check_keys(&s, INITIAL_KEYS, "")?;
+        self.check_keys(&s, &keys_of("initial"), "")?;
         let preload = self.opt_positive(&s, "preload", FORCE)?;
         let gap = self.opt_positive(&s, "gap", LENGTH)?;
         match (preload, gap) {
@@ -1166,7 +1105,7 @@ impl Parser<'_> {
     }
 
     fn stage(&self, s: &Section, holder: Holder, has_base: bool) -> Result<Stage> {
-        self.check_keys(s, STAGE_KEYS, "")?;
+        self.check_keys(s, &keys_of(STAGE_SECTION), "")?;
         let kind = match self.string(s, "kind", &["approach", "hold", "unload"])? {
             Some("approach") => StageKind::Approach,
             Some("hold") => StageKind::Hold,
@@ -1290,7 +1229,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "solver")? else {
             return Ok(solver);
         };
-        self.check_keys(&s, SOLVER_KEYS, "")?;
+        self.check_keys(&s, &keys_of("solver"), "")?;
         if let Some(name) = self.string(&s, "method", &METHOD_NAMES)? {
             solver.method = method_from_name(name).unwrap_or(Method::Auto);
         }
@@ -1384,7 +1323,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "output")? else {
             return Ok(out);
         };
-        self.check_keys(&s, OUTPUT_KEYS, "")?;
+        self.check_keys(&s, &keys_of("output"), "")?;
         if let Some(n) = self.number(&s, "sample_rate", RATE)? {
             out.sample_rate =
                 self.non_negative(&s, "sample_rate", &n, "samples per second; 0 = every step")?;
@@ -1565,12 +1504,17 @@ until = "pull-off"
         .concat();
         union.sort_unstable();
         union.dedup();
-        let mut all = ADHESION_KEYS.to_vec();
+        let mut all = keys_of("adhesion");
         all.sort_unstable();
         assert_eq!(union, all);
-        assert!(STAGE_END_KEYS.iter().all(|k| STAGE_KEYS.contains(k)));
-        assert_eq!(section_keys("base"), Some(BASE_KEYS));
-        assert_eq!(section_keys("version"), None);
+        assert!(STAGE_END_KEYS
+            .iter()
+            .all(|k| keys_of(STAGE_SECTION).contains(k)));
+        assert_eq!(
+            keys::section_keys("base"),
+            Some(vec!["amplitude", "frequency", "phase"])
+        );
+        assert_eq!(keys::section_keys("version"), None);
         let e = parse_scenario(&format!("{MINIMAL}[bogus]\nx = 1\n"), "m.toml", None)
             .unwrap_err()
             .to_string();
