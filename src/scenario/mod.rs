@@ -12,6 +12,7 @@ pub mod checks;
 pub mod keys;
 pub mod overrides;
 pub mod parse;
+mod set;
 
 pub use crate::dynamics::protocol::{Initial, Stage, StageKind, Until};
 pub use crate::dynamics::{Method, Solver};

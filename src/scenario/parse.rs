@@ -460,6 +460,160 @@ pub(crate) fn show(v: &Value) -> String {
     }
 }
 
+/// Why `v` is out of the range of a key > 0 (`key` dotted, `unit` for the message), or `None`:
+/// a finite, normal positive number within the bounds the model carries
+/// ([`checks::key_range_error`]). Shared by the parser and by typed setting
+/// ([`super::set`]), so both word it the same.
+pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
+    if v.is_finite() && v >= f64::MIN_POSITIVE {
+        bound_error(key, v, unit)
+    } else if v > 0.0 && v < f64::MIN_POSITIVE {
+        Some(format!(
+            "is subnormal (below {:e}): must be a normal finite number > 0 ({unit})",
+            f64::MIN_POSITIVE
+        ))
+    } else {
+        Some(format!("must be a finite number > 0 ({unit})"))
+    }
+}
+
+/// As [`positive_error`] for a key >= 0.
+pub(crate) fn non_negative_error(key: &str, v: f64, unit: &str) -> Option<String> {
+    if v > 0.0 && v < f64::MIN_POSITIVE {
+        // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
+        Some(format!(
+            "is subnormal (below {:e}): must be 0 or a normal finite number > 0 ({unit})",
+            f64::MIN_POSITIVE
+        ))
+    } else if v.is_finite() && v >= 0.0 {
+        bound_error(key, v, unit)
+    } else {
+        Some(format!("must be a finite number >= 0 ({unit})"))
+    }
+}
+
+/// The bounds the model carries for the key ([`checks::key_range_error`]); `base.frequency`'s
+/// range is checked (with its own message) by [`frequency_error`].
+fn bound_error(key: &str, v: f64, unit: &str) -> Option<String> {
+    if key == "base.frequency" {
+        return None;
+    }
+    checks::key_range_error(key, v, unit)
+}
+
+/// Why a base frequency (Hz, already > 0) is out of range.
+pub(crate) fn frequency_error(f: f64) -> Option<String> {
+    (!(checks::MIN_FREQUENCY..=checks::MAX_FREQUENCY).contains(&f)).then(|| {
+        format!(
+            "must lie in [{:e}, {:e}] (Hz): a period longer than 1e6 s outlasts any run, \
+             one shorter than 1 us is below the time resolution of a long run",
+            checks::MIN_FREQUENCY,
+            checks::MAX_FREQUENCY
+        )
+    })
+}
+
+/// Why a base phase (rad) is out of range.
+pub(crate) fn phase_error(phase: f64) -> Option<String> {
+    (!(phase.is_finite() && (0.0..2.0 * std::f64::consts::PI).contains(&phase))).then(|| {
+        "must lie in [0, 2 pi) (rad; the shaker starts phase/omega after its stage begins)"
+            .to_string()
+    })
+}
+
+/// Why a seed radius (m, > 0) does not fit the material.
+pub(crate) fn seed_error(r: f64, m: &Material) -> Option<String> {
+    let a_jump = jkr::jump_in_radius(m, m.w0);
+    (r > a_jump).then(|| {
+        format!(
+            "must not exceed the JKR jump-in radius (8 pi w0 R^2 / 3K)^(1/3) = {a_jump:.4e} m of this material"
+        )
+    })
+}
+
+/// Why a static preload `p` cannot start a sphere that no spring holds (weight `weight`).
+pub(crate) fn resting_preload_error(p: f64, weight: f64) -> Option<String> {
+    ((p - weight).abs() > 1e-9 * weight.max(f64::MIN_POSITIVE)).then(|| {
+        format!(
+            "without a spring force the sphere rests on its own weight, so a static start needs preload = m g = {weight:.6e} N (or leave out [initial])"
+        )
+    })
+}
+
+/// The relative tolerance's range.
+pub(crate) fn rtol_error(v: f64) -> Option<String> {
+    (!(v.is_finite() && (MIN_RTOL..=MAX_RTOL).contains(&v))).then(|| {
+        format!("must lie in [{MIN_RTOL:e}, {MAX_RTOL:e}] (relative tolerance, dimensionless; below {MIN_RTOL:e} the error estimate is rounding noise)")
+    })
+}
+
+/// The absolute tolerance's range.
+pub(crate) fn atol_error(v: f64) -> Option<String> {
+    (!(v.is_finite() && v >= f64::MIN_POSITIVE && v <= 1.0)).then(|| {
+        "must lie in (0, 1] (absolute tolerance relative to each state component's natural scale, dimensionless)".to_string()
+    })
+}
+
+/// The envelope tolerance's range.
+pub(crate) fn envelope_tol_error(v: f64) -> Option<String> {
+    (!(v.is_finite() && (1e-12..=1e-2).contains(&v))).then(|| {
+        "must lie in [1e-12, 1e-2] (local error of an envelope step in the scaled \
+         norm, dimensionless)"
+            .to_string()
+    })
+}
+
+/// Combinations of valid values that JKR or the simulator cannot carry ([`checks`]: a sphere
+/// too small for its jump-in radius, a static load whose contact exceeds R, a weight lost to
+/// rounding): `(key, value shown or None for a key error, message)`. `initial_given`: whether
+/// the file has `[initial]` (else the start is the sphere resting on its weight).
+pub(crate) fn physics_error(
+    m: &Material,
+    holder: Holder,
+    sphere: Sphere,
+    initial: &Initial,
+    stages: &[Stage],
+    initial_given: bool,
+) -> Option<(String, Option<String>, String)> {
+    if let Some(e) = checks::material_error(m) {
+        return Some(("[material]".into(), None, e));
+    }
+    let weight = sphere.mass * sphere.gravity;
+    if checks::spring_carries_weight(holder) {
+        if let Some(e) = checks::weight_error(m, weight) {
+            return Some((
+                "[sphere]".into(),
+                None,
+                format!(
+                    "mass = {} kg, gravity = {} m/s^2: {e}",
+                    sphere.mass, sphere.gravity
+                ),
+            ));
+        }
+    }
+    if let Initial::Preload(p) = *initial {
+        if let Some(e) = checks::load_error(m, p) {
+            return Some(if initial_given {
+                ("initial.preload".into(), Some(show_float(p)), e)
+            } else {
+                (
+                    "[sphere]".into(),
+                    None,
+                    format!("the sphere rests on its weight m g = {p:e} N: {e}"),
+                )
+            });
+        }
+    }
+    for (i, st) in stages.iter().enumerate() {
+        if let Until::Preload(p) = st.until {
+            if let Some(e) = checks::load_error(m, p) {
+                return Some((format!("stage[{i}].preload"), Some(show_float(p)), e));
+            }
+        }
+    }
+    None
+}
+
 struct Parser<'a> {
     file: &'a str,
 }
@@ -629,56 +783,17 @@ impl Parser<'_> {
         }
     }
 
-    /// The value, or an error when it exceeds the largest value the model carries for this key
-    /// ([`checks::upper_bound`]).
-    fn bounded(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        match checks::key_range_error(&s.key(k), n.v, unit) {
-            // base.frequency's range is checked (with its own message) by `base`.
-            Some(e) if s.key(k) != "base.frequency" => Err(self.value_err(&s.key(k), &n.shown, e)),
-            _ => Ok(n.v),
-        }
-    }
-
     fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if n.v.is_finite() && n.v >= f64::MIN_POSITIVE {
-            self.bounded(s, k, n, unit)
-        } else if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
-            Err(self.value_err(
-                &s.key(k),
-                &n.shown,
-                format!(
-                    "is subnormal (below {:e}): must be a normal finite number > 0 ({unit})",
-                    f64::MIN_POSITIVE
-                ),
-            ))
-        } else {
-            Err(self.value_err(
-                &s.key(k),
-                &n.shown,
-                format!("must be a finite number > 0 ({unit})"),
-            ))
+        match positive_error(&s.key(k), n.v, unit) {
+            Some(e) => Err(self.value_err(&s.key(k), &n.shown, e)),
+            None => Ok(n.v),
         }
     }
 
     fn non_negative(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
-            // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
-            Err(self.value_err(
-                &s.key(k),
-                &n.shown,
-                format!(
-                    "is subnormal (below {:e}): must be 0 or a normal finite number > 0 ({unit})",
-                    f64::MIN_POSITIVE
-                ),
-            ))
-        } else if n.v.is_finite() && n.v >= 0.0 {
-            self.bounded(s, k, n, unit)
-        } else {
-            Err(self.value_err(
-                &s.key(k),
-                &n.shown,
-                format!("must be a finite number >= 0 ({unit})"),
-            ))
+        match non_negative_error(&s.key(k), n.v, unit) {
+            Some(e) => Err(self.value_err(&s.key(k), &n.shown, e)),
+            None => Ok(n.v),
         }
     }
 
@@ -905,31 +1020,16 @@ impl Parser<'_> {
         let amplitude = self.non_negative(&s, "amplitude", &na, LENGTH.unit)?;
         let n = self.required(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
         let frequency = self.positive(&s, "frequency", &n, FREQUENCY.unit)?;
-        if !(checks::MIN_FREQUENCY..=checks::MAX_FREQUENCY).contains(&frequency) {
-            return Err(self.value_err(
-                &s.key("frequency"),
-                &n.shown,
-                format!(
-                    "must lie in [{:e}, {:e}] (Hz): a period longer than 1e6 s outlasts any run, \
-                     one shorter than 1 us is below the time resolution of a long run",
-                    checks::MIN_FREQUENCY,
-                    checks::MAX_FREQUENCY
-                ),
-            ));
+        if let Some(e) = frequency_error(frequency) {
+            return Err(self.value_err(&s.key("frequency"), &n.shown, e));
         }
         if let Some(e) = checks::base_speed_error(amplitude, frequency) {
             return Err(self.value_err(&s.key("amplitude"), &na.shown, e));
         }
         let mut phase = 0.0;
         if let Some(n) = self.number(&s, "phase", ANGLE)? {
-            if !(n.v.is_finite() && (0.0..2.0 * std::f64::consts::PI).contains(&n.v)) {
-                return Err(self.value_err(
-                    &s.key("phase"),
-                    &n.shown,
-                    "must lie in [0, 2 pi) (rad; the shaker starts phase/omega after its stage \
-                     begins)"
-                        .to_string(),
-                ));
+            if let Some(e) = phase_error(n.v) {
+                return Err(self.value_err(&s.key("phase"), &n.shown, e));
             }
             phase = n.v;
         }
@@ -954,15 +1054,8 @@ impl Parser<'_> {
                     "seed radius (m, > 0) for formation = \"seed\"",
                 )?;
                 let r = self.positive(&s, "seed_radius", &n, LENGTH.unit)?;
-                let a_jump = jkr::jump_in_radius(m, m.w0);
-                if r > a_jump {
-                    return Err(self.value_err(
-                        &s.key("seed_radius"),
-                        &n.shown,
-                        format!(
-                            "must not exceed the JKR jump-in radius (8 pi w0 R^2 / 3K)^(1/3) = {a_jump:.4e} m of this material"
-                        ),
-                    ));
+                if let Some(e) = seed_error(r, m) {
+                    return Err(self.value_err(&s.key("seed_radius"), &n.shown, e));
                 }
                 Ok(ContactFormation::Seed(r))
             }
@@ -998,14 +1091,10 @@ impl Parser<'_> {
                 Err(self.key_err("[initial]", "give either preload (N) or gap (m), not both"))
             }
             (Some(p), None) => {
-                if no_spring_force && (p - weight).abs() > 1e-9 * weight.max(f64::MIN_POSITIVE) {
-                    return Err(self.value_err(
-                        &s.key("preload"),
-                        p,
-                        format!(
-                            "without a spring force the sphere rests on its own weight, so a static start needs preload = m g = {weight:.6e} N (or leave out [initial])"
-                        ),
-                    ));
+                if no_spring_force {
+                    if let Some(e) = resting_preload_error(p, weight) {
+                        return Err(self.value_err(&s.key("preload"), p, e));
+                    }
                 }
                 Ok(Initial::Preload(p))
             }
@@ -1028,41 +1117,12 @@ impl Parser<'_> {
         initial: &Initial,
         stages: &[Stage],
     ) -> Result<()> {
-        if let Some(e) = checks::material_error(m) {
-            return Err(self.key_err("[material]", e));
+        let given = top.table.get("initial").is_some();
+        match physics_error(m, holder, sphere, initial, stages, given) {
+            None => Ok(()),
+            Some((key, None, e)) => Err(self.key_err(&key, e)),
+            Some((key, Some(v), e)) => Err(self.value_err(&key, v, e)),
         }
-        let weight = sphere.mass * sphere.gravity;
-        if checks::spring_carries_weight(holder) {
-            if let Some(e) = checks::weight_error(m, weight) {
-                return Err(self.key_err(
-                    "[sphere]",
-                    format!(
-                        "mass = {} kg, gravity = {} m/s^2: {e}",
-                        sphere.mass, sphere.gravity
-                    ),
-                ));
-            }
-        }
-        if let Initial::Preload(p) = *initial {
-            if let Some(e) = checks::load_error(m, p) {
-                return Err(if top.table.get("initial").is_some() {
-                    self.value_err("initial.preload", show_float(p), e)
-                } else {
-                    self.key_err(
-                        "[sphere]",
-                        format!("the sphere rests on its weight m g = {p:e} N: {e}"),
-                    )
-                });
-            }
-        }
-        for (i, st) in stages.iter().enumerate() {
-            if let Until::Preload(p) = st.until {
-                if let Some(e) = checks::load_error(m, p) {
-                    return Err(self.value_err(&format!("stage[{i}].preload"), show_float(p), e));
-                }
-            }
-        }
-        Ok(())
     }
 
     fn stages(&self, top: &Section, holder: Holder, has_base: bool) -> Result<Vec<Stage>> {
@@ -1234,22 +1294,14 @@ impl Parser<'_> {
             solver.method = method_from_name(name).unwrap_or(Method::Auto);
         }
         if let Some(n) = self.number(&s, "rtol", DIMENSIONLESS)? {
-            if !(n.v.is_finite() && (MIN_RTOL..=MAX_RTOL).contains(&n.v)) {
-                return Err(self.value_err(
-                    &s.key("rtol"),
-                    &n.shown,
-                    format!("must lie in [{MIN_RTOL:e}, {MAX_RTOL:e}] (relative tolerance, dimensionless; below {MIN_RTOL:e} the error estimate is rounding noise)"),
-                ));
+            if let Some(e) = rtol_error(n.v) {
+                return Err(self.value_err(&s.key("rtol"), &n.shown, e));
             }
             solver.rtol = n.v;
         }
         if let Some(n) = self.number(&s, "atol", DIMENSIONLESS)? {
-            if !(n.v.is_finite() && n.v >= f64::MIN_POSITIVE && n.v <= 1.0) {
-                return Err(self.value_err(
-                    &s.key("atol"),
-                    &n.shown,
-                    "must lie in (0, 1] (absolute tolerance relative to each state component's natural scale, dimensionless)",
-                ));
+            if let Some(e) = atol_error(n.v) {
+                return Err(self.value_err(&s.key("atol"), &n.shown, e));
             }
             solver.atol = n.v;
         }
@@ -1286,13 +1338,8 @@ impl Parser<'_> {
             None => {}
         }
         if let Some(n) = self.number(&s, "envelope_tol", DIMENSIONLESS)? {
-            if !(n.v.is_finite() && (1e-12..=1e-2).contains(&n.v)) {
-                return Err(self.value_err(
-                    &s.key("envelope_tol"),
-                    &n.shown,
-                    "must lie in [1e-12, 1e-2] (local error of an envelope step in the scaled \
-                     norm, dimensionless)",
-                ));
+            if let Some(e) = envelope_tol_error(n.v) {
+                return Err(self.value_err(&s.key("envelope_tol"), &n.shown, e));
             }
             solver.envelope_tol = n.v;
         }
