@@ -549,7 +549,7 @@ pub(crate) fn rtol_error(v: f64) -> Option<String> {
 
 /// The absolute tolerance's range.
 pub(crate) fn atol_error(v: f64) -> Option<String> {
-    (!(v.is_finite() && v >= f64::MIN_POSITIVE && v <= 1.0)).then(|| {
+    (!(v.is_finite() && (f64::MIN_POSITIVE..=1.0).contains(&v))).then(|| {
         "must lie in (0, 1] (absolute tolerance relative to each state component's natural scale, dimensionless)".to_string()
     })
 }
