@@ -17,6 +17,15 @@ use crate::dynamics::protocol::{Initial, StageKind, Until};
 use crate::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder};
 use crate::units::Dimension;
 
+/// Default gravitational acceleration (m/s²) when `sphere.gravity` is absent.
+pub const DEFAULT_GRAVITY: f64 = 9.807;
+/// Default safety limit (s) of a stage that ends on a preload or at pull-off.
+pub const DEFAULT_MAX_DURATION: f64 = 1e4;
+/// Relative agreement required between a tabulated law's w(0) and `material.w0`.
+pub const TABLE_W0_RTOL: f64 = 1e-6;
+/// The end conditions of a stage, of which exactly one is given.
+pub const STAGE_END_KEYS: &[&str] = &["duration", "preload", "until"];
+
 /// What the values of a key are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
@@ -200,7 +209,7 @@ fn rebuild_law(s: &mut Scenario) -> Result<(), Refused> {
         ),
         Law::Tabulated(t) => {
             let w_table = crate::adhesion::AdhesionLaw::w0(t);
-            let rtol = super::parse::TABLE_W0_RTOL;
+            let rtol = TABLE_W0_RTOL;
             if (w_table - w0).abs() > rtol * w0 {
                 return Err(Refused {
                     key: "adhesion.file".into(),
@@ -303,7 +312,7 @@ fn whole(v: f64, min: u64, key: &str, allowed: &str) -> Result<u64, Refused> {
         Err(Refused {
             key: key.to_string(),
             message: allowed.to_string(),
-            value: Some(super::parse::show_float(v)),
+            value: Some(super::error::show_float(v)),
         })
     }
 }
@@ -466,7 +475,7 @@ pub const KEYS: &[KeyInfo] = &[
                 )));
             }
             if let Until::Duration(_) = st.until {
-                st.max_duration = super::parse::DEFAULT_MAX_DURATION;
+                st.max_duration = DEFAULT_MAX_DURATION;
             }
             st.until = Until::Preload(v);
             Ok(())
@@ -682,13 +691,10 @@ mod tests {
             d("solver", "envelope_tol"),
             serde_json::json!(solver.envelope_tol)
         );
-        assert_eq!(
-            d("sphere", "gravity"),
-            serde_json::json!(super::super::parse::DEFAULT_GRAVITY)
-        );
+        assert_eq!(d("sphere", "gravity"), serde_json::json!(DEFAULT_GRAVITY));
         assert_eq!(
             d("stage", "max_duration"),
-            serde_json::json!(super::super::parse::DEFAULT_MAX_DURATION)
+            serde_json::json!(super::DEFAULT_MAX_DURATION)
         );
         assert_eq!(d("output", "dense"), serde_json::json!([]));
         assert_eq!(d("adhesion", "law"), serde_json::json!("constant"));

@@ -40,8 +40,8 @@ use std::fmt;
 use thiserror::Error;
 use toml::{Table, Value};
 
-use super::keys::{self, section_keys, STAGE_SECTION};
-use super::parse::{show, show_float, ScenarioError, STAGE_END_KEYS};
+use super::error::{show, show_float, ScenarioError};
+use super::keys::{self, section_keys, STAGE_END_KEYS, STAGE_SECTION};
 
 /// A malformed override, or one naming a key no scenario file takes.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]

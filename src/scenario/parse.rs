@@ -34,11 +34,13 @@
 use std::fmt::Display;
 use std::path::{Path, PathBuf};
 
-use thiserror::Error;
 use toml::{Table, Value};
 
 use super::checks;
-use super::keys::{self, STAGE_SECTION};
+pub use super::error::ScenarioError;
+pub(crate) use super::error::{show, show_float};
+use super::keys::{self, STAGE_END_KEYS, STAGE_SECTION};
+pub use super::keys::{DEFAULT_GRAVITY, DEFAULT_MAX_DURATION, TABLE_W0_RTOL};
 use super::overrides::{self, Override};
 use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
@@ -50,121 +52,17 @@ use crate::adhesion::{
 };
 use crate::dynamics::stepper::{method_from_name, EnvelopeMode, METHOD_NAMES};
 use crate::error::ParamError;
-use crate::input::{self, InputError, InputKind};
+use crate::input::{self, InputKind};
 use crate::jkr;
 use crate::material::Material;
-use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// The scenario-file format version this parser reads.
 pub const SCENARIO_VERSION: i64 = 1;
-/// Default gravitational acceleration (m/s²) when `sphere.gravity` is absent.
-pub const DEFAULT_GRAVITY: f64 = 9.807;
-/// Default safety limit (s) of a stage that ends on a preload or at pull-off.
-pub const DEFAULT_MAX_DURATION: f64 = 1e4;
 /// Largest allowed relative tolerance `solver.rtol`.
 pub const MAX_RTOL: f64 = 1e-2;
 /// Smallest allowed relative tolerance `solver.rtol` (a few ulps: tighter is rounding noise).
 pub const MIN_RTOL: f64 = 1e-14;
-/// Relative agreement required between a tabulated law's w(0) and `material.w0`.
-pub const TABLE_W0_RTOL: f64 = 1e-6;
-
-/// Why a scenario file was rejected. Every variant names the file; value errors also name the
-/// dotted key, the value as written and what is allowed.
-#[derive(Debug, Error)]
-pub enum ScenarioError {
-    /// The file could not be read: missing, unreadable, not a regular file, too large or not
-    /// text ([`crate::input::read_text`]).
-    #[error("{file}: {cause}")]
-    Io {
-        /// The file.
-        file: String,
-        /// Why (shown in the message, so not also chained as a `source`, which made the command
-        /// line print it twice).
-        cause: InputError,
-    },
-    /// TOML syntax error.
-    #[error("{file}: TOML syntax error at line {line}, column {column}: {message}")]
-    Syntax {
-        /// The file.
-        file: String,
-        /// 1-based line.
-        line: usize,
-        /// 1-based column (in characters).
-        column: usize,
-        /// What the TOML parser said.
-        message: String,
-    },
-    /// A value of the wrong type or out of range.
-    #[error("{file}: {} = {}: {allowed}", excerpt(.key), excerpt(.value))]
-    Value {
-        /// The file.
-        file: String,
-        /// Dotted key, e.g. `stage[1].speed`.
-        key: String,
-        /// The value as written.
-        value: String,
-        /// What is allowed (with units), or what is wrong with the value.
-        allowed: String,
-    },
-    /// A key or section that is missing, unknown, or in conflict with another.
-    #[error("{file}: {}: {message}", excerpt(.key))]
-    Key {
-        /// The file.
-        file: String,
-        /// Dotted key or section, e.g. `material.K`, `[foo]`, `stage[0]`.
-        key: String,
-        /// What is wrong and what is expected.
-        message: String,
-    },
-    /// Valid values that the simulator cannot run together (a massless sphere with damping, an
-    /// explicit method on a rate-independent law): what it would refuse when setting the run up.
-    #[error("{file}: {message}")]
-    Setup {
-        /// The file.
-        file: String,
-        /// What cannot be simulated, and what to change.
-        message: String,
-    },
-    /// A `--set KEY=VALUE` override that does not fit the file (a stage it does not have), or
-    /// whose value the file's rules reject: named by the override rather than by the file's key
-    /// and value.
-    #[error("--set {}: {message}", excerpt(.set))]
-    Override {
-        /// The file the override was applied to.
-        file: String,
-        /// The override, `KEY=VALUE`.
-        set: String,
-        /// Its dotted key.
-        key: String,
-        /// What is wrong, and what is allowed.
-        message: String,
-    },
-}
-
-impl ScenarioError {
-    /// The file the error is about.
-    pub fn file(&self) -> &str {
-        match self {
-            ScenarioError::Io { file, .. }
-            | ScenarioError::Syntax { file, .. }
-            | ScenarioError::Value { file, .. }
-            | ScenarioError::Key { file, .. }
-            | ScenarioError::Setup { file, .. }
-            | ScenarioError::Override { file, .. } => file,
-        }
-    }
-
-    /// The dotted key the error is about, when there is one.
-    pub fn key(&self) -> Option<&str> {
-        match self {
-            ScenarioError::Value { key, .. }
-            | ScenarioError::Key { key, .. }
-            | ScenarioError::Override { key, .. } => Some(key),
-            _ => None,
-        }
-    }
-}
 
 type Result<T> = std::result::Result<T, ScenarioError>;
 
@@ -348,8 +246,6 @@ const GS_LAW_KEYS: &[&str] = &["law", "v0", "n"];
 const SATURATED_LAW_KEYS: &[&str] = &["law", "v0", "n", "v_sat"];
 /// Keys of `[adhesion]` with `law = "tabulated"`.
 const TABULATED_LAW_KEYS: &[&str] = &["law", "file"];
-/// The end conditions of a stage, of which exactly one is given.
-pub const STAGE_END_KEYS: &[&str] = &["duration", "preload", "until"];
 
 /// The most windows `[output] dense` may list (each is checked at every period boundary that
 /// envelope following considers; far more than a protocol has stages).
@@ -434,29 +330,6 @@ impl<'a> Section<'a> {
 
     fn has(&self, k: &str) -> bool {
         self.table.contains_key(k)
-    }
-}
-
-/// Shows a float as a user would write it: shortest round-trip digits, exponent form outside
-/// [1e-3, 1e9), TOML's spelling of non-finite values.
-pub(crate) fn show_float(x: f64) -> String {
-    if x.is_nan() {
-        "nan".to_string()
-    } else if x.is_infinite() {
-        if x > 0.0 { "inf" } else { "-inf" }.to_string()
-    } else if x == 0.0 || (1e-3..1e9).contains(&x.abs()) {
-        Value::Float(x).to_string()
-    } else {
-        format!("{x:e}")
-    }
-}
-
-/// Shows a TOML value as it would be written (strings quoted).
-pub(crate) fn show(v: &Value) -> String {
-    match v {
-        Value::Table(_) => "(a table)".to_string(),
-        Value::Float(f) => show_float(*f),
-        other => other.to_string(),
     }
 }
 
