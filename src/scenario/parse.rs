@@ -33,6 +33,7 @@
 
 use std::fmt::Display;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
 use toml::{Table, Value};
 
@@ -94,6 +95,7 @@ pub struct ScenarioSource {
     name: String,
     base_dir: Option<PathBuf>,
     table: Table,
+    tables: LawTables,
 }
 
 impl ScenarioSource {
@@ -108,12 +110,17 @@ impl ScenarioSource {
     /// Parse a scenario's TOML from its text (`source_name` and `base_dir` as in
     /// [`parse_scenario`]). Only the syntax is checked here.
     pub fn parse(text: &str, source_name: &str, base_dir: Option<&Path>) -> Result<Self> {
-        let table = Parser { file: source_name }.parse_toml(text)?;
+        let table = Parser {
+            file: source_name,
+            tables: None,
+        }
+        .parse_toml(text)?;
         Ok(Self {
             text: text.to_string(),
             name: source_name.to_string(),
             base_dir: base_dir.map(Path::to_path_buf),
             table,
+            tables: LawTables::default(),
         })
     }
 
@@ -135,13 +142,20 @@ impl ScenarioSource {
     pub fn scenario(&self, overrides: &[Override]) -> Result<Scenario> {
         let base_dir = self.base_dir.as_deref();
         if overrides.is_empty() {
-            return build(&self.table, &self.text, &self.name, base_dir, Vec::new());
+            return build(
+                &self.table,
+                &self.text,
+                &self.name,
+                base_dir,
+                Vec::new(),
+                &self.tables,
+            );
         }
         let mut table = self.table.clone();
         overrides::apply(&mut table, overrides, &self.name)?;
         let name = overrides::describe(&self.name, overrides);
         let list = overrides.iter().map(ToString::to_string).collect();
-        build(&table, &self.text, &name, base_dir, list)
+        build(&table, &self.text, &name, base_dir, list, &self.tables)
             .map_err(|e| overrides::attribute(e, overrides, &self.name))
     }
 }
@@ -153,8 +167,12 @@ fn build(
     source_name: &str,
     base_dir: Option<&Path>,
     overrides: Vec<String>,
+    tables: &LawTables,
 ) -> Result<Scenario> {
-    let p = Parser { file: source_name };
+    let p = Parser {
+        file: source_name,
+        tables: Some(tables),
+    };
     let top = Section::root(root);
     p.check_top_level(&top)?;
     p.version(&top, true)?;
@@ -214,7 +232,10 @@ pub fn parse_material_and_law(
     source_name: &str,
     base_dir: Option<&Path>,
 ) -> Result<(Material, Law)> {
-    let p = Parser { file: source_name };
+    let p = Parser {
+        file: source_name,
+        tables: None,
+    };
     let root = p.parse_toml(text)?;
     let top = Section::root(&root);
     p.check_top_level(&top)?;
@@ -489,7 +510,14 @@ pub(crate) fn physics_error(
 
 struct Parser<'a> {
     file: &'a str,
+    /// The law tables read for this file so far (`None`: read each one).
+    tables: Option<&'a LawTables>,
 }
+
+/// The tabulated laws a scenario file's validations have read, by path: each table is read and
+/// parsed once per [`ScenarioSource`], and every scenario built from it shares its rows (a
+/// 55 000-row table took 5 ms to parse, 99 % of a tabulated continuation).
+type LawTables = Arc<Mutex<Vec<(PathBuf, TabulatedLaw)>>>;
 
 impl Parser<'_> {
     fn value_err(
@@ -786,7 +814,13 @@ impl Parser<'_> {
                     Some(d) if Path::new(file).is_relative() => d.join(file),
                     _ => PathBuf::from(file),
                 };
-                let table = match cached_table(&path) {
+                let known = self.tables.and_then(|t| {
+                    let list = t.lock().unwrap_or_else(|p| p.into_inner());
+                    list.iter()
+                        .find(|(p, _)| *p == path)
+                        .map(|(_, t)| t.clone())
+                });
+                let table = match known {
                     Some(t) => t,
                     None => {
                         let text = input::read_text(&path, InputKind::LawTable).map_err(|e| {
@@ -794,7 +828,10 @@ impl Parser<'_> {
                         })?;
                         let t = TabulatedLaw::from_csv_str(&text, &path.display().to_string())
                             .map_err(|e| self.value_err(&key, &shown, e.to_string()))?;
-                        remember_table(&path, &t);
+                        if let Some(tables) = self.tables {
+                            let mut list = tables.lock().unwrap_or_else(|p| p.into_inner());
+                            list.push((path.clone(), t.clone()));
+                        }
                         t
                     }
                 };
@@ -1334,53 +1371,6 @@ pub fn merge_windows(mut windows: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
     merged
 }
 
-/// Identity of a law table's file as last read: path, size, modification time and inode. A
-/// file changed in place changes its size or time; one replaced changes its inode.
-type TableKey = (PathBuf, u64, Option<std::time::SystemTime>, u64);
-
-/// Law tables parsed in this process, so that a scenario rebuilt for every value of a
-/// continuation or sweep does not read and parse its table again (a 55 000-row table took 5 ms
-/// to parse, 99 % of a tabulated continuation). At most [`TABLE_CACHE_LEN`] tables are kept;
-/// a law's clones share its rows.
-static TABLE_CACHE: std::sync::Mutex<Vec<(TableKey, TabulatedLaw)>> =
-    std::sync::Mutex::new(Vec::new());
-const TABLE_CACHE_LEN: usize = 8;
-
-fn table_key(path: &Path) -> Option<TableKey> {
-    let m = std::fs::metadata(path).ok()?;
-    if !m.is_file() {
-        return None;
-    }
-    #[cfg(unix)]
-    let ino = std::os::unix::fs::MetadataExt::ino(&m);
-    #[cfg(not(unix))]
-    let ino = 0;
-    Some((path.to_path_buf(), m.len(), m.modified().ok(), ino))
-}
-
-/// The table parsed from `path` before, if its file is unchanged since.
-fn cached_table(path: &Path) -> Option<TabulatedLaw> {
-    let key = table_key(path)?;
-    let cache = TABLE_CACHE.lock().unwrap_or_else(|p| p.into_inner());
-    cache
-        .iter()
-        .find(|(k, _)| *k == key)
-        .map(|(_, t)| t.clone())
-}
-
-/// Keep `table`, just parsed from `path`, for the next scenario that names the same file.
-fn remember_table(path: &Path, table: &TabulatedLaw) {
-    let Some(key) = table_key(path) else {
-        return;
-    };
-    let mut cache = TABLE_CACHE.lock().unwrap_or_else(|p| p.into_inner());
-    cache.retain(|(k, _)| k.0 != key.0);
-    if cache.len() >= TABLE_CACHE_LEN {
-        cache.remove(0);
-    }
-    cache.push((key, table.clone()));
-}
-
 /// True when the holder can exert a force that the protocol controls (a spring with k > 0, or a
 /// rigid link).
 fn has_spring_force(holder: Holder) -> bool {
@@ -1412,6 +1402,34 @@ kind = "unload"
 speed = 5e-6
 until = "pull-off"
 "#;
+
+    /// A tabulated law's table is read once per source: scenarios built from it afterwards, with
+    /// any overrides, share its rows even when the file has gone.
+    #[test]
+    fn a_law_table_is_read_once_per_source() {
+        let good = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenarios/good");
+        let dir = tempfile::tempdir().unwrap();
+        for f in ["tabulated.toml", "law-table.csv"] {
+            std::fs::copy(good.join(f), dir.path().join(f)).unwrap();
+        }
+        let src = ScenarioSource::read(&dir.path().join("tabulated.toml")).unwrap();
+        let first = src.scenario(&[]).unwrap();
+        std::fs::remove_file(dir.path().join("law-table.csv")).unwrap();
+        let o = Override::parse("base.amplitude=20um").unwrap();
+        let again = src.scenario(&[o]).unwrap();
+        assert!(matches!(again.rig.law, Law::Tabulated(_)));
+        assert_eq!(again.rig.law, first.rig.law);
+        // A new source reads the file again, and says it has gone.
+        let e = ScenarioSource::read(&dir.path().join("tabulated.toml"))
+            .unwrap()
+            .scenario(&[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("adhesion.file") && e.contains("law-table.csv"),
+            "{e}"
+        );
+    }
 
     #[test]
     fn the_section_key_lists_agree_with_the_laws() {
