@@ -19,7 +19,7 @@ use crate::steady::Problem;
 use crate::units::Dimension;
 
 /// The keys a periodic orbit can be continued in: those of the table of keys with a parameter
-/// name ([`super::keys::KeyInfo::param`]), in table order.
+/// name ([`KeyInfo::param`](super::keys::KeyInfo#structfield.param)), in table order.
 pub fn parameters() -> &'static [ParameterInfo] {
     static TABLE: OnceLock<Vec<ParameterInfo>> = OnceLock::new();
     TABLE.get_or_init(|| {

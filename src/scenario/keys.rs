@@ -4,8 +4,8 @@
 //!
 //! Everything that names a scenario key reads this table: the parser's unknown-key checks
 //! ([`section_keys`]), `--set` and sweeps (which keys exist, what their values are), continuation
-//! (which keys are constants of a periodic orbit, [`KeyInfo::param`]), typed setting of a value
-//! on a parsed scenario ([`super::set`]), and `djkr keys [--json]`, the generated reference. A
+//! (which keys are constants of a periodic orbit, [`KeyInfo::param`](KeyInfo#structfield.param)), typed setting of a value
+//! on a parsed scenario ([`Scenario::set`](super::Scenario::set)), and `djkr keys [--json]`, the generated reference. A
 //! key added here is at once accepted in files, settable, and documented; a test checks that the
 //! parser accepts exactly these keys (tests/scenario_files.rs).
 //!
@@ -49,7 +49,7 @@ pub type Get = fn(&Scenario, usize) -> Option<f64>;
 
 /// Writes a numeric key on a parsed scenario, as the parser would have read the value had the
 /// file given it (the law rebuilt for `material.w0`, a stage's end condition replaced); the
-/// range checks come after ([`super::set`]). `Err`: the scenario's structure does not take the
+/// range checks come after ([`Scenario::set`](super::Scenario::set)). `Err`: the scenario's structure does not take the
 /// key (a key of a section the file does not have, a key of another law), as the parser's
 /// message for the file with the key written in it.
 pub type Put = fn(&mut Scenario, usize, f64) -> Result<(), Refused>;
@@ -170,7 +170,7 @@ impl KeyInfo {
         self
     }
 
-    const fn param(mut self, what: &'static str) -> Self {
+    const fn continued(mut self, what: &'static str) -> Self {
         self.param = Some(what);
         self
     }
@@ -326,19 +326,19 @@ const MAX_MEMORY_ALLOWED: &str =
 pub const KEYS: &[KeyInfo] = &[
     k("", "version", "", Kind::Whole, None, "= 1", "scenario format version (required)"),
     k("material", "K", "Pa", num(D::Pressure), None, "> 0", "JKR elastic constant K = 4E*/3 (required)")
-        .param("JKR elastic constant K")
+        .continued("JKR elastic constant K")
         .access(|s, _| Some(s.rig.material.k), |s, _, v| {
             s.rig.material.k = v;
             Ok(())
         }),
     k("material", "R", "m", num(D::Length), None, "> 0", "sphere radius R (required)")
-        .param("sphere radius R")
+        .continued("sphere radius R")
         .access(|s, _| Some(s.rig.material.r), |s, _, v| {
             s.rig.material.r = v;
             Ok(())
         }),
     k("material", "w0", "J/m^2", num(D::EnergyPerArea), None, "> 0", "quasi-static work of adhesion w0 (required)")
-        .param("work of adhesion w0")
+        .continued("work of adhesion w0")
         .access(|s, _| Some(s.rig.material.w0), |s, _, v| {
             s.rig.material.w0 = v;
             rebuild_law(s)
@@ -347,30 +347,30 @@ pub const KEYS: &[KeyInfo] = &[
         "\"constant\", \"gent-schultz\", \"gent-schultz-saturated\", \"tabulated\"",
         "rate dependence of the work of adhesion w(v) (required in [adhesion]; absent section: constant w0)"),
     k("adhesion", "v0", "m/s", num(D::Speed), None, "> 0", "Gent-Schultz reference speed v0, C = v0^-n (required by the gent-schultz laws)")
-        .param("Gent-Schultz speed v0")
+        .continued("Gent-Schultz speed v0")
         .access(|s, _| law_constant(s, "v0"), |s, _, v| put_law(s, "v0", v)),
     k("adhesion", "n", "", BARE, None, "> 0", "Gent-Schultz exponent n (required by the gent-schultz laws)")
-        .param("Gent-Schultz exponent n")
+        .continued("Gent-Schultz exponent n")
         .access(|s, _| law_constant(s, "n"), |s, _, v| put_law(s, "n", v)),
     k("adhesion", "v_sat", "m/s", num(D::Speed), None, "> 0", "saturation speed v_sat (required by gent-schultz-saturated)")
-        .param("saturation speed v_sat")
+        .continued("saturation speed v_sat")
         .access(|s, _| law_constant(s, "v_sat"), |s, _, v| put_law(s, "v_sat", v)),
     k("adhesion", "file", "", Kind::Text, None, "a CSV file of two columns, speed (m/s) and w (J/m^2)",
         "table of w(v) for law = \"tabulated\", relative to the scenario file (required by it)"),
     k("sphere", "mass", "kg", num(D::Mass), None, ">= 0", "sphere mass m, 0 = quasi-static force balance (required unless spring.rigid)")
-        .param("sphere mass m")
+        .continued("sphere mass m")
         .access(|s, _| Some(s.rig.sphere.mass), |s, _, v| {
             put_sphere(s, Some(v), None);
             Ok(())
         }),
     k("sphere", "gravity", "m/s^2", num(D::Acceleration), Some("9.807"), ">= 0", "gravitational acceleration g")
-        .param("gravity g")
+        .continued("gravity g")
         .access(|s, _| Some(s.rig.sphere.gravity), |s, _, v| {
             put_sphere(s, None, Some(v));
             Ok(())
         }),
     k("spring", "stiffness", "N/m", num(D::Stiffness), None, ">= 0", "stiffness k of the holding spring (or rigid = true; absent [spring]: none)")
-        .param("spring stiffness k")
+        .continued("spring stiffness k")
         .access(|s, _| match s.rig.holder {
             Holder::Spring { stiffness } => Some(stiffness),
             _ => None,
@@ -383,7 +383,7 @@ pub const KEYS: &[KeyInfo] = &[
         }),
     k("spring", "rigid", "", Kind::Bool, Some("false"), "true or false", "a rigid link instead of a spring"),
     k("damping", "c", "N s/m", num(D::Damping), None, ">= 0", "viscous damping coefficient c (required in [damping]; absent section: none)")
-        .param("damping coefficient c")
+        .continued("damping coefficient c")
         .access(|s, _| s.rig.damping.map(|d| d.c), |s, _, v| {
             let on = s.rig.damping.map_or(DampingOn::Sphere, |d| d.on);
             s.rig.damping = Some(Damping { c: v, on });
@@ -392,13 +392,13 @@ pub const KEYS: &[KeyInfo] = &[
     k("damping", "on", "", Kind::Choice(&["sphere", "contact"]), Some("\"sphere\""), "\"sphere\", \"contact\"",
         "what the damper acts on: the sphere's speed or the indentation rate"),
     k("base", "amplitude", "m", num(D::Length), None, ">= 0", "base vibration amplitude X_b (required in [base]; absent section: no vibration)")
-        .param("base amplitude X_b")
+        .continued("base amplitude X_b")
         .access(|s, _| s.rig.base.map(|b| b.amplitude), |s, _, v| {
             base(s, "amplitude")?.amplitude = v;
             Ok(())
         }),
     k("base", "frequency", "Hz", num(D::Frequency), None, "[1e-6, 1e6]", "base vibration frequency f (required in [base])")
-        .param("base frequency f")
+        .continued("base frequency f")
         .access(|s, _| s.rig.base.map(|b| b.frequency), |s, _, v| {
             base(s, "frequency")?.frequency = v;
             Ok(())
@@ -423,7 +423,7 @@ pub const KEYS: &[KeyInfo] = &[
                 "only used with formation = \"seed\" (the default \"jump-in\" forms the contact at the JKR jump-in radius)")),
         }),
     k("initial", "preload", "N", num(D::Force), None, "> 0", "static preload at the start, JKR equilibrium under it (or gap; without a spring: the weight)")
-        .param("mean load (static preload)")
+        .continued("mean load (static preload)")
         .access(|s, _| match s.initial {
             Initial::Preload(p) => Some(p),
             _ => None,

@@ -14,7 +14,7 @@
 //! | `SECTION.KEY` | `base.amplitude`, `adhesion.n`, `solver.rtol` |
 //! | `stage[N].KEY` (N from 0, as messages count) | `stage[3].speed`, `stage[0].until` |
 //!
-//! The keys each section takes come from [`keys::KEYS`](super::keys::KEYS), the table
+//! The keys each section takes come from [`super::keys::KEYS`], the table
 //! the parser's unknown-key checks use, so a key added there is at once settable. An absent
 //! section is created (`base.amplitude` on a file without `[base]`: validation then asks for
 //! `base.frequency`); a stage is not: `stage[N]` must exist in the file.

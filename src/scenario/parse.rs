@@ -14,22 +14,10 @@
 //! `frequency = "0.3kHz"`) parsed by [`crate::units::parse_quantity`]. Integers are accepted
 //! wherever a number is (`stiffness = 200`).
 //!
-//! The key names are a contract (README, "Scenario files"):
-//!
-//! | section | keys (default) |
-//! |---|---|
-//! | top level | `version` (required, = 1) |
-//! | `[material]` (required) | `K` (Pa, > 0), `R` (m, > 0), `w0` (J/m², > 0) |
-//! | `[adhesion]` (absent: constant w0) | `law` = `"constant"` · `"gent-schultz"` (`v0` m/s > 0, `n` > 0) · `"gent-schultz-saturated"` (`v0`, `n`, `v_sat` m/s > 0) · `"tabulated"` (`file`, relative to the scenario) |
-//! | `[sphere]` | `mass` (kg, ≥ 0; required unless `spring.rigid`), `gravity` (m/s², ≥ 0, 9.807) |
-//! | `[spring]` (absent: no spring) | `stiffness` (N/m, ≥ 0) or `rigid = true` |
-//! | `[damping]` (absent: none) | `c` (N s/m, ≥ 0), `on` = `"sphere"` (default) or `"contact"` |
-//! | `[base]` (absent: no vibration) | `amplitude` (m, ≥ 0), `frequency` (Hz, > 0) |
-//! | `[contact]` | `formation` = `"jump-in"` (default) or `"seed"` with `seed_radius` (m, 0 < r ≤ jump-in radius) |
-//! | `[initial]` | `preload` (N, > 0) or `gap` (m, > 0); absent without a spring: the sphere's weight |
-//! | `[[stage]]` (≥ 1) | `kind`, `speed` (m/s), one of `duration` (s) / `preload` (N) / `until = "pull-off"`, `vibration` (bool), `max_duration` (s, 1e4) |
-//! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `max_memory` (bytes, ≥ 1 MiB, 2 GiB), `event_tol` (s, (0, 1e-6]; a warning above 1e-9) |
-//! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool), `plot` (bool), `dense` (list of `[t0, t1]` windows, s, t0 < t1; merged when they overlap) |
+//! The key names are a contract (README, "Scenario files"). Every key, with its unit, default,
+//! allowed range and meaning, is in the one table of keys, [`keys::KEYS`], which the parser's
+//! unknown-key checks read and `djkr keys [--json]` prints (this module's doc no longer copies
+//! it, so it cannot fall behind).
 
 use std::fmt::Display;
 use std::path::{Path, PathBuf};
@@ -357,7 +345,7 @@ impl<'a> Section<'a> {
 /// Why `v` is out of the range of a key > 0 (`key` dotted, `unit` for the message), or `None`:
 /// a finite, normal positive number within the bounds the model carries
 /// ([`checks::key_range_error`]). Shared by the parser and by typed setting
-/// ([`super::set`]), so both word it the same.
+/// ([`Scenario::set`](super::Scenario::set)), so both word it the same.
 pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
     if v.is_finite() && v >= f64::MIN_POSITIVE {
         bound_error(key, v, unit)
