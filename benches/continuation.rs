@@ -10,8 +10,9 @@
 //! `cargo bench --bench continuation`.
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::continuation::branch::{self, PointKind, Settings};
-use djkr::continuation::family::{Family, Parameter};
+use djkr::continuation::family::Family;
 use djkr::continuation::folds;
+use djkr::scenario::family::{family, parameter};
 use djkr::scenario::overrides::Override;
 use djkr::scenario::parse::ScenarioSource;
 use std::hint::black_box;
@@ -22,11 +23,11 @@ fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/resonance-400hz.toml");
     let setup = || -> Result<(Family, Family), String> {
         let src = ScenarioSource::read(&path).map_err(|e| e.to_string())?;
-        let f = Parameter::parse("--param", "base.frequency").map_err(|e| e.to_string())?;
-        let x = Parameter::parse("--fold-param", "base.amplitude").map_err(|e| e.to_string())?;
+        let f = parameter("--param", "base.frequency").map_err(|e| e.to_string())?;
+        let x = parameter("--fold-param", "base.amplitude").map_err(|e| e.to_string())?;
         let amp = Override::parse("base.amplitude=1.5um").map_err(|e| e.to_string())?;
-        let one = Family::new(src.clone(), vec![amp], vec![f], 1e-10).map_err(|e| e.to_string())?;
-        let two = Family::new(src, vec![], vec![f, x], 1e-10).map_err(|e| e.to_string())?;
+        let one = family(&src, &[amp], vec![f], 1e-10).map_err(|e| e.to_string())?;
+        let two = family(&src, &[], vec![f, x], 1e-10).map_err(|e| e.to_string())?;
         Ok((one, two))
     };
     let (one, two) = match setup() {

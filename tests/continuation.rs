@@ -6,7 +6,9 @@
 use djkr::continuation::branch::{self, Branch, PointKind, Settings};
 use djkr::continuation::family::{Family, Parameter};
 use djkr::continuation::folds;
+use djkr::continuation::ContinuationError;
 use djkr::describing::{self, Setup};
+use djkr::scenario::family::parameter;
 use djkr::scenario::overrides::Override;
 use djkr::scenario::parse::ScenarioSource;
 use djkr::steady::sweep::{self as fsweep, Direction};
@@ -28,13 +30,24 @@ fn set(text: &str) -> Override {
     Override::parse(text).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The family of a scenario file with fixed overrides and free keys (the scene `djkr continue`
+/// builds).
+fn new_family(
+    src: ScenarioSource,
+    fixed: Vec<Override>,
+    params: Vec<Parameter>,
+    rtol: f64,
+) -> Result<Family, ContinuationError> {
+    djkr::scenario::family::family(&src, &fixed, params, rtol)
+}
+
 fn param(key: &str) -> Parameter {
-    Parameter::parse("--param", key).unwrap_or_else(|e| panic!("{e}"))
+    parameter("--param", key).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The bundled resonance scene at X_b = `xb` continued in frequency over `range`.
 fn frequency_branch(xb: &str, range: (f64, f64)) -> Branch {
-    let fam = Family::new(
+    let fam = new_family(
         source(),
         vec![set(&format!("base.amplitude={xb}"))],
         vec![param("base.frequency")],
@@ -190,7 +203,7 @@ fn the_branch_is_the_same_traced_up_and_down() {
     // Every fifth point of the down branch is the orbit shooting finds at its frequency from
     // the nearest point of the up branch (the unstable middle branch included: Newton does not
     // care about stability).
-    let fam = Family::new(
+    let fam = new_family(
         source(),
         vec![set("base.amplitude=1.5um")],
         vec![param("base.frequency")],
@@ -287,7 +300,7 @@ fn a_linear_system_reproduces_the_linear_transfer_and_exp_lambda_t() {
     let src =
         ScenarioSource::parse(CONSTANT_W, "constant-w", None).unwrap_or_else(|e| panic!("{e}"));
     let scn = src.scenario(&[]).unwrap_or_else(|e| panic!("{e}"));
-    let fam = Family::new(src, vec![], vec![param("base.frequency")], 1e-10)
+    let fam = new_family(src, vec![], vec![param("base.frequency")], 1e-10)
         .unwrap_or_else(|e| panic!("{e}"));
     let b = branch::continue_branch(&fam, (300.0, 500.0), &Settings::default(), &mut |_| {})
         .unwrap_or_else(|e| panic!("{e}"));
@@ -332,7 +345,7 @@ fn a_pinned_gent_schultz_contact_has_the_oscillator_pair_and_a_creep_multiplier_
     // At X_b = 10 nm the Gent-Schultz contact line is pinned (tests/steady.rs): the mechanics is
     // the linear oscillator with k_c = (3/2) K a_m, and the mean radius creeps: one real
     // multiplier just below 1, the nearly neutral direction of the one-period map.
-    let fam = Family::new(
+    let fam = new_family(
         source(),
         vec![set("base.amplitude=10nm")],
         vec![param("base.frequency")],
@@ -372,7 +385,7 @@ fn fold_curves_end_on_the_folds_of_the_branch_at_their_far_end() {
     // The folds of the 1.5 µm branch followed in X_b down to 1.25 µm end where the folds of the
     // branch computed at 1.25 µm are.
     let b15 = frequency_branch("1.5um", (400.0, 480.0));
-    let fam2 = Family::new(
+    let fam2 = new_family(
         source(),
         vec![],
         vec![param("base.frequency"), param("base.amplitude")],
@@ -406,7 +419,7 @@ fn fold_curves_end_on_the_folds_of_the_branch_at_their_far_end() {
 #[test]
 fn the_bistable_region_is_born_at_a_cusp_between_the_amplitudes_with_and_without_folds() {
     let b15 = frequency_branch("1.5um", (400.0, 480.0));
-    let fam2 = Family::new(
+    let fam2 = new_family(
         source(),
         vec![],
         vec![param("base.frequency"), param("base.amplitude")],
@@ -428,7 +441,7 @@ fn the_bistable_region_is_born_at_a_cusp_between_the_amplitudes_with_and_without
     // Δf^{2/3} is linear in X_b and vanishes at X_c. Branches at X_c (1 + k 1e-4), k = 1, 2, 4
     // (small steps: the S is a few 1e-5 Hz wide), then a line through (X_b, Δf^{2/3}).
     let narrow = |xb: f64| {
-        let fam = Family::new(
+        let fam = new_family(
             source(),
             vec![Override::new("base.amplitude", xb).unwrap_or_else(|e| panic!("{e}"))],
             vec![param("base.frequency")],
@@ -468,7 +481,7 @@ fn keys_that_do_not_change_a_periodic_orbit_are_refused_with_the_list() {
         "adhesion.law",
         "version",
     ] {
-        let e = Parameter::parse("--param", key)
+        let e = parameter("--param", key)
             .map(|_| ())
             .unwrap_err()
             .to_string();
@@ -477,13 +490,13 @@ fn keys_that_do_not_change_a_periodic_orbit_are_refused_with_the_list() {
             "{key}: {e}"
         );
     }
-    let e = Parameter::parse("--param", "base.frequenc")
+    let e = parameter("--param", "base.frequenc")
         .map(|_| ())
         .unwrap_err()
         .to_string();
     assert!(e.contains("unknown key") && e.contains("damping.c"), "{e}");
     // The continuation parameter cannot also be set.
-    let e = Family::new(
+    let e = new_family(
         source(),
         vec![set("base.frequency=400")],
         vec![param("base.frequency")],
@@ -644,7 +657,7 @@ fn scene(name: &str) -> ScenarioSource {
 fn a_period_that_loses_contact_ends_the_branch_as_grazing_not_a_fold() {
     // scenarios/impacts.toml (m = 0.25 kg, 300 Hz) continued in X_b: the in-contact orbit folds
     // at 380 µm; its unstable continuation soon loses contact within the period.
-    let fam = Family::new(
+    let fam = new_family(
         scene("impacts.toml"),
         vec![],
         vec![param("base.amplitude")],
@@ -673,7 +686,7 @@ fn a_scene_with_earlier_stages_keeps_the_spring_end_they_leave() {
     // The paper protocol approaches to 0.05 N and dwells before the shaker starts. Rerun for
     // every damping value, the approach would leave the spring end 2.1 µm elsewhere past
     // c = 3.1019 N s/m; run once at START, the branch in c is smooth down to 2 N s/m.
-    let fam = Family::new(
+    let fam = new_family(
         scene("paper-protocol-400hz.toml"),
         vec![],
         vec![param("damping.c")],

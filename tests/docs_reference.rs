@@ -265,12 +265,12 @@ fn output_columns() -> String {
 /// second): the branch tables' columns depend on the parameter, so they come from a real one.
 fn example_branch() -> djkr::continuation::branch::Branch {
     use djkr::continuation::branch;
-    use djkr::continuation::family::{Family, Parameter};
+    use djkr::scenario::family::{family, parameter};
     let source =
         djkr::scenario::parse::ScenarioSource::read(&root().join("scenarios/resonance-400hz.toml"))
             .expect("bundled scenario");
-    let param = Parameter::parse("--param", "base.frequency").expect("parameter");
-    let family = Family::new(source, Vec::new(), vec![param], 1e-10).expect("family");
+    let param = parameter("--param", "base.frequency").expect("parameter");
+    let family = family(&source, &[], vec![param], 1e-10).expect("family");
     branch::continue_branch(
         &family,
         (380.0, 390.0),

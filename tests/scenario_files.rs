@@ -624,3 +624,110 @@ fn a_table_held_flat_beyond_its_last_row_reaches_pull_off_at_nearby_speeds() {
     }
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// The dotted keys a TOML table gives, stage keys spelled `stage[].KEY` (as `djkr keys` does).
+fn keys_of_table(t: &toml::Table, out: &mut std::collections::BTreeSet<String>) {
+    for (section, v) in t {
+        match v {
+            toml::Value::Table(s) => out.extend(s.keys().map(|k| format!("{section}.{k}"))),
+            toml::Value::Array(stages) if section == "stage" => {
+                for s in stages.iter().filter_map(toml::Value::as_table) {
+                    out.extend(s.keys().map(|k| format!("stage[].{k}")));
+                }
+            }
+            _ => {
+                out.insert(section.clone());
+            }
+        }
+    }
+}
+
+/// `djkr keys --json` lists every key the parser accepts, and the parser accepts every key it
+/// lists: the keys of the good corpus (each file parses, so the parser accepts each key in it)
+/// are exactly the listed ones, and a key of the list written into a valid file is never refused
+/// as unknown (the parser may refuse its value or its combination, not its name).
+#[test]
+fn djkr_keys_lists_exactly_the_keys_the_parser_accepts() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args(["keys", "--json"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let list: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let list = list.as_array().unwrap();
+    let mut listed = std::collections::BTreeSet::new();
+    for entry in list {
+        let obj = entry.as_object().unwrap();
+        let mut fields: Vec<&str> = obj.keys().map(String::as_str).collect();
+        fields.sort_unstable();
+        assert_eq!(
+            fields,
+            ["default", "description", "key", "range", "unit"],
+            "{entry}"
+        );
+        for f in ["key", "unit", "range", "description"] {
+            assert!(obj[f].is_string(), "{entry}: {f}");
+        }
+        assert!(!obj["description"].as_str().unwrap().is_empty(), "{entry}");
+        assert!(!obj["range"].as_str().unwrap().is_empty(), "{entry}");
+        assert!(
+            listed.insert(obj["key"].as_str().unwrap().to_string()),
+            "{entry}: twice"
+        );
+    }
+    let mut accepted = std::collections::BTreeSet::new();
+    for f in toml_files("tests/scenarios/good") {
+        load_scenario(&f).unwrap_or_else(|e| panic!("{e}"));
+        let t: toml::Table = std::fs::read_to_string(&f).unwrap().parse().unwrap();
+        keys_of_table(&t, &mut accepted);
+    }
+    assert_eq!(
+        listed, accepted,
+        "djkr keys --json (left) against the keys of tests/scenarios/good (right)"
+    );
+    // The other way round, key by key: written into every-key.toml with a value of no type the
+    // key takes, the parser names the value, never the key as unknown.
+    let base = std::fs::read_to_string(dir("tests/scenarios/good/every-key.toml")).unwrap();
+    for key in &listed {
+        let mut t: toml::Table = base.parse().unwrap();
+        let bad = toml::Value::Datetime("1979-05-27".parse().unwrap());
+        match key.split_once('.') {
+            None => {
+                t.insert(key.clone(), bad);
+            }
+            Some(("stage[]", k)) => {
+                let stage = t["stage"].as_array_mut().unwrap()[0]
+                    .as_table_mut()
+                    .unwrap();
+                stage.insert(k.to_string(), bad);
+            }
+            Some((s, k)) => {
+                let section = t
+                    .entry(s.to_string())
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+                section.as_table_mut().unwrap().insert(k.to_string(), bad);
+            }
+        }
+        let text = toml::to_string(&t).unwrap();
+        let e = djkr::scenario::parse::parse_scenario(
+            &text,
+            "k.toml",
+            Some(&dir("tests/scenarios/good")),
+        )
+        .map(|_| String::new())
+        .unwrap_or_else(|e| e.to_string());
+        // (`unknown key for law = ...` names a key of another law, which the parser knows.)
+        for unknown in ["unknown key;", "unknown section", "unknown top-level key"] {
+            assert!(!e.contains(unknown), "{key}: {e}");
+        }
+    }
+    // A key that is not listed is refused by name.
+    let e = djkr::scenario::parse::parse_scenario(
+        &base.replace("[base]\n", "[base]\namplitud = 1\n"),
+        "k.toml",
+        Some(&dir("tests/scenarios/good")),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("base.amplitud: unknown key"), "{e}");
+}

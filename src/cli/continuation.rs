@@ -16,6 +16,7 @@ use djkr::continuation::sweep::{self, SweepPoint};
 use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::output::table::{format_f64, format_sig};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
+use djkr::scenario::family::{family as scenario_family, parameter};
 use djkr::scenario::parse::ScenarioSource;
 use djkr::steady::Options;
 use djkr::units::parse_quantity;
@@ -199,7 +200,7 @@ pub fn continuation(a: &ContinueArgs) -> Result<()> {
 
 /// Check the flags that need no scenario.
 fn parse_flags(a: &ContinueArgs) -> Result<Flags> {
-    let param = Parameter::parse("--param", &a.param)?;
+    let param = parameter("--param", &a.param)?;
     let range = parse_range("--range", &a.range, &param)?;
     let rtol = tolerance("--rtol", &a.rtol, 1e-14, 1e-6)?;
     if a.sweep > 10_000 {
@@ -208,8 +209,8 @@ fn parse_flags(a: &ContinueArgs) -> Result<Flags> {
     let tol = tolerance("--tol", &a.tol, 1e-14, 1e-3)?;
     let fold = match (&a.fold_param, &a.fold_range) {
         (Some(k), Some(r)) => {
-            let q = Parameter::parse("--fold-param", k)?;
-            if q.key == param.key {
+            let q = parameter("--fold-param", k)?;
+            if q == param {
                 bail!(
                     "--fold-param {k}: must differ from --param {}",
                     param.name()
@@ -248,19 +249,19 @@ fn problem(a: &ContinueArgs, flags: &Flags) -> Result<Problem> {
     // The branch: KEY free; with --fold-param, KEY2 held at the start of its range.
     let mut fixed = overrides.clone();
     if let Some((q, (q0, _))) = &flags.fold {
-        if let Some(o) = overrides.iter().find(|o| o.key() == q.key) {
+        if let Some(o) = overrides.iter().find(|o| o.key().to_string() == q.name()) {
             bail!(
                 "--set {o}: {} is the --fold-param, whose values come from --fold-range; drop the --set",
                 q.name()
             );
         }
-        fixed.push(djkr::scenario::overrides::Override::from_key(q.key, *q0)?);
+        fixed.push(djkr::scenario::overrides::Override::new(q.name(), *q0)?);
     }
-    let family = Family::new(source.clone(), fixed, vec![param], rtol)?;
+    let family = scenario_family(&source, &fixed, vec![param], rtol)?;
     check_ends("--range", &a.range, &family, &[[p0, 0.0], [p1, 0.0]])?;
     let family2 = match &flags.fold {
         Some((q, (q0, q1))) => {
-            let f2 = Family::new(source.clone(), overrides.clone(), vec![param, *q], rtol)?;
+            let f2 = scenario_family(&source, &overrides, vec![param, *q], rtol)?;
             check_ends(
                 "--fold-range",
                 a.fold_range.as_deref().unwrap_or(""),

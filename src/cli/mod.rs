@@ -12,6 +12,7 @@ mod figures;
 mod fit;
 mod fit_data;
 mod imposed;
+mod keys;
 mod plot;
 mod resonance;
 mod run;
@@ -83,6 +84,10 @@ enum Command {
     Run(run::RunArgs),
     /// Validate scenario files without running them.
     Check(run::CheckArgs),
+    /// Every key a scenario file takes: unit, default, allowed range and meaning (--json: a
+    /// list of objects with the fields key, unit, default, range, description). Stage keys are
+    /// written stage[].KEY; set one with --set stage[N].KEY=VALUE.
+    Keys(keys::KeysArgs),
     /// Sweeps and ensembles over any scenario key (--set KEY=SPEC), in parallel and resumable:
     /// sweep.csv, sweep.h5 (one row per run), points.csv (statistics per point) and plots;
     /// --shard K/N, `djkr sweep merge` and --slurm for clusters.
@@ -151,6 +156,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Run(a) => run::run(&a),
         Command::Check(a) => run::check(&a),
+        Command::Keys(a) => keys::keys(&a),
         Command::Sweep(a) => sweep::sweep(&a),
         Command::Plot(a) => plot::plot(&a),
         Command::Cycle(a) => imposed::cycle(&a),

@@ -7,10 +7,10 @@
 //! response is bistable. This module follows the branch itself.
 //!
 //! # The problem ([`family`], [`map`])
-//! A *family* is a scenario file, its fixed `--set` overrides, and one key left free (two for
-//! the fold curves): any constant of the periodic problem ([`family::PARAMETERS`]: base
-//! frequency and amplitude, preload, damping, stiffness, mass, the material and law constants;
-//! stages, solver and output keys are refused with that list). The orbit at value p is the
+//! A *family* is a model ([`family::Scene`]; in djkr a scenario file and its fixed `--set`
+//! overrides) and one key left free (two for the fold curves): any constant of the periodic
+//! problem (base frequency and amplitude, preload, damping, stiffness, mass, the material and
+//! law constants; stages, solver and output keys are refused with that list). The orbit at value p is the
 //! periodic steady state of the scenario with `KEY = p` written in it, as `djkr validate --set
 //! KEY=p` would find it. Unknowns u = (ŷ, p̂): the state at phase 0 over the components the
 //! problem integrates (x_s, v_s, a for the Gent–Schultz scenes; x_s, v_s under a constant law,

@@ -385,7 +385,7 @@ mod tests {
         assert_eq!(lower_bound("material.w0").map(|b| b.0), Some(1e-9));
         for (k, _, _) in UPPER_BOUNDS.iter().chain(LOWER_BOUNDS) {
             let (section, key) = k.split_once('.').unwrap();
-            let keys = crate::scenario::parse::section_keys(section).unwrap();
+            let keys = crate::scenario::keys::section_keys(section).unwrap();
             assert!(keys.contains(&key), "{k}");
         }
     }

@@ -9,8 +9,12 @@
 //! end of the holding spring (down +), δ = x_s + x_b the indentation (> 0 compresses).
 
 pub mod checks;
+pub mod error;
+pub mod family;
+pub mod keys;
 pub mod overrides;
 pub mod parse;
+mod set;
 
 pub use crate::dynamics::protocol::{Initial, Stage, StageKind, Until};
 pub use crate::dynamics::{Method, Solver};

@@ -14,7 +14,7 @@
 //! | `SECTION.KEY` | `base.amplitude`, `adhesion.n`, `solver.rtol` |
 //! | `stage[N].KEY` (N from 0, as messages count) | `stage[3].speed`, `stage[0].until` |
 //!
-//! The keys each section takes come from [`parse::SECTIONS`](super::parse::SECTIONS), the list
+//! The keys each section takes come from [`super::keys::KEYS`], the table
 //! the parser's unknown-key checks use, so a key added there is at once settable. An absent
 //! section is created (`base.amplitude` on a file without `[base]`: validation then asks for
 //! `base.frequency`); a stage is not: `stage[N]` must exist in the file.
@@ -40,10 +40,8 @@ use std::fmt;
 use thiserror::Error;
 use toml::{Table, Value};
 
-use super::parse::{
-    section_keys, show, show_float, ScenarioError, SECTIONS, STAGE_END_KEYS, STAGE_SECTION,
-    TOP_LEVEL_KEYS,
-};
+use super::error::{show, show_float, ScenarioError};
+use super::keys::{self, section_keys, STAGE_END_KEYS, STAGE_SECTION};
 
 /// A malformed override, or one naming a key no scenario file takes.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
@@ -282,7 +280,11 @@ fn parse_key(t: &str) -> Result<SetKey, String> {
             }
         }
     };
-    let Some(&(section, keys)) = SECTIONS.iter().find(|(s, _)| *s == section) else {
+    let Some((section, keys)) = keys::SECTIONS
+        .iter()
+        .find(|s| **s == section)
+        .and_then(|s| Some((*s, section_keys(s)?)))
+    else {
         return Err(format!(
             "unknown section '{section}'; the sections are {}",
             section_names()
@@ -331,7 +333,7 @@ fn parse_key(t: &str) -> Result<SetKey, String> {
 
 /// A key without a dot: a top-level key, or a section or section key written without it.
 fn top_level_key(t: &str) -> Result<SetKey, String> {
-    if let Some(&name) = TOP_LEVEL_KEYS.iter().find(|k| **k == t) {
+    if let Some(name) = top_level_keys().into_iter().find(|k| *k == t) {
         return Ok(SetKey {
             section: None,
             index: None,
@@ -352,10 +354,11 @@ fn top_level_key(t: &str) -> Result<SetKey, String> {
             keys.join(", ")
         ));
     }
-    let homes: Vec<String> = SECTIONS
+    let homes: Vec<String> = keys::KEYS
         .iter()
-        .filter(|(_, keys)| keys.contains(&t))
-        .map(|(s, _)| {
+        .filter(|k| !k.section.is_empty() && k.name == t)
+        .map(|k| {
+            let s = &k.section;
             if *s == STAGE_SECTION {
                 format!("{s}[N].{t}")
             } else {
@@ -371,8 +374,13 @@ fn top_level_key(t: &str) -> Result<SetKey, String> {
     Err(format!(
         "unknown key{hint}; the top level takes {}, and the sections' keys are written SECTION.KEY \
          (e.g. base.amplitude, stage[0].speed)",
-        TOP_LEVEL_KEYS.join(", ")
+        top_level_keys().join(", ")
     ))
+}
+
+/// The keys of the top level that are not sections (`version`).
+fn top_level_keys() -> Vec<&'static str> {
+    section_keys("").unwrap_or_default()
 }
 
 fn shown_section(s: &str) -> String {
@@ -385,9 +393,9 @@ fn shown_section(s: &str) -> String {
 
 /// The sections as keys spell them: `material, ..., stage[N], ...`.
 fn section_names() -> String {
-    SECTIONS
+    keys::SECTIONS
         .iter()
-        .map(|(s, _)| {
+        .map(|s| {
             if *s == STAGE_SECTION {
                 format!("{s}[N]")
             } else {
@@ -578,8 +586,8 @@ mod tests {
 
     #[test]
     fn every_key_of_every_section_is_settable() {
-        for (section, keys) in SECTIONS {
-            for k in *keys {
+        for section in keys::SECTIONS {
+            for k in section_keys(section).unwrap_or_default() {
                 let t = if *section == STAGE_SECTION {
                     format!("{section}[0].{k}")
                 } else {

@@ -14,30 +14,23 @@
 //! `frequency = "0.3kHz"`) parsed by [`crate::units::parse_quantity`]. Integers are accepted
 //! wherever a number is (`stiffness = 200`).
 //!
-//! The key names are a contract (docs/guide/scenarios.md and the scenario reference):
-//!
-//! | section | keys (default) |
-//! |---|---|
-//! | top level | `version` (required, = 1) |
-//! | `[material]` (required) | `K` (Pa, > 0), `R` (m, > 0), `w0` (J/m², > 0) |
-//! | `[adhesion]` (absent: constant w0) | `law` = `"constant"` · `"gent-schultz"` (`v0` m/s > 0, `n` > 0) · `"gent-schultz-saturated"` (`v0`, `n`, `v_sat` m/s > 0) · `"tabulated"` (`file`, relative to the scenario) |
-//! | `[sphere]` | `mass` (kg, ≥ 0; required unless `spring.rigid`), `gravity` (m/s², ≥ 0, 9.807) |
-//! | `[spring]` (absent: no spring) | `stiffness` (N/m, ≥ 0) or `rigid = true` |
-//! | `[damping]` (absent: none) | `c` (N s/m, ≥ 0), `on` = `"sphere"` (default) or `"contact"` |
-//! | `[base]` (absent: no vibration) | `amplitude` (m, ≥ 0), `frequency` (Hz, > 0) |
-//! | `[contact]` | `formation` = `"jump-in"` (default) or `"seed"` with `seed_radius` (m, 0 < r ≤ jump-in radius) |
-//! | `[initial]` | `preload` (N, > 0) or `gap` (m, > 0); absent without a spring: the sphere's weight |
-//! | `[[stage]]` (≥ 1) | `kind`, `speed` (m/s), one of `duration` (s) / `preload` (N) / `until = "pull-off"`, `vibration` (bool), `max_duration` (s, 1e4) |
-//! | `[solver]` | `method`, `rtol` [1e-14, 1e-2], `atol` (0, 1], `max_steps` (≥ 1), `max_wall_s` (s, > 0), `max_memory` (bytes, ≥ 1 MiB, 2 GiB), `event_tol` (s, (0, 1e-6]; a warning above 1e-9) |
-//! | `[output]` | `sample_rate` (1/s, ≥ 0; 0 = every step), `csv` (bool), `plot` (bool), `dense` (list of `[t0, t1]` windows, s, t0 < t1; merged when they overlap) |
+//! The key names are a contract (docs/guide/scenarios.md and the generated
+//! docs/guide/scenario-reference.md). Every key, with its unit, default,
+//! allowed range and meaning, is in the one table of keys, [`keys::KEYS`], which the parser's
+//! unknown-key checks read and `djkr keys [--json]` prints (this module's doc no longer copies
+//! it, so it cannot fall behind).
 
 use std::fmt::Display;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 
-use thiserror::Error;
 use toml::{Table, Value};
 
 use super::checks;
+pub use super::error::ScenarioError;
+pub(crate) use super::error::{show, show_float};
+use super::keys::{self, STAGE_END_KEYS, STAGE_SECTION};
+pub use super::keys::{DEFAULT_GRAVITY, DEFAULT_MAX_DURATION, TABLE_W0_RTOL};
 use super::overrides::{self, Override};
 use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
@@ -49,121 +42,17 @@ use crate::adhesion::{
 };
 use crate::dynamics::methods::{method_from_name, method_names, EnvelopeMode};
 use crate::error::ParamError;
-use crate::input::{self, InputError, InputKind};
+use crate::input::{self, InputKind};
 use crate::jkr;
 use crate::material::Material;
-use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// The scenario-file format version this parser reads.
 pub const SCENARIO_VERSION: i64 = 1;
-/// Default gravitational acceleration (m/s²) when `sphere.gravity` is absent.
-pub const DEFAULT_GRAVITY: f64 = 9.807;
-/// Default safety limit (s) of a stage that ends on a preload or at pull-off.
-pub const DEFAULT_MAX_DURATION: f64 = 1e4;
 /// Largest allowed relative tolerance `solver.rtol`.
 pub const MAX_RTOL: f64 = 1e-2;
 /// Smallest allowed relative tolerance `solver.rtol` (a few ulps: tighter is rounding noise).
 pub const MIN_RTOL: f64 = 1e-14;
-/// Relative agreement required between a tabulated law's w(0) and `material.w0`.
-pub const TABLE_W0_RTOL: f64 = 1e-6;
-
-/// Why a scenario file was rejected. Every variant names the file; value errors also name the
-/// dotted key, the value as written and what is allowed.
-#[derive(Debug, Error)]
-pub enum ScenarioError {
-    /// The file could not be read: missing, unreadable, not a regular file, too large or not
-    /// text ([`crate::input::read_text`]).
-    #[error("{file}: {cause}")]
-    Io {
-        /// The file.
-        file: String,
-        /// Why (shown in the message, so not also chained as a `source`, which made the command
-        /// line print it twice).
-        cause: InputError,
-    },
-    /// TOML syntax error.
-    #[error("{file}: TOML syntax error at line {line}, column {column}: {message}")]
-    Syntax {
-        /// The file.
-        file: String,
-        /// 1-based line.
-        line: usize,
-        /// 1-based column (in characters).
-        column: usize,
-        /// What the TOML parser said.
-        message: String,
-    },
-    /// A value of the wrong type or out of range.
-    #[error("{file}: {} = {}: {allowed}", excerpt(.key), excerpt(.value))]
-    Value {
-        /// The file.
-        file: String,
-        /// Dotted key, e.g. `stage[1].speed`.
-        key: String,
-        /// The value as written.
-        value: String,
-        /// What is allowed (with units), or what is wrong with the value.
-        allowed: String,
-    },
-    /// A key or section that is missing, unknown, or in conflict with another.
-    #[error("{file}: {}: {message}", excerpt(.key))]
-    Key {
-        /// The file.
-        file: String,
-        /// Dotted key or section, e.g. `material.K`, `[foo]`, `stage[0]`.
-        key: String,
-        /// What is wrong and what is expected.
-        message: String,
-    },
-    /// Valid values that the simulator cannot run together (a massless sphere with damping, an
-    /// explicit method on a rate-independent law): what it would refuse when setting the run up.
-    #[error("{file}: {message}")]
-    Setup {
-        /// The file.
-        file: String,
-        /// What cannot be simulated, and what to change.
-        message: String,
-    },
-    /// A `--set KEY=VALUE` override that does not fit the file (a stage it does not have), or
-    /// whose value the file's rules reject: named by the override rather than by the file's key
-    /// and value.
-    #[error("--set {}: {message}", excerpt(.set))]
-    Override {
-        /// The file the override was applied to.
-        file: String,
-        /// The override, `KEY=VALUE`.
-        set: String,
-        /// Its dotted key.
-        key: String,
-        /// What is wrong, and what is allowed.
-        message: String,
-    },
-}
-
-impl ScenarioError {
-    /// The file the error is about.
-    pub fn file(&self) -> &str {
-        match self {
-            ScenarioError::Io { file, .. }
-            | ScenarioError::Syntax { file, .. }
-            | ScenarioError::Value { file, .. }
-            | ScenarioError::Key { file, .. }
-            | ScenarioError::Setup { file, .. }
-            | ScenarioError::Override { file, .. } => file,
-        }
-    }
-
-    /// The dotted key the error is about, when there is one.
-    pub fn key(&self) -> Option<&str> {
-        match self {
-            ScenarioError::Value { key, .. }
-            | ScenarioError::Key { key, .. }
-            | ScenarioError::Override { key, .. } => Some(key),
-            _ => None,
-        }
-    }
-}
 
 type Result<T> = std::result::Result<T, ScenarioError>;
 
@@ -195,6 +84,7 @@ pub struct ScenarioSource {
     name: String,
     base_dir: Option<PathBuf>,
     table: Table,
+    tables: LawTables,
 }
 
 impl ScenarioSource {
@@ -209,12 +99,17 @@ impl ScenarioSource {
     /// Parse a scenario's TOML from its text (`source_name` and `base_dir` as in
     /// [`parse_scenario`]). Only the syntax is checked here.
     pub fn parse(text: &str, source_name: &str, base_dir: Option<&Path>) -> Result<Self> {
-        let table = Parser { file: source_name }.parse_toml(text)?;
+        let table = Parser {
+            file: source_name,
+            tables: None,
+        }
+        .parse_toml(text)?;
         Ok(Self {
             text: text.to_string(),
             name: source_name.to_string(),
             base_dir: base_dir.map(Path::to_path_buf),
             table,
+            tables: LawTables::default(),
         })
     }
 
@@ -236,13 +131,20 @@ impl ScenarioSource {
     pub fn scenario(&self, overrides: &[Override]) -> Result<Scenario> {
         let base_dir = self.base_dir.as_deref();
         if overrides.is_empty() {
-            return build(&self.table, &self.text, &self.name, base_dir, Vec::new());
+            return build(
+                &self.table,
+                &self.text,
+                &self.name,
+                base_dir,
+                Vec::new(),
+                &self.tables,
+            );
         }
         let mut table = self.table.clone();
         overrides::apply(&mut table, overrides, &self.name)?;
         let name = overrides::describe(&self.name, overrides);
         let list = overrides.iter().map(ToString::to_string).collect();
-        build(&table, &self.text, &name, base_dir, list)
+        build(&table, &self.text, &name, base_dir, list, &self.tables)
             .map_err(|e| overrides::attribute(e, overrides, &self.name))
     }
 }
@@ -254,8 +156,12 @@ fn build(
     source_name: &str,
     base_dir: Option<&Path>,
     overrides: Vec<String>,
+    tables: &LawTables,
 ) -> Result<Scenario> {
-    let p = Parser { file: source_name };
+    let p = Parser {
+        file: source_name,
+        tables: Some(tables),
+    };
     let top = Section::root(root);
     p.check_top_level(&top)?;
     p.version(&top, true)?;
@@ -315,7 +221,10 @@ pub fn parse_material_and_law(
     source_name: &str,
     base_dir: Option<&Path>,
 ) -> Result<(Material, Law)> {
-    let p = Parser { file: source_name };
+    let p = Parser {
+        file: source_name,
+        tables: None,
+    };
     let root = p.parse_toml(text)?;
     let top = Section::root(&root);
     p.check_top_level(&top)?;
@@ -339,10 +248,6 @@ fn parent_dir(path: &Path) -> PathBuf {
     }
 }
 
-/// Keys of the top level that are not sections.
-pub const TOP_LEVEL_KEYS: &[&str] = &["version"];
-/// Keys of `[material]`.
-pub const MATERIAL_KEYS: &[&str] = &["K", "R", "w0"];
 /// Keys of `[adhesion]` with `law = "constant"`.
 const CONSTANT_LAW_KEYS: &[&str] = &["law"];
 /// Keys of `[adhesion]` with `law = "gent-schultz"`.
@@ -351,82 +256,22 @@ const GS_LAW_KEYS: &[&str] = &["law", "v0", "n"];
 const SATURATED_LAW_KEYS: &[&str] = &["law", "v0", "n", "v_sat"];
 /// Keys of `[adhesion]` with `law = "tabulated"`.
 const TABULATED_LAW_KEYS: &[&str] = &["law", "file"];
-/// Keys of `[adhesion]`, all laws together (each law takes the subset its own list names).
-pub const ADHESION_KEYS: &[&str] = &["law", "v0", "n", "v_sat", "file"];
-/// Keys of `[sphere]`.
-pub const SPHERE_KEYS: &[&str] = &["mass", "gravity"];
-/// Keys of `[spring]`.
-pub const SPRING_KEYS: &[&str] = &["stiffness", "rigid"];
-/// Keys of `[damping]`.
-pub const DAMPING_KEYS: &[&str] = &["c", "on"];
-/// Keys of `[base]`.
-pub const BASE_KEYS: &[&str] = &["amplitude", "frequency", "phase"];
-/// Keys of `[contact]`.
-pub const CONTACT_KEYS: &[&str] = &["formation", "seed_radius"];
-/// Keys of `[initial]`.
-pub const INITIAL_KEYS: &[&str] = &["preload", "gap"];
-/// Keys of each `[[stage]]`.
-pub const STAGE_KEYS: &[&str] = &[
-    "kind",
-    "speed",
-    "duration",
-    "preload",
-    "until",
-    "vibration",
-    "max_duration",
-];
-/// The end conditions of a stage, of which exactly one is given.
-pub const STAGE_END_KEYS: &[&str] = &["duration", "preload", "until"];
-/// Keys of `[solver]`.
-pub const SOLVER_KEYS: &[&str] = &[
-    "method",
-    "rtol",
-    "atol",
-    "max_steps",
-    "max_events",
-    "max_wall_s",
-    "max_memory",
-    "event_tol",
-    "envelope",
-    "envelope_tol",
-];
-/// Keys of `[output]`.
-pub const OUTPUT_KEYS: &[&str] = &["sample_rate", "csv", "compress", "fsync", "plot", "dense"];
 
 /// The most windows `[output] dense` may list (each is checked at every period boundary that
 /// envelope following considers; far more than a protocol has stages).
 pub const MAX_DENSE_WINDOWS: usize = 10_000;
 
-/// The name of the one section that is a list of tables (`[[stage]]`, keys `stage[N].KEY`).
-pub const STAGE_SECTION: &str = "stage";
-
-/// The sections of a scenario file and the keys each takes, in the order the guide lists them:
-/// the one list that both the parser's unknown-key checks and `--set` read, so a key added to a
-/// section's list is at once accepted in files and settable from the command line.
-pub const SECTIONS: &[(&str, &[&str])] = &[
-    ("material", MATERIAL_KEYS),
-    ("adhesion", ADHESION_KEYS),
-    ("sphere", SPHERE_KEYS),
-    ("spring", SPRING_KEYS),
-    ("damping", DAMPING_KEYS),
-    ("base", BASE_KEYS),
-    ("contact", CONTACT_KEYS),
-    ("initial", INITIAL_KEYS),
-    (STAGE_SECTION, STAGE_KEYS),
-    ("solver", SOLVER_KEYS),
-    ("output", OUTPUT_KEYS),
-];
-
-/// The keys section `name` takes (`None`: no such section).
-pub fn section_keys(name: &str) -> Option<&'static [&'static str]> {
-    SECTIONS.iter().find(|(s, _)| *s == name).map(|(_, k)| *k)
+/// The keys of section `name` ([`keys::section_keys`], the one table of keys; `""` for the top
+/// level).
+fn keys_of(name: &str) -> Vec<&'static str> {
+    keys::section_keys(name).unwrap_or_default()
 }
 
 /// The sections as a file writes them: `[material], ..., [[stage]], ...`.
 fn section_list() -> String {
-    SECTIONS
+    keys::SECTIONS
         .iter()
-        .map(|(s, _)| {
+        .map(|s| {
             if *s == STAGE_SECTION {
                 format!("[[{s}]]")
             } else {
@@ -498,32 +343,170 @@ impl<'a> Section<'a> {
     }
 }
 
-/// Shows a float as a user would write it: shortest round-trip digits, exponent form outside
-/// [1e-3, 1e9), TOML's spelling of non-finite values.
-pub(crate) fn show_float(x: f64) -> String {
-    if x.is_nan() {
-        "nan".to_string()
-    } else if x.is_infinite() {
-        if x > 0.0 { "inf" } else { "-inf" }.to_string()
-    } else if x == 0.0 || (1e-3..1e9).contains(&x.abs()) {
-        Value::Float(x).to_string()
+/// Why `v` is out of the range of a key > 0 (`key` dotted, `unit` for the message), or `None`:
+/// a finite, normal positive number within the bounds the model carries
+/// ([`checks::key_range_error`]). Shared by the parser and by typed setting
+/// ([`Scenario::set`](super::Scenario::set)), so both word it the same.
+pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
+    if v.is_finite() && v >= f64::MIN_POSITIVE {
+        bound_error(key, v, unit)
+    } else if v > 0.0 && v < f64::MIN_POSITIVE {
+        Some(format!(
+            "is subnormal (below {:e}): must be a normal finite number > 0 ({unit})",
+            f64::MIN_POSITIVE
+        ))
     } else {
-        format!("{x:e}")
+        Some(format!("must be a finite number > 0 ({unit})"))
     }
 }
 
-/// Shows a TOML value as it would be written (strings quoted).
-pub(crate) fn show(v: &Value) -> String {
-    match v {
-        Value::Table(_) => "(a table)".to_string(),
-        Value::Float(f) => show_float(*f),
-        other => other.to_string(),
+/// As [`positive_error`] for a key >= 0.
+pub(crate) fn non_negative_error(key: &str, v: f64, unit: &str) -> Option<String> {
+    if v > 0.0 && v < f64::MIN_POSITIVE {
+        // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
+        Some(format!(
+            "is subnormal (below {:e}): must be 0 or a normal finite number > 0 ({unit})",
+            f64::MIN_POSITIVE
+        ))
+    } else if v.is_finite() && v >= 0.0 {
+        bound_error(key, v, unit)
+    } else {
+        Some(format!("must be a finite number >= 0 ({unit})"))
     }
+}
+
+/// The bounds the model carries for the key ([`checks::key_range_error`]); `base.frequency`'s
+/// range is checked (with its own message) by [`frequency_error`].
+fn bound_error(key: &str, v: f64, unit: &str) -> Option<String> {
+    if key == "base.frequency" {
+        return None;
+    }
+    checks::key_range_error(key, v, unit)
+}
+
+/// Why a base frequency (Hz, already > 0) is out of range.
+pub(crate) fn frequency_error(f: f64) -> Option<String> {
+    (!(checks::MIN_FREQUENCY..=checks::MAX_FREQUENCY).contains(&f)).then(|| {
+        format!(
+            "must lie in [{:e}, {:e}] (Hz): a period longer than 1e6 s outlasts any run, \
+             one shorter than 1 us is below the time resolution of a long run",
+            checks::MIN_FREQUENCY,
+            checks::MAX_FREQUENCY
+        )
+    })
+}
+
+/// Why a base phase (rad) is out of range.
+pub(crate) fn phase_error(phase: f64) -> Option<String> {
+    (!(phase.is_finite() && (0.0..2.0 * std::f64::consts::PI).contains(&phase))).then(|| {
+        "must lie in [0, 2 pi) (rad; the shaker starts phase/omega after its stage begins)"
+            .to_string()
+    })
+}
+
+/// Why a seed radius (m, > 0) does not fit the material.
+pub(crate) fn seed_error(r: f64, m: &Material) -> Option<String> {
+    let a_jump = jkr::jump_in_radius(m, m.w0);
+    (r > a_jump).then(|| {
+        format!(
+            "must not exceed the JKR jump-in radius (8 pi w0 R^2 / 3K)^(1/3) = {a_jump:.4e} m of this material"
+        )
+    })
+}
+
+/// Why a static preload `p` cannot start a sphere that no spring holds (weight `weight`).
+pub(crate) fn resting_preload_error(p: f64, weight: f64) -> Option<String> {
+    ((p - weight).abs() > 1e-9 * weight.max(f64::MIN_POSITIVE)).then(|| {
+        format!(
+            "without a spring force the sphere rests on its own weight, so a static start needs preload = m g = {weight:.6e} N (or leave out [initial])"
+        )
+    })
+}
+
+/// The relative tolerance's range.
+pub(crate) fn rtol_error(v: f64) -> Option<String> {
+    (!(v.is_finite() && (MIN_RTOL..=MAX_RTOL).contains(&v))).then(|| {
+        format!("must lie in [{MIN_RTOL:e}, {MAX_RTOL:e}] (relative tolerance, dimensionless; below {MIN_RTOL:e} the error estimate is rounding noise)")
+    })
+}
+
+/// The absolute tolerance's range.
+pub(crate) fn atol_error(v: f64) -> Option<String> {
+    (!(v.is_finite() && (f64::MIN_POSITIVE..=1.0).contains(&v))).then(|| {
+        "must lie in (0, 1] (absolute tolerance relative to each state component's natural scale, dimensionless)".to_string()
+    })
+}
+
+/// The envelope tolerance's range.
+pub(crate) fn envelope_tol_error(v: f64) -> Option<String> {
+    (!(v.is_finite() && (1e-12..=1e-2).contains(&v))).then(|| {
+        "must lie in [1e-12, 1e-2] (local error of an envelope step in the scaled \
+         norm, dimensionless)"
+            .to_string()
+    })
+}
+
+/// Combinations of valid values that JKR or the simulator cannot carry ([`checks`]: a sphere
+/// too small for its jump-in radius, a static load whose contact exceeds R, a weight lost to
+/// rounding): `(key, value shown or None for a key error, message)`. `initial_given`: whether
+/// the file has `[initial]` (else the start is the sphere resting on its weight).
+pub(crate) fn physics_error(
+    m: &Material,
+    holder: Holder,
+    sphere: Sphere,
+    initial: &Initial,
+    stages: &[Stage],
+    initial_given: bool,
+) -> Option<(String, Option<String>, String)> {
+    if let Some(e) = checks::material_error(m) {
+        return Some(("[material]".into(), None, e));
+    }
+    let weight = sphere.mass * sphere.gravity;
+    if checks::spring_carries_weight(holder) {
+        if let Some(e) = checks::weight_error(m, weight) {
+            return Some((
+                "[sphere]".into(),
+                None,
+                format!(
+                    "mass = {} kg, gravity = {} m/s^2: {e}",
+                    sphere.mass, sphere.gravity
+                ),
+            ));
+        }
+    }
+    if let Initial::Preload(p) = *initial {
+        if let Some(e) = checks::load_error(m, p) {
+            return Some(if initial_given {
+                ("initial.preload".into(), Some(show_float(p)), e)
+            } else {
+                (
+                    "[sphere]".into(),
+                    None,
+                    format!("the sphere rests on its weight m g = {p:e} N: {e}"),
+                )
+            });
+        }
+    }
+    for (i, st) in stages.iter().enumerate() {
+        if let Until::Preload(p) = st.until {
+            if let Some(e) = checks::load_error(m, p) {
+                return Some((format!("stage[{i}].preload"), Some(show_float(p)), e));
+            }
+        }
+    }
+    None
 }
 
 struct Parser<'a> {
     file: &'a str,
+    /// The law tables read for this file so far (`None`: read each one).
+    tables: Option<&'a LawTables>,
 }
+
+/// The tabulated laws a scenario file's validations have read, by path: each table is read and
+/// parsed once per [`ScenarioSource`], and every scenario built from it shares its rows (a
+/// 55 000-row table took 5 ms to parse, 99 % of a tabulated continuation).
+type LawTables = Arc<Mutex<Vec<(PathBuf, TabulatedLaw)>>>;
 
 impl Parser<'_> {
     fn value_err(
@@ -579,7 +562,7 @@ impl Parser<'_> {
 
     fn check_top_level(&self, top: &Section) -> Result<()> {
         for (k, v) in top.table {
-            if !TOP_LEVEL_KEYS.contains(&k.as_str()) && section_keys(k).is_none() {
+            if !keys_of("").contains(&k.as_str()) && !keys::SECTIONS.contains(&k.as_str()) {
                 return Err(match v {
                     Value::Table(_) => self.key_err(
                         &format!("[{k}]"),
@@ -690,56 +673,17 @@ impl Parser<'_> {
         }
     }
 
-    /// The value, or an error when it exceeds the largest value the model carries for this key
-    /// ([`checks::upper_bound`]).
-    fn bounded(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        match checks::key_range_error(&s.key(k), n.v, unit) {
-            // base.frequency's range is checked (with its own message) by `base`.
-            Some(e) if s.key(k) != "base.frequency" => Err(self.value_err(&s.key(k), &n.shown, e)),
-            _ => Ok(n.v),
-        }
-    }
-
     fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if n.v.is_finite() && n.v >= f64::MIN_POSITIVE {
-            self.bounded(s, k, n, unit)
-        } else if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
-            Err(self.value_err(
-                &s.key(k),
-                &n.shown,
-                format!(
-                    "is subnormal (below {:e}): must be a normal finite number > 0 ({unit})",
-                    f64::MIN_POSITIVE
-                ),
-            ))
-        } else {
-            Err(self.value_err(
-                &s.key(k),
-                &n.shown,
-                format!("must be a finite number > 0 ({unit})"),
-            ))
+        match positive_error(&s.key(k), n.v, unit) {
+            Some(e) => Err(self.value_err(&s.key(k), &n.shown, e)),
+            None => Ok(n.v),
         }
     }
 
     fn non_negative(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        if n.v > 0.0 && n.v < f64::MIN_POSITIVE {
-            // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
-            Err(self.value_err(
-                &s.key(k),
-                &n.shown,
-                format!(
-                    "is subnormal (below {:e}): must be 0 or a normal finite number > 0 ({unit})",
-                    f64::MIN_POSITIVE
-                ),
-            ))
-        } else if n.v.is_finite() && n.v >= 0.0 {
-            self.bounded(s, k, n, unit)
-        } else {
-            Err(self.value_err(
-                &s.key(k),
-                &n.shown,
-                format!("must be a finite number >= 0 ({unit})"),
-            ))
+        match non_negative_error(&s.key(k), n.v, unit) {
+            Some(e) => Err(self.value_err(&s.key(k), &n.shown, e)),
+            None => Ok(n.v),
         }
     }
 
@@ -783,7 +727,7 @@ impl Parser<'_> {
                 "missing section: give [material] with K (Pa), R (m) and w0 (J/m^2)",
             )
         })?;
-        self.check_keys(&s, MATERIAL_KEYS, "")?;
+        self.check_keys(&s, &keys_of("material"), "")?;
         let k = self.req_positive(
             &s,
             "K",
@@ -859,7 +803,13 @@ impl Parser<'_> {
                     Some(d) if Path::new(file).is_relative() => d.join(file),
                     _ => PathBuf::from(file),
                 };
-                let table = match cached_table(&path) {
+                let known = self.tables.and_then(|t| {
+                    let list = t.lock().unwrap_or_else(|p| p.into_inner());
+                    list.iter()
+                        .find(|(p, _)| *p == path)
+                        .map(|(_, t)| t.clone())
+                });
+                let table = match known {
                     Some(t) => t,
                     None => {
                         let text = input::read_text(&path, InputKind::LawTable).map_err(|e| {
@@ -867,7 +817,10 @@ impl Parser<'_> {
                         })?;
                         let t = TabulatedLaw::from_csv_str(&text, &path.display().to_string())
                             .map_err(|e| self.value_err(&key, &shown, e.to_string()))?;
-                        remember_table(&path, &t);
+                        if let Some(tables) = self.tables {
+                            let mut list = tables.lock().unwrap_or_else(|p| p.into_inner());
+                            list.push((path.clone(), t.clone()));
+                        }
                         t
                     }
                 };
@@ -891,7 +844,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "spring")? else {
             return Ok(Holder::None);
         };
-        self.check_keys(&s, SPRING_KEYS, "")?;
+        self.check_keys(&s, &keys_of("spring"), "")?;
         let rigid = self.boolean(&s, "rigid")?;
         let stiffness = self.number(&s, "stiffness", STIFFNESS)?;
         match (rigid, stiffness) {
@@ -925,7 +878,7 @@ impl Parser<'_> {
                  only a rigid link ([spring] rigid = true) needs no mass",
             ));
         };
-        self.check_keys(&s, SPHERE_KEYS, "")?;
+        self.check_keys(&s, &keys_of("sphere"), "")?;
         let mass = match self.number(&s, "mass", MASS)? {
             Some(n) => self.non_negative(&s, "mass", &n, MASS.unit)?,
             None if rigid => 0.0,
@@ -947,7 +900,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "damping")? else {
             return Ok(None);
         };
-        self.check_keys(&s, DAMPING_KEYS, "")?;
+        self.check_keys(&s, &keys_of("damping"), "")?;
         let n = self.required(&s, "c", DAMPING, "damping coefficient c (N s/m, >= 0)")?;
         let c = self.non_negative(&s, "c", &n, DAMPING.unit)?;
         let on = match self.string(&s, "on", &["sphere", "contact"])? {
@@ -961,36 +914,21 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "base")? else {
             return Ok(None);
         };
-        self.check_keys(&s, BASE_KEYS, "")?;
+        self.check_keys(&s, &keys_of("base"), "")?;
         let na = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
         let amplitude = self.non_negative(&s, "amplitude", &na, LENGTH.unit)?;
         let n = self.required(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
         let frequency = self.positive(&s, "frequency", &n, FREQUENCY.unit)?;
-        if !(checks::MIN_FREQUENCY..=checks::MAX_FREQUENCY).contains(&frequency) {
-            return Err(self.value_err(
-                &s.key("frequency"),
-                &n.shown,
-                format!(
-                    "must lie in [{:e}, {:e}] (Hz): a period longer than 1e6 s outlasts any run, \
-                     one shorter than 1 us is below the time resolution of a long run",
-                    checks::MIN_FREQUENCY,
-                    checks::MAX_FREQUENCY
-                ),
-            ));
+        if let Some(e) = frequency_error(frequency) {
+            return Err(self.value_err(&s.key("frequency"), &n.shown, e));
         }
         if let Some(e) = checks::base_speed_error(amplitude, frequency) {
             return Err(self.value_err(&s.key("amplitude"), &na.shown, e));
         }
         let mut phase = 0.0;
         if let Some(n) = self.number(&s, "phase", ANGLE)? {
-            if !(n.v.is_finite() && (0.0..2.0 * std::f64::consts::PI).contains(&n.v)) {
-                return Err(self.value_err(
-                    &s.key("phase"),
-                    &n.shown,
-                    "must lie in [0, 2 pi) (rad; the shaker starts phase/omega after its stage \
-                     begins)"
-                        .to_string(),
-                ));
+            if let Some(e) = phase_error(n.v) {
+                return Err(self.value_err(&s.key("phase"), &n.shown, e));
             }
             phase = n.v;
         }
@@ -1005,7 +943,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "contact")? else {
             return Ok(ContactFormation::JumpIn);
         };
-        self.check_keys(&s, CONTACT_KEYS, "")?;
+        self.check_keys(&s, &keys_of("contact"), "")?;
         match self.string(&s, "formation", &["jump-in", "seed"])? {
             Some("seed") => {
                 let n = self.required(
@@ -1015,15 +953,8 @@ impl Parser<'_> {
                     "seed radius (m, > 0) for formation = \"seed\"",
                 )?;
                 let r = self.positive(&s, "seed_radius", &n, LENGTH.unit)?;
-                let a_jump = jkr::jump_in_radius(m, m.w0);
-                if r > a_jump {
-                    return Err(self.value_err(
-                        &s.key("seed_radius"),
-                        &n.shown,
-                        format!(
-                            "must not exceed the JKR jump-in radius (8 pi w0 R^2 / 3K)^(1/3) = {a_jump:.4e} m of this material"
-                        ),
-                    ));
+                if let Some(e) = seed_error(r, m) {
+                    return Err(self.value_err(&s.key("seed_radius"), &n.shown, e));
                 }
                 Ok(ContactFormation::Seed(r))
             }
@@ -1051,7 +982,7 @@ impl Parser<'_> {
                 "missing section: give [initial] with preload (N, > 0: static JKR equilibrium under this force) or gap (m, > 0)",
             ));
         };
-        self.check_keys(&s, INITIAL_KEYS, "")?;
+        self.check_keys(&s, &keys_of("initial"), "")?;
         let preload = self.opt_positive(&s, "preload", FORCE)?;
         let gap = self.opt_positive(&s, "gap", LENGTH)?;
         match (preload, gap) {
@@ -1059,14 +990,10 @@ impl Parser<'_> {
                 Err(self.key_err("[initial]", "give either preload (N) or gap (m), not both"))
             }
             (Some(p), None) => {
-                if no_spring_force && (p - weight).abs() > 1e-9 * weight.max(f64::MIN_POSITIVE) {
-                    return Err(self.value_err(
-                        &s.key("preload"),
-                        p,
-                        format!(
-                            "without a spring force the sphere rests on its own weight, so a static start needs preload = m g = {weight:.6e} N (or leave out [initial])"
-                        ),
-                    ));
+                if no_spring_force {
+                    if let Some(e) = resting_preload_error(p, weight) {
+                        return Err(self.value_err(&s.key("preload"), p, e));
+                    }
                 }
                 Ok(Initial::Preload(p))
             }
@@ -1089,41 +1016,12 @@ impl Parser<'_> {
         initial: &Initial,
         stages: &[Stage],
     ) -> Result<()> {
-        if let Some(e) = checks::material_error(m) {
-            return Err(self.key_err("[material]", e));
+        let given = top.table.get("initial").is_some();
+        match physics_error(m, holder, sphere, initial, stages, given) {
+            None => Ok(()),
+            Some((key, None, e)) => Err(self.key_err(&key, e)),
+            Some((key, Some(v), e)) => Err(self.value_err(&key, v, e)),
         }
-        let weight = sphere.mass * sphere.gravity;
-        if checks::spring_carries_weight(holder) {
-            if let Some(e) = checks::weight_error(m, weight) {
-                return Err(self.key_err(
-                    "[sphere]",
-                    format!(
-                        "mass = {} kg, gravity = {} m/s^2: {e}",
-                        sphere.mass, sphere.gravity
-                    ),
-                ));
-            }
-        }
-        if let Initial::Preload(p) = *initial {
-            if let Some(e) = checks::load_error(m, p) {
-                return Err(if top.table.get("initial").is_some() {
-                    self.value_err("initial.preload", show_float(p), e)
-                } else {
-                    self.key_err(
-                        "[sphere]",
-                        format!("the sphere rests on its weight m g = {p:e} N: {e}"),
-                    )
-                });
-            }
-        }
-        for (i, st) in stages.iter().enumerate() {
-            if let Until::Preload(p) = st.until {
-                if let Some(e) = checks::load_error(m, p) {
-                    return Err(self.value_err(&format!("stage[{i}].preload"), show_float(p), e));
-                }
-            }
-        }
-        Ok(())
     }
 
     fn stages(&self, top: &Section, holder: Holder, has_base: bool) -> Result<Vec<Stage>> {
@@ -1166,7 +1064,7 @@ impl Parser<'_> {
     }
 
     fn stage(&self, s: &Section, holder: Holder, has_base: bool) -> Result<Stage> {
-        self.check_keys(s, STAGE_KEYS, "")?;
+        self.check_keys(s, &keys_of(STAGE_SECTION), "")?;
         let kind = match self.string(s, "kind", &["approach", "hold", "unload"])? {
             Some("approach") => StageKind::Approach,
             Some("hold") => StageKind::Hold,
@@ -1290,27 +1188,19 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "solver")? else {
             return Ok(solver);
         };
-        self.check_keys(&s, SOLVER_KEYS, "")?;
+        self.check_keys(&s, &keys_of("solver"), "")?;
         if let Some(name) = self.string(&s, "method", &method_names())? {
             solver.method = method_from_name(name).unwrap_or(Method::Auto);
         }
         if let Some(n) = self.number(&s, "rtol", DIMENSIONLESS)? {
-            if !(n.v.is_finite() && (MIN_RTOL..=MAX_RTOL).contains(&n.v)) {
-                return Err(self.value_err(
-                    &s.key("rtol"),
-                    &n.shown,
-                    format!("must lie in [{MIN_RTOL:e}, {MAX_RTOL:e}] (relative tolerance, dimensionless; below {MIN_RTOL:e} the error estimate is rounding noise)"),
-                ));
+            if let Some(e) = rtol_error(n.v) {
+                return Err(self.value_err(&s.key("rtol"), &n.shown, e));
             }
             solver.rtol = n.v;
         }
         if let Some(n) = self.number(&s, "atol", DIMENSIONLESS)? {
-            if !(n.v.is_finite() && n.v >= f64::MIN_POSITIVE && n.v <= 1.0) {
-                return Err(self.value_err(
-                    &s.key("atol"),
-                    &n.shown,
-                    "must lie in (0, 1] (absolute tolerance relative to each state component's natural scale, dimensionless)",
-                ));
+            if let Some(e) = atol_error(n.v) {
+                return Err(self.value_err(&s.key("atol"), &n.shown, e));
             }
             solver.atol = n.v;
         }
@@ -1347,13 +1237,8 @@ impl Parser<'_> {
             None => {}
         }
         if let Some(n) = self.number(&s, "envelope_tol", DIMENSIONLESS)? {
-            if !(n.v.is_finite() && (1e-12..=1e-2).contains(&n.v)) {
-                return Err(self.value_err(
-                    &s.key("envelope_tol"),
-                    &n.shown,
-                    "must lie in [1e-12, 1e-2] (local error of an envelope step in the scaled \
-                     norm, dimensionless)",
-                ));
+            if let Some(e) = envelope_tol_error(n.v) {
+                return Err(self.value_err(&s.key("envelope_tol"), &n.shown, e));
             }
             solver.envelope_tol = n.v;
         }
@@ -1384,7 +1269,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "output")? else {
             return Ok(out);
         };
-        self.check_keys(&s, OUTPUT_KEYS, "")?;
+        self.check_keys(&s, &keys_of("output"), "")?;
         if let Some(n) = self.number(&s, "sample_rate", RATE)? {
             out.sample_rate =
                 self.non_negative(&s, "sample_rate", &n, "samples per second; 0 = every step")?;
@@ -1475,53 +1360,6 @@ pub fn merge_windows(mut windows: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
     merged
 }
 
-/// Identity of a law table's file as last read: path, size, modification time and inode. A
-/// file changed in place changes its size or time; one replaced changes its inode.
-type TableKey = (PathBuf, u64, Option<std::time::SystemTime>, u64);
-
-/// Law tables parsed in this process, so that a scenario rebuilt for every value of a
-/// continuation or sweep does not read and parse its table again (a 55 000-row table took 5 ms
-/// to parse, 99 % of a tabulated continuation). At most [`TABLE_CACHE_LEN`] tables are kept;
-/// a law's clones share its rows.
-static TABLE_CACHE: std::sync::Mutex<Vec<(TableKey, TabulatedLaw)>> =
-    std::sync::Mutex::new(Vec::new());
-const TABLE_CACHE_LEN: usize = 8;
-
-fn table_key(path: &Path) -> Option<TableKey> {
-    let m = std::fs::metadata(path).ok()?;
-    if !m.is_file() {
-        return None;
-    }
-    #[cfg(unix)]
-    let ino = std::os::unix::fs::MetadataExt::ino(&m);
-    #[cfg(not(unix))]
-    let ino = 0;
-    Some((path.to_path_buf(), m.len(), m.modified().ok(), ino))
-}
-
-/// The table parsed from `path` before, if its file is unchanged since.
-fn cached_table(path: &Path) -> Option<TabulatedLaw> {
-    let key = table_key(path)?;
-    let cache = TABLE_CACHE.lock().unwrap_or_else(|p| p.into_inner());
-    cache
-        .iter()
-        .find(|(k, _)| *k == key)
-        .map(|(_, t)| t.clone())
-}
-
-/// Keep `table`, just parsed from `path`, for the next scenario that names the same file.
-fn remember_table(path: &Path, table: &TabulatedLaw) {
-    let Some(key) = table_key(path) else {
-        return;
-    };
-    let mut cache = TABLE_CACHE.lock().unwrap_or_else(|p| p.into_inner());
-    cache.retain(|(k, _)| k.0 != key.0);
-    if cache.len() >= TABLE_CACHE_LEN {
-        cache.remove(0);
-    }
-    cache.push((key, table.clone()));
-}
-
 /// True when the holder can exert a force that the protocol controls (a spring with k > 0, or a
 /// rigid link).
 fn has_spring_force(holder: Holder) -> bool {
@@ -1554,6 +1392,34 @@ speed = 5e-6
 until = "pull-off"
 "#;
 
+    /// A tabulated law's table is read once per source: scenarios built from it afterwards, with
+    /// any overrides, share its rows even when the file has gone.
+    #[test]
+    fn a_law_table_is_read_once_per_source() {
+        let good = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenarios/good");
+        let dir = tempfile::tempdir().unwrap();
+        for f in ["tabulated.toml", "law-table.csv"] {
+            std::fs::copy(good.join(f), dir.path().join(f)).unwrap();
+        }
+        let src = ScenarioSource::read(&dir.path().join("tabulated.toml")).unwrap();
+        let first = src.scenario(&[]).unwrap();
+        std::fs::remove_file(dir.path().join("law-table.csv")).unwrap();
+        let o = Override::parse("base.amplitude=20um").unwrap();
+        let again = src.scenario(&[o]).unwrap();
+        assert!(matches!(again.rig.law, Law::Tabulated(_)));
+        assert_eq!(again.rig.law, first.rig.law);
+        // A new source reads the file again, and says it has gone.
+        let e = ScenarioSource::read(&dir.path().join("tabulated.toml"))
+            .unwrap()
+            .scenario(&[])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("adhesion.file") && e.contains("law-table.csv"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn the_section_key_lists_agree_with_the_laws() {
         let mut union: Vec<&str> = [
@@ -1565,12 +1431,17 @@ until = "pull-off"
         .concat();
         union.sort_unstable();
         union.dedup();
-        let mut all = ADHESION_KEYS.to_vec();
+        let mut all = keys_of("adhesion");
         all.sort_unstable();
         assert_eq!(union, all);
-        assert!(STAGE_END_KEYS.iter().all(|k| STAGE_KEYS.contains(k)));
-        assert_eq!(section_keys("base"), Some(BASE_KEYS));
-        assert_eq!(section_keys("version"), None);
+        assert!(STAGE_END_KEYS
+            .iter()
+            .all(|k| keys_of(STAGE_SECTION).contains(k)));
+        assert_eq!(
+            keys::section_keys("base"),
+            Some(vec!["amplitude", "frequency", "phase"])
+        );
+        assert_eq!(keys::section_keys("version"), None);
         let e = parse_scenario(&format!("{MINIMAL}[bogus]\nx = 1\n"), "m.toml", None)
             .unwrap_err()
             .to_string();

@@ -75,6 +75,9 @@ pub struct Sweep {
     grid: Grid,
     ensemble: Option<Ensemble>,
     phase_key: SetKey,
+    /// The file validated without overrides (when it is valid alone), to which a point that
+    /// sets numbers only is applied without parsing anything.
+    base: Option<Scenario>,
 }
 
 impl Sweep {
@@ -111,17 +114,17 @@ impl Sweep {
                 )));
             }
         }
+        let base = source.scenario(&[]).ok();
         let sweep = Sweep {
             source,
             grid,
             ensemble,
             phase_key,
+            base,
         };
         for p in 0..sweep.grid.points() {
-            let overrides = sweep.grid.overrides(p);
             let scn = sweep
-                .source
-                .scenario(&overrides)
+                .with(sweep.grid.overrides(p))
                 .map_err(|e| point_error(p, e))?;
             if let Some(e) = ensemble {
                 if scn.rig.base.is_none() {
@@ -207,9 +210,48 @@ impl Sweep {
         o
     }
 
-    /// The scenario of a run.
+    /// The scenario of a run: the file with the run's overrides, as `djkr run FILE --set ...`
+    /// gives it. Text values (a list's items, as typed) are read by the parser; numbers (a
+    /// range's values, the drawn phase) are set on the parsed scenario ([`Scenario::set`], the
+    /// parser's checks without TOML), on the file validated once when no text value is given.
     pub fn scenario(&self, id: RunId) -> Result<Scenario, ScenarioError> {
-        self.source.scenario(&self.overrides(id))
+        self.with(self.overrides(id))
+    }
+
+    /// The file with the overrides `all` ([`Sweep::scenario`]).
+    fn with(&self, all: Vec<Override>) -> Result<Scenario, ScenarioError> {
+        let (numbers, texts): (Vec<&Override>, Vec<&Override>) = all
+            .iter()
+            .partition(|o| matches!(o.value(), toml::Value::Float(_)));
+        let mut scn = match (&self.base, texts.is_empty()) {
+            (Some(base), true) => base.clone(),
+            _ => {
+                let texts: Vec<Override> = texts.into_iter().cloned().collect();
+                self.source.scenario(&texts)?
+            }
+        };
+        for o in &numbers {
+            if let toml::Value::Float(x) = o.value() {
+                scn.set(o.key(), *x)?;
+            }
+        }
+        // Record the overrides in the order given, as the file with all of them would.
+        let recorded: Vec<String> = all.iter().map(ToString::to_string).collect();
+        if scn.overrides != recorded {
+            let suffix: String = scn
+                .overrides
+                .iter()
+                .map(|o| format!(" --set {o}"))
+                .collect();
+            let file = scn
+                .source_name
+                .strip_suffix(&suffix)
+                .unwrap_or(&scn.source_name)
+                .to_string();
+            scn.source_name = recorded.iter().fold(file, |n, o| format!("{n} --set {o}"));
+            scn.overrides = recorded;
+        }
+        Ok(scn)
     }
 
     /// Run one member. `None` when `stop` was raised and the run abandoned (it is not a row).

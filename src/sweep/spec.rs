@@ -18,6 +18,7 @@ use std::fmt;
 use thiserror::Error;
 
 use crate::output::table::format_f64;
+use crate::scenario::keys::Kind;
 use crate::scenario::overrides::{SetKey, SetValue};
 use crate::units::{parse_quantity, Dimension};
 
@@ -49,53 +50,15 @@ pub enum KeyKind {
     Text,
 }
 
-const fn num(dim: Dimension, unit: &'static str) -> KeyKind {
-    KeyKind::Number {
-        dim: Some(dim),
-        unit,
-    }
-}
-
-const fn bare(unit: &'static str) -> KeyKind {
-    KeyKind::Number { dim: None, unit }
-}
-
-/// The kind of the values of `key` (the units as the scenario parser reads them; a unit test
-/// checks that every key of [`crate::scenario::parse::SECTIONS`] is listed).
+/// The kind of the values of `key`, from the table of keys ([`crate::scenario::keys::KEYS`]:
+/// the units as the scenario parser reads them; dimensionless numbers have unit `1` here).
 pub fn key_kind(key: &SetKey) -> Option<KeyKind> {
-    use Dimension as D;
-    Some(match (key.section().unwrap_or(""), key.name()) {
-        ("", "version") => bare("1"),
-        ("material", "K") => num(D::Pressure, "Pa"),
-        ("material", "R") => num(D::Length, "m"),
-        ("material", "w0") => num(D::EnergyPerArea, "J/m^2"),
-        ("adhesion", "v0" | "v_sat") => num(D::Speed, "m/s"),
-        ("adhesion", "n") => bare("1"),
-        ("adhesion", "law" | "file") => KeyKind::Text,
-        ("sphere", "mass") => num(D::Mass, "kg"),
-        ("sphere", "gravity") => num(D::Acceleration, "m/s^2"),
-        ("spring", "stiffness") => num(D::Stiffness, "N/m"),
-        ("spring", "rigid") => KeyKind::Text,
-        ("damping", "c") => num(D::Damping, "N s/m"),
-        ("damping", "on") => KeyKind::Text,
-        ("base", "amplitude") => num(D::Length, "m"),
-        ("base", "frequency") => num(D::Frequency, "Hz"),
-        ("base", "phase") => num(D::Angle, "rad"),
-        ("contact", "formation") => KeyKind::Text,
-        ("contact", "seed_radius") => num(D::Length, "m"),
-        ("initial", "preload") => num(D::Force, "N"),
-        ("initial", "gap") => num(D::Length, "m"),
-        ("stage", "speed") => num(D::Speed, "m/s"),
-        ("stage", "duration" | "max_duration") => num(D::Time, "s"),
-        ("stage", "preload") => num(D::Force, "N"),
-        ("stage", "kind" | "until" | "vibration") => KeyKind::Text,
-        ("solver", "rtol" | "atol" | "max_steps" | "max_events" | "envelope_tol") => bare("1"),
-        ("solver", "max_memory") => bare("B"),
-        ("solver", "max_wall_s" | "event_tol") => num(D::Time, "s"),
-        ("solver", "method" | "envelope") => KeyKind::Text,
-        ("output", "sample_rate") => num(D::Frequency, "1/s"),
-        ("output", "csv" | "plot" | "compress" | "fsync" | "dense") => KeyKind::Text,
-        _ => return None,
+    let info = crate::scenario::keys::find(key.section().unwrap_or(""), key.name())?;
+    let unit = if info.unit.is_empty() { "1" } else { info.unit };
+    Some(match info.kind {
+        Kind::Number(dim) => KeyKind::Number { dim, unit },
+        Kind::Whole => KeyKind::Number { dim: None, unit },
+        Kind::Bool | Kind::Choice(_) | Kind::Text | Kind::Windows => KeyKind::Text,
     })
 }
 
@@ -292,7 +255,7 @@ fn to_15_digits(x: f64) -> f64 {
 #[allow(clippy::float_cmp)] // values written exactly, compared exactly
 mod tests {
     use super::*;
-    use crate::scenario::parse::{SECTIONS, STAGE_SECTION, TOP_LEVEL_KEYS};
+    use crate::scenario::keys::{SECTIONS, STAGE_SECTION};
 
     fn key(t: &str) -> SetKey {
         SetKey::parse(t).unwrap()
@@ -320,11 +283,9 @@ mod tests {
 
     #[test]
     fn every_settable_key_has_a_kind() {
-        for k in TOP_LEVEL_KEYS {
-            assert!(key_kind(&key(k)).is_some(), "{k}");
-        }
-        for (section, keys) in SECTIONS {
-            for k in *keys {
+        assert!(key_kind(&key("version")).is_some());
+        for section in SECTIONS {
+            for k in crate::scenario::keys::section_keys(section).unwrap_or_default() {
                 let t = if *section == STAGE_SECTION {
                     format!("{section}[0].{k}")
                 } else {

@@ -125,9 +125,22 @@ pub fn methods() -> impl Iterator<Item = Method> {
     METHODS.iter().map(|e| Method(e.name))
 }
 
+/// The names of [`METHODS`], in order: what `[solver] method` and `--methods` accept (a
+/// constant, made from the registry when the code compiles, for tables of keys that need a
+/// `'static` list).
+pub const METHOD_NAMES: [&str; METHODS.len()] = {
+    let mut names = [""; METHODS.len()];
+    let mut i = 0;
+    while i < METHODS.len() {
+        names[i] = METHODS[i].name;
+        i += 1;
+    }
+    names
+};
+
 /// The names of [`METHODS`], in order: what `[solver] method` and `--methods` accept.
 pub fn method_names() -> Vec<&'static str> {
-    METHODS.iter().map(|e| e.name).collect()
+    METHOD_NAMES.to_vec()
 }
 
 /// The name of a method, as files and flags spell it.

@@ -1,0 +1,177 @@
+//! The scenario side of continuation: a scenario file with its fixed `--set` overrides, as the
+//! [`Scene`] whose periodic orbits `djkr continue` follows, and which keys may be parameters.
+//!
+//! The file is parsed and validated once; each parameter value is set on a copy of the parsed
+//! scenario ([`Scenario::set`]: the parser's range and cross-field checks, no TOML), and the
+//! steady-state problem taken from it. A tabulated law's table, read once with the file, is
+//! shared by every copy.
+
+use std::sync::{Arc, Mutex, OnceLock};
+
+use super::keys::{Kind, KEYS};
+use super::overrides::{Override, SetKey};
+use super::parse::{ScenarioError, ScenarioSource};
+use super::Scenario;
+use crate::continuation::family::{Family, Parameter, ParameterInfo, Scene, Setup};
+use crate::continuation::ContinuationError;
+use crate::dynamics::protocol::Initial;
+use crate::steady::Problem;
+use crate::units::Dimension;
+
+/// The keys a periodic orbit can be continued in: those of the table of keys with a parameter
+/// name ([`KeyInfo::param`](super::keys::KeyInfo#structfield.param)), in table order.
+pub fn parameters() -> &'static [ParameterInfo] {
+    static TABLE: OnceLock<Vec<ParameterInfo>> = OnceLock::new();
+    TABLE.get_or_init(|| {
+        KEYS.iter()
+            .filter_map(|k| {
+                let what = k.param?;
+                let dimension = match k.kind {
+                    Kind::Number(Some(d)) => d,
+                    _ => Dimension::Dimensionless,
+                };
+                Some(ParameterInfo {
+                    // Built once per process: the table's keys live as long as it.
+                    key: Box::leak(k.key().into_boxed_str()),
+                    unit: if k.unit.is_empty() { "1" } else { k.unit },
+                    dimension,
+                    what,
+                })
+            })
+            .collect()
+    })
+}
+
+/// The allowed keys, comma separated (for messages).
+pub fn allowed_keys() -> String {
+    parameters()
+        .iter()
+        .map(|p| p.key)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Parse a continuation parameter given as `flag` (for messages), refusing a key that is not a
+/// constant of the periodic problem with the list of those that are.
+pub fn parameter(flag: &str, text: &str) -> Result<Parameter, ContinuationError> {
+    let key = SetKey::parse(text).map_err(|e| {
+        ContinuationError::Input(format!(
+            "{flag} {text}: {}; a continuation parameter is one of {}",
+            e.message,
+            allowed_keys()
+        ))
+    })?;
+    let shown = key.to_string();
+    let info = *parameters()
+        .iter()
+        .find(|p| p.key == shown)
+        .ok_or_else(|| {
+            ContinuationError::Input(format!(
+                "{flag} {text}: not a constant of the periodic orbit (stages, solver, output and \
+             text keys do not change it); a continuation parameter is one of {}",
+                allowed_keys()
+            ))
+        })?;
+    Ok(Parameter { info })
+}
+
+/// A scenario with one or two keys left free: the [`Scene`] of `djkr continue`.
+#[derive(Debug)]
+pub struct ScenarioScene {
+    base: Scenario,
+    keys: Vec<SetKey>,
+    rtol: f64,
+    /// The scene's start at the first value built, and whether earlier stages made it.
+    start: Mutex<Option<(Initial, bool)>>,
+}
+
+/// The family of `source` with the overrides `fixed` and the free keys `params` (one or two).
+/// An override of a free key is refused (its values come from the continuation). `rtol` is the
+/// integration tolerance used when earlier stages must run to find the start.
+pub fn family(
+    source: &ScenarioSource,
+    fixed: &[Override],
+    params: Vec<Parameter>,
+    rtol: f64,
+) -> Result<Family, ContinuationError> {
+    for o in fixed {
+        if let Some(p) = params.iter().find(|p| p.name() == o.key().to_string()) {
+            return Err(ContinuationError::Input(format!(
+                "--set {o}: {} is the continuation parameter, whose values come from its \
+                 range; drop the --set",
+                p.name()
+            )));
+        }
+    }
+    let keys = params
+        .iter()
+        .map(|p| SetKey::parse(p.name()).map_err(|e| ContinuationError::Input(e.to_string())))
+        .collect::<Result<Vec<_>, _>>()?;
+    let base = source
+        .scenario(fixed)
+        .map_err(|e| ContinuationError::Input(e.to_string()))?;
+    let scene = ScenarioScene {
+        base,
+        keys,
+        rtol,
+        start: Mutex::new(None),
+    };
+    Family::new(Arc::new(scene), params)
+}
+
+impl Scene for ScenarioScene {
+    fn setup(&self, values: &[f64]) -> Result<Setup, ContinuationError> {
+        let mut scn = self.base.clone();
+        for (&key, &v) in self.keys.iter().zip(values) {
+            scn.set(key, v).map_err(|e| match &e {
+                // A value of a free key the file's rules refuse: name the key, not an override.
+                ScenarioError::Override { key, message, .. } => {
+                    match self
+                        .keys
+                        .iter()
+                        .zip(values)
+                        .find(|(k, _)| k.to_string() == *key)
+                    {
+                        Some((_, v)) => {
+                            ContinuationError::Input(format!("{key} = {v:e}: {message}"))
+                        }
+                        None => ContinuationError::Input(e.to_string()),
+                    }
+                }
+                _ => ContinuationError::Input(e.to_string()),
+            })?;
+        }
+        let err = |e: String| ContinuationError::Input(format!("{}: {e}", scn.source_name));
+        // Where the vibration starts: the scene's initial state, or where its earlier stages
+        // leave it. Earlier stages are run once, at the first value (module doc of
+        // `continuation::family`).
+        let known = self.start.lock().ok().and_then(|g| *g);
+        let base_only = self.keys.iter().all(|k| k.section() == Some("base"));
+        let (problem, start) = match (known, scn.rig.base) {
+            (Some((start, staged)), Some(b)) if staged || base_only => (
+                Problem::new(&scn.rig, scn.solver, b.frequency, b.amplitude)
+                    .map_err(|e| err(e.to_string()))?,
+                start,
+            ),
+            _ => {
+                let (problem, start) =
+                    Problem::from_plan(&scn.plan()).map_err(|e| err(e.to_string()))?;
+                if let Ok(mut g) = self.start.lock() {
+                    if g.is_none() {
+                        *g = Some((start, start != scn.initial));
+                    }
+                }
+                (problem, start)
+            }
+        };
+        let sim = problem
+            .simulator(&start, self.rtol)
+            .map_err(|e| ContinuationError::Input(format!("{}: {e}", scn.source_name)))?;
+        let x_k = sim.drive().xk0;
+        Ok(Setup {
+            problem,
+            x_k,
+            start,
+        })
+    }
+}
