@@ -28,7 +28,6 @@
 pub mod accuracy;
 pub mod api;
 pub mod catalogue;
-pub mod continuation;
 pub mod figures;
 pub mod fit;
 pub mod input;
@@ -42,6 +41,6 @@ pub mod sensitivity;
 pub mod sweep;
 
 pub use djkr_core::{
-    adhesion, beta_fit, cancel, closed_form, comparators, describing, dynamics, error, gs_fit,
-    imposed_area, jkr, material, quadrature, rig, steady, text, transfer, units,
+    adhesion, beta_fit, cancel, closed_form, comparators, continuation, describing, dynamics,
+    error, gs_fit, imposed_area, jkr, material, quadrature, rig, steady, text, transfer, units,
 };

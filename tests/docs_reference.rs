@@ -226,12 +226,12 @@ fn output_columns() -> String {
         (
             "`continue`: `sweep.csv`",
             "The up and down sweeps overlaid on a branch (here continued in `base.frequency`).",
-            djkr::continuation::report::sweep_table("base.frequency", "Hz", "up", &[]).schema(),
+            djkr::reports::continuation::sweep_table("base.frequency", "Hz", "up", &[]).schema(),
         ),
         (
             "`continue --fold-param`: `fold_curves.csv`",
             "One row per point of a fold curve (here in `base.frequency` and `base.amplitude`).",
-            djkr::continuation::report::fold_table(
+            djkr::reports::continuation::fold_table(
                 [("base.frequency", "Hz"), ("base.amplitude", "m")],
                 &[],
             )
@@ -244,13 +244,13 @@ fn output_columns() -> String {
             "`continue`: `branch.csv`, `branch.h5`",
             "One row per point of the branch of periodic orbits (here continued in \
              `base.frequency`).",
-            djkr::continuation::report::branch_table(&branch).schema(),
+            djkr::reports::continuation::branch_table(&branch).schema(),
         ),
         (
             "`continue`: `bifurcations.csv`",
             "One row per special point of the branch (folds, period doublings, Neimark–Sacker \
              points, ends).",
-            djkr::continuation::report::special_table(&branch).schema(),
+            djkr::reports::continuation::special_table(&branch).schema(),
         ),
     ]);
     let mut s = String::new();

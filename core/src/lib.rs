@@ -70,6 +70,7 @@ pub mod beta_fit;
 pub mod cancel;
 pub mod closed_form;
 pub mod comparators;
+pub mod continuation;
 pub mod describing;
 pub mod dynamics;
 pub mod error;

@@ -2,4 +2,5 @@
 //! crate's results.
 
 pub mod beta_fit;
+pub mod continuation;
 pub mod steady;

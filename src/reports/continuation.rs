@@ -6,9 +6,9 @@
 
 use serde::ser::{Serialize, SerializeMap, Serializer};
 
-use super::branch::{Branch, BranchEnd, BranchPoint, PointKind};
-use super::folds::{FoldCurve, FoldPoint, FoldPointKind};
-use super::sweep::SweepPoint;
+use crate::continuation::branch::{Branch, BranchEnd, BranchPoint, PointKind};
+use crate::continuation::folds::{FoldCurve, FoldPoint, FoldPointKind};
+use crate::continuation::sweep::SweepPoint;
 use crate::dynamics::CycleRecord;
 use crate::output::{Column, Table};
 use crate::reports::steady::{orbit_column, Orbit, OrbitQuantity as Q};

@@ -92,7 +92,7 @@ pub mod family;
 pub mod floquet;
 pub mod folds;
 pub mod map;
-pub mod report;
+
 pub mod sweep;
 
 use thiserror::Error;
