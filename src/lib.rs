@@ -22,6 +22,26 @@
 //! ```
 //!
 //! The user guide, `docs/guide/`, documents the scenario format, the commands and every output.
+//!
+//! # What the crate offers
+//!
+//! The physics is the `djkr-core` crate, whose modules this crate re-exports under the same
+//! names (`djkr::dynamics`, `djkr::steady`, `djkr::continuation`, …). This crate adds what
+//! reads and writes files and what the command line and Python share; the names a user composes
+//! are at the top level:
+//!
+//! - scenarios: [`Scenario`] (with [`Scenario::set`] for a typed change of one key),
+//!   [`load_scenario`], [`load_scenario_with`], [`ScenarioSource`], [`ScenarioError`], and the
+//!   table of every key, [`scenario::keys`];
+//! - running: [`run`] (a [`RunRecord`] in memory, the files in a folder if given),
+//!   [`validate`], sweeps ([`sweep`]), fits of measured data ([`fit`]);
+//! - output: [`TimeSeriesWriter`], [`SummaryFiles`], the format-neutral [`Table`] and its
+//!   [`Column`]s, written as CSV or HDF5 ([`output`]).
+//!
+//! Modules used by the command line, the tests and the studies, whose items are public for them
+//! but are not a stable interface: [`api`] (the shared entry points of the command line and
+//! Python), [`catalogue`] (the reference scenes), [`reports`], [`plot`], [`run_plot`],
+//! [`figures`], [`accuracy`], [`sensitivity`], [`memory`], [`input`].
 #![deny(clippy::float_cmp)]
 #![warn(missing_docs)]
 
@@ -44,3 +64,8 @@ pub use djkr_core::{
     adhesion, beta_fit, cancel, closed_form, comparators, continuation, describing, dynamics,
     error, gs_fit, imposed_area, jkr, material, quadrature, rig, steady, text, transfer, units,
 };
+
+pub use api::{run, validate, RunRecord};
+pub use output::{Column, SummaryFiles, Table, TimeSeriesWriter};
+pub use scenario::parse::{load_scenario, load_scenario_with, ScenarioError, ScenarioSource};
+pub use scenario::Scenario;

@@ -105,7 +105,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
         .iter()
         .map(|f| fit::initial_value(&source, &starts, f).map_err(anyhow::Error::msg))
         .collect::<Result<Vec<_>>>()?;
-    fit::driver::check_start(&free, &x0)?;
+    fit::check_start(&free, &x0)?;
     let model = ForwardModel::new(
         source.clone(),
         data,
@@ -190,7 +190,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
         fit::residuals_csv(&model, &outcome).as_bytes(),
     )?;
     write(&out, "fitted.toml", toml.as_bytes())?;
-    let fig = fit::figure::fit_figure(&model, &outcome);
+    let fig = fit::fit_figure(&model, &outcome);
     djkr::plot::render(&fig, &out.join("fit")).context("fit.png/fit.svg")?;
     for n in &outcome.report.notes {
         eprintln!("note: {n}");

@@ -2,26 +2,29 @@
 //! observable over the full dynamic model, with uncertainties and information criteria to
 //! compare laws.
 //!
-//! - [`data`]: the data file (conditions named by scenario keys, one observable named as in
+//! - `data` ([`FitData`]): the data file (conditions named by scenario keys, one observable named as in
 //!   `sweep.csv`, optional `sigma`), units honoured.
-//! - [`free`]: the free keys (`KEY[=LO:HI]`), log space for positive scales, bounds by
+//! - `free` ([`FreeKey`]): the free keys (`KEY[=LO:HI]`), log space for positive scales, bounds by
 //!   transformation.
-//! - [`model`]: the forward model, every row a run of the sweep engine (with an ensemble, the
+//! - `model` ([`ForwardModel`]): the forward model, every row a run of the sweep engine (with an ensemble, the
 //!   mean over members whose phases are fixed by the seed).
-//! - [`driver`]: Levenberg–Marquardt with finite-difference Jacobians, covariance, correlation,
+//! - `driver` ([`fit()`]): Levenberg–Marquardt with finite-difference Jacobians, covariance, correlation,
 //!   χ², AIC and BIC ([`FitReport`] is `fit.json`).
 //!
 //! This module also gives the starting values ([`initial_value`]), the fitted scenario
 //! ([`fitted_toml`]) and the residual table ([`residuals_csv`]).
 
-pub mod data;
-pub mod driver;
-pub mod figure;
-pub mod free;
-pub mod model;
+pub(crate) mod data;
+pub(crate) mod driver;
+pub(crate) mod figure;
+pub(crate) mod free;
+pub(crate) mod model;
 
 pub use data::{FitData, Observable};
-pub use driver::{fd_step, fit, FitEvent, FitOptions, FitOutcome, FitReport, Parameter};
+pub use driver::{
+    check_start, fd_step, fit, FitEvent, FitOptions, FitOutcome, FitReport, Parameter,
+};
+pub use figure::fit_figure;
 pub use free::FreeKey;
 pub use model::ForwardModel;
 

@@ -384,7 +384,7 @@ pub fn commit(file: AtomicFile) -> Result<PathBuf, OutputError> {
     Ok(done.pop().unwrap_or_default())
 }
 
-/// Write one file atomically ([`super::atomic`]): figures, tables, sweeps, studies. Refuses,
+/// Write one file atomically ([`super::AtomicFile`]): figures, tables, sweeps, studies. Refuses,
 /// naming it, to replace a file djkr did not write.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     commit(AtomicFile::write(path, bytes)?).map(|_| ())

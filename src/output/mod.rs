@@ -1,4 +1,4 @@
-//! Output: the one table writer ([`table`]: CSV and HDF5) and the one atomic writer ([`atomic`])
+//! Output: the one table writer ([`table`]: CSV and HDF5) and the one atomic writer ([`AtomicFile`])
 //! every command uses, and the writers of `djkr run`: the HDF5 run file, `summary.json` and, on
 //! request, CSV.
 //!
@@ -16,7 +16,7 @@
 //! layout).
 //!
 //! **Atomic output.** Every file is written under a hidden partial name of its own, created new
-//! and never through a symbolic link (`DIR/.run.h5.<run_id>.XXXXXX.partial`, ...: [`atomic`]),
+//! and never through a symbolic link (`DIR/.run.h5.<run_id>.XXXXXX.partial`, ...: [`AtomicFile`]),
 //! and renamed into place only when the run has ended, `summary.json` last: its presence marks
 //! complete files, and it records the size of every other file of the run (`file_bytes`) and
 //! how the run ended (`status`: a run stopped by a budget or failed mid-way is published by
@@ -40,17 +40,17 @@
 //! and the directory before the run counts as written (about 3.5 ms per file on the reference
 //! machine) for runs whose output must survive a power loss.
 //!
-//! File layouts: [`hdf5_file`] (HDF5), [`summary`] (JSON and its non-finite rule); the four CSV
+//! File layouts: [`hdf5_file`] (HDF5), [`SummaryFiles`] (JSON and its non-finite rule); the four CSV
 //! files are the tables of the HDF5 file ([`timeseries`], [`timeseries::events_table`],
 //! [`cycles`], [`timeseries::gaps_table`]) written by [`table`], which writes every table of djkr (runs, resonance sweeps,
-//! shortcut maps, accuracy studies, figures), and every file goes to disk through [`atomic`].
+//! shortcut maps, accuracy studies, figures), and every file goes to disk through [`AtomicFile`].
 
-pub mod atomic;
+pub(crate) mod atomic;
 pub mod cycles;
 pub mod folder;
 pub mod hdf5_file;
 mod stream;
-pub mod summary;
+pub(crate) mod summary;
 pub mod table;
 pub mod timeseries;
 

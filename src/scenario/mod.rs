@@ -9,7 +9,7 @@
 //! end of the holding spring (down +), δ = x_s + x_b the indentation (> 0 compresses).
 
 pub mod checks;
-pub mod error;
+pub(crate) mod error;
 pub mod family;
 pub mod keys;
 pub mod overrides;

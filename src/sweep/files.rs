@@ -296,7 +296,7 @@ impl Manifest {
         Ok(())
     }
 
-    /// The figures a sweep of this description may draw ([`plot_file_names`]), claimed before a
+    /// The figures a sweep of this description may draw (`plots::plot_file_names`), claimed before a
     /// sweep or `djkr plot` writes into a folder.
     pub fn plot_file_names(&self) -> Vec<String> {
         plot_file_names(self.ensemble.is_some())
@@ -580,7 +580,7 @@ pub fn write_results(
 }
 
 /// Draw the figures that fit the sweep described by `manifest` from its `points` and `rows`
-/// ([`sweep_plots`]); returns the files written.
+/// (`plots::sweep_plots`); returns the files written.
 pub fn draw_plots(
     dir: &Path,
     manifest: &Manifest,

@@ -18,9 +18,9 @@
 //! # Ok(()) }
 //! ```
 //!
-//! - [`spec`]: `KEY=SPEC` (a list `10um,30um`, `START:STOP:N`, `START:STOP:Nlog`) and the unit of
-//!   every key; [`grid`]: the points (Cartesian in the order given, or `zip`).
-//! - [`engine`]: [`Sweep::new`] validates every point before anything runs (a bad one is named:
+//! - `spec`: `KEY=SPEC` (a list `10um,30um`, `START:STOP:N`, `START:STOP:Nlog`) and the unit of
+//!   every key; `grid` ([`Grid`]): the points (Cartesian in the order given, or `zip`).
+//! - `engine`: [`Sweep::new`] validates every point before anything runs (a bad one is named:
 //!   `--set base.amplitude=-1um (point 3): ...`); [`run_sweep`] runs on a pool of threads and
 //!   hands each [`Row`] back as it ends. A run is exactly `djkr run FILE --set KEY=VALUE ...`:
 //!   the same override list on the same parsed file, the same `Scenario::simulate` with an
@@ -30,7 +30,7 @@
 //!   `phase`, applied as `--set base.phase=PHI`) is a hash of (seed, point, member), so rows do
 //!   not depend on thread count, order, resume or sharding.
 //! - [`row`], [`stats`]: the tables `sweep.csv`/`sweep.h5` (one row per run) and `points.csv`
-//!   (one row per point, the members' statistics); [`plots`]: the figures.
+//!   (one row per point, the members' statistics); `plots`: the figures.
 //! - [`files`]: the sweep folder (`sweep.json`, the `progress.csv` journal read by `--resume`,
 //!   the final files written atomically), Slurm shards ([`Shard`]: run i belongs to shard
 //!   (i mod N) + 1) and their merge.
@@ -39,14 +39,14 @@
 //! the run writer holds one run's series until it is written); what grows with the sweep is one
 //! row per run (~0.3 kB).
 
-pub mod engine;
+pub(crate) mod engine;
 pub mod files;
-pub mod grid;
+pub(crate) mod grid;
 pub mod phase;
-pub mod plots;
+pub(crate) mod plots;
 pub mod row;
 pub mod slurm;
-pub mod spec;
+pub(crate) mod spec;
 pub mod stats;
 
 pub use engine::{

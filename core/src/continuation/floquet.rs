@@ -36,11 +36,6 @@ pub fn stable(mu: &[Complex<f64>]) -> bool {
     mu.iter().all(|z| z.norm() < 1.0)
 }
 
-/// Number of multipliers outside the unit circle.
-pub fn unstable_count(mu: &[Complex<f64>]) -> usize {
-    mu.iter().filter(|z| z.norm() > 1.0).count()
-}
-
 /// ψ_PD = Π (1 + μ_i) (real for a real matrix).
 pub fn period_doubling_test(mu: &[Complex<f64>]) -> f64 {
     mu.iter()
@@ -120,10 +115,6 @@ mod tests {
             neimark_sacker_test(&[z, z.conj(), Complex::new(0.3, 0.0)])
         };
         assert!(ns(0.95) * ns(1.05) < 0.0);
-        assert_eq!(
-            unstable_count(&[Complex::new(1.2, 0.0), Complex::new(0.2, 0.0)]),
-            1
-        );
         let mu = [
             Complex::new(0.1, 0.9),
             Complex::new(0.1, -0.9),

@@ -6,7 +6,7 @@
 //! resonance, locate its folds precisely, tell a fold from another bifurcation, or map where the
 //! response is bistable. This module follows the branch itself.
 //!
-//! # The problem ([`family`], [`map`])
+//! # The problem ([`family`], `map`)
 //! A *family* is a model ([`family::Scene`]; in djkr a scenario file and its fixed `--set`
 //! overrides) and one key left free (two for the fold curves): any constant of the periodic
 //! problem (base frequency and amplitude, preload, damping, stiffness, mass, the material and
@@ -30,14 +30,14 @@
 //! start) and ends where it leaves [START, STOP] at either end, the last point put exactly on
 //! the edge.
 //!
-//! # Derivatives and multipliers ([`map`], [`floquet`])
+//! # Derivatives and multipliers (`map`, `floquet`)
 //! The Jacobian (monodromy matrix M = ∂P/∂y and ∂P/∂p) is by central differences with step 1e-5
 //! (scaled) on the *frozen step sequence* of the adaptive period: each perturbed start is
 //! integrated again with exactly the accepted steps of the base period (stretched by T(p′)/T(p)
 //! when the period changes), so every difference is that of one smooth discrete map and never
 //! straddles a change of the step sequence (measured on the bundled scene: the adaptive map is
 //! smooth to its rounding, ~1e-14, between such changes, with isolated jumps of ~3e-11 where
-//! they happen; see [`map`]). Rounding in the replays is ~1e-14, so the entries of M carry ~1e-9 (1e-14/ε plus the ε² truncation);
+//! they happen; see `map`). Rounding in the replays is ~1e-14, so the entries of M carry ~1e-9 (1e-14/ε plus the ε² truncation);
 //! central differences at 1e-5 and 1e-4 agree to 2e-8 on the creep multiplier at 400 Hz. Not
 //! variational equations with saltation: there are no events inside a smooth period, and the
 //! core simulator's steppers are reused as they are. The Floquet multipliers are the
@@ -89,9 +89,9 @@
 pub mod branch;
 pub mod engine;
 pub mod family;
-pub mod floquet;
+pub(crate) mod floquet;
 pub mod folds;
-pub mod map;
+pub(crate) mod map;
 
 pub mod sweep;
 
