@@ -541,3 +541,57 @@ fn sweep_ensemble_means_converge() {
 }
 
 const ENSEMBLE_MEMBERS: &str = "16";
+
+/// A file that only the swept numbers complete (no `base.frequency` of its own) sweeps as the
+/// files edited with each point's values would run: the numbers are set on the parsed scenario
+/// only where the file stands alone; otherwise the parser reads the file with every value, and a
+/// point that is still invalid names all its overrides.
+#[test]
+fn a_file_completed_by_the_swept_numbers_runs_as_the_edited_files() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/sweep/tiny.toml"),
+    )
+    .expect("tiny.toml");
+    let no_freq = dir.path().join("no-frequency.toml");
+    std::fs::write(&no_freq, text.replace("frequency = 300.0\n", "")).expect("written");
+    let out = dir.path().join("sweep");
+    ok(&[
+        "sweep",
+        s(&no_freq),
+        "--set",
+        "base.frequency=280:300:2",
+        "--out",
+        s(&out),
+    ]);
+    let (_, rows) = read_csv(&out.join("sweep.csv"));
+    assert_eq!(rows.len(), 2);
+    // Point 1 is the bundled file itself (300 Hz): the same pull-off as `djkr run` on it.
+    let run = dir.path().join("run");
+    ok(&["run", "tests/sweep/tiny.toml", "--out", s(&run)]);
+    let summary = std::fs::read_to_string(run.join("summary.json")).expect("summary");
+    let p1 = rows
+        .iter()
+        .find(|r| cell(r, "point [1]") == 1.0)
+        .expect("point 1");
+    same(
+        cell(p1, "pull_off_force [N]"),
+        num(&summary, "pull_off.force"),
+        "pull-off force at 300 Hz",
+    );
+    // Still invalid with the values: the message is that of the edited file, naming them.
+    let msg = err(&[
+        "sweep",
+        s(&no_freq),
+        "--set",
+        "solver.rtol=1e-9",
+        "--set",
+        "base.amplitude=1um:2um:2",
+        "--out",
+        s(&dir.path().join("bad")),
+    ]);
+    assert!(
+        msg.contains("--set solver.rtol=1e-9 --set base.amplitude=1e-6: base.frequency: missing"),
+        "{msg}"
+    );
+}

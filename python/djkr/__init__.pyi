@@ -392,13 +392,64 @@ def fit(
     seed: int = 0,
     jobs: Optional[int] = None,
 ) -> Dict[str, Any]:
-    """Fit scenario keys to measured data (``djkr fit``): the content of ``fit.json``
-    (``parameters`` with ``key``, ``value``, ``sigma``, ``unit``, ``initial``; ``correlation``,
-    ``chi2``, ``dof``, ``reduced_chi2``, ``aic``, ``bic``, ``converged``, ``iterations``,
-    ``forward_runs``, ``observable``, ``notes``). ``data`` is a path to a CSV file or a pandas
-    DataFrame with the same column names (``base.amplitude [um]``,
-    ``pull_off_amplification [1]``, ``sigma [1]``); ``free`` a list of ``"adhesion.n"`` or
-    ``"adhesion.v_sat=0.01:100"``; ``set`` values for every row (a free key's is its start)."""
+    """Estimate scenario keys from measured data, as ``djkr fit``: weighted least squares by
+    Levenberg-Marquardt, each data row predicted by a run of the scenario with that row's
+    conditions set (all cores).
+
+    Parameters
+    ----------
+    data : str, os.PathLike or pandas.DataFrame
+        The measurements: one column per condition named by its scenario key with its unit
+        (``"base.frequency [Hz]"``, ``"base.amplitude [um]"``), one observable column named as in
+        ``sweep.csv`` (``"pull_off_amplification [1]"``, ``"pull_off_force [mN]"``, ...) and
+        optionally ``"sigma [unit of the observable]"``. Without sigma every row weighs the same
+        and the parameters' sigma are scaled by the reduced chi-squared.
+    scenario : str, os.PathLike or dict
+        The scenario every row starts from (path, TOML string or dict, as for ``run``); the free
+        keys start from its values.
+    free : str or list of str
+        The keys to estimate, as on the command line: ``"adhesion.n"`` or bounded
+        ``"adhesion.v_sat=0.01:100"`` (bounds in the key's unit or with units). A positive scale
+        (``adhesion.v0``, ``material.K``) is fitted in log space.
+    observable : str, optional
+        The column to fit when ``data`` has several observables.
+    set : dict, optional
+        Fixed overrides of the scenario, as for ``run``.
+    ensemble : int, optional
+        Members per row (>= 1): a row's prediction is the mean over that many base phases, the
+        same phases (from ``seed``) at every evaluation; the ensemble's standard error joins
+        sigma. For chaotic rigs.
+    seed : int, optional
+        Seed of the ensemble's phases (default 0).
+    jobs : int, optional
+        Runs at a time (default: one per core).
+
+    Returns
+    -------
+    dict
+        The content of ``fit.json``: ``parameters`` (list of dicts with ``key``, ``value``,
+        ``sigma`` (both in the key's own unit), ``unit``, ``initial``), ``correlation`` (matrix in
+        the order of ``parameters``), ``chi2``, ``dof``, ``reduced_chi2``, ``aic`` (chi2 + 2k),
+        ``bic`` (chi2 + k ln n), ``converged``, ``iterations``, ``forward_runs``, ``observable``
+        and ``notes`` (bounds hit, parameters the data do not determine, a fit that did not
+        converge).
+
+    Raises
+    ------
+    ScenarioError
+        Bad data (naming the line and column), unknown or non-numeric free keys, an observable
+        djkr does not produce.
+    KeyboardInterrupt
+        Ctrl-C: no new run starts.
+
+    Examples
+    --------
+    >>> import djkr
+    >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
+    ...              free=["adhesion.v0", "adhesion.n"])
+    >>> [(p["key"], p["value"], p["sigma"]) for p in r["parameters"]]
+    >>> r["aic"], r["notes"]
+    """
     ...
 
 def sweep(

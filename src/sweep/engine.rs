@@ -223,16 +223,26 @@ impl Sweep {
         let (numbers, texts): (Vec<&Override>, Vec<&Override>) = all
             .iter()
             .partition(|o| matches!(o.value(), toml::Value::Float(_)));
+        // Where the file with its text values alone is not a valid scenario (one that a swept
+        // number completes: a `base.frequency` the file lacks), or a number is refused on its
+        // own (a cross-field check that a later value satisfies), the parser reads the file
+        // with all the values, as it would the edited file: that is the run's scenario, or the
+        // error naming every override.
         let mut scn = match (&self.base, texts.is_empty()) {
             (Some(base), true) => base.clone(),
             _ => {
                 let texts: Vec<Override> = texts.into_iter().cloned().collect();
-                self.source.scenario(&texts)?
+                match self.source.scenario(&texts) {
+                    Ok(s) => s,
+                    Err(_) => return self.source.scenario(&all),
+                }
             }
         };
         for o in &numbers {
             if let toml::Value::Float(x) = o.value() {
-                scn.set(o.key(), *x)?;
+                if scn.set(o.key(), *x).is_err() {
+                    return self.source.scenario(&all);
+                }
             }
         }
         // Record the overrides in the order given, as the file with all of them would.
