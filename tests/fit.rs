@@ -462,3 +462,145 @@ fn ensemble_rows_are_the_sweeps_members_mean() {
         );
     }
 }
+
+/// Start `djkr fit` on the heavy rig (paper protocol) as a child with its stderr piped, on
+/// three rows of data made with v0 and n moved from the scenario's values (so that the fit has
+/// iterations to go after its first evaluation).
+#[cfg(unix)]
+fn spawn_fit(dir: &Path, extra: &[&str]) -> (std::process::Child, std::path::PathBuf) {
+    use std::process::Stdio;
+    let cond = [(300.0, 10.0), (300.0, 40.0), (400.0, 20.0)];
+    let values = truth(HEAVY, &cond, &["adhesion.v0=8e-5", "adhesion.n=0.45"]);
+    let data = dir.join("data.csv");
+    write_data(&data, &cond, &values, 0.02, 3);
+    let out = dir.join("fit");
+    let child = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args([
+            "fit",
+            data.to_str().unwrap(),
+            "--scenario",
+            HEAVY,
+            "--free",
+            "adhesion.v0",
+            "--free",
+            "adhesion.n",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("djkr runs");
+    (child, out)
+}
+
+/// Send SIGINT to a child.
+#[cfg(unix)]
+fn interrupt(child: &std::process::Child) {
+    let pid = libc::pid_t::try_from(child.id()).unwrap();
+    // SAFETY: kill(2) with a valid pid and signal has no memory effects.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGINT) }, 0);
+}
+
+/// Ctrl-C after the first evaluation ends the fit with exit status 130 and writes the best
+/// estimate met so far: fit.json (with `"interrupted": true`, not converged, and a note saying
+/// so), residuals.csv and fitted.toml. The signal is sent when stderr (not a terminal, so one
+/// line per new best instead of a bar) reports the starting values' chi2, which is after the
+/// first evaluation and long before a 3-row, 2-key fit from moved values can end.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_after_the_first_evaluation_writes_the_best_estimate() {
+    use std::io::{BufRead, BufReader, Read};
+    let dir = tempfile::tempdir().unwrap();
+    // A 4-member ensemble per row, one run at a time: the Jacobian after the first evaluation
+    // alone is 24 runs, so the fit cannot end before the signal arrives.
+    let (mut child, out) = spawn_fit(dir.path(), &["--ensemble", "4", "--jobs", "1"]);
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        if err.read_line(&mut line).unwrap() == 0 {
+            panic!("djkr fit ended before its first evaluation was reported: {seen}");
+        }
+        seen.push_str(&line);
+        if line.starts_with("fit: iteration 0, best chi2") {
+            break;
+        }
+    }
+    interrupt(&child);
+    err.read_to_string(&mut seen).unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{seen}");
+    for f in ["fit.json", "residuals.csv", "fitted.toml"] {
+        assert!(out.join(f).is_file(), "{f} missing: {seen}");
+    }
+    let j = fit_json(&out);
+    assert_eq!(j["interrupted"], true, "{j}");
+    assert_eq!(j["converged"], false, "{j}");
+    assert!(
+        j["notes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|n| n.as_str().unwrap().starts_with("interrupted:")),
+        "{j}"
+    );
+    assert!(seen.contains("hold the best estimate so far"), "{seen}");
+    // The written scenario carries the estimates (the best met, finite).
+    for key in ["adhesion.v0", "adhesion.n"] {
+        assert!(param(&j, key)["value"].as_f64().unwrap().is_finite(), "{j}");
+    }
+}
+
+/// Ctrl-C during the first evaluation (a 32-member ensemble per row, one run at a time, makes
+/// it 96 runs long): no estimate
+/// exists, so djkr exits 130 with one line saying so and writes none of the fit's files. The
+/// signal is sent once the output folder's lock exists (the handlers are installed before it
+/// is taken) and before any progress line reports the starting values.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_during_the_first_evaluation_writes_nothing() {
+    use std::io::Read;
+    let dir = tempfile::tempdir().unwrap();
+    let (mut child, out) = spawn_fit(dir.path(), &["--ensemble", "32", "--jobs", "1"]);
+    let t0 = std::time::Instant::now();
+    while !out.join(".djkr.lock").exists() {
+        assert!(
+            t0.elapsed() < std::time::Duration::from_secs(60),
+            "no lock file in {}",
+            out.display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    interrupt(&child);
+    let mut seen = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut seen)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert!(
+        !seen.contains("fit: iteration 0"),
+        "the first evaluation ended before the signal (96 runs in 200 ms?): {seen}"
+    );
+    assert_eq!(status.code(), Some(130), "{seen}");
+    assert!(
+        seen.lines().any(|l| l.starts_with("stopped: ")
+            && l.contains("no estimate was computed yet")
+            && l.contains("nothing written")),
+        "{seen}"
+    );
+    for f in [
+        "fit.json",
+        "residuals.csv",
+        "fitted.toml",
+        "fit.png",
+        "fit.svg",
+    ] {
+        assert!(!out.join(f).exists(), "{f} written: {seen}");
+    }
+}

@@ -122,10 +122,26 @@ pub struct FitOutcome {
     pub weights: Vec<f64>,
 }
 
-/// A fit that could not start or whose first evaluation failed.
+/// A fit that could not start, whose first evaluation failed, or that was stopped (Ctrl-C)
+/// before its first evaluation ended, so that no estimate exists to report.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0}")]
-pub struct FitError(pub String);
+#[error("{message}")]
+pub struct FitError {
+    /// What went wrong, as one line.
+    pub message: String,
+    /// The stop flag ended the first evaluation: not an error of the input, and nothing to write.
+    pub stopped: bool,
+}
+
+impl FitError {
+    /// An error of the input or of a forward run.
+    pub fn new(message: impl Into<String>) -> Self {
+        FitError {
+            message: message.into(),
+            stopped: false,
+        }
+    }
+}
 
 /// Degrees of freedom: rows − free keys.
 fn dof_of(n: usize, k: usize) -> usize {
@@ -339,7 +355,7 @@ pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
     for (f, &x) in free.iter().zip(x0) {
         let t = Transform::new(f, x);
         if !x.is_finite() || !t.inside(t.y(x)) {
-            return Err(FitError(format!(
+            return Err(FitError::new(format!(
                 "--free {}: the starting value {x} {} (the scenario's) lies outside the bounds; \
                  start inside with --set {}=VALUE",
                 f.given, f.unit, f.key
@@ -363,10 +379,10 @@ pub fn fit(
     let n = data.rows.len();
     let k = free.len();
     if k == 0 {
-        return Err(FitError("give at least one --free KEY".into()));
+        return Err(FitError::new("give at least one --free KEY"));
     }
     if n <= k {
-        return Err(FitError(format!(
+        return Err(FitError::new(format!(
             "{}: {n} row(s) for {k} free key(s): a fit needs more rows than free keys",
             data.name
         )));
@@ -407,11 +423,16 @@ pub fn fit(
             progress(FitEvent::Run);
         })
         .map_err(|e| match e {
-            EvalError::Stopped => FitError("stopped before the first evaluation ended".into()),
-            EvalError::Failed(m) => FitError(format!("at the starting values: {m}")),
+            EvalError::Stopped => FitError {
+                message: "during the first evaluation (the model at the starting values): \
+                          no estimate was computed yet"
+                    .into(),
+                stopped: true,
+            },
+            EvalError::Failed(m) => FitError::new(format!("at the starting values: {m}")),
         })?
         .pop()
-        .ok_or_else(|| FitError("no prediction".into()))?;
+        .ok_or_else(|| FitError::new("no prediction"))?;
     let w: Vec<f64> = (0..n)
         .map(|i| {
             if data.has_sigma {
@@ -470,14 +491,14 @@ pub fn fit(
     let mut st = problem.state.borrow_mut();
     if let Some(m) = st.failure.take() {
         if st.best.is_none() {
-            return Err(FitError(m));
+            return Err(FitError::new(m));
         }
         notes.push(format!("a forward run failed, which ended the fit: {m}"));
     }
     let (chi2, u_best, pred) = st
         .best
         .clone()
-        .ok_or_else(|| FitError("no estimate".into()))?;
+        .ok_or_else(|| FitError::new("no estimate"))?;
     let stopped = st.stopped;
     let mut converged = matches!(
         report.termination,
