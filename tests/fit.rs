@@ -616,7 +616,7 @@ fn ctrl_c_during_the_first_evaluation_writes_nothing() {
 /// the heavy rig: converged and within 3σ in >= 9 of 10, mean σ within a factor 1.5 of the
 /// spread.
 #[test]
-#[ignore = "10 ensemble fits on the light rig: minutes"]
+#[ignore = "10 ensemble fits on the light rig (about 40 s); fails today: 7 of 10 within 3 sigma"]
 fn coverage_study_light_rig_ensemble() {
     let tiny = "tests/sweep/tiny.toml";
     let (v0, n) = (6e-5, 0.48);
