@@ -733,3 +733,33 @@ fn coverage_study_light_rig_ensemble() {
         );
     }
 }
+
+/// The library's fit raised to stop before it starts: no estimate exists, and that is a
+/// cancellation (Python's KeyboardInterrupt), not invalid input; the same call unraised fits.
+#[test]
+fn api_fit_stopped_before_the_first_evaluation_is_cancelled() {
+    use djkr::api::{self, ApiError};
+    use std::sync::atomic::AtomicBool;
+    let source = ScenarioSource::read(Path::new("tests/sweep/tiny.toml")).unwrap();
+    let data = "base.amplitude [um],pull_off_amplification [1]\n2,6.5\n5,8.0\n10,10.0\n";
+    let call = |stop: &AtomicBool| {
+        api::fit(
+            source.clone(),
+            data,
+            "d.csv",
+            &["adhesion.n"],
+            None,
+            &[] as &[&str],
+            None,
+            1,
+            Some(stop),
+        )
+    };
+    let e = call(&AtomicBool::new(true)).unwrap_err();
+    assert!(matches!(e, ApiError::Cancelled), "{e}");
+    let j = call(&AtomicBool::new(false)).unwrap();
+    assert!(
+        j["parameters"][0]["value"].as_f64().unwrap().is_finite(),
+        "{j}"
+    );
+}
