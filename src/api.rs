@@ -1222,8 +1222,14 @@ pub fn fit<S: AsRef<str>, T: AsRef<str>>(
         stop,
         ..FitOptions::default()
     };
-    let outcome = f::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut |_| {})
-        .map_err(|e| ApiError::Invalid(e.to_string()))?;
+    // A stop before the first evaluation ended is a cancellation, as a stop after it.
+    let outcome = f::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut |_| {}).map_err(|e| {
+        if e.stopped {
+            ApiError::Cancelled
+        } else {
+            ApiError::Invalid(e.to_string())
+        }
+    })?;
     if outcome.report.interrupted {
         return Err(ApiError::Cancelled);
     }

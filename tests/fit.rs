@@ -462,3 +462,304 @@ fn ensemble_rows_are_the_sweeps_members_mean() {
         );
     }
 }
+
+/// Start `djkr fit` on the heavy rig (paper protocol) as a child with its stderr piped, on
+/// three rows of data made with v0 and n moved from the scenario's values (so that the fit has
+/// iterations to go after its first evaluation).
+#[cfg(unix)]
+fn spawn_fit(dir: &Path, extra: &[&str]) -> (std::process::Child, std::path::PathBuf) {
+    use std::process::Stdio;
+    let cond = [(300.0, 10.0), (300.0, 40.0), (400.0, 20.0)];
+    let values = truth(HEAVY, &cond, &["adhesion.v0=8e-5", "adhesion.n=0.45"]);
+    let data = dir.join("data.csv");
+    write_data(&data, &cond, &values, 0.02, 3);
+    let out = dir.join("fit");
+    let child = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args([
+            "fit",
+            data.to_str().unwrap(),
+            "--scenario",
+            HEAVY,
+            "--free",
+            "adhesion.v0",
+            "--free",
+            "adhesion.n",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("djkr runs");
+    (child, out)
+}
+
+/// Send SIGINT to a child.
+#[cfg(unix)]
+fn interrupt(child: &std::process::Child) {
+    let pid = libc::pid_t::try_from(child.id()).unwrap();
+    // SAFETY: kill(2) with a valid pid and signal has no memory effects.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGINT) }, 0);
+}
+
+/// Ctrl-C after the first evaluation ends the fit with exit status 130 and writes the best
+/// estimate met so far: fit.json (with `"interrupted": true`, not converged, and a note saying
+/// so), residuals.csv and fitted.toml. The signal is sent when stderr (not a terminal, so one
+/// line per new best instead of a bar) reports the starting values' chi2, which is after the
+/// first evaluation and long before a 3-row, 2-key fit from moved values can end.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_after_the_first_evaluation_writes_the_best_estimate() {
+    use std::io::{BufRead, BufReader, Read};
+    let dir = tempfile::tempdir().unwrap();
+    // A 4-member ensemble per row, one run at a time: the Jacobian after the first evaluation
+    // alone is 24 runs, so the fit cannot end before the signal arrives.
+    let (mut child, out) = spawn_fit(dir.path(), &["--ensemble", "4", "--jobs", "1"]);
+    let mut err = BufReader::new(child.stderr.take().unwrap());
+    let mut seen = String::new();
+    loop {
+        let mut line = String::new();
+        if err.read_line(&mut line).unwrap() == 0 {
+            panic!("djkr fit ended before its first evaluation was reported: {seen}");
+        }
+        seen.push_str(&line);
+        if line.starts_with("fit: iteration 0, best chi2") {
+            break;
+        }
+    }
+    interrupt(&child);
+    err.read_to_string(&mut seen).unwrap();
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{seen}");
+    for f in ["fit.json", "residuals.csv", "fitted.toml"] {
+        assert!(out.join(f).is_file(), "{f} missing: {seen}");
+    }
+    let j = fit_json(&out);
+    assert_eq!(j["interrupted"], true, "{j}");
+    assert_eq!(j["converged"], false, "{j}");
+    assert!(
+        j["notes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|n| n.as_str().unwrap().starts_with("interrupted:")),
+        "{j}"
+    );
+    assert!(seen.contains("hold the best estimate so far"), "{seen}");
+    // The written scenario carries the estimates (the best met, finite).
+    for key in ["adhesion.v0", "adhesion.n"] {
+        assert!(param(&j, key)["value"].as_f64().unwrap().is_finite(), "{j}");
+    }
+}
+
+/// Ctrl-C during the first evaluation (a 32-member ensemble per row, one run at a time, makes
+/// it 96 runs long): no estimate
+/// exists, so djkr exits 130 with one line saying so and writes none of the fit's files. The
+/// signal is sent once the output folder's lock exists (the handlers are installed before it
+/// is taken) and before any progress line reports the starting values.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_during_the_first_evaluation_writes_nothing() {
+    use std::io::Read;
+    let dir = tempfile::tempdir().unwrap();
+    let (mut child, out) = spawn_fit(dir.path(), &["--ensemble", "32", "--jobs", "1"]);
+    let t0 = std::time::Instant::now();
+    while !out.join(".djkr.lock").exists() {
+        assert!(
+            t0.elapsed() < std::time::Duration::from_secs(60),
+            "no lock file in {}",
+            out.display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    interrupt(&child);
+    let mut seen = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut seen)
+        .unwrap();
+    let status = child.wait().unwrap();
+    assert!(
+        !seen.contains("fit: iteration 0"),
+        "the first evaluation ended before the signal (96 runs in 200 ms?): {seen}"
+    );
+    assert_eq!(status.code(), Some(130), "{seen}");
+    assert!(
+        seen.lines().any(|l| l.starts_with("stopped: ")
+            && l.contains("no estimate was computed yet")
+            && l.contains("nothing written")),
+        "{seen}"
+    );
+    for f in [
+        "fit.json",
+        "residuals.csv",
+        "fitted.toml",
+        "fit.png",
+        "fit.svg",
+    ] {
+        assert!(!out.join(f).exists(), "{f} written: {seen}");
+    }
+}
+
+/// Opt-in study of the light, chaotic rig (`tests/sweep/tiny.toml`: the 3 g sphere on 200 N/m,
+/// 50 ms of vibration at 300 Hz, unloaded at 2 mm/s, where one ulp of input moves a single
+/// run's pull-off by percent and the ensemble mean is the observable). For each of 10 seeds:
+/// data are the 16-member ensemble means (seed 1000 + s) at five amplitudes made with v0 and n
+/// moved from the file's values, plus 1 % Gaussian measurement noise, with
+/// sigma = √(se² + (1 %)²); `djkr fit --ensemble 16 --seed s` (other phases than the data's)
+/// fits v0 and n from the file's values. Reported: converged count, count with both estimates
+/// within 3σ of the truth, and the mean σ against the spread of the estimates. Asserted as for
+/// the heavy rig: converged and within 3σ in >= 9 of 10, mean σ within a factor 1.5 of the
+/// spread.
+#[test]
+#[ignore = "10 ensemble fits on the light rig (about 40 s); fails today: 7 of 10 within 3 sigma"]
+fn coverage_study_light_rig_ensemble() {
+    let tiny = "tests/sweep/tiny.toml";
+    let (v0, n) = (6e-5, 0.48);
+    let (members, seeds) = (16usize, 10u64);
+    let amps = [2.0, 4.0, 7.0, 12.0, 20.0];
+    let header = "base.amplitude [um],pull_off_amplification [1],sigma [1]\n";
+    let mut rows = String::from("base.amplitude [um],pull_off_amplification [1]\n");
+    for a in amps {
+        rows.push_str(&format!("{a},0\n"));
+    }
+    let source = ScenarioSource::read(Path::new(tiny)).unwrap();
+    let fixed: Vec<Override> = [format!("adhesion.v0={v0}"), format!("adhesion.n={n}")]
+        .iter()
+        .map(|s| Override::parse(s).unwrap())
+        .collect();
+    let dir = tempfile::tempdir().unwrap();
+    let (mut converged, mut inside) = (0, 0);
+    let mut est: Vec<[f64; 2]> = Vec::new();
+    let mut sig: Vec<[f64; 2]> = Vec::new();
+    let t_all = std::time::Instant::now();
+    for seed in 0..seeds {
+        let data = FitData::parse(&rows, "truth.csv", None).unwrap();
+        let model = ForwardModel::new(
+            source.clone(),
+            data,
+            Vec::<SetKey>::new(),
+            fixed.clone(),
+            Some((members, 1000 + seed)),
+            0,
+        )
+        .unwrap();
+        let p = model
+            .predict(&[vec![]], None, &mut || {})
+            .unwrap()
+            .remove(0);
+        let mut csv = String::from(header);
+        for (i, a) in amps.iter().enumerate() {
+            let m = 0.01 * p.values[i];
+            let obs = p.values[i] + m * gauss(seed, i as u64);
+            let s = (p.se[i].powi(2) + m * m).sqrt();
+            csv.push_str(&format!("{a},{obs:e},{s:e}\n"));
+        }
+        let path = dir.path().join(format!("data{seed}.csv"));
+        std::fs::write(&path, csv).unwrap();
+        let out = dir.path().join(format!("fit{seed}"));
+        let t0 = std::time::Instant::now();
+        let fit_seed = seed.to_string();
+        let ens = members.to_string();
+        let j = run_fit(
+            &path,
+            &out,
+            tiny,
+            &[
+                "--free",
+                "adhesion.v0",
+                "--free",
+                "adhesion.n",
+                "--ensemble",
+                &ens,
+                "--seed",
+                &fit_seed,
+            ],
+        );
+        let mut e = [0.0; 2];
+        let mut s = [0.0; 2];
+        let mut ok = true;
+        for (i, (key, t)) in [("adhesion.v0", v0), ("adhesion.n", n)].iter().enumerate() {
+            let q = param(&j, key);
+            e[i] = q["value"].as_f64().unwrap();
+            s[i] = q["sigma"].as_f64().unwrap_or(f64::NAN);
+            ok &= (e[i] - t).abs() < 3.0 * s[i];
+        }
+        let conv = j["converged"] == true;
+        eprintln!(
+            "seed {seed}: v0 {:.4e} ± {:.2e}, n {:.4} ± {:.4}, chi2 {:.3}, {} iterations, {} \
+             runs, {:.1} s, converged {conv}, within 3 sigma {ok}; notes {}",
+            e[0],
+            s[0],
+            e[1],
+            s[1],
+            j["chi2"].as_f64().unwrap(),
+            j["iterations"],
+            j["forward_runs"],
+            t0.elapsed().as_secs_f64(),
+            j["notes"]
+        );
+        converged += usize::from(conv);
+        inside += usize::from(ok);
+        est.push(e);
+        sig.push(s);
+    }
+    let mut ratios = [0.0; 2];
+    for (i, r) in ratios.iter_mut().enumerate() {
+        let m = est.iter().map(|e| e[i]).sum::<f64>() / seeds as f64;
+        let spread =
+            (est.iter().map(|e| (e[i] - m).powi(2)).sum::<f64>() / (seeds - 1) as f64).sqrt();
+        let mean_sigma = sig.iter().map(|s| s[i]).sum::<f64>() / seeds as f64;
+        *r = mean_sigma / spread;
+        eprintln!(
+            "param {i}: mean estimate {m:.4e}, spread {spread:.4e}, mean sigma {mean_sigma:.4e}, \
+             ratio {r:.3}"
+        );
+    }
+    eprintln!(
+        "light rig, {seeds} seeds: {converged} converged, {inside} within 3 sigma, {:.0} s",
+        t_all.elapsed().as_secs_f64()
+    );
+    assert!(converged >= 9, "{converged} of {seeds} converged");
+    assert!(inside >= 9, "{inside} of {seeds} within 3 sigma");
+    for (i, r) in ratios.iter().enumerate() {
+        assert!(
+            (1.0 / 1.5..=1.5).contains(r),
+            "param {i}: mean sigma / spread {r}"
+        );
+    }
+}
+
+/// The library's fit raised to stop before it starts: no estimate exists, and that is a
+/// cancellation (Python's KeyboardInterrupt), not invalid input; the same call unraised fits.
+#[test]
+fn api_fit_stopped_before_the_first_evaluation_is_cancelled() {
+    use djkr::api::{self, ApiError};
+    use std::sync::atomic::AtomicBool;
+    let source = ScenarioSource::read(Path::new("tests/sweep/tiny.toml")).unwrap();
+    let data = "base.amplitude [um],pull_off_amplification [1]\n2,6.5\n5,8.0\n10,10.0\n";
+    let call = |stop: &AtomicBool| {
+        api::fit(
+            source.clone(),
+            data,
+            "d.csv",
+            &["adhesion.n"],
+            None,
+            &[] as &[&str],
+            None,
+            1,
+            Some(stop),
+        )
+    };
+    let e = call(&AtomicBool::new(true)).unwrap_err();
+    assert!(matches!(e, ApiError::Cancelled), "{e}");
+    let j = call(&AtomicBool::new(false)).unwrap();
+    assert!(
+        j["parameters"][0]["value"].as_f64().unwrap().is_finite(),
+        "{j}"
+    );
+}

@@ -116,12 +116,14 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     )
     .map_err(anyhow::Error::msg)?;
     let out = a.out.clone().unwrap_or_else(|| default_out(&a.data));
+    // Installed before the folder is claimed and locked, so that a Ctrl-C from then on (even
+    // while the first evaluation runs) ends the fit through the stop flag, never half-way.
+    signals::install(
+        "stopping: forward runs in progress are abandoned and the best estimate so far is \
+         written (none before the first evaluation has ended); Ctrl-C again to quit at once",
+    );
     super::common::claim_out(&out, &FILES, a.force).context("--out")?;
     let _lock = djkr::output::folder::DirLock::acquire(&out)?;
-    signals::install(
-        "stopping: running forward runs are abandoned; the best estimate so far is \
-         written (Ctrl-C again to quit at once)",
-    );
     let per_iteration = model.runs_per_set() * (free.len() + 1);
     let bar = ProgressBar::new((model.runs_per_set() + 6 * per_iteration) as u64);
     bar.set_style(
@@ -144,12 +146,23 @@ pub fn fit(a: &FitArgs) -> Result<()> {
             bar.inc(1);
         }
         FitEvent::Best { iteration, chi2 } => {
-            bar.set_message(format!("iteration {iteration}, best chi2 {chi2:.6e}"));
+            let line = format!("iteration {iteration}, best chi2 {chi2:.6e}");
+            // Without a terminal (a log, a pipe) the bar is hidden: each new best is a line.
+            if bar.is_hidden() {
+                eprintln!("fit: {line} after {} forward runs", bar.position());
+            }
+            bar.set_message(line);
         }
     };
     let outcome = fit::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut progress);
     bar.finish_and_clear();
-    let outcome = outcome?;
+    let outcome = match outcome {
+        Err(e) if e.stopped => {
+            eprintln!("stopped: {e}; nothing written in {}", out.display());
+            return Err(Interrupted(signals::received()).into());
+        }
+        o => o?,
+    };
     let header = format!(
         "Written by djkr fit: {} with the estimates of {}\nfrom {} (fit.json beside this file). \
          The original file's comments are not kept.\n{}",

@@ -10,6 +10,9 @@
 //! step that balances them is `h = √ε`: `h = √(100 · rtol)` in the fit coordinate `y` (a relative
 //! step for a key fitted in log space), kept within [1e-6, 1e-2]. With the paper protocol's
 //! `rtol = 1e-8` this is `h = 1e-3`. A step that would leave the bounds is taken backwards.
+//! With an ensemble whose mean is noisier than that (a chaotic rig, where each member jumps
+//! under any change of the parameters), the same balance with the ensemble mean's relative
+//! standard error gives the step: see [`fd_step_noisy`].
 //!
 //! **Interruption.** The best parameter set met so far (lowest χ²) is kept at every evaluation;
 //! a stop (Ctrl-C) ends the optimiser and that set is the result, said so in `notes`.
@@ -122,10 +125,26 @@ pub struct FitOutcome {
     pub weights: Vec<f64>,
 }
 
-/// A fit that could not start or whose first evaluation failed.
+/// A fit that could not start, whose first evaluation failed, or that was stopped (Ctrl-C)
+/// before its first evaluation ended, so that no estimate exists to report.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{0}")]
-pub struct FitError(pub String);
+#[error("{message}")]
+pub struct FitError {
+    /// What went wrong, as one line.
+    pub message: String,
+    /// The stop flag ended the first evaluation: not an error of the input, and nothing to write.
+    pub stopped: bool,
+}
+
+impl FitError {
+    /// An error of the input or of a forward run.
+    pub fn new(message: impl Into<String>) -> Self {
+        FitError {
+            message: message.into(),
+            stopped: false,
+        }
+    }
+}
 
 /// Degrees of freedom: rows − free keys.
 fn dof_of(n: usize, k: usize) -> usize {
@@ -135,6 +154,20 @@ fn dof_of(n: usize, k: usize) -> usize {
 /// The finite-difference step in `y` for a scenario solved at relative tolerance `rtol`.
 pub fn fd_step(rtol: f64) -> f64 {
     (100.0 * rtol).sqrt().clamp(1e-6, 1e-2)
+}
+
+/// The finite-difference step in `y` for a model whose output carries a noise of relative size
+/// `rel_noise` besides the solver's: an ensemble mean on a chaotic rig, where one ulp of input
+/// moves each member by percent, so that the mean of N members with fixed phases jumps by about
+/// its standard error under any change of the parameters. The same balance of truncation and
+/// noise as [`fd_step`] gives `h = √rel_noise`, kept within [`fd_step`]`(rtol)` and 0.1.
+pub fn fd_step_noisy(rtol: f64, rel_noise: f64) -> f64 {
+    let h = fd_step(rtol);
+    if rel_noise.is_finite() && rel_noise > 0.0 {
+        rel_noise.sqrt().clamp(h, 0.1)
+    } else {
+        h
+    }
 }
 
 struct State {
@@ -339,7 +372,7 @@ pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
     for (f, &x) in free.iter().zip(x0) {
         let t = Transform::new(f, x);
         if !x.is_finite() || !t.inside(t.y(x)) {
-            return Err(FitError(format!(
+            return Err(FitError::new(format!(
                 "--free {}: the starting value {x} {} (the scenario's) lies outside the bounds; \
                  start inside with --set {}=VALUE",
                 f.given, f.unit, f.key
@@ -363,10 +396,10 @@ pub fn fit(
     let n = data.rows.len();
     let k = free.len();
     if k == 0 {
-        return Err(FitError("give at least one --free KEY".into()));
+        return Err(FitError::new("give at least one --free KEY"));
     }
     if n <= k {
-        return Err(FitError(format!(
+        return Err(FitError::new(format!(
             "{}: {n} row(s) for {k} free key(s): a fit needs more rows than free keys",
             data.name
         )));
@@ -407,11 +440,16 @@ pub fn fit(
             progress(FitEvent::Run);
         })
         .map_err(|e| match e {
-            EvalError::Stopped => FitError("stopped before the first evaluation ended".into()),
-            EvalError::Failed(m) => FitError(format!("at the starting values: {m}")),
+            EvalError::Stopped => FitError {
+                message: "during the first evaluation (the model at the starting values): \
+                          no estimate was computed yet"
+                    .into(),
+                stopped: true,
+            },
+            EvalError::Failed(m) => FitError::new(format!("at the starting values: {m}")),
         })?
         .pop()
-        .ok_or_else(|| FitError("no prediction".into()))?;
+        .ok_or_else(|| FitError::new("no prediction"))?;
     let w: Vec<f64> = (0..n)
         .map(|i| {
             if data.has_sigma {
@@ -437,12 +475,31 @@ pub fn fit(
             model.members()
         ));
     }
+    // With an ensemble, the step is set by the ensemble mean's relative standard error (the
+    // largest over the rows, at the starting values) where it exceeds the solver's noise.
+    let h = if model.members() > 1 {
+        let rel = (0..n)
+            .map(|i| p0.se[i] / p0.values[i].abs())
+            .filter(|r| r.is_finite())
+            .fold(0.0, f64::max);
+        let h = fd_step_noisy(rtol, rel);
+        if h > fd_step(rtol) {
+            notes.push(format!(
+                "finite-difference step {h:.3e} in the fit coordinates, set by the ensemble \
+                 mean's relative standard error ({rel:.3e}, the largest over the rows at the \
+                 starting values) rather than the solver's tolerance"
+            ));
+        }
+        h
+    } else {
+        fd_step(rtol)
+    };
     let problem = Problem {
         model,
         tr: tr.clone(),
         obs: obs.clone(),
         w: w.clone(),
-        h: fd_step(rtol),
+        h,
         u: DVector::from_vec(u0.clone()),
         opts,
         state: RefCell::new(State {
@@ -470,14 +527,14 @@ pub fn fit(
     let mut st = problem.state.borrow_mut();
     if let Some(m) = st.failure.take() {
         if st.best.is_none() {
-            return Err(FitError(m));
+            return Err(FitError::new(m));
         }
         notes.push(format!("a forward run failed, which ended the fit: {m}"));
     }
     let (chi2, u_best, pred) = st
         .best
         .clone()
-        .ok_or_else(|| FitError("no estimate".into()))?;
+        .ok_or_else(|| FitError::new("no estimate"))?;
     let stopped = st.stopped;
     let mut converged = matches!(
         report.termination,
@@ -650,4 +707,24 @@ pub fn fit(
         prediction: pred,
         weights: w,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The step balances truncation against noise: √(100 rtol) for the solver alone (1e-3 at
+    /// rtol 1e-8), √(relative standard error) for an ensemble mean noisier than that (0.1 at
+    /// 1 %), never smaller than the solver's step nor above 0.1.
+    #[test]
+    fn the_step_follows_the_larger_noise() {
+        let close = |a: f64, b: f64| assert!((a - b).abs() <= 1e-15 * b, "{a} vs {b}");
+        close(fd_step(1e-8), 1e-3);
+        close(fd_step_noisy(1e-8, 0.0), 1e-3);
+        close(fd_step_noisy(1e-8, f64::NAN), 1e-3);
+        close(fd_step_noisy(1e-8, 1e-8), 1e-3);
+        close(fd_step_noisy(1e-8, 1e-4), 1e-2);
+        close(fd_step_noisy(1e-8, 0.01), 0.1);
+        close(fd_step_noisy(1e-8, 0.25), 0.1);
+    }
 }
