@@ -3,7 +3,7 @@
 //!
 //! What computes lives here; what reads scenario files, writes HDF5/CSV/plots and talks to a user
 //! lives in the `djkr` crate above it. SI units throughout; compressive forces are positive and
-//! the sphere's position is measured downwards (the sign conventions of `docs/MODEL.md`).
+//! the sphere's position is measured downwards (the sign conventions of `docs/guide/concepts.md`).
 //!
 //! The pieces a user composes are re-exported at the crate root:
 //!
@@ -20,6 +20,9 @@
 //!   for callers that drive the time loop themselves;
 //! - periodic steady states: a [`SteadyProblem`] solved with [`SteadyOptions`] into a
 //!   [`Steady`] orbit or a [`SteadyError`] (frequency sweeps in [`steady::sweep`]);
+//! - continuation of periodic orbits through their folds, with Floquet multipliers and
+//!   bifurcations: [`continuation`] (a [`continuation::family::Scene`] gives the periodic problem
+//!   at each parameter value; the `djkr` crate's is a scenario file);
 //! - harmonic balance: [`harmonic_balance`] gives a [`HarmonicBalance`] (more in [`describing`]);
 //! - the paper's shortcut and closed forms: [`imposed_area`], [`closed_form`], [`comparators`],
 //!   [`transfer`]; fits of measured records: [`gs_fit`], [`beta_fit`];
