@@ -292,8 +292,20 @@ impl ScaledMap {
         t0: f64,
     ) -> Result<[f64; 3], MapFail> {
         let setup = self.setup(values)?;
+        self.replay_with(&setup, y, steps, t0)
+    }
+
+    /// [`replay_at`](Self::replay_at) with the problem already set up: the replays of one
+    /// monodromy matrix share their parameter values, and so one setup.
+    fn replay_with(
+        &self,
+        setup: &Setup,
+        y: [f64; 3],
+        steps: &[f64],
+        t0: f64,
+    ) -> Result<[f64; 3], MapFail> {
         self.family.count(1);
-        replay(&setup, y, steps, setup.period() / t0, self.rtol)
+        replay(setup, y, steps, setup.period() / t0, self.rtol)
     }
 
     /// The scaled monodromy matrix ∂P/∂ŷ (n × n) at state `y` and parameters `values`, by
@@ -320,22 +332,23 @@ impl ScaledMap {
         central: bool,
     ) -> Result<DMatrix<f64>, MapFail> {
         let n = self.n();
+        let setup = self.setup(values)?;
         let base = if central {
             None
         } else {
-            Some(self.replay_at(y, values, steps, t0)?)
+            Some(self.replay_with(&setup, y, steps, t0)?)
         };
         let mut m = DMatrix::zeros(n, n);
         for (col, &j) in self.idx.iter().enumerate() {
             let mut yp = y;
             yp[j] += eps * self.sc[j];
-            let plus = self.replay_at(yp, values, steps, t0)?;
+            let plus = self.replay_with(&setup, yp, steps, t0)?;
             let (lo, h) = match base {
                 Some(b) => (b, eps),
                 None => {
                     let mut ym = y;
                     ym[j] -= eps * self.sc[j];
-                    (self.replay_at(ym, values, steps, t0)?, 2.0 * eps)
+                    (self.replay_with(&setup, ym, steps, t0)?, 2.0 * eps)
                 }
             };
             for (row, &i) in self.idx.iter().enumerate() {
