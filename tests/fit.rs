@@ -26,13 +26,27 @@ fn gauss(seed: u64, i: u64) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
-/// The pull-off amplification djkr predicts for `conditions` (rows of `base.frequency [Hz]`,
-/// `base.amplitude [um]`) on `scenario` with `sets` (`KEY=VALUE`) applied.
-fn truth(scenario: &str, conditions: &[(f64, f64)], sets: &[&str]) -> Vec<f64> {
-    let mut csv =
-        String::from("base.frequency [Hz],base.amplitude [um],pull_off_amplification [1]\n");
-    for (f, a) in conditions {
-        csv.push_str(&format!("{f},{a},0\n"));
+/// Header of the two-condition data files (and of [`cells2`]'s cells).
+const COND2: &str = "base.frequency [Hz],base.amplitude [um]";
+/// Header of the three-condition data files (and of [`cells3`]'s cells).
+const COND3: &str = "base.frequency [Hz],base.amplitude [um],stage[3].speed [um/s]";
+
+fn cells2(conditions: &[(f64, f64)]) -> Vec<String> {
+    conditions.iter().map(|(f, a)| format!("{f},{a}")).collect()
+}
+
+fn cells3(rows: &[(f64, f64, f64)]) -> Vec<String> {
+    rows.iter()
+        .map(|(f, a, v)| format!("{f},{a},{v}"))
+        .collect()
+}
+
+/// The pull-off amplification djkr predicts for rows of conditions (`cells`, under the CSV
+/// header `header`) on `scenario` with `sets` (`KEY=VALUE`) applied.
+fn truth(scenario: &str, header: &str, cells: &[String], sets: &[&str]) -> Vec<f64> {
+    let mut csv = format!("{header},pull_off_amplification [1]\n");
+    for c in cells {
+        csv.push_str(&format!("{c},0\n"));
     }
     let data = FitData::parse(&csv, "truth.csv", None).unwrap();
     let source = ScenarioSource::read(Path::new(scenario)).unwrap();
@@ -43,15 +57,14 @@ fn truth(scenario: &str, conditions: &[(f64, f64)], sets: &[&str]) -> Vec<f64> {
         .clone()
 }
 
-/// Write a data file of `values` with `rel` relative Gaussian noise (seed `seed`) and sigma.
-fn write_data(path: &Path, conditions: &[(f64, f64)], values: &[f64], rel: f64, seed: u64) {
-    let mut csv = String::from(
-        "base.frequency [Hz],base.amplitude [um],pull_off_amplification [1],sigma [1]\n",
-    );
-    for (i, ((f, a), v)) in conditions.iter().zip(values).enumerate() {
+/// Write a data file of `values` at the rows of conditions `cells` (under `header`) with `rel`
+/// relative Gaussian noise (seed `seed`) and sigma.
+fn write_data(path: &Path, header: &str, cells: &[String], values: &[f64], rel: f64, seed: u64) {
+    let mut csv = format!("{header},pull_off_amplification [1],sigma [1]\n");
+    for (i, (c, v)) in cells.iter().zip(values).enumerate() {
         let s = rel * v;
         let obs = v + s * gauss(seed, i as u64);
-        csv.push_str(&format!("{f},{a},{obs:e},{s:e}\n"));
+        csv.push_str(&format!("{c},{obs:e},{s:e}\n"));
     }
     std::fs::write(path, csv).unwrap();
 }
@@ -105,9 +118,9 @@ fn fit_recovers_v0_and_n_on_the_heavy_rig() {
         .collect();
     let sets = [format!("adhesion.v0={v0}"), format!("adhesion.n={n}")];
     let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
-    let values = truth(HEAVY, &cond, &sets);
+    let values = truth(HEAVY, COND2, &cells2(&cond), &sets);
     let data = dir.path().join("data.csv");
-    write_data(&data, &cond, &values, 0.02, 7);
+    write_data(&data, COND2, &cells2(&cond), &values, 0.02, 7);
     let out = dir.path().join("fit");
     let t0 = std::time::Instant::now();
     let j = run_fit(
@@ -241,14 +254,14 @@ fn coverage_study_heavy_rig() {
         .collect();
     let sets = [format!("adhesion.v0={v0}"), format!("adhesion.n={n}")];
     let sets: Vec<&str> = sets.iter().map(String::as_str).collect();
-    let values = truth(HEAVY, &cond, &sets);
+    let values = truth(HEAVY, COND2, &cells2(&cond), &sets);
     let mut inside = 0;
     let mut est: Vec<[f64; 2]> = Vec::new();
     let mut sig: Vec<[f64; 2]> = Vec::new();
     let seeds = 20;
     for seed in 0..seeds {
         let data = dir.path().join(format!("data{seed}.csv"));
-        write_data(&data, &cond, &values, 0.02, 100 + seed);
+        write_data(&data, COND2, &cells2(&cond), &values, 0.02, 100 + seed);
         let out = dir.path().join(format!("fit{seed}"));
         let t0 = std::time::Instant::now();
         let j = run_fit(
@@ -292,36 +305,6 @@ fn coverage_study_heavy_rig() {
     }
 }
 
-/// Model values for rows of (`base.frequency [Hz]`, `base.amplitude [um]`, `stage[3].speed
-/// [um/s]`) and a data file of them with `rel` Gaussian noise.
-fn truth3(scenario: &str, rows: &[(f64, f64, f64)], sets: &[&str]) -> Vec<f64> {
-    let mut csv = String::from(
-        "base.frequency [Hz],base.amplitude [um],stage[3].speed [um/s],pull_off_amplification [1]\n",
-    );
-    for (f, a, v) in rows {
-        csv.push_str(&format!("{f},{a},{v},0\n"));
-    }
-    let data = FitData::parse(&csv, "truth.csv", None).unwrap();
-    let source = ScenarioSource::read(Path::new(scenario)).unwrap();
-    let fixed: Vec<Override> = sets.iter().map(|s| Override::parse(s).unwrap()).collect();
-    let model = ForwardModel::new(source, data, Vec::<SetKey>::new(), fixed, None, 0).unwrap();
-    model.predict(&[vec![]], None, &mut || {}).unwrap()[0]
-        .values
-        .clone()
-}
-
-fn write_data3(path: &Path, rows: &[(f64, f64, f64)], values: &[f64], rel: f64, seed: u64) {
-    let mut csv = String::from(
-        "base.frequency [Hz],base.amplitude [um],stage[3].speed [um/s],pull_off_amplification [1],sigma [1]\n",
-    );
-    for (i, ((f, a, v), m)) in rows.iter().zip(values).enumerate() {
-        let s = rel * m;
-        let obs = m + s * gauss(seed, i as u64);
-        csv.push_str(&format!("{f},{a},{v},{obs:e},{s:e}\n"));
-    }
-    std::fs::write(path, csv).unwrap();
-}
-
 /// The law comparison (the paper's open question). Data from a saturated law (v_sat = 1 mm/s)
 /// with 2 % noise, on the paper protocol with short dwells (0.1 s, 0.2 s): two vibrating rows
 /// (300 Hz, 5 and 10 um, unloading at 100 um/s; the saturated values fall > 10 % below the
@@ -343,8 +326,8 @@ fn aic_tells_a_saturated_law_from_the_plain_one() {
     let with = |extra: &[&'static str]| -> Vec<&'static str> {
         short.iter().chain(extra).copied().collect::<Vec<_>>()
     };
-    let sat = truth3(HEAVY, &rows, &with(&sat_law));
-    let plain = truth3(HEAVY, &rows, &with(&[]));
+    let sat = truth(HEAVY, COND3, &cells3(&rows), &with(&sat_law));
+    let plain = truth(HEAVY, COND3, &cells3(&rows), &with(&[]));
     assert!(
         sat[1] < 0.9 * plain[1],
         "saturation must lower the largest amplitude's value by 10 %: {sat:?} {plain:?}"
@@ -358,7 +341,7 @@ fn aic_tells_a_saturated_law_from_the_plain_one() {
     };
     let fit_both = |name: &str, values: &[f64]| -> (Value, Value) {
         let data = dir.path().join(format!("{name}.csv"));
-        write_data3(&data, &rows, values, 0.02, 11);
+        write_data(&data, COND3, &cells3(&rows), values, 0.02, 11);
         let mut a = sets(&[]);
         a.extend(["--free", "adhesion.v0", "--free", "adhesion.n"].map(String::from));
         let a: Vec<&str> = a.iter().map(String::as_str).collect();
@@ -470,9 +453,14 @@ fn ensemble_rows_are_the_sweeps_members_mean() {
 fn spawn_fit(dir: &Path, extra: &[&str]) -> (std::process::Child, std::path::PathBuf) {
     use std::process::Stdio;
     let cond = [(300.0, 10.0), (300.0, 40.0), (400.0, 20.0)];
-    let values = truth(HEAVY, &cond, &["adhesion.v0=8e-5", "adhesion.n=0.45"]);
+    let values = truth(
+        HEAVY,
+        COND2,
+        &cells2(&cond),
+        &["adhesion.v0=8e-5", "adhesion.n=0.45"],
+    );
     let data = dir.join("data.csv");
-    write_data(&data, &cond, &values, 0.02, 3);
+    write_data(&data, COND2, &cells2(&cond), &values, 0.02, 3);
     let out = dir.join("fit");
     let child = Command::new(env!("CARGO_BIN_EXE_djkr"))
         .args([
