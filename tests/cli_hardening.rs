@@ -3,7 +3,8 @@
 //! ends with a clear message (exit 2) or a result with a warning, never a panic or a hang; each
 //! child process runs under a deadline.
 
-use std::io::Read;
+mod tools;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -18,7 +19,7 @@ struct Run {
 
 /// Run djkr with `args` in `cwd`, killed after `limit`.
 fn djkr_in(cwd: &Path, args: &[&str], limit: Duration) -> Run {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_djkr"))
+    let child = Command::new(env!("CARGO_BIN_EXE_djkr"))
         .args(args)
         .current_dir(cwd)
         .stdin(Stdio::null())
@@ -26,32 +27,7 @@ fn djkr_in(cwd: &Path, args: &[&str], limit: Duration) -> Run {
         .stderr(Stdio::piped())
         .spawn()
         .expect("djkr binary runs");
-    let mut out = child.stdout.take().unwrap();
-    let mut err = child.stderr.take().unwrap();
-    let t_out = std::thread::spawn(move || {
-        let mut s = String::new();
-        out.read_to_string(&mut s).ok();
-        s
-    });
-    let t_err = std::thread::spawn(move || {
-        let mut s = String::new();
-        err.read_to_string(&mut s).ok();
-        s
-    });
-    let t0 = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break Some(s);
-        }
-        if t0.elapsed() > limit {
-            child.kill().ok();
-            child.wait().ok();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    let stdout = t_out.join().unwrap();
-    let stderr = t_err.join().unwrap();
+    let (status, stdout, stderr) = tools::finish_within(child, limit);
     assert!(
         status.is_some(),
         "djkr {args:?} did not finish within {limit:?} (hang); stderr: {stderr}"

@@ -3,7 +3,8 @@
 //! validation gaps, `--jobs` and the whole-command budget of `resonance` and `shortcut-map`.
 //! Every child process runs under a deadline; none may panic.
 
-use std::io::Read;
+mod tools;
+
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -18,8 +19,7 @@ struct Run {
 /// Run djkr with `args` in `cwd` with `stdout` as its standard output (piped when `None`),
 /// killed after `limit`.
 fn djkr_with(cwd: &Path, args: &[&str], stdout: Option<Stdio>, limit: Duration) -> Run {
-    let piped = stdout.is_none();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_djkr"))
+    let child = Command::new(env!("CARGO_BIN_EXE_djkr"))
         .args(args)
         .current_dir(cwd)
         .stdin(Stdio::null())
@@ -27,34 +27,7 @@ fn djkr_with(cwd: &Path, args: &[&str], stdout: Option<Stdio>, limit: Duration) 
         .stderr(Stdio::piped())
         .spawn()
         .expect("djkr binary runs");
-    let out = if piped { child.stdout.take() } else { None };
-    let mut err = child.stderr.take().unwrap();
-    let t_out = std::thread::spawn(move || {
-        let mut s = String::new();
-        if let Some(mut o) = out {
-            o.read_to_string(&mut s).ok();
-        }
-        s
-    });
-    let t_err = std::thread::spawn(move || {
-        let mut s = String::new();
-        err.read_to_string(&mut s).ok();
-        s
-    });
-    let t0 = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break Some(s);
-        }
-        if t0.elapsed() > limit {
-            child.kill().ok();
-            child.wait().ok();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(5));
-    };
-    let stdout = t_out.join().unwrap();
-    let stderr = t_err.join().unwrap();
+    let (status, stdout, stderr) = tools::finish_within(child, limit);
     assert!(
         status.is_some(),
         "djkr {args:?} did not finish within {limit:?}; stderr: {stderr}"

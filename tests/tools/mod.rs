@@ -320,3 +320,39 @@ pub fn djkr_python() -> Result<PathBuf, String> {
     }
     Ok(py)
 }
+
+/// Wait for `child` at most `limit`, reading its stdout (when piped) and stderr meanwhile so
+/// that a full pipe cannot block it; kill it when the limit passes. Returns its exit status
+/// (`None`: killed at the limit), stdout and stderr.
+pub fn finish_within(
+    mut child: std::process::Child,
+    limit: std::time::Duration,
+) -> (Option<std::process::ExitStatus>, String, String) {
+    use std::io::Read;
+    fn drain(pipe: Option<impl Read + Send + 'static>) -> std::thread::JoinHandle<String> {
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            if let Some(mut p) = pipe {
+                p.read_to_string(&mut s).ok();
+            }
+            s
+        })
+    }
+    let t_out = drain(child.stdout.take());
+    let t_err = drain(child.stderr.take());
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("try_wait") {
+            break Some(s);
+        }
+        if t0.elapsed() > limit {
+            child.kill().ok();
+            child.wait().ok();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    };
+    let stdout = t_out.join().expect("stdout reader");
+    let stderr = t_err.join().expect("stderr reader");
+    (status, stdout, stderr)
+}
