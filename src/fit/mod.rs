@@ -19,6 +19,7 @@ pub(crate) mod driver;
 pub(crate) mod figure;
 pub(crate) mod free;
 pub(crate) mod model;
+pub(crate) mod stencil;
 
 pub use data::{FitData, Observable};
 pub use driver::{
