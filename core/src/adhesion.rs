@@ -220,7 +220,7 @@ impl AdhesionLaw for GentSchultz {
 /// Gent–Schultz law with a saturation speed v_sat: the speed inside the power law is replaced by
 /// v_eff = |ȧ| / (1 + |ȧ|/v_sat), so w tends to w0 (1 + (v_sat/v0)^n) while peeling fast and to
 /// w0 / (1 + (v_sat/v0)^n) while healing fast. One of the saturations the paper asks about.
-/// Inverted by root solving (the default method).
+/// Inverted in closed form: the power law's inverse gives v_eff, and |ȧ| = v_eff / (1 − v_eff/v_sat).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SaturatedGentSchultz {
     /// The underlying power law.
@@ -255,6 +255,19 @@ impl AdhesionLaw for SaturatedGentSchultz {
     }
     fn speed_scale(&self) -> f64 {
         self.base.v0
+    }
+    /// Closed form, as the power law's: its inverse gives the effective speed v_eff (with the
+    /// sign of ȧ), and v_eff = |ȧ| / (1 + |ȧ|/v_sat) gives |ȧ| = v_eff / (1 − v_eff/v_sat), which
+    /// is unbounded (±∞) for v_eff ≥ v_sat: G beyond the law's plateau. A root solve per call
+    /// made the law ten times slower per right-hand side than the power law.
+    fn crack_speed(&self, g: f64) -> f64 {
+        let a = self.base.crack_speed(g);
+        let v_eff = a.abs();
+        if v_eff >= self.v_sat {
+            f64::INFINITY.copysign(a)
+        } else {
+            a / (1.0 - v_eff / self.v_sat)
+        }
     }
 }
 
@@ -716,6 +729,11 @@ mod tests {
             prop_assume!(law.base.rate_factor(v) > 1e-10);
             let v_eff = v.abs() / (1.0 + v.abs() / law.v_sat);
             check_identity(&law, v, law.base.rate_factor(v_eff), n);
+            // The closed form against the root solve of the same law.
+            let g = law.work_of_adhesion(v);
+            let tol = identity_tolerance(v, law.base.rate_factor(v_eff), n) / (1.0 - v_eff / law.v_sat);
+            let root = invert_by_root(&law, g);
+            prop_assert!((law.crack_speed(g) - root).abs() <= tol, "{} vs {root}", law.crack_speed(g));
         }
     }
 
