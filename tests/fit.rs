@@ -313,10 +313,8 @@ fn coverage_study_heavy_rig() {
 /// 10 um, a plain law with n about 0.2 mimicked the saturated data: AIC 6.0 against 7.8.)
 /// Fitted by both laws, the saturated law's AIC is lower by more than 10. Data from the plain
 /// law: the saturated fit's v_sat runs to its bound or its AIC is not lower by more than 2.
-/// Opt-in: the saturated law's runs cost 10 to 40 times the plain law's (its inverse is solved
-/// by root finding at every right-hand side), minutes in all.
+/// About 4 s (two-core release build).
 #[test]
-#[ignore = "the saturated law's fits take minutes"]
 fn aic_tells_a_saturated_law_from_the_plain_one() {
     let dir = tempfile::tempdir().unwrap();
     let short = ["stage[1].duration=0.1", "stage[2].duration=0.2"];
