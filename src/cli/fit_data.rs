@@ -165,7 +165,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     };
     let header = format!(
         "Written by djkr fit: {} with the estimates of {}\nfrom {} (fit.json beside this file). \
-         The original file's comments are not kept.\n{}",
+         Each value written in says so in a comment.\n{}",
         source.name(),
         outcome
             .report
@@ -247,26 +247,34 @@ fn report(r: &djkr::fit::FitReport, out: &Path) -> Result<()> {
     )?;
     outln!(
         "  {} in {} iteration(s), {} forward runs, {:.1} s",
-        if r.converged {
-            "converged"
-        } else {
-            "NOT converged"
+        match (
+            r.converged,
+            r.notes.iter().any(|n| n.starts_with("poor fit"))
+        ) {
+            (true, false) => "converged",
+            (true, true) => "converged to a poor fit (see the note)",
+            (false, _) => "NOT converged",
         },
         r.iterations,
         r.forward_runs,
         r.wall_s
     )?;
-    outln!("  key  value ± sigma  (initial)")?;
     for p in &r.parameters {
-        let s = p
-            .sigma
-            .map_or("(no sigma)".to_string(), |s| format!("{s:.4e}"));
+        let unit = if p.unit == "1" {
+            String::new()
+        } else {
+            format!(" {}", p.unit)
+        };
+        let no_sigma = if p.sigma.is_some() {
+            ""
+        } else {
+            " (no sigma: see the notes)"
+        };
         outln!(
-            "  {}  {:.6e} ± {s} {}  ({:.6e})",
+            "  {} = {}{unit}{no_sigma}  (from {})",
             p.key,
-            p.value,
-            p.unit,
-            p.initial
+            djkr::output::table::format_pm(p.value, p.sigma),
+            djkr::output::table::format_f64(p.initial)
         )?;
     }
     outln!(

@@ -660,6 +660,28 @@ pub fn format_sig(x: f64, sig: usize) -> String {
     }
 }
 
+/// A value with its standard deviation for a human reader, to the digits the deviation supports:
+/// σ to two significant digits and the value to the same decimal place, with a shared power of
+/// ten outside [1e-3, 1e6) (`0.468 ± 0.012`, `(5.54 ± 0.87)e-4`). Without a usable σ (none, 0,
+/// not finite) the value to 6 significant digits ([`format_sig`]).
+pub fn format_pm(x: f64, sigma: Option<f64>) -> String {
+    let s = match sigma {
+        Some(s) if s.is_finite() && s > 0.0 && x.is_finite() => s,
+        _ => return format_sig(x, 6),
+    };
+    let lead = if x == 0.0 { s } else { x.abs().max(s) };
+    let mag = lead.log10().floor() as i32;
+    let exp = if (-3..6).contains(&mag) { 0 } else { mag };
+    let (xs, ss) = (x / 10f64.powi(exp), s / 10f64.powi(exp));
+    // Two significant digits of σ (σ rounding up into the next decade keeps its decimals).
+    let decimals = (1 - ss.log10().floor() as i32).max(0) as usize;
+    if exp == 0 {
+        format!("{xs:.decimals$} ± {ss:.decimals$}")
+    } else {
+        format!("({xs:.decimals$} ± {ss:.decimals$})e{exp}")
+    }
+}
+
 /// A text cell, quoted when it holds a comma, a quote or a line break (RFC 4180).
 fn push_text(line: &mut String, s: &str) {
     if s.contains([',', '"', '\n', '\r']) {
@@ -744,6 +766,21 @@ impl<W: Write> CsvWriter<W> {
 
 #[cfg(test)]
 mod tests {
+    /// A value is printed to the decimal place of its σ's second significant digit.
+    #[test]
+    fn a_value_with_sigma_shows_the_digits_sigma_supports() {
+        assert_eq!(format_pm(0.46821331, Some(0.0121878)), "0.468 ± 0.012");
+        assert_eq!(format_pm(5.544306e-4, Some(8.7158e-5)), "(5.54 ± 0.87)e-4");
+        assert_eq!(format_pm(4.3937886e-5, Some(6.503e-6)), "(4.39 ± 0.65)e-5");
+        assert_eq!(format_pm(5.383021, Some(0.1254)), "5.38 ± 0.13");
+        assert_eq!(format_pm(1234.5678, Some(25.0)), "1235 ± 25");
+        assert_eq!(format_pm(5.0, Some(30.0)), "5 ± 30");
+        assert_eq!(format_pm(0.0, Some(0.0123)), "0.000 ± 0.012");
+        assert_eq!(format_pm(2.5e7, Some(3.1e5)), "(2.500 ± 0.031)e7");
+        assert_eq!(format_pm(0.5, None), "0.500000");
+        assert_eq!(format_pm(0.5, Some(f64::NAN)), "0.500000");
+    }
+
     #[test]
     fn human_numbers_are_plain_decimals_to_their_significant_digits() {
         assert_eq!(format_sig(560.17823904678, 9), "560.178239");

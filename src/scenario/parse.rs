@@ -123,6 +123,12 @@ impl ScenarioSource {
         &self.text
     }
 
+    /// Where a tabulated law's relative `file` is looked up (the scenario file's folder; `None`
+    /// for a text without a file: the working directory).
+    pub fn base_dir(&self) -> Option<&Path> {
+        self.base_dir.as_deref()
+    }
+
     /// Validate the scenario with `overrides` applied to the file's table before the section
     /// walk, so each override is range-checked as the file's own value would be. An error about
     /// an overridden key names the override ([`ScenarioError::Override`]); other errors name
