@@ -124,7 +124,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     );
     super::common::claim_out(&out, &FILES, a.force).context("--out")?;
     let _lock = djkr::output::folder::DirLock::acquire(&out)?;
-    let per_iteration = model.runs_per_set() * (free.len() + 1);
+    let per_iteration = model.runs_per_set() * fit::sets_per_iteration(model.members(), free.len());
     let bar = ProgressBar::new((model.runs_per_set() + 6 * per_iteration) as u64);
     bar.set_style(
         ProgressStyle::with_template(

@@ -354,6 +354,7 @@ impl Problem<'_, '_> {
         let mut jac = DMatrix::zeros(n, k);
         let mut ratios = vec![f64::INFINITY; k];
         let mut todo: Vec<usize> = (0..k).collect();
+        let mut ran = self.steps.borrow().clone();
         for round in 0..=MAX_WIDENINGS {
             let steps = self.steps.borrow().clone();
             let pairs: Vec<(f64, f64)> = todo
@@ -365,7 +366,17 @@ impl Problem<'_, '_> {
                 .zip(&pairs)
                 .flat_map(|(&j, &(a, b))| [self.x_with(&y, j, a), self.x_with(&y, j, b)])
                 .collect();
-            let preds = self.predict(&sets)?;
+            // A run that fails at a widened step (a value the scenario refuses, a run that
+            // does not end) keeps the columns of the step before, which did run.
+            let preds = match self.predict(&sets) {
+                Ok(p) => p,
+                Err(EvalError::Failed(_)) if round > 0 => {
+                    *self.steps.borrow_mut() = ran;
+                    break;
+                }
+                Err(e) => return Err(e),
+            };
+            ran = steps.clone();
             let mut next = Vec::new();
             for (t, (&j, &(a, b))) in todo.iter().zip(&pairs).enumerate() {
                 let (pa, pb) = (&preds[2 * t], &preds[2 * t + 1]);
@@ -487,6 +498,17 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, '_> {
                 None
             }
         }
+    }
+}
+
+/// Parameter sets a typical iteration evaluates (the trial step and the Jacobian's) with `k`
+/// free keys: `k + 1` with forward differences, `2k + 1` with an ensemble's central ones; for a
+/// progress bar's length.
+pub fn sets_per_iteration(members: usize, k: usize) -> usize {
+    if members > 1 {
+        2 * k + 1
+    } else {
+        k + 1
     }
 }
 

@@ -23,7 +23,8 @@ pub(crate) mod stencil;
 
 pub use data::{FitData, Observable};
 pub use driver::{
-    check_start, fd_step, fit, FitEvent, FitOptions, FitOutcome, FitReport, Parameter,
+    check_start, fd_step, fit, sets_per_iteration, FitEvent, FitOptions, FitOutcome, FitReport,
+    Parameter,
 };
 pub use figure::fit_figure;
 pub use free::FreeKey;
