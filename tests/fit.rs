@@ -82,6 +82,39 @@ fn param<'a>(j: &'a Value, key: &str) -> &'a Value {
         .unwrap_or_else(|| panic!("{key} in {j}"))
 }
 
+/// The two estimates and their sigma (NaN where none) of fit.json `j` for the keys of `truth`,
+/// and whether both lie within 3 sigma of their true values.
+fn estimates(j: &Value, truth: [(&str, f64); 2]) -> ([f64; 2], [f64; 2], bool) {
+    let mut e = [0.0; 2];
+    let mut s = [0.0; 2];
+    let mut ok = true;
+    for (i, (key, t)) in truth.iter().enumerate() {
+        let p = param(j, key);
+        e[i] = p["value"].as_f64().unwrap();
+        s[i] = p["sigma"].as_f64().unwrap_or(f64::NAN);
+        ok &= (e[i] - t).abs() < 3.0 * s[i];
+    }
+    (e, s, ok)
+}
+
+/// Per parameter of a coverage study: the mean reported sigma over the spread (sample standard
+/// deviation) of the estimates, printed with both.
+fn sigma_over_spread(est: &[[f64; 2]], sig: &[[f64; 2]]) -> [f64; 2] {
+    let count = est.len() as f64;
+    let mut ratios = [0.0; 2];
+    for (i, r) in ratios.iter_mut().enumerate() {
+        let m = est.iter().map(|e| e[i]).sum::<f64>() / count;
+        let spread = (est.iter().map(|e| (e[i] - m).powi(2)).sum::<f64>() / (count - 1.0)).sqrt();
+        let mean_sigma = sig.iter().map(|s| s[i]).sum::<f64>() / count;
+        *r = mean_sigma / spread;
+        eprintln!(
+            "param {i}: mean estimate {m:.4e}, spread {spread:.4e}, mean sigma {mean_sigma:.4e}, \
+             ratio {r:.3}"
+        );
+    }
+    ratios
+}
+
 /// Run `djkr fit` and return fit.json (panics with stderr on failure).
 fn run_fit(data: &Path, out: &Path, scenario: &str, extra: &[&str]) -> Value {
     let mut args = vec![
@@ -270,15 +303,7 @@ fn coverage_study_heavy_rig() {
             HEAVY,
             &["--free", "adhesion.v0", "--free", "adhesion.n"],
         );
-        let mut e = [0.0; 2];
-        let mut s = [0.0; 2];
-        let mut ok = true;
-        for (i, (key, t)) in [("adhesion.v0", v0), ("adhesion.n", n)].iter().enumerate() {
-            let p = param(&j, key);
-            e[i] = p["value"].as_f64().unwrap();
-            s[i] = p["sigma"].as_f64().unwrap_or(f64::NAN);
-            ok &= (e[i] - t).abs() < 3.0 * s[i];
-        }
+        let (e, s, ok) = estimates(&j, [("adhesion.v0", v0), ("adhesion.n", n)]);
         eprintln!(
             "seed {seed}: v0 {:.4e} ± {:.2e}, n {:.4} ± {:.4}, {} runs, {:.1} s, converged {}",
             e[0],
@@ -295,14 +320,8 @@ fn coverage_study_heavy_rig() {
     }
     eprintln!("heavy rig, {seeds} seeds: {inside} with both estimates within 3 sigma");
     assert!(inside >= 18, "{inside} of {seeds} within 3 sigma");
-    for i in 0..2 {
-        let m = est.iter().map(|e| e[i]).sum::<f64>() / seeds as f64;
-        let spread =
-            (est.iter().map(|e| (e[i] - m).powi(2)).sum::<f64>() / (seeds - 1) as f64).sqrt();
-        let mean_sigma = sig.iter().map(|s| s[i]).sum::<f64>() / seeds as f64;
-        eprintln!("param {i}: spread {spread:.4e}, mean sigma {mean_sigma:.4e}");
-        let ratio = mean_sigma / spread;
-        assert!((1.0 / 1.5..=1.5).contains(&ratio), "param {i}: {ratio}");
+    for (i, ratio) in sigma_over_spread(&est, &sig).iter().enumerate() {
+        assert!((1.0 / 1.5..=1.5).contains(ratio), "param {i}: {ratio}");
     }
 }
 
@@ -667,15 +686,7 @@ fn coverage_study_light_rig_ensemble() {
                 &fit_seed,
             ],
         );
-        let mut e = [0.0; 2];
-        let mut s = [0.0; 2];
-        let mut ok = true;
-        for (i, (key, t)) in [("adhesion.v0", v0), ("adhesion.n", n)].iter().enumerate() {
-            let q = param(&j, key);
-            e[i] = q["value"].as_f64().unwrap();
-            s[i] = q["sigma"].as_f64().unwrap_or(f64::NAN);
-            ok &= (e[i] - t).abs() < 3.0 * s[i];
-        }
+        let (e, s, ok) = estimates(&j, [("adhesion.v0", v0), ("adhesion.n", n)]);
         let conv = j["converged"] == true;
         eprintln!(
             "seed {seed}: v0 {:.4e} ± {:.2e}, n {:.4} ± {:.4}, chi2 {:.3}, {} iterations, {} \
@@ -695,18 +706,7 @@ fn coverage_study_light_rig_ensemble() {
         est.push(e);
         sig.push(s);
     }
-    let mut ratios = [0.0; 2];
-    for (i, r) in ratios.iter_mut().enumerate() {
-        let m = est.iter().map(|e| e[i]).sum::<f64>() / seeds as f64;
-        let spread =
-            (est.iter().map(|e| (e[i] - m).powi(2)).sum::<f64>() / (seeds - 1) as f64).sqrt();
-        let mean_sigma = sig.iter().map(|s| s[i]).sum::<f64>() / seeds as f64;
-        *r = mean_sigma / spread;
-        eprintln!(
-            "param {i}: mean estimate {m:.4e}, spread {spread:.4e}, mean sigma {mean_sigma:.4e}, \
-             ratio {r:.3}"
-        );
-    }
+    let ratios = sigma_over_spread(&est, &sig);
     eprintln!(
         "light rig, {seeds} seeds: {converged} converged, {inside} within 3 sigma, {:.0} s",
         t_all.elapsed().as_secs_f64()
