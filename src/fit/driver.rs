@@ -768,13 +768,13 @@ pub fn fit(
     }
     // With an ensemble (and a sigma column): each row's variance, with the ensemble noise pooled
     // over every parameter set evaluated, over its weight's square.
-    let variance_ratio = (model.members() > 1 && data.has_sigma && st.se2_sets > 0).then(|| {
+    let variance_ratio = (members > 1 && data.has_sigma && st.se2_sets > 0).then(|| {
         DVector::from_fn(n, |i, _| {
             let s = data.rows[i].sigma.unwrap_or(1.0);
             (s * s + st.se2[i] / st.se2_sets as f64) / (w[i] * w[i])
         })
     });
-    if model.members() > 1 {
+    if members > 1 {
         let steps = problem.steps.borrow();
         let list = |f: &dyn Fn(usize) -> String| {
             (0..k)

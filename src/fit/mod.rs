@@ -214,11 +214,11 @@ fn write_key(
     Ok(())
 }
 
-/// A float as TOML text that parses back to the same bits ([`format_f64`]: `6.1e-5`, not
-/// `0.000061`), with a point where it would otherwise read as an integer.
+/// A finite float as TOML text that parses back to the same bits ([`format_f64`]: `6.1e-5`,
+/// not `0.000061`), with a point where it would otherwise read as an integer.
 fn toml_float(x: f64) -> String {
     let t = format_f64(x);
-    if t.contains(['.', 'e', 'E', 'n', 'i']) {
+    if t.contains(['.', 'e']) {
         t
     } else {
         format!("{t}.0")
