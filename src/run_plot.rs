@@ -18,6 +18,7 @@ use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
+use crate::input::{self, InputError, InputKind};
 use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style};
 
 /// The figure's file stem in a run folder.
@@ -72,14 +73,31 @@ pub struct RunSeries {
     pub gaps: Vec<(f64, f64, i64)>,
 }
 
+/// Open a run file for reading: through the one reader of input files
+/// ([`crate::input::open`]: a regular file of at most [`InputKind::RunFile`]'s limit, opened
+/// without blocking, so a FIFO or a link to `/dev/zero` is refused at once), then parsed by
+/// `hdf5-pure` from that open file, never from the path again. It reads what it needs on demand
+/// ([`hdf5_pure::ReadSeekSource`]) within the length measured once at the open, a length held
+/// to the same limit: a file that grows meanwhile is not read past it, and memory holds the
+/// series read, not the file.
+fn open_run_file(path: &Path) -> Result<hdf5_pure::File, String> {
+    let kind = InputKind::RunFile;
+    let file = input::open(path, kind).map_err(|e| e.to_string())?;
+    let source = hdf5_pure::ReadSeekSource::new(file)
+        .map_err(|e| format!("not a readable HDF5 file: {e}"))?;
+    if hdf5_pure::Source::len(&source) > kind.limit() {
+        return Err(InputError::too_large(kind).to_string());
+    }
+    hdf5_pure::File::from_source(source).map_err(|e| format!("not a readable HDF5 file: {e}"))
+}
+
 /// Read the series of a run file.
 pub fn read_run(path: &Path) -> Result<RunSeries, RunPlotError> {
     let err = |message: String| RunPlotError::Read {
         path: path.to_path_buf(),
         message,
     };
-    let f =
-        hdf5_pure::File::open(path).map_err(|e| err(format!("not a readable HDF5 file: {e}")))?;
+    let f = open_run_file(path).map_err(err)?;
     let f64s = |name: &str| -> Result<Vec<f64>, RunPlotError> {
         f.dataset(name)
             .and_then(|d| d.read_f64())

@@ -23,15 +23,17 @@ pub struct PlotArgs {
 pub fn plot(a: &PlotArgs) -> Result<()> {
     // Two `djkr plot` on one folder at once both succeed: neither takes the folder's lock (a
     // run or sweep may hold it), each writes its own partials and the renames are serialised.
-    let files: Vec<PathBuf> = if a.dir.join(djkr::output::HDF5_NAME).exists() {
+    // Whatever is at the name (a FIFO, a link to a device) decides the kind of folder; the one
+    // reader of input files then refuses what is not a regular file within its limit.
+    let present = |name: &str| std::fs::symlink_metadata(a.dir.join(name)).is_ok();
+    let files: Vec<PathBuf> = if present(djkr::output::HDF5_NAME) {
         folder::check_names(&a.dir, &djkr::run_plot::RUN_PLOT_FILES, a.force)?;
         let (png, svg) = djkr::run_plot::plot_run_dir(&a.dir)?;
         vec![png, svg]
-    } else if a.dir.join(files::MANIFEST_NAME).exists() {
-        let text = std::fs::read_to_string(a.dir.join(files::MANIFEST_NAME))?;
-        let manifest: Manifest = serde_json::from_str(&text).map_err(|e| {
-            anyhow::anyhow!("{}: not a djkr sweep description: {e}", a.dir.display())
-        })?;
+    } else if present(files::MANIFEST_NAME) {
+        let Some(manifest) = Manifest::read(&a.dir)? else {
+            bail!("{}: no sweep.json: not a sweep folder", a.dir.display());
+        };
         folder::check_names(&a.dir, &manifest.plot_file_names(), a.force)?;
         let rows = files::read_rows(&a.dir, &manifest)?;
         let points = djkr::sweep::stats::point_stats(&rows);

@@ -288,10 +288,9 @@ pub fn run(a: &RunArgs) -> Result<()> {
         })
     };
     if a.json {
-        // Exactly the summary.json just written (its non-finite rule included).
-        let text = std::fs::read_to_string(&paths.summary)
-            .with_context(|| format!("reading back {}", paths.summary.display()))?;
-        outln!("{}", text.trim_end())?;
+        // Exactly the summary.json just written (its non-finite rule included): the text the
+        // writer wrote, not the file read back (which anyone could have replaced meanwhile).
+        outln!("{}", paths.summary_text.trim_end())?;
     } else {
         print_summary(&scn, &result, &ending, sens.as_ref(), &warnings)?;
         outln!("\nwrote:")?;

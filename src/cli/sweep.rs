@@ -512,9 +512,7 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
         .with_context(|| format!("--out {}", out.display()))?;
     let manifest = Manifest::of(sweep, None);
     let path = out.join(files::MANIFEST_NAME);
-    if path.exists() {
-        let old: Manifest = serde_json::from_str(&std::fs::read_to_string(&path)?)
-            .with_context(|| format!("{}", path.display()))?;
+    if let Some(old) = Manifest::read(out)? {
         if let Some(what) = old.difference(&manifest) {
             bail!(
                 "--out {}: already holds another sweep (its {what} differs): choose another --out",

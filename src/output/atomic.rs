@@ -244,9 +244,22 @@ fn exchange(a: &Path, b: &Path) -> std::io::Result<()> {
 
 /// Make the renames in `dir` durable (best effort: not every file system can sync a directory).
 pub fn sync_dir(dir: &Path) {
-    if let Ok(d) = File::open(dir) {
+    if let Ok(d) = open_dir(dir) {
         let _ = d.sync_all();
     }
+}
+
+/// Open the folder `dir` to sync or lock it: only a directory (`O_DIRECTORY`: a FIFO or device
+/// swapped in at the name is neither opened nor waited on).
+pub fn open_dir(dir: &Path) -> std::io::Result<File> {
+    let mut o = fs::OpenOptions::new();
+    o.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        o.custom_flags(libc::O_DIRECTORY | libc::O_NONBLOCK);
+    }
+    o.open(dir)
 }
 
 #[cfg(test)]

@@ -31,7 +31,7 @@
 
 use std::collections::BTreeMap;
 use std::fs::{self, File, Metadata};
-use std::io::{Read, Seek, Write};
+use std::io::{Seek, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
@@ -39,6 +39,7 @@ use serde::{Deserialize, Serialize};
 
 use super::atomic::AtomicFile;
 use super::{OutputError, LOCK_NAME};
+use crate::input::{self, InputError, InputKind};
 
 /// djkr's record of the files it wrote in a folder.
 pub const MANIFEST_NAME: &str = ".djkr-manifest.json";
@@ -182,14 +183,12 @@ impl Record {
     /// not djkr's JSON is refused, naming it: djkr cannot tell then what is its own.
     fn read(dir: &Path) -> Result<Record, OutputError> {
         let path = dir.join(MANIFEST_NAME);
-        let Some(mut f) = open_nofollow(&path, false)? else {
+        let Some(text) = read_own(&path, InputKind::FolderRecord)? else {
             return Ok(Record {
                 legacy: legacy_run(dir),
                 ..Record::default()
             });
         };
-        let mut text = String::new();
-        f.read_to_string(&mut text).map_err(io_err(&path))?;
         serde_json::from_str(&text).map_err(|e| OutputError::NotRegular {
             path: path.clone(),
             what: format!("not djkr's record of the folder ({e}); move it away"),
@@ -233,17 +232,12 @@ impl Record {
 fn legacy_run(dir: &Path) -> BTreeMap<String, u64> {
     let mut files = BTreeMap::new();
     let path = dir.join(super::SUMMARY_NAME);
-    let Ok(Some(f)) = open_nofollow(&path, false) else {
+    // Anything that is not a regular file within a summary's limit is not one.
+    let Ok(text) = input::read_bytes(&path, InputKind::Summary) else {
         return files;
     };
-    let Ok(len) = f.metadata().map(|m| m.len()) else {
-        return files;
-    };
-    // A summary lists at most 10 000 events: a few MB; anything larger is not one.
-    if len > 64 << 20 {
-        return files;
-    }
-    let Ok(v) = serde_json::from_reader::<_, serde_json::Value>(std::io::BufReader::new(f)) else {
+    let len = text.len() as u64;
+    let Ok(v) = serde_json::from_slice::<serde_json::Value>(&text) else {
         return files;
     };
     let (Some(_), Some(bytes)) = (v["run_id"].as_str(), v["file_bytes"].as_object()) else {
@@ -259,6 +253,29 @@ fn legacy_run(dir: &Path) -> BTreeMap<String, u64> {
     }
     files.insert(super::SUMMARY_NAME.to_string(), len);
     files
+}
+
+/// Read djkr's own file `path` (its record of a folder) through the one reader of input files
+/// ([`crate::input`]); `None` when there is none. Anything else than a regular file within the
+/// kind's limit, in UTF-8, is refused naming it: djkr cannot tell then what is its own.
+fn read_own(path: &Path, kind: InputKind) -> Result<Option<String>, OutputError> {
+    let refused = |what: String| OutputError::NotRegular {
+        path: path.to_path_buf(),
+        what,
+    };
+    match input::read_text(path, kind) {
+        Ok(text) => Ok(Some(text)),
+        Err(e) if e.is_missing() => Ok(None),
+        Err(InputError::NotRegular(what, _)) => Err(refused(what.into())),
+        Err(InputError::Io(source)) => Err(OutputError::Io {
+            path: path.to_path_buf(),
+            source,
+        }),
+        Err(e) => Err(refused(format!(
+            "not djkr's {} ({e}); move it away",
+            kind.name()
+        ))),
+    }
 }
 
 /// Open `path` without following a symbolic link (and without blocking on a FIFO); `None` when
@@ -310,7 +327,9 @@ pub struct FolderGuard {
 impl FolderGuard {
     /// Wait for the folder's short lock.
     pub fn lock(dir: &Path) -> FolderGuard {
-        let d = File::open(dir).ok().filter(|d| d.lock().is_ok());
+        let d = super::atomic::open_dir(dir)
+            .ok()
+            .filter(|d| d.lock().is_ok());
         FolderGuard { _dir: d }
     }
 }
@@ -474,14 +493,14 @@ impl DirLock {
     /// [`OutputError::Busy`] naming the holder's process id when another process holds it.
     pub fn acquire(dir: &Path) -> Result<Option<DirLock>, OutputError> {
         let path = dir.join(LOCK_NAME);
-        let Some(mut file) = open_nofollow(&path, true)? else {
+        let Some(file) = open_nofollow(&path, true)? else {
             return Err(io_err(&path)(std::io::ErrorKind::NotFound.into()));
         };
         match file.try_lock() {
             Ok(()) => {}
             Err(fs::TryLockError::WouldBlock) => {
-                let mut text = String::new();
-                let _ = file.read_to_string(&mut text);
+                let text = input::read_from(&file, InputKind::Lock).unwrap_or_default();
+                let text = String::from_utf8_lossy(&text);
                 let holder = text
                     .lines()
                     .find_map(|l| l.strip_prefix("pid "))
@@ -493,8 +512,9 @@ impl DirLock {
             }
             Err(fs::TryLockError::Error(_)) => return Ok(None),
         }
-        let mut text = String::new();
-        file.read_to_string(&mut text).map_err(io_err(&path))?;
+        let text = input::read_from(&file, InputKind::Lock)
+            .and_then(|b| input::text(b, InputKind::Lock))
+            .unwrap_or_else(|_| "not djkr's".into());
         if !text.is_empty() && !text.starts_with(LOCK_HEADER) {
             return Err(OutputError::NotRegular {
                 path,

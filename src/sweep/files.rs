@@ -22,13 +22,14 @@
 //! by its record in the folder ([`crate::output::folder`]): a file of the user's under one of
 //! these names stops the sweep before it starts, unless `--force`.
 
-use std::fs::{self, File, OpenOptions};
+use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use crate::input::{self, InputKind};
 use crate::output::atomic::{sync_dir, AtomicFile};
 use crate::output::folder::write_atomic;
 use crate::output::folder::{self, DirLock};
@@ -278,12 +279,15 @@ impl Manifest {
         s
     }
 
-    fn read(dir: &Path) -> Result<Option<Manifest>, FilesError> {
+    /// The sweep description in `dir` (`None`: there is none), read through the one reader of
+    /// input files ([`crate::input`]: a regular file within its limit, or refused naming it).
+    pub fn read(dir: &Path) -> Result<Option<Manifest>, FilesError> {
         let path = dir.join(MANIFEST_NAME);
-        if !path.exists() {
-            return Ok(None);
-        }
-        let text = fs::read_to_string(&path).map_err(io(&path))?;
+        let text = match input::read_text(&path, InputKind::SweepDescription) {
+            Ok(text) => text,
+            Err(e) if e.is_missing() => return Ok(None),
+            Err(e) => return Err(invalid(&path, e.to_string())),
+        };
         serde_json::from_str(&text)
             .map(Some)
             .map_err(|e| invalid(&path, format!("not a djkr sweep description: {e}")))
@@ -327,10 +331,11 @@ pub fn read_rows(dir: &Path, manifest: &Manifest) -> Result<Vec<Row>, FilesError
     let mut by_run = std::collections::BTreeMap::new();
     for name in [ROWS_CSV_NAME, PROGRESS_NAME] {
         let path = dir.join(name);
-        if !path.exists() {
-            continue;
-        }
-        let text = fs::read_to_string(&path).map_err(io(&path))?;
+        let text = match input::read_text(&path, InputKind::SweepRows) {
+            Ok(text) => text,
+            Err(e) if e.is_missing() => continue,
+            Err(e) => return Err(invalid(&path, e.to_string())),
+        };
         let rows = parse_rows_csv(&text, &keys).map_err(|m| invalid(&path, m))?;
         for r in rows {
             let index = r.point * manifest.members + r.member;
@@ -477,7 +482,8 @@ pub fn open(
     // killed mid-line) before appending. Otherwise it starts afresh, published as every file.
     let mut fresh = done.is_empty() || !folder::is_owned(dir, PROGRESS_NAME);
     if !fresh {
-        let text = fs::read(&path).map_err(io(&path))?;
+        let text = input::read_bytes(&path, InputKind::SweepRows)
+            .map_err(|e| invalid(&path, e.to_string()))?;
         let keep = text.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
         if keep < text.len() {
             open_nofollow(&path, false)?

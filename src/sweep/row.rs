@@ -302,7 +302,8 @@ pub fn rows_table(keys: &[KeyColumn], rows: &[Row]) -> Table {
 /// A last line without its line end (a writer killed mid-line) is ignored. Errors name the
 /// file, the line and the column.
 pub fn read_rows_csv(path: &Path, keys: &[KeyColumn]) -> Result<Vec<Row>, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = crate::input::read_text(path, crate::input::InputKind::SweepRows)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     parse_rows_csv(&text, keys).map_err(|e| format!("{}: {e}", path.display()))
 }
 
