@@ -194,3 +194,53 @@ fn the_tables_of_a_sweep_folder_are_read_through_the_same_reader() {
     std::os::unix::fs::symlink("/dev/urandom", &rows).unwrap();
     refused(&["plot", s(&sdir)], &[s(&rows), "a character device"]);
 }
+
+// ---------------------------------------------------------------- item 9: merge into a shard
+
+#[test]
+fn merge_into_one_of_its_own_shard_folders_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sm = tmp.path().join("SM");
+    let (s1, s2) = (sm.join("s1"), sm.join("s2"));
+    tiny_sweep(&s1, Some("1/2"));
+    tiny_sweep(&s2, Some("2/2"));
+    let before = std::fs::read(s1.join("sweep.json")).unwrap();
+    let rows_before = std::fs::read(s1.join("sweep.csv")).unwrap();
+    std::os::unix::fs::symlink(&s1, tmp.path().join("link")).unwrap();
+    // The reproducer, then the same folder by other names, then a folder inside a shard.
+    let same = [
+        s1.clone(),
+        sm.join("s2/../s1"),
+        tmp.path().join("link"),
+        s2.join("merged"),
+        sm.join("s1/new/deeper"),
+    ];
+    for out in &same {
+        let msg = refused(
+            &["sweep", "merge", s(&s1), s(&s2), "--out", s(out)],
+            &["shard folder", "would overwrite the shard's own files"],
+        );
+        assert!(msg.contains(s(out)), "{msg}");
+    }
+    // Even with --force.
+    refused(
+        &["sweep", "merge", s(&s1), s(&s2), "--out", s(&s1), "--force"],
+        &["is the shard folder"],
+    );
+    // The shard is untouched, nothing was created inside the shards, and the shards still merge
+    // (into their parent, as --slurm lays them out, and elsewhere).
+    assert_eq!(std::fs::read(s1.join("sweep.json")).unwrap(), before);
+    assert_eq!(std::fs::read(s1.join("sweep.csv")).unwrap(), rows_before);
+    assert!(!s2.join("merged").exists() && !s1.join("new").exists());
+    ok(&["sweep", "merge", s(&s1), s(&s2), "--out", s(&sm)]);
+    ok(&[
+        "sweep",
+        "merge",
+        s(&s1),
+        s(&s2),
+        "--out",
+        s(&tmp.path().join("M")),
+    ]);
+    let merged = std::fs::read_to_string(sm.join("sweep.csv")).unwrap();
+    assert_eq!(merged.lines().count(), 3, "{merged}");
+}

@@ -36,7 +36,8 @@ pub struct MergeArgs {
     /// The shard folders (each written by `djkr sweep ... --shard K/N --out DIR`).
     #[arg(required = true)]
     dirs: Vec<PathBuf>,
-    /// Folder for the merged sweep.csv, sweep.h5, points.csv and plots.
+    /// Folder for the merged sweep.csv, sweep.h5, points.csv and plots: not one of the shard
+    /// folders, nor inside one (their parent is fine).
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Overwrite files in --out that djkr did not write under the names the merge publishes.

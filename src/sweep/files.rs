@@ -619,11 +619,12 @@ pub struct Merged {
 /// Merge the shard folders `dirs` of one sweep into `out`: the same files as the unsharded
 /// sweep. Every folder must hold a shard of the same sweep, every run exactly once. `out` is
 /// locked while it is written; files of the user's under the names it writes are refused
-/// unless `force`.
+/// unless `force`. `out` may not be one of `dirs` nor lie inside one ([`check_out_apart`]).
 pub fn merge(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Merged, FilesError> {
     let Some(first) = dirs.first() else {
         return Err(invalid(out, "merge: no shard folders given"));
     };
+    check_out_apart(dirs, out)?;
     let mut base: Option<Manifest> = None;
     let mut rows: Vec<Row> = Vec::new();
     let mut seen_shards = Vec::new();
@@ -696,6 +697,78 @@ pub fn merge(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Merged, FilesE
     })
 }
 
+/// Refuse a merge whose `out` is one of the shard folders `dirs` or lies inside one: its
+/// `sweep.json` and `sweep.csv` would replace the shard's own, and every later merge of those
+/// shards would fail. (The shards may lie inside `out`: `--slurm` puts them in `OUT/shards/`.)
+/// Paths are compared as the file system resolves them: links, `..` and the part of `out`
+/// that does not exist yet included.
+fn check_out_apart(dirs: &[PathBuf], out: &Path) -> Result<(), FilesError> {
+    let target = resolved(out);
+    for d in dirs {
+        let shard = resolved(d);
+        if target == shard || target.starts_with(&shard) {
+            let place = if target == shard {
+                "is the shard folder".to_string()
+            } else {
+                "lies inside the shard folder".to_string()
+            };
+            return Err(invalid(
+                out,
+                format!(
+                    "--out {place} {}: the merge would overwrite the shard's own files; choose \
+                     a folder outside every shard folder (their parent, for one)",
+                    d.display()
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `path` as the file system would resolve it: its longest existing ancestor made canonical
+/// (links resolved), then the rest, which does not exist yet, with `.` and `..` applied.
+fn resolved(path: &Path) -> PathBuf {
+    let mut existing = path;
+    let mut rest = Vec::new();
+    let base = loop {
+        if let Ok(c) = std::fs::canonicalize(if existing.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            existing
+        }) {
+            break c;
+        }
+        match (existing.parent(), existing.file_name()) {
+            (Some(parent), Some(name)) => {
+                rest.push(name.to_os_string());
+                existing = parent;
+            }
+            // `..` or `.` at the end of a path that does not exist: resolve it lexically.
+            (Some(parent), None) => {
+                rest.push(
+                    existing
+                        .components()
+                        .next_back()
+                        .map_or_else(Default::default, |c| c.as_os_str().to_os_string()),
+                );
+                existing = parent;
+            }
+            _ => break std::env::current_dir().unwrap_or_default(),
+        }
+    };
+    let mut out = base;
+    for part in rest.iter().rev() {
+        match part.to_str() {
+            Some("..") => {
+                out.pop();
+            }
+            Some(".") => {}
+            _ => out.push(part),
+        }
+    }
+    out
+}
+
 /// The merged `rows` (sorted) hold every run of `manifest` exactly once; `seen` are the shards
 /// given (to name those missing).
 fn check_every_run_once(
@@ -764,6 +837,27 @@ pub fn remaining(sweep: &Sweep, manifest: &Manifest, done: &[Row]) -> Vec<usize>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn paths_resolve_as_the_file_system_would_create_them() {
+        let tmp = tempfile::tempdir().unwrap();
+        let root = std::fs::canonicalize(tmp.path()).unwrap();
+        std::fs::create_dir_all(root.join("s1")).unwrap();
+        assert_eq!(resolved(&root.join("s1")), root.join("s1"));
+        assert_eq!(resolved(&root.join("new/../s1")), root.join("s1"));
+        assert_eq!(resolved(&root.join("s1/./a/b/..")), root.join("s1/a"));
+        assert_eq!(resolved(&root.join("x/y")), root.join("x/y"));
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::symlink(root.join("s1"), root.join("link")).unwrap();
+            assert_eq!(resolved(&root.join("link/m")), root.join("s1/m"));
+        }
+        let dirs = [root.join("s1"), root.join("s2")];
+        assert!(check_out_apart(&dirs, &root.join("s1")).is_err());
+        assert!(check_out_apart(&dirs, &root.join("s2/merged")).is_err());
+        assert!(check_out_apart(&dirs, &root.join("s1x")).is_ok());
+        assert!(check_out_apart(&dirs, &root).is_ok());
+    }
 
     #[test]
     fn shards_are_disjoint_and_cover() {
