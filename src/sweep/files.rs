@@ -624,7 +624,6 @@ pub fn merge(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Merged, FilesE
     let Some(first) = dirs.first() else {
         return Err(invalid(out, "merge: no shard folders given"));
     };
-    check_out_apart(dirs, out)?;
     let mut base: Option<Manifest> = None;
     let mut rows: Vec<Row> = Vec::new();
     let mut seen_shards = Vec::new();
@@ -672,6 +671,9 @@ pub fn merge(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Merged, FilesE
             base = Some(m);
         }
     }
+    // Read-only so far: what the shards hold is reported first (`no sweep.json`), then where
+    // the merge would go, before anything is written.
+    check_out_apart(dirs, out)?;
     let Some(mut manifest) = base else {
         return Err(invalid(out, "merge: no shard folders given"));
     };
