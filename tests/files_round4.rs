@@ -244,3 +244,47 @@ fn merge_into_one_of_its_own_shard_folders_is_refused() {
     let merged = std::fs::read_to_string(sm.join("sweep.csv")).unwrap();
     assert_eq!(merged.lines().count(), 3, "{merged}");
 }
+
+// ---------------------------------------------------------------- item 14: the folder lock
+
+#[test]
+fn the_folder_lock_is_never_written_through_a_file_of_the_users() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (v, d) = (tmp.path().join("v"), tmp.path().join("D"));
+    // The reproducer: `: > v; mkdir D; ln v D/.djkr.lock; djkr run tiny --out D`.
+    std::fs::write(&v, b"").unwrap();
+    std::fs::create_dir(&d).unwrap();
+    let lock = d.join(".djkr.lock");
+    std::fs::hard_link(&v, &lock).unwrap();
+    refused(
+        &["run", TINY, "--out", s(&d)],
+        &[s(&lock), "a file with 2 hard links, not djkr's lock file"],
+    );
+    assert_eq!(std::fs::read(&v).unwrap(), b"", "v was written");
+    assert!(!d.join("run.h5").exists());
+    // A sweep and a merge into it are refused the same way.
+    refused(
+        &[
+            "sweep",
+            TINY,
+            "--set",
+            "base.amplitude=1um,2um",
+            "--out",
+            s(&d),
+        ],
+        &["2 hard links"],
+    );
+    assert_eq!(std::fs::read(&v).unwrap(), b"");
+    // An empty file of a single link is not djkr's either.
+    std::fs::remove_file(&lock).unwrap();
+    std::fs::write(&lock, b"").unwrap();
+    refused(&["run", TINY, "--out", s(&d)], &[s(&lock), "an empty file"]);
+    assert_eq!(std::fs::read(&lock).unwrap(), b"");
+    // Removed, the folder takes runs again, and the lock file a run leaves is reused by the next.
+    std::fs::remove_file(&lock).unwrap();
+    ok(&["run", TINY, "--out", s(&d)]);
+    let left = std::fs::read_to_string(&lock).unwrap();
+    assert!(left.starts_with("djkr lock\npid "), "{left}");
+    ok(&["run", TINY, "--out", s(&d)]);
+    assert_eq!(std::fs::read(&v).unwrap(), b"");
+}

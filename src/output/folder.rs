@@ -44,7 +44,7 @@ use crate::input::{self, InputError, InputKind};
 /// djkr's record of the files it wrote in a folder.
 pub const MANIFEST_NAME: &str = ".djkr-manifest.json";
 
-/// The first line of a lock file djkr wrote (an empty lock file is an older djkr's).
+/// The first line of a lock file djkr wrote.
 const LOCK_HEADER: &str = "djkr lock";
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
@@ -278,14 +278,12 @@ fn read_own(path: &Path, kind: InputKind) -> Result<Option<String>, OutputError>
     }
 }
 
-/// Open `path` without following a symbolic link (and without blocking on a FIFO); `None` when
-/// it does not exist; refused, naming it, when it is not a regular file.
-fn open_nofollow(path: &Path, write: bool) -> Result<Option<File>, OutputError> {
+/// Open the existing file `path` to read and write it, without following a symbolic link (and
+/// without blocking on a FIFO); `None` when it does not exist; refused, naming it, when it is not
+/// a regular file.
+fn open_existing_rw(path: &Path) -> Result<Option<File>, OutputError> {
     let mut o = fs::OpenOptions::new();
-    o.read(true);
-    if write {
-        o.write(true).create(true).truncate(false);
-    }
+    o.read(true).write(true);
     #[cfg(unix)]
     {
         use std::os::unix::fs::OpenOptionsExt;
@@ -481,21 +479,132 @@ pub fn is_owned(dir: &Path, name: &str) -> bool {
 /// file holds `djkr lock`, the holder's process id (`pid N`), and one line `partial NAME INODE`
 /// per partial file the holder created, so that the next holder removes what a killed one left
 /// (only regular files of that name and inode).
+///
+/// djkr writes only into a lock file it created itself (`O_CREAT | O_EXCL`), or into one a djkr
+/// left (a holder killed, or finished: the file stays, released): a regular file of one link
+/// whose content is a djkr lock's, read under the lock ([`is_djkr_lock`]). Anything else at
+/// that name is a clash, refused naming it, and never written: a symbolic link, a FIFO, a
+/// device (refused before it is opened), a file of the user's, an empty file, a file with more
+/// than one hard link (writing it would write the user's other name).
 #[derive(Debug)]
 pub struct DirLock {
     file: File,
     path: PathBuf,
 }
 
+/// How long a new lock file may stay empty while its creator locks it and writes its header
+/// (microseconds in practice), before an empty file at the name counts as someone else's.
+const LOCK_SETTLE: std::time::Duration = std::time::Duration::from_millis(250);
+
+/// Whether `text` is what djkr writes into its lock file: its header, the holder's process id,
+/// then only lines recording partial files.
+fn is_djkr_lock(text: &str) -> bool {
+    let mut lines = text.lines();
+    let pid = lines
+        .next()
+        .filter(|h| *h == LOCK_HEADER)
+        .and_then(|_| lines.next())
+        .and_then(|l| l.strip_prefix("pid "))
+        .is_some_and(|p| p.trim().parse::<u32>().is_ok());
+    pid && text.ends_with('\n')
+        && lines.all(|l| {
+            let mut it = l.split(' ');
+            matches!(
+                (it.next(), it.next(), it.next(), it.next()),
+                (Some("partial"), Some(name), Some(ino), None)
+                    if !name.is_empty() && ino.parse::<u64>().is_ok()
+            )
+        })
+}
+
+/// Open the lock file djkr creates: new (`O_EXCL`), never through a link.
+fn create_lock_file(path: &Path) -> std::io::Result<File> {
+    let mut o = fs::OpenOptions::new();
+    o.read(true).write(true).create_new(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt;
+        o.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK);
+    }
+    o.open(path)
+}
+
+/// How many names the file has (1 where the platform cannot tell).
+fn links(m: &Metadata) -> u64 {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        m.nlink()
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = m;
+        1
+    }
+}
+
+/// What happened at one attempt to take the lock.
+enum Attempt {
+    /// Taken (`None`: the file system cannot lock).
+    Taken(Option<DirLock>),
+    /// Try again: the file at the name changed under us, or a new lock file is still empty.
+    Again,
+}
+
 impl DirLock {
     /// Take the lock of `dir` (a folder: [`prepare`] first). `Ok(None)` when the file system
     /// cannot lock (the writer goes on unprotected, as before locks existed);
-    /// [`OutputError::Busy`] naming the holder's process id when another process holds it.
+    /// [`OutputError::Busy`] naming the holder's process id when another process holds it;
+    /// [`OutputError::NotRegular`] naming what is at the name when it is not a djkr lock (see
+    /// the type's documentation).
     pub fn acquire(dir: &Path) -> Result<Option<DirLock>, OutputError> {
         let path = dir.join(LOCK_NAME);
-        let Some(file) = open_nofollow(&path, true)? else {
-            return Err(io_err(&path)(std::io::ErrorKind::NotFound.into()));
+        let t0 = std::time::Instant::now();
+        loop {
+            let settled = t0.elapsed() >= LOCK_SETTLE;
+            match Self::attempt(dir, &path, settled)? {
+                Attempt::Taken(lock) => return Ok(lock),
+                Attempt::Again => std::thread::sleep(std::time::Duration::from_millis(10)),
+            }
+        }
+    }
+
+    fn attempt(dir: &Path, path: &Path, settled: bool) -> Result<Attempt, OutputError> {
+        let clash = |what: String| OutputError::NotRegular {
+            path: path.to_path_buf(),
+            what: format!("{what}, not djkr's lock file (djkr reserves this name)"),
         };
+        match create_lock_file(path) {
+            Ok(file) => return Self::take_new(file, path),
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
+            Err(e) => {
+                return Err(match fs::symlink_metadata(path) {
+                    Ok(m) if !m.is_file() => clash(kind_of(&m).into()),
+                    _ => io_err(path)(e),
+                })
+            }
+        }
+        // A file is there: refuse what is not a regular file before opening it.
+        let seen = match fs::symlink_metadata(path) {
+            Ok(m) => m,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Attempt::Again),
+            Err(e) => return Err(io_err(path)(e)),
+        };
+        if !seen.is_file() {
+            return Err(clash(kind_of(&seen).into()));
+        }
+        let file = match open_existing_rw(path) {
+            Ok(Some(f)) => f,
+            Ok(None) => return Ok(Attempt::Again),
+            Err(OutputError::NotRegular { what, .. }) => return Err(clash(what)),
+            Err(e) => return Err(e),
+        };
+        let m = file.metadata().map_err(io_err(path))?;
+        let (now, then) = (Stamp::of(&m, true), Stamp::of(&seen, true));
+        if (now.dev, now.ino) != (then.dev, then.ino) {
+            // Replaced between the look and the open.
+            return Ok(Attempt::Again);
+        }
         match file.try_lock() {
             Ok(()) => {}
             Err(fs::TryLockError::WouldBlock) => {
@@ -510,27 +619,70 @@ impl DirLock {
                     holder,
                 });
             }
-            Err(fs::TryLockError::Error(_)) => return Ok(None),
+            Err(fs::TryLockError::Error(_)) => return Ok(Attempt::Taken(None)),
         }
-        let text = input::read_from(&file, InputKind::Lock)
-            .and_then(|b| input::text(b, InputKind::Lock))
-            .unwrap_or_else(|_| "not djkr's".into());
-        if !text.is_empty() && !text.starts_with(LOCK_HEADER) {
-            return Err(OutputError::NotRegular {
-                path,
-                what: "a file that is not djkr's lock file (djkr reserves this name); move it away"
-                    .into(),
-            });
+        // Locked: what the file is now cannot change under a djkr.
+        let m = file.metadata().map_err(io_err(path))?;
+        if links(&m) > 1 {
+            return Err(clash(format!("a file with {} hard links", links(&m))));
         }
+        let text =
+            input::read_from(&file, InputKind::Lock).and_then(|b| input::text(b, InputKind::Lock));
+        let text = match text {
+            Ok(t) if t.is_empty() && !settled => {
+                // Perhaps a lock file another djkr has just created and not yet written: let go
+                // and look again (it will be busy, or written).
+                drop(file);
+                return Ok(Attempt::Again);
+            }
+            Ok(t) if t.is_empty() => return Err(clash("an empty file".into())),
+            Ok(t) if is_djkr_lock(&t) => t,
+            Ok(_) => return Err(clash("a file".into())),
+            Err(e) => return Err(clash(format!("a file that is {e}"))),
+        };
         for line in text.lines() {
             let mut it = line.split(' ');
             if let (Some("partial"), Some(name), Some(ino)) = (it.next(), it.next(), it.next()) {
                 remove_recorded_partial(dir, name, ino);
             }
         }
-        let lock = DirLock { file, path };
+        let lock = DirLock {
+            file,
+            path: path.to_path_buf(),
+        };
         lock.rewrite()?;
-        Ok(Some(lock))
+        Ok(Attempt::Taken(Some(lock)))
+    }
+
+    /// The lock file this process has just created: lock it and write the header. Another djkr
+    /// that opened it meanwhile, found it empty and holds it for a moment lets go at once.
+    fn take_new(file: File, path: &Path) -> Result<Attempt, OutputError> {
+        #[cfg(test)]
+        std::thread::sleep(std::time::Duration::from_millis(
+            tests::PAUSE_AFTER_CREATE_MS.load(std::sync::atomic::Ordering::Relaxed),
+        ));
+        let t0 = std::time::Instant::now();
+        let locked = loop {
+            match file.try_lock() {
+                Ok(()) => break true,
+                Err(fs::TryLockError::Error(_)) => break false,
+                Err(fs::TryLockError::WouldBlock) if t0.elapsed() < 2 * LOCK_SETTLE => {
+                    std::thread::sleep(std::time::Duration::from_millis(5));
+                }
+                Err(fs::TryLockError::WouldBlock) => {
+                    return Err(OutputError::Busy {
+                        dir: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
+                        holder: None,
+                    })
+                }
+            }
+        };
+        let lock = DirLock {
+            file,
+            path: path.to_path_buf(),
+        };
+        lock.rewrite()?;
+        Ok(Attempt::Taken(locked.then_some(lock)))
     }
 
     /// Start the lock file afresh: the header and this process's id, written in place at a fixed
@@ -605,6 +757,128 @@ mod tests {
         assert!(matches!(err, OutputError::Clash { .. }), "{err}");
         assert!(!remove_owned(d, "a.txt").unwrap());
         assert_eq!(fs::read(d.join("a.txt")).unwrap(), b"mine");
+    }
+
+    #[test]
+    fn a_lock_file_is_djkrs_by_its_content_only() {
+        assert!(is_djkr_lock("djkr lock\npid         42\n"));
+        assert!(is_djkr_lock(
+            "djkr lock\npid 99\npartial .run.h5.1-2.abc.partial 123\n"
+        ));
+        for not in [
+            "",
+            "djkr lock\n",
+            "djkr lock\npid x\n",
+            "djkr lock\npid 42",
+            "djkr locked\npid 42\n",
+            "djkr lock\npid 42\nmy notes\n",
+            "djkr lock\npid 42\npartial a 1 2\n",
+        ] {
+            assert!(!is_djkr_lock(not), "{not:?}");
+        }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn the_lock_is_written_only_into_a_file_djkr_created() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().join("D");
+        fs::create_dir(&d).unwrap();
+        let lock = d.join(LOCK_NAME);
+        let clash = |what: &str| {
+            let e = DirLock::acquire(&d).unwrap_err();
+            let msg = e.to_string();
+            assert!(matches!(e, OutputError::NotRegular { .. }), "{msg}");
+            assert!(
+                msg.contains(what) && msg.contains("not djkr's lock file"),
+                "{msg}"
+            );
+        };
+        // An empty file of the user's, linked in (issue 35: djkr wrote its lock lines into it).
+        let v = dir.path().join("v");
+        fs::write(&v, b"").unwrap();
+        fs::hard_link(&v, &lock).unwrap();
+        clash("a file with 2 hard links");
+        assert_eq!(fs::read(&v).unwrap(), b"");
+        // Even when it holds a djkr lock's lines.
+        fs::write(&v, b"djkr lock\npid 7\n").unwrap();
+        clash("a file with 2 hard links");
+        assert_eq!(fs::read(&v).unwrap(), b"djkr lock\npid 7\n");
+        fs::remove_file(&lock).unwrap();
+        // An empty file of one link, a file of the user's, a link, a FIFO: clashes, untouched.
+        fs::write(&lock, b"").unwrap();
+        clash("an empty file");
+        fs::write(&lock, b"notes\n").unwrap();
+        clash("is a file,");
+        assert_eq!(fs::read(&lock).unwrap(), b"notes\n");
+        fs::remove_file(&lock).unwrap();
+        std::os::unix::fs::symlink(&v, &lock).unwrap();
+        clash("a symbolic link");
+        fs::remove_file(&lock).unwrap();
+        let c = std::ffi::CString::new(lock.to_str().unwrap()).unwrap();
+        // SAFETY: a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        clash("a FIFO");
+        fs::remove_file(&lock).unwrap();
+        assert_eq!(fs::read(&v).unwrap(), b"djkr lock\npid 7\n");
+        // None there: created, then reused once released (a finished or killed holder's).
+        let held = DirLock::acquire(&d).unwrap().expect("a lock");
+        assert!(matches!(
+            DirLock::acquire(&d).unwrap_err(),
+            OutputError::Busy { holder: Some(p), .. } if p == std::process::id()
+        ));
+        drop(held);
+        fs::write(&lock, b"djkr lock\npid 99\n").unwrap();
+        let again = DirLock::acquire(&d).unwrap().expect("a lock");
+        let text = fs::read_to_string(&lock).unwrap();
+        assert!(
+            text.ends_with(&format!(" {}\n", std::process::id())),
+            "{text}"
+        );
+        drop(again);
+    }
+
+    /// A pause between creating a lock file and locking it (tests only): widens the window in
+    /// which another writer finds the new file empty.
+    pub(super) static PAUSE_AFTER_CREATE_MS: std::sync::atomic::AtomicU64 =
+        std::sync::atomic::AtomicU64::new(0);
+
+    /// Writers starting together on a fresh folder: one takes the lock, every other is told the
+    /// folder is busy (none mistakes the new, still empty lock file for a clash), also when the
+    /// creator is slow to lock it.
+    #[test]
+    fn writers_racing_for_a_new_lock_file_are_busy_not_clashing() {
+        PAUSE_AFTER_CREATE_MS.store(30, std::sync::atomic::Ordering::Relaxed);
+        for _ in 0..5 {
+            let dir = tempfile::tempdir().unwrap();
+            let d = dir.path().to_path_buf();
+            let start = std::sync::Arc::new(std::sync::Barrier::new(6));
+            let done = std::sync::Arc::new(std::sync::Barrier::new(6));
+            let threads: Vec<_> = (0..6)
+                .map(|_| {
+                    let (d, start, done) = (d.clone(), start.clone(), done.clone());
+                    std::thread::spawn(move || {
+                        start.wait();
+                        let r = DirLock::acquire(&d);
+                        let taken = match &r {
+                            Ok(Some(_)) => true,
+                            Err(OutputError::Busy { .. }) => false,
+                            other => panic!("{other:?}"),
+                        };
+                        // Hold the lock until every writer has tried.
+                        done.wait();
+                        taken
+                    })
+                })
+                .collect();
+            let taken = threads
+                .into_iter()
+                .map(|t| t.join().unwrap())
+                .filter(|t| *t)
+                .count();
+            assert_eq!(taken, 1);
+        }
+        PAUSE_AFTER_CREATE_MS.store(0, std::sync::atomic::Ordering::Relaxed);
     }
 
     #[test]
