@@ -845,7 +845,11 @@ impl Observer for InMemory<'_> {
         }
     }
     fn stop_reason(&self) -> Option<Reason> {
-        self.over_budget.then_some(Reason::Memory)
+        if self.over_budget {
+            return Some(Reason::Memory);
+        }
+        // The run writer's own reason (the free disk space).
+        self.writer.as_deref().and_then(Observer::stop_reason)
     }
 }
 
@@ -965,7 +969,10 @@ pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
             })
         }
     };
-    let ending = outcome.ending();
+    let ending = match &writer {
+        Some(w) => w.explain(outcome.ending()),
+        None => outcome.ending(),
+    };
     let result = outcome.result;
     let gaps = crate::output::timeseries::gaps_table(series.gaps());
     let (series, events) = series.into_parts();

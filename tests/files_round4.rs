@@ -288,3 +288,152 @@ fn the_folder_lock_is_never_written_through_a_file_of_the_users() {
     ok(&["run", TINY, "--out", s(&d)]);
     assert_eq!(std::fs::read(&v).unwrap(), b"");
 }
+
+// ---------------------------------------------------------------- item 15: disk space
+
+/// Say on the terminal, past the harness's capture, that `what` was skipped and why (one line).
+fn skipped(what: &str, why: &str) {
+    use std::io::Write;
+    use std::os::fd::FromRawFd;
+    // SAFETY: fd 2 is the process's standard error, open for the whole test run; ManuallyDrop
+    // keeps it from being closed here.
+    let mut stderr = std::mem::ManuallyDrop::new(unsafe { std::fs::File::from_raw_fd(2) });
+    let _ = writeln!(stderr, "SKIPPED {what}: {why}");
+}
+
+/// The `unshare` arguments that give a mount namespace in which a tmpfs can be mounted on
+/// `probe` (as root, as in CI; or as a user where unprivileged user namespaces are allowed), or
+/// why there are none. The mount lives and dies with that namespace: nothing on the machine
+/// changes.
+fn mount_namespace(probe: &Path) -> Result<Vec<&'static str>, String> {
+    if !tools::have("unshare") {
+        return Err("no unshare command".into());
+    }
+    for prefix in [
+        vec!["--mount"],
+        vec!["--user", "--map-root-user", "--mount"],
+    ] {
+        let ok = Command::new("unshare")
+            .args(&prefix)
+            .args(["sh", "-c", "mount -t tmpfs -o size=1m tmpfs \"$1\"", "sh"])
+            .arg(probe)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if ok {
+            return Ok(prefix);
+        }
+    }
+    Err("cannot mount a tmpfs in a mount namespace (neither root nor user namespaces)".into())
+}
+
+/// Run djkr's `args` (`OUT` standing for a folder on the small file system) with its output
+/// folder on a fresh tmpfs of `size`, in a mount namespace of its own, then copy the folder to
+/// `keep`. Returns djkr's exit code and stderr, or `None` (after one line saying so) when no
+/// tmpfs can be mounted here.
+fn run_on_small_fs(size: &str, args: &[&str], keep: &Path) -> Option<(Option<i32>, String)> {
+    let tmp = tempfile::tempdir().unwrap();
+    let mnt = tmp.path().join("mnt");
+    std::fs::create_dir(&mnt).unwrap();
+    let prefix = match mount_namespace(&mnt) {
+        Ok(p) => p,
+        Err(why) => {
+            skipped("the disk-space tests on a small file system", &why);
+            return None;
+        }
+    };
+    // $1 the mount point, $2 where to copy the output folder, $3 djkr, then djkr's arguments.
+    let script = "mnt=$1; keep=$2; djkr=$3; shift 3
+        mount -t tmpfs -o size=$SIZE tmpfs \"$mnt\" || exit 97
+        for a in \"$@\"; do
+            if [ \"$a\" = OUT ]; then set -- \"$@\" \"$mnt/o\"; else set -- \"$@\" \"$a\"; fi
+            shift
+        done
+        \"$djkr\" \"$@\" >/dev/null
+        rc=$?
+        cp -r \"$mnt/o\" \"$keep\" || exit 98
+        exit $rc";
+    let child = Command::new("unshare")
+        .args(&prefix)
+        .args(["sh", "-c", script, "sh"])
+        .arg(&mnt)
+        .arg(keep)
+        .arg(env!("CARGO_BIN_EXE_djkr"))
+        .args(args)
+        .env("SIZE", size)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("unshare runs");
+    let (status, _, stderr) = tools::finish_within(child, Duration::from_secs(120));
+    let code = status
+        .expect("djkr on a small file system finished in time")
+        .code();
+    assert!(
+        !matches!(code, Some(97 | 98)),
+        "mounting or copying failed: {stderr}"
+    );
+    Some((code, stderr))
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// Before: "the run's output would take about 263.3 MB ... more than the 209.7 MB free", exit 2,
+/// although the run writes 28 MB (its pull-off stage's max_duration was counted).
+#[test]
+fn the_paper_protocol_runs_on_a_200_mb_file_system() {
+    let keep = tempfile::tempdir().unwrap();
+    let kept = keep.path().join("o");
+    let args = ["run", "scenarios/paper-protocol-300hz.toml", "--out", "OUT"];
+    let Some((code, stderr)) = run_on_small_fs("200m", &args, &kept) else {
+        return;
+    };
+    assert_eq!(code, Some(0), "{stderr}");
+    let j = summary(&kept);
+    assert_eq!(j["status"], "ok");
+    assert_eq!(j["detached"], true);
+    let h5 = std::fs::metadata(kept.join("run.h5")).unwrap().len();
+    assert_eq!(j["file_bytes"]["run.h5"], h5);
+    assert!(h5 > 20_000_000 && h5 < 200_000_000, "{h5}");
+}
+
+/// A run whose pull-off stage writes more than the disk holds stops for disk space, exit 3,
+/// and keeps complete files of what it computed.
+#[test]
+fn a_run_that_fills_the_disk_stops_and_keeps_what_it_wrote() {
+    let keep = tempfile::tempdir().unwrap();
+    let kept = keep.path().join("o");
+    let args = ["run", "scenarios/paper-protocol-300hz.toml", "--out", "OUT"];
+    let Some((code, stderr)) = run_on_small_fs("24m", &args, &kept) else {
+        return;
+    };
+    assert_eq!(code, Some(3), "{stderr}");
+    assert!(stderr.contains("stopped: run stopped (disk)"), "{stderr}");
+    let j = summary(&kept);
+    assert_eq!(j["status"], "stopped");
+    assert_eq!(j["reason"], "disk");
+    let msg = j["message"].as_str().unwrap();
+    assert!(
+        msg.starts_with("disk space low") && msg.contains("MB free") && msg.contains("in stage 3"),
+        "{msg}"
+    );
+    // The files are complete: their sizes as recorded, and run.h5 reads to the stop (through
+    // the same reader as `djkr plot`, which draws it).
+    let h5 = kept.join("run.h5");
+    assert_eq!(
+        j["file_bytes"]["run.h5"],
+        std::fs::metadata(&h5).unwrap().len()
+    );
+    let series = djkr::run_plot::read_run(&h5).unwrap();
+    assert_eq!(series.t.len() as u64, j["samples"].as_u64().unwrap());
+    let t_end = j["final_state"]["t"].as_f64().unwrap();
+    let last = *series.t.last().unwrap();
+    assert!(last > 5.0 && last <= t_end, "{last} vs {t_end}");
+    assert!(series.t.windows(2).all(|w| w[1] > w[0]));
+    ok(&["plot", s(&kept)]);
+}

@@ -1148,7 +1148,8 @@ fn a_second_writer_into_a_busy_directory_is_refused() {
 fn a_run_that_would_not_fit_the_disk_is_refused_up_front() {
     let dir = tempfile::tempdir().unwrap();
     let mut scn = scenario();
-    // 1e15 samples per second over the 0.1 s hold and the unload's max_duration: exabytes.
+    // 1e15 samples per second over the 0.1 s hold: 1e14 samples, petabytes (the unload, which
+    // ends at pull-off, is not counted: it is watched while the run streams).
     scn.output.sample_rate = 1e15;
     let err = RunWriter::create(dir.path(), &scn, true).unwrap_err();
     assert!(matches!(err, OutputError::DiskSpace { .. }), "{err}");

@@ -184,9 +184,10 @@ def run(
         known before it starts stops with reason ``"memory"`` when it would pass that budget.
     RuntimeError
         The run stopped on a budget (``solver.max_steps``, ``max_wall_s``, ``max_events``,
-        ``max_memory``) or failed mid-way: the exception's ``run`` attribute is the ``Run`` up to
-        there (``e.run.summary["status"]``, ``["reason"]``, ``["message"]``); with ``out``, the
-        folder is written with that status.
+        ``max_memory``), with ``out`` on low disk space (reason ``"disk"``), or failed
+        mid-way: the exception's ``run`` attribute is the ``Run`` up to there
+        (``e.run.summary["status"]``, ``["reason"]``, ``["message"]``); with ``out``, the folder
+        is written with that status.
     KeyboardInterrupt
         Ctrl-C stops the run within a fraction of a second (with ``out``, the folder is written
         with reason ``SIGINT``).

@@ -60,11 +60,11 @@ enum Command {
     /// Run a scenario file with the time-domain simulator (eqs. 30-32): writes summary.json and
     /// run.h5 (and CSV with --csv) into --out, atomically.
     ///
-    /// A run stopped by a budget (solver.max_steps, max_wall_s, max_events), Ctrl-C or SIGTERM,
-    /// or failed mid-way, still writes what it computed up to there, with "status" ("stopped"
-    /// or "failed"), "reason" and "message" in summary.json. Exit status: 0 ok, 1 the run
-    /// failed, 2 bad input (or files that cannot be written), 3 stopped by a budget or SIGTERM,
-    /// 130 Ctrl-C (docs/guide/unattended.md).
+    /// A run stopped by a budget (solver.max_steps, max_wall_s, max_events), by low disk space
+    /// (reason "disk"), Ctrl-C or SIGTERM, or failed mid-way, still writes what it computed up
+    /// to there, with "status" ("stopped" or "failed"), "reason" and "message" in summary.json.
+    /// Exit status: 0 ok, 1 the run failed, 2 bad input (or files that cannot be written), 3
+    /// stopped by a budget, low disk space or SIGTERM, 130 Ctrl-C (docs/guide/unattended.md).
     ///
     /// Two times: summary.json "pull_off.time" is when the pull-off force (the most tensile
     /// cycle-averaged force under vibration) was reached; "detachment.time" is when the contact

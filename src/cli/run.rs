@@ -99,6 +99,9 @@ impl Observer for Progress<'_> {
     fn gap(&mut self, g: &dynamics::Gap) {
         self.inner.gap(g);
     }
+    fn stop_reason(&self) -> Option<Reason> {
+        self.inner.stop_reason()
+    }
 }
 
 impl Progress<'_> {
@@ -223,7 +226,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
             )));
         }
     };
-    let ending = ending_of(&outcome);
+    let ending = writer.explain(ending_of(&outcome));
     let ok = ending.status() == Status::Ok;
     let result = outcome.result;
     let sens = match a.sensitivity {

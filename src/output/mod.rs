@@ -31,6 +31,11 @@
 //! before the run, unless `--force`); an earlier run's CSV files stay when this run writes none
 //! (`files` in summary.json lists this run's).
 //!
+//! **Disk space** ([`disk`]). A run whose certain samples (the stages with a fixed duration)
+//! would not fit on the folder's disk is refused before it starts; while a run streams, the
+//! writer watches the free space and stops the run (`status` `stopped`, `reason` `disk`) while
+//! what it must still write fits, so that it publishes complete files of what it computed.
+//!
 //! **What is flushed when.** By default nothing is `fsync`ed: a rename makes each file appear
 //! whole or not at all to every process, so a killed or crashed djkr (time limit, out of memory,
 //! Ctrl-C, a panic) never leaves a file that looks complete but is not. Only a crash of the
@@ -47,6 +52,7 @@
 
 pub(crate) mod atomic;
 pub mod cycles;
+pub mod disk;
 pub mod folder;
 pub mod hdf5_file;
 mod stream;
@@ -62,7 +68,9 @@ use thiserror::Error;
 
 use crate::dynamics::model::Model;
 use crate::dynamics::StepSamples;
-use crate::dynamics::{CycleRecord, Ending, Event, EventKind, Gap, Observer, RunResult, Sample};
+use crate::dynamics::{
+    CycleRecord, Ending, Event, EventKind, Gap, Observer, Reason, RunResult, Sample,
+};
 use crate::scenario::Scenario;
 pub use atomic::AtomicFile;
 pub use folder::write_atomic;
@@ -94,11 +102,6 @@ const CSV_NAMES: [&str; 3] = [TIMESERIES_CSV_NAME, EVENTS_CSV_NAME, CYCLES_CSV_N
 pub const SPILL_ROWS: usize = 1 << 15;
 /// Samples per append once streaming (one chunk of every time-series dataset).
 pub const FLUSH_ROWS: usize = 1 << 15;
-
-/// Bytes per sample in the HDF5 file (13 columns of 8 bytes, uncompressed).
-const HDF5_ROW_BYTES: f64 = 104.0;
-/// Bytes per sample in timeseries.csv (13 shortest round-trip numbers and commas, generous).
-const CSV_ROW_BYTES: f64 = 300.0;
 
 /// Why output could not be written.
 #[derive(Debug, Error)]
@@ -164,11 +167,11 @@ pub enum OutputError {
         /// What it is.
         what: String,
     },
-    /// The run's samples would not fit on the disk.
+    /// The run's certain samples would not fit on the disk ([`disk::check_up_front`]).
     #[error(
-        "{}: the run's output would take about {} ({samples:.3e} samples of the stage durations \
-         at [output] sample_rate), more than the {} free; lower [output] sample_rate, drop CSV, \
-         or choose another --out",
+        "{}: the run's output would take about {} ({samples:.3e} samples of the stages with a \
+         fixed duration at [output] sample_rate), more than the {} free; lower [output] \
+         sample_rate, drop CSV, or choose another --out",
         dir.display(),
         human_bytes(*need),
         human_bytes(*free)
@@ -271,6 +274,14 @@ pub struct RunWriter {
     model: Option<(usize, Model)>,
     error: Option<OutputError>,
     sections: Vec<(String, serde_json::Value)>,
+    /// What the run's rows take on disk.
+    sizes: disk::Sizes,
+    /// The free space of the folder's file system, looked at while the run streams.
+    disk: disk::FolderWatch,
+    /// Bytes (estimated: [`disk::Sizes`]) handed to the writer thread so far.
+    sent: u64,
+    /// The free space was too low to go on: the run stops, reason `disk`.
+    disk_low: Option<disk::Low>,
     // Last: released after the partials are gone.
     lock: Option<folder::DirLock>,
 }
@@ -310,7 +321,7 @@ impl RunWriter {
             compress: scenario.output.compress,
             fsync: scenario.output.fsync,
         };
-        check_disk_space(dir, scenario, csv)?;
+        disk::check_up_front(dir, scenario, csv)?;
         Ok(Self {
             dir: dir.to_path_buf(),
             scenario: scenario.clone(),
@@ -325,6 +336,10 @@ impl RunWriter {
             model: None,
             error: None,
             sections: Vec::new(),
+            sizes: disk::Sizes::of(csv),
+            disk: disk::watch(dir),
+            sent: 0,
+            disk_low: None,
             lock,
         })
     }
@@ -363,7 +378,7 @@ impl RunWriter {
     /// Write the buffered rows to disk when there are enough of them; `false` after an error
     /// (kept for [`RunWriter::finish`]), which stops the run.
     fn maybe_flush(&mut self) -> bool {
-        if self.error.is_some() {
+        if self.error.is_some() || self.disk_low.is_some() {
             return false;
         }
         let limit = if self.stream.is_some() {
@@ -377,7 +392,7 @@ impl RunWriter {
                 return false;
             }
         }
-        true
+        self.disk_low.is_none()
     }
 
     fn flush(&mut self) -> Result<(), OutputError> {
@@ -400,11 +415,40 @@ impl RunWriter {
             }
             self.stream = Some(Background::spawn(st, addr)?);
         }
-        let full = std::mem::replace(&mut self.rows, Rows::new());
+        let mut full = std::mem::replace(&mut self.rows, Rows::new());
+        full.bytes = self.sizes.rows(
+            full.series.len() + full.pending_samples,
+            full.events.rows() + full.cycles.rows(),
+        );
+        self.sent = self.sent.saturating_add(full.bytes);
         if let Some(bg) = &mut self.stream {
             self.rows = bg.send(full)?;
+            // What is queued and not yet written, and what the run must still write if it
+            // stops here, must fit in what is free.
+            let queued = self.sent.saturating_sub(bg.written());
+            let need = queued.saturating_add(self.sizes.reserve(self.kinds.len() as u64));
+            if let Some(low) = self.disk.check(self.sent, need, std::time::Instant::now()) {
+                self.disk_low = Some(low);
+            }
         }
         Ok(())
+    }
+
+    /// `ending` (how the run ended) with what this writer saw added to its message: for a run
+    /// it stopped for disk space (reason `disk`), the free space and what the rest of the run
+    /// would have needed.
+    pub fn explain(&self, mut ending: Ending) -> Ending {
+        if let (Some(Reason::Disk), Some(low), Some(m)) =
+            (ending.reason, self.disk_low, ending.message.as_mut())
+        {
+            m.push_str(&format!(
+                "; {}: {} free, {} needed to go on and finish the run's files",
+                self.dir.display(),
+                human_bytes(low.free as f64),
+                human_bytes(low.need as f64)
+            ));
+        }
+        ending
     }
 
     /// The segment index of the samples arriving now (the gaps seen so far).
@@ -618,6 +662,9 @@ impl Observer for RunWriter {
     fn gap(&mut self, g: &Gap) {
         self.gaps.push(*g);
     }
+    fn stop_reason(&self) -> Option<Reason> {
+        self.disk_low.map(|_| Reason::Disk)
+    }
 }
 
 /// The summary sections `sections` with `gaps` (the number of gaps in the time series) first.
@@ -638,32 +685,4 @@ pub fn new_run_id() -> String {
         now.subsec_micros(),
         std::process::id()
     )
-}
-
-/// Refuse up front a run whose samples (at `[output] sample_rate` over the stages' longest
-/// durations) would not fit on the disk of `dir`. Runs sampled at every step cannot be
-/// estimated and are not checked.
-fn check_disk_space(dir: &Path, scenario: &Scenario, csv: bool) -> Result<(), OutputError> {
-    let rate = scenario.output.sample_rate;
-    if rate <= 0.0 {
-        return Ok(());
-    }
-    let span: f64 = scenario.stages.iter().map(|st| st.longest_duration()).sum();
-    let samples = rate * span;
-    let per_row = HDF5_ROW_BYTES + if csv { CSV_ROW_BYTES } else { 0.0 };
-    let need = samples * per_row;
-    match free_bytes(dir) {
-        Some(free) if need > free => Err(OutputError::DiskSpace {
-            dir: dir.to_path_buf(),
-            need,
-            free,
-            samples,
-        }),
-        _ => Ok(()),
-    }
-}
-
-/// Bytes available to this user on the file system of `dir` (`None`: unknown).
-fn free_bytes(dir: &Path) -> Option<f64> {
-    fs4::available_space(dir).ok().map(|b| b as f64)
 }

@@ -21,7 +21,9 @@
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use super::hdf5_file::{H5Stream, RunTables, RECORD_CHUNK};
@@ -55,6 +57,8 @@ pub(super) struct Rows {
     pub pending: Vec<Pending>,
     /// How many samples `pending` holds.
     pub pending_samples: usize,
+    /// What the batch takes on disk (estimated by the run writer when it hands it over).
+    pub bytes: u64,
 }
 
 impl Rows {
@@ -65,6 +69,7 @@ impl Rows {
             cycles: cycles::cycle_table(&[]),
             pending: Vec::new(),
             pending_samples: 0,
+            bytes: 0,
         }
     }
 
@@ -93,6 +98,7 @@ impl Rows {
         self.cycles.clear();
         self.pending.clear();
         self.pending_samples = 0;
+        self.bytes = 0;
     }
 }
 
@@ -252,6 +258,9 @@ pub(super) struct Background {
     tx: Option<SyncSender<Rows>>,
     back: Receiver<Rows>,
     handle: Option<JoinHandle<Result<Streaming, OutputError>>>,
+    /// The `bytes` of the batches the thread has taken in (written, but for the partial chunks
+    /// it keeps until they are whole).
+    written: Arc<AtomicU64>,
     /// The address of the model the thread builds samples with (0: none). Compared, never
     /// dereferenced: a run writer serves one run, whose model stays in place.
     model_addr: usize,
@@ -270,11 +279,14 @@ impl Background {
         let (tx, rx) = sync_channel::<Rows>(QUEUE);
         let (back_tx, back) = sync_channel::<Rows>(QUEUE + 1);
         let model_addr = if st.model.is_some() { model_addr } else { 0 };
+        let written = Arc::new(AtomicU64::new(0));
+        let taken_in = Arc::clone(&written);
         let handle = std::thread::Builder::new()
             .name("djkr-writer".into())
             .spawn(move || {
                 for mut rows in rx {
                     st.absorb(&rows)?;
+                    taken_in.fetch_add(rows.bytes, Ordering::Relaxed);
                     rows.clear();
                     let _ = back_tx.try_send(rows);
                 }
@@ -288,8 +300,14 @@ impl Background {
             tx: Some(tx),
             back,
             handle: Some(handle),
+            written,
             model_addr,
         })
+    }
+
+    /// The `bytes` of the batches the thread has taken in so far.
+    pub fn written(&self) -> u64 {
+        self.written.load(Ordering::Relaxed)
     }
 
     /// True when the thread builds the samples of steps under `model`.

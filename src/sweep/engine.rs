@@ -320,7 +320,10 @@ impl Sweep {
         };
         // A run that a budget stopped or that failed mid-way keeps its run folder, with its
         // status, like `djkr run`'s.
-        let ending = outcome.ending();
+        let ending = match &writer {
+            Some(w) => w.explain(outcome.ending()),
+            None => outcome.ending(),
+        };
         let result = outcome.result;
         if let Some(w) = writer {
             let dir = w.dir().to_path_buf();
@@ -424,6 +427,13 @@ impl Observer for SweepObserver<'_> {
         if let Some(w) = self.inner.as_deref_mut() {
             w.gap(g);
         }
+    }
+    fn stop_reason(&self) -> Option<crate::dynamics::Reason> {
+        // The kept run's writer (the free disk space); a stop of the sweep's is no run's reason.
+        if self.stopped {
+            return None;
+        }
+        self.inner.as_deref().and_then(Observer::stop_reason)
     }
 }
 

@@ -606,6 +606,9 @@ pub enum Reason {
     /// `memory`: the samples, events and period records held in memory would pass
     /// `solver.max_memory`.
     Memory,
+    /// `disk`: the free space left on the file system of the run's output folder would not
+    /// hold the rest of its files (a run writer's watch while the run streams).
+    Disk,
     /// `SIGINT`: interrupted (Ctrl-C; KeyboardInterrupt in Python).
     Sigint,
     /// `SIGTERM`: asked to terminate (a batch system's time limit, `kill`).
@@ -634,6 +637,7 @@ impl Reason {
             Reason::MaxWallS => "max_wall_s",
             Reason::MaxEvents => "max_events",
             Reason::Memory => "memory",
+            Reason::Disk => "disk",
             Reason::Sigint => "SIGINT",
             Reason::Sigterm => "SIGTERM",
             Reason::NonFinite => "non-finite",
@@ -652,6 +656,7 @@ impl Reason {
             | Reason::MaxWallS
             | Reason::MaxEvents
             | Reason::Memory
+            | Reason::Disk
             | Reason::Sigint
             | Reason::Sigterm => Status::Stopped,
             _ => Status::Failed,
@@ -723,6 +728,14 @@ impl Outcome {
                 format!(
                     "memory budget exhausted: the samples, events and period records held in \
                      memory would pass solver.max_memory ({place})"
+                ),
+            ),
+            Some(Reason::Disk) => Ending::early(
+                Reason::Disk,
+                format!(
+                    "disk space low: the free space left on the file system of the output \
+                     folder would not hold the rest of the run's files; the run stopped and \
+                     kept what it had written ({place})"
                 ),
             ),
             Some(r) => Ending::early(r, format!("stopped: {} ({place})", r.name())),
