@@ -437,3 +437,44 @@ fn a_run_that_fills_the_disk_stops_and_keeps_what_it_wrote() {
     assert!(series.t.windows(2).all(|w| w[1] > w[0]));
     ok(&["plot", s(&kept)]);
 }
+
+// ---------------------------------------------------------------- item 16: the time spent writing
+
+/// `solver.max_wall_s` bounds the integration; the files are written after it, and summary.json
+/// says how long that took (`stats.write_s`), which the command's own time bears out.
+#[test]
+fn summary_reports_the_time_spent_writing_after_the_budget() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("D");
+    let t0 = std::time::Instant::now();
+    let r = djkr(&[
+        "run",
+        "scenarios/paper-protocol-300hz.toml",
+        "--set",
+        "solver.max_wall_s=0.05",
+        "--set",
+        "output.sample_rate=200000",
+        "--out",
+        s(&d),
+    ]);
+    let elapsed = t0.elapsed().as_secs_f64();
+    assert_eq!(r.code, Some(3), "{}", r.stderr);
+    let j = summary(&d);
+    assert_eq!(j["reason"], "max_wall_s");
+    let (wall, write) = (
+        j["stats"]["wall_s"].as_f64().unwrap(),
+        j["stats"]["write_s"].as_f64().unwrap(),
+    );
+    assert_eq!(j["units"]["stats.write_s"], "s");
+    // Both happened within the command's lifetime, one after the other.
+    assert!(
+        write > 0.0 && wall + write < elapsed,
+        "{wall} + {write} vs {elapsed}"
+    );
+    // A run that went to its end reports it too.
+    let ok_dir = tmp.path().join("ok");
+    ok(&["run", TINY, "--out", s(&ok_dir)]);
+    let j = summary(&ok_dir);
+    assert_eq!(j["status"], "ok");
+    assert!(j["stats"]["write_s"].as_f64().unwrap() >= 0.0);
+}

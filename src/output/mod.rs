@@ -490,6 +490,9 @@ impl RunWriter {
         if let Some(e) = self.error.take() {
             return Err(e);
         }
+        // The time spent writing after the integration (`stats.write_s`): solver.max_wall_s
+        // bounds the integration, not this.
+        let t_write = std::time::Instant::now();
         let fsync = self.options.fsync;
         let mut staged: Vec<AtomicFile> = Vec::new();
         match self.stream.take() {
@@ -543,6 +546,7 @@ impl RunWriter {
                 .map(|n| n.to_string_lossy().into_owned());
             files.bytes.push((name.unwrap_or_default(), len));
         }
+        files.write_s = Some(t_write.elapsed().as_secs_f64());
         let json = summary::summary_json(
             &self.scenario,
             result,

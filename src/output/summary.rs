@@ -14,7 +14,7 @@
 //!   "detached": true,
 //!   "pull_off": {"amplification": 1.7, "approach_roughness": 1.2e-6, "force": -0.098, "time": 12.3},
 //!   "detachment": {"time": 13.1},
-//!   "stats": {"rejected": 12, "rhs_evals": 7000, "steps": 1000, "wall_s": 0.4},
+//!   "stats": {"rejected": 12, "rhs_evals": 7000, "steps": 1000, "wall_s": 0.4, "write_s": 0.02},
 //!   "samples": 1000,
 //!   "envelope": {"jumps": 12, "periods_skipped": 3400, "trial_periods": 40, "rejected": 2,
 //!                "steady_jumps": 0},
@@ -54,6 +54,13 @@
 //! pull-off (`dynamics::ApproachRoughness`): above 1e-3 the approach fluctuated and the pull-off
 //! is likely sensitive to tiny input changes (`djkr run --sensitivity` measures it); absent
 //! when not measured (no vibration, or no three consecutive periods before the pull-off).
+//!
+//! `stats.wall_s` is the wall-clock time of the integration, what `solver.max_wall_s` bounds;
+//! `stats.write_s` the wall-clock time spent after it writing the run's files (the samples
+//! still queued for the writer thread, closing `run.h5`, the CSV files; not summary.json
+//! itself, nor a figure drawn after): not bounded by the budget, and growing with what was left
+//! to write (2 s for 450 MB of run.h5 and CSV on the reference machine). Absent for a run kept
+//! in memory without a folder.
 //!
 //! `warnings` lists what leaves the model's range ([`checks::result_warnings`]: a contact
 //! beyond 0.2 R, no pull-off recorded; always present, empty without).
@@ -106,6 +113,9 @@ pub struct SummaryFiles {
     /// The size in bytes of each file above (`file_bytes`): a reader can tell a file that a
     /// machine crash truncated after the run from a complete one.
     pub bytes: Vec<(String, u64)>,
+    /// Wall-clock seconds spent writing the files after the integration ended (`stats.write_s`;
+    /// `None`: nothing written, a run kept in memory only).
+    pub write_s: Option<f64>,
 }
 
 /// Further top-level sections of summary.json, written after the standard ones (e.g.
@@ -197,6 +207,7 @@ pub fn units() -> BTreeMap<String, String> {
         ("detachment.time", "s"),
         ("events.time", "s"),
         ("stats.wall_s", "s"),
+        ("stats.write_s", "s"),
         ("stats.steps", "1"),
         ("stats.rejected", "1"),
         ("stats.rhs_evals", "1"),
@@ -229,7 +240,10 @@ pub fn summary_json(
             result.detachment_time,
         );
     }
-    let stats = b.stats(result);
+    let mut stats = b.stats(result);
+    if let Some(w) = files.write_s {
+        b.put(&mut stats, "stats.", "write_s", w);
+    }
     let final_state = b.state("final_state.", &result.final_state);
     let counts = event_counts(result);
     let events = b.events(result);

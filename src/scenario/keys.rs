@@ -514,7 +514,7 @@ pub const KEYS: &[KeyInfo] = &[
             s.solver.max_events = whole(v, 1, "solver.max_events", MAX_EVENTS_ALLOWED)?;
             Ok(())
         }),
-    k("solver", "max_wall_s", "s", num(D::Time), Some("600.0"), "> 0", "budget of wall-clock time (the run stops, status stopped)")
+    k("solver", "max_wall_s", "s", num(D::Time), Some("600.0"), "> 0", "budget of wall-clock time of the integration (the run stops, status stopped; writing the files after it is not counted: summary.json stats.write_s)")
         .access(|s, _| Some(s.solver.max_wall_s), |s, _, v| {
             s.solver.max_wall_s = v;
             Ok(())
