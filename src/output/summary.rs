@@ -35,10 +35,11 @@
 //! }
 //! ```
 //!
-//! `status` is `ok` (the run went through its stages), `stopped` (a budget or a signal stopped
-//! it) or `failed` (the integration failed mid-way); `reason` names why (`max_steps`,
-//! `max_wall_s`, `max_events`, `memory`, `disk`, `SIGINT`, `SIGTERM`, `non-finite`, `step-underflow`,
-//! `no-progress`, `stage-timeout`, `method-failed`, `setup`: [`crate::dynamics::Reason`]) and
+//! `status` is `ok` (the run went through its stages), `stopped` (a budget, low disk space or a
+//! signal stopped it) or `failed` (the integration failed mid-way); `reason` names why
+//! (`max_steps`, `max_wall_s`, `max_events`, `memory`, `disk`, `SIGINT`, `SIGTERM`, `non-finite`,
+//! `step-underflow`, `no-progress`, `stage-timeout`, `method-failed`, `setup`:
+//! [`crate::dynamics::Reason`]) and
 //! `message` says what happened, when and in which stage; both are absent when ok (the file
 //! has no `null`: see the non-finite rule below). A stopped
 //! or failed run's numbers (`final_state`, `pull_off`, `cycles`, `events`, ...) and files
