@@ -529,6 +529,17 @@ fn create_lock_file(path: &Path) -> std::io::Result<File> {
     o.open(path)
 }
 
+/// Remove the lock file this process created at `path` and could not make a lock (`file` is
+/// it: only while the name still holds that file).
+fn remove_created(file: &File, path: &Path) {
+    if let (Ok(a), Ok(b)) = (file.metadata(), fs::symlink_metadata(path)) {
+        let (a, b) = (Stamp::of(&a, true), Stamp::of(&b, true));
+        if (a.dev, a.ino) == (b.dev, b.ino) {
+            let _ = fs::remove_file(path);
+        }
+    }
+}
+
 /// How many names the file has (1 where the platform cannot tell).
 fn links(m: &Metadata) -> u64 {
     #[cfg(unix)]
@@ -670,10 +681,11 @@ impl DirLock {
                     std::thread::sleep(std::time::Duration::from_millis(5));
                 }
                 Err(fs::TryLockError::WouldBlock) => {
+                    remove_created(&file, path);
                     return Err(OutputError::Busy {
                         dir: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
                         holder: None,
-                    })
+                    });
                 }
             }
         };
@@ -681,7 +693,11 @@ impl DirLock {
             file,
             path: path.to_path_buf(),
         };
-        lock.rewrite()?;
+        if let Err(e) = lock.rewrite() {
+            // Left empty, it would read as a clash to every later writer.
+            remove_created(&lock.file, path);
+            return Err(e);
+        }
         Ok(Attempt::Taken(locked.then_some(lock)))
     }
 
