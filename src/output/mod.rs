@@ -376,7 +376,8 @@ impl RunWriter {
     }
 
     /// Write the buffered rows to disk when there are enough of them; `false` after an error
-    /// (kept for [`RunWriter::finish`]), which stops the run.
+    /// (kept for [`RunWriter::finish`]) or once the free disk space is too low to go on
+    /// ([`disk::DiskWatch`]; the run then stops with reason `disk`), which stops the run.
     fn maybe_flush(&mut self) -> bool {
         if self.error.is_some() || self.disk_low.is_some() {
             return false;
