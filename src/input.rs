@@ -1,5 +1,5 @@
 //! Reading the files users name: the one helper every input file goes through (scenario files,
-//! `--material` files, a tabulated law's CSV, `gs-fit` records).
+//! `--material` files, a tabulated law's CSV, `gs-fit` records, `fit` data files).
 //!
 //! A user may name anything: `/dev/zero`, `/dev/urandom`, a FIFO, a directory, a 5 GB log. So
 //! [`read_text`]
@@ -12,7 +12,8 @@
 //! - requires UTF-8 text.
 //!
 //! The limits are per kind of file ([`InputKind`]): 1 MiB for a scenario or material file,
-//! 16 MiB for a tabulated law, 512 MiB for a measured record. Every message says the limit.
+//! 16 MiB for a tabulated law or a fit's data file, 512 MiB for a measured record. Every message
+//! says the limit.
 
 use std::io::Read;
 use std::path::Path;
@@ -30,6 +31,9 @@ pub enum InputKind {
     LawTable,
     /// A measured unloading record for `gs-fit` (CSV; a run's own timeseries.csv).
     Record,
+    /// The measured data of `djkr fit` (CSV, one row per condition). 16 MiB holds its most rows
+    /// (100 000) at 160 bytes each.
+    FitData,
 }
 
 impl InputKind {
@@ -39,6 +43,7 @@ impl InputKind {
             InputKind::Scenario => MIB,
             InputKind::LawTable => 16 * MIB,
             InputKind::Record => 512 * MIB,
+            InputKind::FitData => 16 * MIB,
         }
     }
 
@@ -48,6 +53,7 @@ impl InputKind {
             InputKind::Scenario => "scenario file",
             InputKind::LawTable => "tabulated law",
             InputKind::Record => "record",
+            InputKind::FitData => "fit data file",
         }
     }
 }

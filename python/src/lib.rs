@@ -2030,8 +2030,10 @@ fn fit(
             (t, "<DataFrame>".to_string())
         } else if let Ok(p) = data.extract::<PathBuf>() {
             let name = p.display().to_string();
-            let t = std::fs::read_to_string(&p)
-                .map_err(|e| input_err(format!("{name}: cannot read the data file: {e}")))?;
+            // The one reader of input files: a FIFO or device is refused at once, and a file
+            // larger than a fit data file's limit too.
+            let t = djkr::input::read_text(&p, InputKind::FitData)
+                .map_err(|e| input_err(format!("{}: {e}", quote(&name))))?;
             (t, name)
         } else {
             return Err(type_err(format!(
