@@ -512,15 +512,31 @@ pub fn sets_per_iteration(members: usize, k: usize) -> usize {
     }
 }
 
-/// Refuse a starting value outside its key's bounds (before anything runs).
+/// Refuse a starting value outside its key's bounds, and bounds too far from it for the fit's
+/// coordinate (before anything runs).
 pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
     for (f, &x) in free.iter().zip(x0) {
+        let given = crate::text::excerpt(&f.given);
         let t = Transform::new(f, x);
         if !x.is_finite() || !t.inside(t.y(x)) {
             return Err(FitError::new(format!(
-                "--free {}: the starting value {x} {} (the scenario's) lies outside the bounds; \
-                 start inside with --set {}=VALUE",
-                f.given, f.unit, f.key
+                "--free {given}: the starting value {x} {} (the scenario's) lies outside the \
+                 bounds; start inside with --set {}=VALUE",
+                f.unit, f.key
+            )));
+        }
+        // A linear key moves in units of its starting magnitude: bounds 1e300 times that (a
+        // start of 1e-300) would overflow the coordinate or the span between the bounds.
+        let span_ok = match (t.lo, t.hi) {
+            (Some(l), Some(h)) => (h - l).is_finite(),
+            (l, h) => l.is_none_or(f64::is_finite) && h.is_none_or(f64::is_finite),
+        };
+        if !span_ok {
+            return Err(FitError::new(format!(
+                "--free {given}: the bounds lie too far from the starting value {x} {} for the \
+                 fit's coordinate (the value over its starting magnitude): narrow them, or start \
+                 nearer with --set {}=VALUE",
+                f.unit, f.key
             )));
         }
     }
