@@ -159,6 +159,10 @@ pub struct FitData {
     pub observable: Observable,
     /// Whether the file gives `sigma`.
     pub has_sigma: bool,
+    /// The fitted observable's column, for messages: its number (from 1) and its header cell.
+    pub observable_column: (usize, String),
+    /// The sigma column, if any, for messages: its number (from 1) and its header cell.
+    pub sigma_column: Option<(usize, String)>,
     /// The rows.
     pub rows: Vec<DataRow>,
 }
@@ -643,6 +647,8 @@ impl FitData {
             conditions,
             observable,
             has_sigma: sigma_unit.is_some(),
+            observable_column: (obs_col + 1, excerpt(header[obs_col].trim())),
+            sigma_column: sigma_col.map(|j| (j + 1, excerpt(header[j].trim()))),
             rows,
         })
     }
