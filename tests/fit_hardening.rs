@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 
 const TINY: &str = "tests/sweep/tiny.toml";
 const HEADER: &str = "base.amplitude [um],pull_off_amplification [1]";
+const HEADER_OBS: &str = "pull_off_amplification [1]";
 
 /// What a djkr run left: exit code (`None`: killed by a signal), stdout, stderr, wall time.
 struct Run {
@@ -207,6 +208,24 @@ fn the_content_of_a_bad_file_is_not_echoed() {
         &out,
         &["--free", "adhesion.n"],
         &["line 3, column 2", "is not a finite number"],
+    );
+    assert!(e.len() < 600, "{} bytes: {e}", e.len());
+    // A text key's cell is taken as typed and refused by the scenario: quoted cut too.
+    let method = data(
+        dir.path(),
+        "method.csv",
+        &format!(
+            "base.amplitude [um],solver.method,{HEADER_OBS}\n5,auto,2\n10,{long},3\n20,auto,4\n"
+        ),
+    );
+    let e = refused(
+        &method,
+        &out,
+        &["--free", "adhesion.n"],
+        &[
+            "method.csv line 3: --set solver.method=xxx",
+            "bytes in all): must be one of",
+        ],
     );
     assert!(e.len() < 600, "{} bytes: {e}", e.len());
     let unit = data(

@@ -17,6 +17,7 @@ use crate::sweep::spec::{KeyCell, SpecForm, SpecValue};
 use crate::sweep::{check_runs, run_sweep, RunOptions, Sweep};
 
 use super::data::{CondValue, FitData};
+use crate::text::excerpt;
 
 /// The model's prediction for every data row, at one parameter set.
 #[derive(Debug, Clone, PartialEq)]
@@ -382,7 +383,7 @@ impl ForwardModel {
             .grid()
             .overrides(point)
             .iter()
-            .map(|o| format!("--set {o}"))
+            .map(|o| format!("--set {}", excerpt(&o.to_string())))
             .collect();
         format!(
             "{} line {} ({})",
@@ -404,12 +405,20 @@ impl ForwardModel {
             | crate::sweep::SweepError::Point { point, .. } => Some(*point),
             crate::sweep::SweepError::Ensemble { .. } => None,
         };
+        // An override's value may be a cell of the data file (a text key's, of any length):
+        // quoted cut, and without the sweep's point number, which means nothing to a fit.
+        let text = match e {
+            crate::sweep::SweepError::Override { set, message, .. } => {
+                format!("--set {}: {message}", excerpt(set))
+            }
+            _ => text.to_string(),
+        };
         match point {
             Some(p) => {
                 let i = (p / self.members()) % self.data.rows.len();
                 format!("{} line {}: {text}", self.data.name, self.data.rows[i].line)
             }
-            None => text.to_string(),
+            None => text,
         }
     }
 }
