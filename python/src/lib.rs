@@ -2045,7 +2045,15 @@ fn fit(
             vec![str_arg(free, "free")?]
         } else {
             let mut v = Vec::new();
-            for x in free.try_iter()? {
+            // A number or None is not a list of keys: ScenarioTypeError, as every argument's
+            // wrong type (the fuzz test met a bare TypeError here).
+            let items = free.try_iter().map_err(|_| {
+                type_err(format!(
+                    "free: expected a key (str) or a list of keys, got {}",
+                    type_name(free)
+                ))
+            })?;
+            for x in items {
                 v.push(str_arg(&x?, "free")?);
             }
             v

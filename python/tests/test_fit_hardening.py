@@ -138,3 +138,12 @@ def test_crlf_lines_and_huge_bounds(tmp_path):
                        match=r"LO '-1e308' lies outside the range of adhesion.n") as e:
         djkr.fit(good(tmp_path), TINY, free="adhesion.n=-1e308:1e308")
     assert "nan" not in str(e.value)
+
+
+def test_wrong_types_raise_scenario_type_error(tmp_path):
+    # Found by the fuzz test: free=5 raised a bare TypeError.
+    for free in (5, 1.5, None, True):
+        with pytest.raises(djkr.ScenarioTypeError, match="free: expected a key"):
+            djkr.fit(good(tmp_path), TINY, free=free)
+    with pytest.raises(djkr.ScenarioError, match="adhesion.n is already free"):
+        djkr.fit(good(tmp_path), TINY, free=["adhesion.n"] * 1_000_000)

@@ -83,11 +83,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
         (None, Some(s)) => bail!("--seed {s}: seeds the ensemble's phases; add --ensemble N"),
         (None, None) => None,
     };
-    let free = a
-        .free
-        .iter()
-        .map(|f| FreeKey::parse(f).map_err(anyhow::Error::msg))
-        .collect::<Result<Vec<_>>>()?;
+    let free = FreeKey::parse_all(&a.free).map_err(anyhow::Error::msg)?;
     let all_set = a
         .set
         .iter()

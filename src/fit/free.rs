@@ -109,6 +109,26 @@ impl FreeKey {
         })
     }
 
+    /// Parse every `--free` argument, refusing a key given twice at the first repeat (before
+    /// each key's starting value is read from the scenario: a list of a million copies of one
+    /// key read the scenario a million times).
+    pub fn parse_all<S: AsRef<str>>(args: &[S]) -> Result<Vec<FreeKey>, String> {
+        let mut out: Vec<FreeKey> = Vec::new();
+        for a in args {
+            let f = FreeKey::parse(a.as_ref())?;
+            if let Some(first) = out.iter().find(|g| g.key == f.key) {
+                return Err(format!(
+                    "--free {}: {} is already free by --free {}: give each key once",
+                    crate::text::excerpt(&f.given),
+                    f.key,
+                    crate::text::excerpt(&first.given)
+                ));
+            }
+            out.push(f);
+        }
+        Ok(out)
+    }
+
     /// Whether the key is fitted in log space when it starts at `x0`: a positive scale (a
     /// physical dimension other than an angle, a positive start and no bound at or below 0).
     pub fn log_space(&self, x0: f64) -> bool {
@@ -249,6 +269,18 @@ mod tests {
             .unwrap_err()
             .contains("below"));
         assert!(FreeKey::parse("adhesion.v0=1Hz:2Hz").is_err());
+        let e = FreeKey::parse_all(&["adhesion.n", "adhesion.v0", "adhesion.n=0.1:2"]).unwrap_err();
+        assert_eq!(
+            e,
+            "--free adhesion.n=0.1:2: adhesion.n is already free by --free adhesion.n: give each \
+             key once"
+        );
+        assert_eq!(
+            FreeKey::parse_all(&["adhesion.n", "adhesion.v0"])
+                .unwrap()
+                .len(),
+            2
+        );
     }
 
     /// Bounds are held to the key's range (issue 35, item 12: -1e308:1e308 overflowed the
