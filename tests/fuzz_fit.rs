@@ -404,6 +404,7 @@ fn one_case(source: &ScenarioSource, inp: &Input, name: &str) -> Result<&'static
         .free
         .iter()
         .chain(&inp.set)
+        .chain(std::iter::once(&inp.data))
         .any(|a| a.contains("nan") || a.contains("inf"));
     let check = |kind: &'static str, m: String| -> Result<&'static str, String> {
         if m.len() > MAX_MESSAGE {
