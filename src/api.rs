@@ -1191,10 +1191,7 @@ pub fn fit<S: AsRef<str>, T: AsRef<str>>(
     stop: Option<&AtomicBool>,
 ) -> Result<serde_json::Value, ApiError> {
     use crate::fit::{self as f, FitData, FitOptions, ForwardModel, FreeKey};
-    let free = free
-        .iter()
-        .map(|k| FreeKey::parse(k.as_ref()).map_err(ApiError::Invalid))
-        .collect::<Result<Vec<_>, _>>()?;
+    let free = FreeKey::parse_all(free).map_err(ApiError::Invalid)?;
     let all = set
         .iter()
         .map(|s| Override::parse(s.as_ref()))

@@ -52,6 +52,9 @@ pub enum InputKind {
     FolderRecord,
     /// A folder's lock file, `.djkr.lock`.
     Lock,
+    /// The measured data of `djkr fit` (CSV, one row per condition). 16 MiB holds its most rows
+    /// (100 000) at 160 bytes each.
+    FitData,
 }
 
 impl InputKind {
@@ -77,6 +80,7 @@ impl InputKind {
             InputKind::Summary => 64 * MIB,
             InputKind::FolderRecord => 16 * MIB,
             InputKind::Lock => MIB,
+            InputKind::FitData => 16 * MIB,
         }
     }
 
@@ -92,6 +96,7 @@ impl InputKind {
             InputKind::Summary => "run summary",
             InputKind::FolderRecord => "folder record",
             InputKind::Lock => "lock file",
+            InputKind::FitData => "fit data file",
         }
     }
 

@@ -2031,8 +2031,10 @@ fn fit(
             (t, "<DataFrame>".to_string())
         } else if let Ok(p) = data.extract::<PathBuf>() {
             let name = p.display().to_string();
-            let t = std::fs::read_to_string(&p)
-                .map_err(|e| input_err(format!("{name}: cannot read the data file: {e}")))?;
+            // The one reader of input files: a FIFO or device is refused at once, and a file
+            // larger than a fit data file's limit too.
+            let t = djkr::input::read_text(&p, InputKind::FitData)
+                .map_err(|e| input_err(format!("{}: {e}", quote(&name))))?;
             (t, name)
         } else {
             return Err(type_err(format!(
@@ -2044,7 +2046,15 @@ fn fit(
             vec![str_arg(free, "free")?]
         } else {
             let mut v = Vec::new();
-            for x in free.try_iter()? {
+            // A number or None is not a list of keys: ScenarioTypeError, as every argument's
+            // wrong type (the fuzz test met a bare TypeError here).
+            let items = free.try_iter().map_err(|_| {
+                type_err(format!(
+                    "free: expected a key (str) or a list of keys, got {}",
+                    type_name(free)
+                ))
+            })?;
+            for x in items {
                 v.push(str_arg(&x?, "free")?);
             }
             v

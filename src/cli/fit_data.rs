@@ -83,11 +83,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
         (None, Some(s)) => bail!("--seed {s}: seeds the ensemble's phases; add --ensemble N"),
         (None, None) => None,
     };
-    let free = a
-        .free
-        .iter()
-        .map(|f| FreeKey::parse(f).map_err(anyhow::Error::msg))
-        .collect::<Result<Vec<_>>>()?;
+    let free = FreeKey::parse_all(&a.free).map_err(anyhow::Error::msg)?;
     let all_set = a
         .set
         .iter()
@@ -233,17 +229,27 @@ fn default_out(data: &Path) -> PathBuf {
     super::common::default_out(data, "-fit")
 }
 
+/// A fit statistic to `decimals` decimals, or in e-notation from 1e9 (a poor fit's chi2 of
+/// 3e306 printed its 307 digits).
+fn statistic(x: f64, decimals: usize) -> String {
+    if x.abs() < 1e9 {
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.decimals$e}")
+    }
+}
+
 /// The readable report.
 fn report(r: &djkr::fit::FitReport, out: &Path) -> Result<()> {
     outln!(
-        "fit of {} to {} rows: chi2 {:.4}, dof {}, reduced chi2 {:.4}, AIC {:.3}, BIC {:.3}",
+        "fit of {} to {} rows: chi2 {}, dof {}, reduced chi2 {}, AIC {}, BIC {}",
         r.observable,
         r.rows,
-        r.chi2,
+        statistic(r.chi2, 4),
         r.dof,
-        r.reduced_chi2,
-        r.aic,
-        r.bic
+        statistic(r.reduced_chi2, 4),
+        statistic(r.aic, 3),
+        statistic(r.bic, 3)
     )?;
     outln!(
         "  {} in {} iteration(s), {} forward runs, {:.1} s",

@@ -9,15 +9,22 @@
 //!   one to fit and the others are ignored;
 //! - optionally `sigma [unit of the observable]`, the observation's standard deviation (> 0).
 //!
-//! Lines starting with `#` are comments. A bad file is refused naming the file, the line and the
-//! column, as the scenario parser does.
+//! Lines starting with `#` are comments. A bad file is refused naming the file, the line (as an
+//! editor numbers it: CRLF files, blank and comment lines counted) and the column, as the scenario
+//! parser does. A message quotes at most [`crate::text::EXCERPT_CHARS`] characters of a cell, and
+//! a header cell only when djkr recognises it (see [`shown_cell`]). A row whose
+//! |observed| / sigma passes [`MAX_WEIGHTED`] is refused: its χ² could not be finite. The file is
+//! read with a size limit of 16 MiB ([`crate::input::InputKind::FitData`]) and holds at most
+//! [`MAX_ROWS`] rows.
 
 use std::path::Path;
 
 use thiserror::Error;
 
+use crate::input::{read_text, show_limit, InputKind};
 use crate::scenario::overrides::SetKey;
 use crate::sweep::spec::{key_kind, KeyKind};
+use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// An observable a fit can use: a numeric column of `sweep.csv` that a run's physics gives
@@ -152,6 +159,10 @@ pub struct FitData {
     pub observable: Observable,
     /// Whether the file gives `sigma`.
     pub has_sigma: bool,
+    /// The fitted observable's column, for messages: its number (from 1) and its header cell.
+    pub observable_column: (usize, String),
+    /// The sigma column, if any, for messages: its number (from 1) and its header cell.
+    pub sigma_column: Option<(usize, String)>,
     /// The rows.
     pub rows: Vec<DataRow>,
 }
@@ -179,7 +190,8 @@ fn split_header(cell: &str) -> (String, Option<String>) {
 }
 
 /// The factor from `unit` to SI for values of dimension `dim` (`si` is the SI unit as sweep.csv
-/// writes it: `1` for a bare number). An absent unit means SI.
+/// writes it: `1` for a bare number). An absent unit means SI. `name` is a column name djkr
+/// recognised; the unit, read from the file, is quoted as [`excerpt`] cuts it.
 fn unit_factor(
     name: &str,
     unit: Option<&str>,
@@ -192,54 +204,157 @@ fn unit_factor(
     if u == si || (si == "1" && u == "1") {
         return Ok(1.0);
     }
+    let shown = excerpt(u);
     let dim = dim.unwrap_or(Dimension::Dimensionless);
     if dim == Dimension::Dimensionless {
         return Err(format!(
-            "unit [{u}]: {name} is a plain number; write [1] or no unit"
+            "unit [{shown}]: {name} is a plain number; write [1] or no unit"
         ));
     }
-    parse_quantity(name, &format!("1{u}"), dim).map_err(|e| {
+    parse_quantity(name, &format!("1{u}"), dim).map_err(|_| {
+        let units: Vec<&str> = dim.units().iter().map(|(u, _)| *u).collect();
         format!(
-            "unit [{u}]: {name} takes {} (SI: {si})",
-            e.allowed.trim_start_matches("a number in SI ")
+            "unit [{shown}]: {name} takes one of the units {} (SI: {si})",
+            units.join(", ")
         )
     })
 }
 
+/// The largest |observed| / σ a row may have (σ = 1 in the observable's SI unit without a sigma
+/// column). χ² sums ((observed − predicted)/σ)² over at most [`MAX_ROWS`] rows: with
+/// |observed|/σ and |predicted|/σ at most 1e150 each, a term is at most 4e300 and the sum at most
+/// 4e305, finite; an observable of 1e308 (or a σ of 1e-308) gives χ² = ∞ whatever the model
+/// predicts, so such a row is refused before anything runs. No observable djkr produces comes
+/// near: forces, lengths and times of a rig are far below 1e150 in SI, and so are their ratios
+/// to any σ a measurement has.
+pub const MAX_WEIGHTED: f64 = 1e150;
+
+/// Physical line numbers, as an editor shows them, of the records the CSV reader returns. The
+/// reader's own count ends a line at `\r` as well as at `\n` (a CRLF file counted half its
+/// lines) and its record positions start where it began skipping blank and comment lines (a
+/// record after a comment took the comment's line); so the line is counted here from the
+/// record's position: skip what the reader skips (line breaks, lines starting with `#`, a
+/// byte-order mark at the start), then count `\n`, `\r\n` and a lone `\r` as one line break
+/// each. The count is incremental (records come in order), so a file is scanned once.
+struct Lines<'a> {
+    text: &'a [u8],
+    /// Bytes counted so far.
+    at: usize,
+    /// The line at byte `at` (from 1).
+    line: u64,
+}
+
+impl<'a> Lines<'a> {
+    fn new(text: &'a str) -> Lines<'a> {
+        Lines {
+            text: text.as_bytes(),
+            at: 0,
+            line: 1,
+        }
+    }
+
+    /// The line of the record whose position (as the reader gives it) is byte `from`.
+    fn of_record(&mut self, from: usize) -> u64 {
+        let t = self.text;
+        let mut s = from.max(self.at);
+        if s == 0 && t.starts_with("\u{feff}".as_bytes()) {
+            s = 3;
+        }
+        loop {
+            match t.get(s) {
+                Some(b'\r' | b'\n') => s += 1,
+                Some(b'#') => {
+                    while t.get(s).is_some_and(|c| !matches!(c, b'\r' | b'\n')) {
+                        s += 1;
+                    }
+                }
+                _ => break,
+            }
+        }
+        for i in self.at..s.min(t.len()) {
+            match t[i] {
+                b'\n' => self.line += 1,
+                b'\r' if t.get(i + 1) != Some(&b'\n') => self.line += 1,
+                _ => {}
+            }
+        }
+        self.at = s;
+        self.line
+    }
+}
+
+/// A header cell as messages show it. A cell djkr recognises as a column name (an observable,
+/// `sigma`, a scenario key, another column of sweep.csv) or as an attempt at a key (its section is one djkr knows:
+/// `base.wobble`) is quoted, cut by [`excerpt`]; any other is described by its length alone,
+/// since a file that is not a data file at all (`djkr fit /etc/shadow`) must not have its first
+/// line shown.
+fn shown_cell(cell: &str) -> String {
+    let (name, _) = split_header(cell);
+    let head = name.split(['.', '[']).next().unwrap_or("");
+    let recognised = name == "sigma"
+        || Observable::parse(&name).is_some()
+        || (name.contains('.') && crate::scenario::keys::SECTIONS.contains(&head))
+        || crate::sweep::row::row_schema(&[])
+            .iter()
+            .any(|f| f.name == name);
+    if recognised {
+        format!("'{}'", excerpt(cell.trim()))
+    } else {
+        format!(
+            "(a header cell of {} characters, not shown)",
+            cell.trim().chars().count()
+        )
+    }
+}
+
 impl FitData {
     /// Read a data file; `observable` names the observable column to fit (needed when the file
-    /// has several).
+    /// has several). The file goes through [`crate::input::read_text`]: a FIFO, a device or a
+    /// directory is refused at once, naming what it is, and so is a file larger than
+    /// [`InputKind::FitData`]'s limit (16 MiB).
     pub fn read(path: &Path, observable: Option<&str>) -> Result<FitData, DataError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| DataError(format!("{name}: cannot read the data file: {e}")))?;
+        let text =
+            read_text(path, InputKind::FitData).map_err(|e| DataError(format!("{name}: {e}")))?;
         FitData::parse(&text, &name, observable)
     }
 
-    /// [`FitData::read`] on a file's text (`name` names it in messages).
+    /// [`FitData::read`] on a file's text (`name` names it in messages), held to the same size
+    /// limit.
     pub fn parse(text: &str, name: &str, observable: Option<&str>) -> Result<FitData, DataError> {
         let fail = |m: String| DataError(format!("{name}: {m}"));
+        let limit = InputKind::FitData.limit();
+        if text.len() as u64 > limit {
+            return Err(fail(format!(
+                "{} bytes: larger than {limit} bytes ({}), the limit for a {}",
+                text.len(),
+                show_limit(limit),
+                InputKind::FitData.name()
+            )));
+        }
         let wanted = match observable {
             Some(o) => Some(Observable::parse(o).ok_or_else(|| {
                 fail(format!(
-                    "--observable {o}: djkr does not produce it; it produces {}",
+                    "--observable {}: djkr does not produce it; it produces {}",
+                    excerpt(o),
                     Observable::list()
                 ))
             })?),
             None => None,
         };
+        let mut lines = Lines::new(text);
         let mut rdr = csv::ReaderBuilder::new()
             .has_headers(true)
             .comment(Some(b'#'))
             .trim(csv::Trim::All)
             .flexible(true)
             .from_reader(text.as_bytes());
-        let header: Vec<String> = rdr
+        let header_record = rdr
             .headers()
             .map_err(|e| fail(format!("header: {e}")))?
-            .iter()
-            .map(str::to_string)
-            .collect();
+            .clone();
+        let hl = lines.of_record(header_record.position().map_or(0, |p| p.byte() as usize));
+        let header: Vec<String> = header_record.iter().map(str::to_string).collect();
         if header.iter().all(|h| h.trim().is_empty()) {
             return Err(fail(
                 "empty file: expected a header line such as `base.amplitude [um],pull_off_amplification [1],sigma [1]`"
@@ -259,7 +374,7 @@ impl FitData {
         for (j, cell) in header.iter().enumerate() {
             let col = j + 1;
             let (cname, unit) = split_header(cell);
-            let at = |m: String| fail(format!("line 1, column {col} '{}': {m}", cell.trim()));
+            let at = |m: String| fail(format!("line {hl}, column {col} {}: {m}", shown_cell(cell)));
             if cname.is_empty() {
                 return Err(at("empty column name".into()));
             }
@@ -330,7 +445,7 @@ impl FitData {
             (None, 1) => observables[0].0,
             (None, 0) => {
                 return Err(fail(format!(
-                    "line 1: no observable column; name one as sweep.csv does: {}",
+                    "line {hl}: no observable column; name one as sweep.csv does: {}",
                     Observable::list()
                 )))
             }
@@ -355,7 +470,7 @@ impl FitData {
             observable.name(),
             obs_unit
                 .as_ref()
-                .map(|u| format!(" [{u}]"))
+                .map(|u| format!(" [{}]", excerpt(u)))
                 .unwrap_or_default()
         );
         let obs_factor = unit_factor(
@@ -364,7 +479,7 @@ impl FitData {
             Some(observable.dimension()),
             observable.unit(),
         )
-        .map_err(|m| fail(format!("line 1, column '{obs_col_name}': {m}")))?;
+        .map_err(|m| fail(format!("line {hl}, column '{obs_col_name}': {m}")))?;
         let sigma_factor = match &sigma_unit {
             Some(u) => unit_factor(
                 "sigma",
@@ -374,18 +489,22 @@ impl FitData {
             )
             .map_err(|m| {
                 fail(format!(
-                    "line 1, column sigma: {m} (sigma is in the unit of {})",
+                    "line {hl}, column sigma: {m} (sigma is in the unit of {})",
                     observable.name()
                 ))
             })?,
             None => 1.0,
         };
+        let mut obs_col = 0;
+        let mut sigma_col = None;
         for (j, cell) in header.iter().enumerate() {
             let (cname, _) = split_header(cell);
             if cols[j].is_none() {
                 cols[j] = if cname == "sigma" {
+                    sigma_col = Some(j);
                     Some(Col::Sigma)
                 } else if Observable::parse(&cname) == Some(observable) {
+                    obs_col = j;
                     Some(Col::Obs(obs_factor))
                 } else {
                     None
@@ -395,7 +514,7 @@ impl FitData {
         let mut rows = Vec::new();
         for rec in rdr.records() {
             let rec = rec.map_err(|e| fail(format!("{e}")))?;
-            let line = rec.position().map_or(0, |p| p.line());
+            let line = lines.of_record(rec.position().map_or(0, |p| p.byte() as usize));
             if rec.iter().all(|c| c.is_empty()) {
                 continue;
             }
@@ -406,52 +525,109 @@ impl FitData {
                     header.len()
                 )));
             }
+            let at = |j: usize, m: String| {
+                fail(format!(
+                    "line {line}, column {} '{}': {m}",
+                    j + 1,
+                    excerpt(header[j].trim())
+                ))
+            };
             let mut conds = vec![CondValue::Num(f64::NAN); conditions.len()];
             let mut observed = f64::NAN;
             let mut sigma = None;
             for (j, col) in cols.iter().enumerate() {
                 let cell = rec.get(j).unwrap_or("");
-                let at = |m: String| {
-                    fail(format!(
-                        "line {line}, column {} '{}': {m}",
-                        j + 1,
-                        header[j].trim()
-                    ))
-                };
-                let number = |what: &str| -> Result<f64, DataError> {
+                // A number in the header's unit, held in SI.
+                let number = |what: &str, factor: f64| -> Result<f64, DataError> {
                     let x: f64 = cell.parse().map_err(|_| {
-                        at(format!(
-                            "'{}' is not a number ({what}, in the header's unit)",
-                            crate::text::excerpt(cell)
-                        ))
+                        at(
+                            j,
+                            format!(
+                                "'{}' is not a number ({what}, in the header's unit)",
+                                excerpt(cell)
+                            ),
+                        )
                     })?;
                     if !x.is_finite() {
-                        return Err(at(format!("'{cell}' is not a finite number")));
+                        return Err(at(j, format!("'{}' is not a finite number", excerpt(cell))));
                     }
-                    Ok(x)
+                    let si = x * factor;
+                    if !si.is_finite() {
+                        return Err(at(
+                            j,
+                            format!(
+                                "'{}' in the header's unit is beyond the largest number in SI",
+                                excerpt(cell)
+                            ),
+                        ));
+                    }
+                    Ok(si)
                 };
                 match col {
                     None => {}
                     Some(Col::Cond(i, factor)) => {
                         conds[*i] = if conditions[*i].unit.is_some() {
-                            CondValue::Num(number("a condition")? * factor)
+                            CondValue::Num(number("a condition", *factor)?)
                         } else if cell.is_empty() {
-                            return Err(at("empty cell".into()));
+                            return Err(at(j, "empty cell".into()));
                         } else {
                             CondValue::Text(cell.to_string())
                         };
                     }
-                    Some(Col::Obs(factor)) => observed = number("the observable")? * factor,
+                    Some(Col::Obs(factor)) => observed = number("the observable", *factor)?,
                     Some(Col::Sigma) => {
-                        let s = number("sigma")? * sigma_factor;
+                        let s = number("sigma", sigma_factor)?;
                         if s <= 0.0 {
-                            return Err(at(format!(
-                                "sigma '{cell}' must be > 0 (a standard deviation)"
-                            )));
+                            return Err(at(
+                                j,
+                                format!(
+                                    "sigma '{}' must be > 0 (a standard deviation)",
+                                    excerpt(cell)
+                                ),
+                            ));
+                        }
+                        if s < f64::MIN_POSITIVE {
+                            return Err(at(
+                                j,
+                                format!(
+                                    "sigma '{}' is subnormal (below 2.2e-308 in SI): it has lost \
+                                 digits and its reciprocal overflows",
+                                    excerpt(cell)
+                                ),
+                            ));
                         }
                         sigma = Some(s);
                     }
                 }
+            }
+            // χ² must be able to be finite (see MAX_WEIGHTED): the cell at fault is sigma when
+            // the observable alone is within the bound.
+            let weighted = observed.abs() / sigma.unwrap_or(1.0);
+            if weighted > MAX_WEIGHTED {
+                let shown = |j: usize| excerpt(rec.get(j).unwrap_or("").trim());
+                return Err(match sigma_col {
+                    Some(sc) if observed.abs() <= MAX_WEIGHTED => at(
+                        sc,
+                        format!(
+                            "sigma '{}' is too small for the observed '{}': |observed| / sigma = \
+                         {weighted:.3e} (SI) passes {MAX_WEIGHTED:e}, beyond which chi2 cannot \
+                         be finite",
+                            shown(sc),
+                            shown(obs_col)
+                        ),
+                    ),
+                    _ => {
+                        at(
+                            obs_col,
+                            format!(
+                        "'{}' is too large to fit: |observed| / sigma = {weighted:.3e} (SI{}) \
+                         passes {MAX_WEIGHTED:e}, beyond which chi2 cannot be finite",
+                        shown(obs_col),
+                        if sigma_col.is_some() { "" } else { ", sigma = 1 without a sigma column" }
+                    ),
+                        )
+                    }
+                });
             }
             rows.push(DataRow {
                 line,
@@ -471,6 +647,8 @@ impl FitData {
             conditions,
             observable,
             has_sigma: sigma_unit.is_some(),
+            observable_column: (obs_col + 1, excerpt(header[obs_col].trim())),
+            sigma_column: sigma_col.map(|j| (j + 1, excerpt(header[j].trim()))),
             rows,
         })
     }
@@ -547,5 +725,124 @@ mod tests {
         assert!(m.contains("line 2"), "{m}");
         let m = e("base.amplitude [m],pull_off_force [N]\n", None);
         assert!(m.contains("no data rows"), "{m}");
+    }
+
+    /// The line of an error is the one an editor shows: CRLF and lone-CR line ends, blank
+    /// lines, comment lines (before the header too), a byte-order mark and a quoted cell
+    /// holding a line break all counted.
+    #[test]
+    fn errors_name_the_physical_line() {
+        let line_of = |t: &str| {
+            let m = FitData::parse(t, "d.csv", None).unwrap_err().0;
+            let at = m.find("line ").unwrap_or_else(|| panic!("{m}")) + 5;
+            m[at..]
+                .split([',', ':'])
+                .next()
+                .unwrap()
+                .parse::<u64>()
+                .unwrap()
+        };
+        let h = "base.amplitude [um],pull_off_amplification [1]";
+        for (t, want) in [
+            (format!("{h}\r\n5,x\r\n"), 2),
+            (format!("{h}\r\n\r\n5,2\r\n\r\n10,x\r\n"), 5),
+            (format!("{h}\n\n5,2\n  \n10,x\n"), 5),
+            (format!("{h}\n5,2\n# a comment\n10,x\n"), 4),
+            (format!("{h}\r5,2\r10,x\r"), 3),
+            (format!("{h}\n\"5\n\",2\n10,x\n"), 4),
+            (format!("\u{feff}{h}\n1,2\n3,x\n"), 3),
+            (format!("\u{feff}# c\r\n\r\n{h}\r\n1,2\r\n3,x\r\n"), 5),
+            (format!("{h}\n1,2\n\n# c\n\n3,2,1\n"), 6),
+            (
+                "# c\n\nbase.amplitude [Hz],pull_off_amplification [1]\n5,2\n".to_string(),
+                3,
+            ),
+        ] {
+            assert_eq!(line_of(&t), want, "{t:?}");
+        }
+        let d =
+            FitData::parse(&format!("# c\r\n{h}\r\n\r\n1,2\r\n3,4\r\n"), "d.csv", None).unwrap();
+        assert_eq!(d.rows.iter().map(|r| r.line).collect::<Vec<_>>(), [4, 5]);
+    }
+
+    /// A header cell djkr does not recognise is not shown (the file may be anything); one it
+    /// recognises, or an attempt at a key, is quoted, cut at 80 characters; a data cell too.
+    #[test]
+    fn cells_of_a_file_are_shown_at_most_cut() {
+        let e = |t: &str| FitData::parse(t, "d.csv", None).unwrap_err().0;
+        let m = e("root:*:19000:0:99999:7:::\ndaemon:*:19000:0:99999:7:::\n");
+        assert!(!m.contains("root") && !m.contains("19000"), "{m}");
+        assert!(
+            m.contains("line 1, column 1 (a header cell of 25 characters, not shown)"),
+            "{m}"
+        );
+        let m = e("base.wobble [um],pull_off_amplification [1]\n1,2\n3,4\n");
+        assert!(m.contains("'base.wobble [um]'"), "{m}");
+        let long = "9".repeat(100_000);
+        let m = e(&format!(
+            "base.amplitude [um],pull_off_amplification [1]\n1,2\n3,x{long}\n"
+        ));
+        assert!(m.len() < 400 && m.contains("(100001 bytes in all)"), "{m}");
+        let m = e(&format!(
+            "base.amplitude [um],pull_off_amplification [1]\n1,2\n3,{long}\n"
+        ));
+        assert!(m.len() < 400 && m.contains("line 3, column 2"), "{m}");
+        let m = e(&format!(
+            "base.amplitude [{long}],pull_off_amplification [1]\n1,2\n"
+        ));
+        assert!(m.len() < 600, "{m}");
+    }
+
+    /// Data whose chi2 cannot be finite are refused naming the row and the column.
+    #[test]
+    fn rows_whose_chi2_cannot_be_finite_are_refused() {
+        let e = |t: &str| FitData::parse(t, "d.csv", None).unwrap_err().0;
+        let m = e("base.amplitude [um],pull_off_amplification [1]\n5,2\n10,1e308\n20,4\n");
+        assert!(
+            m.contains("line 3, column 2 'pull_off_amplification [1]'"),
+            "{m}"
+        );
+        assert!(m.contains("chi2 cannot be finite"), "{m}");
+        let m = e("base.amplitude [um],pull_off_amplification [1],sigma [1]\n5,2,1e-300\n");
+        assert!(
+            m.contains("line 2, column 3 'sigma [1]'") && m.contains("too small"),
+            "{m}"
+        );
+        for tiny in ["1e-308", "5e-324"] {
+            let m = e(&format!(
+                "base.amplitude [um],pull_off_amplification [1],sigma [1]\n5,0,{tiny}\n"
+            ));
+            assert!(
+                m.contains("line 2, column 3") && m.contains("subnormal"),
+                "{m}"
+            );
+        }
+        let m = e("base.frequency [kHz],pull_off_force [N]\n1e306,1\n");
+        assert!(
+            m.contains("line 2, column 1") && m.contains("largest number in SI"),
+            "{m}"
+        );
+        // At the bound, accepted.
+        let d = FitData::parse(
+            "base.amplitude [um],pull_off_amplification [1],sigma [1]\n5,1e150,1\n6,1,1e-150\n",
+            "d.csv",
+            None,
+        )
+        .unwrap();
+        assert_eq!(d.rows.len(), 2);
+    }
+
+    #[test]
+    fn text_beyond_the_size_limit_is_refused() {
+        let limit = InputKind::FitData.limit() as usize;
+        let mut t = String::from("base.amplitude [um],pull_off_amplification [1]\n");
+        t.push_str(&"#".repeat(limit - t.len()));
+        assert!(FitData::parse(&t, "d.csv", None)
+            .unwrap_err()
+            .0
+            .contains("no data rows"));
+        t.push('#');
+        let m = FitData::parse(&t, "d.csv", None).unwrap_err().0;
+        assert!(m.contains("16 MiB") && m.contains("fit data file"), "{m}");
     }
 }

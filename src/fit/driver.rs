@@ -302,11 +302,14 @@ impl Problem<'_, '_> {
         Ok(p)
     }
 
+    /// Keep `p` as the last evaluation, and as the best when its χ² is the lowest met. A χ²
+    /// that is not finite is never the best: the start's is checked finite before the
+    /// optimiser runs, so the best always exists and is finite.
     fn remember(&self, u: &[f64], p: &Prediction) {
         let chi2 = self.chi2(p);
         let mut st = self.state.borrow_mut();
         st.last = Some((u.to_vec(), p.clone()));
-        if st.best.as_ref().is_none_or(|(b, _, _)| chi2 < *b) {
+        if chi2.is_finite() && st.best.as_ref().is_none_or(|(b, _, _)| chi2 < *b) {
             st.best = Some((chi2, u.to_vec(), p.clone()));
             let iteration = st.iterations;
             drop(st);
@@ -452,18 +455,21 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, '_> {
 
     fn residuals(&self) -> Option<DVector<f64>> {
         let n = self.obs.len();
+        // A trial step into a region where a run fails, or where the model's prediction gives a
+        // chi2 that is not finite: a residual larger than any seen, so that the optimiser
+        // rejects the step and shrinks its trust region (never an infinite one, which ended the
+        // optimiser with a numerical failure).
+        let rejected = || {
+            let best = self.state.borrow().best.as_ref().map_or(1.0, |b| b.0);
+            let r = (100.0 * best.max(1.0) / n as f64).sqrt();
+            Some(DVector::from_element(n, r))
+        };
         match self.eval(self.u.as_slice()) {
-            Ok(p) => Some(DVector::from_fn(n, |i, _| {
+            Ok(p) if self.chi2(&p).is_finite() => Some(DVector::from_fn(n, |i, _| {
                 (self.obs[i] - p.values[i]) / self.w[i]
             })),
-            Err(EvalError::Failed(m)) if self.state.borrow().best.is_some() => {
-                // A trial step into a region where a run fails: a residual larger than any
-                // seen, so the optimiser rejects the step and shrinks its trust region.
-                let _ = m;
-                let best = self.state.borrow().best.as_ref().map_or(1.0, |b| b.0);
-                let r = (100.0 * best.max(1.0) / n as f64).sqrt();
-                Some(DVector::from_element(n, r))
-            }
+            Ok(_) => rejected(),
+            Err(EvalError::Failed(_)) if self.state.borrow().best.is_some() => rejected(),
             Err(e) => {
                 self.note_error(e);
                 None
@@ -501,6 +507,96 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_, '_> {
     }
 }
 
+/// Refuse data whose χ² at the starting values is not finite, naming the first row at fault
+/// and its column (sigma's when the file has one, else the observable's): the rows passed the
+/// reader's bound ([`super::data::MAX_WEIGHTED`]), but the model predicts values so far from
+/// them, in units of their sigma, that a term overflows (an observed 0 with sigma 1e-200).
+fn check_start_chi2(
+    data: &super::data::FitData,
+    p0: &Prediction,
+    w: &[f64],
+) -> Result<(), FitError> {
+    let bad = (0..data.rows.len()).find(|&i| {
+        let r = (data.rows[i].observed - p0.values[i]) / w[i];
+        !(r * r).is_finite()
+    });
+    let Some(i) = bad else {
+        let chi2: f64 = (0..data.rows.len())
+            .map(|i| ((data.rows[i].observed - p0.values[i]) / w[i]).powi(2))
+            .sum();
+        return if chi2.is_finite() {
+            Ok(())
+        } else {
+            Err(FitError::new(format!(
+                "{}: chi2 at the starting values sums to more than the largest double: the \
+                 rows' sigma are too small for what the model predicts",
+                data.name
+            )))
+        };
+    };
+    let row = &data.rows[i];
+    let (col, cell) = data
+        .sigma_column
+        .as_ref()
+        .unwrap_or(&data.observable_column);
+    Err(FitError::new(format!(
+        "{}: line {}, column {col} '{cell}': at the starting values the model predicts {:.6e}{u} \
+         where {:.6e}{u} was observed, with sigma {:.6e}{u}: (observed - predicted) / sigma \
+         squared is not finite, so chi2 cannot be; give a sigma of the size of the \
+         measurement's error{}",
+        data.name,
+        row.line,
+        p0.values[i],
+        row.observed,
+        w[i],
+        if data.has_sigma {
+            ""
+        } else {
+            " (without a sigma column sigma is 1 in the observable's SI unit)"
+        },
+        u = match data.observable.unit() {
+            "1" => String::new(),
+            u => format!(" {u}"),
+        }
+    )))
+}
+
+/// Why the optimiser ended without converging, in words (never its Rust name).
+fn termination_words(t: &TerminationReason) -> String {
+    match t {
+        TerminationReason::Numerical(what) => {
+            let what = match *what {
+                "residuals norm" => "the norm of the residuals",
+                "jacobian" => "the Jacobian",
+                "subproblem x" | "subproblem ||Dp||" => "the step it solved for",
+                "trust-region reduction" => "the update of its trust region",
+                "new x" => "the new parameters",
+                _ => "its computation",
+            };
+            format!(
+                "a number in {what} became infinite or NaN, which ended the optimiser (the \
+                 model's response is not finite, or not smooth, near the estimate), so no sigma \
+                 is given"
+            )
+        }
+        TerminationReason::LostPatience => {
+            "the optimiser's budget of evaluations ran out before its criteria were met".into()
+        }
+        TerminationReason::User(_) => {
+            "a forward evaluation ended the optimiser (a failed run or a stop)".into()
+        }
+        TerminationReason::NoParameters
+        | TerminationReason::NoResiduals
+        | TerminationReason::WrongDimensions(_) => {
+            "the optimiser refused the problem's shape (an internal error: please report it)".into()
+        }
+        TerminationReason::Converged { .. }
+        | TerminationReason::Orthogonal
+        | TerminationReason::ResidualsZero
+        | TerminationReason::NoImprovementPossible(_) => "the optimiser met its criteria".into(),
+    }
+}
+
 /// Parameter sets a typical iteration evaluates (the trial step and the Jacobian's) with `k`
 /// free keys: `k + 1` with forward differences, `2k + 1` with an ensemble's central ones; for a
 /// progress bar's length.
@@ -512,15 +608,31 @@ pub fn sets_per_iteration(members: usize, k: usize) -> usize {
     }
 }
 
-/// Refuse a starting value outside its key's bounds (before anything runs).
+/// Refuse a starting value outside its key's bounds, and bounds too far from it for the fit's
+/// coordinate (before anything runs).
 pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
     for (f, &x) in free.iter().zip(x0) {
+        let given = crate::text::excerpt(&f.given);
         let t = Transform::new(f, x);
         if !x.is_finite() || !t.inside(t.y(x)) {
             return Err(FitError::new(format!(
-                "--free {}: the starting value {x} {} (the scenario's) lies outside the bounds; \
-                 start inside with --set {}=VALUE",
-                f.given, f.unit, f.key
+                "--free {given}: the starting value {x} {} (the scenario's) lies outside the \
+                 bounds; start inside with --set {}=VALUE",
+                f.unit, f.key
+            )));
+        }
+        // A linear key moves in units of its starting magnitude: bounds 1e300 times that (a
+        // start of 1e-300) would overflow the coordinate or the span between the bounds.
+        let span_ok = match (t.lo, t.hi) {
+            (Some(l), Some(h)) => (h - l).is_finite(),
+            (l, h) => l.is_none_or(f64::is_finite) && h.is_none_or(f64::is_finite),
+        };
+        if !span_ok {
+            return Err(FitError::new(format!(
+                "--free {given}: the bounds lie too far from the starting value {x} {} for the \
+                 fit's coordinate (the value over its starting magnitude): narrow them, or start \
+                 nearer with --set {}=VALUE",
+                f.unit, f.key
             )));
         }
     }
@@ -617,12 +729,19 @@ pub fn fit(
         .map(|i| {
             if data.has_sigma {
                 let s = data.rows[i].sigma.unwrap_or(1.0);
-                (s * s + pooled[i] * pooled[i]).sqrt()
+                let w2 = s * s + pooled[i] * pooled[i];
+                // A sigma of 1e-200 squares to 0: the weight was 0 and every residual infinite.
+                if w2.is_normal() {
+                    w2.sqrt()
+                } else {
+                    s.hypot(pooled[i])
+                }
             } else {
                 1.0
             }
         })
         .collect();
+    check_start_chi2(data, &p0, &w)?;
     if !data.has_sigma {
         notes.push(format!(
             "{} has no sigma column: every row weighs the same (sigma = 1 {} in chi2), and the \
@@ -720,13 +839,17 @@ pub fn fit(
         );
     } else if !converged {
         notes.push(format!(
-            "not converged (the optimiser ended: {:?}); the estimate is the best met",
-            report.termination
+            "not converged: {}; the estimate is the best met",
+            termination_words(&report.termination)
         ));
     }
+    // After a number of the optimiser became infinite or NaN, the response near the estimate
+    // is not one a Jacobian describes: no sigma is claimed.
+    let numerical = matches!(report.termination, TerminationReason::Numerical(_));
     drop(st);
-    // The Jacobian at the estimate (computed unless it is the last one, or the fit was stopped).
-    let jac = if stopped {
+    // The Jacobian at the estimate (computed unless it is the last one, or the fit was stopped
+    // or ended by a numerical failure).
+    let jac = if stopped || numerical {
         None
     } else {
         match problem.jacobian_y(&u_best) {
@@ -745,6 +868,14 @@ pub fn fit(
     let st = problem.state.borrow();
     let y_best: Vec<f64> = u_best.iter().zip(&tr).map(|(&u, t)| t.y_of_u(u)).collect();
     let values: Vec<f64> = y_best.iter().zip(&tr).map(|(&y, t)| t.x(y)).collect();
+    if !chi2.is_finite() {
+        // Unreachable: the best is always finite (see Problem::remember). fit.json never says
+        // `chi2: null` for a fit it reports.
+        return Err(FitError::new(format!(
+            "{}: chi2 is not finite at the estimate: nothing to report",
+            data.name
+        )));
+    }
     let dof = n - k;
     let reduced = chi2 / dof as f64;
     if data.has_sigma && reduced > 10.0 {
@@ -862,6 +993,15 @@ pub fn fit(
             if !s.is_finite() {
                 sigma[j] = None;
                 notes.push(format!("{}: sigma is not finite; none given", f.key));
+            } else if s <= 0.0 {
+                // The covariance underflowed (data sigma of 1e-152 gave sigma = 0, a claim of
+                // an exact estimate).
+                sigma[j] = None;
+                notes.push(format!(
+                    "{}: sigma underflowed to 0 (the rows' sigma are far below what the model \
+                     resolves); none given",
+                    f.key
+                ));
             }
         }
     }
@@ -914,5 +1054,43 @@ mod tests {
         close(fd_step(1e-10), 1e-4);
         close(fd_step(1e-14), 1e-6);
         close(fd_step(1e-3), 1e-2);
+    }
+
+    /// Why the optimiser ended is said in words, never its Rust name (`Numerical("residuals
+    /// norm")` was a note of fit.json), and a numerical failure says that no sigma is given.
+    #[test]
+    fn terminations_are_told_in_words() {
+        let all = [
+            TerminationReason::User("residuals"),
+            TerminationReason::Numerical("residuals norm"),
+            TerminationReason::Numerical("jacobian"),
+            TerminationReason::Numerical("subproblem x"),
+            TerminationReason::Numerical("subproblem ||Dp||"),
+            TerminationReason::Numerical("trust-region reduction"),
+            TerminationReason::Numerical("new x"),
+            TerminationReason::ResidualsZero,
+            TerminationReason::Orthogonal,
+            TerminationReason::Converged {
+                ftol: true,
+                xtol: false,
+            },
+            TerminationReason::NoImprovementPossible("ftol"),
+            TerminationReason::LostPatience,
+            TerminationReason::NoParameters,
+            TerminationReason::NoResiduals,
+            TerminationReason::WrongDimensions("jacobian"),
+        ];
+        for t in &all {
+            let w = termination_words(t);
+            let debug = format!("{t:?}");
+            let name = debug.split(['(', ' ', '{']).next().unwrap();
+            assert!(!w.contains(name) && !w.contains("||"), "{t:?}: {w}");
+            if matches!(t, TerminationReason::Numerical(_)) {
+                assert!(
+                    w.contains("infinite or NaN") && w.contains("no sigma"),
+                    "{w}"
+                );
+            }
+        }
     }
 }

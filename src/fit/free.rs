@@ -16,6 +16,7 @@
 //! the derivative: `σ_x = x σ_y` in log space, `σ_x = s σ_y` otherwise.
 
 use crate::scenario::overrides::SetKey;
+use crate::scenario::range_error;
 use crate::sweep::spec::{key_kind, KeyKind};
 use crate::units::{parse_quantity, Dimension};
 
@@ -61,20 +62,37 @@ impl FreeKey {
                     "bounds are LO:HI (either may be empty), e.g. adhesion.v_sat=0.01:100".into(),
                 ));
             };
-            let bound = |t: &str, which: &str| -> Result<Option<f64>, String> {
+            // A bound lies in the key's range or at its edge (0 for a key > 0, 2 pi for
+            // base.phase): the value just inside it must be allowed. Beyond it, the fit would
+            // try values every run refuses, and bounds such as -1e308:1e308 overflowed the
+            // fit's coordinate to NaN, refused as a value nobody gave.
+            let bound = |t: &str, which: &str, inward: f64| -> Result<Option<f64>, String> {
                 let t = t.trim();
                 if t.is_empty() {
                     return Ok(None);
                 }
+                let shown = crate::text::excerpt(t);
                 let x = parse_quantity(&key.to_string(), t, dim)
-                    .map_err(|e| err(format!("{which} '{t}': {}", e.allowed)))?;
+                    .map_err(|e| err(format!("{which} '{shown}': {}", e.allowed)))?;
                 if !x.is_finite() {
-                    return Err(err(format!("{which} '{t}' is not finite")));
+                    return Err(err(format!("{which} '{shown}' is not finite")));
+                }
+                let inside = if x == 0.0 {
+                    inward * f64::MIN_POSITIVE
+                } else {
+                    x + inward * x.abs() * 1e-12
+                };
+                if range_error(key, x).is_some() {
+                    if let Some(why) = range_error(key, inside) {
+                        return Err(err(format!(
+                            "{which} '{shown}' lies outside the range of {key}: {why}"
+                        )));
+                    }
                 }
                 Ok(Some(x))
             };
-            lo = bound(a, "LO")?;
-            hi = bound(b, "HI")?;
+            lo = bound(a, "LO", 1.0)?;
+            hi = bound(b, "HI", -1.0)?;
             if let (Some(l), Some(h)) = (lo, hi) {
                 if l >= h {
                     return Err(err(format!("LO must be below HI ({l} >= {h})")));
@@ -89,6 +107,26 @@ impl FreeKey {
             hi,
             given: arg.trim().to_string(),
         })
+    }
+
+    /// Parse every `--free` argument, refusing a key given twice at the first repeat (before
+    /// each key's starting value is read from the scenario: a list of a million copies of one
+    /// key read the scenario a million times).
+    pub fn parse_all<S: AsRef<str>>(args: &[S]) -> Result<Vec<FreeKey>, String> {
+        let mut out: Vec<FreeKey> = Vec::new();
+        for a in args {
+            let f = FreeKey::parse(a.as_ref())?;
+            if let Some(first) = out.iter().find(|g| g.key == f.key) {
+                return Err(format!(
+                    "--free {}: {} is already free by --free {}: give each key once",
+                    crate::text::excerpt(&f.given),
+                    f.key,
+                    crate::text::excerpt(&first.given)
+                ));
+            }
+            out.push(f);
+        }
+        Ok(out)
     }
 
     /// Whether the key is fitted in log space when it starts at `x0`: a positive scale (a
@@ -158,7 +196,9 @@ impl Transform {
     pub fn y_of_u(&self, u: f64) -> f64 {
         match (self.lo, self.hi) {
             (None, None) => u,
-            (Some(l), Some(h)) => l + (h - l) * (u.sin() + 1.0) / 2.0,
+            // The factor in [0, 1] first: (h - l)(sin u + 1) overflows for a span above half
+            // the largest double, while halving is exact, so the value is otherwise the same.
+            (Some(l), Some(h)) => l + (h - l) * ((u.sin() + 1.0) / 2.0),
             (Some(l), None) => l - 1.0 + (u * u + 1.0).sqrt(),
             (None, Some(h)) => h + 1.0 - (u * u + 1.0).sqrt(),
         }
@@ -168,7 +208,7 @@ impl Transform {
     pub fn dy_du(&self, u: f64) -> f64 {
         match (self.lo, self.hi) {
             (None, None) => 1.0,
-            (Some(l), Some(h)) => (h - l) * u.cos() / 2.0,
+            (Some(l), Some(h)) => (h - l) * (u.cos() / 2.0),
             (Some(_), None) => u / (u * u + 1.0).sqrt(),
             (None, Some(_)) => -u / (u * u + 1.0).sqrt(),
         }
@@ -229,6 +269,77 @@ mod tests {
             .unwrap_err()
             .contains("below"));
         assert!(FreeKey::parse("adhesion.v0=1Hz:2Hz").is_err());
+        let e = FreeKey::parse_all(&["adhesion.n", "adhesion.v0", "adhesion.n=0.1:2"]).unwrap_err();
+        assert_eq!(
+            e,
+            "--free adhesion.n=0.1:2: adhesion.n is already free by --free adhesion.n: give each \
+             key once"
+        );
+        assert_eq!(
+            FreeKey::parse_all(&["adhesion.n", "adhesion.v0"])
+                .unwrap()
+                .len(),
+            2
+        );
+    }
+
+    /// Bounds are held to the key's range (issue 35, item 12: -1e308:1e308 overflowed the
+    /// fit's coordinate and was refused as `adhesion.n=nan`, a value nobody gave); a bound at
+    /// an open edge of the range (0 for a key > 0, 2 pi for the phase) is a bound.
+    #[test]
+    fn bounds_are_held_to_the_keys_range() {
+        let e = FreeKey::parse("adhesion.n=-1e308:1e308").unwrap_err();
+        assert_eq!(
+            e,
+            "--free adhesion.n=-1e308:1e308: LO '-1e308' lies outside the range of adhesion.n: \
+             must be a finite number > 0 (dimensionless)"
+        );
+        assert!(!e.contains("nan"));
+        let e = FreeKey::parse("adhesion.n=0.1:1e308").unwrap_err();
+        assert!(
+            e.contains("HI '1e308' lies outside the range of adhesion.n: must not exceed 1e1"),
+            "{e}"
+        );
+        let e = FreeKey::parse("adhesion.n=0:1").unwrap_err();
+        assert!(e.contains("LO '0'") && e.contains("at least 1e-3"), "{e}");
+        let e = FreeKey::parse("base.frequency=-5:400").unwrap_err();
+        assert!(e.contains("LO '-5'") && e.contains("> 0 (Hz)"), "{e}");
+        for ok in [
+            "adhesion.v_sat=0:100",
+            "base.phase=0:6.283185307179586",
+            "damping.c=0:1e9",
+            "adhesion.n=1e-3:10",
+            "material.K=1:1e13",
+        ] {
+            assert!(FreeKey::parse(ok).is_ok(), "{ok}");
+        }
+        let e = FreeKey::parse("base.phase=0:7").unwrap_err();
+        assert!(e.contains("HI '7'") && e.contains("[0, 2 pi)"), "{e}");
+        // A long bound is cut in the message.
+        let long = format!("adhesion.n={}:1", "9".repeat(10_000));
+        let e = FreeKey::parse(&long).unwrap_err();
+        assert!(e.len() < 400, "{e}");
+    }
+
+    /// Bounds far from the start in the fit's coordinate are refused before anything runs, and
+    /// a span of nearly the largest double stays finite in the transform.
+    #[test]
+    fn wide_bounds_stay_finite_or_are_refused() {
+        let f = FreeKey::parse("solver.max_wall_s=0:1.7e308").unwrap();
+        let t = Transform::new(&f, 1.0);
+        for u in [
+            -3.0,
+            -std::f64::consts::FRAC_PI_2,
+            0.0,
+            1.0,
+            std::f64::consts::FRAC_PI_2,
+            40.0,
+        ] {
+            assert!(t.y_of_u(u).is_finite() && t.dy_du(u).is_finite(), "{u}");
+        }
+        assert!(crate::fit::check_start(std::slice::from_ref(&f), &[1.0]).is_ok());
+        let e = crate::fit::check_start(&[f], &[1e-300]).unwrap_err();
+        assert!(e.message.contains("too far from the starting value"), "{e}");
     }
 
     #[test]

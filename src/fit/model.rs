@@ -14,9 +14,10 @@ use crate::scenario::parse::ScenarioSource;
 use crate::sweep::grid::{Axis, Grid};
 use crate::sweep::phase::ensemble_phase;
 use crate::sweep::spec::{KeyCell, SpecForm, SpecValue};
-use crate::sweep::{run_sweep, RunOptions, Sweep};
+use crate::sweep::{check_runs, run_sweep, RunOptions, Sweep};
 
 use super::data::{CondValue, FitData};
+use crate::text::excerpt;
 
 /// The model's prediction for every data row, at one parameter set.
 #[derive(Debug, Clone, PartialEq)]
@@ -83,14 +84,120 @@ impl ForwardModel {
                 return Err("--ensemble 0: must be a whole number >= 1 (members per row)".into());
             }
         }
-        Ok(ForwardModel {
+        let model = ForwardModel {
             source,
             data,
             free,
             fixed,
             ensemble,
             jobs,
-        })
+        };
+        model.check_batch_size()?;
+        Ok(model)
+    }
+
+    /// Refuse a fit whose largest batch of runs (every run of one iteration: rows × members ×
+    /// [`super::sets_per_iteration`], one grid built in memory before any of them runs) would
+    /// pass the bounds of a sweep: [`crate::sweep::check_runs`]'s count of runs, and the memory
+    /// the batch's grid holds ([`Self::batch_bytes`]) against the scenario's
+    /// `solver.max_memory`, the budget of issue 24 (the parser's default when the scenario with
+    /// the fixed overrides does not parse: that error is the caller's to report). Without this
+    /// `--ensemble 99999999999` aborted the process (and a Python session) on an allocation of
+    /// 28.8 TB, and `--ensemble 10000000` allocated 2.9 GB at once.
+    fn check_batch_size(&self) -> Result<(), String> {
+        let rows = self.data.rows.len();
+        let members = self.members();
+        let sets = super::sets_per_iteration(members, self.free.len());
+        let what = match self.ensemble {
+            Some((m, _)) => format!("--ensemble {m}"),
+            None => self.data.name.clone(),
+        };
+        let mut factors = vec![(rows, "rows")];
+        if self.ensemble.is_some() {
+            factors.push((members, "members"));
+        }
+        factors.push((sets, "parameter sets of one iteration"));
+        let runs = check_runs(&factors).map_err(|m| {
+            format!(
+                "{what}: {m} (a fit runs an iteration's parameter sets as one batch){}",
+                if self.ensemble.is_some() {
+                    "; use fewer members"
+                } else {
+                    ""
+                }
+            )
+        })?;
+        let budget = self
+            .source
+            .scenario(&self.fixed)
+            .map_or(crate::dynamics::methods::DEFAULT_MAX_MEMORY, |s| {
+                s.solver.max_memory
+            });
+        let bytes = self.batch_bytes(runs);
+        if bytes > budget as f64 {
+            return Err(format!(
+                "{what}: a batch of {runs} runs ({}) would hold about {} ({bytes:.3e} bytes: \
+                 {:.0} bytes a run for its {} keys and result) in memory, more than \
+                 solver.max_memory = {budget} bytes ({}){}",
+                factors
+                    .iter()
+                    .map(|(k, what)| format!("{k} {what}"))
+                    .collect::<Vec<_>>()
+                    .join(" x "),
+                crate::memory::human_bytes(bytes),
+                bytes / runs as f64,
+                self.batch_axes(),
+                crate::memory::human_bytes(budget as f64),
+                if self.ensemble.is_some() {
+                    "; use fewer members, or raise solver.max_memory"
+                } else {
+                    "; raise solver.max_memory"
+                }
+            ));
+        }
+        Ok(())
+    }
+
+    /// The keys a batch's grid sets: one axis each ([`Self::batch_grid`]).
+    fn batch_axes(&self) -> usize {
+        self.data.conditions.len()
+            + self.free.len()
+            + self.fixed.len()
+            + usize::from(self.ensemble.is_some())
+    }
+
+    /// The bytes a batch of `runs` runs holds before and while it runs: per run, a value of
+    /// each of its axes ([`SpecValue`], with the text of a text value twice: the override's and
+    /// the table's), its index in the list of runs to do (one `usize`) and its result (one
+    /// `f64`). What the sweep engine holds per running job is bounded by the jobs, not counted.
+    /// Measured: a batch of 9e6 runs of two axes, counted 144 bytes a run (1.30e9 bytes), peaked
+    /// at 1.45e9 bytes resident, the executable and the threads' stacks included.
+    fn batch_bytes(&self, runs: usize) -> f64 {
+        let value = std::mem::size_of::<SpecValue>();
+        let text_conditions: usize = self
+            .data
+            .conditions
+            .iter()
+            .enumerate()
+            .map(|(j, _)| {
+                self.data
+                    .rows
+                    .iter()
+                    .map(|r| match &r.conditions[j] {
+                        CondValue::Text(t) => 2 * t.len(),
+                        CondValue::Num(_) => 0,
+                    })
+                    .max()
+                    .unwrap_or(0)
+            })
+            .sum();
+        let text_fixed: usize = self.fixed.iter().map(|o| 2 * o.to_string().len()).sum();
+        let per_run = std::mem::size_of::<f64>()
+            + std::mem::size_of::<usize>()
+            + self.batch_axes() * value
+            + text_conditions
+            + text_fixed;
+        runs as f64 * per_run as f64
     }
 
     /// The data.
@@ -276,7 +383,7 @@ impl ForwardModel {
             .grid()
             .overrides(point)
             .iter()
-            .map(|o| format!("--set {o}"))
+            .map(|o| format!("--set {}", excerpt(&o.to_string())))
             .collect();
         format!(
             "{} line {} ({})",
@@ -298,12 +405,78 @@ impl ForwardModel {
             | crate::sweep::SweepError::Point { point, .. } => Some(*point),
             crate::sweep::SweepError::Ensemble { .. } => None,
         };
+        // An override's value may be a cell of the data file (a text key's, of any length):
+        // quoted cut, and without the sweep's point number, which means nothing to a fit.
+        let text = match e {
+            crate::sweep::SweepError::Override { set, message, .. } => {
+                format!("--set {}: {message}", excerpt(set))
+            }
+            _ => text.to_string(),
+        };
         match point {
             Some(p) => {
                 let i = (p / self.members()) % self.data.rows.len();
                 format!("{} line {}: {text}", self.data.name, self.data.rows[i].line)
             }
-            None => text.to_string(),
+            None => text,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(scenario: &str, ensemble: Option<(usize, u64)>) -> Result<ForwardModel, String> {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let source = ScenarioSource::parse(scenario, "tiny.toml", Some(dir)).unwrap();
+        let data = FitData::parse(
+            "base.amplitude [um],pull_off_amplification [1]\n5,2\n10,3\n20,4\n",
+            "d.csv",
+            None,
+        )
+        .unwrap();
+        let free = vec![SetKey::parse("adhesion.n").unwrap()];
+        ForwardModel::new(source, data, free, Vec::new(), ensemble, 1)
+    }
+
+    /// An ensemble is bounded as a sweep's is, counting the runs of one iteration's batch (3
+    /// rows x members x 3 parameter sets: the start and the first Jacobian's central
+    /// differences), and by the memory of that batch against solver.max_memory.
+    #[test]
+    fn an_ensemble_is_bounded_by_runs_and_memory() {
+        let tiny = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/sweep/tiny.toml"),
+        )
+        .unwrap();
+        let e = model(&tiny, Some((99_999_999_999, 0))).unwrap_err();
+        assert_eq!(
+            e,
+            "--ensemble 99999999999: 3 rows x 99999999999 members x 3 parameter sets of one \
+             iteration is more than 10000000 runs (a fit runs an iteration's parameter sets as \
+             one batch); use fewer members"
+        );
+        // 10_000_000 / 9 members is the most runs allow.
+        assert!(model(&tiny, Some((1_111_112, 0))).is_err());
+        let most = model(&tiny, Some((1_111_111, 0))).unwrap();
+        // Two axes (the condition and the free key) and the ensemble's phase: three values of
+        // 64 bytes, a result and an index, per run.
+        let per_run = 8 + 8 + 3 * std::mem::size_of::<SpecValue>();
+        assert_eq!(most.batch_bytes(1).to_bits(), (per_run as f64).to_bits());
+        let per_run = per_run as f64;
+        // With 1 MiB of memory allowed, 1 MiB / per_run / 9 members.
+        let small = format!("{tiny}\n[solver]\nmax_memory = 1048576\n");
+        let fits = (1_048_576.0 / per_run / 9.0).floor() as usize;
+        assert!(model(&small, Some((fits, 0))).is_ok());
+        let e = model(&small, Some((fits + 1, 0))).unwrap_err();
+        assert!(
+            e.starts_with(&format!(
+                "--ensemble {}: a batch of {} runs",
+                fits + 1,
+                9 * (fits + 1)
+            )) && e.contains("more than solver.max_memory = 1048576 bytes (1.0 MiB)"),
+            "{e}"
+        );
+        assert!(model(&tiny, None).is_ok());
     }
 }

@@ -663,12 +663,18 @@ pub fn format_sig(x: f64, sig: usize) -> String {
 /// A value with its standard deviation for a human reader, to the digits the deviation supports:
 /// σ to two significant digits and the value to the same decimal place, with a shared power of
 /// ten outside [1e-3, 1e6) (`0.468 ± 0.012`, `(5.54 ± 0.87)e-4`). Without a usable σ (none, 0,
-/// not finite) the value to 6 significant digits ([`format_sig`]).
+/// not finite) the value to 6 significant digits ([`format_sig`]); with a σ below a double's
+/// resolution of the value, the value's shortest round-trip digits and σ in e-notation.
 pub fn format_pm(x: f64, sigma: Option<f64>) -> String {
     let s = match sigma {
         Some(s) if s.is_finite() && s > 0.0 && x.is_finite() => s,
         _ => return format_sig(x, 6),
     };
+    // A σ below what a double resolves of x (its 16th significant digit): x in the shortest
+    // digits that read back to it, σ in e-notation (σ's decimals would be hundreds of zeros).
+    if s < x.abs() * 1e-15 {
+        return format!("{} ± {s:.1e}", format_f64(x));
+    }
     let lead = if x == 0.0 { s } else { x.abs().max(s) };
     let mag = lead.log10().floor() as i32;
     let exp = if (-3..6).contains(&mag) { 0 } else { mag };
@@ -779,6 +785,10 @@ mod tests {
         assert_eq!(format_pm(2.5e7, Some(3.1e5)), "(2.500 ± 0.031)e7");
         assert_eq!(format_pm(0.5, None), "0.500000");
         assert_eq!(format_pm(0.5, Some(f64::NAN)), "0.500000");
+        assert_eq!(
+            format_pm(0.5336862003788192, Some(2.8357535889366924e-153)),
+            "0.5336862003788192 ± 2.8e-153"
+        );
     }
 
     #[test]

@@ -15,6 +15,7 @@ pub mod keys;
 pub mod overrides;
 pub mod parse;
 mod set;
+pub use set::range_error;
 
 pub use crate::dynamics::protocol::{Initial, Stage, StageKind, Until};
 pub use crate::dynamics::{Method, Solver};

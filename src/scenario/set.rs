@@ -80,12 +80,7 @@ impl Scenario {
                 }
             }
         };
-        let unit = if info.unit.is_empty() {
-            "dimensionless"
-        } else {
-            info.unit
-        };
-        if let Some(e) = own_error(self, key, index, v, unit) {
+        if let Some(e) = own_error(self, key, index, v) {
             return Err(over(e));
         }
         put(self, index, v).map_err(attribute)?;
@@ -157,7 +152,31 @@ impl Scenario {
 }
 
 /// The key's own range (the parser's check of the value read), before it is written.
-fn own_error(s: &Scenario, key: SetKey, index: usize, v: f64, unit: &str) -> Option<String> {
+/// Why `v` is outside the range of `key` on this scenario: [`range_error`], and a stage's speed
+/// on a hold.
+fn own_error(s: &Scenario, key: SetKey, index: usize, v: f64) -> Option<String> {
+    match (key.section().unwrap_or(""), key.name()) {
+        ("stage", "speed") if s.stages[index].kind == StageKind::Hold => (v != 0.0).then(|| {
+            "a hold keeps the spring end still: leave speed out (or set it to 0)".to_string()
+        }),
+        _ => range_error(key, v),
+    }
+}
+
+/// Why `v` (SI) lies outside the range of the numeric key `key`, or `None`: the checks of a
+/// value alone that the parser runs (finite, its sign, not subnormal, the bounds of
+/// [`checks::UPPER_BOUNDS`] and [`checks::LOWER_BOUNDS`], a frequency's, phase's or tolerance's
+/// interval), worded as the parser words them (`must be a finite number > 0 (dimensionless)`).
+/// What depends on the rest of the scenario (a speed on a hold stage, the physics across keys)
+/// is not checked here; nor are whole-number keys, which their writer checks. `djkr fit` holds
+/// the bounds of `--free` to this.
+pub fn range_error(key: SetKey, v: f64) -> Option<String> {
+    let info = keys::find(key.section().unwrap_or(""), key.name())?;
+    let unit = if info.unit.is_empty() {
+        "dimensionless"
+    } else {
+        info.unit
+    };
     let k = key.to_string();
     match (key.section().unwrap_or(""), key.name()) {
         ("base", "frequency") => {
@@ -171,11 +190,7 @@ fn own_error(s: &Scenario, key: SetKey, index: usize, v: f64, unit: &str) -> Opt
         ("output", "sample_rate") => {
             parse::non_negative_error(&k, v, "samples per second; 0 = every step")
         }
-        ("stage", "speed") if s.stages[index].kind == StageKind::Hold => (v != 0.0).then(|| {
-            "a hold keeps the spring end still: leave speed out (or set it to 0)".to_string()
-        }),
         _ => {
-            let info = keys::find(key.section().unwrap_or(""), key.name())?;
             if info.allowed.starts_with(">= 0") {
                 parse::non_negative_error(&k, v, unit)
             } else {

@@ -59,6 +59,27 @@ pub struct Ensemble {
     pub seed: u64,
 }
 
+/// The runs of a study, the product of `factors` (each a count and what it counts:
+/// `(12, "points")`, `(8, "members")`), refused past [`MAX_RUNS`] with the product as given:
+/// `12 points x 8 members is more than 10000000 runs`. The one bound on the runs a study holds
+/// at once: a sweep's points times its ensemble's members (its rows are held in memory until
+/// the tables are written), and a fit's rows times members times the parameter sets of one
+/// iteration (one grid of runs, built in memory before any runs).
+pub fn check_runs(factors: &[(usize, &str)]) -> Result<usize, String> {
+    factors
+        .iter()
+        .try_fold(1usize, |n, (k, _)| n.checked_mul(*k))
+        .filter(|n| *n <= MAX_RUNS)
+        .ok_or_else(|| {
+            let product = factors
+                .iter()
+                .map(|(k, what)| format!("{k} {what}"))
+                .collect::<Vec<_>>()
+                .join(" x ");
+            format!("{product} is more than {MAX_RUNS} runs")
+        })
+}
+
 /// A run of a sweep: its point and member.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct RunId {
@@ -106,13 +127,7 @@ impl Sweep {
                     a.shown()
                 )));
             }
-            if grid.points().saturating_mul(e.members) > MAX_RUNS {
-                return Err(err(format!(
-                    "{} points x {} members is more than {MAX_RUNS} runs",
-                    grid.points(),
-                    e.members
-                )));
-            }
+            check_runs(&[(grid.points(), "points"), (e.members, "members")]).map_err(err)?;
         }
         let base = source.scenario(&[]).ok();
         let sweep = Sweep {

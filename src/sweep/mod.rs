@@ -50,7 +50,7 @@ pub(crate) mod spec;
 pub mod stats;
 
 pub use engine::{
-    run_all, run_folder_name, run_sweep, Ensemble, RunId, RunOptions, Sweep, SweepError,
+    check_runs, run_all, run_folder_name, run_sweep, Ensemble, RunId, RunOptions, Sweep, SweepError,
 };
 pub use files::{Manifest, Shard};
 pub use grid::{Axis, Grid};
