@@ -54,6 +54,7 @@ use djkr::scenario::parse::{self, ScenarioSource};
 use djkr::steady::{Options, Problem};
 use djkr::sweep::stats::{point_stats, points_table};
 use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
+use djkr::text::excerpt;
 use djkr::units::Dimension;
 
 create_exception!(
@@ -85,7 +86,7 @@ fn api_err(e: ApiError) -> PyErr {
             let key = o.set.split_once('=').map_or(o.set.as_str(), |(k, _)| k);
             ScenarioError::new_err(format!(
                 "set={{'{}': ...}}: {}",
-                quote(key.trim()),
+                excerpt(key.trim()),
                 python_words(&o.message)
             ))
         }
@@ -399,22 +400,13 @@ fn too_large(what: &str, size: Option<String>) -> PyErr {
     ))
 }
 
-/// At most 80 characters of `s` (a key or value quoted in a message), `…` marking a cut.
-fn quote(s: &str) -> String {
-    const MAX: usize = 80;
-    match s.char_indices().nth(MAX) {
-        Some((cut, _)) => format!("{}…", &s[..cut]),
-        None => s.to_string(),
-    }
-}
-
 /// A Python `str` as Rust text; one holding a lone surrogate (which UTF-8 cannot encode) is bad
 /// input named `what`.
 fn text_of(s: &Bound<'_, PyString>, what: &str) -> PyResult<String> {
     s.extract::<String>().map_err(|_| {
         input_err(format!(
             "{}: not valid Unicode text (a lone surrogate such as '\\ud800')",
-            quote(what)
+            excerpt(what)
         ))
     })
 }
@@ -546,7 +538,7 @@ fn whole_arg(
     let range = || {
         input_err(format!(
             "{name} = {}: must be a whole number in [{min}, {max}]",
-            quote(&v.str().map(|s| s.to_string()).unwrap_or_default())
+            excerpt(&v.str().map(|s| s.to_string()).unwrap_or_default())
         ))
     };
     if v.is_instance_of::<PyBool>() {
@@ -700,13 +692,13 @@ impl ToToml {
         if self.open.contains(&id) {
             return Err(input_err(format!(
                 "<dict>: {}: contains itself (a cycle): a scenario is a tree of dicts and lists",
-                quote(key)
+                excerpt(key)
             )));
         }
         if depth > MAX_DEPTH {
             return Err(input_err(format!(
                 "<dict>: {}: nested more than {MAX_DEPTH} deep, the limit of a scenario file",
-                quote(key)
+                excerpt(key)
             )));
         }
         self.open.push(id);
@@ -723,7 +715,7 @@ impl ToToml {
                 Err(_) => {
                     return Err(input_err(format!(
                         "<dict>: {}: keys must be strings, got {}",
-                        quote(key),
+                        excerpt(key),
                         type_name(&k)
                     )))
                 }
@@ -754,7 +746,7 @@ impl ToToml {
                     Ok(x) => Ok(toml::Value::Float(x)),
                     Err(_) => Err(input_err(format!(
                         "<dict>: {}: an integer beyond the range of a 64-bit float (about 1.8e308)",
-                        quote(key)
+                        excerpt(key)
                     ))),
                 },
             };
@@ -782,7 +774,7 @@ impl ToToml {
         }
         Err(type_err(format!(
             "<dict>: {}: a {} cannot be a scenario value (numbers, strings, booleans, dicts and lists can)",
-            quote(key),
+            excerpt(key),
             type_name(v)
         )))
     }
@@ -1315,7 +1307,8 @@ fn pulloff(
         let method = method.as_str();
         if beta.is_some() && method != "approx" {
             return Err(input_err(format!(
-                "beta has no effect with method = \"{method}\": leave it out"
+                "beta has no effect with method = \"{}\": leave it out",
+                excerpt(method)
             )));
         }
         let (m, law) = material_of(material)?;
@@ -1347,7 +1340,8 @@ fn pulloff(
             )),
             other => {
                 return Err(input_err(format!(
-                    "method = \"{other}\": must be \"exact\", \"approx\" or \"yi\""
+                    "method = \"{}\": must be \"exact\", \"approx\" or \"yi\"",
+                    excerpt(other)
                 )))
             }
         };
@@ -1617,7 +1611,7 @@ fn sweep(
                 return Err(input_err(format!(
                     "set={{'{}': {}}}: {}",
                     axis.key,
-                    python_value(&quote(value)),
+                    python_value(&excerpt(value)),
                     if axis.values.len() != 1 {
                         format!(
                             "one value per key in set= ({} here): give the values to sweep in grid=",
@@ -1645,7 +1639,7 @@ fn sweep(
                     return Err(input_err(format!(
                         "grid={{'{}': ...}}: {} is also in set=; give each key once (a fixed \
                          value in set=, the values to sweep in grid=)",
-                        quote(&key),
+                        excerpt(&key),
                         axis.key
                     )));
                 }
@@ -1693,7 +1687,7 @@ fn spec_err(arg: &str, e: &SpecError) -> PyErr {
     let key = e.set.split_once('=').map_or(e.set.as_str(), |(k, _)| k);
     input_err(format!(
         "{arg}={{'{}': ...}}: {}",
-        quote(key.trim()),
+        excerpt(key.trim()),
         python_words(&e.message)
     ))
 }
@@ -1709,7 +1703,7 @@ fn sweep_words(e: ApiError, fixed: &[SetKey]) -> ApiError {
             message,
         }) => {
             let (key, value) = set.split_once('=').unwrap_or((set.as_str(), ""));
-            let value = python_value(&quote(value));
+            let value = python_value(&excerpt(value));
             if fixed.iter().any(|k| k.to_string() == key) {
                 format!("set={{'{key}': {value}}}: {}", python_words(message))
             } else {
@@ -1748,7 +1742,7 @@ fn sweep_words(e: ApiError, fixed: &[SetKey]) -> ApiError {
         }
         ApiError::Spec(s) => format!(
             "grid={{'{}': ...}}: {}",
-            quote(s.set.split_once('=').map_or(s.set.as_str(), |(k, _)| k)),
+            excerpt(s.set.split_once('=').map_or(s.set.as_str(), |(k, _)| k)),
             python_words(&s.message)
         ),
         _ => return e,
@@ -1835,7 +1829,7 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
     let mut column = |name: &str| -> PyResult<Bound<'_, PyAny>> {
         let c = rows
             .get_item(name)
-            .map_err(|_| input_err(format!("rows: no column '{}': {WHAT}", quote(name))))?;
+            .map_err(|_| input_err(format!("rows: no column '{}': {WHAT}", excerpt(name))))?;
         let a = np.call_method1("asarray", (c,))?;
         let len = a.len()?;
         match n {
@@ -1844,7 +1838,7 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
                 return Err(input_err(format!(
                     "rows: column '{}' has {len} values, 'point' {m}: the columns of one sweep \
                      have one value per run each",
-                    quote(name)
+                    excerpt(name)
                 )))
             }
             _ => {}
@@ -1873,7 +1867,12 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
         a.call_method1("astype", ("float64",))
             .and_then(|a| a.call_method0("tolist"))
             .and_then(|l| l.extract())
-            .map_err(|_| input_err(format!("rows: column '{}' must hold numbers", quote(name))))
+            .map_err(|_| {
+                input_err(format!(
+                    "rows: column '{}' must hold numbers",
+                    excerpt(name)
+                ))
+            })
     };
     let texts = |a: Bound<'_, PyAny>| -> PyResult<Vec<String>> {
         a.call_method0("tolist")?
@@ -1924,7 +1923,7 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
             other => {
                 return Err(input_err(format!(
                     "rows: status '{}' (row {i}): must be ok, stopped or error",
-                    quote(other)
+                    excerpt(other)
                 )))
             }
         };
@@ -2101,9 +2100,9 @@ fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
             if t.contains(',') {
                 return Err(input_err(format!(
                     "grid: {} value {} '{}' holds a comma, which separates values",
-                    quote(key),
+                    excerpt(key),
                     i + 1,
-                    quote(&t)
+                    excerpt(&t)
                 )));
             }
             // An array of a billion values is refused at its first megabyte.

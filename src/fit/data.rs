@@ -222,7 +222,8 @@ impl FitData {
         let wanted = match observable {
             Some(o) => Some(Observable::parse(o).ok_or_else(|| {
                 fail(format!(
-                    "--observable {o}: djkr does not produce it; it produces {}",
+                    "--observable {}: djkr does not produce it; it produces {}",
+                    crate::text::excerpt(o),
                     Observable::list()
                 ))
             })?),

@@ -17,6 +17,7 @@
 
 use crate::scenario::overrides::SetKey;
 use crate::sweep::spec::{key_kind, KeyKind};
+use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// A free key as given on the command line, parsed.
@@ -67,9 +68,9 @@ impl FreeKey {
                     return Ok(None);
                 }
                 let x = parse_quantity(&key.to_string(), t, dim)
-                    .map_err(|e| err(format!("{which} '{t}': {}", e.allowed)))?;
+                    .map_err(|e| err(format!("{which} '{}': {}", excerpt(t), e.allowed)))?;
                 if !x.is_finite() {
-                    return Err(err(format!("{which} '{t}' is not finite")));
+                    return Err(err(format!("{which} '{}' is not finite", excerpt(t))));
                 }
                 Ok(Some(x))
             };
