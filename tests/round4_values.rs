@@ -215,3 +215,75 @@ fn a_long_value_is_quoted_by_its_beginning_everywhere() {
         );
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Item 7: a statistic that is not defined is said so, never printed as inf.
+
+/// The light protocol with a constant work of adhesion and damping 0.1 N s/m bounces before the
+/// pull-off: periods with no contact at all (mean force exactly 0) among those the roughness
+/// looks at. The relative fluctuation divides by those means: it is reported as not defined,
+/// with the number of such periods, which cycles.csv confirms.
+#[test]
+fn a_roughness_over_zero_means_is_not_defined_rather_than_inf() {
+    let dir = tempfile::tempdir().unwrap();
+    let light = std::fs::read_to_string(root().join("tests/sweep/light-protocol-300hz.toml"))
+        .unwrap()
+        .replace(
+            "law = \"gent-schultz\"\nv0 = 4.45e-5\nn = 0.531",
+            "law = \"constant\"",
+        );
+    assert!(light.contains("law = \"constant\""));
+    let file = dir.path().join("light-constant.toml");
+    std::fs::write(&file, light).unwrap();
+    let out = dir.path().join("run");
+    let r = djkr(&[
+        "run",
+        s(&file),
+        "--set",
+        "damping.c=0.1",
+        "--csv",
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(!r.stdout.contains("inf"), "{}", r.stdout);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let po = &summary["pull_off"];
+    assert!(po.get("approach_roughness").is_none(), "{po}");
+    assert_eq!(summary["non_finite"], serde_json::json!({}));
+    let zeros = po["approach_zero_means"].as_u64().unwrap();
+    // The reference: the periods before the one that holds the pull-off force, in cycles.csv.
+    // The roughness looks at the second differences centred on the 16 periods that end two
+    // periods before it (each needs the period after it).
+    let text = std::fs::read_to_string(out.join("cycles.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (t_end, mean) = (col("t_end [s]"), col("force_mean [N]"));
+    let rows: Vec<(f64, f64)> = lines
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            (c[t_end].parse().unwrap(), c[mean].parse().unwrap())
+        })
+        .collect();
+    let t_po = po["time"].as_f64().unwrap();
+    let m = rows
+        .iter()
+        .position(|(t, _)| t.to_bits() == t_po.to_bits())
+        .expect("the pull-off period in cycles.csv");
+    let want = rows[m - 17..m - 1]
+        .iter()
+        .filter(|(_, f)| *f == 0.0)
+        .count() as u64;
+    assert!(want > 0, "the scene should bounce before its pull-off");
+    assert_eq!(zeros, want);
+    assert!(
+        r.stdout.contains(&format!(
+            "{zeros} of the 16 periods before the pull-off had a zero mean"
+        )),
+        "{}",
+        r.stdout
+    );
+    assert!(r.stdout.contains("not defined"), "{}", r.stdout);
+}

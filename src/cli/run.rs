@@ -474,6 +474,16 @@ fn print_sensitivity(
             );
         }
         None => match vibrating_pull_off {
+            // A relative fluctuation divides by the mean: not defined over a period without
+            // contact. Said as such, never as an infinite percentage.
+            Some(r) if r.pull_off_approach_left_contact() => summary_line!(
+                "  note               {} of the {} periods before the pull-off had a zero mean \
+                 force (the sphere off the substrate for a whole period), so how much the \
+                 cycle means fluctuated is not defined as a fraction of them; an approach that \
+                 loses contact is often chaotic: --sensitivity measures how many digits hold",
+                r.approach_zero_means,
+                djkr::dynamics::ROUGHNESS_PERIODS
+            ),
             Some(r) if r.pull_off_likely_sensitive() => summary_line!(
                 "  note               the cycle means fluctuated by up to {:.1} % from period \
                  to period before the pull-off (a smooth approach stays below {:.0e}): the \

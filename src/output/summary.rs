@@ -53,7 +53,10 @@
 //! largest relative second difference of the cycle-mean force over the 16 periods before the
 //! pull-off (`dynamics::ApproachRoughness`): above 1e-3 the approach fluctuated and the pull-off
 //! is likely sensitive to tiny input changes (`djkr run --sensitivity` measures it); absent
-//! when not measured (no vibration, or no three consecutive periods before the pull-off).
+//! when not measured (no vibration, or no three consecutive periods before the pull-off) or not
+//! defined: `pull_off.approach_zero_means`, present only then, counts the periods among those 16
+//! whose mean force was zero (the sphere off the substrate for a whole period), where a relative
+//! difference would divide by zero.
 //!
 //! `warnings` lists what leaves the model's range ([`checks::result_warnings`]: a contact
 //! beyond 0.2 R, no pull-off recorded; always present, empty without).
@@ -194,6 +197,7 @@ pub fn units() -> BTreeMap<String, String> {
         ("pull_off.amplification", "1"),
         ("pull_off.time", "s"),
         ("pull_off.approach_roughness", "1"),
+        ("pull_off.approach_zero_means", "1"),
         ("detachment.time", "s"),
         ("events.time", "s"),
         ("stats.wall_s", "s"),
@@ -323,13 +327,20 @@ impl Builder {
             po.amplification,
         );
         self.put(&mut pull_off, "pull_off.", "time", po.time);
-        // Absent when not measured (no vibration at the pull-off): not a non-finite number.
+        // Absent when not measured (no vibration at the pull-off) or not defined (a zero mean
+        // among the periods it looks at, counted instead): not a non-finite number.
         if !result.approach_roughness.is_nan() {
             self.put(
                 &mut pull_off,
                 "pull_off.",
                 "approach_roughness",
                 result.approach_roughness,
+            );
+        }
+        if result.approach_zero_means > 0 {
+            pull_off.insert(
+                "approach_zero_means".into(),
+                Value::from(result.approach_zero_means),
             );
         }
         pull_off
