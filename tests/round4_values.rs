@@ -287,3 +287,94 @@ fn a_roughness_over_zero_means_is_not_defined_rather_than_inf() {
     );
     assert!(r.stdout.contains("not defined"), "{}", r.stdout);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Item 8: a detached run with no tensile cycle mean reports no pull-off and no amplification.
+
+/// The reproducer: the sphere bounces off the substrate with every cycle mean
+/// compressive. No "pull-off force" or amplification is printed, summary.json says
+/// `tensile: false` with a warning and leaves the amplification out; cycles.csv confirms that
+/// no mean was tensile and that the recorded force is the least compressive one.
+#[test]
+fn a_detachment_without_a_tensile_mean_is_no_pull_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("bounce");
+    let r = djkr(&[
+        "run",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "material.w0=2.929e-5",
+        "--set",
+        "base.frequency=61.157",
+        "--set",
+        "initial.preload=2.579e-5",
+        "--csv",
+        "--out",
+        s(&out),
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(!r.stdout.contains("(amplification"), "{}", r.stdout);
+    assert!(!r.stdout.contains("  pull-off force   "), "{}", r.stdout);
+    assert!(
+        r.stdout
+            .contains("no pull-off        detached without a tensile cycle mean"),
+        "{}",
+        r.stdout
+    );
+    assert!(
+        r.stderr.contains("warning: no tensile pull-off"),
+        "{}",
+        r.stderr
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["status"], "ok");
+    assert_eq!(summary["detached"], true);
+    let po = &summary["pull_off"];
+    assert_eq!(po["tensile"], false, "{po}");
+    assert!(po.get("amplification").is_none(), "{po}");
+    assert_eq!(summary["non_finite"]["pull_off.amplification"], "NaN");
+    let warnings = summary["warnings"].as_array().unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.as_str().unwrap().starts_with("no tensile pull-off")),
+        "{warnings:?}"
+    );
+    // The reference: every cycle mean in cycles.csv is compressive, and the recorded force is
+    // the least compressive of the pull-off stage's.
+    let text = std::fs::read_to_string(out.join("cycles.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (stage, mean) = (col("stage [1]"), col("force_mean [N]"));
+    let rows: Vec<(u64, f64)> = lines
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            (c[stage].parse().unwrap(), c[mean].parse().unwrap())
+        })
+        .collect();
+    assert!(
+        !rows.is_empty() && rows.iter().all(|(_, f)| *f > 0.0),
+        "{rows:?}"
+    );
+    let last_stage = rows.iter().map(|(k, _)| *k).max().unwrap();
+    let least = rows
+        .iter()
+        .filter(|(k, _)| *k == last_stage)
+        .map(|(_, f)| *f)
+        .fold(f64::INFINITY, f64::min);
+    assert_eq!(po["force"].as_f64().unwrap().to_bits(), least.to_bits());
+
+    // A tensile pull-off of the same scene is reported as before.
+    let ok_out = dir.path().join("tiny");
+    let r = djkr(&["run", "tests/sweep/tiny.toml", "--out", s(&ok_out)]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(r.stdout.contains("  pull-off force   ") && r.stdout.contains("amplification"));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(ok_out.join("summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(summary["pull_off"]["tensile"], true);
+    assert!(summary["pull_off"]["amplification"].as_f64().unwrap() > 0.0);
+    assert_eq!(summary["warnings"], serde_json::json!([]));
+}

@@ -390,7 +390,10 @@ fn print_summary(
         None => 7,
     };
     print_pull_off(scn, r, digits)?;
-    print_sensitivity(sens, (vibrating && r.detached).then_some(r))?;
+    print_sensitivity(
+        sens,
+        (vibrating && r.detached && r.pull_off.is_tensile()).then_some(r),
+    )?;
     print_run_stats(r)?;
     for w in warnings {
         summary_line!("  warning            {w}");
@@ -409,6 +412,25 @@ fn print_pull_off(
         summary_line!(
             "  no pull-off        no pull-off force recorded (see the warning){}",
             if r.detached { " (detached)" } else { "" }
+        );
+    } else if r.detached && !r.pull_off.is_tensile() {
+        // No tensile mean before the detachment: the sphere came off without a pull-off, and
+        // F/F0 (negative or zero) is no amplification (the warning below says so).
+        summary_line!(
+            "  no pull-off        detached without a tensile {}: the most tensile, {} mN at \
+             t = {} s, is {} (see the warning)",
+            if scn.rig.base.is_some() && r.cycle_count > 0 {
+                "cycle mean"
+            } else {
+                "contact force"
+            },
+            significant(r.pull_off.force * 1e3, digits),
+            significant(r.pull_off.time, digits.max(3)),
+            if r.pull_off.force > 0.0 {
+                "compressive"
+            } else {
+                "zero"
+            }
         );
     } else if r.detached {
         summary_line!(

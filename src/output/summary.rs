@@ -49,7 +49,10 @@
 //! `pull_off.time` is when it was reached (the end of that period). `detachment.time` is when
 //! the contact was lost for good (the `pull-off` event: the last contact loss, after which the
 //! sphere never touched again), later than `pull_off.time` (on the paper protocol at 300 Hz
-//! 21.59 s against 20.83 s); absent without detachment. `pull_off.approach_roughness` is the
+//! 21.59 s against 20.83 s); absent without detachment. `pull_off.tensile` says whether that
+//! force is tensile (negative): false when no cycle mean (no contact force) was, as for a sphere
+//! that bounced off; `pull_off.amplification` is then left out (`non_finite`: NaN), and a
+//! detached run says so in `warnings` ([`checks::no_tensile_pull_off`]). `pull_off.approach_roughness` is the
 //! largest relative second difference of the cycle-mean force over the 16 periods before the
 //! pull-off (`dynamics::ApproachRoughness`): above 1e-3 the approach fluctuated and the pull-off
 //! is likely sensitive to tiny input changes (`djkr run --sensitivity` measures it); absent
@@ -327,6 +330,9 @@ impl Builder {
             po.amplification,
         );
         self.put(&mut pull_off, "pull_off.", "time", po.time);
+        if po.force.is_finite() {
+            pull_off.insert("tensile".into(), Value::Bool(po.is_tensile()));
+        }
         // Absent when not measured (no vibration at the pull-off) or not defined (a zero mean
         // among the periods it looks at, counted instead): not a non-finite number.
         if !result.approach_roughness.is_nan() {

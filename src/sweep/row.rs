@@ -164,7 +164,7 @@ const NUMBERS: [(&str, &str, &str); 10] = [
     (
         "pull_off_amplification",
         "1",
-        "pull_off_force / (-3/2 pi R w0)",
+        "pull_off_force / (-3/2 pi R w0); NaN when pull_off_force is not tensile (>= 0)",
     ),
     (
         "pull_off_time",

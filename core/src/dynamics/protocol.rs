@@ -782,11 +782,7 @@ impl Protocol<'_> {
             m.push_str("; stopped by the observer");
         }
         RunResult {
-            pull_off: PullOffSummary {
-                force,
-                amplification: force / f0,
-                time,
-            },
+            pull_off: PullOffSummary::new(force, time, f0),
             detached: self.detached,
             events: self.events,
             event_counts: self.event_counts,

@@ -99,12 +99,34 @@ pub struct Stats {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PullOffSummary {
     /// Most tensile cycle-averaged contact force before detachment (N); without base motion, the
-    /// most tensile contact force.
+    /// most tensile contact force. Tensile is negative: a force ≥ 0 means none was tensile (a
+    /// sphere that bounced off, or a contact never pulled), and then it is no pull-off force
+    /// ([`PullOffSummary::is_tensile`]).
     pub force: f64,
-    /// force / (−3/2 π R w0).
+    /// force / (−3/2 π R w0) for a tensile `force`; NaN otherwise (a compressive or zero force
+    /// over the static pull-off force would read as a negative or zero amplification).
     pub amplification: f64,
     /// Time at which that force was reached (s; the end of the averaging cycle).
     pub time: f64,
+}
+
+impl PullOffSummary {
+    /// The summary of a most tensile force `force` reached at `time`, against the static
+    /// pull-off force `f0` (negative): the amplification only where `force` is tensile.
+    pub fn new(force: f64, time: f64, f0: f64) -> Self {
+        let tensile = force < 0.0;
+        Self {
+            force,
+            amplification: if tensile { force / f0 } else { f64::NAN },
+            time,
+        }
+    }
+
+    /// Whether `force` is tensile (< 0): a pull-off force. False when every cycle mean (or
+    /// contact force) stayed compressive or zero.
+    pub fn is_tensile(&self) -> bool {
+        self.force < 0.0
+    }
 }
 
 /// Everything a run returns, in memory that does not grow with the run's length: the time
@@ -881,6 +903,25 @@ fn knot_sample(m: &Model, drive: &Drive, y: &Knot, stage: usize) -> Sample {
         g,
         w,
         stage,
+    }
+}
+
+#[cfg(test)]
+mod pull_off_tests {
+    use super::*;
+
+    #[test]
+    fn only_a_tensile_force_has_an_amplification() {
+        let f0 = -0.0577;
+        let p = PullOffSummary::new(-0.1154, 2.0, f0);
+        assert!(p.is_tensile());
+        assert!((p.amplification - 2.0).abs() < 1e-12);
+        // A compressive or zero "most tensile" mean: no pull-off, no (negative, -0) ratio.
+        for force in [0.0026871761515546567, 0.0, -0.0] {
+            let p = PullOffSummary::new(force, 0.065, f0);
+            assert!(!p.is_tensile(), "{force}");
+            assert!(p.amplification.is_nan(), "{force}");
+        }
     }
 }
 
