@@ -213,22 +213,63 @@ impl<'a> Arg<'a> {
     }
 }
 
-/// Parse a quantity that must be > 0.
+/// Parse a quantity that must be > 0 (and normal: a subnormal is refused as for every key,
+/// [`crate::error::subnormal_error`]).
 pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
+    refuse_subnormal(
+        name,
+        text,
+        v,
+        &format!("a normal finite number > 0 ({})", unit_of(dim)),
+    )?;
     positive(name, v, dim.si()).map_err(|e| ParamError {
         value: text.to_string(),
         ..e
     })
 }
 
-/// Parse a quantity that must be ≥ 0.
+/// Parse a quantity that must be ≥ 0 (0, or normal: a subnormal is refused).
 pub fn non_negative_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
+    refuse_subnormal(
+        name,
+        text,
+        v,
+        &format!("0 or a normal finite number > 0 ({})", unit_of(dim)),
+    )?;
     non_negative(name, v, dim.si()).map_err(|e| ParamError {
         value: text.to_string(),
         ..e
     })
+}
+
+/// Parse a quantity of any sign (0, or normal: a subnormal is refused).
+pub fn normal_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    let v = parse_quantity(name, text, dim)?;
+    refuse_subnormal(
+        name,
+        text,
+        v,
+        &format!("0 or a normal finite number ({})", unit_of(dim)),
+    )?;
+    Ok(v)
+}
+
+/// `Err` naming `name = text` when `v` is subnormal ([`crate::error::subnormal_error`]).
+fn refuse_subnormal(name: &str, text: &str, v: f64, allowed: &str) -> Result<(), ParamError> {
+    match crate::error::subnormal_error(v, allowed) {
+        Some(e) => Err(ParamError::new(name, excerpt(text), e)),
+        None => Ok(()),
+    }
+}
+
+/// The SI unit of `dim` as messages name it.
+fn unit_of(dim: Dimension) -> &'static str {
+    match dim.si() {
+        "" => "dimensionless",
+        u => u,
+    }
 }
 
 /// Parse a quantity that sets the scenario key `key` (`--modulus` sets `material.K`), > 0 and
@@ -255,22 +296,10 @@ pub fn key_non_negative_quantity(
     key_range(name, text, dim, key, v)
 }
 
-/// `v` (parsed from `text`) within the range of `key`, subnormals refused.
+/// `v` (parsed from `text` by [`positive_quantity`] or [`non_negative_quantity`], which refuse
+/// subnormals) within the range of `key`.
 fn key_range(name: &str, text: &str, dim: Dimension, key: &str, v: f64) -> Result<f64, ParamError> {
-    let unit = match dim.si() {
-        "" => "dimensionless",
-        u => u,
-    };
-    if v > 0.0 && v < f64::MIN_POSITIVE {
-        return Err(ParamError::new(
-            name,
-            excerpt(text),
-            format!(
-                "is subnormal (below {:e}): must be a normal finite number ({unit})",
-                f64::MIN_POSITIVE
-            ),
-        ));
-    }
+    let unit = unit_of(dim);
     match crate::scenario::checks::key_range_error(key, v, unit) {
         Some(e) => Err(ParamError::new(
             name,
@@ -532,7 +561,7 @@ pub fn cycle(
 ) -> Result<CycleReport, ParamError> {
     let omega = omega_from(freq.name, freq.text)?;
     let amp = non_negative_quantity(a_amp.name, a_amp.text, Dimension::Length)?;
-    let mean = parse_quantity(a_mean.name, a_mean.text, Dimension::Length)?;
+    let mean = normal_quantity(a_mean.name, a_mean.text, Dimension::Length)?;
     if mean < -amp {
         return Err(ParamError::new(
             a_mean.name,

@@ -378,3 +378,90 @@ fn a_detachment_without_a_tensile_mean_is_no_pull_off() {
     assert!(summary["pull_off"]["amplification"].as_f64().unwrap() > 0.0);
     assert_eq!(summary["warnings"], serde_json::json!([]));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Item 10: subnormal radii refused, as for every key.
+
+/// `pulloff --a-amp`, `cycle --a-mean` and `--a-amp` (and the other quantity flags) take no
+/// subnormal, of either sign, with the words a key's refusal uses; 0 and normal values still run.
+#[test]
+fn subnormal_flags_are_refused_as_keys_are() {
+    for (args, flag) in [
+        (
+            vec!["pulloff", "--freq", "400", "--a-amp", "5e-324"],
+            "--a-amp = 5e-324",
+        ),
+        (
+            vec![
+                "cycle", "--freq", "200", "--a-mean", "1e-310", "--a-amp", "1mm",
+            ],
+            "--a-mean = 1e-310",
+        ),
+        (
+            vec![
+                "cycle", "--freq", "200", "--a-mean", "-1e-310", "--a-amp", "1mm",
+            ],
+            "--a-mean = -1e-310",
+        ),
+        (
+            vec![
+                "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "1e-310",
+            ],
+            "--a-amp = 1e-310",
+        ),
+        (
+            vec![
+                "pulloff",
+                "--freq",
+                "400",
+                "--method",
+                "yi",
+                "--delta-amp",
+                "1e-310",
+            ],
+            "--delta-amp = 1e-310",
+        ),
+        (
+            vec!["required-speed", "--amplification", "5e-324"],
+            "--amplification = 5e-324",
+        ),
+    ] {
+        let r = djkr(&args);
+        assert_eq!(r.code, Some(2), "{args:?}: {}", r.stderr);
+        assert!(
+            r.stderr.contains(flag)
+                && r.stderr
+                    .contains("is subnormal (below 2.2250738585072014e-308)"),
+            "{args:?}: {}",
+            r.stderr
+        );
+    }
+    // A key says it in the same words.
+    let r = djkr(&[
+        "check",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "base.amplitude=1e-310",
+    ]);
+    assert_eq!(r.code, Some(2));
+    assert!(
+        r.stderr
+            .contains("is subnormal (below 2.2250738585072014e-308): must be 0 or a normal"),
+        "{}",
+        r.stderr
+    );
+    // Zero and normal values run.
+    for args in [
+        vec!["pulloff", "--freq", "400", "--a-amp", "0"],
+        vec!["cycle", "--freq", "200", "--a-mean", "0", "--a-amp", "1mm"],
+        vec![
+            "cycle", "--freq", "200", "--a-mean", "-0.5mm", "--a-amp", "1mm",
+        ],
+        vec![
+            "cycle", "--freq", "200", "--a-mean", "1mm", "--a-amp", "2.3e-308",
+        ],
+    ] {
+        let r = djkr(&args);
+        assert_eq!(r.code, Some(0), "{args:?}: {}", r.stderr);
+    }
+}
