@@ -197,6 +197,32 @@ impl ApiError {
     }
 }
 
+/// The longest path the system can open, in bytes, and the longest name in it (Linux's
+/// `PATH_MAX` and `NAME_MAX`; macOS has 1024 and 255).
+pub const PATH_BYTES: usize = if cfg!(target_os = "macos") {
+    1024
+} else {
+    4096
+};
+/// See [`PATH_BYTES`].
+pub const NAME_BYTES: usize = 255;
+
+/// Why no system call would take `path` (longer than [`PATH_BYTES`], or a name in it longer
+/// than [`NAME_BYTES`]), quoting its beginning, or `None`. A path argument is checked so before
+/// anything else: every later message names files by their path, whole, which for such a path
+/// would be the 100 kB a user pasted.
+pub fn path_length_error(path: &Path) -> Option<String> {
+    let value = path.as_os_str();
+    let longest_name = path.components().map(|c| c.as_os_str().len()).max();
+    (value.len() > PATH_BYTES || longest_name.unwrap_or(0) > NAME_BYTES).then(|| {
+        format!(
+            "{}: a path longer than the system allows ({PATH_BYTES} bytes in all, {NAME_BYTES} \
+             for one name)",
+            excerpt(&value.to_string_lossy())
+        )
+    })
+}
+
 /// An argument as text with the name errors give it (`--freq`, or `freq`).
 #[derive(Debug, Clone, Copy)]
 pub struct Arg<'a> {

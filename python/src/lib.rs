@@ -573,15 +573,29 @@ fn path_arg(v: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<PathBuf
     let Some(v) = v.filter(|v| !v.is_none()) else {
         return Ok(None);
     };
-    if let Ok(s) = v.cast::<PyString>() {
-        return Ok(Some(PathBuf::from(text_of(s, name)?)));
+    let path = if let Ok(s) = v.cast::<PyString>() {
+        PathBuf::from(text_of(s, name)?)
+    } else {
+        v.extract::<PathBuf>().map_err(|_| {
+            type_err(format!(
+                "{name}: expected a path (str or os.PathLike), got {}",
+                type_name(v)
+            ))
+        })?
+    };
+    match api::path_length_error(&path) {
+        Some(e) => Err(input_err(format!("{name} = {e}"))),
+        None => Ok(Some(path)),
     }
-    v.extract::<PathBuf>().map(Some).map_err(|_| {
-        type_err(format!(
-            "{name}: expected a path (str or os.PathLike), got {}",
-            type_name(v)
-        ))
-    })
+}
+
+/// A scenario's path, refused when no system call would take it
+/// ([`api::path_length_error`]).
+fn scenario_path(p: PathBuf) -> PyResult<Scenario> {
+    match api::path_length_error(&p) {
+        Some(e) => Err(input_err(format!("scenario = {e}"))),
+        None => Ok(Scenario::Path(p)),
+    }
 }
 
 /// Where a scenario comes from.
@@ -628,10 +642,10 @@ fn scenario_of(obj: &Bound<'_, PyAny>) -> PyResult<Scenario> {
                 name: "<string>",
             });
         }
-        return Ok(Scenario::Path(PathBuf::from(s)));
+        return scenario_path(PathBuf::from(s));
     }
     if let Ok(p) = obj.extract::<PathBuf>() {
-        return Ok(Scenario::Path(p));
+        return scenario_path(p);
     }
     Err(type_err(format!(
         "scenario: expected a path, a TOML string or a dict, got {}",

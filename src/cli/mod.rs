@@ -259,18 +259,9 @@ fn short_values(mut e: clap::Error) -> clap::Error {
     e
 }
 
-/// The longest path the system can open, in bytes, and the longest name in it (Linux's
-/// `PATH_MAX` and `NAME_MAX`; macOS has 1024 and 255).
-const PATH_BYTES: usize = if cfg!(target_os = "macos") {
-    1024
-} else {
-    4096
-};
-const NAME_BYTES: usize = 255;
-
-/// Refuse a path argument that no system call would take (longer than [`PATH_BYTES`], or a name
-/// in it longer than [`NAME_BYTES`]), quoting its beginning: every later message names the
-/// file by its path, whole, which for such a path would be the 100 kB the user pasted.
+/// Refuse a path argument that no system call would take ([`djkr::api::path_length_error`]),
+/// quoting its beginning: every later message names the file by its path, whole, which for
+/// such a path would be the 100 kB the user pasted.
 fn check_path_lengths(cmd: &clap::Command, m: &clap::ArgMatches) -> anyhow::Result<()> {
     use std::any::TypeId;
     for arg in cmd.get_arguments() {
@@ -281,11 +272,7 @@ fn check_path_lengths(cmd: &clap::Command, m: &clap::ArgMatches) -> anyhow::Resu
             continue;
         };
         for value in raw {
-            let longest_name = std::path::Path::new(value)
-                .components()
-                .map(|c| c.as_os_str().len())
-                .max();
-            if value.len() > PATH_BYTES || longest_name.unwrap_or(0) > NAME_BYTES {
+            if let Some(e) = djkr::api::path_length_error(std::path::Path::new(value)) {
                 let name = match arg.get_long() {
                     Some(l) => format!("--{l}"),
                     None => arg
@@ -293,11 +280,7 @@ fn check_path_lengths(cmd: &clap::Command, m: &clap::ArgMatches) -> anyhow::Resu
                         .and_then(<[_]>::first)
                         .map_or_else(|| arg.get_id().to_string(), ToString::to_string),
                 };
-                anyhow::bail!(
-                    "{name} {}: a path longer than the system allows ({PATH_BYTES} bytes in \
-                     all, {NAME_BYTES} for one name)",
-                    djkr::text::excerpt(&value.to_string_lossy())
-                );
+                anyhow::bail!("{name} {e}");
             }
         }
     }
