@@ -179,6 +179,25 @@ impl ApiError {
         )
     }
 
+    /// True when the output folder refused the run before it started: a file djkr did not write
+    /// at a name it publishes (without `force`), a name that is not a regular file, a path that
+    /// is not a folder, another run holding the folder, or output that would not fit the free
+    /// disk space. The command line treats these as bad input (exit status 2), as
+    /// [`ApiError::is_input`]; a failure to write once the run has started is not one.
+    pub fn is_output_refusal(&self) -> bool {
+        matches!(
+            self,
+            ApiError::Output {
+                error: OutputError::Clash { .. }
+                    | OutputError::NotRegular { .. }
+                    | OutputError::NotAFolder { .. }
+                    | OutputError::Busy { .. }
+                    | OutputError::DiskSpace { .. },
+                ..
+            }
+        )
+    }
+
     /// A steady-state error about the scenario named `source_name`: bad input when the
     /// scenario cannot describe a steady state, [`ApiError::Cancelled`] when cancelled.
     pub fn from_steady(source_name: &str, error: SteadyError) -> Self {
@@ -990,17 +1009,28 @@ pub fn close_run_folder(
 /// bytes held in memory) or failed mid-way returns [`ApiError::Ended`] with what it computed, and
 /// its run folder is published with its status.
 pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
+    run_into(scn, out, false)
+}
+
+/// [`run`], with `force` (`djkr run --force`): files of the names the run publishes in `out`
+/// that djkr did not write are overwritten instead of refused.
+pub fn run_into(scn: &Scenario, out: Option<&Path>, force: bool) -> Result<RunRecord, ApiError> {
     crate::memory::check_in_memory(scn)?;
-    let mut writer =
-        match out {
-            Some(dir) => Some(open_run_folder(scn, dir, FolderOptions::of(scn)).map_err(
-                |error| ApiError::Output {
-                    context: format!("out = {}", dir.display()),
+    let options = FolderOptions {
+        force,
+        ..FolderOptions::of(scn)
+    };
+    let mut writer = match out {
+        Some(dir) => {
+            Some(
+                open_run_folder(scn, dir, options).map_err(|error| ApiError::Output {
+                    context: "out".into(),
                     error,
-                },
-            )?),
-            None => None,
-        };
+                })?,
+            )
+        }
+        None => None,
+    };
     let mut obs = InMemory {
         series: TimeSeriesWriter::new(),
         cycles: cycles::cycle_table(&[]),

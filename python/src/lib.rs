@@ -13,7 +13,9 @@
 //!   by `python python/tests/test_docs.py --write` and checked by that test.
 //! - Errors: bad input raises `djkr.ScenarioError` (a `ValueError`) with the command line's
 //!   message in Python's words (`python_words`: `set={'base.amplitude': '-1um'}`, not
-//!   `--set base.amplitude=-1um`); a run that a budget stopped or that failed raises
+//!   `--set base.amplitude=-1um`); an `out=` folder that refuses the run before it starts
+//!   (a clash without `force=True`, the disk-space estimate) raises `djkr.OutputFolderError`,
+//!   a `ScenarioError` (the command line's exit status 2); a run that a budget stopped or that failed raises
 //!   `RuntimeError` whose `run` attribute is the run up to there (its summary's `status`,
 //!   `reason`, `message` say how it ended); a panic never crosses into Python (it becomes a
 //!   `RuntimeError`).
@@ -70,6 +72,22 @@ create_exception!(
      djkr.ScenarioError as e:\n...     print(e)   # set={'base.amplitud': ...}: unknown key; ..."
 );
 
+create_exception!(
+    djkr,
+    OutputFolderError,
+    ScenarioError,
+    "The ``out=`` folder refused the run before it started (a ScenarioError).\n\n\
+     As the command line, which exits with status 2 for these: a file djkr did not write at a \
+     name the\nrun publishes (``run.h5``, ``summary.json``, ...: pass ``force=True`` to \
+     overwrite it, nothing\nelse in the folder is touched), a name there that is not a regular \
+     file, a path that is not a\nfolder, another djkr run or sweep writing into it, or output \
+     that would not fit the free disk\nspace. Nothing has run and no result was written. \
+     A failure to write once the run has started\nis a ``RuntimeError``.\n\nExamples\n\
+     --------\n>>> try:\n...     djkr.run(\"scenarios/impacts.toml\", out=\"results\")\n\
+     ... except djkr.OutputFolderError as e:\n...     print(e)   # out: results: summary.json \
+     is already there and not written by djkr: ..."
+);
+
 /// How often the calling thread looks for Ctrl-C while a long call runs.
 const POLL: Duration = Duration::from_millis(20);
 
@@ -90,6 +108,7 @@ fn api_err(e: ApiError) -> PyErr {
                 python_words(&o.message)
             ))
         }
+        e if e.is_output_refusal() => OutputFolderError::new_err(python_words(&e.to_string())),
         e if e.is_input() => ScenarioError::new_err(python_words(&e.to_string())),
         e => PyRuntimeError::new_err(python_words(&e.to_string())),
     }
@@ -136,6 +155,16 @@ fn python_words(text: &str) -> String {
                 out.push_str(&format!("{name} = {digits}"));
                 rest = &after[1 + digits.len()..];
             }
+        } else if let Some(after) = flag.strip_prefix("force") {
+            // `--force` is the argument `force=True` (the clash of a run folder).
+            out.push_str("force=True");
+            rest = after;
+        } else if let Some(after) = flag
+            .strip_prefix("out")
+            .filter(|a| !a.starts_with(|c: char| c.is_alphanumeric() || c == '-'))
+        {
+            out.push_str("out=");
+            rest = after;
         } else {
             out.push_str("--");
             rest = flag;
@@ -563,6 +592,21 @@ fn str_arg(v: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
         Ok(s) => text_of(s, name),
         Err(_) => Err(type_err(format!(
             "{name}: expected a string, got {}",
+            type_name(v)
+        ))),
+    }
+}
+
+/// A flag argument (`force`): `True` or `False`, `None` (not given) being `False`; a bool, not
+/// a truthy value (`force="no"` is not read as yes).
+fn bool_arg(v: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<bool> {
+    let Some(v) = v.filter(|v| !v.is_none()) else {
+        return Ok(false);
+    };
+    match v.cast::<PyBool>() {
+        Ok(b) => Ok(b.is_true()),
+        Err(_) => Err(type_err(format!(
+            "{name}: expected True or False, got {}",
             type_name(v)
         ))),
     }
@@ -1109,6 +1153,10 @@ impl Run {
 /// out : str or os.PathLike, optional
 ///     A folder for ``run.h5``, ``summary.json`` and the CSV files and figure the scenario's
 ///     ``[output]`` asks for.
+/// force : bool, optional
+///     With ``out``: overwrite files of those names that djkr did not write (``djkr run
+///     --force``); without it (the default) such a file stops the run before it starts
+///     (``OutputFolderError``). Nothing else in the folder is touched.
 ///
 /// Returns
 /// -------
@@ -1130,6 +1178,10 @@ impl Run {
 ///     ``max_memory``) or failed mid-way: the exception's ``run`` attribute is the ``Run`` up to
 ///     there (``e.run.summary["status"]``, ``["reason"]``, ``["message"]``); with ``out``, the
 ///     folder is written with that status.
+/// OutputFolderError
+///     A ``ScenarioError``: the ``out`` folder refused the run before it started (a file djkr
+///     did not write at a name it publishes, without ``force``; another run writing into it; not
+///     a folder; output that would not fit the free disk space). No result was written.
 /// KeyboardInterrupt
 ///     Ctrl-C stops the run within a fraction of a second (with ``out``, the folder is written
 ///     with reason ``SIGINT``).
@@ -1141,27 +1193,40 @@ impl Run {
 /// >>> r.summary["pull_off"]["amplification"]   # F_po / (-3/2 pi R w0)
 /// >>> df = r.to_pandas()                        # columns t, x_s, ..., stage, segment
 #[pyfunction]
-#[pyo3(signature = (scenario, set = None, out = None))]
+// `force` is read by `bool_arg` (a wrong type is a ScenarioTypeError, as for every argument);
+// its default shows as `False`, which is what `None` (not given) means.
+#[pyo3(
+    signature = (scenario, set = None, out = None, force = None),
+    text_signature = "(scenario, set=None, out=None, force=False)"
+)]
 fn run(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
     set: Option<&Bound<'_, PyAny>>,
     out: Option<&Bound<'_, PyAny>>,
+    force: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Run> {
-    let (scn, sets, out) = guarded(|| {
+    let (scn, sets, out, force) = guarded(|| {
         Ok((
             scenario_of(scenario)?,
             set_texts(set)?,
             path_arg(out, "out")?,
+            bool_arg(force, "force")?,
         ))
     })?;
+    if force && out.is_none() {
+        return Err(input_err(
+            "force=True has no effect without out= (it lets a run overwrite files in its \
+             folder): leave it out",
+        ));
+    }
     let (rec, name) = interruptible(py, move |stop| {
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
         s.solver.cancel = stop.token();
         // A run that ended early keeps what it computed: it travels with its message to
         // become the exception's `run`.
-        let rec = match api::run(&s, out.as_deref()) {
+        let rec = match api::run_into(&s, out.as_deref(), force) {
             Ok(rec) => Ok(rec),
             Err(e @ ApiError::Ended { .. }) => {
                 let message = python_words(&e.to_string());
@@ -2136,6 +2201,7 @@ fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
 fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ScenarioError", m.py().get_type::<ScenarioError>())?;
     m.add("ScenarioTypeError", scenario_type_error(m.py())?)?;
+    m.add("OutputFolderError", m.py().get_type::<OutputFolderError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Run>()?;
     m.add_function(wrap_pyfunction!(run, m)?)?;

@@ -1,10 +1,14 @@
 """Issue 35 in Python: long values quoted by their beginning (item 5), subnormal arguments
-refused (item 10)."""
+refused (item 10), and an ``out=`` folder that refuses a run raising ``OutputFolderError``, a
+``ScenarioError``, in Python's words (item 13)."""
+
+import inspect
+import json
 
 import pytest
 
 import djkr
-from conftest import ROOT
+from conftest import ROOT, cli
 
 TINY = "tests/sweep/tiny.toml"
 
@@ -81,3 +85,76 @@ def test_zero_and_normal_radii_still_run():
     assert djkr.pulloff(400, 0)["amplification"] > 0
     assert djkr.cycle(200, 0, "1mm")["a_amp"] == 1e-3
     assert djkr.cycle(200, "1mm", 2.3e-308)["a_mean_imposed"] == 1e-3
+
+
+# -------------------------------------------------------------------------------------------
+# Item 13: the out= folder refuses a run with OutputFolderError; force=True overwrites.
+
+
+def test_output_folder_error_is_a_documented_scenario_error():
+    assert issubclass(djkr.OutputFolderError, djkr.ScenarioError)
+    assert issubclass(djkr.OutputFolderError, ValueError)
+    assert "OutputFolderError" in djkr.__all__
+    assert "force=True" in djkr.OutputFolderError.__doc__
+    assert "OutputFolderError" in djkr.run.__doc__
+    assert str(inspect.signature(djkr.run)) == "(scenario, set=None, out=None, force=False)"
+
+
+def test_a_clash_in_out_is_refused_in_python_words_and_force_overwrites(tmp_path):
+    out = tmp_path / "run"
+    out.mkdir()
+    mine = out / "summary.json"
+    mine.write_text("my own notes\n")
+    with pytest.raises(djkr.OutputFolderError) as e:
+        djkr.run(TINY, out=out)
+    message = str(e.value)
+    assert "summary.json is already there and not written by djkr" in message, message
+    assert "force=True" in message and "--force" not in message, message
+    assert "out=" in message and "--out" not in message, message
+    # Refused before it started: the user's file is as it was, nothing else written.
+    assert mine.read_text() == "my own notes\n"
+    assert not (out / "run.h5").exists()
+    # The command line refuses the same folder with exit status 2.
+    p = cli("run", TINY, "--out", out, check=False)
+    assert p.returncode == 2, p.stderr
+    assert "summary.json is already there" in p.stderr
+    # force=True overwrites it, as --force does.
+    r = djkr.run(TINY, out=out, force=True)
+    assert r.summary["status"] == "ok"
+    assert json.loads(mine.read_text()) == r.summary
+
+
+def test_force_is_a_bool_and_needs_out(tmp_path):
+    with pytest.raises(djkr.ScenarioError, match="force=True has no effect without out="):
+        djkr.run(TINY, force=True)
+    with pytest.raises(djkr.ScenarioTypeError, match="force: expected True or False, got str"):
+        djkr.run(TINY, out=tmp_path / "r", force="no")
+    assert not (tmp_path / "r").exists()
+    # force=False is the default.
+    assert djkr.run(TINY, out=tmp_path / "r", force=False).summary["status"] == "ok"
+
+
+def test_the_disk_space_refusal_is_an_output_folder_error(tmp_path):
+    # 1e13 samples of a hold of known duration: about a petabyte, more than any test disk holds;
+    # the memory budget raised so that the disk's check is the one that refuses.
+    out = tmp_path / "big"
+    sets = {"stage[0].duration": 1e6, "output.sample_rate": 1e7, "solver.max_memory": 2**62}
+    with pytest.raises(djkr.OutputFolderError) as e:
+        djkr.run(TINY, out=out, set=sets)
+    message = str(e.value)
+    assert "the run's output would take about" in message and "free" in message, message
+    assert "out=" in message and "--out" not in message, message
+    assert not (out / "run.h5").exists() and not (out / "summary.json").exists()
+    # The command line: exit status 2, the same refusal.
+    args = [f"--set={k}={v}" for k, v in sets.items()]
+    p = cli("run", TINY, "--out", tmp_path / "big-cli", *args, check=False)
+    assert p.returncode == 2, p.stderr
+    assert "the run's output would take about" in p.stderr
+
+
+def test_a_failure_after_the_start_is_not_an_output_folder_error():
+    # A run that a budget stops is a RuntimeError with its run, not a refusal.
+    with pytest.raises(RuntimeError) as e:
+        djkr.run(TINY, set={"solver.max_steps": 10})
+    assert not isinstance(e.value, djkr.ScenarioError)
+    assert e.value.run.summary["status"] == "stopped"
