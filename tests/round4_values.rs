@@ -216,6 +216,81 @@ fn a_long_value_is_quoted_by_its_beginning_everywhere() {
     }
 }
 
+/// Values that come from a file djkr reads back (a sweep folder's sweep.csv, a cell edited to
+/// 100 kB), from the environment (`--shard slurm`'s SLURM_ARRAY_TASK_ID) or from a list flag
+/// with nothing but commas are quoted by their beginning too.
+#[test]
+fn long_values_from_files_and_the_environment_are_quoted_by_their_beginning() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = dir.path().join("s");
+    let r = djkr(&[
+        "sweep",
+        "tests/sweep/tiny.toml",
+        "--set",
+        "base.amplitude=1um,2um",
+        "--out",
+        s(&sweep),
+    ]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    let csv = sweep.join("sweep.csv");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header
+        .iter()
+        .position(|h| h.starts_with("pull_off_force"))
+        .unwrap();
+    let mut cells: Vec<String> = lines[1].split(',').map(str::to_string).collect();
+    cells[col] = "y".repeat(100_000);
+    lines[1] = cells.join(",");
+    std::fs::write(&csv, lines.join("\n") + "\n").unwrap();
+    let merged = dir.path().join("m");
+    let r = djkr(&["sweep", "merge", s(&sweep), "--out", s(&merged)]);
+    assert_eq!(r.code, Some(2), "{}", head(&r.stderr));
+    assert!(
+        r.stderr.len() < 1000 && r.stderr.contains("yyyyyyyyyy… (100000 bytes in all)"),
+        "{}",
+        head(&r.stderr)
+    );
+
+    let commas = ",".repeat(100_000);
+    let r = djkr(&[
+        "accuracy",
+        "tests/sweep/tiny.toml",
+        "--methods",
+        &commas,
+        "--out",
+        s(&dir.path().join("acc")),
+    ]);
+    assert_eq!(r.code, Some(2), "{}", head(&r.stderr));
+    assert!(r.stderr.len() < 1000, "{} bytes", r.stderr.len());
+
+    let child = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args([
+            "sweep",
+            "tests/sweep/tiny.toml",
+            "--set",
+            "base.amplitude=1um,2um",
+        ])
+        .args(["--shard", "slurm", "--out"])
+        .arg(dir.path().join("shard"))
+        .current_dir(root())
+        .env("SLURM_ARRAY_TASK_ID", "7".repeat(100_000))
+        .env("SLURM_ARRAY_TASK_COUNT", "2")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let (status, _, stderr) = tools::finish_within(child, Duration::from_secs(60));
+    assert_eq!(status.and_then(|s| s.code()), Some(2), "{}", head(&stderr));
+    assert!(
+        stderr.len() < 1000 && stderr.contains("SLURM_ARRAY_TASK_ID = 7777777777"),
+        "{}",
+        head(&stderr)
+    );
+}
+
 // ---------------------------------------------------------------------------------------------
 // Item 7: a statistic that is not defined is said so, never printed as inf.
 

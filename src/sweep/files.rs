@@ -134,9 +134,12 @@ impl Shard {
             let v = env(k).ok_or_else(|| {
                 format!("--shard slurm: {k} is not set: not in a Slurm array job (use --shard K/N)")
             })?;
-            v.trim()
-                .parse::<usize>()
-                .map_err(|_| format!("--shard slurm: {k} = {v}: not a whole number"))
+            v.trim().parse::<usize>().map_err(|_| {
+                format!(
+                    "--shard slurm: {k} = {}: not a whole number",
+                    crate::text::excerpt(&v)
+                )
+            })
         };
         let (id, count) = (get("SLURM_ARRAY_TASK_ID")?, get("SLURM_ARRAY_TASK_COUNT")?);
         let min = get("SLURM_ARRAY_TASK_MIN").unwrap_or(1);

@@ -344,7 +344,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                 format!(
                     "line {line}, column {}: '{}' is not a number",
                     schema[j].name,
-                    cell(j)
+                    crate::text::excerpt(cell(j))
                 )
             })
         };
@@ -353,7 +353,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                 format!(
                     "line {line}, column {}: '{}' is not a whole number",
                     schema[j].name,
-                    cell(j)
+                    crate::text::excerpt(cell(j))
                 )
             })
         };
@@ -373,7 +373,8 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                     "false" => false,
                     other => {
                         return Err(format!(
-                            "line {line}, column detached: '{other}' is not true or false"
+                            "line {line}, column detached: '{}' is not true or false",
+                            crate::text::excerpt(other)
                         ))
                     }
                 };
@@ -392,7 +393,8 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
             "error" | "stopped" => Err(cell(b + 2).to_string()),
             other => {
                 return Err(format!(
-                    "line {line}, column status: '{other}' is not ok, stopped or error"
+                    "line {line}, column status: '{}' is not ok, stopped or error",
+                    crate::text::excerpt(other)
                 ))
             }
         };
