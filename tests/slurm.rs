@@ -238,7 +238,10 @@ fn slurm_array_and_merge_equal_the_unsharded_sweep() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     let (daemons, conf) = start_cluster(dir);
-    let sweep = dir.join("sweep");
+    // A folder name a shell would expand, with quotes and a `%` (a Slurm file-name pattern):
+    // each reader of the script (bash, sbatch's #SBATCH parser, the merge step's sh) must take
+    // it as a name.
+    let sweep = dir.join("sweep $(touch PWNED) `touch PWNED` \"it's\" 100%j");
     let args = [
         "tests/sweep/tiny.toml",
         "--set",
@@ -270,6 +273,38 @@ fn slurm_array_and_merge_equal_the_unsharded_sweep() {
         !merge_id.trim().is_empty(),
         "no merge job id\n{}",
         logs(dir)
+    );
+    // The logs of the tasks and of the merge step landed in OUT/slurm, under Slurm's names.
+    let names: Vec<String> = std::fs::read_dir(sweep.join("slurm"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names
+            .iter()
+            .any(|n| n.starts_with("djkr-sweep-merge-") && n.ends_with(".out"))
+            && names
+                .iter()
+                .filter(|n| n.starts_with("djkr-sweep-") && n.contains('_'))
+                .count()
+                == 2,
+        "{names:?}\n{}",
+        logs(dir)
+    );
+    let pwned = std::process::Command::new("find")
+        .arg(dir)
+        .args(["-name", "PWNED"])
+        .output()
+        .unwrap();
+    assert!(
+        pwned.stdout.is_empty(),
+        "a command ran: {}",
+        String::from_utf8_lossy(&pwned.stdout)
+    );
+    assert!(
+        !Path::new("/PWNED").exists()
+            && !Path::new(env!("CARGO_MANIFEST_DIR")).join("PWNED").exists()
     );
     let shards: Vec<_> = (1..=2).map(|k| sweep.join(format!("shards/{k}"))).collect();
     for s in &shards {
