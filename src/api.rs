@@ -179,6 +179,25 @@ impl ApiError {
         )
     }
 
+    /// True when the output folder refused the run before it started: a file djkr did not write
+    /// at a name it publishes (without `force`), a name that is not a regular file, a path that
+    /// is not a folder, another run holding the folder, or output that would not fit the free
+    /// disk space. The command line treats these as bad input (exit status 2), as
+    /// [`ApiError::is_input`]; a failure to write once the run has started is not one.
+    pub fn is_output_refusal(&self) -> bool {
+        matches!(
+            self,
+            ApiError::Output {
+                error: OutputError::Clash { .. }
+                    | OutputError::NotRegular { .. }
+                    | OutputError::NotAFolder { .. }
+                    | OutputError::Busy { .. }
+                    | OutputError::DiskSpace { .. },
+                ..
+            }
+        )
+    }
+
     /// A steady-state error about the scenario named `source_name`: bad input when the
     /// scenario cannot describe a steady state, [`ApiError::Cancelled`] when cancelled.
     pub fn from_steady(source_name: &str, error: SteadyError) -> Self {
@@ -197,6 +216,32 @@ impl ApiError {
     }
 }
 
+/// The longest path the system can open, in bytes, and the longest name in it (Linux's
+/// `PATH_MAX` and `NAME_MAX`; macOS has 1024 and 255).
+pub const PATH_BYTES: usize = if cfg!(target_os = "macos") {
+    1024
+} else {
+    4096
+};
+/// See [`PATH_BYTES`].
+pub const NAME_BYTES: usize = 255;
+
+/// Why no system call would take `path` (longer than [`PATH_BYTES`], or a name in it longer
+/// than [`NAME_BYTES`]), quoting its beginning, or `None`. A path argument is checked so before
+/// anything else: every later message names files by their path, whole, which for such a path
+/// would be the 100 kB a user pasted.
+pub fn path_length_error(path: &Path) -> Option<String> {
+    let value = path.as_os_str();
+    let longest_name = path.components().map(|c| c.as_os_str().len()).max();
+    (value.len() > PATH_BYTES || longest_name.unwrap_or(0) > NAME_BYTES).then(|| {
+        format!(
+            "{}: a path longer than the system allows ({PATH_BYTES} bytes in all, {NAME_BYTES} \
+             for one name)",
+            excerpt(&value.to_string_lossy())
+        )
+    })
+}
+
 /// An argument as text with the name errors give it (`--freq`, or `freq`).
 #[derive(Debug, Clone, Copy)]
 pub struct Arg<'a> {
@@ -213,22 +258,63 @@ impl<'a> Arg<'a> {
     }
 }
 
-/// Parse a quantity that must be > 0.
+/// Parse a quantity that must be > 0 (and normal: a subnormal is refused as for every key,
+/// [`crate::error::subnormal_error`]).
 pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
+    refuse_subnormal(
+        name,
+        text,
+        v,
+        &format!("a normal finite number > 0 ({})", unit_of(dim)),
+    )?;
     positive(name, v, dim.si()).map_err(|e| ParamError {
         value: text.to_string(),
         ..e
     })
 }
 
-/// Parse a quantity that must be ≥ 0.
+/// Parse a quantity that must be ≥ 0 (0, or normal: a subnormal is refused).
 pub fn non_negative_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
+    refuse_subnormal(
+        name,
+        text,
+        v,
+        &format!("0 or a normal finite number > 0 ({})", unit_of(dim)),
+    )?;
     non_negative(name, v, dim.si()).map_err(|e| ParamError {
         value: text.to_string(),
         ..e
     })
+}
+
+/// Parse a quantity of any sign (0, or normal: a subnormal is refused).
+pub fn normal_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+    let v = parse_quantity(name, text, dim)?;
+    refuse_subnormal(
+        name,
+        text,
+        v,
+        &format!("0 or a normal finite number ({})", unit_of(dim)),
+    )?;
+    Ok(v)
+}
+
+/// `Err` naming `name = text` when `v` is subnormal ([`crate::error::subnormal_error`]).
+fn refuse_subnormal(name: &str, text: &str, v: f64, allowed: &str) -> Result<(), ParamError> {
+    match crate::error::subnormal_error(v, allowed) {
+        Some(e) => Err(ParamError::new(name, excerpt(text), e)),
+        None => Ok(()),
+    }
+}
+
+/// The SI unit of `dim` as messages name it.
+fn unit_of(dim: Dimension) -> &'static str {
+    match dim.si() {
+        "" => "dimensionless",
+        u => u,
+    }
 }
 
 /// Parse a quantity that sets the scenario key `key` (`--modulus` sets `material.K`), > 0 and
@@ -255,22 +341,10 @@ pub fn key_non_negative_quantity(
     key_range(name, text, dim, key, v)
 }
 
-/// `v` (parsed from `text`) within the range of `key`, subnormals refused.
+/// `v` (parsed from `text` by [`positive_quantity`] or [`non_negative_quantity`], which refuse
+/// subnormals) within the range of `key`.
 fn key_range(name: &str, text: &str, dim: Dimension, key: &str, v: f64) -> Result<f64, ParamError> {
-    let unit = match dim.si() {
-        "" => "dimensionless",
-        u => u,
-    };
-    if v > 0.0 && v < f64::MIN_POSITIVE {
-        return Err(ParamError::new(
-            name,
-            excerpt(text),
-            format!(
-                "is subnormal (below {:e}): must be a normal finite number ({unit})",
-                f64::MIN_POSITIVE
-            ),
-        ));
-    }
+    let unit = unit_of(dim);
     match crate::scenario::checks::key_range_error(key, v, unit) {
         Some(e) => Err(ParamError::new(
             name,
@@ -532,7 +606,7 @@ pub fn cycle(
 ) -> Result<CycleReport, ParamError> {
     let omega = omega_from(freq.name, freq.text)?;
     let amp = non_negative_quantity(a_amp.name, a_amp.text, Dimension::Length)?;
-    let mean = parse_quantity(a_mean.name, a_mean.text, Dimension::Length)?;
+    let mean = normal_quantity(a_mean.name, a_mean.text, Dimension::Length)?;
     if mean < -amp {
         return Err(ParamError::new(
             a_mean.name,
@@ -939,17 +1013,28 @@ pub fn close_run_folder(
 /// bytes held in memory) or failed mid-way returns [`ApiError::Ended`] with what it computed, and
 /// its run folder is published with its status.
 pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
+    run_into(scn, out, false)
+}
+
+/// [`run`], with `force` (`djkr run --force`): files of the names the run publishes in `out`
+/// that djkr did not write are overwritten instead of refused.
+pub fn run_into(scn: &Scenario, out: Option<&Path>, force: bool) -> Result<RunRecord, ApiError> {
     crate::memory::check_in_memory(scn)?;
-    let mut writer =
-        match out {
-            Some(dir) => Some(open_run_folder(scn, dir, FolderOptions::of(scn)).map_err(
-                |error| ApiError::Output {
-                    context: format!("out = {}", dir.display()),
+    let options = FolderOptions {
+        force,
+        ..FolderOptions::of(scn)
+    };
+    let mut writer = match out {
+        Some(dir) => {
+            Some(
+                open_run_folder(scn, dir, options).map_err(|error| ApiError::Output {
+                    context: "out".into(),
                     error,
-                },
-            )?),
-            None => None,
-        };
+                })?,
+            )
+        }
+        None => None,
+    };
     let mut obs = InMemory {
         series: TimeSeriesWriter::new(),
         cycles: cycles::cycle_table(&[]),

@@ -139,6 +139,7 @@ fn result(events: Vec<Event>, final_state: Sample) -> RunResult {
         envelope: Default::default(),
         detachment_time: 13.579_246_8,
         approach_roughness: 2.5e-6,
+        approach_zero_means: 0,
     }
 }
 

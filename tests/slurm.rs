@@ -238,7 +238,10 @@ fn slurm_array_and_merge_equal_the_unsharded_sweep() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     let (daemons, conf) = start_cluster(dir);
-    let sweep = dir.join("sweep");
+    // A folder name a shell would expand, with quotes and a `%` (a Slurm file-name pattern):
+    // each reader of the script (bash, sbatch's #SBATCH parser, the merge step's sh) must take
+    // it as a name.
+    let sweep = dir.join("sweep $(touch PWNED) `touch PWNED` \"it's\" 100%j");
     let args = [
         "tests/sweep/tiny.toml",
         "--set",
@@ -270,6 +273,38 @@ fn slurm_array_and_merge_equal_the_unsharded_sweep() {
         !merge_id.trim().is_empty(),
         "no merge job id\n{}",
         logs(dir)
+    );
+    // The logs of the tasks and of the merge step landed in OUT/slurm, under Slurm's names.
+    let names: Vec<String> = std::fs::read_dir(sweep.join("slurm"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names
+            .iter()
+            .any(|n| n.starts_with("djkr-sweep-merge-") && n.ends_with(".out"))
+            && names
+                .iter()
+                .filter(|n| n.starts_with("djkr-sweep-") && n.contains('_'))
+                .count()
+                == 2,
+        "{names:?}\n{}",
+        logs(dir)
+    );
+    let pwned = std::process::Command::new("find")
+        .arg(dir)
+        .args(["-name", "PWNED"])
+        .output()
+        .unwrap();
+    assert!(
+        pwned.stdout.is_empty(),
+        "a command ran: {}",
+        String::from_utf8_lossy(&pwned.stdout)
+    );
+    assert!(
+        !Path::new("/PWNED").exists()
+            && !Path::new(env!("CARGO_MANIFEST_DIR")).join("PWNED").exists()
     );
     let shards: Vec<_> = (1..=2).map(|k| sweep.join(format!("shards/{k}"))).collect();
     for s in &shards {
@@ -340,4 +375,310 @@ fn slurm_array_and_merge_equal_the_unsharded_sweep() {
         "Slurm test: cluster, 2-task array, merge, a failed array's cancelled merge, checks in {:.1} s",
         t0.elapsed().as_secs_f64()
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Without a cluster: sweep.sbatch run as Slurm runs it, with a stand-in `sbatch` first on PATH.
+
+/// A stand-in for Slurm's `sbatch`, for the one call the array tasks make (the merge step's
+/// `--wrap` job): like the real one, it turns the `--wrap` text into a `/bin/sh` script and keeps
+/// the submitter's environment (`--export=ALL`) for it, to run later (`run_recorded_jobs`). It
+/// records its arguments one per line (NUL-separated) and prints a job id. With
+/// `FAKE_SBATCH_FAIL=1` it fails, as when the controller is down.
+const FAKE_SBATCH: &str = r#"#!/bin/sh
+set -eu
+if [ "${FAKE_SBATCH_FAIL:-0}" = 1 ]; then echo "sbatch: error: controller down" >&2; exit 1; fi
+n=$(ls "$FAKE_SBATCH_JOBS" | wc -l)
+job="$FAKE_SBATCH_JOBS/job$n"
+mkdir "$job"
+printf '%s\0' "$@" > "$job/args"
+wrap=
+for a in "$@"; do
+  case $a in
+    --wrap=*) wrap=${a#--wrap=} ;;
+  esac
+done
+[ -n "$wrap" ] || { echo "fake sbatch: only --wrap jobs" >&2; exit 1; }
+printf '#!/bin/sh\n# This script was created by sbatch --wrap.\n\n%s\n' "$wrap" > "$job/script"
+env -0 > "$job/env"
+echo "424$n"
+"#;
+
+/// Paths a careless or hostile user may give to `--out`: none of them may run a command.
+const HOSTILE: [&str; 7] = [
+    "x$(touch PWNED)y",
+    "x`touch PWNED`y",
+    "a\"b",
+    "it's",
+    "two words",
+    "q'\"$(touch PWNED)\"'`touch PWNED` 100%",
+    "%x-%j",
+];
+
+/// Every file under `dir`, relative to it.
+fn all_files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap().flatten() {
+            let p = e.path();
+            if e.file_type().unwrap().is_dir() {
+                todo.push(p.clone());
+            }
+            out.push(p.strip_prefix(dir).unwrap().to_path_buf());
+        }
+    }
+    out
+}
+
+/// Run the array task `k` of `script` as Slurm would (bash, the task's environment), with the
+/// stand-in sbatch first on PATH, in `cwd`. Returns its stderr.
+fn run_task(script: &Path, k: usize, bin: &Path, jobs: &Path, cwd: &Path, fail: bool) -> String {
+    let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap());
+    let o = Command::new("bash")
+        .arg(script)
+        .current_dir(cwd)
+        .env("PATH", path)
+        .env("SLURM_ARRAY_JOB_ID", "4241")
+        .env("SLURM_ARRAY_TASK_ID", k.to_string())
+        .env("SLURM_ARRAY_TASK_MIN", "1")
+        .env("SLURM_ARRAY_TASK_MAX", "2")
+        .env("SLURM_ARRAY_TASK_COUNT", "2")
+        .env("SLURM_CPUS_PER_TASK", "1")
+        .env("FAKE_SBATCH_JOBS", jobs)
+        .env("FAKE_SBATCH_FAIL", if fail { "1" } else { "0" })
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(
+        o.status.success(),
+        "task {k} of {}: {stderr}",
+        script.display()
+    );
+    stderr
+}
+
+/// The jobs the stand-in recorded: each one's arguments, and the job run as slurmd runs it
+/// (`/bin/sh` on the script, with the environment recorded at submission) in `cwd`, and how that
+/// went (`Err` with its stderr when it failed).
+fn run_recorded_jobs(jobs: &Path, cwd: &Path) -> Vec<(Vec<String>, Result<(), String>)> {
+    let mut all = Vec::new();
+    let mut names: Vec<_> = std::fs::read_dir(jobs).unwrap().flatten().collect();
+    names.sort_by_key(std::fs::DirEntry::file_name);
+    for e in names {
+        let job = e.path();
+        let args = std::fs::read_to_string(job.join("args")).unwrap();
+        let env = std::fs::read(job.join("env")).unwrap();
+        let mut cmd = Command::new("/bin/sh");
+        cmd.arg(job.join("script")).current_dir(cwd).env_clear();
+        for kv in env.split(|&b| b == 0).filter(|kv| !kv.is_empty()) {
+            let kv = String::from_utf8_lossy(kv);
+            let (k, v) = kv.split_once('=').unwrap();
+            cmd.env(k, v);
+        }
+        let o = cmd.output().unwrap();
+        let ran = if o.status.success() {
+            Ok(())
+        } else {
+            Err(String::from_utf8_lossy(&o.stderr).into_owned())
+        };
+        let args = args
+            .split('\0')
+            .filter(|a| !a.is_empty())
+            .map(str::to_string)
+            .collect();
+        all.push((args, ran));
+    }
+    all
+}
+
+#[test]
+fn sweep_sbatch_never_evaluates_a_path_twice() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path();
+    let bin = root.join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    let sbatch = bin.join("sbatch");
+    std::fs::write(&sbatch, FAKE_SBATCH).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&sbatch, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/sweep/tiny.toml");
+    let scenario = scenario.to_str().unwrap();
+    let reference = root.join("reference");
+    djkr(&[
+        "sweep",
+        scenario,
+        "--set",
+        "base.amplitude=1um,2um",
+        "--out",
+        reference.to_str().unwrap(),
+    ]);
+    for (i, name) in HOSTILE.iter().enumerate() {
+        // Everything runs in `cwd`, where an injected `touch PWNED` would land.
+        let cwd = root.join(format!("case{i}"));
+        let jobs = root.join(format!("jobs{i}"));
+        std::fs::create_dir_all(cwd.join("in dir")).unwrap();
+        std::fs::create_dir(&jobs).unwrap();
+        let out = cwd.join("in dir").join(name);
+        let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
+            .args(["sweep", scenario, "--set", "base.amplitude=1um,2um"])
+            .args(["--slurm", "--shards", "2", "--out"])
+            .arg(&out)
+            .current_dir(&cwd)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            o.status.success(),
+            "{name}: {stdout}{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let script = out.join("sweep.sbatch");
+        // The printed `sbatch …` hint, run by sh, submits that very script.
+        let hint = stdout
+            .lines()
+            .skip_while(|l| !l.starts_with("submit it with:"))
+            .nth(1)
+            .unwrap_or_else(|| panic!("{name}: no sbatch hint in {stdout}"));
+        let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap());
+        let hint_jobs = root.join(format!("hint{i}"));
+        std::fs::create_dir(&hint_jobs).unwrap();
+        let o = Command::new("sh")
+            .args(["-c", &format!("{} --wrap=:", hint.trim())])
+            .current_dir(&cwd)
+            .env("PATH", &path)
+            .env("FAKE_SBATCH_JOBS", &hint_jobs)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{name}: {hint}");
+        assert!(!cwd.join("PWNED").exists(), "{name}: {hint}");
+        let args = std::fs::read_to_string(hint_jobs.join("job0/args")).unwrap();
+        assert_eq!(
+            args.split('\0').next(),
+            Some(script.to_str().unwrap()),
+            "{name}: {hint}"
+        );
+        // The array's two tasks, the first submitting the merge step; then the merge step.
+        for k in 1..=2 {
+            run_task(&script, k, &bin, &jobs, &cwd, false);
+        }
+        let submitted = run_recorded_jobs(&jobs, &cwd);
+        // Nothing ran that the user did not ask for: no PWNED, nothing outside OUT.
+        assert!(
+            !all_files(root).iter().any(|p| p.ends_with("PWNED")),
+            "{name}: a command ran"
+        );
+        let stray: Vec<_> = all_files(&cwd)
+            .into_iter()
+            .filter(|p| !p.starts_with(Path::new("in dir").join(name)) && p != Path::new("in dir"))
+            .collect();
+        assert!(stray.is_empty(), "{name}: {stray:?}");
+        assert_eq!(submitted.len(), 1, "{name}: one merge step");
+        let (args, ran) = &submitted[0];
+        assert_eq!(ran, &Ok(()), "{name}: the merge step failed");
+        let want_log = format!(
+            "--output={}/slurm/%x-%j.out",
+            out.to_str().unwrap().replace('%', "%%")
+        );
+        assert!(args.contains(&want_log), "{name}: {args:?}");
+        assert!(args.iter().any(|a| a == "--export=ALL"));
+        // The merge wrote the sweep into OUT, equal to the unsharded one.
+        assert_eq!(
+            rows_without_wall(&out.join("sweep.csv")),
+            rows_without_wall(&reference.join("sweep.csv")),
+            "{name}"
+        );
+    }
+}
+
+/// When the merge step cannot be submitted, the task says how to merge by hand: that command,
+/// run by sh, merges into OUT.
+#[test]
+fn the_by_hand_merge_hint_runs_as_printed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let root = tmp.path();
+    let bin = root.join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    let sbatch = bin.join("sbatch");
+    std::fs::write(&sbatch, FAKE_SBATCH).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&sbatch, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let scenario = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/sweep/tiny.toml");
+    let jobs = root.join("jobs");
+    std::fs::create_dir(&jobs).unwrap();
+    let out = root.join(HOSTILE[5]);
+    djkr(&[
+        "sweep",
+        scenario.to_str().unwrap(),
+        "--set",
+        "base.amplitude=1um,2um",
+        "--slurm",
+        "--shards",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let script = out.join("sweep.sbatch");
+    let stderr = run_task(&script, 1, &bin, &jobs, root, true);
+    run_task(&script, 2, &bin, &jobs, root, true);
+    let hint = stderr
+        .lines()
+        .skip_while(|l| !l.contains("could not submit the merge step"))
+        .nth(1)
+        .unwrap_or_else(|| panic!("no hint in {stderr}"));
+    let o = Command::new("sh")
+        .args(["-c", hint.trim()])
+        .current_dir(root)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{hint}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert_eq!(rows_without_wall(&out.join("sweep.csv")).len(), 3);
+    assert!(!all_files(root).iter().any(|p| p.ends_with("PWNED")));
+}
+
+/// A newline in --out (or in the scenario's path, or a --set) is refused by design: it would end
+/// the `#SBATCH` line that holds it. Nothing is written.
+#[test]
+fn a_newline_in_a_slurm_path_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("x\n$(touch PWNED)");
+    let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args([
+            "sweep",
+            "tests/sweep/tiny.toml",
+            "--set",
+            "base.amplitude=1um,2um",
+        ])
+        .args(["--slurm", "--out"])
+        .arg(&out)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("--out") && e.contains("control character"),
+        "{e}"
+    );
+    assert!(!out.exists());
+    let back = tmp.path().join("a\\b");
+    let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args([
+            "sweep",
+            "tests/sweep/tiny.toml",
+            "--set",
+            "base.amplitude=1um,2um",
+        ])
+        .args(["--slurm", "--out"])
+        .arg(&back)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("backslash"));
+    assert!(!back.exists());
 }

@@ -358,11 +358,12 @@ fn jobs_shards_and_resume_do_not_change_the_results() {
 }
 
 /// Ctrl-C (SIGINT) stops the sweep cleanly: what is done is written, the exit status is 130
-/// and the message says how to resume; the resumed sweep completes.
+/// and the message says how to resume; that command, run by sh as printed, completes the sweep
+/// (the folder's name holds what a shell would expand, and nothing of it runs).
 #[test]
 fn interrupt_writes_what_is_done_and_says_how_to_resume() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("int");
+    let out = dir.path().join("int $(touch PWNED) `touch PWNED` \"it's\"");
     let args = [
         "sweep",
         TINY,
@@ -399,10 +400,30 @@ fn interrupt_writes_what_is_done_and_says_how_to_resume() {
     assert!(stderr.contains("--resume --out"), "{stderr}");
     let (_, rows) = read_csv(&out.join("sweep.csv"));
     assert!(!rows.is_empty() && rows.len() < 300);
-    let mut again: Vec<&str> = args.to_vec();
-    again.push("--resume");
-    ok(&again);
+    let hint = stderr
+        .lines()
+        .skip_while(|l| !l.ends_with("Continue with:"))
+        .nth(1)
+        .unwrap_or_else(|| panic!("no hint: {stderr}"));
+    // `djkr` on PATH is this build.
+    let bin = dir.path().join("bin");
+    std::fs::create_dir(&bin).unwrap();
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_djkr"), bin.join("djkr")).unwrap();
+    let path = format!("{}:{}", bin.display(), std::env::var("PATH").unwrap());
+    let o = Command::new("sh")
+        .args(["-c", hint.trim()])
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("PATH", path)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{hint}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     assert_eq!(read_csv(&out.join("sweep.csv")).1.len(), 300);
+    assert!(!Path::new(env!("CARGO_MANIFEST_DIR")).join("PWNED").exists());
+    assert!(!dir.path().join("PWNED").exists());
 }
 
 /// Bad SPECs, keys, points and flags exit with status 2 and one line naming them.

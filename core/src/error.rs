@@ -72,6 +72,19 @@ pub fn in_range(name: &str, value: f64, lo: f64, hi: f64, unit: &str) -> Result<
     }
 }
 
+/// Why `value` is refused as subnormal (not 0, of magnitude below `f64::MIN_POSITIVE`), or
+/// `None`: a subnormal input has lost digits and its reciprocal overflows. Every value djkr
+/// reads, a scenario key or a flag, is held to this one rule; `allowed` completes the sentence
+/// (`must be {allowed}`), e.g. `a normal finite number > 0 (m)`.
+pub fn subnormal_error(value: f64, allowed: &str) -> Option<String> {
+    (value != 0.0 && value.abs() < f64::MIN_POSITIVE).then(|| {
+        format!(
+            "is subnormal (below {:e}): must be {allowed}",
+            f64::MIN_POSITIVE
+        )
+    })
+}
+
 fn unit_suffix(unit: &str) -> String {
     if unit.is_empty() {
         String::new()

@@ -149,7 +149,11 @@ pub fn parse_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, Par
                 return Err(ParamError::new(
                     name,
                     text,
-                    format!("unknown unit '{unit}': expected {}", allowed_units()),
+                    format!(
+                        "unknown unit '{}': expected {}",
+                        crate::text::excerpt(unit),
+                        allowed_units()
+                    ),
                 ))
             }
         }

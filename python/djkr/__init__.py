@@ -2,7 +2,7 @@
 
 Each function gives what the ``djkr`` command of the same name reports, in SI units:
 
-- ``run(scenario, set=, out=)``: a time-domain run, a ``Run`` holding the datasets of
+- ``run(scenario, set=, out=, force=)``: a time-domain run, a ``Run`` holding the datasets of
   ``run.h5`` as numpy arrays and the content of ``summary.json``;
 - ``cycle`` and ``pulloff``: the imposed-area cycle and the pull-off (``--json``'s dict);
 - ``validate``: the periodic steady state compared with the predictors (``--json``'s dict);
@@ -21,8 +21,11 @@ Python's words (``set={'base.amplitud': ...}: unknown key; ...``); an argument o
 type ``ScenarioTypeError`` (both a ``ScenarioError`` and a ``TypeError``). No input takes the
 interpreter down: a scenario dict or TOML string larger than a scenario file may be (1 MiB,
 once written as TOML), nested more than 80 deep or containing itself is refused, and so is
-``set=`` or ``grid=`` of more than 1 MiB of text. A run that a budget stopped or that failed
-mid-way raises ``RuntimeError`` whose ``run`` attribute is the ``Run`` up to there. Long calls
+``set=`` or ``grid=`` of more than 1 MiB of text. An ``out=`` folder that refuses a run before
+it starts (a file djkr did not write at a name it publishes, without ``force=True``; output that
+would not fit the free disk space) raises ``OutputFolderError``, a ``ScenarioError``. A run that
+a budget stopped or that failed mid-way raises ``RuntimeError`` whose ``run`` attribute is the
+``Run`` up to there. Long calls
 release the interpreter lock and stop within a fraction of a second on Ctrl-C
 (``KeyboardInterrupt``).
 
@@ -37,6 +40,7 @@ Examples
 """
 
 from ._djkr import (
+    OutputFolderError,
     Run,
     ScenarioError,
     ScenarioTypeError,
@@ -52,6 +56,7 @@ from ._djkr import (
 )
 
 __all__ = [
+    "OutputFolderError",
     "Run",
     "ScenarioError",
     "ScenarioTypeError",

@@ -2,7 +2,7 @@
 
 Each function gives what the ``djkr`` command of the same name reports, in SI units:
 
-- ``run(scenario, set=, out=)``: a time-domain run, a ``Run`` holding the datasets of
+- ``run(scenario, set=, out=, force=)``: a time-domain run, a ``Run`` holding the datasets of
   ``run.h5`` as numpy arrays and the content of ``summary.json``;
 - ``cycle`` and ``pulloff``: the imposed-area cycle and the pull-off (``--json``'s dict);
 - ``validate``: the periodic steady state compared with the predictors (``--json``'s dict);
@@ -21,8 +21,11 @@ Python's words (``set={'base.amplitud': ...}: unknown key; ...``); an argument o
 type ``ScenarioTypeError`` (both a ``ScenarioError`` and a ``TypeError``). No input takes the
 interpreter down: a scenario dict or TOML string larger than a scenario file may be (1 MiB,
 once written as TOML), nested more than 80 deep or containing itself is refused, and so is
-``set=`` or ``grid=`` of more than 1 MiB of text. A run that a budget stopped or that failed
-mid-way raises ``RuntimeError`` whose ``run`` attribute is the ``Run`` up to there. Long calls
+``set=`` or ``grid=`` of more than 1 MiB of text. An ``out=`` folder that refuses a run before
+it starts (a file djkr did not write at a name it publishes, without ``force=True``; output that
+would not fit the free disk space) raises ``OutputFolderError``, a ``ScenarioError``. A run that
+a budget stopped or that failed mid-way raises ``RuntimeError`` whose ``run`` attribute is the
+``Run`` up to there. Long calls
 release the interpreter lock and stop within a fraction of a second on Ctrl-C
 (``KeyboardInterrupt``).
 
@@ -63,6 +66,24 @@ class ScenarioError(ValueError):
     ...     djkr.run("scenarios/impacts.toml", set={"base.amplitud": "30um"})
     ... except djkr.ScenarioError as e:
     ...     print(e)   # set={'base.amplitud': ...}: unknown key; ...
+    """
+
+class OutputFolderError(ScenarioError):
+    """The ``out=`` folder refused the run before it started (a ScenarioError).
+
+    As the command line, which exits with status 2 for these: a file djkr did not write at a name the
+    run publishes (``run.h5``, ``summary.json``, ...: pass ``force=True`` to overwrite it, nothing
+    else in the folder is touched), a name there that is not a regular file, a path that is not a
+    folder, another djkr run or sweep writing into it, or output that would not fit the free disk
+    space. Nothing has run and no result was written. A failure to write once the run has started
+    is a ``RuntimeError``.
+
+    Examples
+    --------
+    >>> try:
+    ...     djkr.run("scenarios/impacts.toml", out="results")
+    ... except djkr.OutputFolderError as e:
+    ...     print(e)   # out: results: summary.json is already there and not written by djkr: ...
     """
 
 class ScenarioTypeError(ScenarioError, TypeError):
@@ -149,6 +170,7 @@ def run(
     scenario: Scenario,
     set: Optional[Mapping[str, SetValue]] = None,
     out: Optional[Union[str, "os.PathLike[str]"]] = None,
+    force: bool = False,
 ) -> Run:
     """Run a scenario with the time-domain simulator, as ``djkr run`` does.
 
@@ -166,6 +188,10 @@ def run(
     out : str or os.PathLike, optional
         A folder for ``run.h5``, ``summary.json`` and the CSV files and figure the scenario's
         ``[output]`` asks for.
+    force : bool, optional
+        With ``out``: overwrite files of those names that djkr did not write (``djkr run
+        --force``); without it (the default) such a file stops the run before it starts
+        (``OutputFolderError``). Nothing else in the folder is touched.
 
     Returns
     -------
@@ -188,6 +214,10 @@ def run(
         mid-way: the exception's ``run`` attribute is the ``Run`` up to there
         (``e.run.summary["status"]``, ``["reason"]``, ``["message"]``); with ``out``, the folder
         is written with that status.
+    OutputFolderError
+        A ``ScenarioError``: the ``out`` folder refused the run before it started (a file djkr
+        did not write at a name it publishes, without ``force``; another run writing into it; not
+        a folder; output that would not fit the free disk space). No result was written.
     KeyboardInterrupt
         Ctrl-C stops the run within a fraction of a second (with ``out``, the folder is written
         with reason ``SIGINT``).

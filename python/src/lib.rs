@@ -13,7 +13,9 @@
 //!   by `python python/tests/test_docs.py --write` and checked by that test.
 //! - Errors: bad input raises `djkr.ScenarioError` (a `ValueError`) with the command line's
 //!   message in Python's words (`python_words`: `set={'base.amplitude': '-1um'}`, not
-//!   `--set base.amplitude=-1um`); a run that a budget stopped or that failed raises
+//!   `--set base.amplitude=-1um`); an `out=` folder that refuses the run before it starts
+//!   (a clash without `force=True`, the disk-space estimate) raises `djkr.OutputFolderError`,
+//!   a `ScenarioError` (the command line's exit status 2); a run that a budget stopped or that failed raises
 //!   `RuntimeError` whose `run` attribute is the run up to there (its summary's `status`,
 //!   `reason`, `message` say how it ended); a panic never crosses into Python (it becomes a
 //!   `RuntimeError`).
@@ -54,6 +56,7 @@ use djkr::scenario::parse::{self, ScenarioSource};
 use djkr::steady::{Options, Problem};
 use djkr::sweep::stats::{point_stats, points_table};
 use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
+use djkr::text::excerpt;
 use djkr::units::Dimension;
 
 create_exception!(
@@ -67,6 +70,22 @@ create_exception!(
      sweep checks every\npoint first.\n\nExamples\n--------\n>>> try:\n...     \
      djkr.run(\"scenarios/impacts.toml\", set={\"base.amplitud\": \"30um\"})\n... except \
      djkr.ScenarioError as e:\n...     print(e)   # set={'base.amplitud': ...}: unknown key; ..."
+);
+
+create_exception!(
+    djkr,
+    OutputFolderError,
+    ScenarioError,
+    "The ``out=`` folder refused the run before it started (a ScenarioError).\n\n\
+     As the command line, which exits with status 2 for these: a file djkr did not write at a \
+     name the\nrun publishes (``run.h5``, ``summary.json``, ...: pass ``force=True`` to \
+     overwrite it, nothing\nelse in the folder is touched), a name there that is not a regular \
+     file, a path that is not a\nfolder, another djkr run or sweep writing into it, or output \
+     that would not fit the free disk\nspace. Nothing has run and no result was written. \
+     A failure to write once the run has started\nis a ``RuntimeError``.\n\nExamples\n\
+     --------\n>>> try:\n...     djkr.run(\"scenarios/impacts.toml\", out=\"results\")\n\
+     ... except djkr.OutputFolderError as e:\n...     print(e)   # out: results: summary.json \
+     is already there and not written by djkr: ..."
 );
 
 /// How often the calling thread looks for Ctrl-C while a long call runs.
@@ -85,10 +104,11 @@ fn api_err(e: ApiError) -> PyErr {
             let key = o.set.split_once('=').map_or(o.set.as_str(), |(k, _)| k);
             ScenarioError::new_err(format!(
                 "set={{'{}': ...}}: {}",
-                quote(key.trim()),
+                excerpt(key.trim()),
                 python_words(&o.message)
             ))
         }
+        e if e.is_output_refusal() => OutputFolderError::new_err(python_words(&e.to_string())),
         e if e.is_input() => ScenarioError::new_err(python_words(&e.to_string())),
         e => PyRuntimeError::new_err(python_words(&e.to_string())),
     }
@@ -135,6 +155,16 @@ fn python_words(text: &str) -> String {
                 out.push_str(&format!("{name} = {digits}"));
                 rest = &after[1 + digits.len()..];
             }
+        } else if let Some(after) = flag.strip_prefix("force") {
+            // `--force` is the argument `force=True` (the clash of a run folder).
+            out.push_str("force=True");
+            rest = after;
+        } else if let Some(after) = flag
+            .strip_prefix("out")
+            .filter(|a| !a.starts_with(|c: char| c.is_alphanumeric() || c == '-'))
+        {
+            out.push_str("out=");
+            rest = after;
         } else {
             out.push_str("--");
             rest = flag;
@@ -399,22 +429,13 @@ fn too_large(what: &str, size: Option<String>) -> PyErr {
     ))
 }
 
-/// At most 80 characters of `s` (a key or value quoted in a message), `…` marking a cut.
-fn quote(s: &str) -> String {
-    const MAX: usize = 80;
-    match s.char_indices().nth(MAX) {
-        Some((cut, _)) => format!("{}…", &s[..cut]),
-        None => s.to_string(),
-    }
-}
-
 /// A Python `str` as Rust text; one holding a lone surrogate (which UTF-8 cannot encode) is bad
 /// input named `what`.
 fn text_of(s: &Bound<'_, PyString>, what: &str) -> PyResult<String> {
     s.extract::<String>().map_err(|_| {
         input_err(format!(
             "{}: not valid Unicode text (a lone surrogate such as '\\ud800')",
-            quote(what)
+            excerpt(what)
         ))
     })
 }
@@ -546,7 +567,7 @@ fn whole_arg(
     let range = || {
         input_err(format!(
             "{name} = {}: must be a whole number in [{min}, {max}]",
-            quote(&v.str().map(|s| s.to_string()).unwrap_or_default())
+            excerpt(&v.str().map(|s| s.to_string()).unwrap_or_default())
         ))
     };
     if v.is_instance_of::<PyBool>() {
@@ -576,20 +597,49 @@ fn str_arg(v: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
     }
 }
 
+/// A flag argument (`force`): `True` or `False`, `None` (not given) being `False`; a bool, not
+/// a truthy value (`force="no"` is not read as yes).
+fn bool_arg(v: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<bool> {
+    let Some(v) = v.filter(|v| !v.is_none()) else {
+        return Ok(false);
+    };
+    match v.cast::<PyBool>() {
+        Ok(b) => Ok(b.is_true()),
+        Err(_) => Err(type_err(format!(
+            "{name}: expected True or False, got {}",
+            type_name(v)
+        ))),
+    }
+}
+
 /// A folder argument (`out`): a `str` or `os.PathLike`; `None` when not given.
 fn path_arg(v: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<PathBuf>> {
     let Some(v) = v.filter(|v| !v.is_none()) else {
         return Ok(None);
     };
-    if let Ok(s) = v.cast::<PyString>() {
-        return Ok(Some(PathBuf::from(text_of(s, name)?)));
+    let path = if let Ok(s) = v.cast::<PyString>() {
+        PathBuf::from(text_of(s, name)?)
+    } else {
+        v.extract::<PathBuf>().map_err(|_| {
+            type_err(format!(
+                "{name}: expected a path (str or os.PathLike), got {}",
+                type_name(v)
+            ))
+        })?
+    };
+    match api::path_length_error(&path) {
+        Some(e) => Err(input_err(format!("{name} = {e}"))),
+        None => Ok(Some(path)),
     }
-    v.extract::<PathBuf>().map(Some).map_err(|_| {
-        type_err(format!(
-            "{name}: expected a path (str or os.PathLike), got {}",
-            type_name(v)
-        ))
-    })
+}
+
+/// A scenario's path, refused when no system call would take it
+/// ([`api::path_length_error`]).
+fn scenario_path(p: PathBuf) -> PyResult<Scenario> {
+    match api::path_length_error(&p) {
+        Some(e) => Err(input_err(format!("scenario = {e}"))),
+        None => Ok(Scenario::Path(p)),
+    }
 }
 
 /// Where a scenario comes from.
@@ -636,10 +686,10 @@ fn scenario_of(obj: &Bound<'_, PyAny>) -> PyResult<Scenario> {
                 name: "<string>",
             });
         }
-        return Ok(Scenario::Path(PathBuf::from(s)));
+        return scenario_path(PathBuf::from(s));
     }
     if let Ok(p) = obj.extract::<PathBuf>() {
-        return Ok(Scenario::Path(p));
+        return scenario_path(p);
     }
     Err(type_err(format!(
         "scenario: expected a path, a TOML string or a dict, got {}",
@@ -700,13 +750,13 @@ impl ToToml {
         if self.open.contains(&id) {
             return Err(input_err(format!(
                 "<dict>: {}: contains itself (a cycle): a scenario is a tree of dicts and lists",
-                quote(key)
+                excerpt(key)
             )));
         }
         if depth > MAX_DEPTH {
             return Err(input_err(format!(
                 "<dict>: {}: nested more than {MAX_DEPTH} deep, the limit of a scenario file",
-                quote(key)
+                excerpt(key)
             )));
         }
         self.open.push(id);
@@ -723,7 +773,7 @@ impl ToToml {
                 Err(_) => {
                     return Err(input_err(format!(
                         "<dict>: {}: keys must be strings, got {}",
-                        quote(key),
+                        excerpt(key),
                         type_name(&k)
                     )))
                 }
@@ -754,7 +804,7 @@ impl ToToml {
                     Ok(x) => Ok(toml::Value::Float(x)),
                     Err(_) => Err(input_err(format!(
                         "<dict>: {}: an integer beyond the range of a 64-bit float (about 1.8e308)",
-                        quote(key)
+                        excerpt(key)
                     ))),
                 },
             };
@@ -782,7 +832,7 @@ impl ToToml {
         }
         Err(type_err(format!(
             "<dict>: {}: a {} cannot be a scenario value (numbers, strings, booleans, dicts and lists can)",
-            quote(key),
+            excerpt(key),
             type_name(v)
         )))
     }
@@ -1103,6 +1153,10 @@ impl Run {
 /// out : str or os.PathLike, optional
 ///     A folder for ``run.h5``, ``summary.json`` and the CSV files and figure the scenario's
 ///     ``[output]`` asks for.
+/// force : bool, optional
+///     With ``out``: overwrite files of those names that djkr did not write (``djkr run
+///     --force``); without it (the default) such a file stops the run before it starts
+///     (``OutputFolderError``). Nothing else in the folder is touched.
 ///
 /// Returns
 /// -------
@@ -1125,6 +1179,10 @@ impl Run {
 ///     mid-way: the exception's ``run`` attribute is the ``Run`` up to there
 ///     (``e.run.summary["status"]``, ``["reason"]``, ``["message"]``); with ``out``, the folder
 ///     is written with that status.
+/// OutputFolderError
+///     A ``ScenarioError``: the ``out`` folder refused the run before it started (a file djkr
+///     did not write at a name it publishes, without ``force``; another run writing into it; not
+///     a folder; output that would not fit the free disk space). No result was written.
 /// KeyboardInterrupt
 ///     Ctrl-C stops the run within a fraction of a second (with ``out``, the folder is written
 ///     with reason ``SIGINT``).
@@ -1136,27 +1194,40 @@ impl Run {
 /// >>> r.summary["pull_off"]["amplification"]   # F_po / (-3/2 pi R w0)
 /// >>> df = r.to_pandas()                        # columns t, x_s, ..., stage, segment
 #[pyfunction]
-#[pyo3(signature = (scenario, set = None, out = None))]
+// `force` is read by `bool_arg` (a wrong type is a ScenarioTypeError, as for every argument);
+// its default shows as `False`, which is what `None` (not given) means.
+#[pyo3(
+    signature = (scenario, set = None, out = None, force = None),
+    text_signature = "(scenario, set=None, out=None, force=False)"
+)]
 fn run(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
     set: Option<&Bound<'_, PyAny>>,
     out: Option<&Bound<'_, PyAny>>,
+    force: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Run> {
-    let (scn, sets, out) = guarded(|| {
+    let (scn, sets, out, force) = guarded(|| {
         Ok((
             scenario_of(scenario)?,
             set_texts(set)?,
             path_arg(out, "out")?,
+            bool_arg(force, "force")?,
         ))
     })?;
+    if force && out.is_none() {
+        return Err(input_err(
+            "force=True has no effect without out= (it lets a run overwrite files in its \
+             folder): leave it out",
+        ));
+    }
     let (rec, name) = interruptible(py, move |stop| {
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
         s.solver.cancel = stop.token();
         // A run that ended early keeps what it computed: it travels with its message to
         // become the exception's `run`.
-        let rec = match api::run(&s, out.as_deref()) {
+        let rec = match api::run_into(&s, out.as_deref(), force) {
             Ok(rec) => Ok(rec),
             Err(e @ ApiError::Ended { .. }) => {
                 let message = python_words(&e.to_string());
@@ -1316,7 +1387,8 @@ fn pulloff(
         let method = method.as_str();
         if beta.is_some() && method != "approx" {
             return Err(input_err(format!(
-                "beta has no effect with method = \"{method}\": leave it out"
+                "beta has no effect with method = \"{}\": leave it out",
+                excerpt(method)
             )));
         }
         let (m, law) = material_of(material)?;
@@ -1348,7 +1420,8 @@ fn pulloff(
             )),
             other => {
                 return Err(input_err(format!(
-                    "method = \"{other}\": must be \"exact\", \"approx\" or \"yi\""
+                    "method = \"{}\": must be \"exact\", \"approx\" or \"yi\"",
+                    excerpt(other)
                 )))
             }
         };
@@ -1618,7 +1691,7 @@ fn sweep(
                 return Err(input_err(format!(
                     "set={{'{}': {}}}: {}",
                     axis.key,
-                    python_value(&quote(value)),
+                    python_value(&excerpt(value)),
                     if axis.values.len() != 1 {
                         format!(
                             "one value per key in set= ({} here): give the values to sweep in grid=",
@@ -1646,7 +1719,7 @@ fn sweep(
                     return Err(input_err(format!(
                         "grid={{'{}': ...}}: {} is also in set=; give each key once (a fixed \
                          value in set=, the values to sweep in grid=)",
-                        quote(&key),
+                        excerpt(&key),
                         axis.key
                     )));
                 }
@@ -1694,7 +1767,7 @@ fn spec_err(arg: &str, e: &SpecError) -> PyErr {
     let key = e.set.split_once('=').map_or(e.set.as_str(), |(k, _)| k);
     input_err(format!(
         "{arg}={{'{}': ...}}: {}",
-        quote(key.trim()),
+        excerpt(key.trim()),
         python_words(&e.message)
     ))
 }
@@ -1710,7 +1783,7 @@ fn sweep_words(e: ApiError, fixed: &[SetKey]) -> ApiError {
             message,
         }) => {
             let (key, value) = set.split_once('=').unwrap_or((set.as_str(), ""));
-            let value = python_value(&quote(value));
+            let value = python_value(&excerpt(value));
             if fixed.iter().any(|k| k.to_string() == key) {
                 format!("set={{'{key}': {value}}}: {}", python_words(message))
             } else {
@@ -1749,7 +1822,7 @@ fn sweep_words(e: ApiError, fixed: &[SetKey]) -> ApiError {
         }
         ApiError::Spec(s) => format!(
             "grid={{'{}': ...}}: {}",
-            quote(s.set.split_once('=').map_or(s.set.as_str(), |(k, _)| k)),
+            excerpt(s.set.split_once('=').map_or(s.set.as_str(), |(k, _)| k)),
             python_words(&s.message)
         ),
         _ => return e,
@@ -1836,7 +1909,7 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
     let mut column = |name: &str| -> PyResult<Bound<'_, PyAny>> {
         let c = rows
             .get_item(name)
-            .map_err(|_| input_err(format!("rows: no column '{}': {WHAT}", quote(name))))?;
+            .map_err(|_| input_err(format!("rows: no column '{}': {WHAT}", excerpt(name))))?;
         let a = np.call_method1("asarray", (c,))?;
         let len = a.len()?;
         match n {
@@ -1845,7 +1918,7 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
                 return Err(input_err(format!(
                     "rows: column '{}' has {len} values, 'point' {m}: the columns of one sweep \
                      have one value per run each",
-                    quote(name)
+                    excerpt(name)
                 )))
             }
             _ => {}
@@ -1874,7 +1947,12 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
         a.call_method1("astype", ("float64",))
             .and_then(|a| a.call_method0("tolist"))
             .and_then(|l| l.extract())
-            .map_err(|_| input_err(format!("rows: column '{}' must hold numbers", quote(name))))
+            .map_err(|_| {
+                input_err(format!(
+                    "rows: column '{}' must hold numbers",
+                    excerpt(name)
+                ))
+            })
     };
     let texts = |a: Bound<'_, PyAny>| -> PyResult<Vec<String>> {
         a.call_method0("tolist")?
@@ -1925,7 +2003,7 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
             other => {
                 return Err(input_err(format!(
                     "rows: status '{}' (row {i}): must be ok, stopped or error",
-                    quote(other)
+                    excerpt(other)
                 )))
             }
         };
@@ -2112,9 +2190,9 @@ fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
             if t.contains(',') {
                 return Err(input_err(format!(
                     "grid: {} value {} '{}' holds a comma, which separates values",
-                    quote(key),
+                    excerpt(key),
                     i + 1,
-                    quote(&t)
+                    excerpt(&t)
                 )));
             }
             // An array of a billion values is refused at its first megabyte.
@@ -2134,6 +2212,7 @@ fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
 fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ScenarioError", m.py().get_type::<ScenarioError>())?;
     m.add("ScenarioTypeError", scenario_type_error(m.py())?)?;
+    m.add("OutputFolderError", m.py().get_type::<OutputFolderError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Run>()?;
     m.add_function(wrap_pyfunction!(run, m)?)?;

@@ -80,7 +80,10 @@ fn list<T>(flag: &str, text: &str, f: impl Fn(&str) -> Result<T, ParamError>) ->
         .map(|s| f(s.trim()))
         .collect::<Result<_, _>>()?;
     if v.is_empty() {
-        bail!("{flag} = {text:?}: needs at least one comma-separated value");
+        bail!(
+            "{flag} = {}: needs at least one comma-separated value",
+            djkr::text::excerpt(text)
+        );
     }
     Ok(v)
 }

@@ -22,7 +22,7 @@ mod steady;
 mod sweep;
 mod validate;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 /// djkr — dynamic JKR adhesion of a sphere on a vibrating viscoelastic substrate.
@@ -152,7 +152,13 @@ enum Command {
 pub fn main() -> ExitCode {
     restore_sigpipe();
     tune_allocator();
-    let cli = Cli::parse();
+    let cli = match parse_args() {
+        Ok(cli) => cli,
+        Err(e) => {
+            eprintln!("error: {}", error_text(&e));
+            return ExitCode::from(2);
+        }
+    };
     let result = match cli.command {
         Command::Run(a) => run::run(&a),
         Command::Check(a) => run::check(&a),
@@ -207,6 +213,83 @@ pub fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// Parse the command line. clap's own messages (an invalid value, an unknown argument) quote
+/// what was typed through [`djkr::text::excerpt`], as every djkr message does; they end djkr
+/// here, as `Cli::parse` would (exit status 2, or 0 for `--help` and `--version`). A path
+/// argument longer than the system allows is refused (`Err`) before it reaches any message.
+fn parse_args() -> anyhow::Result<Cli> {
+    let matches = Cli::command()
+        .try_get_matches()
+        .unwrap_or_else(|e| short_values(e).exit());
+    check_path_lengths(&Cli::command(), &matches)?;
+    Ok(Cli::from_arg_matches(&matches).unwrap_or_else(|e| short_values(e).exit()))
+}
+
+/// `e` with each value it quotes cut to an excerpt (a 100 kB `--method` was echoed whole).
+fn short_values(mut e: clap::Error) -> clap::Error {
+    use clap::error::ContextValue;
+    use djkr::text::{excerpt, EXCERPT_CHARS};
+    let long = |s: &str| s.chars().count() > EXCERPT_CHARS;
+    let cut: Vec<_> = e
+        .context()
+        .filter_map(|(kind, value)| {
+            let short = match value {
+                ContextValue::String(s) if long(s) => ContextValue::String(excerpt(s)),
+                ContextValue::Strings(v) if v.iter().any(|s| long(s)) => {
+                    ContextValue::Strings(v.iter().map(|s| excerpt(s)).collect())
+                }
+                // A tip quotes the value inside a sentence ("to pass '--x…' as a value, use
+                // '-- --x…'"): kept when short, else the sentence is cut.
+                ContextValue::StyledStr(s) if long(&s.to_string()) => {
+                    ContextValue::String(excerpt(&s.to_string()))
+                }
+                ContextValue::StyledStrs(v) if v.iter().any(|s| long(&s.to_string())) => {
+                    ContextValue::Strings(v.iter().map(|s| excerpt(&s.to_string())).collect())
+                }
+                _ => return None,
+            };
+            Some((kind, short))
+        })
+        .collect();
+    for (kind, value) in cut {
+        e.insert(kind, value);
+    }
+    e
+}
+
+/// Refuse a path argument that no system call would take ([`djkr::api::path_length_error`]),
+/// quoting its beginning: every later message names the file by its path, whole, which for
+/// such a path would be the 100 kB the user pasted.
+fn check_path_lengths(cmd: &clap::Command, m: &clap::ArgMatches) -> anyhow::Result<()> {
+    use std::any::TypeId;
+    for arg in cmd.get_arguments() {
+        if arg.get_value_parser().type_id() != TypeId::of::<std::path::PathBuf>() {
+            continue;
+        }
+        let Some(raw) = m.get_raw(arg.get_id().as_str()) else {
+            continue;
+        };
+        for value in raw {
+            if let Some(e) = djkr::api::path_length_error(std::path::Path::new(value)) {
+                let name = match arg.get_long() {
+                    Some(l) => format!("--{l}"),
+                    None => arg
+                        .get_value_names()
+                        .and_then(<[_]>::first)
+                        .map_or_else(|| arg.get_id().to_string(), ToString::to_string),
+                };
+                anyhow::bail!("{name} {e}");
+            }
+        }
+    }
+    if let Some((name, sub)) = m.subcommand() {
+        if let Some(c) = cmd.find_subcommand(name) {
+            check_path_lengths(c, sub)?;
+        }
+    }
+    Ok(())
 }
 
 /// Let a closed stdout end djkr quietly, as it does any Unix filter (`djkr figures | head -1`).

@@ -392,7 +392,10 @@ fn print_summary(
         None => 7,
     };
     print_pull_off(scn, r, digits)?;
-    print_sensitivity(sens, (vibrating && r.detached).then_some(r))?;
+    print_sensitivity(
+        sens,
+        (vibrating && r.detached && r.pull_off.is_tensile()).then_some(r),
+    )?;
     print_run_stats(r)?;
     for w in warnings {
         summary_line!("  warning            {w}");
@@ -411,6 +414,25 @@ fn print_pull_off(
         summary_line!(
             "  no pull-off        no pull-off force recorded (see the warning){}",
             if r.detached { " (detached)" } else { "" }
+        );
+    } else if r.detached && !r.pull_off.is_tensile() {
+        // No tensile mean before the detachment: the sphere came off without a pull-off, and
+        // F/F0 (negative or zero) is no amplification (the warning below says so).
+        summary_line!(
+            "  no pull-off        detached without a tensile {}: the most tensile, {} mN at \
+             t = {} s, is {} (see the warning)",
+            if scn.rig.base.is_some() && r.cycle_count > 0 {
+                "cycle mean"
+            } else {
+                "contact force"
+            },
+            significant(r.pull_off.force * 1e3, digits),
+            significant(r.pull_off.time, digits.max(3)),
+            if r.pull_off.force > 0.0 {
+                "compressive"
+            } else {
+                "zero"
+            }
         );
     } else if r.detached {
         summary_line!(
@@ -476,6 +498,16 @@ fn print_sensitivity(
             );
         }
         None => match vibrating_pull_off {
+            // A relative fluctuation divides by the mean: not defined over a period without
+            // contact. Said as such, never as an infinite percentage.
+            Some(r) if r.pull_off_approach_left_contact() => summary_line!(
+                "  note               {} of the {} periods before the pull-off had a zero mean \
+                 force (the sphere off the substrate for a whole period), so how much the \
+                 cycle means fluctuated is not defined as a fraction of them; an approach that \
+                 loses contact is often chaotic: --sensitivity measures how many digits hold",
+                r.approach_zero_means,
+                djkr::dynamics::ROUGHNESS_PERIODS
+            ),
             Some(r) if r.pull_off_likely_sensitive() => summary_line!(
                 "  note               the cycle means fluctuated by up to {:.1} % from period \
                  to period before the pull-off (a smooth approach stays below {:.0e}): the \

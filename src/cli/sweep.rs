@@ -468,7 +468,7 @@ fn absolute(p: &Path) -> Result<PathBuf> {
 /// (`--slurm-partition`, `--slurm-time`) or holds a control character (a path, a `--set`):
 /// written into an `#SBATCH` or comment line, a newline would start a command of its own.
 fn check_script_values(a: &SweepRunArgs, file: &Path, out: &Path, exe: &Path) -> Result<()> {
-    use djkr::sweep::slurm::{check_partition, check_script_text, check_time};
+    use djkr::sweep::slurm::{check_partition, check_script_text, check_sweep_folder, check_time};
     use djkr::text::excerpt;
     if let Some(p) = &a.slurm_partition {
         check_partition(p)
@@ -477,14 +477,21 @@ fn check_script_values(a: &SweepRunArgs, file: &Path, out: &Path, exe: &Path) ->
     if let Some(t) = &a.slurm_time {
         check_time(t).map_err(|e| anyhow::anyhow!("--slurm-time = {}: {e}", excerpt(t)))?;
     }
-    let paths = [
-        ("the scenario file", file),
-        ("--out", out),
-        ("the djkr binary", exe),
-    ];
-    for (what, p) in paths {
-        let text = p.to_string_lossy();
-        check_script_text(&text).map_err(|e| anyhow::anyhow!("{what} {}: {e}", excerpt(&text)))?;
+    // The script holds the paths as text: one that is not UTF-8 would be written as another.
+    fn text_of<'a>(what: &str, p: &'a Path) -> Result<&'a str> {
+        p.to_str().ok_or_else(|| {
+            anyhow::anyhow!(
+                "{what} {}: is not valid UTF-8 text, so it cannot go into a Slurm script",
+                excerpt(&p.to_string_lossy())
+            )
+        })
+    }
+    let out_text = text_of("--out", out)?;
+    check_sweep_folder(out_text)
+        .map_err(|e| anyhow::anyhow!("--out {}: {e}", excerpt(out_text)))?;
+    for (what, p) in [("the scenario file", file), ("the djkr binary", exe)] {
+        let text = text_of(what, p)?;
+        check_script_text(text).map_err(|e| anyhow::anyhow!("{what} {}: {e}", excerpt(text)))?;
     }
     for set in &a.set {
         check_script_text(set).map_err(|e| anyhow::anyhow!("--set {}: {e}", excerpt(set)))?;
@@ -553,7 +560,7 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
     outln!(
         "wrote {}\n\nsubmit it with:\n  sbatch {}",
         sbatch.display(),
-        sbatch.display()
+        files::shell_quote(&sbatch.display().to_string())
     )?;
     outln!(
         "\nEach task writes {}/shards/K; the first submits the merge step, which runs when every \

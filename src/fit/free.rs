@@ -18,6 +18,7 @@
 use crate::scenario::overrides::SetKey;
 use crate::scenario::range_error;
 use crate::sweep::spec::{key_kind, KeyKind};
+use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// A free key as given on the command line, parsed.
@@ -41,7 +42,7 @@ impl FreeKey {
     /// Parse `KEY` or `KEY=LO:HI` (either bound may be left empty: `KEY=0.1:`, `KEY=:2`; units
     /// welcome). A key must be numeric.
     pub fn parse(arg: &str) -> Result<FreeKey, String> {
-        let err = |m: String| format!("--free {}: {m}", crate::text::excerpt(arg));
+        let err = |m: String| format!("--free {}: {m}", excerpt(arg));
         let (k, range) = match arg.split_once('=') {
             Some((k, r)) => (k.trim(), Some(r.trim())),
             None => (arg.trim(), None),
@@ -71,7 +72,7 @@ impl FreeKey {
                 if t.is_empty() {
                     return Ok(None);
                 }
-                let shown = crate::text::excerpt(t);
+                let shown = excerpt(t);
                 let x = parse_quantity(&key.to_string(), t, dim)
                     .map_err(|e| err(format!("{which} '{shown}': {}", e.allowed)))?;
                 if !x.is_finite() {
@@ -119,9 +120,9 @@ impl FreeKey {
             if let Some(first) = out.iter().find(|g| g.key == f.key) {
                 return Err(format!(
                     "--free {}: {} is already free by --free {}: give each key once",
-                    crate::text::excerpt(&f.given),
+                    excerpt(&f.given),
                     f.key,
-                    crate::text::excerpt(&first.given)
+                    excerpt(&first.given)
                 ));
             }
             out.push(f);

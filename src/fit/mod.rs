@@ -42,8 +42,11 @@ fn toml_number(v: &toml::Value, key: &SetKey, dim: Dimension) -> Result<f64, Str
         toml::Value::Float(x) => Ok(*x),
         toml::Value::Integer(i) => Ok(*i as f64),
         toml::Value::String(s) => parse_quantity(&key.to_string(), s, dim)
-            .map_err(|e| format!("{key} = '{s}': {}", e.allowed)),
-        other => Err(format!("{key} = {other}: not a number")),
+            .map_err(|e| format!("{key} = '{}': {}", crate::text::excerpt(s), e.allowed)),
+        other => Err(format!(
+            "{key} = {}: not a number",
+            crate::text::excerpt(&other.to_string())
+        )),
     }
 }
 

@@ -325,12 +325,22 @@ impl ForwardModel {
                     if v.is_finite() {
                         values[p] = v;
                     } else if failure.as_ref().is_none_or(|(q, _)| p < *q) {
+                        // An amplification is defined for a tensile pull-off force only.
+                        let why = if self.data.observable
+                            == super::data::Observable::PullOffAmplification
+                            && n.pull_off_force >= 0.0
+                        {
+                            format!(
+                                "its pull-off force {} N is not tensile (no cycle mean was: \
+                                 the sphere came off without an adhesive pull-off)",
+                                crate::output::table::format_f64(n.pull_off_force)
+                            )
+                        } else {
+                            "NaN: no vibration cycle recorded?".to_string()
+                        };
                         failure = Some((
                             p,
-                            format!(
-                                "the run gives no {} (NaN: no vibration cycle recorded?)",
-                                self.data.observable.name()
-                            ),
+                            format!("the run gives no {} ({why})", self.data.observable.name()),
                         ));
                     }
                 }

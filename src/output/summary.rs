@@ -50,11 +50,17 @@
 //! `pull_off.time` is when it was reached (the end of that period). `detachment.time` is when
 //! the contact was lost for good (the `pull-off` event: the last contact loss, after which the
 //! sphere never touched again), later than `pull_off.time` (on the paper protocol at 300 Hz
-//! 21.59 s against 20.83 s); absent without detachment. `pull_off.approach_roughness` is the
+//! 21.59 s against 20.83 s); absent without detachment. `pull_off.tensile` says whether that
+//! force is tensile (negative): false when no cycle mean (no contact force) was, as for a sphere
+//! that bounced off; `pull_off.amplification` is then left out (`non_finite`: NaN), and a
+//! detached run says so in `warnings` ([`checks::no_tensile_pull_off`]). `pull_off.approach_roughness` is the
 //! largest relative second difference of the cycle-mean force over the 16 periods before the
 //! pull-off (`dynamics::ApproachRoughness`): above 1e-3 the approach fluctuated and the pull-off
 //! is likely sensitive to tiny input changes (`djkr run --sensitivity` measures it); absent
-//! when not measured (no vibration, or no three consecutive periods before the pull-off).
+//! when not measured (no vibration, or no three consecutive periods before the pull-off) or not
+//! defined: `pull_off.approach_zero_means`, present only then, counts the periods among those 16
+//! whose mean force was zero (the sphere off the substrate for a whole period), where a relative
+//! difference would divide by zero.
 //!
 //! `stats.wall_s` is the wall-clock time of the integration, what `solver.max_wall_s` bounds;
 //! `stats.write_s` the wall-clock time spent after it writing the run's files (the samples
@@ -205,6 +211,7 @@ pub fn units() -> BTreeMap<String, String> {
         ("pull_off.amplification", "1"),
         ("pull_off.time", "s"),
         ("pull_off.approach_roughness", "1"),
+        ("pull_off.approach_zero_means", "1"),
         ("detachment.time", "s"),
         ("events.time", "s"),
         ("stats.wall_s", "s"),
@@ -338,13 +345,23 @@ impl Builder {
             po.amplification,
         );
         self.put(&mut pull_off, "pull_off.", "time", po.time);
-        // Absent when not measured (no vibration at the pull-off): not a non-finite number.
+        if po.force.is_finite() {
+            pull_off.insert("tensile".into(), Value::Bool(po.is_tensile()));
+        }
+        // Absent when not measured (no vibration at the pull-off) or not defined (a zero mean
+        // among the periods it looks at, counted instead): not a non-finite number.
         if !result.approach_roughness.is_nan() {
             self.put(
                 &mut pull_off,
                 "pull_off.",
                 "approach_roughness",
                 result.approach_roughness,
+            );
+        }
+        if result.approach_zero_means > 0 {
+            pull_off.insert(
+                "approach_zero_means".into(),
+                Value::from(result.approach_zero_means),
             );
         }
         pull_off

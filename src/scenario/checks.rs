@@ -363,8 +363,37 @@ pub fn result_warnings(s: &Scenario, r: &RunResult) -> Vec<String> {
              force was recorded instead; pull_off is left out"
                 .into(),
         );
+    } else if let Some(w) = no_tensile_pull_off(s, r) {
+        out.push(w);
     }
     out
+}
+
+/// A run that detached although no cycle mean (without vibration: no contact force) was tensile
+/// before: the sphere came off the substrate without an adhesive pull-off (it bounced off), and
+/// `pull_off.force` is the least compressive mean, no pull-off force. Says so, with that mean
+/// and when it came; `None` for a tensile pull-off or a run that did not detach.
+pub fn no_tensile_pull_off(s: &Scenario, r: &RunResult) -> Option<String> {
+    if !r.detached || r.pull_off.is_tensile() {
+        return None;
+    }
+    let what = if s.rig.base.is_some() && r.cycle_count > 0 {
+        "cycle mean"
+    } else {
+        "contact force"
+    };
+    Some(format!(
+        "no tensile pull-off: no {what} was tensile before the sphere detached (the most \
+         tensile, {} mN at t = {} s, is {}): it came off without an adhesive pull-off, so \
+         pull_off.force is no pull-off force and pull_off.amplification is left out",
+        crate::output::table::format_sig(r.pull_off.force * 1e3, 4),
+        crate::output::table::format_sig(r.pull_off.time, 4),
+        if r.pull_off.force > 0.0 {
+            "compressive"
+        } else {
+            "zero"
+        }
+    ))
 }
 
 /// Whether a holder carries the sphere's weight with a spring (the case [`weight_error`] guards).

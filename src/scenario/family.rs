@@ -16,6 +16,7 @@ use crate::continuation::family::{Family, Parameter, ParameterInfo, Scene, Setup
 use crate::continuation::ContinuationError;
 use crate::dynamics::protocol::Initial;
 use crate::steady::Problem;
+use crate::text::excerpt;
 use crate::units::Dimension;
 
 /// The keys a periodic orbit can be continued in: those of the table of keys with a parameter
@@ -56,7 +57,8 @@ pub fn allowed_keys() -> String {
 pub fn parameter(flag: &str, text: &str) -> Result<Parameter, ContinuationError> {
     let key = SetKey::parse(text).map_err(|e| {
         ContinuationError::Input(format!(
-            "{flag} {text}: {}; a continuation parameter is one of {}",
+            "{flag} {}: {}; a continuation parameter is one of {}",
+            excerpt(text),
             e.message,
             allowed_keys()
         ))
@@ -67,8 +69,9 @@ pub fn parameter(flag: &str, text: &str) -> Result<Parameter, ContinuationError>
         .find(|p| p.key == shown)
         .ok_or_else(|| {
             ContinuationError::Input(format!(
-                "{flag} {text}: not a constant of the periodic orbit (stages, solver, output and \
+                "{flag} {}: not a constant of the periodic orbit (stages, solver, output and \
              text keys do not change it); a continuation parameter is one of {}",
+                excerpt(text),
                 allowed_keys()
             ))
         })?;
@@ -97,8 +100,9 @@ pub fn family(
     for o in fixed {
         if let Some(p) = params.iter().find(|p| p.name() == o.key().to_string()) {
             return Err(ContinuationError::Input(format!(
-                "--set {o}: {} is the continuation parameter, whose values come from its \
+                "--set {}: {} is the continuation parameter, whose values come from its \
                  range; drop the --set",
+                excerpt(&o.to_string()),
                 p.name()
             )));
         }

@@ -42,6 +42,7 @@ use toml::{Table, Value};
 
 use super::error::{show, show_float, ScenarioError};
 use super::keys::{self, section_keys, STAGE_END_KEYS, STAGE_SECTION};
+use crate::text::excerpt;
 
 /// A malformed override, or one naming a key no scenario file takes.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
@@ -255,7 +256,8 @@ fn parse_key(t: &str) -> Result<SetKey, String> {
     };
     if name.contains('.') {
         return Err(format!(
-            "malformed key '{t}': keys are KEY, SECTION.KEY or stage[N].KEY (one dot), e.g. base.amplitude"
+            "malformed key '{}': keys are KEY, SECTION.KEY or stage[N].KEY (one dot), e.g. base.amplitude",
+            excerpt(t)
         ));
     }
     let (section, index) = match head.split_once('[') {
@@ -263,7 +265,10 @@ fn parse_key(t: &str) -> Result<SetKey, String> {
         Some((s, rest)) => {
             let Some(digits) = rest.strip_suffix(']') else {
                 return Err(format!(
-                    "malformed index in '{t}': write {s}[N].{name} with N a whole number >= 0"
+                    "malformed index in '{}': write {}[N].{} with N a whole number >= 0",
+                    excerpt(t),
+                    excerpt(s),
+                    excerpt(name)
                 ));
             };
             let i = digits
@@ -274,7 +279,12 @@ fn parse_key(t: &str) -> Result<SetKey, String> {
                 Some(i) => (s, Some(i)),
                 None => {
                     return Err(format!(
-                        "bad index '{digits}' in '{t}': stages count from 0, write {s}[0].{name}, {s}[1].{name}, ..."
+                        "bad index '{}' in '{}': stages count from 0, write {s}[0].{name}, \
+                         {s}[1].{name}, ...",
+                        excerpt(digits),
+                        excerpt(t),
+                        s = excerpt(s),
+                        name = excerpt(name)
                     ))
                 }
             }
@@ -286,26 +296,30 @@ fn parse_key(t: &str) -> Result<SetKey, String> {
         .and_then(|s| Some((*s, section_keys(s)?)))
     else {
         return Err(format!(
-            "unknown section '{section}'; the sections are {}",
+            "unknown section '{}'; the sections are {}",
+            excerpt(section),
             section_names()
         ));
     };
     match (section == STAGE_SECTION, index) {
         (true, None) => {
             return Err(format!(
-                "[[{section}]] is a list: give the stage's index (from 0), e.g. {section}[0].{name}"
+                "[[{section}]] is a list: give the stage's index (from 0), e.g. {section}[0].{}",
+                excerpt(name)
             ))
         }
         (false, Some(_)) => {
             return Err(format!(
-                "[{section}] is a single table, not a list: write {section}.{name}"
+                "[{section}] is a single table, not a list: write {section}.{}",
+                excerpt(name)
             ))
         }
         _ => {}
     }
     if name.is_empty() {
         return Err(format!(
-            "no key after '{head}.'; {} takes {}",
+            "no key after '{}.'; {} takes {}",
+            excerpt(head),
             shown_section(section),
             keys.join(", ")
         ));
@@ -320,7 +334,7 @@ fn parse_key(t: &str) -> Result<SetKey, String> {
             let hint = keys
                 .iter()
                 .find(|k| k.eq_ignore_ascii_case(name))
-                .map(|k| format!(" (did you mean {head}.{k}?)"))
+                .map(|k| format!(" (did you mean {}.{k}?)", excerpt(head)))
                 .unwrap_or_default();
             Err(format!(
                 "unknown key{hint}; {} takes {}",

@@ -356,11 +356,10 @@ impl<'a> Section<'a> {
 pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
     if v.is_finite() && v >= f64::MIN_POSITIVE {
         bound_error(key, v, unit)
-    } else if v > 0.0 && v < f64::MIN_POSITIVE {
-        Some(format!(
-            "is subnormal (below {:e}): must be a normal finite number > 0 ({unit})",
-            f64::MIN_POSITIVE
-        ))
+    } else if let Some(e) =
+        crate::error::subnormal_error(v, &format!("a normal finite number > 0 ({unit})"))
+    {
+        Some(e)
     } else {
         Some(format!("must be a finite number > 0 ({unit})"))
     }
@@ -368,12 +367,11 @@ pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
 
 /// As [`positive_error`] for a key >= 0.
 pub(crate) fn non_negative_error(key: &str, v: f64, unit: &str) -> Option<String> {
-    if v > 0.0 && v < f64::MIN_POSITIVE {
+    if let Some(e) =
+        crate::error::subnormal_error(v, &format!("0 or a normal finite number > 0 ({unit})"))
+    {
         // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
-        Some(format!(
-            "is subnormal (below {:e}): must be 0 or a normal finite number > 0 ({unit})",
-            f64::MIN_POSITIVE
-        ))
+        Some(e)
     } else if v.is_finite() && v >= 0.0 {
         bound_error(key, v, unit)
     } else {

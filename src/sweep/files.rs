@@ -135,9 +135,12 @@ impl Shard {
             let v = env(k).ok_or_else(|| {
                 format!("--shard slurm: {k} is not set: not in a Slurm array job (use --shard K/N)")
             })?;
-            v.trim()
-                .parse::<usize>()
-                .map_err(|_| format!("--shard slurm: {k} = {v}: not a whole number"))
+            v.trim().parse::<usize>().map_err(|_| {
+                format!(
+                    "--shard slurm: {k} = {}: not a whole number",
+                    crate::text::excerpt(&v)
+                )
+            })
         };
         let (id, count) = (get("SLURM_ARRAY_TASK_ID")?, get("SLURM_ARRAY_TASK_COUNT")?);
         let min = get("SLURM_ARRAY_TASK_MIN").unwrap_or(1);
@@ -312,15 +315,14 @@ impl Manifest {
     }
 }
 
-/// Quote for a POSIX shell when needed.
+/// `s` as one word of a POSIX shell command line, for a command djkr prints or writes into a
+/// script: `shlex::try_quote`, which leaves a plain word (letters, digits, `-_./:@+`) as it is and
+/// otherwise puts it in single quotes (or double quotes around a `'`, with nothing in them that
+/// `sh` or bash would expand). A NUL byte, which no path or argument can hold, is dropped.
 pub fn shell_quote(s: &str) -> String {
-    if !s.is_empty()
-        && s.chars()
-            .all(|c| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c))
-    {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', r"'\''"))
+    match shlex::try_quote(s) {
+        Ok(q) => q.into_owned(),
+        Err(_) => shell_quote(&s.replace('\0', "")),
     }
 }
 
@@ -904,11 +906,15 @@ mod tests {
 
     #[test]
     fn quoting() {
+        assert_eq!(shell_quote("/data/run-1.toml"), "/data/run-1.toml");
         assert_eq!(
             shell_quote("base.amplitude=10um,30um"),
-            "base.amplitude=10um,30um"
+            "'base.amplitude=10um,30um'"
         );
         assert_eq!(shell_quote("stage[3].speed=1"), "'stage[3].speed=1'");
-        assert_eq!(shell_quote("it's"), r"'it'\''s'");
+        assert_eq!(shell_quote("x$(touch PWNED)y"), "'x$(touch PWNED)y'");
+        assert_eq!(shell_quote("it's"), "\"it's\"");
+        assert_eq!(shell_quote(""), "''");
+        assert_eq!(shell_quote("a\0b"), "ab");
     }
 }

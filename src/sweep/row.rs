@@ -164,7 +164,7 @@ const NUMBERS: [(&str, &str, &str); 10] = [
     (
         "pull_off_amplification",
         "1",
-        "pull_off_force / (-3/2 pi R w0)",
+        "pull_off_force / (-3/2 pi R w0); NaN when pull_off_force is not tensile (>= 0)",
     ),
     (
         "pull_off_time",
@@ -345,7 +345,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                 format!(
                     "line {line}, column {}: '{}' is not a number",
                     schema[j].name,
-                    cell(j)
+                    crate::text::excerpt(cell(j))
                 )
             })
         };
@@ -354,7 +354,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                 format!(
                     "line {line}, column {}: '{}' is not a whole number",
                     schema[j].name,
-                    cell(j)
+                    crate::text::excerpt(cell(j))
                 )
             })
         };
@@ -374,7 +374,8 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                     "false" => false,
                     other => {
                         return Err(format!(
-                            "line {line}, column detached: '{other}' is not true or false"
+                            "line {line}, column detached: '{}' is not true or false",
+                            crate::text::excerpt(other)
                         ))
                     }
                 };
@@ -393,7 +394,8 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
             "error" | "stopped" => Err(cell(b + 2).to_string()),
             other => {
                 return Err(format!(
-                    "line {line}, column status: '{other}' is not ok, stopped or error"
+                    "line {line}, column status: '{}' is not ok, stopped or error",
+                    crate::text::excerpt(other)
                 ))
             }
         };

@@ -13,7 +13,9 @@
 //! run by hand.
 //!
 //! Every path in the script is absolute (the djkr binary, the scenario, OUT), so it can be
-//! submitted from any directory.
+//! submitted from any directory, and quoted once for the one reader of each line (bash, or
+//! sbatch for an `#SBATCH` line). No path is evaluated twice: the merge step's `--wrap` command,
+//! which sbatch runs through `sh`, is fixed text that finds the paths in its environment.
 
 use super::files::shell_quote;
 
@@ -117,6 +119,38 @@ pub fn check_script_text(text: &str) -> Result<(), String> {
     }
 }
 
+/// Check the sweep folder of a Slurm job: besides [`check_script_text`], no backslash. Slurm
+/// builds the log files' names (`#SBATCH --output=OUT/slurm/%x-%A_%a.out`) from patterns in
+/// which a backslash turns the patterns off, so the logs would not land where the script says.
+pub fn check_sweep_folder(text: &str) -> Result<(), String> {
+    check_script_text(text)?;
+    if text.contains('\\') {
+        Err(
+            "holds a backslash, which Slurm's log file names (#SBATCH --output) cannot hold: \
+             choose another --out"
+                .into(),
+        )
+    } else {
+        Ok(())
+    }
+}
+
+/// `text` as one value of an `#SBATCH` line: sbatch splits those lines itself (not a shell), at
+/// blanks outside double quotes, and reads a backslash as an escape and an unescaped `#` as the
+/// start of a comment (in the versions that know no single quotes too): double quotes, with `\`,
+/// `"` and `#` escaped.
+fn directive_quote(text: &str) -> String {
+    let mut s = String::from('"');
+    for c in text.chars() {
+        if matches!(c, '\\' | '"' | '#') {
+            s.push('\\');
+        }
+        s.push(c);
+    }
+    s.push('"');
+    s
+}
+
 impl SlurmScript {
     /// The sweep command of task `$K` (without the shard, threads and folder).
     fn sweep_command(&self) -> String {
@@ -137,6 +171,12 @@ impl SlurmScript {
     }
 
     /// The script's text.
+    ///
+    /// Every path and value in it is quoted once, for the one shell (or `#SBATCH` parser) that
+    /// reads it. The merge step's `--wrap` command is fixed text: the paths reach it through the
+    /// environment (`DJKR_MERGE_BIN`, `DJKR_MERGE_OUT`, passed on by `--export=ALL`), because
+    /// sbatch runs `--wrap` through `sh` a second time, where a path pasted into it would be
+    /// evaluated again (`$(...)`, backquotes, a `"`).
     pub fn text(&self) -> String {
         let q = |s: &str| shell_quote(s);
         let mut opts = String::new();
@@ -154,6 +194,13 @@ impl SlurmScript {
             merge_opts.push_str(&format!(" --partition={}", q(p)));
         }
         let per_task = self.runs.div_ceil(self.shards.max(1));
+        let out = q(&self.out);
+        let djkr = q(&self.djkr);
+        // The log files' folder, in the `#SBATCH --output` line (read by sbatch) and in the merge
+        // step's `--output=` (read by bash, then by sbatch).
+        let logs_directive = directive_quote(&format!("{}/slurm", self.out.replace('%', "%%")));
+        let logs = q(&format!("{}/slurm", self.out.replace('%', "%%")));
+        let merge_hint = format!("  {djkr} sweep merge {out}/shards/* --out {out}");
         format!(
             r#"#!/bin/bash
 # A djkr sweep as a Slurm array job: {runs} runs in {n} tasks of about {per_task} runs each.
@@ -165,25 +212,29 @@ impl SlurmScript {
 #             that the first task submits (it waits for every task: afterok).
 #   a task failed: the merge step is cancelled (it could never run); resubmit the task alone,
 #             it resumes (sbatch --array=K {out}/sweep.sbatch), then merge by hand:
-#             djkr sweep merge {out}/shards/* --out {out}
+#             {djkr} sweep merge {out}/shards/* --out {out}
 #
 #SBATCH --job-name=djkr-sweep
 #SBATCH --array=1-{n}
 #SBATCH --cpus-per-task={cpus}
-#SBATCH --output={out}/slurm/%x-%A_%a.out
+#SBATCH --output={logs_directive}/%x-%A_%a.out
 {opts}
 set -euo pipefail
 DJKR={djkr}
 OUT={out}
 K=$(( SLURM_ARRAY_TASK_ID - ${{SLURM_ARRAY_TASK_MIN:-1}} + 1 ))
 
-# The merge step, submitted once (the marker survives a requeue).
+# The merge step, submitted once (the marker survives a requeue). Its command is fixed text that
+# reads the paths from its environment: sbatch runs --wrap through sh once more, so no path is
+# ever pasted into it.
 if ( set -o noclobber; echo "$SLURM_ARRAY_JOB_ID" > "$OUT/slurm/merge.submitted" ) 2>/dev/null; then
-  if ! sbatch --parsable --job-name=djkr-sweep-merge --dependency="afterok:$SLURM_ARRAY_JOB_ID" \
-      --kill-on-invalid-dep=yes --cpus-per-task=1 --output="$OUT/slurm/%x-%j.out"{merge_opts} \
-      --wrap="exec \"$DJKR\" sweep merge \"$OUT\"/shards/* --out \"$OUT\"" > "$OUT/slurm/merge.jobid"; then
+  if ! DJKR_MERGE_BIN="$DJKR" DJKR_MERGE_OUT="$OUT" sbatch --parsable --export=ALL \
+      --job-name=djkr-sweep-merge --dependency="afterok:$SLURM_ARRAY_JOB_ID" \
+      --kill-on-invalid-dep=yes --cpus-per-task=1 --output={logs}/%x-%j.out{merge_opts} \
+      --wrap='exec "$DJKR_MERGE_BIN" sweep merge "$DJKR_MERGE_OUT"/shards/* --out "$DJKR_MERGE_OUT"' \
+      > "$OUT/slurm/merge.jobid"; then
     echo "warning: could not submit the merge step; when every task is done, run:" >&2
-    echo "  $DJKR sweep merge $OUT/shards/* --out $OUT" >&2
+    echo {merge_hint} >&2
   fi
 fi
 
@@ -194,11 +245,14 @@ exec {cmd} \
             n = self.shards,
             per_task = per_task,
             version = env!("CARGO_PKG_VERSION"),
-            out = q(&self.out),
+            out = out,
             cpus = self.cpus_per_task.max(1),
             opts = opts,
-            djkr = q(&self.djkr),
+            djkr = djkr,
+            logs = logs,
+            logs_directive = logs_directive,
             merge_opts = merge_opts,
+            merge_hint = q(&merge_hint),
             cmd = self.sweep_command(),
         )
     }
@@ -235,6 +289,11 @@ mod tests {
         assert!(s.contains("OUT='/scratch/sweep one'"));
         assert!(s.contains("--dependency=\"afterok:$SLURM_ARRAY_JOB_ID\""));
         assert!(s.contains("--kill-on-invalid-dep=yes"));
+        assert!(s.contains("#SBATCH --output=\"/scratch/sweep one/slurm\"/%x-%A_%a.out\n"));
+        // The merge step's command, which sbatch runs through sh, holds no path.
+        let wrap = s.lines().find(|l| l.contains("--wrap=")).unwrap();
+        assert!(!wrap.contains("scratch") && !wrap.contains("opt"), "{wrap}");
+        assert!(s.contains("DJKR_MERGE_OUT=\"$OUT\""));
         assert_eq!(default_shards(10), 1);
         assert_eq!(default_shards(640), 10);
         assert_eq!(default_shards(10_000_000), 1000);
@@ -290,5 +349,14 @@ mod tests {
         }
         assert!(check_script_text("/scratch/sweep one").is_ok());
         assert!(check_script_text("/scratch/x\necho pwned").is_err());
+        assert!(check_sweep_folder("/scratch/it's \"$(id)\" `id` 100%").is_ok());
+        assert!(check_sweep_folder("/scratch/a\\b").is_err());
+        assert!(check_sweep_folder("/scratch/x\necho pwned").is_err());
+    }
+
+    #[test]
+    fn directive_values_are_quoted_for_sbatch() {
+        assert_eq!(directive_quote("/a b/slurm"), "\"/a b/slurm\"");
+        assert_eq!(directive_quote(r#"/a"b#c\d"#), r#""/a\"b\#c\\d""#);
     }
 }

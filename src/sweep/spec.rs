@@ -20,6 +20,7 @@ use thiserror::Error;
 use crate::output::table::format_f64;
 use crate::scenario::keys::Kind;
 use crate::scenario::overrides::{SetKey, SetValue};
+use crate::text::excerpt;
 use crate::units::{parse_quantity, Dimension};
 
 /// Most values one SPEC may give (a range's N): beyond it a sweep is a typo, not a study.
@@ -156,8 +157,9 @@ pub fn parse_spec(
                         )
                         .map_err(|e| {
                             err(format!(
-                                "value {} '{item}' of the list: {}",
+                                "value {} '{}' of the list: {}",
                                 i + 1,
+                                excerpt(item),
                                 e.allowed
                             ))
                         })?;
@@ -197,7 +199,8 @@ fn range(
     let dim = dim.unwrap_or(Dimension::Dimensionless);
     let name = key.to_string();
     let end = |which: &str, t: &str| {
-        parse_quantity(&name, t, dim).map_err(|e| format!("range {which} '{t}': {}", e.allowed))
+        parse_quantity(&name, t, dim)
+            .map_err(|e| format!("range {which} '{}': {}", excerpt(t), e.allowed))
     };
     let (lo, hi) = (end("START", start)?, end("STOP", stop)?);
     let (form, digits) = match count.strip_suffix("log") {
@@ -210,8 +213,9 @@ fn range(
         .filter(|n| (2..=MAX_SPEC_VALUES).contains(n) && digits.bytes().all(|b| b.is_ascii_digit()))
         .ok_or_else(|| {
             format!(
-                "range count '{count}': N must be a whole number from 2 to {MAX_SPEC_VALUES} \
-                 (e.g. 10um:60um:6, or 1um:100um:5log); for one value write it alone"
+                "range count '{}': N must be a whole number from 2 to {MAX_SPEC_VALUES} \
+                 (e.g. 10um:60um:6, or 1um:100um:5log); for one value write it alone",
+                excerpt(count)
             )
         })?;
     if form == SpecForm::Log && !(lo > 0.0 && hi > 0.0) {

@@ -177,8 +177,12 @@ pub fn run_time(s: &Scenario) -> Outcome {
             if let Some(p) = sample_problem(&r.final_state) {
                 return Outcome::Fail(format!("invalid final state: {p}"));
             }
-            if !(r.pull_off.force.is_finite() && r.pull_off.amplification.is_finite()) {
-                return Outcome::Fail(format!("non-finite pull-off summary {:?}", r.pull_off));
+            // The amplification is defined for a tensile pull-off force only (a compressive or
+            // zero one has none: NaN, never a negative ratio).
+            if !r.pull_off.force.is_finite()
+                || r.pull_off.amplification.is_finite() != r.pull_off.is_tensile()
+            {
+                return Outcome::Fail(format!("invalid pull-off summary {:?}", r.pull_off));
             }
             Outcome::Ok(summarise(&r, &chk))
         }

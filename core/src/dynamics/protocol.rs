@@ -751,9 +751,11 @@ impl Protocol<'_> {
         let (force, time) = pick.unwrap_or((0.0, 0.0));
         // The roughness describes the approach to the most tensile cycle mean: only when that
         // is the pull-off force.
-        let approach_roughness = match pick {
-            Some(p) if vibrating && Some(p) == self.min_cycle => self.roughness.value(),
-            _ => f64::NAN,
+        let (approach_roughness, approach_zero_means) = match pick {
+            Some(p) if vibrating && Some(p) == self.min_cycle => {
+                (self.roughness.value(), self.roughness.zero_means())
+            }
+            _ => (f64::NAN, 0),
         };
         let y = *self.sim.state();
         let final_state = self.sim.sample_of(&y, self.stage);
@@ -780,11 +782,7 @@ impl Protocol<'_> {
             m.push_str("; stopped by the observer");
         }
         RunResult {
-            pull_off: PullOffSummary {
-                force,
-                amplification: force / f0,
-                time,
-            },
+            pull_off: PullOffSummary::new(force, time, f0),
             detached: self.detached,
             events: self.events,
             event_counts: self.event_counts,
@@ -801,6 +799,7 @@ impl Protocol<'_> {
                 .unwrap_or_default(),
             detachment_time: self.detachment_time.unwrap_or(f64::NAN),
             approach_roughness,
+            approach_zero_means,
         }
     }
 }

@@ -99,12 +99,34 @@ pub struct Stats {
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct PullOffSummary {
     /// Most tensile cycle-averaged contact force before detachment (N); without base motion, the
-    /// most tensile contact force.
+    /// most tensile contact force. Tensile is negative: a force ≥ 0 means none was tensile (a
+    /// sphere that bounced off, or a contact never pulled), and then it is no pull-off force
+    /// ([`PullOffSummary::is_tensile`]).
     pub force: f64,
-    /// force / (−3/2 π R w0).
+    /// force / (−3/2 π R w0) for a tensile `force`; NaN otherwise (a compressive or zero force
+    /// over the static pull-off force would read as a negative or zero amplification).
     pub amplification: f64,
     /// Time at which that force was reached (s; the end of the averaging cycle).
     pub time: f64,
+}
+
+impl PullOffSummary {
+    /// The summary of a most tensile force `force` reached at `time`, against the static
+    /// pull-off force `f0` (negative): the amplification only where `force` is tensile.
+    pub fn new(force: f64, time: f64, f0: f64) -> Self {
+        let tensile = force < 0.0;
+        Self {
+            force,
+            amplification: if tensile { force / f0 } else { f64::NAN },
+            time,
+        }
+    }
+
+    /// Whether `force` is tensile (< 0): a pull-off force. False when every cycle mean (or
+    /// contact force) stayed compressive or zero.
+    pub fn is_tensile(&self) -> bool {
+        self.force < 0.0
+    }
 }
 
 /// Everything a run returns, in memory that does not grow with the run's length: the time
@@ -139,8 +161,14 @@ pub struct RunResult {
     /// most tensile force, by the last periods of the unloading.
     pub detachment_time: f64,
     /// [`ApproachRoughness`] at the pull-off (NaN when not measured: no three consecutive
-    /// period records before the most tensile cycle mean).
+    /// period records before the most tensile cycle mean, or not defined: see
+    /// `approach_zero_means`).
     pub approach_roughness: f64,
+    /// Periods among those [`ApproachRoughness`] looks at whose cycle-mean force was zero (the
+    /// sphere off the substrate for the whole period): the relative fluctuation divides by that
+    /// mean, so it is not defined there, and `approach_roughness` is then NaN. 0 when every
+    /// mean was non-zero or none was measured.
+    pub approach_zero_means: usize,
 }
 
 impl RunResult {
@@ -148,6 +176,13 @@ impl RunResult {
     /// rough: the pull-off is likely sensitive to tiny input changes (check with `--sensitivity`).
     pub fn pull_off_likely_sensitive(&self) -> bool {
         self.detached && self.approach_roughness > ROUGH_APPROACH
+    }
+
+    /// The pull-off happened under vibration and some of the periods before it had a zero mean
+    /// force (`approach_zero_means`): the sphere left the substrate for whole periods on its way
+    /// to the pull-off, where [`ApproachRoughness`] is not defined.
+    pub fn pull_off_approach_left_contact(&self) -> bool {
+        self.detached && self.approach_zero_means > 0
     }
 }
 
@@ -184,7 +219,9 @@ pub const ROUGH_APPROACH: f64 = 1e-3;
 /// means smoothly (second differences ~1e-6 of the force); once it loses stability the means
 /// fluctuate from period to period by a sizeable fraction of the force, and twins whose input
 /// differs by one ulp separate (`docs/studies/sensitivity.md`). Only consecutive periods count
-/// (envelope following leaves gaps between records).
+/// (envelope following leaves gaps between records). A period whose mean force is zero (no
+/// contact for the whole period) has no relative second difference: it is counted instead, and
+/// the indicator is then not defined ([`ApproachRoughness::zero_means`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ApproachRoughness {
     /// The last two periods: (end time, cycle-mean force).
@@ -192,11 +229,23 @@ pub struct ApproachRoughness {
     /// Start time of the newest of them (consecutive periods share their end and start time
     /// bit for bit: a period starts where the last ended).
     last_start: f64,
-    /// Second differences centred on the recent periods (NaN where the three are not
-    /// consecutive), newest last.
-    window: std::collections::VecDeque<f64>,
+    /// Second differences centred on the recent periods, newest last.
+    window: std::collections::VecDeque<Second>,
     /// The indicator at the most tensile cycle mean so far (NaN before the first).
     at_min: f64,
+    /// Zero means among the periods of the window at the most tensile cycle mean so far.
+    zero_at_min: usize,
+}
+
+/// A relative second difference of the cycle means, centred on one period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Second {
+    /// The three periods are not consecutive (a gap between records): none taken.
+    Gap,
+    /// |⟨F⟩ₖ₊₁ − 2⟨F⟩ₖ + ⟨F⟩ₖ₋₁| / |⟨F⟩ₖ|.
+    Relative(f64),
+    /// ⟨F⟩ₖ = 0: the relative difference is not defined.
+    ZeroMean,
 }
 
 impl ApproachRoughness {
@@ -212,16 +261,32 @@ impl ApproachRoughness {
     /// indicator is then taken over the periods before it).
     pub fn record(&mut self, rec: &CycleRecord, new_min: bool) {
         if new_min {
-            self.at_min = self.window.iter().copied().fold(f64::NAN, f64::max);
+            self.at_min = self
+                .window
+                .iter()
+                .filter_map(|s| match s {
+                    Second::Relative(r) => Some(*r),
+                    _ => None,
+                })
+                .fold(f64::NAN, f64::max);
+            self.zero_at_min = self
+                .window
+                .iter()
+                .filter(|s| **s == Second::ZeroMean)
+                .count();
         }
         let r = match self.last {
             [Some((t0, f0)), Some((t1, f1))]
                 if t0.to_bits() == self.last_start.to_bits()
                     && t1.to_bits() == rec.t_start.to_bits() =>
             {
-                (rec.force_mean - 2.0 * f1 + f0).abs() / f1.abs()
+                if f1 == 0.0 {
+                    Second::ZeroMean
+                } else {
+                    Second::Relative((rec.force_mean - 2.0 * f1 + f0).abs() / f1.abs())
+                }
             }
-            _ => f64::NAN,
+            _ => Second::Gap,
         };
         if self.last[1].is_some() {
             if self.window.len() == ROUGHNESS_PERIODS {
@@ -238,9 +303,20 @@ impl ApproachRoughness {
         *self = Self::new();
     }
 
-    /// The indicator at the pull-off (NaN when no three consecutive periods preceded it).
+    /// The indicator at the pull-off: NaN when no three consecutive periods preceded it, or
+    /// when it is not defined there ([`ApproachRoughness::zero_means`] > 0).
     pub fn value(&self) -> f64 {
-        self.at_min
+        if self.zero_at_min > 0 {
+            f64::NAN
+        } else {
+            self.at_min
+        }
+    }
+
+    /// How many of the periods the indicator looks at before the pull-off had a zero mean
+    /// force: where the relative second difference divides by zero.
+    pub fn zero_means(&self) -> usize {
+        self.zero_at_min
     }
 }
 
@@ -844,6 +920,25 @@ fn knot_sample(m: &Model, drive: &Drive, y: &Knot, stage: usize) -> Sample {
 }
 
 #[cfg(test)]
+mod pull_off_tests {
+    use super::*;
+
+    #[test]
+    fn only_a_tensile_force_has_an_amplification() {
+        let f0 = -0.0577;
+        let p = PullOffSummary::new(-0.1154, 2.0, f0);
+        assert!(p.is_tensile());
+        assert!((p.amplification - 2.0).abs() < 1e-12);
+        // A compressive or zero "most tensile" mean: no pull-off, no (negative, -0) ratio.
+        for force in [0.0026871761515546567, 0.0, -0.0] {
+            let p = PullOffSummary::new(force, 0.065, f0);
+            assert!(!p.is_tensile(), "{force}");
+            assert!(p.amplification.is_nan(), "{force}");
+        }
+    }
+}
+
+#[cfg(test)]
 mod roughness_tests {
     use super::*;
 
@@ -852,7 +947,8 @@ mod roughness_tests {
         let mut r = CYCLE0;
         r.index = k as u64;
         r.t_start = t;
-        r.t_end = t + 0.01;
+        // The next period's start, bit for bit (as the simulator's records are).
+        r.t_end = (k + 1) as f64 * 0.01;
         r.force_mean = force_mean;
         r
     }
@@ -930,5 +1026,38 @@ mod roughness_tests {
         assert!(roughness(&gap, None) > ROUGH_APPROACH);
         // Fewer than three consecutive periods: not measured.
         assert!(roughness(&[-0.1, -0.2], None).is_nan());
+    }
+
+    #[test]
+    fn a_zero_mean_before_the_pull_off_leaves_the_roughness_undefined() {
+        // A bouncing approach: a period without contact (mean force exactly 0) among tensile
+        // ones. The relative second difference there would divide by zero.
+        let mut means: Vec<f64> = (0..40).map(|k| -0.1 - 1e-3 * k as f64).collect();
+        means[33] = 0.0;
+        means[36] = 0.0;
+        let mut r = ApproachRoughness::new();
+        let mut min = f64::INFINITY;
+        for (k, &f) in means.iter().enumerate() {
+            r.record(&period(k, f), f < min);
+            min = min.min(f);
+        }
+        assert!(r.value().is_nan(), "{}", r.value());
+        assert_eq!(r.zero_means(), 2);
+        // Once those periods have left the window, the indicator is defined again (and rough:
+        // the means jumped).
+        let mut later = means.clone();
+        later.extend((40..80).map(|k| -0.1 - 1e-3 * k as f64 + if k == 75 { 0.01 } else { 0.0 }));
+        let mut r = ApproachRoughness::new();
+        let mut min = f64::INFINITY;
+        for (k, &f) in later.iter().enumerate() {
+            r.record(&period(k, f), f < min);
+            min = min.min(f);
+        }
+        assert_eq!(r.zero_means(), 0);
+        assert!(
+            r.value().is_finite() && r.value() > ROUGH_APPROACH,
+            "{}",
+            r.value()
+        );
     }
 }
