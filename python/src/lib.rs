@@ -2112,7 +2112,7 @@ fn fit(
             // The one reader of input files: a FIFO or device is refused at once, and a file
             // larger than a fit data file's limit too.
             let t = djkr::input::read_text(&p, InputKind::FitData)
-                .map_err(|e| input_err(format!("{}: {e}", quote(&name))))?;
+                .map_err(|e| input_err(format!("{}: {e}", name)))?;
             (t, name)
         } else {
             return Err(type_err(format!(
