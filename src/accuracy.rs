@@ -47,33 +47,33 @@
 //! difference between two gradings), with the median time per cycle. [`closed_form_map`] maps the
 //! closed form's error against the exact pull-off, ln(A_exact / A_approx), over (n, v_max/v0).
 
-use crate::adhesion::GentSchultz;
-use crate::beta_fit::{self, ExactPoint};
-use crate::dynamics::{CycleRecord, EventKind, Observer, RunResult, Sample, SimError, Stats};
-use crate::error::ParamError;
-use crate::imposed_area;
-use crate::jkr;
-use crate::material::Material;
 use crate::output::{Column, Table};
 use crate::plot::{Figure, Heatmap, LegendPosition, Series, Style};
-use crate::quadrature::QuadratureRule;
 use crate::scenario::{Method, Scenario};
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::beta_fit::{self, ExactPoint};
+use djkr_core::dynamics::{CycleRecord, EventKind, Observer, RunResult, Sample, SimError, Stats};
+use djkr_core::error::ParamError;
+use djkr_core::imposed_area;
+use djkr_core::jkr;
+use djkr_core::material::Material;
+use djkr_core::quadrature::QuadratureRule;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;
 use std::time::Instant;
 
-pub use crate::dynamics::methods::method_name;
+pub use djkr_core::dynamics::methods::method_name;
 
-/// Parse a method name ([`crate::dynamics::methods::METHODS`]); `flag` names the source.
+/// Parse a method name ([`djkr_core::dynamics::methods::METHODS`]); `flag` names the source.
 pub fn parse_method(flag: &str, text: &str) -> Result<Method, ParamError> {
-    crate::dynamics::methods::method_from_name(text.trim()).ok_or_else(|| {
+    djkr_core::dynamics::methods::method_from_name(text.trim()).ok_or_else(|| {
         ParamError::new(
             flag,
             text.trim(),
             format!(
                 "must be one of {}",
-                crate::dynamics::methods::method_names().join(", ")
+                djkr_core::dynamics::methods::method_names().join(", ")
             ),
         )
     })
@@ -476,7 +476,7 @@ fn with_solver(s: &Scenario, method: Method, rtol: f64, atol_ratio: f64) -> Scen
     t.solver.method = method;
     t.solver.rtol = rtol;
     t.solver.atol = rtol * atol_ratio;
-    t.solver.envelope = crate::dynamics::EnvelopeMode::Off;
+    t.solver.envelope = djkr_core::dynamics::EnvelopeMode::Off;
     t
 }
 
@@ -1125,13 +1125,13 @@ pub fn closed_form_map(
     freq: f64,
     beta: f64,
 ) -> Result<Vec<MapPoint>, ParamError> {
-    crate::error::positive("--freq", freq, "Hz")?;
-    crate::error::positive("beta", beta, "(dimensionless)")?;
+    djkr_core::error::positive("--freq", freq, "Hz")?;
+    djkr_core::error::positive("beta", beta, "(dimensionless)")?;
     for &n in n_values {
-        crate::error::positive("n", n, "(dimensionless)")?;
+        djkr_core::error::positive("n", n, "(dimensionless)")?;
     }
     for &r in speed_ratios {
-        crate::error::positive("v_max/v0", r, "(dimensionless)")?;
+        djkr_core::error::positive("v_max/v0", r, "(dimensionless)")?;
     }
     let m = Material::PAPER;
     let v0 = GentSchultz::PAPER.v0;

@@ -15,8 +15,8 @@
 //! - [`finite_json`]: a report as JSON, refusing non-finite numbers (JSON has none).
 //!
 //! Every long computation here takes its cancellation from the scenario's
-//! [`Solver::cancel`](crate::dynamics::Solver::cancel) (or, for a sweep, a stop flag), so a
-//! caller can stop it from another thread ([`crate::cancel`]).
+//! [`Solver::cancel`](djkr_core::dynamics::Solver::cancel) (or, for a sweep, a stop flag), so a
+//! caller can stop it from another thread ([`djkr_core::cancel`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -24,16 +24,6 @@ use std::sync::atomic::AtomicBool;
 use serde_json::{json, Value};
 use thiserror::Error;
 
-use crate::adhesion::{GentSchultz, Law};
-use crate::closed_form::DeltaAmpForm;
-use crate::comparators;
-use crate::dynamics::SimError;
-use crate::dynamics::{
-    CycleRecord, Ending, Event, Gap, Observer, Reason, RunResult, Sample, Status,
-};
-use crate::error::{non_negative, positive, ParamError};
-use crate::imposed_area::{self, Cycle};
-use crate::material::Material;
 use crate::output::summary::{summary_json, SummaryFiles};
 use crate::output::table::Table;
 use crate::output::{cycles, OutputError, OutputPaths, RunWriter, TimeSeriesWriter};
@@ -43,13 +33,23 @@ use crate::scenario::checks::{contact_radius_error, small_contact_warning};
 use crate::scenario::overrides::{Override, OverrideError};
 use crate::scenario::parse::ScenarioError;
 use crate::scenario::{Initial, Scenario};
-use crate::steady::sweep::{self as steady_sweep, Direction, Linearisation, SweepPoint};
-use crate::steady::{crosscheck, Options, Problem, SteadyError};
 use crate::sweep::{
     rows_table, run_all, Axis, Ensemble, Grid, RunOptions, SpecError, Sweep, SweepError,
 };
-use crate::text::excerpt;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::adhesion::{GentSchultz, Law};
+use djkr_core::closed_form::DeltaAmpForm;
+use djkr_core::comparators;
+use djkr_core::dynamics::SimError;
+use djkr_core::dynamics::{
+    CycleRecord, Ending, Event, Gap, Observer, Reason, RunResult, Sample, Status,
+};
+use djkr_core::error::{non_negative, positive, ParamError};
+use djkr_core::imposed_area::{self, Cycle};
+use djkr_core::material::Material;
+use djkr_core::steady::sweep::{self as steady_sweep, Direction, Linearisation, SweepPoint};
+use djkr_core::steady::{crosscheck, Options, Problem, SteadyError};
+use djkr_core::text::excerpt;
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// Limits on the grids and lists of the commands that take ranges: each bounds the work one
 /// invocation may ask for (a 100000 × 100000 shortcut map is 1e10 steady states).
@@ -158,7 +158,7 @@ pub enum ApiError {
     /// A report held a non-finite number where JSON has none (an internal error).
     #[error("internal error: non-finite value at {0}")]
     NonFinite(String),
-    /// Stopped from another thread ([`crate::cancel`]).
+    /// Stopped from another thread ([`djkr_core::cancel`]).
     #[error("cancelled")]
     Cancelled,
 }
@@ -259,7 +259,7 @@ impl<'a> Arg<'a> {
 }
 
 /// Parse a quantity that must be > 0 (and normal: a subnormal is refused as for every key,
-/// [`crate::error::subnormal_error`]).
+/// [`djkr_core::error::subnormal_error`]).
 pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
     refuse_subnormal(
@@ -301,9 +301,9 @@ pub fn normal_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, Pa
     Ok(v)
 }
 
-/// `Err` naming `name = text` when `v` is subnormal ([`crate::error::subnormal_error`]).
+/// `Err` naming `name = text` when `v` is subnormal ([`djkr_core::error::subnormal_error`]).
 fn refuse_subnormal(name: &str, text: &str, v: f64, allowed: &str) -> Result<(), ParamError> {
-    match crate::error::subnormal_error(v, allowed) {
+    match djkr_core::error::subnormal_error(v, allowed) {
         Some(e) => Err(ParamError::new(name, excerpt(text), e)),
         None => Ok(()),
     }
@@ -667,7 +667,7 @@ pub enum PullOffMethod {
     Approx {
         /// a_A (m).
         a_amp: f64,
-        /// β of eq. (24) (the paper's: [`crate::closed_form::BETA_PAPER`]).
+        /// β of eq. (24) (the paper's: [`djkr_core::closed_form::BETA_PAPER`]).
         beta: f64,
         /// The δ_A form.
         form: DeltaAmpForm,
@@ -766,7 +766,7 @@ pub fn pull_off(
             (r, a_amp)
         }
         PullOffMethod::Approx { a_amp, beta, form } => {
-            let p = crate::closed_form::pull_off_approx(m, law, omega, a_amp, beta, form)?;
+            let p = djkr_core::closed_form::pull_off_approx(m, law, omega, a_amp, beta, form)?;
             let r = PullOffReport {
                 method: "approx (closed form, eqs. 20-24)",
                 a_mean: p.a_mean,

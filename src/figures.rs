@@ -1,5 +1,5 @@
 //! The paper's figures as data (and plots): Fig. 2 (δ cycles), Fig. 3(a) (mean force vs mean
-//! indentation), Fig. 3(b) (exact/approximate pull-off ratio, via [`crate::beta_fit`]) and
+//! indentation), Fig. 3(b) (exact/approximate pull-off ratio, via [`djkr_core::beta_fit`]) and
 //! Figs. 4–8 (pull-off quantities vs a_A at 200, 300, 400 Hz, exact and approximate).
 //!
 //! The data functions are pure; [`write_figures`] writes each figure as CSV (SI values, headers
@@ -11,14 +11,14 @@
 //! - Figs. 4–8 dashed lines: the closed form with the δ_A derived from eqs. (14)−(15) (docs/MODEL.md);
 //!   the CSV also has the printed eq. (23) column.
 
-use crate::adhesion::GentSchultz;
-use crate::beta_fit::{self, BetaFitConfig, RatioPoint};
-use crate::closed_form::{self, DeltaAmpForm};
-use crate::error::ParamError;
-use crate::imposed_area::{self, PullOff};
-use crate::material::Material;
 use crate::output::{Column, OutputError, Table};
 use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style};
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::beta_fit::{self, BetaFitConfig, RatioPoint};
+use djkr_core::closed_form::{self, DeltaAmpForm};
+use djkr_core::error::ParamError;
+use djkr_core::imposed_area::{self, PullOff};
+use djkr_core::material::Material;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use thiserror::Error;

@@ -21,7 +21,7 @@
 //!   `RuntimeError`).
 //! - Long calls (`run`, `validate`, `resonance`, `sweep`) run on a worker thread with the
 //!   interpreter lock released; the main thread polls for signals every `POLL` (20 ms) and on
-//!   Ctrl-C raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
+//!   Ctrl-C raises the computation's cancellation flag ([`djkr_core::cancel`]), waits for the worker to
 //!   stop (tens of microseconds of simulation) and raises `KeyboardInterrupt`. Other Python
 //!   threads (which Python never interrupts) run them in place, without the lock.
 
@@ -42,22 +42,22 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple, PyType};
 
-use djkr::adhesion::Law;
 use djkr::api::{self, ApiError, Arg};
-use djkr::cancel::{Cancel, CancelFlag};
-use djkr::closed_form::{DeltaAmpForm, BETA_PAPER};
-use djkr::dynamics::Event;
 use djkr::input::{show_limit, InputKind};
-use djkr::material::Material;
 use djkr::output::table::{Column, Data, Table};
 use djkr::output::timeseries::{kind_name, stage_index, SEGMENT, SERIES, STAGE};
 use djkr::scenario::overrides::SetKey;
 use djkr::scenario::parse::{self, ScenarioSource};
-use djkr::steady::{Options, Problem};
 use djkr::sweep::stats::{point_stats, points_table};
 use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
-use djkr::text::excerpt;
-use djkr::units::Dimension;
+use djkr_core::adhesion::Law;
+use djkr_core::cancel::{Cancel, CancelFlag};
+use djkr_core::closed_form::{DeltaAmpForm, BETA_PAPER};
+use djkr_core::dynamics::Event;
+use djkr_core::material::Material;
+use djkr_core::steady::{Options, Problem};
+use djkr_core::text::excerpt;
+use djkr_core::units::Dimension;
 
 create_exception!(
     djkr,
@@ -1411,7 +1411,9 @@ fn pulloff(
                 form: DeltaAmpForm::Derived,
             },
             "yi" => api::PullOffMethod::Yi {
-                delta_amp: djkr::comparators::yi_indentation_amplitude_from_area_amplitude(&m, aa),
+                delta_amp: djkr_core::comparators::yi_indentation_amplitude_from_area_amplitude(
+                    &m, aa,
+                ),
             },
             "shui" => return Err(input_err(
                 "method = \"shui\": Shui et al.'s eq. (5) needs the sphere's mass, the damping \

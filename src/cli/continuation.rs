@@ -8,18 +8,18 @@ use super::common::{print_json, write_atomic, SetArgs};
 use super::steady::{progress_bar, stem};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::continuation::branch::{self, Branch, BranchPoint, PointKind};
-use djkr::continuation::family::{Family, Parameter};
-use djkr::continuation::folds::{self, FoldCurve, FoldPointKind};
-use djkr::continuation::sweep::{self, SweepPoint};
 use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::output::table::{format_f64, format_sig};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::reports::continuation::{self as report, ContinuationReport};
 use djkr::scenario::family::{family as scenario_family, parameter};
 use djkr::scenario::parse::ScenarioSource;
-use djkr::steady::Options;
-use djkr::units::parse_quantity;
+use djkr_core::continuation::branch::{self, Branch, BranchPoint, PointKind};
+use djkr_core::continuation::family::{Family, Parameter};
+use djkr_core::continuation::folds::{self, FoldCurve, FoldPointKind};
+use djkr_core::continuation::sweep::{self, SweepPoint};
+use djkr_core::steady::Options;
+use djkr_core::units::parse_quantity;
 use std::path::{Path, PathBuf};
 
 /// Flags of `djkr continue`.
@@ -99,7 +99,7 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
             "{flag} = {shown_text}: expected START:STOP for {} ({}), e.g. 340:600",
             p.name(),
             p.info.unit,
-            shown_text = djkr::text::excerpt(text)
+            shown_text = djkr_core::text::excerpt(text)
         );
     }
     let a = parse_quantity(flag, parts[0].trim(), p.info.dimension)?;
@@ -109,7 +109,7 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
             "{flag} = {shown_text}: START and STOP must be finite and differ ({} in {})",
             p.name(),
             p.info.unit,
-            shown_text = djkr::text::excerpt(text)
+            shown_text = djkr_core::text::excerpt(text)
         );
     }
     Ok((a, b))
@@ -117,11 +117,11 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
 
 /// A dimensionless tolerance flag in (lo, hi).
 fn tolerance(flag: &str, text: &str, lo: f64, hi: f64) -> Result<f64> {
-    let v = parse_quantity(flag, text, djkr::units::Dimension::Dimensionless)?;
+    let v = parse_quantity(flag, text, djkr_core::units::Dimension::Dimensionless)?;
     if !(v.is_finite() && v > lo && v < hi) {
         bail!(
             "{flag} = {shown_text}: must be in ({lo:e}, {hi:e})",
-            shown_text = djkr::text::excerpt(text)
+            shown_text = djkr_core::text::excerpt(text)
         );
     }
     Ok(v)
@@ -134,7 +134,7 @@ fn check_ends(flag: &str, text: &str, family: &Family, values: &[[f64; 2]]) -> R
         if let Err(e) = family.setup(&v[..n]) {
             bail!(
                 "{flag} = {shown_text}: {e}",
-                shown_text = djkr::text::excerpt(text)
+                shown_text = djkr_core::text::excerpt(text)
             );
         }
     }

@@ -15,9 +15,9 @@ use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::reports::steady::{self as report, ResonanceReport};
 use djkr::scenario::Scenario;
-use djkr::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
-use djkr::steady::{Options, Problem};
-use djkr::units::Dimension;
+use djkr_core::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
+use djkr_core::steady::{Options, Problem};
+use djkr_core::units::Dimension;
 use std::path::{Path, PathBuf};
 
 /// Sweep direction(s).

@@ -13,9 +13,9 @@ use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::plot::{self, Heatmap};
 use djkr::reports::steady::{self as report, ShortcutMapReport};
 use djkr::scenario::Scenario;
-use djkr::steady::map::{self as smap, MapCell, ShortcutMap};
-use djkr::steady::{sweep, Problem};
-use djkr::units::Dimension;
+use djkr_core::steady::map::{self as smap, MapCell, ShortcutMap};
+use djkr_core::steady::{sweep, Problem};
+use djkr_core::units::Dimension;
 use std::path::{Path, PathBuf};
 
 /// Flags of `djkr shortcut-map`.

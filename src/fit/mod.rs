@@ -33,7 +33,7 @@ pub use model::ForwardModel;
 use crate::output::table::format_f64;
 use crate::scenario::overrides::{Override, SetKey};
 use crate::scenario::parse::ScenarioSource;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// A number from a TOML value as a scenario file holds it: a number (SI) or a string with
 /// units.
@@ -42,10 +42,10 @@ fn toml_number(v: &toml::Value, key: &SetKey, dim: Dimension) -> Result<f64, Str
         toml::Value::Float(x) => Ok(*x),
         toml::Value::Integer(i) => Ok(*i as f64),
         toml::Value::String(s) => parse_quantity(&key.to_string(), s, dim)
-            .map_err(|e| format!("{key} = '{}': {}", crate::text::excerpt(s), e.allowed)),
+            .map_err(|e| format!("{key} = '{}': {}", djkr_core::text::excerpt(s), e.allowed)),
         other => Err(format!(
             "{key} = {}: not a number",
-            crate::text::excerpt(&other.to_string())
+            djkr_core::text::excerpt(&other.to_string())
         )),
     }
 }

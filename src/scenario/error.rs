@@ -5,7 +5,7 @@ use thiserror::Error;
 use toml::Value;
 
 use crate::input::InputError;
-use crate::text::excerpt;
+use djkr_core::text::excerpt;
 
 /// Why a scenario file was rejected. Every variant names the file; value errors also name the
 /// dotted key, the value as written and what is allowed.

@@ -12,12 +12,12 @@ use super::keys::{Kind, KEYS};
 use super::overrides::{Override, SetKey};
 use super::parse::{ScenarioError, ScenarioSource};
 use super::Scenario;
-use crate::continuation::family::{Family, Parameter, ParameterInfo, Scene, Setup};
-use crate::continuation::ContinuationError;
-use crate::dynamics::protocol::Initial;
-use crate::steady::Problem;
-use crate::text::excerpt;
-use crate::units::Dimension;
+use djkr_core::continuation::family::{Family, Parameter, ParameterInfo, Scene, Setup};
+use djkr_core::continuation::ContinuationError;
+use djkr_core::dynamics::protocol::Initial;
+use djkr_core::steady::Problem;
+use djkr_core::text::excerpt;
+use djkr_core::units::Dimension;
 
 /// The keys a periodic orbit can be continued in: those of the table of keys with a parameter
 /// name ([`KeyInfo::param`](super::keys::KeyInfo#structfield.param)), in table order.

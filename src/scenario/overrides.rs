@@ -42,11 +42,11 @@ use toml::{Table, Value};
 
 use super::error::{show, show_float, ScenarioError};
 use super::keys::{self, section_keys, STAGE_END_KEYS, STAGE_SECTION};
-use crate::text::excerpt;
+use djkr_core::text::excerpt;
 
 /// A malformed override, or one naming a key no scenario file takes.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("--set {}: {message}", crate::text::excerpt(.set))]
+#[error("--set {}: {message}", djkr_core::text::excerpt(.set))]
 pub struct OverrideError {
     /// The override as given (`KEY=VALUE`, or what was given instead).
     pub set: String,

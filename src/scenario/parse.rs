@@ -11,7 +11,7 @@
 //! "> 0" means a finite, normal (not subnormal) positive number throughout.
 //!
 //! Physical quantities are bare numbers in SI, or strings with a unit (`R = "51mm"`,
-//! `frequency = "0.3kHz"`) parsed by [`crate::units::parse_quantity`]. Integers are accepted
+//! `frequency = "0.3kHz"`) parsed by [`djkr_core::units::parse_quantity`]. Integers are accepted
 //! wherever a number is (`stiffness = 200`).
 //!
 //! The key names are a contract (docs/guide/scenarios.md and the generated
@@ -36,16 +36,16 @@ use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
     Scenario, Solver, Sphere, Stage, StageKind, Until,
 };
-use crate::adhesion::LAW_NAMES;
-use crate::adhesion::{
+use crate::input::{self, InputKind};
+use djkr_core::adhesion::LAW_NAMES;
+use djkr_core::adhesion::{
     AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw,
 };
-use crate::dynamics::methods::{method_from_name, method_names, EnvelopeMode};
-use crate::error::ParamError;
-use crate::input::{self, InputKind};
-use crate::jkr;
-use crate::material::Material;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::dynamics::methods::{method_from_name, method_names, EnvelopeMode};
+use djkr_core::error::ParamError;
+use djkr_core::jkr;
+use djkr_core::material::Material;
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// The scenario-file format version this parser reads.
 pub const SCENARIO_VERSION: i64 = 1;
@@ -357,7 +357,7 @@ pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
     if v.is_finite() && v >= f64::MIN_POSITIVE {
         bound_error(key, v, unit)
     } else if let Some(e) =
-        crate::error::subnormal_error(v, &format!("a normal finite number > 0 ({unit})"))
+        djkr_core::error::subnormal_error(v, &format!("a normal finite number > 0 ({unit})"))
     {
         Some(e)
     } else {
@@ -368,7 +368,7 @@ pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
 /// As [`positive_error`] for a key >= 0.
 pub(crate) fn non_negative_error(key: &str, v: f64, unit: &str) -> Option<String> {
     if let Some(e) =
-        crate::error::subnormal_error(v, &format!("0 or a normal finite number > 0 ({unit})"))
+        djkr_core::error::subnormal_error(v, &format!("0 or a normal finite number > 0 ({unit})"))
     {
         // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
         Some(e)
@@ -1224,7 +1224,7 @@ impl Parser<'_> {
         if let Some(n) = self.whole_number(
             &s,
             "max_memory",
-            crate::dynamics::methods::MIN_MAX_MEMORY,
+            djkr_core::dynamics::methods::MIN_MAX_MEMORY,
             "must be a whole number of bytes >= 1048576 (1 MiB; default 2147483648 = 2 GiB)",
         )? {
             solver.max_memory = n;

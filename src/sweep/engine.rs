@@ -8,11 +8,11 @@ use std::time::Instant;
 
 use thiserror::Error;
 
-use crate::dynamics::{CycleRecord, Event, Model, Observer, Sample, Status, StepSamples};
 use crate::output::RunWriter;
 use crate::scenario::overrides::{Override, SetKey};
 use crate::scenario::parse::{ScenarioError, ScenarioSource};
 use crate::scenario::Scenario;
+use djkr_core::dynamics::{CycleRecord, Event, Model, Observer, Sample, Status, StepSamples};
 
 use super::grid::{Grid, MAX_RUNS};
 use super::phase::ensemble_phase;
@@ -438,12 +438,12 @@ impl Observer for SweepObserver<'_> {
             w.cycle(c);
         }
     }
-    fn gap(&mut self, g: &crate::dynamics::Gap) {
+    fn gap(&mut self, g: &djkr_core::dynamics::Gap) {
         if let Some(w) = self.inner.as_deref_mut() {
             w.gap(g);
         }
     }
-    fn stop_reason(&self) -> Option<crate::dynamics::Reason> {
+    fn stop_reason(&self) -> Option<djkr_core::dynamics::Reason> {
         // The kept run's writer (the free disk space); a stop of the sweep's is no run's reason.
         if self.stopped {
             return None;

@@ -20,15 +20,15 @@ use thiserror::Error;
 use crate::output::table::format_f64;
 use crate::scenario::keys::Kind;
 use crate::scenario::overrides::{SetKey, SetValue};
-use crate::text::excerpt;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::text::excerpt;
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// Most values one SPEC may give (a range's N): beyond it a sweep is a typo, not a study.
 pub const MAX_SPEC_VALUES: usize = 1_000_000;
 
 /// A SPEC that cannot be read, or a key that no file takes: `--set KEY=SPEC: what is wrong`.
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("--set {}: {message}", crate::text::excerpt(.set))]
+#[error("--set {}: {message}", djkr_core::text::excerpt(.set))]
 pub struct SpecError {
     /// `KEY=SPEC` as given.
     pub set: String,
