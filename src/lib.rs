@@ -48,6 +48,7 @@
 pub mod accuracy;
 pub mod api;
 pub mod catalogue;
+pub mod error;
 pub mod figures;
 pub mod fit;
 pub mod input;

@@ -505,7 +505,11 @@ fn keys_that_do_not_change_a_periodic_orbit_are_refused_with_the_list() {
     .map(|_| ())
     .unwrap_err()
     .to_string();
-    assert!(e.contains("--set base.frequency=400"), "{e}");
+    let e = djkr::error::render(&e, &djkr::error::Plain);
+    assert!(
+        e.starts_with("set base.frequency=400: base.frequency is the continuation parameter"),
+        "{e}"
+    );
 }
 
 fn djkr(args: &[&str]) -> std::process::Output {

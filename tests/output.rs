@@ -1278,7 +1278,7 @@ fn api_run_claims_the_figure_before_the_run_like_the_command_line() {
     std::fs::write(&mine, b"the user's own picture").unwrap();
     let err = djkr::api::run(&scn, Some(dir.path())).unwrap_err();
     assert!(
-        matches!(err, djkr::api::ApiError::Output { .. }),
+        matches!(err, djkr::error::Error::Output { .. }),
         "expected the folder to refuse before the run: {err}"
     );
     assert!(err.to_string().contains("run.png"), "{err}");

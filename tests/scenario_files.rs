@@ -158,7 +158,9 @@ fn material_and_law_reads_a_full_scenario() {
     assert!(e.to_string().contains("material.R = -0.051"), "{e}");
     let missing = dir("tests/scenarios/no-such-file.toml");
     match material_and_law(&missing) {
-        Err(ScenarioError::Io { file, .. }) => assert!(file.ends_with("no-such-file.toml")),
+        Err(ScenarioError::Io { source, .. }) => {
+            assert!(source.file.ends_with("no-such-file.toml"))
+        }
         other => panic!("{other:?}"),
     }
 }

@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use djkr::api::{self, ApiError, SAMPLE_BYTES};
+use djkr::api::{self, SAMPLE_BYTES};
+use djkr::error::Error as ApiError;
 use djkr::scenario::parse::parse_scenario;
 use djkr_core::dynamics::{Reason, SimError, Status};
 use serde_json::Value;

@@ -21,6 +21,7 @@ mod signals;
 mod steady;
 mod sweep;
 mod validate;
+mod words;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -327,18 +328,7 @@ fn tune_allocator() {
 /// line already holds: library errors that show their I/O cause in their own message and also
 /// chain it as their `source` printed the OS message twice.
 fn error_text(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let t = cause.to_string();
-        if t.is_empty() || out.contains(&t) {
-            continue;
-        }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&t);
-    }
-    out
+    words::text(e)
 }
 
 #[cfg(test)]

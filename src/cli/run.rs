@@ -236,7 +236,8 @@ pub fn run(a: &RunArgs) -> Result<()> {
             // them (the exit status still says the signal came).
             Err(e) if signals::received().is_some() => {
                 eprintln!(
-                    "warning: {e:#}: the run's files are written without the sensitivity section"
+                    "warning: {}: the run's files are written without the sensitivity section",
+                    super::words::text(&e)
                 );
                 None
             }
@@ -592,10 +593,11 @@ pub fn check(a: &CheckArgs) -> Result<()> {
             }
             Err(e) => {
                 failed += 1;
+                let text = e.in_words(&super::words::Flags);
                 match e {
                     // An override's error names the override, not the file: say which file.
-                    ScenarioError::Override { .. } => eprintln!("error: {}: {e}", f.display()),
-                    _ => eprintln!("error: {e}"),
+                    ScenarioError::Override { .. } => eprintln!("error: {}: {text}", f.display()),
+                    _ => eprintln!("error: {text}"),
                 }
             }
         }

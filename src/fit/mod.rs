@@ -111,7 +111,7 @@ pub fn fitted_toml(
         .text()
         .parse()
         .map_err(|e| format!("{}: {e}", source.name()))?;
-    crate::scenario::overrides::apply(&mut table, &all, source.name())
+    crate::scenario::overrides::apply(&mut table, &all, &crate::error::Source::file(source.name()))
         .map_err(|e| e.to_string())?;
     let mut doc: toml_edit::DocumentMut = source
         .text()
@@ -321,7 +321,12 @@ mod tests {
         let mut all = fixed.clone();
         all.push(Override::from_key(free[0].key, 6.1e-5).unwrap());
         all.push(Override::from_key(free[1].key, 0.07).unwrap());
-        crate::scenario::overrides::apply(&mut expected, &all, "lab.toml").unwrap();
+        crate::scenario::overrides::apply(
+            &mut expected,
+            &all,
+            &crate::error::Source::file("lab.toml"),
+        )
+        .unwrap();
         let got: toml::Table = out.parse().unwrap();
         assert_eq!(got, expected);
     }

@@ -100,10 +100,11 @@ pub fn family(
     for o in fixed {
         if let Some(p) = params.iter().find(|p| p.name() == o.key().to_string()) {
             return Err(ContinuationError::Input(format!(
-                "--set {}: {} is the continuation parameter, whose values come from its \
-                 range; drop the --set",
-                excerpt(&o.to_string()),
-                p.name()
+                "{}: {} is the continuation parameter, whose values come from its \
+                 range; drop the {}",
+                crate::error::set_item(&excerpt(&o.to_string())),
+                p.name(),
+                crate::error::input("set")
             )));
         }
     }
