@@ -1122,6 +1122,8 @@ where
                 &prims,
                 &shades,
                 &corner_order(fig.legend),
+                // Outside, the legend may take up to half the width from the plot.
+                w as i32 / 2,
             );
         }
         (legend, placement)

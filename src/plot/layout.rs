@@ -263,7 +263,8 @@ pub enum Corner {
 /// px, `margin` px in from the edges, covers none of `prims`; of those, the one that covers the
 /// least of `shades` (shaded spans, x0..x1 over the whole height: better left visible, but not
 /// worth moving the legend out for). When every corner covers data, or the box does not fit,
-/// [`Placement::Outside`].
+/// [`Placement::Outside`] if the box and its margin take at most `room_outside` px of width;
+/// else (a legend wider than a plot can give up) the corner that covers the fewest primitives.
 pub fn place_legend(
     plot: (i32, i32),
     size: (i32, i32),
@@ -271,13 +272,16 @@ pub fn place_legend(
     prims: &[Prim],
     shades: &[(i32, i32)],
     preference: &[Corner],
+    room_outside: i32,
 ) -> Placement {
     let (w, h) = plot;
     let (bw, bh) = size;
+    let fits_outside = bw + margin <= room_outside;
     if bw + 2 * margin > w || bh + 2 * margin > h {
         return Placement::Outside;
     }
     let mut best: Option<(i32, Px)> = None;
+    let mut least: Option<(usize, Px)> = None;
     for corner in preference {
         let x0 = match corner {
             Corner::UpperLeft | Corner::LowerLeft => margin,
@@ -295,7 +299,11 @@ pub fn place_legend(
         };
         // A few pixels of air between the box and the data.
         let probe = rect.grow(3);
-        if prims.iter().any(|p| p.meets(probe)) {
+        let covered = prims.iter().filter(|p| p.meets(probe)).count();
+        if least.is_none_or(|(c, _)| covered < c) {
+            least = Some((covered, (x0, y0)));
+        }
+        if covered > 0 {
             continue;
         }
         let shaded: i32 = shades
@@ -306,7 +314,11 @@ pub fn place_legend(
             best = Some((shaded, (x0, y0)));
         }
     }
-    best.map_or(Placement::Outside, |(_, at)| Placement::Inside(at))
+    match (best, least) {
+        (Some((_, at)), _) => Placement::Inside(at),
+        (None, Some((_, at))) if !fits_outside => Placement::Inside(at),
+        _ => Placement::Outside,
+    }
 }
 
 #[cfg(test)]
@@ -335,7 +347,7 @@ mod tests {
         // A point in the upper right corner: the upper left is free.
         let prims = vec![marker((390, 10))];
         assert_eq!(
-            place_legend((400, 300), (100, 50), 10, &prims, &[], &ALL),
+            place_legend((400, 300), (100, 50), 10, &prims, &[], &ALL, 200),
             Placement::Inside((10, 10))
         );
         // A line along the top and one along the bottom: no corner is free.
@@ -350,8 +362,14 @@ mod tests {
             },
         ];
         assert_eq!(
-            place_legend((400, 300), (100, 50), 10, &prims, &[], &ALL),
+            place_legend((400, 300), (100, 50), 10, &prims, &[], &ALL, 200),
             Placement::Outside
+        );
+        // No room outside either: the corner that covers least (here the upper ones, one line
+        // each, the preference's first).
+        assert_eq!(
+            place_legend((400, 300), (100, 50), 10, &prims, &[], &ALL, 50),
+            Placement::Inside((290, 10))
         );
         // A segment that crosses the box without a vertex inside it still counts.
         let prims = vec![Prim::Path {
@@ -359,17 +377,17 @@ mod tests {
             width: 2,
         }];
         assert_eq!(
-            place_legend((400, 300), (100, 50), 10, &prims, &[], &ALL),
+            place_legend((400, 300), (100, 50), 10, &prims, &[], &ALL, 200),
             Placement::Inside((10, 10))
         );
         // A box taller than the plot goes outside.
         assert_eq!(
-            place_legend((400, 300), (100, 290), 10, &[], &[], &ALL),
+            place_legend((400, 300), (100, 290), 10, &[], &[], &ALL, 200),
             Placement::Outside
         );
         // Free corners: the one shading least of the shaded spans.
         assert_eq!(
-            place_legend((400, 300), (100, 50), 10, &[], &[(0, 150)], &ALL),
+            place_legend((400, 300), (100, 50), 10, &[], &[(0, 150)], &ALL, 200),
             Placement::Inside((290, 10))
         );
     }
