@@ -1045,6 +1045,18 @@ fn legend_box<DB: DrawingBackend>(
     }))
 }
 
+/// Draw `title` centred over the whole of `area`, a little below its top edge, and return the
+/// area below it.
+fn below_title<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    px: &impl Fn(f64) -> u32,
+) -> Result<DrawingArea<DB, Shift>, String> {
+    area.margin(px(10.0), 0, 0, 0)
+        .titled(title, (FONT_FAMILY, px(26.0)))
+        .map_err(|e| e.to_string())
+}
+
 /// The corners in the order a figure prefers them: its own first.
 fn corner_order(pref: LegendPosition) -> [Corner; 4] {
     let first = match pref {
@@ -1095,9 +1107,7 @@ where
         let mut scratch = String::new();
         let probe_root =
             SVGBackend::with_string(&mut scratch, root.dim_in_pixel()).into_drawing_area();
-        let probe_body = probe_root
-            .titled(&fig.title, (FONT_FAMILY, px(26.0)))
-            .map_err(|e| err(&e))?;
+        let probe_body = below_title(&probe_root, &fig.title, &px)?;
         let probe = chart_below_title(&probe_body, &px, xs(), ys(), 0)?;
         let area = probe.plotting_area();
         let base = area.get_base_pixel();
@@ -1134,9 +1144,7 @@ where
         _ => 0,
     };
     // The title over the whole width, also when the legend takes room on the right.
-    let body = root
-        .titled(&fig.title, (FONT_FAMILY, px(26.0)))
-        .map_err(|e| err(&e))?;
+    let body = below_title(root, &fig.title, &px)?;
     let mut chart = chart_below_title(&body, &px, xs(), ys(), extra)?;
     draw_axes(
         &mut chart,
