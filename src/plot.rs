@@ -13,11 +13,11 @@
 //! complete but is not.
 //!
 //! What a reader sees: the legend lists every labelled series and sits where it covers no data
-//! (the emptiest corner of the plotting area, else outside it on the right: [`layout`]); the
-//! colours are colour-blind safe and series that share a colour differ in marker and dash
-//! ([`look`]); a line denser than the pixels is drawn as the min–max band of each pixel column,
-//! never as a line through some of its samples; axis values are in the SI prefix that suits
-//! them ([`display_unit`], [`axis_label`]).
+//! (the emptiest corner of the plotting area, else outside it on the right:
+//! `src/plot/layout.rs`); the colours are colour-blind safe and series that share a colour
+//! differ in marker and dash (`src/plot/look.rs`); a line denser than the pixels is drawn as
+//! the min–max band of each pixel column, never as a line through some of its samples; axis
+//! values are in the SI prefix that suits them ([`display_unit`], [`axis_label`]).
 
 use plotters::coord::combinators::{IntoLogRange, LogCoord};
 use plotters::coord::ranged1d::{
@@ -307,7 +307,7 @@ pub enum PlotError {
 pub const DEFAULT_SIZE: (u32, u32) = (1000, 700);
 
 /// Palette colour `index` as (r, g, b): Okabe and Ito's colours for colour-blind readers,
-/// repeating every [`look::COLOR_COUNT`] series (which then differ in marker and dash); [`GREY`]
+/// repeating every [`COLOR_COUNT`] series (which then differ in marker and dash); [`GREY`]
 /// is the neutral grey.
 pub fn palette_color(index: usize) -> (u8, u8, u8) {
     look::rgb(index)
