@@ -934,12 +934,18 @@ pub fn study_figure(st: &Study, measure: Measure) -> Figure {
         Measure::PullOffForce => e.pull_off_force,
     };
     let y_label = match measure {
-        Measure::PullOffRelevant => "max relative error: F_po, last-cycle ⟨F⟩, ⟨δ⟩, δ_A",
-        Measure::PullOffForce => "relative error of the pull-off force",
+        Measure::PullOffRelevant => "max relative error: F_po, last-cycle ⟨F⟩, ⟨δ⟩, δ_A (–)",
+        Measure::PullOffForce => "relative error of the pull-off force (–)",
     };
+    let walls: Vec<f64> = st
+        .rows
+        .iter()
+        .filter_map(|r| r.outcome.as_ref().ok().map(|m| m.wall_median_s))
+        .collect();
+    let (ts, t_label) = crate::plot::axis_label("median wall time", "s", &walls);
     let mut fig = Figure::new(
         format!("Work-precision: {}", short_name(&st.scene)),
-        "wall time (s, median)",
+        t_label,
         y_label,
     )
     .with_log(true, true)
@@ -951,9 +957,9 @@ pub fn study_figure(st: &Study, measure: Measure) -> Figure {
         let (mut x, mut y) = (Vec::new(), Vec::new());
         for r in st.rows.iter().filter(|r| r.method == name) {
             if let Ok(me) = &r.outcome {
-                x.push(me.wall_median_s);
+                x.push(me.wall_median_s * ts);
                 y.push(pick(&me.errors).max(1e-16));
-                t_all.push(me.wall_median_s);
+                t_all.push(me.wall_median_s * ts);
             }
         }
         fig = fig.with_series(Series::new(name, x, y, Style::LineMarkers).with_color(i));
@@ -969,7 +975,7 @@ pub fn study_figure(st: &Study, measure: Measure) -> Figure {
                 vec![u, u],
                 Style::Dashed,
             )
-            .with_color(9),
+            .with_color(crate::plot::GREY),
         );
     }
     fig
@@ -1190,9 +1196,9 @@ pub fn closed_form_heatmap(
         title: format!(
             "Closed form vs exact pull-off: |ln(A_exact/A_approx)|, β = {beta}, {freq} Hz"
         ),
-        x_label: "v_max / v0".into(),
-        y_label: "Gent–Schultz exponent n".into(),
-        z_label: "|ln ratio|".into(),
+        x_label: "v_max / v0 (–)".into(),
+        y_label: "Gent–Schultz exponent n (–)".into(),
+        z_label: "|ln ratio| (–)".into(),
         x: speed_ratios.to_vec(),
         y: n_values.to_vec(),
         z: points
@@ -1225,8 +1231,8 @@ pub fn quadrature_figure(q: &QuadratureStudy) -> Figure {
             "Imposed-area cycle: tanh-sinh nodes vs worst error ({} cases)",
             q.cases
         ),
-        "tanh-sinh nodes (2 law evaluations each)",
-        "worst error",
+        "tanh-sinh nodes, 2 law evaluations each (–)",
+        "worst error (–)",
     )
     .with_log(false, true)
     .with_series(Series::new(

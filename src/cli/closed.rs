@@ -239,8 +239,8 @@ fn write_beta_outputs(dir: &std::path::Path, fit: &beta_fit::BetaFit) -> Result<
     djkr::reports::beta_fit::ratios_table(fit).save_csv(&dir.join("beta_ratios.csv"))?;
     let fig = Figure::new(
         "β refit: error of the closed form",
-        "β",
-        "RMS ln(A_exact / A_approx)",
+        "β (–)",
+        "RMS ln(A_exact / A_approx) (–)",
     )
     .with_series(Series::new(
         "error",

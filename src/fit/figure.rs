@@ -7,7 +7,7 @@
 //! when the file gives sigma), and a line through the model's values at the same conditions.
 
 use crate::output::table::format_f64;
-use crate::plot::{display_unit, Figure, LegendPosition, Series, Style};
+use crate::plot::{display_unit, unit_text, Figure, LegendPosition, Series, Style, GREY};
 
 use super::data::CondValue;
 use super::model::ForwardModel;
@@ -45,8 +45,8 @@ pub fn fit_figure(model: &ForwardModel, outcome: &FitOutcome) -> Figure {
         None => (1.0, String::new()),
     };
     let x_label = match xj {
-        Some(j) => format!("{} [{xunit}]", data.conditions[j].key),
-        None => "row".to_string(),
+        Some(j) => format!("{} [{}]", data.conditions[j].key, unit_text(&xunit)),
+        None => "row [–]".to_string(),
     };
     let obs: Vec<f64> = data.rows.iter().map(|r| r.observed).collect();
     let (yf, yunit) = display_unit(data.observable.unit(), &obs);
@@ -86,9 +86,19 @@ pub fn fit_figure(model: &ForwardModel, outcome: &FitOutcome) -> Figure {
             n
         ),
         x_label,
-        format!("{} [{yunit}]", data.observable.name()),
+        format!("{} [{}]", data.observable.name(), unit_text(&yunit)),
     );
     fig.legend = LegendPosition::default();
+    // The key to the lines: a legend entry with no data of its own.
+    fig.series.push(
+        Series::new(
+            "lines: the fitted values",
+            Vec::new(),
+            Vec::new(),
+            Style::Line,
+        )
+        .with_color(GREY),
+    );
     for (g, (label, idx)) in groups.iter().enumerate() {
         let mut idx = idx.clone();
         idx.sort_by(|&a, &b| xs[a].total_cmp(&xs[b]));
