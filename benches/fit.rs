@@ -1,7 +1,7 @@
 //! The fit benchmark of issue 28: the heavy rig (the paper protocol, `scenarios/paper-protocol-300hz.toml`)
 //! at 3 frequencies × 6 amplitudes (200/300/400 Hz, 10–60 µm), data made by djkr with
 //! `adhesion.v0 = 60 µm/s`, `adhesion.n = 0.5` and 2 % Gaussian noise (seed 100, as the first
-//! seed of `tests/fit.rs::coverage_study_heavy_rig`), fitted for v0 and n from the file's values
+//! seed of `tests/it/fit.rs::coverage_study_heavy_rig`), fitted for v0 and n from the file's values
 //! on all cores: the whole `djkr fit` minus its files. Forward runs, iterations and the estimates
 //! are printed once. The target is ≤ 60 s on a 2-core machine.
 //!
@@ -16,7 +16,7 @@ use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;
 
-/// A standard normal deviate for (seed, i) (Box–Muller, as `tests/fit.rs`).
+/// A standard normal deviate for (seed, i) (Box–Muller, as `tests/it/fit.rs`).
 fn gauss(seed: u64, i: u64) -> f64 {
     let u1 = uniform(seed, i, 0).max(1e-300);
     let u2 = uniform(seed, i, 1);

@@ -1,5 +1,5 @@
 //! The simulator against independent references, measured: the numbers behind README's "Checked
-//! against independent references" table, which `tests/dynamics.rs` and `tests/restart.rs`
+//! against independent references" table, which `tests/it/dynamics.rs` and `tests/it/restart.rs`
 //! assert (with a margin) on the same catalogue scenes.
 //!
 //!   cargo run --release --example study_checks
@@ -52,7 +52,7 @@ fn main() {
             releases 0.6 π w0 a_J²) or a contact loss (the contact's final collapse, faster than any \
             step, takes the elastic energy still in it), residual relative to the run's largest per-cycle work or dissipation term (not each cycle's own: in a cycle with little net work, such as a ringing dwell, the integration error is set by the scale of the motion). Both from the \
             quadrature states carried with the solution (`catalogue::cycle_balances`). Worst over every \
-            cycle of the scene; asserted by `cycle_balances_hold` in `tests/dynamics.rs`.\n\n";
+            cycle of the scene; asserted by `cycle_balances_hold` in `tests/it/dynamics.rs`.\n\n";
     let scenes = catalogue::cycle_balance_scenes().unwrap_or_else(|e| {
         eprintln!("{e}");
         std::process::exit(1)
@@ -364,7 +364,7 @@ fn main() {
     let _ = writeln!(
         doc,
         "`vibrating_hold(5 µm, 300 Hz)`: 40 + 40 periods resumed from the end state against 80 \
-         unbroken periods (`split_run_matches_unbroken_run` in `tests/restart.rs`): cycle means \
+         unbroken periods (`split_run_matches_unbroken_run` in `tests/it/restart.rs`): cycle means \
          differ by at most {} of the largest |F1| in ⟨F⟩ and {} relative in ⟨a⟩.",
         sci(worst),
         sci(worst_a)

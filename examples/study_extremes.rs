@@ -1,6 +1,6 @@
 //! The full extremes matrix: every time-domain scene of `tests/extremes/matrix.rs` with every
 //! method (auto, implicit, dp8, dopri5, dop853), longer runs, and the dense imposed-area grid.
-//! Asserts what the reduced matrix in `tests/extremes.rs` asserts (valid output or a clear error;
+//! Asserts what the reduced matrix in `tests/it/extremes.rs` asserts (valid output or a clear error;
 //! no panic, no hang, no invalid output), exiting with status 1 on any failure, and writes the
 //! result.
 //!

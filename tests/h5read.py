@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Dump an HDF5 file as JSON with h5py, for tests/output.rs.
+"""Dump an HDF5 file as JSON with h5py, for tests/it/output.rs.
 
 Usage: python3 tests/h5read.py FILE
 

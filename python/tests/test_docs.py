@@ -6,7 +6,7 @@ The stub's docstrings are generated from the runtime ones: after changing a doc 
 
     python python/tests/test_docs.py --write
 
-with the rebuilt package installed (``cargo test --release --test python`` installs it into
+with the rebuilt package installed (``cargo test --release --test cli python::`` installs it into
 target/tmp/python-venv), and commit the stub it rewrites.
 """
 

@@ -3,7 +3,7 @@ numbers compared with the command line's for the same scenarios (``djkr run``, `
 ``djkr resonance``), and with the outputs committed in it, so that the committed notebook shows
 what djkr computes today.
 
-Needs nbclient, nbformat and ipykernel: tests/python.rs installs them into its venv with
+Needs nbclient, nbformat and ipykernel: tests/cli/python.rs installs them into its venv with
 DJKR_TEST_INSTALL=1; without them this test skips (and fails when installing was allowed).
 After a change that moves these numbers on purpose, re-execute the notebook in place with
 
@@ -31,7 +31,7 @@ def need(module):
     try:
         return __import__(module)
     except ImportError:
-        why = f"the notebook test needs {module} (tests/python.rs installs it with DJKR_TEST_INSTALL=1)"
+        why = f"the notebook test needs {module} (tests/cli/python.rs installs it with DJKR_TEST_INSTALL=1)"
         if os.environ.get("DJKR_TEST_INSTALL") == "1":
             pytest.fail(why)
         pytest.skip(why)

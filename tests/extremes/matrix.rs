@@ -1,4 +1,4 @@
-//! The extremes matrix, shared by `tests/extremes.rs` (the reduced matrix, in the default
+//! The extremes matrix, shared by `tests/it/extremes.rs` (the reduced matrix, in the default
 //! suite) and `examples/study_extremes.rs` (the full matrix, which writes `docs/extremes.md`).
 //!
 //! Every case finishes with physically valid output (finite numbers, a ≥ 0, F equal to the JKR

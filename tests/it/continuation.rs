@@ -342,7 +342,7 @@ fn a_linear_system_reproduces_the_linear_transfer_and_exp_lambda_t() {
 
 #[test]
 fn a_pinned_gent_schultz_contact_has_the_oscillator_pair_and_a_creep_multiplier_near_one() {
-    // At X_b = 10 nm the Gent-Schultz contact line is pinned (tests/steady.rs): the mechanics is
+    // At X_b = 10 nm the Gent-Schultz contact line is pinned (tests/it/steady.rs): the mechanics is
     // the linear oscillator with k_c = (3/2) K a_m, and the mean radius creeps: one real
     // multiplier just below 1, the nearly neutral direction of the one-period map.
     let fam = new_family(

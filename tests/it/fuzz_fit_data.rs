@@ -4,7 +4,7 @@
 //! documented errors (exit status 0 or 2 on the command line), and no message echoes more than a
 //! cut of what the file holds.
 //!
-//! Data files are drawn by a seeded generator (splitmix64, as tests/fuzz.rs): one to three
+//! Data files are drawn by a seeded generator (splitmix64, as tests/it/fuzz.rs): one to three
 //! conditions, one or two observables, sometimes sigma, zero to six rows of plausible values,
 //! then up to four mutations: an empty file, a header alone, NaN, ±inf, ±1e308, 1e-308,
 //! subnormals, words and empty cells, duplicated columns, a byte-order mark, CRLF or CR line
@@ -18,12 +18,12 @@
 //! - `fuzz_fit_library_quick` (default suite): [`QUICK_CASES`] cases through the library.
 //! - `fuzz_fit_and_keys_cli_quick` (default suite): [`CLI_CASES`] command lines, `djkr fit` and
 //!   `djkr keys`, each a process under a deadline (a signal death or a hang is seen as such).
-//! - `fuzz_fit_long` (opt-in): `cargo test --release --test fuzz_fit -- --ignored --nocapture`,
+//! - `fuzz_fit_long` (opt-in): `cargo test --release --test it fuzz_fit_data:: -- --ignored --nocapture`,
 //!   [`LONG_CASES`] library cases (`DJKR_FUZZ_CASES` and `DJKR_FUZZ_SEED` override).
 //!
 //! Each prints the count of cases per outcome.
 
-mod tools;
+use crate::tools;
 
 use std::collections::BTreeMap;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -667,7 +667,7 @@ fn fuzz_fit_library_quick() {
 }
 
 #[test]
-#[ignore = "opt-in: cargo test --release --test fuzz_fit -- --ignored --nocapture"]
+#[ignore = "opt-in: cargo test --release --test it fuzz_fit_data:: -- --ignored --nocapture"]
 fn fuzz_fit_long() {
     run_library(
         env_or("DJKR_FUZZ_CASES", LONG_CASES as u64) as usize,

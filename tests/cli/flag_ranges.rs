@@ -3,7 +3,7 @@
 //! validation gaps, `--jobs` and the whole-command budget of `resonance` and `shortcut-map`.
 //! Every child process runs under a deadline; none may panic.
 
-mod tools;
+use crate::tools;
 
 use std::path::Path;
 use std::process::{Command, Stdio};

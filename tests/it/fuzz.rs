@@ -11,7 +11,7 @@
 //! if one case runs longer than [`HANG_S`] (its text is written under the target directory).
 //!
 //! - `fuzz_corpus_quick` (default suite): [`QUICK_CASES`] cases.
-//! - `fuzz_corpus_long` (opt-in): `cargo test --release --test fuzz -- --ignored --nocapture`,
+//! - `fuzz_corpus_long` (opt-in): `cargo test --release --test it fuzz:: -- --ignored --nocapture`,
 //!   [`LONG_CASES`] cases (`DJKR_FUZZ_CASES` and `DJKR_FUZZ_SEED` override count and seed).
 //!
 //! Both print the count of cases per outcome.
@@ -523,7 +523,7 @@ fn fuzz_corpus_quick() {
 }
 
 #[test]
-#[ignore = "opt-in: cargo test --release --test fuzz -- --ignored --nocapture"]
+#[ignore = "opt-in: cargo test --release --test it fuzz:: -- --ignored --nocapture"]
 fn fuzz_corpus_long() {
     run_fuzz(
         env_or("DJKR_FUZZ_CASES", LONG_CASES as u64) as usize,

@@ -14,13 +14,13 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-mod tools;
+use crate::tools;
 
 use tools::{have, is_root};
 
 /// Skip with one line (or fail when installing was allowed: then CI must run the test).
 fn skip(why: &str) {
-    tools::skip_or_fail("the Slurm test (tests/slurm.rs)", why);
+    tools::skip_or_fail("the Slurm test (tests/cli/slurm.rs)", why);
 }
 
 /// Slurm's and munge's commands, installed (slurm-wlm, munge) with apt-get only when allowed

@@ -3,7 +3,7 @@
 //! run with no tensile pull-off (item 8), subnormal radii refused (item 10). Every child process
 //! runs under a deadline; none may panic.
 
-mod tools;
+use crate::tools;
 
 use std::path::Path;
 use std::process::{Command, Stdio};

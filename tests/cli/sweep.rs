@@ -1,6 +1,6 @@
 //! `djkr sweep`: rows equal the individual runs, thread count and sharding do not matter, a
 //! killed sweep resumes to the same files, bad input is named; `djkr run --plot`, `djkr plot`.
-//! The Slurm test is in `tests/slurm.rs`, the ensemble's convergence in
+//! The Slurm test is in `tests/cli/slurm.rs`, the ensemble's convergence in
 //! `sweep_ensemble_means_converge` below.
 
 use serde_json::Value;

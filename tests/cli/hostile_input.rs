@@ -3,7 +3,7 @@
 //! ends with a clear message (exit 2) or a result with a warning, never a panic or a hang; each
 //! child process runs under a deadline.
 
-mod tools;
+use crate::tools;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

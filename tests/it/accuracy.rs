@@ -149,7 +149,7 @@ fn study_of_quasi_static_jkr() {
 }
 
 #[test]
-fn config_errors_name_the_flag() {
+fn config_errors_name_the_setting() {
     let bad = |c: StudyConfig, flag: &str| {
         let e = c.validate().unwrap_err();
         assert_eq!(e.name, flag, "{e}");
@@ -159,28 +159,28 @@ fn config_errors_name_the_flag() {
             tolerances: vec![1e-6, 2.0],
             ..StudyConfig::default()
         },
-        "--tolerances",
+        "tolerances",
     );
     bad(
         StudyConfig {
             repeats: 0,
             ..StudyConfig::default()
         },
-        "--repeats",
+        "repeats",
     );
     bad(
         StudyConfig {
             reference_rtol: 1e-3,
             ..StudyConfig::default()
         },
-        "--ref-rtol",
+        "ref_rtol",
     );
     bad(
         StudyConfig {
             methods: vec![],
             ..StudyConfig::default()
         },
-        "--methods",
+        "methods",
     );
     assert_eq!(
         parse_method("--methods", "rk4").unwrap_err().name,

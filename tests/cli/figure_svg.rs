@@ -9,7 +9,7 @@
 //! font. The data a legend could hide are the elements drawn before its box; what follows it
 //! inside it is its own entries (other panels lie in other cells).
 //!
-//! `DJKR_SVG_DIR=DIR cargo test --release --test figure_svg check_a_folder -- --ignored` applies
+//! `DJKR_SVG_DIR=DIR cargo test --release --test cli figure_svg::check_a_folder -- --ignored` applies
 //! the same checks to every SVG under DIR (e.g. the figures of an older build, which fail them).
 
 use std::path::{Path, PathBuf};

@@ -1082,7 +1082,7 @@ fn non_dataset_bytes(path: &Path) -> u64 {
 /// storage (of 1 131 913); with the descriptions in a table 257 441, one collection per `units`
 /// attribute (which must stay a variable-length attribute for h5py to read it as str) making
 /// most of it. The vendored hdf5-pure shares collections among attributes (30 kB;
-/// tests/output.rs checks that with h5py); here no dataset may carry any other attribute.
+/// tests/it/output.rs checks that with h5py); here no dataset may carry any other attribute.
 #[test]
 fn run_files_spend_no_heap_collection_on_descriptions() {
     let out = tempfile::tempdir().unwrap();

@@ -6,7 +6,7 @@
 //! file; each child process runs under a deadline. The fits use tests/sweep/tiny.toml (a run of
 //! a few milliseconds), so the whole file runs in a few seconds.
 
-mod tools;
+use crate::tools;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};

@@ -15,7 +15,7 @@
 //! test); without it the test uses a venv an earlier such run left, or the system `python3` when it
 //! has every package, and otherwise skips with one line (module `tools`).
 
-mod tools;
+use crate::tools;
 
 use std::path::Path;
 use std::process::Command;
@@ -27,7 +27,10 @@ fn python_package_passes_its_pytest_suite() {
     let py = match tools::djkr_python() {
         Ok(py) => py,
         Err(why) => {
-            tools::skip_or_fail("the Python package's pytest suite (tests/python.rs)", &why);
+            tools::skip_or_fail(
+                "the Python package's pytest suite (tests/cli/python.rs)",
+                &why,
+            );
             return;
         }
     };

@@ -5,7 +5,7 @@
 //!   (name, unit, description), taken from the library's own table builders.
 //! - `docs/guide/scenario-reference.md`: `djkr keys --json`, the key table of the scenario parser.
 //!
-//! `DJKR_BLESS=1 cargo test --release --test docs_reference` rewrites them; without `DJKR_BLESS`
+//! `DJKR_BLESS=1 cargo test --release --test it docs_reference::` rewrites them; without `DJKR_BLESS`
 //! a difference fails the test, naming the file, the first differing line and that command.
 
 use djkr::output::table::Field;
@@ -15,7 +15,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 /// The command that regenerates the generated chapters.
-const BLESS: &str = "DJKR_BLESS=1 cargo test --release --test docs_reference";
+const BLESS: &str = "DJKR_BLESS=1 cargo test --release --test it docs_reference::";
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -121,7 +121,7 @@ fn cli_reference() -> String {
     let mut s = String::from(
         "# Command reference\n\n\
          <!-- GENERATED from `djkr help COMMAND` by `DJKR_BLESS=1 cargo test --release --test \
-         docs_reference`; do not edit by hand. -->\n\n\
+         it docs_reference::`; do not edit by hand. -->\n\n\
          Every command's help, as `djkr help COMMAND` prints it. What the commands share (units, \
          the default material, errors, limits, warnings) is in [the command line](commands.md).\n\n",
     );
@@ -302,7 +302,7 @@ fn scenario_reference(json: &str) -> String {
     let mut s = String::from(
         "# Scenario reference\n\n\
          <!-- GENERATED from `djkr keys --json` by `DJKR_BLESS=1 cargo test --release --test \
-         docs_reference`; do not edit by hand. -->\n\n\
+         it docs_reference::`; do not edit by hand. -->\n\n\
          Every key the scenario parser and `--set` accept, from the table they use. Units are \
          SI (a value may be written with units, `\"51mm\"`); `—` as default: required, or derived \
          from other keys. How to write a scenario: [writing scenarios](scenarios.md).\n",
@@ -372,7 +372,7 @@ fn scenario_reference_is_generated_from_djkr_keys() {
             &scenario_reference(&json),
         ),
         Err(e) if e.contains("unrecognized subcommand") => say(
-            "SKIPPED docs/guide/scenario-reference.md (tests/docs_reference.rs): this djkr has no \
+            "SKIPPED docs/guide/scenario-reference.md (tests/it/docs_reference.rs): this djkr has no \
              `keys` command yet, so the scenario reference is neither checked nor regenerated",
         ),
         Err(e) => panic!("djkr keys --json failed: {e}"),

@@ -10,9 +10,9 @@
 //! with `file=PATH` (```` ```toml file=tests/scenarios/good/minimal.toml ````) must equal that
 //! repository file. The README's
 //! ```` ```python ```` blocks run with the Python test venv when it imports `djkr` (made by
-//! `tests/python.rs` under `DJKR_TEST_INSTALL=1`), and are otherwise skipped with one line.
+//! `tests/cli/python.rs` under `DJKR_TEST_INSTALL=1`), and are otherwise skipped with one line.
 
-mod tools;
+use crate::tools;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -125,7 +125,7 @@ fn path_with_djkr() -> std::ffi::OsString {
 }
 
 /// The Python of the test venv when it imports djkr: built here under `DJKR_TEST_INSTALL=1` (as
-/// tests/python.rs builds it, so that a fresh CI runs the tour's Python block too), otherwise
+/// tests/cli/python.rs builds it, so that a fresh CI runs the tour's Python block too), otherwise
 /// only an existing one.
 fn venv_python() -> Option<PathBuf> {
     if tools::may_install() {
@@ -218,7 +218,7 @@ fn run_file(rel: &str, python: Option<&Path>) -> Vec<String> {
     }
     if skipped_python {
         tools::skipped(
-            &format!("the Python blocks of {rel} (tests/docs_run.rs)"),
+            &format!("the Python blocks of {rel} (tests/cli/docs_run.rs)"),
             "no venv under target/tmp/python-venv that imports djkr (DJKR_TEST_INSTALL=1 makes it)",
         );
     }

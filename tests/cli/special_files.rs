@@ -5,9 +5,7 @@
 //! reports the time spent writing. Every child process runs under a deadline: a read that blocks
 //! on a FIFO fails the test instead of hanging it.
 
-#![cfg(unix)]
-
-mod tools;
+use crate::tools;
 
 use std::path::Path;
 use std::process::{Command, Stdio};

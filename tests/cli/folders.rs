@@ -2,8 +2,6 @@
 //! never replaces or deletes a file it did not write, and one process at a time writes a
 //! folder. Every case runs the binary as a user would.
 
-#![cfg(unix)]
-
 use std::os::unix::fs::symlink;
 use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};

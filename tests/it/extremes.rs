@@ -9,7 +9,7 @@
 //!   longer and a denser imposed-area grid, is a study that asserts the same and writes
 //!   `docs/extremes.md`: `cargo run --release --example study_extremes`.
 
-#[path = "extremes/matrix.rs"]
+#[path = "../extremes/matrix.rs"]
 mod matrix;
 
 use djkr_core::adhesion::{AdhesionLaw, GentSchultz};
