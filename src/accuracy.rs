@@ -127,34 +127,27 @@ impl Default for StudyConfig {
 }
 
 impl StudyConfig {
-    /// Check every setting; errors name the flag.
+    /// Check every setting; an error names the setting as the request's field (`tolerances`,
+    /// `ref_rtol`), for a front end to word.
     pub fn validate(&self) -> Result<(), ParamError> {
         if self.methods.is_empty() {
-            return Err(ParamError::new(
-                "--methods",
-                "",
-                "needs at least one method",
-            ));
+            return Err(ParamError::new("methods", "", "needs at least one method"));
         }
         if self.tolerances.is_empty() {
             return Err(ParamError::new(
-                "--tolerances",
+                "tolerances",
                 "",
                 "needs at least one tolerance",
             ));
         }
         for &t in &self.tolerances {
             if !(t.is_finite() && t > 0.0 && t < 1.0) {
-                return Err(ParamError::new(
-                    "--tolerances",
-                    t,
-                    "each must lie in (0, 1)",
-                ));
+                return Err(ParamError::new("tolerances", t, "each must lie in (0, 1)"));
             }
         }
         if self.repeats == 0 || self.repeats > 1000 {
             return Err(ParamError::new(
-                "--repeats",
+                "repeats",
                 self.repeats,
                 "must lie in 1..=1000",
             ));
@@ -164,21 +157,21 @@ impl StudyConfig {
             && self.reference_rtol < 1e-6)
         {
             return Err(ParamError::new(
-                "--ref-rtol",
+                "ref_rtol",
                 self.reference_rtol,
                 "must lie in [1e-14, 1e-6)",
             ));
         }
         if !(self.atol_ratio.is_finite() && self.atol_ratio > 0.0 && self.atol_ratio <= 1e3) {
             return Err(ParamError::new(
-                "--atol-ratio",
+                "atol_ratio",
                 self.atol_ratio,
                 "must lie in (0, 1000]",
             ));
         }
         if !(self.max_wall_s.is_finite() && self.max_wall_s > 0.0) {
             return Err(ParamError::new(
-                "--max-wall",
+                "max_wall",
                 self.max_wall_s,
                 "must be a finite time > 0 s",
             ));
@@ -1131,7 +1124,7 @@ pub fn closed_form_map(
     freq: f64,
     beta: f64,
 ) -> Result<Vec<MapPoint>, ParamError> {
-    djkr_core::error::positive("--freq", freq, "Hz")?;
+    djkr_core::error::positive("freq", freq, "Hz")?;
     djkr_core::error::positive("beta", beta, "(dimensionless)")?;
     for &n in n_values {
         djkr_core::error::positive("n", n, "(dimensionless)")?;

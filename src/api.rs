@@ -27,6 +27,7 @@ use crate::error::Error;
 use crate::output::summary::{summary_json, SummaryFiles};
 use crate::output::table::Table;
 use crate::output::{cycles, OutputError, OutputPaths, RunWriter, TimeSeriesWriter};
+pub use crate::record::RunRecord;
 use crate::reports::steady::{self as report, ValidateReport};
 use crate::run_plot::RunPlotError;
 use crate::scenario::checks::{contact_radius_error, small_contact_warning};
@@ -636,8 +637,8 @@ pub fn pull_off(
                     "beta = {beta}, delta_A {}",
                     match form {
                         DeltaAmpForm::Derived =>
-                            "as derived from eqs. (14)-(15) (--delta-form derived)",
-                        DeltaAmpForm::Printed => "as printed in eq. (23) (--delta-form printed)",
+                            "as derived from eqs. (14)-(15) (delta form: derived)",
+                        DeltaAmpForm::Printed => "as printed in eq. (23) (delta form: printed)",
                     }
                 )],
                 warnings: Vec::new(),
@@ -676,30 +677,6 @@ pub fn pull_off(
 
 // ---------------------------------------------------------------------------------------------
 // run
-
-/// A run kept in memory: the tables of its `run.h5` (time series, events, period records), its
-/// result and its `summary.json`.
-#[derive(Debug)]
-pub struct RunRecord {
-    /// The time series: the `SERIES` columns of [`crate::output::timeseries`], then `stage`.
-    pub series: Table,
-    /// Every event, in time order.
-    pub events: Vec<Event>,
-    /// The period records (the HDF5 `cycles/` group's columns).
-    pub cycles: Table,
-    /// The gaps of the time series (the HDF5 `gaps/` group's columns,
-    /// [`crate::output::timeseries::gaps_table`]).
-    pub gaps: Table,
-    /// The run's result.
-    pub result: RunResult,
-    /// The text of `summary.json`: the file written into the run folder, or without one the
-    /// same text with empty `files` and `file_bytes`.
-    pub summary: String,
-    /// The files written, when a run folder was asked for.
-    pub files: Option<OutputPaths>,
-    /// The run's figure (`run.png`, `run.svg`), when `[output] plot = true`.
-    pub plots: Vec<PathBuf>,
-}
 
 /// Bytes one time-series sample is charged in memory: the [`crate::output::timeseries::SERIES`]
 /// columns, the stage and the segment index, 8 bytes each (the data itself; while a column

@@ -551,7 +551,7 @@ pub fn add_noise(
 // ------------------------------------------------------------------------------------------
 
 /// The scenes on which the per-cycle energy and momentum balances are asserted
-/// (`tests/dynamics.rs`) and measured (`examples/study_checks.rs`), each at its own tolerances,
+/// (`tests/it/dynamics.rs`) and measured (`examples/study_checks.rs`), each at its own tolerances,
 /// with samples at every accepted step (the cycle boundaries are steps):
 /// - the light rig's 300 Hz hold (X_b = 2 µm, 0.05 s);
 /// - [`resonance_hold`] (200 cycles at resonance);

@@ -19,122 +19,15 @@ use djkr_core::error::ParamError;
 use djkr_core::steady::SteadyError;
 use djkr_core::text::excerpt;
 
+#[cfg(test)]
+pub(crate) use crate::words::TestFlags;
+pub use crate::words::{axis_item, input, input_value, render, set_item, Plain, Source, Words};
+
 use crate::output::OutputError;
 use crate::run_plot::RunPlotError;
 use crate::scenario::overrides::OverrideError;
 use crate::scenario::parse::ScenarioError;
 use crate::sweep::{SpecError, SweepError};
-
-/// How a front end names what its user gave it.
-pub trait Words {
-    /// `name`, an input of a request (its field name: `a_amp`, `freq`, `out`), as this front end
-    /// spells it: `--a-amp` on the command line, `a_amp` in Python.
-    fn input(&self, name: &str) -> String;
-    /// Overrides of scenario keys (`KEY=VALUE` each, in order) as this front end takes them:
-    /// `--set K=V --set K2=V2` on the command line, `set={'K': V, 'K2': V2}` in Python.
-    fn overrides(&self, items: &[String]) -> String;
-    /// An override that did not parse or names no key (`KEY=VALUE`, or whatever was given), as
-    /// this front end shows it: `--set K=V` on the command line, `set={'K': ...}` in Python (its
-    /// value plays no part).
-    fn malformed_override(&self, set: &str) -> String;
-    /// An axis of a sweep (`KEY=SPEC`: a list or a range of values) that did not parse: `--set
-    /// K=SPEC` on the command line, `grid={'K': ...}` in Python.
-    fn axis(&self, spec: &str) -> String;
-    /// An input with its value, where a message names both: `--ensemble 5`, `ensemble = 5`.
-    fn input_value(&self, name: &str, value: &str) -> String;
-}
-
-/// The library's own words, for Rust callers: inputs by their field names, overrides as
-/// `set K=V, K2=V2`.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct Plain;
-
-impl Words for Plain {
-    fn input(&self, name: &str) -> String {
-        name.to_string()
-    }
-    fn overrides(&self, items: &[String]) -> String {
-        format!("set {}", items.join(", "))
-    }
-    fn malformed_override(&self, set: &str) -> String {
-        format!("set {set}")
-    }
-    fn axis(&self, spec: &str) -> String {
-        format!("axis {spec}")
-    }
-    fn input_value(&self, name: &str, value: &str) -> String {
-        format!("{name} = {value}")
-    }
-}
-
-/// `text` with every `«name»` (an input named inside a message) and `«set:KEY=VALUE»` (an
-/// override) in the words of `w`.
-pub fn render(text: &str, w: &dyn Words) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text;
-    while let Some(i) = rest.find('«') {
-        let after = &rest[i + '«'.len_utf8()..];
-        match after.find('»') {
-            Some(j) => {
-                out.push_str(&rest[..i]);
-                let inner = &after[..j];
-                match inner.strip_prefix("set:") {
-                    Some(item) => out.push_str(&w.overrides(&[item.to_string()])),
-                    None => out.push_str(&w.input(inner)),
-                }
-                rest = &after[j + '»'.len_utf8()..];
-            }
-            None => break,
-        }
-    }
-    out.push_str(rest);
-    out
-}
-
-/// `«name»`: the input `name` inside a message, for [`render`] to word.
-pub fn input(name: &str) -> String {
-    format!("«{name}»")
-}
-
-/// `«set:KEY=VALUE»`: an override inside a message, for [`render`] to word.
-pub fn set_item(item: &str) -> String {
-    format!("«set:{item}»")
-}
-
-/// Where a scenario came from: its file (a path, `<string>`, `<dict>`) and the overrides applied
-/// to the file's values (`KEY=VALUE`, in order).
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct Source {
-    /// The file's name as messages give it (usually its path).
-    pub file: String,
-    /// The overrides, `KEY=VALUE` each.
-    pub set: Box<[String]>,
-}
-
-impl Source {
-    /// A file used as written.
-    pub fn file(file: impl Into<String>) -> Self {
-        Self {
-            file: file.into(),
-            set: Box::default(),
-        }
-    }
-
-    /// The file and its overrides in the words of `w`: `FILE --set K=V`.
-    pub fn words(&self, w: &dyn Words) -> String {
-        if self.set.is_empty() {
-            self.file.clone()
-        } else {
-            format!("{} {}", self.file, w.overrides(&self.set))
-        }
-    }
-}
-
-impl fmt::Display for Source {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(&self.words(&Plain))
-    }
-}
 
 /// Why a command of the library failed. [`Error::is_input`] tells bad input (the caller's to fix:
 /// exit status 2 on the command line, `ScenarioError` in Python) from a computation that failed
@@ -185,7 +78,7 @@ pub enum Error {
         /// Its status, reason and message.
         ending: Ending,
         /// The run up to where it ended.
-        record: Box<crate::api::RunRecord>,
+        record: Box<crate::record::RunRecord>,
     },
     /// Writing into an output folder failed, or the folder refused the command before it
     /// started.
@@ -302,6 +195,43 @@ impl Error {
     }
 }
 
+/// A continuation's error in the words of `w` (its ranges and parameters are inputs of the
+/// request: `range`, `fold_range`, `param`, `fold_param`).
+pub fn continuation_in_words(
+    e: &djkr_core::continuation::ContinuationError,
+    w: &dyn Words,
+) -> String {
+    use djkr_core::continuation::ContinuationError as C;
+    match e {
+        C::EmptyRange {
+            input,
+            start,
+            stop,
+            unit,
+        } => {
+            let unit = if unit.is_empty() {
+                String::new()
+            } else {
+                format!(" ({unit})")
+            };
+            format!(
+                "{} {start}:{stop}: START and STOP must differ{unit}",
+                w.input(input)
+            )
+        }
+        C::SameParameter { input, name, other } => format!(
+            "{} {name}: must differ from {}",
+            w.input(input),
+            w.input(other)
+        ),
+        C::Scene(inner) => match inner.downcast_ref::<ScenarioError>() {
+            Some(e) => e.in_words(w),
+            None => render(&inner.to_string(), w),
+        },
+        e => render(&e.to_string(), w),
+    }
+}
+
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.in_words(&Plain))
@@ -333,37 +263,6 @@ from_error!(
     SweepError => Sweep,
     crate::memory::MemoryError => Memory,
 );
-
-/// The command line's words, for the library's own tests of its messages (the command line's
-/// [`Words`] live in the binary).
-#[cfg(test)]
-pub(crate) struct TestFlags;
-
-#[cfg(test)]
-impl Words for TestFlags {
-    fn input(&self, name: &str) -> String {
-        if name.contains('.') || name.starts_with('-') {
-            return name.to_string();
-        }
-        format!("--{}", name.replace('_', "-"))
-    }
-    fn overrides(&self, items: &[String]) -> String {
-        items
-            .iter()
-            .map(|i| format!("--set {i}"))
-            .collect::<Vec<_>>()
-            .join(" ")
-    }
-    fn malformed_override(&self, set: &str) -> String {
-        format!("--set {set}")
-    }
-    fn axis(&self, spec: &str) -> String {
-        format!("--set {spec}")
-    }
-    fn input_value(&self, name: &str, value: &str) -> String {
-        format!("{} {value}", self.input(name))
-    }
-}
 
 #[cfg(test)]
 mod tests {

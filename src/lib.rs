@@ -30,7 +30,8 @@
 //! This crate adds to the physics what reads and writes files and what the command line and
 //! Python share; the names a user composes are at the top level:
 //!
-//! - scenarios: [`Scenario`] (with [`Scenario::set`] for a typed change of one key),
+//! - scenarios: [`Scenario`], built one way ([`ScenarioSource::scenario`]: a file, a text or a
+//!   [`scenario::parse::Tree`], with typed overrides),
 //!   [`load_scenario`], [`load_scenario_with`], [`ScenarioSource`], [`ScenarioError`], and the
 //!   table of every key, [`scenario::keys`];
 //! - running: [`run`] (a [`RunRecord`] in memory, the files in a folder if given),
@@ -43,7 +44,7 @@
 //! Python), [`catalogue`] (the reference scenes), [`reports`], [`plot`], [`run_plot`],
 //! [`figures`], [`accuracy`], [`sensitivity`], [`memory`], [`input`].
 #![deny(clippy::float_cmp)]
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 pub mod accuracy;
 pub mod api;
@@ -55,11 +56,13 @@ pub mod input;
 pub mod memory;
 pub mod output;
 pub mod plot;
+pub mod record;
 pub mod reports;
 pub mod run_plot;
 pub mod scenario;
 pub mod sensitivity;
 pub mod sweep;
+pub mod words;
 
 pub use api::{run, validate, RunRecord};
 pub use output::{Column, SummaryFiles, Table, TimeSeriesWriter};

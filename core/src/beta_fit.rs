@@ -16,7 +16,7 @@
 //!
 //! # Findings
 //!
-//! (`cargo test --release --test closed_form beta_study -- --ignored --nocapture`, paper material,
+//! (`cargo test --release --test it closed_form::beta_study -- --ignored --nocapture`, paper material,
 //! v0 = 0.0445 mm/s.) Over the paper's range (n = 0.1 … 0.9, v_max/v0 = 10⁻² … 10², 200 Hz) the
 //! best β is ≈ 4.2 (RMS ln ratio 0.156, against 0.188 at β = 2.5); at β = 2.5 the ratio
 //! exact/approximate spans 0.73 … 1.04. The optimum depends strongly on n (≈ 3.0 for n = 0.9,

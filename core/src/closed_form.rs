@@ -28,7 +28,7 @@
 //! first-harmonic amplitude of the imposed-area method at pull-off (200 Hz, paper constants,
 //! β = 2.5) both forms are low: for a_A = 0.05, 0.3, 1 mm the exact δ_A is 70, 133, 202 µm, the
 //! derived form gives 42, 91, 180 µm and the printed one 59, 111, 193 µm (its spurious √S happens
-//! to compensate part of the deficit). See `beta_study` in `tests/closed_form.rs`.
+//! to compensate part of the deficit). See `beta_study` in `tests/it/closed_form.rs`.
 //!
 //! # The β correction and which speed enters δ_A
 //!

@@ -11,7 +11,7 @@
 //!    2h + 1 rows i − h … i + h (h = `half_window`); its linear coefficient is ȧ(t_i). A straight
 //!    line has a truncation error ≈ (a⃛/6)(Σk⁴/Σk²)Δt², which is large here: a peel that starts
 //!    from rest accelerates as ȧ ∝ t^(1/n) and ends in a runaway, and on the synthetic records of
-//!    `tests/gs_fit.rs` it biases n by ~1% at 250 Hz. A cubic removes that term (error
+//!    `tests/it/gent_schultz_fitting.rs` it biases n by ~1% at 250 Hz. A cubic removes that term (error
 //!    O(Δt⁴ a⁽⁵⁾)) at the price of ~2–3× more noise for the same window; it is the default.
 //!    The slope's noise gain √((XᵀX)⁻¹)₁₁/T (T the window's half span) gives σ_v. Rows without a
 //!    full window (the first and last h) get no speed.
@@ -37,7 +37,7 @@
 //!    covariance propagated from (A, B, n). The χ²/(N − 3) factor makes the errors follow the
 //!    actual scatter if the noise levels were misjudged; it is reported (≈ 1 when they are right).
 //!
-//! Calibration on synthetic records (`tests/gs_fit.rs`, `gs_fit_seeds`, 20 noise seeds, 250 Hz,
+//! Calibration on synthetic records (`tests/it/gent_schultz_fitting.rs`, `gs_fit_seeds`, 20 noise seeds, 250 Hz,
 //! cubic over 21 rows): the pulls (fit − truth)/σ have means +0.1 … +0.7 and standard deviations
 //! 0.5 … 0.7, so the reported errors are conservative by about 1.5–2×. Not investigated further;
 //! the overlapping windows make neighbouring speed errors correlated, which the independent-error

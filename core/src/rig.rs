@@ -41,6 +41,18 @@ pub enum Holder {
     Rigid,
 }
 
+impl Holder {
+    /// True when the holder can exert a force that the protocol controls: a spring with k > 0,
+    /// or a rigid link. Without one the sphere's weight alone carries the start.
+    pub fn exerts_force(self) -> bool {
+        match self {
+            Holder::None => false,
+            Holder::Spring { stiffness } => stiffness > 0.0,
+            Holder::Rigid => true,
+        }
+    }
+}
+
 /// Where viscous damping acts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]

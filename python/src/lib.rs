@@ -12,7 +12,7 @@
 //!   with units, returns, raises, an example); `djkr/__init__.pyi` holds the same text, generated
 //!   by `python python/tests/test_docs.py --write` and checked by that test.
 //! - Errors: bad input raises `djkr.ScenarioError` (a `ValueError`) with the command line's
-//!   message in Python's words (`python_words`: `set={'base.amplitude': '-1um'}`, not
+//!   message in Python's words (`PyWords`: `set={'base.amplitude': '-1um'}`, not
 //!   `--set base.amplitude=-1um`); an `out=` folder that refuses the run before it starts
 //!   (a clash without `force=True`, the disk-space estimate) raises `djkr.OutputFolderError`,
 //!   a `ScenarioError` (the command line's exit status 2); a run that a budget stopped or that failed raises
@@ -48,7 +48,7 @@ use djkr::input::{show_limit, InputKind};
 use djkr::output::table::{Column, Data, Table};
 use djkr::output::timeseries::{kind_name, stage_index, SEGMENT, SERIES, STAGE};
 use djkr::scenario::overrides::SetKey;
-use djkr::scenario::parse::{self, ScenarioSource};
+use djkr::scenario::parse::{self, ScenarioSource, Tree};
 use djkr::sweep::stats::{point_stats, points_table};
 use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
 use djkr_core::adhesion::Law;
@@ -95,11 +95,11 @@ const POLL: Duration = Duration::from_millis(20);
 // ---------------------------------------------------------------------------------------------
 // errors, panics, threads
 
-/// A library error as Python's exception, in Python's words ([`python_words`]): a malformed or
+/// A library error as Python's exception, in Python's words ([`PyWords`]): a malformed or
 /// unknown `set=` key is `set={'base.amplitud': ...}: unknown key; ...` (its value plays no
 /// part), every other override is named with its value, `set={'base.amplitude': '-1um'}: ...`.
 fn api_err(e: ApiError) -> PyErr {
-    let text = python_words(&e.in_words(&PyWords::default()));
+    let text = e.in_words(&PyWords::default());
     match e {
         ApiError::Cancelled => PyKeyboardInterrupt::new_err("cancelled"),
         e if e.is_output_refusal() => OutputFolderError::new_err(text),
@@ -124,6 +124,7 @@ impl djkr::error::Words for PyWords {
             // An argument named alone in a sentence (`set= does not add stages`).
             "set" | "grid" | "ensemble" | "seed" => format!("{name}="),
             "force" => "force=True".into(),
+            "out" | "resume" => format!("{name}="),
             _ => name.to_string(),
         }
     }
@@ -162,92 +163,6 @@ impl djkr::error::Words for PyWords {
     fn input_value(&self, name: &str, value: &str) -> String {
         format!("{name} = {value}")
     }
-}
-
-/// `text`, a message the library words for the command line, in Python's words: each run of
-/// overrides `--set K=V --set K2=V2` becomes `set={'K': V, 'K2': V2}` (a value as Python
-/// writes it: `True`, `1e-06`, `'30um'`), `--ensemble N` and `--seed S` become `ensemble = N`
-/// and `seed = S`, and a flag named alone (`--set does not add stages`) its argument
-/// (`set= does not add stages`).
-fn python_words(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text;
-    while let Some(i) = rest.find("--") {
-        out.push_str(&rest[..i]);
-        let flag = &rest[i + 2..];
-        if let Some(after) = flag.strip_prefix("set") {
-            let mut items = Vec::new();
-            let mut cursor = after;
-            while let Some((k, v, next)) = override_item(cursor) {
-                items.push(format!("'{k}': {}", python_value(v)));
-                cursor = next;
-                match next.strip_prefix(" --set") {
-                    Some(n) if override_item(n).is_some() => cursor = n,
-                    _ => break,
-                }
-            }
-            if items.is_empty() {
-                out.push_str("set=");
-            } else {
-                out.push_str(&format!("set={{{}}}", items.join(", ")));
-            }
-            rest = cursor;
-        } else if let Some(name) = ["ensemble", "seed"]
-            .into_iter()
-            .find(|n| flag.starts_with(n))
-        {
-            let after = &flag[name.len()..];
-            let digits = digits_of(after);
-            if digits.is_empty() {
-                out.push_str(&format!("{name}="));
-                rest = after;
-            } else {
-                out.push_str(&format!("{name} = {digits}"));
-                rest = &after[1 + digits.len()..];
-            }
-        } else if let Some(after) = flag.strip_prefix("force") {
-            // `--force` is the argument `force=True` (the clash of a run folder).
-            out.push_str("force=True");
-            rest = after;
-        } else if let Some(after) = flag
-            .strip_prefix("out")
-            .filter(|a| !a.starts_with(|c: char| c.is_alphanumeric() || c == '-'))
-        {
-            out.push_str("out=");
-            rest = after;
-        } else {
-            out.push_str("--");
-            rest = flag;
-        }
-    }
-    out.push_str(rest);
-    out
-}
-
-/// The whole number that ` N...` starts with (`""` if none).
-fn digits_of(after: &str) -> &str {
-    let s = after.strip_prefix(' ').unwrap_or("");
-    let end = s.find(|c: char| !c.is_ascii_digit()).unwrap_or(s.len());
-    &s[..end]
-}
-
-/// ` KEY=VALUE` at the start of `s` (one space first): the key, the value and what follows. A
-/// value ends at a space, at `: `, at `;` or at the end.
-fn override_item(s: &str) -> Option<(&str, &str, &str)> {
-    let item = s.strip_prefix(' ')?;
-    let end = item
-        .char_indices()
-        .find(|&(j, c)| c == ' ' || c == ';' || (c == ':' && item[j + 1..].starts_with(' ')))
-        .map_or(item.len(), |(j, _)| j);
-    let (k, v) = item[..end].split_once('=')?;
-    if k.is_empty()
-        || !k
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || "._[]".contains(c))
-    {
-        return None;
-    }
-    Some((k, v, &item[end..]))
 }
 
 /// An override's value as Python writes it: `True`/`False`, a number as it is, text quoted.
@@ -695,27 +610,20 @@ fn scenario_path(p: PathBuf) -> PyResult<Scenario> {
 /// Where a scenario comes from.
 enum Scenario {
     Path(PathBuf),
-    Text { text: String, name: &'static str },
+    Text {
+        text: String,
+        name: &'static str,
+    },
+    /// A dict, as the library's format-neutral tree (named `<dict>`).
+    Tree(Vec<(String, Tree)>),
 }
 
-/// A scenario argument: a dict (written as TOML), a TOML string (one with a line break), a path
+/// A scenario argument: a dict (the library's [`Tree`]), a TOML string (one with a line break), a path
 /// (a `str` without one, or `os.PathLike`). A dict or string is held to the size of a file
 /// ([`text_limit`]).
 fn scenario_of(obj: &Bound<'_, PyAny>) -> PyResult<Scenario> {
     if let Ok(d) = obj.cast::<PyDict>() {
-        let table = ToToml::default().table(d, "", 0)?;
-        let text = toml::to_string(&table)
-            .map_err(|e| input_err(format!("<dict>: cannot be written as TOML: {e}")))?;
-        if text.len() > text_limit() {
-            return Err(too_large(
-                "<dict> written as TOML",
-                Some(format!("{} bytes", text.len())),
-            ));
-        }
-        return Ok(Scenario::Text {
-            text,
-            name: "<dict>",
-        });
+        return Ok(Scenario::Tree(ToTree::default().table(d, "", 0)?));
     }
     if let Ok(s) = obj.cast::<PyString>() {
         // Neither a path (at most a few kB) nor a scenario can be longer: refused by its length
@@ -752,6 +660,7 @@ impl Scenario {
         Ok(match self {
             Scenario::Path(p) => ScenarioSource::read(p)?,
             Scenario::Text { text, name } => ScenarioSource::parse(text, name, None)?,
+            Scenario::Tree(top) => ScenarioSource::from_tree(top.clone(), "<dict>", None)?,
         })
     }
 
@@ -759,32 +668,35 @@ impl Scenario {
         Ok(match self {
             Scenario::Path(p) => parse::material_and_law(p)?,
             Scenario::Text { text, name } => parse::parse_material_and_law(text, name, None)?,
+            Scenario::Tree(top) => {
+                ScenarioSource::from_tree(top.clone(), "<dict>", None)?.material_and_law()?
+            }
         })
     }
 }
 
-/// The deepest nesting of dicts and lists a scenario dict may have: the TOML parser's own limit
-/// (toml 0.9 refuses tables, arrays and dotted keys nested 80 deep), so a dict is refused where
-/// the same scenario as a file would be, and before the conversion (a recursion) could overflow
-/// the stack.
-const MAX_DEPTH: usize = 80;
+/// The deepest nesting of dicts and lists a scenario dict may have: the library's limit for a
+/// tree (that of a scenario file), checked here before the conversion (a recursion) could
+/// overflow the stack.
+const MAX_DEPTH: usize = parse::MAX_TREE_DEPTH;
 
-/// Converts a scenario dict into a TOML table, refusing what no scenario file can hold: a
-/// container inside itself (a cycle), nesting deeper than [`MAX_DEPTH`], and more text than
-/// [`text_limit`] (counted as the conversion goes, from below, so that a dict of a million
-/// stages is refused after the first megabyte's worth of them rather than converted whole).
+/// Converts a scenario dict into the library's [`Tree`], refusing what no scenario file can
+/// hold: a container inside itself (a cycle), nesting deeper than [`MAX_DEPTH`], and more than
+/// [`text_limit`] bytes of keys and values (counted as the conversion goes, from below, so that
+/// a dict of a million stages is refused after the first megabyte's worth of them rather than
+/// converted whole; the library holds the whole to the same limit as a file).
 #[derive(Default)]
-struct ToToml {
+struct ToTree {
     /// The dicts and lists on the path from the top to the value being converted (their
     /// addresses: a live object's address is its identity).
     open: Vec<usize>,
-    /// Bytes the TOML text will take at least: each key and each string its length, each other
-    /// value and each list item one byte.
+    /// Bytes a scenario file would take at least: each key and each string its length, each
+    /// other value and each list item one byte.
     bytes: usize,
 }
 
-impl ToToml {
-    /// Count `n` bytes of the TOML text to come.
+impl ToTree {
+    /// Count `n` bytes of the scenario file's text to come.
     fn count(&mut self, n: usize) -> PyResult<()> {
         self.bytes = self.bytes.saturating_add(n);
         if self.bytes > text_limit() {
@@ -813,10 +725,15 @@ impl ToToml {
         Ok(())
     }
 
-    /// A dict with a scenario file's structure as a TOML table (`key` is the dotted path so far).
-    fn table(&mut self, d: &Bound<'_, PyDict>, key: &str, depth: usize) -> PyResult<toml::Table> {
+    /// A dict with a scenario file's structure as a table (`key` is the dotted path so far).
+    fn table(
+        &mut self,
+        d: &Bound<'_, PyDict>,
+        key: &str,
+        depth: usize,
+    ) -> PyResult<Vec<(String, Tree)>> {
         self.enter(d, key, depth)?;
-        let mut t = toml::Table::new();
+        let mut t = Vec::with_capacity(d.len());
         for (k, v) in d.iter() {
             let k = match k.cast::<PyString>() {
                 Ok(s) => text_of(s, &format!("<dict>: {key}: a key"))?,
@@ -835,23 +752,23 @@ impl ToToml {
                 format!("{key}.{k}")
             };
             let value = self.value(&v, &path, depth + 1)?;
-            t.insert(k, value);
+            t.push((k, value));
         }
         self.open.pop();
         Ok(t)
     }
 
-    fn value(&mut self, v: &Bound<'_, PyAny>, key: &str, depth: usize) -> PyResult<toml::Value> {
+    fn value(&mut self, v: &Bound<'_, PyAny>, key: &str, depth: usize) -> PyResult<Tree> {
         if let Ok(b) = v.cast::<PyBool>() {
             self.count(1)?;
-            return Ok(toml::Value::Boolean(b.is_true()));
+            return Ok(Tree::Bool(b.is_true()));
         }
         if v.is_instance_of::<PyInt>() {
             self.count(1)?;
             return match v.extract::<i64>() {
-                Ok(i) => Ok(toml::Value::Integer(i)),
+                Ok(i) => Ok(Tree::Int(i)),
                 Err(_) => match v.extract::<f64>() {
-                    Ok(x) => Ok(toml::Value::Float(x)),
+                    Ok(x) => Ok(Tree::Float(x)),
                     Err(_) => Err(input_err(format!(
                         "<dict>: {}: an integer beyond the range of a 64-bit float (about 1.8e308)",
                         excerpt(key)
@@ -861,10 +778,10 @@ impl ToToml {
         }
         if let Ok(s) = v.cast::<PyString>() {
             self.count(s.len()?.max(1))?;
-            return Ok(toml::Value::String(text_of(s, &format!("<dict>: {key}"))?));
+            return Ok(Tree::Text(text_of(s, &format!("<dict>: {key}"))?));
         }
         if let Ok(d) = v.cast::<PyDict>() {
-            return Ok(toml::Value::Table(self.table(d, key, depth)?));
+            return Ok(Tree::Table(self.table(d, key, depth)?));
         }
         if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
             self.enter(v, key, depth)?;
@@ -874,11 +791,11 @@ impl ToToml {
                 items.push(self.value(&x?, &format!("{key}[{i}]"), depth + 1)?);
             }
             self.open.pop();
-            return Ok(toml::Value::Array(items));
+            return Ok(Tree::List(items));
         }
         if let Ok(x) = v.extract::<f64>() {
             self.count(1)?;
-            return Ok(toml::Value::Float(x));
+            return Ok(Tree::Float(x));
         }
         Err(type_err(format!(
             "<dict>: {}: a {} cannot be a scenario value (numbers, strings, booleans, dicts and lists can)",
@@ -1280,7 +1197,7 @@ fn run(
         let rec = match api::run_into(&s, out.as_deref(), force) {
             Ok(rec) => Ok(rec),
             Err(e @ ApiError::Ended { .. }) => {
-                let message = python_words(&e.in_words(&PyWords::default()));
+                let message = e.in_words(&PyWords::default());
                 match e {
                     ApiError::Ended { record, .. } => Err((message, record)),
                     e => return Err(e),
@@ -1831,7 +1748,7 @@ fn spec_err(arg: &str, e: &SpecError) -> PyErr {
     input_err(format!(
         "{arg}={{'{}': ...}}: {}",
         excerpt(key.trim()),
-        python_words(&e.message)
+        djkr::error::render(&e.message, &PyWords::default())
     ))
 }
 
@@ -1848,11 +1765,14 @@ fn sweep_words(e: ApiError, fixed: &[SetKey], grid_keys: &[String]) -> ApiError 
             let (key, value) = set.split_once('=').unwrap_or((set.as_str(), ""));
             let value = python_value(&excerpt(value));
             if fixed.iter().any(|k| k.to_string() == key) {
-                format!("set={{'{key}': {value}}}: {}", python_words(message))
+                format!(
+                    "set={{'{key}': {value}}}: {}",
+                    djkr::error::render(message, &PyWords::default())
+                )
             } else {
                 format!(
                     "grid={{'{key}': [..., {value}, ...]}} (point {point}): {}",
-                    python_words(message)
+                    djkr::error::render(message, &PyWords::default())
                 )
             }
         }
@@ -1862,12 +1782,12 @@ fn sweep_words(e: ApiError, fixed: &[SetKey], grid_keys: &[String]) -> ApiError 
             let words = PyWords {
                 grid: grid_keys.to_vec(),
             };
-            python_words(&e.in_words(&words))
+            e.in_words(&words)
         }
         ApiError::Spec(s) => format!(
             "grid={{'{}': ...}}: {}",
             excerpt(s.set.split_once('=').map_or(s.set.as_str(), |(k, _)| k)),
-            python_words(&s.message)
+            djkr::error::render(&s.message, &PyWords::default())
         ),
         _ => return e,
     };

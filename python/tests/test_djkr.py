@@ -292,7 +292,7 @@ def test_sweep_columns_equal_cli_csv(tmp_path):
     assert_bits_equal(si["pull_off_force"], strings["pull_off_force"], "pull_off_force")
 
 
-def python_words(message, key, shown):
+def as_python(message, key, shown):
     """The command line's `--set KEY=VALUE: rest` as Python words it: `set={'KEY': shown}: rest`
     (a flag named alone becomes its argument: `--set does not` -> `set= does not`)."""
     head, rest = message.split(": ", 1)
@@ -324,7 +324,7 @@ def test_bad_input_raises_scenario_error_with_the_cli_message():
         assert isinstance(e.value, ValueError)
         expected = cli_error(*args)
         if named:
-            expected = python_words(expected, *named)
+            expected = as_python(expected, *named)
         assert str(e.value) == expected
         assert "--" not in str(e.value)
     assert str(pytest.raises(djkr.ScenarioError, djkr.run, VIB400, set={"base.amplitud": 1})

@@ -100,7 +100,7 @@ def test_output_folder_error_is_a_documented_scenario_error():
     assert str(inspect.signature(djkr.run)) == "(scenario, set=None, out=None, force=False)"
 
 
-def test_a_clash_in_out_is_refused_in_python_words_and_force_overwrites(tmp_path):
+def test_a_clash_in_out_is_refused_with_python_arguments_and_force_overwrites(tmp_path):
     out = tmp_path / "run"
     out.mkdir()
     mine = out / "summary.json"

@@ -118,7 +118,7 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         .as_deref()
         .unwrap_or("implicit,dp8,dopri5,dop853,auto");
     let mut cfg = study_config(a, methods_text)?;
-    cfg.validate()?;
+    cfg.validate().map_err(djkr::error::Error::Param)?;
     let scn = load_scenario(file, &a.set)?;
     a.set.refuse_replaced(
         "accuracy",
@@ -337,7 +337,8 @@ fn imposed_area(a: &AccuracyArgs) -> Result<()> {
     eprintln!("closed-form map …");
     let n_values: Vec<f64> = (1..=30).map(|i| 0.05 * i as f64).collect();
     let ratios = log_space(1e-2, 1e6, 33);
-    let map = accuracy::closed_form_map(&n_values, &ratios, freq, beta)?;
+    let map = accuracy::closed_form_map(&n_values, &ratios, freq, beta)
+        .map_err(djkr::error::Error::Param)?;
     accuracy::closed_form_map_table(&map).save_csv(&out.join("closed_form_map.csv"))?;
     let (mp, ms) = plot::render_heatmap(
         &accuracy::closed_form_heatmap(&map, &n_values, &ratios, freq, beta),

@@ -18,6 +18,7 @@ mod resonance;
 mod run;
 mod shortcut_map;
 mod signals;
+mod slurm;
 mod steady;
 mod sweep;
 mod validate;

@@ -3,11 +3,11 @@
 
 use super::common::fmt_force;
 use super::signals::{self, Signal};
+use crate::cli::slurm::{default_shards, SlurmScript};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 use djkr::scenario::parse::ScenarioSource;
 use djkr::sweep::files::{self, Manifest, Shard};
-use djkr::sweep::slurm::{default_shards, SlurmScript};
 use djkr::sweep::{run_sweep, Axis, Ensemble, Grid, Row, RunOptions, Sweep};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -468,7 +468,7 @@ fn absolute(p: &Path) -> Result<PathBuf> {
 /// (`--slurm-partition`, `--slurm-time`) or holds a control character (a path, a `--set`):
 /// written into an `#SBATCH` or comment line, a newline would start a command of its own.
 fn check_script_values(a: &SweepRunArgs, file: &Path, out: &Path, exe: &Path) -> Result<()> {
-    use djkr::sweep::slurm::{check_partition, check_script_text, check_sweep_folder, check_time};
+    use crate::cli::slurm::{check_partition, check_script_text, check_sweep_folder, check_time};
     use djkr_core::text::excerpt;
     if let Some(p) = &a.slurm_partition {
         check_partition(p)

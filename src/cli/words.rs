@@ -56,6 +56,8 @@ pub fn cause_text(cause: &(dyn std::error::Error + 'static)) -> String {
         e.in_words(&Flags)
     } else if let Some(e) = cause.downcast_ref::<SweepError>() {
         e.in_words(&Flags)
+    } else if let Some(e) = cause.downcast_ref::<djkr_core::continuation::ContinuationError>() {
+        djkr::error::continuation_in_words(e, &Flags)
     } else {
         djkr::error::render(&cause.to_string(), &Flags)
     }

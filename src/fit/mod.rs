@@ -111,7 +111,7 @@ pub fn fitted_toml(
         .text()
         .parse()
         .map_err(|e| format!("{}: {e}", source.name()))?;
-    crate::scenario::overrides::apply(&mut table, &all, &crate::error::Source::file(source.name()))
+    crate::scenario::overrides::apply(&mut table, &all, &crate::words::Source::file(source.name()))
         .map_err(|e| e.to_string())?;
     let mut doc: toml_edit::DocumentMut = source
         .text()
@@ -324,7 +324,7 @@ mod tests {
         crate::scenario::overrides::apply(
             &mut expected,
             &all,
-            &crate::error::Source::file("lab.toml"),
+            &crate::words::Source::file("lab.toml"),
         )
         .unwrap();
         let got: toml::Table = out.parse().unwrap();

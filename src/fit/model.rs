@@ -15,6 +15,7 @@ use crate::sweep::grid::{Axis, Grid};
 use crate::sweep::phase::ensemble_phase;
 use crate::sweep::spec::{KeyCell, SpecForm, SpecValue};
 use crate::sweep::{check_runs, run_sweep, RunOptions, Sweep};
+use crate::words::{input, input_value, set_item};
 
 use super::data::{CondValue, FitData};
 use djkr_core::text::excerpt;
@@ -70,9 +71,17 @@ impl ForwardModel {
             .conditions
             .iter()
             .map(|c| (c.key, format!("a column of {}", data.name)))
-            .chain(free.iter().map(|k| (*k, format!("--free {k}"))))
-            .chain(fixed.iter().map(|o| (o.key(), format!("--set {o}"))))
-            .chain(ensemble.map(|_| (phase, "--ensemble (it draws base.phase)".to_string())));
+            .chain(
+                free.iter()
+                    .map(|k| (*k, input_value("free", &k.to_string()))),
+            )
+            .chain(fixed.iter().map(|o| (o.key(), set_item(&o.to_string()))))
+            .chain(ensemble.map(|_| {
+                (
+                    phase,
+                    format!("{} (it draws base.phase)", input("ensemble")),
+                )
+            }));
         for (k, what) in keys {
             if let Some((_, first)) = seen.iter().find(|(s, _)| *s == k) {
                 return Err(format!("{k} is both {first} and {what}: give it once"));
@@ -81,7 +90,10 @@ impl ForwardModel {
         }
         if let Some((m, _)) = ensemble {
             if m == 0 {
-                return Err("--ensemble 0: must be a whole number >= 1 (members per row)".into());
+                return Err(format!(
+                    "{}: must be a whole number >= 1 (members per row)",
+                    input_value("ensemble", "0")
+                ));
             }
         }
         let model = ForwardModel {
@@ -109,7 +121,7 @@ impl ForwardModel {
         let members = self.members();
         let sets = super::sets_per_iteration(members, self.free.len());
         let what = match self.ensemble {
-            Some((m, _)) => format!("--ensemble {m}"),
+            Some((m, _)) => input_value("ensemble", &m.to_string()),
             None => self.data.name.clone(),
         };
         let mut factors = vec![(rows, "rows")];
@@ -461,7 +473,7 @@ mod tests {
         .unwrap();
         let e = model(&tiny, Some((99_999_999_999, 0))).unwrap_err();
         assert_eq!(
-            e,
+            crate::words::render(&e, &crate::words::TestFlags),
             "--ensemble 99999999999: 3 rows x 99999999999 members x 3 parameter sets of one \
              iteration is more than 10000000 runs (a fit runs an iteration's parameter sets as \
              one batch); use fewer members"
@@ -479,6 +491,7 @@ mod tests {
         let fits = (1_048_576.0 / per_run / 9.0).floor() as usize;
         assert!(model(&small, Some((fits, 0))).is_ok());
         let e = model(&small, Some((fits + 1, 0))).unwrap_err();
+        let e = crate::words::render(&e, &crate::words::TestFlags);
         assert!(
             e.starts_with(&format!(
                 "--ensemble {}: a batch of {} runs",

@@ -29,7 +29,7 @@ pub enum OutputError {
     /// Another run or sweep holds the output directory.
     #[error(
         "{}: another djkr run or sweep is writing into this directory ({}, holding {LOCK_NAME}); \
-         wait for it or choose another --out",
+         wait for it or choose another «out»",
         dir.display(),
         holder.map_or("another process".to_string(), |p| format!("pid {p}"))
     )]
@@ -41,8 +41,8 @@ pub enum OutputError {
     },
     /// Files djkr is about to publish exist and djkr did not write them.
     #[error(
-        "{}: {} {} there and not written by djkr: move {it} away, choose another --out, or add \
-         --force to overwrite {it} (nothing else in the folder is touched)",
+        "{}: {} {} there and not written by djkr: move {it} away, choose another «out», or add \
+         «force» to overwrite {it} (nothing else in the folder is touched)",
         dir.display(),
         names.join(", "),
         if names.len() == 1 { "is already" } else { "are already" },
@@ -55,7 +55,7 @@ pub enum OutputError {
         names: Vec<String>,
     },
     /// A name djkr writes (or its own record or lock) is not a regular file.
-    #[error("{}: is {what}; remove it or choose another --out", path.display())]
+    #[error("{}: is {what}; remove it or choose another «out»", path.display())]
     NotRegular {
         /// The path.
         path: PathBuf,
@@ -63,7 +63,7 @@ pub enum OutputError {
         what: String,
     },
     /// The output directory is not a folder.
-    #[error("{}: is {what}, not a folder; choose a folder for --out (it is created if missing)", path.display())]
+    #[error("{}: is {what}, not a folder; choose a folder for «out» (it is created if missing)", path.display())]
     NotAFolder {
         /// The path given.
         path: PathBuf,
@@ -74,7 +74,7 @@ pub enum OutputError {
     #[error(
         "{}: the run's output would take about {} ({samples:.3e} samples of the stages with a \
          fixed duration at [output] sample_rate), more than the {} free; lower [output] \
-         sample_rate, drop CSV, or choose another --out",
+         sample_rate, drop CSV, or choose another «out»",
         dir.display(),
         human_bytes(*need),
         human_bytes(*free)

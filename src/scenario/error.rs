@@ -5,8 +5,8 @@ use std::fmt;
 
 use toml::Value;
 
-use crate::error::{render, Plain, Source, Words};
 use crate::input::InputError;
+use crate::words::{render, Plain, Source, Words};
 use djkr_core::text::excerpt;
 
 /// Why a scenario file was rejected. Every variant names where the scenario came from (its file

@@ -1,17 +1,16 @@
 //! The scenario side of continuation: a scenario file with its fixed `--set` overrides, as the
 //! [`Scene`] whose periodic orbits `djkr continue` follows, and which keys may be parameters.
 //!
-//! The file is parsed and validated once; each parameter value is set on a copy of the parsed
-//! scenario ([`Scenario::set`]: the parser's range and cross-field checks, no TOML), and the
-//! steady-state problem taken from it. A tabulated law's table, read once with the file, is
-//! shared by every copy.
+//! The file is read and parsed once; each parameter value is an override of the file's table,
+//! validated as the file with the value written in it would be ([`ScenarioSource::scenario`],
+//! the one way a scenario is built), and the steady-state problem taken from it. A tabulated
+//! law's table, read once with the file, is shared by every scenario built.
 
 use std::sync::{Arc, Mutex, OnceLock};
 
 use super::keys::{Kind, KEYS};
 use super::overrides::{Override, SetKey};
 use super::parse::{ScenarioError, ScenarioSource};
-use super::Scenario;
 use djkr_core::continuation::family::{Family, Parameter, ParameterInfo, Scene, Setup};
 use djkr_core::continuation::ContinuationError;
 use djkr_core::dynamics::protocol::Initial;
@@ -81,7 +80,8 @@ pub fn parameter(flag: &str, text: &str) -> Result<Parameter, ContinuationError>
 /// A scenario with one or two keys left free: the [`Scene`] of `djkr continue`.
 #[derive(Debug)]
 pub struct ScenarioScene {
-    base: Scenario,
+    source: ScenarioSource,
+    fixed: Vec<Override>,
     keys: Vec<SetKey>,
     rtol: f64,
     /// The scene's start at the first value built, and whether earlier stages made it.
@@ -102,9 +102,9 @@ pub fn family(
             return Err(ContinuationError::Input(format!(
                 "{}: {} is the continuation parameter, whose values come from its \
                  range; drop the {}",
-                crate::error::set_item(&excerpt(&o.to_string())),
+                crate::words::set_item(&excerpt(&o.to_string())),
                 p.name(),
-                crate::error::input("set")
+                crate::words::input("set")
             )));
         }
     }
@@ -112,11 +112,13 @@ pub fn family(
         .iter()
         .map(|p| SetKey::parse(p.name()).map_err(|e| ContinuationError::Input(e.to_string())))
         .collect::<Result<Vec<_>, _>>()?;
-    let base = source
+    // The file with its fixed overrides must be a scenario on its own.
+    source
         .scenario(fixed)
-        .map_err(|e| ContinuationError::Input(e.to_string()))?;
+        .map_err(|e| ContinuationError::Scene(Box::new(e)))?;
     let scene = ScenarioScene {
-        base,
+        source: source.clone(),
+        fixed: fixed.to_vec(),
         keys,
         rtol,
         start: Mutex::new(None),
@@ -126,26 +128,27 @@ pub fn family(
 
 impl Scene for ScenarioScene {
     fn setup(&self, values: &[f64]) -> Result<Setup, ContinuationError> {
-        let mut scn = self.base.clone();
+        let mut all = self.fixed.clone();
         for (&key, &v) in self.keys.iter().zip(values) {
-            scn.set(key, v).map_err(|e| match &e {
-                // A value of a free key the file's rules refuse: name the key, not an override.
-                ScenarioError::Override { key, message, .. } => {
-                    match self
-                        .keys
-                        .iter()
-                        .zip(values)
-                        .find(|(k, _)| k.to_string() == *key)
-                    {
-                        Some((_, v)) => {
-                            ContinuationError::Input(format!("{key} = {v:e}: {message}"))
-                        }
-                        None => ContinuationError::Input(e.to_string()),
-                    }
-                }
-                _ => ContinuationError::Input(e.to_string()),
-            })?;
+            all.push(
+                Override::from_key(key, v).map_err(|e| ContinuationError::Input(e.to_string()))?,
+            );
         }
+        let scn = self.source.scenario(&all).map_err(|e| match &e {
+            // A value of a free key the file's rules refuse: name the key, not an override.
+            ScenarioError::Override { key, message, .. } => {
+                match self
+                    .keys
+                    .iter()
+                    .zip(values)
+                    .find(|(k, _)| k.to_string() == *key)
+                {
+                    Some((_, v)) => ContinuationError::Input(format!("{key} = {v:e}: {message}")),
+                    None => ContinuationError::Scene(Box::new(e)),
+                }
+            }
+            _ => ContinuationError::Scene(Box::new(e)),
+        })?;
         let err = |e: String| ContinuationError::Input(format!("{}: {e}", scn.source_name));
         // Where the vibration starts: the scene's initial state, or where its earlier stages
         // leave it. Earlier stages are run once, at the first value (module doc of

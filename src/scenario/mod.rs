@@ -14,8 +14,7 @@ pub mod family;
 pub mod keys;
 pub mod overrides;
 pub mod parse;
-mod set;
-pub use set::range_error;
+pub use parse::range_error;
 
 pub use djkr_core::dynamics::protocol::{Initial, Stage, StageKind, Until};
 pub use djkr_core::dynamics::{Method, Solver};
@@ -111,5 +110,27 @@ impl Scenario {
     /// The scales the protocol adds to the rig's model (initial gap, fastest spring-end speed).
     pub fn run_scales(&self) -> djkr_core::dynamics::model::RunScales {
         djkr_core::dynamics::protocol::run_scales(&self.initial, &self.stages)
+    }
+}
+
+impl Scenario {
+    /// Where the scenario came from: its file and the overrides applied to it.
+    pub fn source(&self) -> crate::words::Source {
+        crate::words::Source {
+            file: self.file_name().to_string(),
+            set: self.overrides.clone().into(),
+        }
+    }
+
+    /// The scenario file's name: `source_name` without its overrides.
+    fn file_name(&self) -> &str {
+        let suffix: String = self
+            .overrides
+            .iter()
+            .map(|o| format!(" --set {o}"))
+            .collect();
+        self.source_name
+            .strip_suffix(&suffix)
+            .unwrap_or(&self.source_name)
     }
 }

@@ -41,7 +41,7 @@ use toml::{Table, Value};
 
 use super::error::{show, show_float, ScenarioError};
 use super::keys::{self, section_keys, STAGE_END_KEYS, STAGE_SECTION};
-use crate::error::{input, render, set_item, Plain, Source, Words};
+use crate::words::{input, render, set_item, Plain, Source, Words};
 use djkr_core::text::excerpt;
 
 /// A malformed override, or one naming a key no scenario file takes.
@@ -599,7 +599,7 @@ mod tests {
     fn key_err(t: &str) -> String {
         SetKey::parse(t)
             .unwrap_err()
-            .in_words(&crate::error::TestFlags)
+            .in_words(&crate::words::TestFlags)
     }
 
     #[test]
@@ -748,22 +748,22 @@ mod tests {
     fn malformed_overrides_are_named() {
         let e = Override::parse("base.amplitude")
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert_eq!(
             e,
             "--set base.amplitude: expected KEY=VALUE, e.g. base.amplitude=30um or stage[0].speed=1mm/s"
         );
         let e = Override::parse("=30um")
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert!(e.starts_with("--set =30um: empty key"), "{e}");
         let e = Override::parse("base.amplitude=")
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert!(e.starts_with("--set base.amplitude=: empty value"), "{e}");
         let e = Override::parse("base.amplitud=30um")
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert_eq!(
             e,
             "--set base.amplitud=30um: unknown key; [base] takes amplitude, frequency, phase"
@@ -816,7 +816,7 @@ until = "pull-off"
     }
 
     fn err(list: &[&str]) -> String {
-        with(list).unwrap_err().in_words(&crate::error::TestFlags)
+        with(list).unwrap_err().in_words(&crate::words::TestFlags)
     }
 
     #[test]
@@ -861,7 +861,7 @@ until = "pull-off"
         let src = ScenarioSource::parse(&f, "x.toml", None).unwrap();
         let e = src.scenario(&set(&["base.amplitude=-1um"])).unwrap_err();
         assert_eq!(
-            e.in_words(&crate::error::TestFlags),
+            e.in_words(&crate::words::TestFlags),
             s("--set base.amplitude=-1um: must be a finite number >= 0 (m)")
         );
         assert_eq!(e.file(), "x.toml");
@@ -903,14 +903,14 @@ until = "pull-off"
             .unwrap()
             .scenario(&set(&["stage[1].speed=1e-5"]))
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert!(e.contains("y.toml has 1 stage(s) (only stage[0];"), "{e}");
         let none = FILE.split("[[stage]]").next().unwrap_or_default();
         let e = ScenarioSource::parse(none, "z.toml", None)
             .unwrap()
             .scenario(&set(&["stage[0].speed=1e-5"]))
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert!(e.contains("z.toml has no [[stage]]"), "{e}");
     }
 
@@ -961,7 +961,7 @@ until = "pull-off"
             .unwrap()
             .scenario(&set(&["base.amplitude=1um"]))
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert_eq!(
             e,
             "--set base.amplitude=1um: x.toml gives base = 3, not a section [base]: fix the file first"

@@ -31,13 +31,13 @@ pub use super::error::ScenarioError;
 pub(crate) use super::error::{show, show_float};
 use super::keys::{self, STAGE_END_KEYS, STAGE_SECTION};
 pub use super::keys::{DEFAULT_GRAVITY, DEFAULT_MAX_DURATION, TABLE_W0_RTOL};
-use super::overrides::{self, Override};
+use super::overrides::{self, Override, SetKey};
 use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
     Scenario, Solver, Sphere, Stage, StageKind, Until,
 };
-use crate::error::Source;
 use crate::input::{self, InputKind};
+use crate::words::Source;
 use djkr_core::adhesion::LAW_NAMES;
 use djkr_core::adhesion::{
     AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw,
@@ -112,6 +112,49 @@ impl ScenarioSource {
             table,
             tables: LawTables::default(),
         })
+    }
+
+    /// A scenario given as a tree of values (a Python dict, a parsed JSON document) with the
+    /// structure of a scenario file, validated as the file's table would be. `source_name` names
+    /// it in errors (`<dict>`); `base_dir` as in [`parse_scenario`]. Its [`text`](Self::text),
+    /// the record runs and sweeps keep, is the tree written as a scenario file, held to the size
+    /// limit of one ([`InputKind::Scenario`]). A key given twice in a table is refused.
+    pub fn from_tree(
+        top: Vec<(String, Tree)>,
+        source_name: &str,
+        base_dir: Option<&Path>,
+    ) -> Result<Self> {
+        let source = Source::file(source_name);
+        let table = tree_table(top, "", 0, &source)?;
+        let text = toml::to_string(&table).map_err(|e| ScenarioError::Syntax {
+            source: source.clone(),
+            line: 1,
+            column: 1,
+            message: format!("cannot be written as a scenario file: {e}"),
+        })?;
+        if text.len() as u64 > InputKind::Scenario.limit() {
+            return Err(ScenarioError::Io {
+                source,
+                cause: input::InputError::too_large(InputKind::Scenario),
+            });
+        }
+        Ok(Self {
+            text,
+            name: source_name.to_string(),
+            base_dir: base_dir.map(Path::to_path_buf),
+            table,
+            tables: LawTables::default(),
+        })
+    }
+
+    /// Only the `[material]` and `[adhesion]` sections, as [`material_and_law`] reads them.
+    pub fn material_and_law(&self) -> Result<(Material, Law)> {
+        let source = Source::file(&self.name);
+        let p = Parser {
+            source: &source,
+            tables: None,
+        };
+        p.material_and_law(&self.table, self.base_dir.as_deref())
     }
 
     /// The name errors give the file (usually its path).
@@ -229,12 +272,127 @@ pub fn parse_material_and_law(
         tables: None,
     };
     let root = p.parse_toml(text)?;
-    let top = Section::root(&root);
-    p.check_top_level(&top)?;
-    p.version(&top, false)?;
-    let material = p.material(&top)?;
-    let law = p.law(&top, &material, base_dir)?;
-    Ok((material, law))
+    p.material_and_law(&root, base_dir)
+}
+
+/// A scenario's value, format-neutral: what a scenario file, a Python dict or a JSON document
+/// holds once parsed. [`ScenarioSource::from_tree`] validates a table of them.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Tree {
+    /// `true` or `false`.
+    Bool(bool),
+    /// A whole number.
+    Int(i64),
+    /// A number.
+    Float(f64),
+    /// Text (a key's value with a unit, `"30um"`, or a name).
+    Text(String),
+    /// A list (the stages, dense windows, a tabulated law's points).
+    List(Vec<Tree>),
+    /// A table (a section): its keys in order.
+    Table(Vec<(String, Tree)>),
+}
+
+/// Why `v` (SI) lies outside the range of the numeric key `key`, or `None`: the checks of a
+/// value alone that the parser runs (finite, its sign, not subnormal, the bounds of
+/// [`checks::UPPER_BOUNDS`] and [`checks::LOWER_BOUNDS`], a frequency's, phase's or tolerance's
+/// interval), worded as the parser words them (`must be a finite number > 0 (dimensionless)`).
+/// What depends on the rest of the scenario (a speed on a hold stage, the physics across keys)
+/// is not checked here; nor are whole-number keys, which their writer checks. `djkr fit` holds
+/// the bounds of `--free` to this.
+pub fn range_error(key: SetKey, v: f64) -> Option<String> {
+    let info = keys::find(key.section().unwrap_or(""), key.name())?;
+    let unit = if info.unit.is_empty() {
+        "dimensionless"
+    } else {
+        info.unit
+    };
+    let k = key.to_string();
+    match (key.section().unwrap_or(""), key.name()) {
+        ("base", "frequency") => positive_error(&k, v, unit).or_else(|| frequency_error(v)),
+        ("base", "phase") => phase_error(v),
+        ("solver", "rtol") => rtol_error(v),
+        ("solver", "atol") => atol_error(v),
+        ("solver", "envelope_tol") => envelope_tol_error(v),
+        ("solver", "max_steps" | "max_events" | "max_memory") => None, // whole numbers, checked as such
+        ("output", "sample_rate") => {
+            non_negative_error(&k, v, "samples per second; 0 = every step")
+        }
+        _ => {
+            if info.allowed.starts_with(">= 0") {
+                non_negative_error(&k, v, unit)
+            } else {
+                positive_error(&k, v, unit)
+            }
+        }
+    }
+}
+
+/// The deepest nesting of tables and lists a [`Tree`] may have: the TOML parser's own limit
+/// (toml 0.9 refuses tables, arrays and dotted keys nested 80 deep), so a tree is refused where
+/// the same scenario as a file would be.
+pub const MAX_TREE_DEPTH: usize = 80;
+
+/// The parser's table of `items`, `depth` levels down (`key` the dotted path so far, for
+/// messages).
+fn tree_table(
+    items: Vec<(String, Tree)>,
+    key: &str,
+    depth: usize,
+    source: &Source,
+) -> Result<Table> {
+    if depth > MAX_TREE_DEPTH {
+        return Err(ScenarioError::Key {
+            source: source.clone(),
+            key: key.to_string(),
+            message: format!(
+                "nested more than {MAX_TREE_DEPTH} deep, the limit of a scenario file"
+            ),
+        });
+    }
+    let mut t = Table::new();
+    for (k, v) in items {
+        let path = if key.is_empty() {
+            k.clone()
+        } else {
+            format!("{key}.{k}")
+        };
+        let value = tree_value(v, &path, depth + 1, source)?;
+        if t.insert(k, value).is_some() {
+            return Err(ScenarioError::Key {
+                source: source.clone(),
+                key: path,
+                message: "given twice".into(),
+            });
+        }
+    }
+    Ok(t)
+}
+
+fn tree_value(v: Tree, key: &str, depth: usize, source: &Source) -> Result<Value> {
+    if matches!(v, Tree::List(_)) && depth > MAX_TREE_DEPTH {
+        return Err(ScenarioError::Key {
+            source: source.clone(),
+            key: key.to_string(),
+            message: format!(
+                "nested more than {MAX_TREE_DEPTH} deep, the limit of a scenario file"
+            ),
+        });
+    }
+    Ok(match v {
+        Tree::Bool(b) => Value::Boolean(b),
+        Tree::Int(i) => Value::Integer(i),
+        Tree::Float(x) => Value::Float(x),
+        Tree::Text(s) => Value::String(s),
+        Tree::List(items) => Value::Array(
+            items
+                .into_iter()
+                .enumerate()
+                .map(|(i, x)| tree_value(x, &format!("{key}[{i}]"), depth + 1, source))
+                .collect::<Result<_>>()?,
+        ),
+        Tree::Table(items) => Value::Table(tree_table(items, key, depth, source)?),
+    })
 }
 
 fn read_text(path: &Path, name: &str) -> Result<String> {
@@ -348,8 +506,8 @@ impl<'a> Section<'a> {
 
 /// Why `v` is out of the range of a key > 0 (`key` dotted, `unit` for the message), or `None`:
 /// a finite, normal positive number within the bounds the model carries
-/// ([`checks::key_range_error`]). Shared by the parser and by typed setting
-/// ([`Scenario::set`](super::Scenario::set)), so both word it the same.
+/// ([`checks::key_range_error`]). Shared by the parser and by [`range_error`] (the bounds of
+/// `djkr fit`'s free keys), so both word it the same.
 pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
     if v.is_finite() && v >= f64::MIN_POSITIVE {
         bound_error(key, v, unit)
@@ -530,6 +688,15 @@ impl Parser<'_> {
             key: key.to_string(),
             message: message.into(),
         }
+    }
+
+    fn material_and_law(&self, root: &Table, base_dir: Option<&Path>) -> Result<(Material, Law)> {
+        let top = Section::root(root);
+        self.check_top_level(&top)?;
+        self.version(&top, false)?;
+        let material = self.material(&top)?;
+        let law = self.law(&top, &material, base_dir)?;
+        Ok((material, law))
     }
 
     fn parse_toml(&self, text: &str) -> Result<Table> {
@@ -973,7 +1140,7 @@ impl Parser<'_> {
 
     fn initial(&self, top: &Section, holder: Holder, sphere: Sphere) -> Result<Initial> {
         let weight = sphere.mass * sphere.gravity;
-        let no_spring_force = !has_spring_force(holder);
+        let no_spring_force = !holder.exerts_force();
         let Some(s) = self.section(top, "initial")? else {
             if no_spring_force && weight > 0.0 {
                 return Ok(Initial::Preload(weight));
@@ -1096,7 +1263,7 @@ impl Parser<'_> {
                 None => 0.0,
             },
             _ => {
-                if !has_spring_force(holder) {
+                if !holder.exerts_force() {
                     return Err(self.value_err(
                         &s.key("kind"),
                         format!("\"{kind_name}\""),
@@ -1306,7 +1473,7 @@ impl Parser<'_> {
                 return Err(self.value_err(
                     key,
                     show(v),
-                    format!("{ALLOWED}; a list cannot be given with {}: write it in the scenario file's [output]", crate::error::input("set")),
+                    format!("{ALLOWED}; a list cannot be given with {}: write it in the scenario file's [output]", crate::words::input("set")),
                 ))
             }
             other => return Err(self.value_err(key, show(other), ALLOWED)),
@@ -1359,16 +1526,6 @@ pub fn merge_windows(mut windows: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
         }
     }
     merged
-}
-
-/// True when the holder can exert a force that the protocol controls (a spring with k > 0, or a
-/// rigid link).
-fn has_spring_force(holder: Holder) -> bool {
-    match holder {
-        Holder::None => false,
-        Holder::Spring { stiffness } => stiffness > 0.0,
-        Holder::Rigid => true,
-    }
 }
 
 #[cfg(test)]
@@ -1578,5 +1735,70 @@ until = "pull-off"
         let s = parse_scenario(&text, "w.toml", None).unwrap();
         assert_eq!(s.rig.holder, Holder::None);
         assert_eq!(s.initial, Initial::Preload(3e-3 * DEFAULT_GRAVITY));
+    }
+
+    /// A TOML value as the format-neutral tree (the test's own conversion, independent of the
+    /// library's tree → table one).
+    fn to_tree(v: &Value) -> Tree {
+        match v {
+            Value::Boolean(b) => Tree::Bool(*b),
+            Value::Integer(i) => Tree::Int(*i),
+            Value::Float(x) => Tree::Float(*x),
+            Value::String(t) => Tree::Text(t.clone()),
+            Value::Array(a) => Tree::List(a.iter().map(to_tree).collect()),
+            Value::Table(t) => {
+                Tree::Table(t.iter().map(|(k, v)| (k.clone(), to_tree(v))).collect())
+            }
+            Value::Datetime(_) => unreachable!("no dates in a scenario"),
+        }
+    }
+
+    #[test]
+    fn a_tree_validates_as_the_file_it_holds() {
+        for file in [
+            "scenarios/paper-protocol-300hz.toml",
+            "scenarios/impacts.toml",
+        ] {
+            let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(file);
+            let from_file = load_scenario(&path).unwrap();
+            let text = std::fs::read_to_string(&path).unwrap();
+            let Tree::Table(top) = to_tree(&Value::Table(text.parse::<Table>().unwrap())) else {
+                unreachable!()
+            };
+            let src = ScenarioSource::from_tree(top, "<dict>", None).unwrap();
+            let mut from_tree = src.scenario(&[]).unwrap();
+            assert_eq!(from_tree.source_name, "<dict>");
+            // The record is the tree written as a file: it parses back to the same scenario.
+            assert_eq!(
+                parse_scenario(src.text(), "<dict>", None).unwrap(),
+                from_tree
+            );
+            from_tree.source_name = from_file.source_name.clone();
+            from_tree.source_text = from_file.source_text.clone();
+            assert_eq!(from_tree, from_file, "{file}");
+            assert_eq!(
+                src.material_and_law().unwrap(),
+                material_and_law(&path).unwrap()
+            );
+        }
+    }
+
+    #[test]
+    fn a_tree_is_held_to_a_file_s_limits() {
+        let twice = vec![
+            ("version".to_string(), Tree::Int(1)),
+            ("version".to_string(), Tree::Int(1)),
+        ];
+        let e = ScenarioSource::from_tree(twice, "<dict>", None).unwrap_err();
+        assert_eq!(e.to_string(), "<dict>: version: given twice");
+        let mut deep = Tree::Int(1);
+        for _ in 0..=MAX_TREE_DEPTH {
+            deep = Tree::List(vec![deep]);
+        }
+        let e = ScenarioSource::from_tree(vec![("x".into(), deep)], "<dict>", None).unwrap_err();
+        assert!(e.to_string().contains("nested more than 80 deep"), "{e}");
+        let big = Tree::Text("x".repeat(InputKind::Scenario.limit() as usize));
+        let e = ScenarioSource::from_tree(vec![("title".into(), big)], "<dict>", None).unwrap_err();
+        assert!(e.to_string().contains("larger than 1048576 bytes"), "{e}");
     }
 }

@@ -55,7 +55,7 @@ pub struct Ensemble {
 
 impl SweepError {
     /// The message in the words of a front end.
-    pub fn in_words(&self, w: &dyn crate::error::Words) -> String {
+    pub fn in_words(&self, w: &dyn crate::words::Words) -> String {
         let text = match self {
             SweepError::Override {
                 point,
@@ -75,13 +75,13 @@ impl SweepError {
                 )
             }
         };
-        crate::error::render(&text, w)
+        crate::words::render(&text, w)
     }
 }
 
 impl std::fmt::Display for SweepError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.in_words(&crate::error::Plain))
+        f.write_str(&self.in_words(&crate::words::Plain))
     }
 }
 
@@ -124,9 +124,6 @@ pub struct Sweep {
     grid: Grid,
     ensemble: Option<Ensemble>,
     phase_key: SetKey,
-    /// The file validated without overrides (when it is valid alone), to which a point that
-    /// sets numbers only is applied without parsing anything.
-    base: Option<Scenario>,
 }
 
 impl Sweep {
@@ -152,22 +149,21 @@ impl Sweep {
             if let Some(a) = grid.axes().iter().find(|a| a.key == phase_key) {
                 return Err(err(format!(
                     "the ensemble draws base.phase, which {} also sets: drop one",
-                    crate::error::set_item(&a.shown())
+                    crate::words::set_item(&a.shown())
                 )));
             }
             check_runs(&[(grid.points(), "points"), (e.members, "members")]).map_err(err)?;
         }
-        let base = source.scenario(&[]).ok();
         let sweep = Sweep {
             source,
             grid,
             ensemble,
             phase_key,
-            base,
         };
         for p in 0..sweep.grid.points() {
             let scn = sweep
-                .with(sweep.grid.overrides(p))
+                .source
+                .scenario(&sweep.grid.overrides(p))
                 .map_err(|e| point_error(p, e))?;
             if let Some(e) = ensemble {
                 if scn.rig.base.is_none() {
@@ -175,7 +171,7 @@ impl Sweep {
                         members: e.members,
                         message: format!(
                             "{} has no [base] section (point {p}): the ensemble draws the base \
-                             phase at shaker-on ([base] phase); add [base] or drop --ensemble",
+                             phase at shaker-on ([base] phase); add [base] or drop «ensemble»",
                             scn.source_name
                         ),
                     });
@@ -254,57 +250,10 @@ impl Sweep {
     }
 
     /// The scenario of a run: the file with the run's overrides, as `djkr run FILE --set ...`
-    /// gives it. Text values (a list's items, as typed) are read by the parser; numbers (a
-    /// range's values, the drawn phase) are set on the parsed scenario ([`Scenario::set`], the
-    /// parser's checks without TOML), on the file validated once when no text value is given.
+    /// gives it ([`ScenarioSource::scenario`], the one way a scenario is built: each value
+    /// validated as the edited file's would be).
     pub fn scenario(&self, id: RunId) -> Result<Scenario, ScenarioError> {
-        self.with(self.overrides(id))
-    }
-
-    /// The file with the overrides `all` ([`Sweep::scenario`]).
-    fn with(&self, all: Vec<Override>) -> Result<Scenario, ScenarioError> {
-        let (numbers, texts): (Vec<&Override>, Vec<&Override>) = all
-            .iter()
-            .partition(|o| matches!(o.value(), toml::Value::Float(_)));
-        // Where the file with its text values alone is not a valid scenario (one that a swept
-        // number completes: a `base.frequency` the file lacks), or a number is refused on its
-        // own (a cross-field check that a later value satisfies), the parser reads the file
-        // with all the values, as it would the edited file: that is the run's scenario, or the
-        // error naming every override.
-        let mut scn = match (&self.base, texts.is_empty()) {
-            (Some(base), true) => base.clone(),
-            _ => {
-                let texts: Vec<Override> = texts.into_iter().cloned().collect();
-                match self.source.scenario(&texts) {
-                    Ok(s) => s,
-                    Err(_) => return self.source.scenario(&all),
-                }
-            }
-        };
-        for o in &numbers {
-            if let toml::Value::Float(x) = o.value() {
-                if scn.set(o.key(), *x).is_err() {
-                    return self.source.scenario(&all);
-                }
-            }
-        }
-        // Record the overrides in the order given, as the file with all of them would.
-        let recorded: Vec<String> = all.iter().map(ToString::to_string).collect();
-        if scn.overrides != recorded {
-            let suffix: String = scn
-                .overrides
-                .iter()
-                .map(|o| format!(" --set {o}"))
-                .collect();
-            let file = scn
-                .source_name
-                .strip_suffix(&suffix)
-                .unwrap_or(&scn.source_name)
-                .to_string();
-            scn.source_name = recorded.iter().fold(file, |n, o| format!("{n} --set {o}"));
-            scn.overrides = recorded;
-        }
-        Ok(scn)
+        self.source.scenario(&self.overrides(id))
     }
 
     /// Run one member. `None` when `stop` was raised and the run abandoned (it is not a row).

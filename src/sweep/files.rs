@@ -115,7 +115,7 @@ impl Shard {
     /// Parse `K/N` (1 ≤ K ≤ N).
     pub fn parse(text: &str) -> Result<Shard, String> {
         let bad = || {
-            format!("--shard {shown_text}: expected K/N with 1 <= K <= N, e.g. 3/10 (or 'slurm' in a Slurm array job)", shown_text = djkr_core::text::excerpt(text))
+            format!("«shard» {shown_text}: expected K/N with 1 <= K <= N, e.g. 3/10 (or 'slurm' in a Slurm array job)", shown_text = djkr_core::text::excerpt(text))
         };
         let (k, n) = text.trim().split_once('/').ok_or_else(bad)?;
         let (k, n) = (
@@ -133,11 +133,11 @@ impl Shard {
     pub fn from_slurm(env: impl Fn(&str) -> Option<String>) -> Result<Shard, String> {
         let get = |k: &str| -> Result<usize, String> {
             let v = env(k).ok_or_else(|| {
-                format!("--shard slurm: {k} is not set: not in a Slurm array job (use --shard K/N)")
+                format!("«shard» slurm: {k} is not set: not in a Slurm array job (use «shard» K/N)")
             })?;
             v.trim().parse::<usize>().map_err(|_| {
                 format!(
-                    "--shard slurm: {k} = {}: not a whole number",
+                    "«shard» slurm: {k} = {}: not a whole number",
                     djkr_core::text::excerpt(&v)
                 )
             })
@@ -147,8 +147,8 @@ impl Shard {
         let max = get("SLURM_ARRAY_TASK_MAX").unwrap_or(min + count.saturating_sub(1));
         if max + 1 != min + count || id < min || id > max {
             return Err(format!(
-                "--shard slurm: the array {min}-{max} with {count} tasks is not contiguous: \
-                 submit it as --array={min}-{} or use --shard K/N",
+                "«shard» slurm: the array {min}-{max} with {count} tasks is not contiguous: \
+                 submit it as --array={min}-{} or use «shard» K/N",
                 min + count.saturating_sub(1)
             ));
         }
@@ -245,10 +245,10 @@ impl Manifest {
                 "scenario file text",
                 self.scenario_text == other.scenario_text,
             ),
-            ("--set list", self.set == other.set),
-            ("--zip", self.zip == other.zip),
-            ("--ensemble", self.ensemble == other.ensemble),
-            ("--seed", self.seed == other.seed),
+            ("«set» list", self.set == other.set),
+            ("«zip»", self.zip == other.zip),
+            ("«ensemble»", self.ensemble == other.ensemble),
+            ("«seed»", self.seed == other.seed),
             (
                 "format version",
                 self.format_version == other.format_version,
@@ -440,15 +440,15 @@ pub fn open(
             if !resume {
                 return Err(invalid(
                     dir,
-                    "already holds a sweep (sweep.json): add --resume to continue it, or choose \
-                     another --out",
+                    "already holds a sweep (sweep.json): add «resume» to continue it, or choose \
+                     another «out»",
                 ));
             }
             if let Some(what) = old.difference(&manifest) {
                 return Err(invalid(
                     dir,
                     format!(
-                        "--resume: the sweep there differs in its {what}: it was made by `{}`",
+                        "«resume»: the sweep there differs in its {what}: it was made by `{}`",
                         old.command()
                     ),
                 ));
@@ -462,7 +462,7 @@ pub fn open(
                 return Err(invalid(
                     dir,
                     format!(
-                        "--resume: the folder holds {}, not {}",
+                        "«resume»: the folder holds {}, not {}",
                         show(old.shard),
                         show(manifest.shard)
                     ),
@@ -687,7 +687,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Merged, FilesE
         if let Some(what) = old.difference(&manifest) {
             return Err(invalid(
                 out,
-                format!("already holds another sweep (its {what} differs): choose another --out"),
+                format!("already holds another sweep (its {what} differs): choose another «out»"),
             ));
         }
     }
@@ -719,7 +719,7 @@ fn check_out_apart(dirs: &[PathBuf], out: &Path) -> Result<(), FilesError> {
             return Err(invalid(
                 out,
                 format!(
-                    "--out {place} {}: the merge would overwrite the shard's own files; choose \
+                    "«out» {place} {}: the merge would overwrite the shard's own files; choose \
                      a folder outside every shard folder (their parent, for one)",
                     d.display()
                 ),

@@ -77,9 +77,9 @@ impl Grid {
                 return Err(SpecError {
                     set: a.shown(),
                     message: format!(
-                        "{} is already swept by --set {}; give each key once",
+                        "{} is already swept by {}; give each key once",
                         a.key,
-                        first.shown()
+                        crate::words::axis_item(&first.shown())
                     ),
                 });
             }
@@ -90,7 +90,7 @@ impl Grid {
                 return Err(SpecError {
                     set: a.shown(),
                     message: format!(
-                        "--zip pairs the keys' values, so each needs as many: {} has {}, {} has {n}",
+                        "«zip» pairs the keys' values, so each needs as many: {} has {}, {} has {n}",
                         a.key,
                         a.values.len(),
                         axes[0].key
@@ -103,12 +103,19 @@ impl Grid {
                 .try_fold(1usize, |n, a| n.checked_mul(a.values.len()))
                 .filter(|n| *n <= MAX_RUNS)
                 .ok_or_else(|| SpecError {
-                    set: axes
-                        .iter()
-                        .map(Axis::shown)
-                        .collect::<Vec<_>>()
-                        .join(" --set "),
-                    message: format!("the grid has more than {MAX_RUNS} points"),
+                    set: axes[0].shown(),
+                    message: if axes.len() > 1 {
+                        format!(
+                            "with {}: the grid has more than {MAX_RUNS} points",
+                            axes[1..]
+                                .iter()
+                                .map(|a| crate::words::axis_item(&a.shown()))
+                                .collect::<Vec<_>>()
+                                .join(" ")
+                        )
+                    } else {
+                        format!("the grid has more than {MAX_RUNS} points")
+                    },
                 })?
         };
         Ok(Grid { axes, zip, points })
@@ -204,17 +211,18 @@ mod tests {
         let e = grid(&["base.frequency=200,300", "base.frequency=400"], false).unwrap_err();
         assert!(e.to_string().contains("already swept"), "{e}");
         let e = grid(&["base.frequency=200,300", "base.amplitude=1um"], true).unwrap_err();
-        assert!(e.to_string().contains("--zip pairs"), "{e}");
+        let e = e.in_words(&crate::words::TestFlags);
+        assert!(e.contains("--zip pairs"), "{e}");
         let e = Axis::parse("base.amplitud=1um")
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert!(
             e.starts_with("--set base.amplitud=1um: unknown key; [base] takes amplitude"),
             "{e}"
         );
         let e = Axis::parse("base.amplitude")
             .unwrap_err()
-            .in_words(&crate::error::TestFlags);
+            .in_words(&crate::words::TestFlags);
         assert!(e.contains("expected KEY=SPEC"), "{e}");
         let e = grid(
             &[

@@ -45,7 +45,6 @@ pub(crate) mod grid;
 pub mod phase;
 pub(crate) mod plots;
 pub mod row;
-pub mod slurm;
 pub(crate) mod spec;
 pub mod stats;
 

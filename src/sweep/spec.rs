@@ -35,8 +35,8 @@ pub struct SpecError {
 
 impl SpecError {
     /// The message in the words of a front end.
-    pub fn in_words(&self, w: &dyn crate::error::Words) -> String {
-        crate::error::render(
+    pub fn in_words(&self, w: &dyn crate::words::Words) -> String {
+        crate::words::render(
             &format!(
                 "{}: {}",
                 w.axis(&djkr_core::text::excerpt(&self.set)),
@@ -49,7 +49,7 @@ impl SpecError {
 
 impl std::fmt::Display for SpecError {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.in_words(&crate::error::Plain))
+        f.write_str(&self.in_words(&crate::words::Plain))
     }
 }
 
@@ -301,7 +301,7 @@ mod tests {
     fn err(t: &str, spec: &str) -> String {
         parse_spec(&key(t), spec, &format!("{t}={spec}"))
             .unwrap_err()
-            .in_words(&crate::error::TestFlags)
+            .in_words(&crate::words::TestFlags)
     }
 
     #[test]

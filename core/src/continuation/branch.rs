@@ -258,10 +258,12 @@ pub fn continue_branch(
         .ok_or_else(|| ContinuationError::Input("no continuation parameter".into()))?;
     let width = (stop - start).abs();
     if !(width.is_finite() && width > 0.0) {
-        return Err(ContinuationError::Input(format!(
-            "--range {start}:{stop}: START and STOP must differ ({})",
-            param.info.unit
-        )));
+        return Err(ContinuationError::EmptyRange {
+            input: "range",
+            start,
+            stop,
+            unit: param.info.unit,
+        });
     }
     let setup = family.setup(&[start])?;
     let steady = setup

@@ -3,8 +3,8 @@
 //!
 //! Continuation knows no file format: the scene hands it the steady-state problem at given
 //! parameter values. The root crate's scene (`djkr::scenario::family`) is a scenario file with
-//! its fixed `--set` overrides, parsed once; each value is set on the parsed scenario
-//! (`Scenario::set`, the parser's checks, no TOML), and its steady-state problem taken as
+//! its fixed overrides, parsed once; each value is one more override, validated as the file
+//! with it written in would be, and its steady-state problem taken as
 //! [`Problem::from_plan`] takes it. There, the spring end x_k is where that plan holds it: the
 //! static JKR equilibrium under `initial.preload`, at every value, for a scene that vibrates
 //! from its first stage (the bundled resonance scene); for a scene whose vibration starts after
@@ -104,10 +104,11 @@ impl Family {
     /// The scene `scene` with the free parameters `params` (one or two, different).
     pub fn new(scene: Arc<dyn Scene>, params: Vec<Parameter>) -> Result<Family, ContinuationError> {
         if params.len() == 2 && params[0] == params[1] {
-            return Err(ContinuationError::Input(format!(
-                "--fold-param {}: must differ from --param",
-                params[1].name()
-            )));
+            return Err(ContinuationError::SameParameter {
+                input: "fold_param",
+                name: params[1].name().to_string(),
+                other: "param",
+            });
         }
         Ok(Family {
             scene,

@@ -246,9 +246,12 @@ pub fn continue_folds(
     let (q0, q1) = q_range;
     let qw = (q1 - q0).abs();
     if !(qw.is_finite() && qw > 0.0) {
-        return Err(ContinuationError::Input(format!(
-            "--fold-range {q0}:{q1}: START and STOP must differ"
-        )));
+        return Err(ContinuationError::EmptyRange {
+            input: "fold_range",
+            start: q0,
+            stop: q1,
+            unit: "",
+        });
     }
     let bm = &branch.map;
     let map = ScaledMap {

@@ -44,7 +44,7 @@
 //! eigenvalues of M (Schur), largest modulus first; the orbit is stable when all |μ| < 1. Under
 //! a constant law at X_b = 3 nm they match e^{λT} of the damped oscillator with the JKR tangent
 //! stiffness to 1e-5, the remaining difference being the amplitude's nonlinearity
-//! (tests/continuation.rs).
+//! (tests/it/continuation.rs).
 //!
 //! # Folds, the creeping radius, and the other bifurcations
 //! One multiplier sits close to 1: the mean contact radius creeps (the Gent–Schultz law is flat
@@ -103,7 +103,45 @@ pub enum ContinuationError {
     /// A key, range or scenario value that cannot describe a family of periodic orbits.
     #[error("{0}")]
     Input(String),
+    /// A range whose ends coincide (or are not finite). `input` names the request's range as
+    /// its field is named (`range`, `fold_range`); a front end words it (`--range`).
+    #[error(
+        "{input} {start}:{stop}: START and STOP must differ{}",
+        unit_suffix(unit)
+    )]
+    EmptyRange {
+        /// Which range: `range` (the parameter's) or `fold_range` (the second parameter's).
+        input: &'static str,
+        /// Its start.
+        start: f64,
+        /// Its end.
+        stop: f64,
+        /// The parameter's unit, when it has one.
+        unit: &'static str,
+    },
+    /// The second free parameter of a fold continuation is the first one again.
+    #[error("{input} {name}: must differ from {other}")]
+    SameParameter {
+        /// The input that named it again (`fold_param`).
+        input: &'static str,
+        /// The key.
+        name: String,
+        /// The input that named it first (`param`).
+        other: &'static str,
+    },
+    /// The scene refused a value (the front end's own error: a scenario's, for `djkr
+    /// continue`), kept whole so that the front end can word it.
+    #[error("{0}")]
+    Scene(Box<dyn std::error::Error + Send + Sync>),
     /// No periodic orbit at the start of the range.
     #[error("continuation: {0}")]
     Start(String),
+}
+
+fn unit_suffix(unit: &str) -> String {
+    if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" ({unit})")
+    }
 }

@@ -152,7 +152,7 @@
 //!   ~10^(−3(1+1/n)) ≈ 10⁻⁸·⁶ of the time from a_J: far below any tolerance. How close the
 //!   displacement-controlled loss comes to a³ = πwR²/(6K), and how little a smaller a_floor
 //!   moves the loss time and the pull-off force, are measured in `docs/studies/checks.md` and
-//!   asserted in `tests/dynamics.rs` (`contact_loss_radius_has_negligible_effect`). A loss by
+//!   asserted in `tests/it/dynamics.rs` (`contact_loss_radius_has_negligible_effect`). A loss by
 //!   collapse leaves the elastic energy still in the vanishing contact unintegrated (the
 //!   adhesion would dissipate it in that last instant), as a jump-in releases 0.6 π w0 a_J²:
 //!   the `djkr` crate's `catalogue::cycle_balances` accounts for both steps.
@@ -193,7 +193,7 @@
 //! the tests assert the claims, with a margin over the measured values, on the scenes of
 //! the `djkr` crate's `catalogue` that the benchmarks time:
 //! - `docs/studies/checks.md` (`cargo run --release --example study_checks`; asserted in
-//!   `tests/dynamics.rs`, `tests/restart.rs`): the fixed-step orders (4 for the implicit method,
+//!   `tests/it/dynamics.rs`, `tests/it/restart.rs`): the fixed-step orders (4 for the implicit method,
 //!   8 for DP8, on the ramp-driven free oscillator, whose drive depends on time so that a wrong
 //!   stage time would show), the JKR limits (load- and displacement-controlled pull-off, also
 //!   with m = 0), free flight and impact time against the closed form, the per-cycle momentum
@@ -257,7 +257,7 @@ pub use types::*;
 /// Single steps and right-hand sides of the two integrators written for djkr, outside a run.
 ///
 /// A simulation never needs these: [`run`] and [`Simulator`] choose and drive the steppers.
-/// They are public so that the root crate's observed-order tests (`tests/dynamics.rs`, which
+/// They are public so that the root crate's observed-order tests (`tests/it/dynamics.rs`, which
 /// take their scenes from the `djkr` catalogue) can step the implicit and DP8 methods with
 /// fixed steps, and so that the criterion benches (`benches/common`) can time one DP8
 /// right-hand side on its own.
