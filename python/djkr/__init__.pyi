@@ -157,7 +157,9 @@ class Run:
     def summary(self) -> Dict[str, Any]:
         """The content of ``summary.json`` as a dict (without ``out=``: ``files`` and
         ``file_bytes`` empty). ``summary["pull_off"]`` has ``force`` (N), ``amplification`` (1)
-        and ``time`` (s); ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
+        and ``time`` (s) when the sphere detached; a run that never detached had no pull-off
+        (``pull_off`` empty, ``summary["most_tensile"]`` the most tensile force it saw);
+        ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
         """
     def to_pandas(self) -> Any:
         """The time series as a ``pandas.DataFrame``: columns ``t``, ``x_s``, ``v_s``, ``x_b``,

@@ -1079,7 +1079,9 @@ impl Run {
 
     /// The content of ``summary.json`` as a dict (without ``out=``: ``files`` and
     /// ``file_bytes`` empty). ``summary["pull_off"]`` has ``force`` (N), ``amplification`` (1)
-    /// and ``time`` (s); ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
+    /// and ``time`` (s) when the sphere detached; a run that never detached had no pull-off
+    /// (``pull_off`` empty, ``summary["most_tensile"]`` the most tensile force it saw);
+    /// ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
     #[getter]
     fn summary(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         if let Some(s) = self.summary.get() {
