@@ -509,3 +509,45 @@ fn path_finder_reads_what_the_docs_write() {
     assert!(!matches("status ok", "status ok detached"));
     assert!(matches("a...", "abc"));
 }
+
+/// Every `cargo install` the docs show builds the versions of Cargo.lock (`--locked`): without
+/// it cargo re-resolves the dependencies, rebuilds a binary the tests never checked and fails
+/// offline (issue 33). The command reference's examples name `fit` too.
+#[test]
+fn docs_install_the_locked_binary_and_help_shows_fit() {
+    let mut unlocked = Vec::new();
+    for f in markdown_files() {
+        let text = std::fs::read_to_string(&f).expect("readable");
+        for (n, line) in text.lines().enumerate() {
+            let mut rest = line;
+            while let Some(at) = rest.find("cargo install") {
+                rest = &rest[at + "cargo install".len()..];
+                let command: String = rest.chars().take_while(|c| *c != '`').collect();
+                if !command.split_whitespace().any(|w| w == "--locked") {
+                    unlocked.push(format!("{}:{}: {line}", f.display(), n + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        unlocked.is_empty(),
+        "cargo install without --locked:\n{}",
+        unlocked.join("\n")
+    );
+    let help = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .arg("help")
+        .output()
+        .expect("djkr help runs");
+    let help = String::from_utf8_lossy(&help.stdout);
+    let examples: Vec<&str> = help
+        .lines()
+        .skip_while(|l| l.trim() != "Examples:")
+        .take_while(|l| !l.trim().is_empty())
+        .collect();
+    assert!(
+        examples
+            .iter()
+            .any(|l| l.trim_start().starts_with("djkr fit ")),
+        "{help}"
+    );
+}
