@@ -642,3 +642,51 @@ fn ensemble_sizes_are_the_ceiling_of_the_variance_ratio() {
     assert_eq!(members_for(0.3, 0.1), 9);
     assert_eq!(minus("-0.791".into()), "−0.791");
 }
+
+/// The keys' units, defaults and ranges are quoted once, in the generated scenario reference:
+/// `docs/guide/scenarios.md` has no hand-written key table (it gave `envelope_tol` as
+/// (0, 1e-2] where the parser takes [1e-12, 1e-2], and left out `solver.max_memory`), and every
+/// dotted key it names is one the parser takes.
+#[test]
+fn scenario_guide_names_only_real_keys_and_quotes_no_ranges() {
+    let json = djkr(&["keys", "--json"]).expect("djkr keys --json");
+    let keys: Vec<serde_json::Value> = serde_json::from_str(&json).expect("JSON");
+    let known: Vec<String> = keys
+        .iter()
+        .filter_map(|k| k["key"].as_str())
+        .map(|k| k.replace("[]", "[N]"))
+        .collect();
+    let doc = std::fs::read_to_string(root().join("docs/guide/scenarios.md")).expect("doc");
+    assert!(
+        !doc.lines().any(|l| l.starts_with("| section | key |")),
+        "docs/guide/scenarios.md has a hand-written key table again: link the scenario reference"
+    );
+    let sections: Vec<&str> = known
+        .iter()
+        .filter_map(|k| k.split_once('.').map(|(s, _)| s))
+        .collect();
+    let mut unknown = Vec::new();
+    for quoted in doc.split('`').skip(1).step_by(2) {
+        let Some((section, rest)) = quoted.split_once('.') else {
+            continue;
+        };
+        // `stage[3].until` is the key `stage[N].until`; `stage[N].KEY` is a placeholder.
+        let section = match section.strip_prefix("stage[") {
+            Some(n) if n.trim_end_matches(']').chars().all(|c| c.is_ascii_digit()) => "stage[N]",
+            _ => section,
+        };
+        let plain = rest
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
+        if !sections.contains(&section) || !plain || rest.is_empty() {
+            continue;
+        }
+        if !known.iter().any(|k| *k == format!("{section}.{rest}")) {
+            unknown.push(quoted.to_string());
+        }
+    }
+    assert!(
+        unknown.is_empty(),
+        "docs/guide/scenarios.md names keys the parser does not take: {unknown:?}"
+    );
+}
