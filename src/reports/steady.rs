@@ -360,16 +360,16 @@ pub struct NoPeak {
 /// in range; a single sample is never a peak). `None` without data.
 pub fn maximum(v: &[(f64, f64)]) -> Option<Result<Peak, NoPeak>> {
     let (frequency, height) = sweep::peak_of(v)?;
-    let edge = |f: f64| f == v[0].0 || f == v[v.len() - 1].0;
-    if !edge(frequency) {
+    // `peak_of` returns an end sample itself (it never refines there): exact comparison.
+    let (first, last) = (v[0].0.to_bits(), v[v.len() - 1].0.to_bits());
+    let f = frequency.to_bits();
+    if f != first && f != last {
         return Some(Ok(Peak::at((frequency, height))));
     }
-    let largest_at = if frequency == v[0].0 && v.len() > 1 {
-        "low"
-    } else if frequency == v[0].0 {
-        "low and high"
-    } else {
-        "high"
+    let largest_at = match (f == first, v.len() > 1) {
+        (true, true) => "low",
+        (true, false) => "low and high",
+        (false, _) => "high",
     };
     Some(Err(NoPeak {
         largest_at,
