@@ -71,11 +71,16 @@ def resonance_curve(out: Path) -> None:
             ax.plot(f, res["hb_delta_amp_over_xb"][sel][order], "--", label="harmonic balance")
             ax.plot(f, res["linear_delta_amp_over_xb"][sel][order], ":", label="linear transfer")
     up = res["direction"] == "up"
-    peak = np.nanargmax(res["delta_amp_over_xb"][up])
-    print(
-        f"resonance of {RESONANCE.name}: peak |delta_A/X_b| = "
-        f"{res['delta_amp_over_xb'][up][peak]:.3f} at {res['frequency'][up][peak]:.1f} Hz (sweep up)"
-    )
+    # The peak as djkr resonance finds it, between the 5 Hz steps (not the highest grid point).
+    peak = djkr.resonance_peak(res["frequency"][up], res["delta_amp_over_xb"][up])
+    if "no_peak_in_range" in peak:
+        print(f"resonance of {RESONANCE.name}: no peak in range, {peak['no_peak_in_range']}")
+    else:
+        print(
+            f"resonance of {RESONANCE.name}: peak |delta_A/X_b| = "
+            f"{peak['height']:.3f} at {peak['frequency']:.2f} Hz (sweep up)"
+        )
+        ax.plot(peak["frequency"], peak["height"], "k+", ms=12, label="peak")
     ax.set_xlabel("frequency f (Hz)")
     ax.set_ylabel("|delta_A / X_b|")
     ax.set_title("frequency response, resonance-400hz")

@@ -25,6 +25,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 use crate::input::{self, InputError, InputKind};
+use crate::output::timeseries;
 use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style, GREY};
 
 /// The figure's file stem in a run folder.
@@ -194,24 +195,6 @@ pub fn read_run(path: &Path) -> Result<RunSeries, RunPlotError> {
     Ok(s)
 }
 
-/// The index ranges of the gap-free stretches of a time series of `n` samples whose segment
-/// indices are `segment` (one stretch when there are none: a file written before them).
-fn stretches(segment: &[i64], n: usize) -> Vec<std::ops::Range<usize>> {
-    if segment.len() != n {
-        return std::iter::once(0..n).collect();
-    }
-    let mut out = Vec::new();
-    let mut start = 0;
-    for i in 1..n {
-        if segment[i] != segment[i - 1] {
-            out.push(start..i);
-            start = i;
-        }
-    }
-    out.push(start..n);
-    out
-}
-
 /// [`thin_to`] within each stretch of `ranges` (about `MAX_POINTS` in all, each stretch its share
 /// and at least its two ends), the stretches separated by a NaN so that no line joins them.
 fn thin_broken(x: &[f64], y: &[f64], ranges: &[std::ops::Range<usize>]) -> (Vec<f64>, Vec<f64>) {
@@ -377,7 +360,7 @@ fn time_axis(s: &RunSeries) -> (f64, String) {
 fn time_panel(s: &RunSeries, q: &Quantity, force: bool) -> Figure {
     let (ts, t_label) = time_axis(s);
     let (ys, y_label) = plot::axis_label(q.name, q.unit, q.values);
-    let (tx, ty) = thin_broken(&s.t, q.values, &stretches(&s.segment, s.t.len()));
+    let (tx, ty) = thin_broken(&s.t, q.values, &timeseries::pieces(&s.segment, s.t.len()));
     let tx: Vec<f64> = tx.iter().map(|v| v * ts).collect();
     let ty: Vec<f64> = ty.iter().map(|v| v * ys).collect();
     let (lo, hi) = ty

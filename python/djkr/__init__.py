@@ -6,9 +6,13 @@ Each function gives what the ``djkr`` command of the same name reports, in SI un
   ``run.h5`` as numpy arrays and the content of ``summary.json``;
 - ``cycle`` and ``pulloff``: the imposed-area cycle and the pull-off (``--json``'s dict);
 - ``validate``: the periodic steady state compared with the predictors (``--json``'s dict);
-- ``resonance``: the frequency response, the columns of ``resonance.csv`` as numpy arrays;
+- ``resonance``: the frequency response, the columns of ``resonance.csv`` as numpy arrays, and
+  ``resonance_peak``: its peak as ``djkr resonance`` finds it (or that there is none in range);
 - ``sweep``: a study over scenario keys, the columns of ``sweep.csv`` (one value per run), and
   ``points``: the per-point statistics of its rows, the columns of ``points.csv``.
+
+``Run.pieces()`` splits a run's arrays at the gaps envelope following left, and ``djkr.plot``
+(``import djkr.plot``; needs matplotlib) draws a run as ``djkr plot`` does.
 
 A *scenario* is a path (``str`` without a line break, or ``os.PathLike``), a TOML string, or a
 dict with the file's structure (``{"version": 1, "material": {...}, "stage": [{...}]}``).
@@ -50,6 +54,7 @@ from ._djkr import (
     points,
     pulloff,
     resonance,
+    resonance_peak,
     run,
     sweep,
     validate,
@@ -65,6 +70,7 @@ __all__ = [
     "points",
     "pulloff",
     "resonance",
+    "resonance_peak",
     "run",
     "sweep",
     "validate",

@@ -6,9 +6,13 @@ Each function gives what the ``djkr`` command of the same name reports, in SI un
   ``run.h5`` as numpy arrays and the content of ``summary.json``;
 - ``cycle`` and ``pulloff``: the imposed-area cycle and the pull-off (``--json``'s dict);
 - ``validate``: the periodic steady state compared with the predictors (``--json``'s dict);
-- ``resonance``: the frequency response, the columns of ``resonance.csv`` as numpy arrays;
+- ``resonance``: the frequency response, the columns of ``resonance.csv`` as numpy arrays, and
+  ``resonance_peak``: its peak as ``djkr resonance`` finds it (or that there is none in range);
 - ``sweep``: a study over scenario keys, the columns of ``sweep.csv`` (one value per run), and
   ``points``: the per-point statistics of its rows, the columns of ``points.csv``.
+
+``Run.pieces()`` splits a run's arrays at the gaps envelope following left, and ``djkr.plot``
+(``import djkr.plot``; needs matplotlib) draws a run as ``djkr plot`` does.
 
 A *scenario* is a path (``str`` without a line break, or ``os.PathLike``), a TOML string, or a
 dict with the file's structure (``{"version": 1, "material": {...}, "stage": [{...}]}``).
@@ -157,12 +161,25 @@ class Run:
     def summary(self) -> Dict[str, Any]:
         """The content of ``summary.json`` as a dict (without ``out=``: ``files`` and
         ``file_bytes`` empty). ``summary["pull_off"]`` has ``force`` (N), ``amplification`` (1)
-        and ``time`` (s); ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
+        and ``time`` (s) when the sphere detached; a run that never detached had no pull-off
+        (``pull_off`` empty, ``summary["most_tensile"]`` the most tensile force it saw);
+        ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
         """
     def to_pandas(self) -> Any:
         """The time series as a ``pandas.DataFrame``: columns ``t``, ``x_s``, ``v_s``, ``x_b``,
         ``x_k``, ``delta``, ``a``, ``a_dot``, ``F``, ``G``, ``w``, ``stage``, ``segment``, one row per
         sample (needs pandas).
+        """
+    def pieces(self) -> List[Dict[str, npt.NDArray[Any]]]:
+        """The gap-free stretches of the time series, in time order: one dict per piece with every
+        array of the run (``t``, ``x_s``, ..., ``F``, ``G``, ``w``, ``stage``, ``segment``)
+        restricted to it, as numpy views (no copy). Between two pieces envelope following
+        skipped whole base periods (``gaps``: piece k ends at ``gaps["t_start"][k]``, piece k + 1
+        starts at ``gaps["t_end"][k]``), so a plot draws each piece as its own line and never
+        joins two, as ``djkr plot`` does. One piece for a run without gaps.
+
+        >>> for p in r.pieces():
+        ...     ax.plot(p["t"], p["F"], color="C0")
         """
     def __len__(self) -> int: ...
 
@@ -410,7 +427,7 @@ def resonance(
     >>> import djkr, pandas as pd
     >>> r = pd.DataFrame(djkr.resonance("scenarios/resonance-400hz.toml", freq=(380, 420, 21)))
     >>> up = r[r.direction == "up"]
-    >>> up.frequency[up.delta_amp_over_xb.idxmax()]   # Hz, the resonance peak
+    >>> djkr.resonance_peak(up.frequency, up.delta_amp_over_xb)   # as djkr resonance finds it
     """
 
 def fit(
@@ -482,6 +499,39 @@ def fit(
     >>> r["aic"], r["notes"]
     """
     ...
+
+def resonance_peak(
+    frequency: Sequence[float],
+    height: Sequence[float],
+) -> Dict[str, Any]:
+    """The resonance peak of sampled data, as ``djkr resonance`` finds it (the ``peak`` of its
+    ``--json``): the highest sample, refined by a parabola through it and its neighbours where
+    the five samples around it lie on one concave branch (never across the jump of a folded
+    curve). A maximum at the first or the last frequency is no peak: the resonance lies beyond
+    the range.
+
+    Parameters
+    ----------
+    frequency : sequence of float
+        Frequencies (Hz), in any order (sorted here).
+    height : sequence of float
+        The response at each, e.g. ``delta_amp_over_xb`` of one sweep direction; non-finite
+        values (points that did not converge) are left out.
+
+    Returns
+    -------
+    dict
+        ``{"frequency": f, "height": h}`` for a peak inside the range, or
+        ``{"no_peak_in_range": {"largest_at": "low" or "high", "frequency": f, "height": h}}``;
+        ``{}`` without finite data.
+
+    Examples
+    --------
+    >>> res = djkr.resonance("scenarios/resonance-400hz.toml", freq=(300, 500, 21))
+    >>> up = res["direction"] == "up"
+    >>> djkr.resonance_peak(res["frequency"][up], res["delta_amp_over_xb"][up])
+    {'frequency': 405.96..., 'height': 13.66...}
+    """
 
 def sweep(
     scenario: Scenario,

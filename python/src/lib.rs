@@ -40,13 +40,13 @@ use pyo3::exceptions::{
 };
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple, PyType};
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PySlice, PyString, PyTuple, PyType};
 
 use djkr::api::{self, Arg};
 use djkr::error::Error as ApiError;
 use djkr::input::{show_limit, InputKind};
 use djkr::output::table::{Column, Data, Table};
-use djkr::output::timeseries::{kind_name, stage_index, SEGMENT, SERIES, STAGE};
+use djkr::output::timeseries::{self, kind_name, stage_index, SEGMENT, SERIES, STAGE};
 use djkr::scenario::overrides::SetKey;
 use djkr::scenario::parse::{self, ScenarioSource, Tree};
 use djkr::sweep::stats::{point_stats, points_table};
@@ -959,6 +959,8 @@ struct Run {
     /// ``t_start``, ``t_end``, ``force_mean``, ...).
     #[pyo3(get)]
     cycles: Py<PyDict>,
+    /// The index ranges of the gap-free stretches ([`timeseries::pieces`]).
+    piece_ranges: Vec<std::ops::Range<usize>>,
     raw_events: Vec<Event>,
     events: OnceLock<Py<PyList>>,
     summary_text: String,
@@ -996,7 +998,9 @@ impl Run {
 
     /// The content of ``summary.json`` as a dict (without ``out=``: ``files`` and
     /// ``file_bytes`` empty). ``summary["pull_off"]`` has ``force`` (N), ``amplification`` (1)
-    /// and ``time`` (s); ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
+    /// and ``time`` (s) when the sphere detached; a run that never detached had no pull-off
+    /// (``pull_off`` empty, ``summary["most_tensile"]`` the most tensile force it saw);
+    /// ``summary["status"]`` is ``"ok"``, ``"stopped"`` or ``"failed"``.
     #[getter]
     fn summary(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         if let Some(s) = self.summary.get() {
@@ -1024,6 +1028,28 @@ impl Run {
             d.set_item(name, self.array(name, py))?;
         }
         Ok(pd.call_method1("DataFrame", (d,))?.unbind())
+    }
+
+    /// The gap-free stretches of the time series, in time order: one dict per piece with every
+    /// array of the run (``t``, ``x_s``, ..., ``F``, ``G``, ``w``, ``stage``, ``segment``)
+    /// restricted to it, as numpy views (no copy). Between two pieces envelope following
+    /// skipped whole base periods (``gaps``: piece k ends at ``gaps["t_start"][k]``, piece k + 1
+    /// starts at ``gaps["t_end"][k]``), so a plot draws each piece as its own line and never
+    /// joins two, as ``djkr plot`` does. One piece for a run without gaps.
+    ///
+    /// >>> for p in r.pieces():
+    /// ...     ax.plot(p["t"], p["F"], color="C0")
+    fn pieces(&self, py: Python<'_>) -> PyResult<Py<PyList>> {
+        let out = PyList::empty(py);
+        for r in &self.piece_ranges {
+            let slice = PySlice::new(py, r.start as isize, r.end as isize, 1);
+            let d = PyDict::new(py);
+            for name in series_names() {
+                d.set_item(name, self.array(name, py).bind(py).get_item(&slice)?)?;
+            }
+            out.append(d)?;
+        }
+        Ok(out.unbind())
     }
 
     fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
@@ -1067,6 +1093,10 @@ impl Run {
             .into_iter()
             .map(|c| (c.name, c.data))
             .collect();
+        let piece_ranges = match cols.get(SEGMENT) {
+            Some(Data::I64(seg)) => timeseries::pieces(seg, seg.len()),
+            _ => Vec::new(),
+        };
         let mut take = |n: &str| -> PyResult<Py<PyAny>> {
             let data = cols.remove(n).ok_or_else(|| {
                 PyRuntimeError::new_err(format!("internal error: no time-series column {n}"))
@@ -1091,6 +1121,7 @@ impl Run {
             segment: take(SEGMENT)?,
             gaps: table_to_py(py, rec.gaps)?,
             cycles: table_to_py(py, rec.cycles)?,
+            piece_ranges,
             raw_events: rec.events,
             events: OnceLock::new(),
             summary_text: rec.summary,
@@ -1507,7 +1538,7 @@ fn validate(
 /// >>> import djkr, pandas as pd
 /// >>> r = pd.DataFrame(djkr.resonance("scenarios/resonance-400hz.toml", freq=(380, 420, 21)))
 /// >>> up = r[r.direction == "up"]
-/// >>> up.frequency[up.delta_amp_over_xb.idxmax()]   # Hz, the resonance peak
+/// >>> djkr.resonance_peak(up.frequency, up.delta_amp_over_xb)   # as djkr resonance finds it
 #[pyfunction]
 #[pyo3(signature = (scenario, freq, sweep = None, set = None))]
 fn resonance(
@@ -1581,6 +1612,66 @@ fn resonance(
         Ok(r.table())
     })?;
     guarded(|| table_to_py(py, table))
+}
+
+/// The resonance peak of sampled data, as ``djkr resonance`` finds it (the ``peak`` of its
+/// ``--json``): the highest sample, refined by a parabola through it and its neighbours where
+/// the five samples around it lie on one concave branch (never across the jump of a folded
+/// curve). A maximum at the first or the last frequency is no peak: the resonance lies beyond
+/// the range.
+///
+/// Parameters
+/// ----------
+/// frequency : sequence of float
+///     Frequencies (Hz), in any order (sorted here).
+/// height : sequence of float
+///     The response at each, e.g. ``delta_amp_over_xb`` of one sweep direction; non-finite
+///     values (points that did not converge) are left out.
+///
+/// Returns
+/// -------
+/// dict
+///     ``{"frequency": f, "height": h}`` for a peak inside the range, or
+///     ``{"no_peak_in_range": {"largest_at": "low" or "high", "frequency": f, "height": h}}``;
+///     ``{}`` without finite data.
+///
+/// Examples
+/// --------
+/// >>> res = djkr.resonance("scenarios/resonance-400hz.toml", freq=(300, 500, 21))
+/// >>> up = res["direction"] == "up"
+/// >>> djkr.resonance_peak(res["frequency"][up], res["delta_amp_over_xb"][up])
+/// {'frequency': 405.96..., 'height': 13.66...}
+#[pyfunction]
+fn resonance_peak(py: Python<'_>, frequency: Vec<f64>, height: Vec<f64>) -> PyResult<Py<PyDict>> {
+    if frequency.len() != height.len() {
+        return Err(input_err(format!(
+            "resonance_peak: {} frequencies but {} heights",
+            frequency.len(),
+            height.len()
+        )));
+    }
+    let mut v: Vec<(f64, f64)> = frequency
+        .into_iter()
+        .zip(height)
+        .filter(|(f, h)| f.is_finite() && h.is_finite())
+        .collect();
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let d = PyDict::new(py);
+    match djkr::reports::steady::maximum(&v) {
+        Some(Ok(p)) => {
+            d.set_item("frequency", p.frequency)?;
+            d.set_item("height", p.height)?;
+        }
+        Some(Err(n)) => {
+            let e = PyDict::new(py);
+            e.set_item("largest_at", n.largest_at)?;
+            e.set_item("frequency", n.frequency)?;
+            e.set_item("height", n.height)?;
+            d.set_item("no_peak_in_range", e)?;
+        }
+        None => {}
+    }
+    Ok(d.unbind())
 }
 
 /// A study over scenario keys, as ``djkr sweep``: one run per grid point and ensemble member.
@@ -2184,6 +2275,7 @@ fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(pulloff, m)?)?;
     m.add_function(wrap_pyfunction!(validate, m)?)?;
     m.add_function(wrap_pyfunction!(resonance, m)?)?;
+    m.add_function(wrap_pyfunction!(resonance_peak, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(points, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;

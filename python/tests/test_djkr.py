@@ -179,6 +179,96 @@ def test_gaps_are_data(tmp_path):
     assert list(r.to_pandas()["segment"]) == list(r.segment)
 
 
+def gap_scene():
+    """The scene of test_gaps_are_data: the paper protocol at 400 Hz with R = 10 mm, 1 g, 200 N/m,
+    whose envelope following skips base periods."""
+    text = (ROOT / "scenarios/paper-protocol-400hz.toml").read_text()
+    text = text.replace("R = 0.051 ", "R = 0.010 ").replace("mass = 0.25 ", "mass = 0.001 ")
+    return text.replace("stiffness = 2000.0 ", "stiffness = 200.0 ")
+
+
+def test_pieces_are_the_segments_run_h5_holds(tmp_path):
+    """Issue 33: `Run.pieces()` splits the arrays where the writer's `segment` changes, each
+    piece ending and starting at a gap of run.h5's `gaps/` (read with h5py: the reference), as
+    views of the run's arrays that together are the whole run."""
+    r = djkr.run(gap_scene(), out=tmp_path / "run")
+    with h5py.File(tmp_path / "run" / "run.h5") as f:
+        seg, t = f["segment"][:], f["t"][:]
+        t_start, t_end = f["gaps"]["t_start"][:], f["gaps"]["t_end"][:]
+    expected = np.split(np.arange(len(seg)), np.flatnonzero(np.diff(seg)) + 1)
+    pieces = r.pieces()
+    assert len(t_start) > 0 and len(pieces) == len(expected) == len(t_start) + 1
+    for k, (p, idx) in enumerate(zip(pieces, expected)):
+        assert set(p) == set(SERIES + ["stage", "segment"])
+        assert_bits_equal(p["t"], t[idx], f"piece {k} t")
+        assert set(p["segment"]) == {k}
+        assert all(len(a) == len(idx) for a in p.values())
+    for k in range(len(t_start)):
+        assert pieces[k]["t"][-1] == t_start[k] and pieces[k + 1]["t"][0] == t_end[k]
+    for name in SERIES + ["stage", "segment"]:
+        assert_bits_equal(np.concatenate([p[name] for p in pieces]), getattr(r, name), name)
+    assert np.shares_memory(pieces[0]["F"], r.F)
+    # Without gaps: one piece, the whole run.
+    whole = djkr.run(IMPACTS)
+    assert whole.summary["gaps"] == 0
+    [only] = whole.pieces()
+    assert_bits_equal(only["t"], whole.t, "t")
+
+
+def test_plot_helper_draws_each_piece_apart_and_marks_only_what_holds(tmp_path):
+    """Issue 33: `djkr.plot.run` draws one line per piece (no vertex inside a gap), shades the
+    gaps, marks the pull-off at its force and time only for a run that detached, in the
+    axis's SI prefix."""
+    matplotlib = pytest.importorskip("matplotlib")
+    matplotlib.use("Agg")
+    import djkr.plot
+
+    r = djkr.run(gap_scene())
+    fig = djkr.plot.run(r)
+    ax = fig.axes[0]
+    lines = [l for l in ax.get_lines() if l.get_linestyle() == "-" and l.get_marker() in ("None", "", None)]
+    assert len(lines) == len(r.pieces())
+    scale, unit = djkr.plot.prefixed(r.t[[0, -1]], "s")
+    for l in lines:
+        x = np.asarray(l.get_xdata()) / scale
+        for a, b in zip(r.gaps["t_start"], r.gaps["t_end"]):
+            assert not np.any((x > a) & (x < b)), "a line crosses a gap"
+    assert ax.get_ylabel().endswith("(mN)")
+    labels = ax.get_legend_handles_labels()[1]
+    po = r.summary["pull_off"]
+    assert r.summary["detached"] and po["tensile"]
+    [marker] = [l for l in ax.get_lines() if l.get_label().startswith("pull-off")]
+    assert marker.get_xdata()[0] == po["time"] * scale and marker.get_ydata()[0] == po["force"] * 1e3
+    assert any(lab.startswith("envelope: ") for lab in labels)
+    # A run that never detached: no pull-off marker, no detachment.
+    impacts = djkr.plot.run(djkr.run(IMPACTS))
+    labels = impacts.axes[0].get_legend_handles_labels()[1]
+    assert not any(lab.startswith("pull-off") or lab == "detachment" for lab in labels), labels
+    fig.savefig(tmp_path / "run.png")
+    assert (tmp_path / "run.png").stat().st_size > 0
+
+
+def test_resonance_peak_is_the_command_lines(tmp_path):
+    """Issue 33: `djkr.resonance_peak` of the columns is the peak `djkr resonance --json`
+    reports (bit for bit), and at the edge of the range it is no peak, as the command says."""
+    for scene, freq, key in [(RESONANCE, (300, 500, 21), "peak"),
+                             ("scenarios/paper-protocol-400hz.toml", (300, 500, 21), "no_peak_in_range")]:
+        out = tmp_path / Path(scene).stem
+        report = cli_json("resonance", scene, "--freq", ":".join(map(str, freq)), "--out", out)
+        res = djkr.resonance(scene, freq=freq)
+        for direction in ["up", "down"]:
+            sel = res["direction"] == direction
+            got = djkr.resonance_peak(res["frequency"][sel], res["delta_amp_over_xb"][sel])
+            want = report[f"sweep_{direction}"][key]
+            if key == "peak":
+                assert got == {"frequency": want["frequency"], "height": want["height"]}
+            else:
+                assert got == {"no_peak_in_range": want}
+    assert djkr.resonance_peak([], []) == {}
+    with pytest.raises(djkr.ScenarioError):
+        djkr.resonance_peak([1.0, 2.0], [1.0])
+
+
 CYCLES = [
     (("400", "2mm", "0.5mm"), {}),
     ((300.0, 0.0015, 2e-4), {}),

@@ -72,19 +72,21 @@ def cli_key_numbers(tmp):
     cli("sweep", PROTOCOL, "--set", "stage[3].speed=2mm/s", "--set", "base.amplitude=10um,30um,60um",
         "--ensemble", "4", "--seed", "1", "--out", tmp / "fast")
     fast = pd.read_csv(tmp / "fast" / "points.csv", dtype=str)
-    cli("resonance", RESONANCE, "--freq", "300:500:21", "--out", tmp / "res")
-    res = pd.read_csv(tmp / "res" / "resonance.csv", dtype=str)
-    up = res[res["direction"] == "up"]
-    ratio = floats(up["delta_amp_over_xb [1]"])
-    peak = max(range(len(ratio)), key=lambda i: ratio[i])
+    # The peak as djkr resonance reports it: on the 10 Hz grid the largest point (the parabola
+    # is refused there), then 0.5 Hz steps within 10 Hz of it.
+    coarse = json.loads(cli("resonance", RESONANCE, "--freq", "300:500:21", "--out", tmp / "res",
+                            "--json").stdout)["sweep_up"]["peak"]["frequency"]
+    fine = json.loads(cli("resonance", RESONANCE, "--freq", f"{coarse - 10}:{coarse + 10}:41", "--sweep", "up",
+                          "--out", tmp / "fine", "--json").stdout)
+    peak = fine["sweep_up"]["peak"]
     return {
         "run_pull_off_force": summary["pull_off"]["force"],
         "run_amplification": summary["pull_off"]["amplification"],
         "sweep_amplification_mean": floats(slow["pull_off_amplification_mean [1]"]),
         "sweep_amplification_std": floats(slow["pull_off_amplification_std [1]"]),
         "fast_sweep_amplification_mean": floats(fast["pull_off_amplification_mean [1]"]),
-        "resonance_peak_frequency": float(up["frequency [Hz]"].iloc[peak]),
-        "resonance_peak_delta_amp_over_xb": ratio[peak],
+        "resonance_peak_frequency": peak["frequency"],
+        "resonance_peak_delta_amp_over_xb": peak["height"],
     }
 
 

@@ -52,6 +52,7 @@ const EXAMPLES: &str = "Examples:
   djkr resonance scenarios/resonance-400hz.toml --freq 300:500:101 --out out/resonance
   djkr continue scenarios/resonance-400hz.toml --param base.frequency --range 340:600 --set base.amplitude=1.5um
   djkr accuracy scenarios/paper-protocol-300hz.toml --methods implicit,auto --out out/accuracy
+  djkr fit data.csv --scenario scenarios/paper-protocol-300hz.toml --free adhesion.v0 --free adhesion.n --out out/fit
 
 Bare numbers are SI; values with units are welcome (51mm, 9.33MPa, 240mJ/m^2, 0.0445mm/s, 1.5kHz).
 Default material: the paper's Fig. 2 set (K 9.33 MPa, R 51 mm, w0 240 mJ/m^2, v0 0.0445 mm/s, n 0.531).

@@ -13,7 +13,7 @@ use clap::{Args, ValueEnum};
 use djkr::api;
 use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
-use djkr::reports::steady::{self as report, ResonanceReport};
+use djkr::reports::steady::{self as report, NoPeak, ResonanceReport};
 use djkr::scenario::Scenario;
 use djkr_core::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
 use djkr_core::steady::{Options, Problem};
@@ -124,25 +124,25 @@ pub fn resonance(a: &ResonanceArgs) -> Result<()> {
     bar.finish_and_clear();
     let (sweeps, lin, wall) = (&res.sweeps, &res.linearisation, res.wall_s);
 
-    let mut files = write_tables(&out, &scn, &res, &opts)?;
-    let (fig, phase) = figures(
-        &a.file,
-        sweeps,
-        res.harmonic_balance,
-        lin.as_ref().ok(),
-        lo,
-        hi,
-    );
-    let (png, svg) = plot::render(&fig, &out.join("resonance"))?;
-    let (ppng, psvg) = plot::render(&phase, &out.join("resonance-phase"))?;
-    files.extend([png, svg, ppng, psvg]);
-
     let mut report = ResonanceReport::new(
         sweeps,
         (lo, hi, n),
         lin.as_ref().map_err(String::as_str),
         wall,
     );
+    let mut files = write_tables(&out, &scn, &res, &opts)?;
+    let (fig, phase) = figures(
+        &a.file,
+        sweeps,
+        res.harmonic_balance,
+        lin.as_ref().ok(),
+        (lo, hi),
+        edge_of(&report),
+    );
+    let (png, svg) = plot::render(&fig, &out.join("resonance"))?;
+    let (ppng, psvg) = plot::render(&phase, &out.join("resonance-phase"))?;
+    files.extend([png, svg, ppng, psvg]);
+
     report.files = files.iter().map(|p| p.display().to_string()).collect();
     if a.json {
         print_json(&report)?;
@@ -214,18 +214,18 @@ fn figures(
     sweeps: &[Sweep],
     harmonic: bool,
     lin: Option<&Linearisation>,
-    lo: f64,
-    hi: f64,
+    (lo, hi): (f64, f64),
+    edge: Option<&str>,
 ) -> (Figure, Figure) {
     let amplitude = sweeps.first().map_or(f64::NAN, |s| s.amplitude);
     // The frequency axis in Hz or kHz, as its range suits.
     let (ff, f_label) = plot::axis_label("frequency f", "Hz", &[lo, hi]);
+    // A maximum at an end of the range is not a resonance peak: the title says so.
+    let what = edge.map_or("frequency response".to_string(), |e| {
+        format!("no peak in range (largest at the {e} end)")
+    });
     let mut fig = Figure::new(
-        format!(
-            "frequency response, X_b = {:.3} µm ({})",
-            amplitude * 1e6,
-            stem(file)
-        ),
+        format!("{what}, X_b = {:.3} µm ({})", amplitude * 1e6, stem(file)),
         f_label.clone(),
         "|δ_A / X_b| (–)",
     )
@@ -278,6 +278,24 @@ fn figures(
     (fig, phase)
 }
 
+/// "no peak in range: largest |δ_A/X_b| = 1.0205 at 300.000 Hz, the low end".
+fn no_peak(n: &NoPeak) -> String {
+    format!(
+        "no peak in range: largest |δ_A/X_b| = {:.4} at {:.3} Hz, the {} end",
+        n.height, n.frequency, n.largest_at
+    )
+}
+
+/// The end ("low", "high") where a time-domain sweep's response is largest, when no sweep has a
+/// peak inside the range.
+fn edge_of(r: &ResonanceReport) -> Option<&'static str> {
+    if r.sweeps().any(|s| s.peak.is_some()) {
+        return None;
+    }
+    r.sweeps()
+        .find_map(|s| s.no_peak_in_range.map(|n| n.largest_at))
+}
+
 fn print_report(file: &Path, r: &ResonanceReport) -> anyhow::Result<()> {
     let (lo, hi) = r.range;
     outln!(
@@ -290,12 +308,14 @@ fn print_report(file: &Path, r: &ResonanceReport) -> anyhow::Result<()> {
     if let (Some(k), Some(f)) = (r.contact_stiffness, r.linear_resonance_frequency) {
         outln!(
             "  linear transfer (k_c = 3/2 K a_0 = {k:.1} N/m): f_r = {f:.3} Hz{}",
-            r.linear_peak
-                .map(|p| format!(
+            match (r.linear_peak, r.linear_no_peak_in_range) {
+                (Some(p), _) => format!(
                     ", peak |δ_A/X_b| = {:.4} at {:.3} Hz",
                     p.height, p.frequency
-                ))
-                .unwrap_or_default()
+                ),
+                (None, Some(n)) => format!(", {}", no_peak(&n)),
+                (None, None) => String::new(),
+            }
         )?;
     }
     for sw in r.sweeps() {
@@ -318,6 +338,9 @@ fn print_report(file: &Path, r: &ResonanceReport) -> anyhow::Result<()> {
                 out!(" (shift {s:+.3} Hz, height ×{h:.4} of linear)")?;
             }
         }
+        if let Some(n) = sw.no_peak_in_range {
+            out!("; {}", no_peak(&n))?;
+        }
         outln!()?;
         if let Some(p) = sw.harmonic_balance_peak {
             outln!(
@@ -325,6 +348,9 @@ fn print_report(file: &Path, r: &ResonanceReport) -> anyhow::Result<()> {
                 p.height,
                 p.frequency
             )?;
+        }
+        if let Some(n) = sw.harmonic_balance_no_peak_in_range {
+            outln!("              harmonic balance: {}", no_peak(&n))?;
         }
     }
     if let Some(d) = r.max_up_down_difference {
@@ -336,6 +362,16 @@ fn print_report(file: &Path, r: &ResonanceReport) -> anyhow::Result<()> {
     }
     for note in &r.notes {
         outln!("  {note}")?;
+    }
+    if let Some(end) = edge_of(r) {
+        let linear = r
+            .linear_resonance_frequency
+            .map(|f| format!(" (the linear resonance f_r is at {f:.3} Hz)"))
+            .unwrap_or_default();
+        outln!(
+            "  no peak in {lo}–{hi} Hz: the response is largest at the {end} end{linear}; \
+             a --freq range reaching beyond that end finds the resonance"
+        )?;
     }
     outln!("\nwrote:")?;
     for p in &r.files {

@@ -447,15 +447,18 @@ fn print_pull_off(
             significant(r.pull_off.time, digits.max(3))
         );
     } else {
+        // Never detached: no pull-off, whatever the most tensile force was (summary.json:
+        // `most_tensile`, no amplification).
         summary_line!(
-            "  no detachment; most tensile {} force {} mN at t = {:.6} s",
-            if scn.rig.base.is_some() {
+            "  no pull-off        the sphere never detached; most tensile {} force {} mN at \
+             t = {} s",
+            if scn.rig.base.is_some() && r.cycle_count > 0 {
                 "cycle-averaged"
             } else {
                 "contact"
             },
             significant(r.pull_off.force * 1e3, digits),
-            r.pull_off.time
+            significant(r.pull_off.time, digits.max(3))
         );
     }
     Ok(())

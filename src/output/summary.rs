@@ -50,7 +50,10 @@
 //! `pull_off.time` is when it was reached (the end of that period). `detachment.time` is when
 //! the contact was lost for good (the `pull-off` event: the last contact loss, after which the
 //! sphere never touched again), later than `pull_off.time` (on the paper protocol at 300 Hz
-//! 21.59 s against 20.83 s); absent without detachment. `pull_off.tensile` says whether that
+//! 21.59 s against 20.83 s); absent without detachment. A run that never detached had no
+//! pull-off: `pull_off` is then empty and `most_tensile` (`force`, `time`, `tensile`, and the
+//! approach keys below; no amplification) holds the most tensile force it saw, present only then.
+//! `pull_off.tensile` says whether that
 //! force is tensile (negative): false when no cycle mean (no contact force) was, as for a sphere
 //! that bounced off; `pull_off.amplification` is then left out (`non_finite`: NaN), and a
 //! detached run says so in `warnings` ([`checks::no_tensile_pull_off`]). `pull_off.approach_roughness` is the
@@ -212,6 +215,10 @@ pub fn units() -> BTreeMap<String, String> {
         ("pull_off.time", "s"),
         ("pull_off.approach_roughness", "1"),
         ("pull_off.approach_zero_means", "1"),
+        ("most_tensile.force", "N"),
+        ("most_tensile.time", "s"),
+        ("most_tensile.approach_roughness", "1"),
+        ("most_tensile.approach_zero_means", "1"),
         ("detachment.time", "s"),
         ("events.time", "s"),
         ("stats.wall_s", "s"),
@@ -237,7 +244,7 @@ pub fn summary_json(
     sections: &Sections,
 ) -> String {
     let mut b = Builder::default();
-    let pull_off = b.pull_off(result);
+    let (pull_off, most_tensile) = b.pull_off(result);
     // Absent (not NaN) without detachment: that is a run's outcome, not a number gone wrong.
     let mut detachment = Map::new();
     if result.detached {
@@ -308,8 +315,16 @@ pub fn summary_json(
             Value::Object(b.non_finite.into_iter().collect()),
         ),
     ];
-    // `reason` and `message` follow `status` when the run ended early (no `null` in the file).
     let mut top = top;
+    // Without detachment: the most tensile force seen, after the empty `pull_off`.
+    if let Some(m) = most_tensile {
+        let at = top
+            .iter()
+            .position(|(k, _)| *k == "pull_off")
+            .map_or(0, |i| i + 1);
+        top.insert(at, ("most_tensile", Value::Object(m)));
+    }
+    // `reason` and `message` follow `status` when the run ended early (no `null` in the file).
     let at = top
         .iter()
         .position(|(k, _)| *k == "status")
@@ -324,9 +339,36 @@ pub fn summary_json(
 }
 
 impl Builder {
-    /// `pull_off`: force, amplification and time. No pull-off force recorded (the simulator's
-    /// placeholder 0 N at t = 0): left out, as NaN.
-    fn pull_off(&mut self, result: &RunResult) -> Map<String, Value> {
+    /// `pull_off`: force, amplification and time, for a run that detached. No pull-off force
+    /// recorded (the simulator's placeholder 0 N at t = 0): left out, as NaN. A run that did not
+    /// detach had no pull-off: `pull_off` is empty and the second map, `most_tensile`, holds the
+    /// most tensile force it saw and when (no amplification: that is of a pull-off).
+    fn pull_off(&mut self, result: &RunResult) -> (Map<String, Value>, Option<Map<String, Value>>) {
+        if !result.detached && checks::pull_off_recorded(result) {
+            let po = result.pull_off;
+            let p = "most_tensile.";
+            let mut m = Map::new();
+            self.put(&mut m, p, "force", po.force);
+            self.put(&mut m, p, "time", po.time);
+            if po.force.is_finite() {
+                m.insert("tensile".into(), Value::Bool(po.is_tensile()));
+            }
+            if !result.approach_roughness.is_nan() {
+                self.put(&mut m, p, "approach_roughness", result.approach_roughness);
+            }
+            if result.approach_zero_means > 0 {
+                m.insert(
+                    "approach_zero_means".into(),
+                    Value::from(result.approach_zero_means),
+                );
+            }
+            return (Map::new(), Some(m));
+        }
+        (self.detached_pull_off(result), None)
+    }
+
+    /// `pull_off` of a run that detached (or recorded no force).
+    fn detached_pull_off(&mut self, result: &RunResult) -> Map<String, Value> {
         let po = if checks::pull_off_recorded(result) {
             result.pull_off
         } else {

@@ -98,6 +98,26 @@ pub const STAGE_DESCRIPTION: &str =
 
 /// Name of the segment-index column (int64 in HDF5).
 pub const SEGMENT: &str = "segment";
+/// The index ranges of the gap-free stretches ("pieces") of a time series of `n` samples whose
+/// segment indices are `segment`: a new piece wherever the index changes. One piece when there
+/// are no indices (a file written before them). What `run.png` draws as separate lines and the
+/// Python binding's `Run.pieces()` gives.
+pub fn pieces(segment: &[i64], n: usize) -> Vec<std::ops::Range<usize>> {
+    if segment.len() != n {
+        return std::iter::once(0..n).collect();
+    }
+    let mut out = Vec::new();
+    let mut start = 0;
+    for i in 1..n {
+        if segment[i] != segment[i - 1] {
+            out.push(start..i);
+            start = i;
+        }
+    }
+    out.push(start..n);
+    out
+}
+
 /// Description of the segment index.
 pub const SEGMENT_DESCRIPTION: &str =
     "index of the gap-free stretch of the time series the sample belongs to: 0 from the start, \
@@ -362,6 +382,19 @@ pub fn events_table(events: &[Event]) -> Table {
 
 #[cfg(test)]
 mod tests {
+    use super::pieces;
+
+    /// A new piece wherever the segment index changes; one piece without indices.
+    #[test]
+    fn pieces_split_where_the_segment_changes() {
+        assert_eq!(pieces(&[0, 0, 1, 1, 1, 2], 6), [0..2, 2..5, 5..6]);
+        assert_eq!(
+            pieces(&[3, 3, 3], 3),
+            std::iter::once(0..3).collect::<Vec<_>>()
+        );
+        assert_eq!(pieces(&[], 4), std::iter::once(0..4).collect::<Vec<_>>());
+    }
+
     use super::*;
 
     #[test]

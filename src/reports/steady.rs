@@ -343,6 +343,50 @@ pub struct Peak {
     pub height_over_linear: Option<f64>,
 }
 
+/// The largest value of a response whose maximum lies at an end of the swept range: no peak in
+/// range (the resonance, if any, lies beyond that end).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct NoPeak {
+    /// "low" or "high": the end of the range where the response is largest.
+    pub largest_at: &'static str,
+    /// Frequency of the largest value (Hz): that end, or the last frequency solved there.
+    pub frequency: f64,
+    /// The largest |δ_A/X_b|.
+    pub height: f64,
+}
+
+/// The maximum of sampled (frequency, height) data sorted by frequency ([`sweep::peak_of`]):
+/// `Ok` a peak inside the data, `Err` when the largest sample is the first or the last (no peak
+/// in range; a single sample is never a peak). `None` without data.
+pub fn maximum(v: &[(f64, f64)]) -> Option<Result<Peak, NoPeak>> {
+    let (frequency, height) = sweep::peak_of(v)?;
+    // `peak_of` returns an end sample itself (it never refines there): exact comparison.
+    let (first, last) = (v[0].0.to_bits(), v[v.len() - 1].0.to_bits());
+    let f = frequency.to_bits();
+    if f != first && f != last {
+        return Some(Ok(Peak::at((frequency, height))));
+    }
+    let largest_at = match (f == first, v.len() > 1) {
+        (true, true) => "low",
+        (true, false) => "low and high",
+        (false, _) => "high",
+    };
+    Some(Err(NoPeak {
+        largest_at,
+        frequency,
+        height,
+    }))
+}
+
+/// A peak or its absence, split into the report's two optional fields.
+fn split(m: Option<Result<Peak, NoPeak>>) -> (Option<Peak>, Option<NoPeak>) {
+    match m {
+        Some(Ok(p)) => (Some(p), None),
+        Some(Err(n)) => (None, Some(n)),
+        None => (None, None),
+    }
+}
+
 impl Peak {
     fn at((frequency, height): (f64, f64)) -> Self {
         Self {
@@ -376,12 +420,19 @@ pub struct SweepSummary {
     pub cycles: u64,
     /// Wall-clock time (s).
     pub wall_s: f64,
-    /// Peak of the time-domain |δ_A/X_b| ([`sweep::peak`]).
+    /// Peak of the time-domain |δ_A/X_b| ([`maximum`]); `None` when the largest value is at an
+    /// end of the range (then `no_peak_in_range`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub peak: Option<Peak>,
+    /// The time-domain |δ_A/X_b| is largest at an end of the range: no peak in it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub no_peak_in_range: Option<NoPeak>,
     /// Peak of the harmonic-balance |δ_A/X_b| along the sweep.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub harmonic_balance_peak: Option<Peak>,
+    /// The harmonic-balance |δ_A/X_b| is largest at an end of the range.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub harmonic_balance_no_peak_in_range: Option<NoPeak>,
 }
 
 impl SweepSummary {
@@ -391,14 +442,22 @@ impl SweepSummary {
             p.harmonic.map(|h| h.harmonics.delta_amp / sw.amplitude)
         });
         let hb: Vec<(f64, f64)> = hx.into_iter().zip(hy).collect();
+        let (tx, ty) = sorted_by_frequency(&sw.points, |p| {
+            p.steady.as_ref().map(|s| s.transfer_magnitude())
+        });
+        let td: Vec<(f64, f64)> = tx.into_iter().zip(ty).collect();
+        let (peak, no_peak_in_range) = split(maximum(&td));
+        let (harmonic_balance_peak, harmonic_balance_no_peak_in_range) = split(maximum(&hb));
         Self {
             direction: sw.direction.name(),
             found: found.clone().count(),
             by_shooting: found.filter(|s| s.method == SteadyMethod::Shooting).count(),
             cycles: sw.cycles,
             wall_s: sw.wall_s,
-            peak: sweep::peak(&sw.points).map(|p| Peak::at(p).against(linear)),
-            harmonic_balance_peak: sweep::peak_of(&hb).map(Peak::at),
+            peak: peak.map(|p| p.against(linear)),
+            no_peak_in_range,
+            harmonic_balance_peak,
+            harmonic_balance_no_peak_in_range,
         }
     }
 }
@@ -430,9 +489,13 @@ pub struct ResonanceReport {
     /// Undamped linear resonance (Hz).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub linear_resonance_frequency: Option<f64>,
-    /// Peak of the linear transfer over the range ([`linear_peak`]).
+    /// Peak of the linear transfer over the range ([`linear_peak`]); `None` when it is largest
+    /// at an end of the range (then `linear_no_peak_in_range`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub linear_peak: Option<Peak>,
+    /// The linear transfer is largest at an end of the range: no peak in it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub linear_no_peak_in_range: Option<NoPeak>,
     /// The up sweep.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sweep_up: Option<SweepSummary>,
@@ -459,7 +522,8 @@ impl ResonanceReport {
         wall_s: f64,
     ) -> Self {
         let lin_ok = lin.as_ref().ok();
-        let linear_peak = lin_ok.and_then(|l| linear_peak(l, lo, hi)).map(Peak::at);
+        let (linear_peak, linear_no_peak_in_range) =
+            split(lin_ok.and_then(|l| linear_peak(l, lo, hi)));
         let summaries: Vec<SweepSummary> = sweeps
             .iter()
             .map(|s| SweepSummary::new(s, linear_peak))
@@ -473,6 +537,7 @@ impl ResonanceReport {
             contact_stiffness: lin_ok.map(|l| l.contact_stiffness),
             linear_resonance_frequency: lin_ok.map(|l| l.resonance_frequency()),
             linear_peak,
+            linear_no_peak_in_range,
             sweep_up: pick("up"),
             sweep_down: pick("down"),
             max_up_down_difference: match sweeps {
@@ -504,13 +569,13 @@ pub fn sorted_by_frequency(
 }
 
 /// Peak of the linear transfer |δ1/X_b| over [lo, hi] (Hz): 4001 samples, refined by
-/// [`sweep::peak_of`].
-pub fn linear_peak(lin: &Linearisation, lo: f64, hi: f64) -> Option<(f64, f64)> {
+/// [`sweep::peak_of`] ([`maximum`]: `Err` when it is largest at an end of the range).
+pub fn linear_peak(lin: &Linearisation, lo: f64, hi: f64) -> Option<Result<Peak, NoPeak>> {
     let v: Vec<(f64, f64)> = sweep::frequencies(lo, hi, 4001)
         .into_iter()
         .map(|f| (f, lin.linear(f).magnitude()))
         .collect();
-    sweep::peak_of(&v)
+    maximum(&v)
 }
 
 /// Where an up and a down sweep differ most in the time-domain |δ_A/X_b|, at frequencies both
@@ -903,5 +968,27 @@ mod tests {
         assert_eq!(map_table(&m).columns().len(), 16);
         let r = ShortcutMapReport::new(&m);
         assert_eq!(r.force_error.min_abs.to_bits(), 0f64.to_bits());
+    }
+
+    /// A maximum inside sampled data is a peak; one at the first or the last sample is not (the
+    /// data rise or fall towards that end), nor is a lone sample.
+    #[test]
+    fn a_maximum_at_an_end_of_the_range_is_no_peak() {
+        let bump: Vec<(f64, f64)> = (0..11)
+            .map(|i| {
+                let f = 400.0 + i as f64;
+                (f, 2.0 - (f - 404.3) * (f - 404.3) / 100.0)
+            })
+            .collect();
+        let p = maximum(&bump).and_then(Result::ok).expect("a peak");
+        assert!((p.frequency - 404.3).abs() < 1e-9, "{p:?}");
+        let falling: Vec<(f64, f64)> = bump.iter().map(|&(f, _)| (f, 500.0 - f)).collect();
+        let n = maximum(&falling).and_then(Result::err).expect("no peak");
+        assert_eq!((n.largest_at, n.frequency, n.height), ("low", 400.0, 100.0));
+        let rising: Vec<(f64, f64)> = bump.iter().map(|&(f, _)| (f, f)).collect();
+        let n = maximum(&rising).and_then(Result::err).expect("no peak");
+        assert_eq!((n.largest_at, n.frequency), ("high", 410.0));
+        assert!(maximum(&[(400.0, 1.0)]).is_some_and(|m| m.is_err()));
+        assert!(maximum(&[]).is_none());
     }
 }

@@ -333,7 +333,9 @@ fn readme_test_command_is_what_ci_runs() {
 }
 
 /// The folders whose paths the docs cite, from the repository root.
-const PREFIXES: [&str; 7] = [
+const PREFIXES: [&str; 9] = [
+    "core/",
+    "vendor/",
     "src/",
     "docs/",
     "scenarios/",
@@ -419,10 +421,79 @@ fn links(text: &str) -> Vec<String> {
     out
 }
 
+/// The bare source file names cited in `text` (`` `model.rs` ``, `` `conftest.py` ``: in
+/// backticks, no folder), each with the folder cited last before it in `text` (a repository
+/// path ending in `/`), if any. The caller passes one paragraph or list item.
+fn bare_names(text: &str) -> Vec<(String, Option<String>)> {
+    let mut out = Vec::new();
+    let mut folder: Option<String> = None;
+    for (k, piece) in text.split('`').enumerate() {
+        if k % 2 == 0 {
+            continue;
+        }
+        if let Some(dir) = cited_paths(piece).into_iter().rfind(|p| p.ends_with('/')) {
+            folder = Some(dir);
+            continue;
+        }
+        let plain = !piece.is_empty()
+            && piece
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+        if plain && (piece.ends_with(".rs") || piece.ends_with(".py")) && !piece.starts_with('.') {
+            out.push((piece.to_string(), folder.clone()));
+        }
+    }
+    out
+}
+
+/// Whether a tracked file named `name` exists under `folder` (any depth), or anywhere in the
+/// repository without a folder.
+fn bare_name_exists(files: &[PathBuf], name: &str, folder: Option<&str>) -> bool {
+    files.iter().any(|f| {
+        f.file_name().is_some_and(|n| n == name)
+            && folder.is_none_or(|d| f.starts_with(root().join(d.trim_end_matches('/'))))
+    })
+}
+
+/// The repository's source files (`.rs`, `.py`), for the bare-name check.
+fn source_files() -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    for dir in [
+        "src", "core", "python", "tests", "examples", "benches", "vendor",
+    ] {
+        walk(&root().join(dir), "rs", &mut files);
+        walk(&root().join(dir), "py", &mut files);
+    }
+    files
+}
+
+/// The paragraphs and list items of Markdown `text`, with the 1-based line each starts on.
+fn paragraphs(text: &str) -> Vec<(usize, String)> {
+    let mut out: Vec<(usize, String)> = Vec::new();
+    let mut open = false;
+    for (n, line) in text.lines().enumerate() {
+        let t = line.trim_start();
+        let item = t.starts_with("- ") || t.starts_with("* ") || t.starts_with('|');
+        if t.is_empty() {
+            open = false;
+            continue;
+        }
+        if !open || item {
+            out.push((n + 1, String::new()));
+            open = true;
+        }
+        let last = out.last_mut().expect("a paragraph");
+        last.1.push_str(line);
+        last.1.push('\n');
+    }
+    out
+}
+
 #[test]
 fn every_cited_path_exists() {
     let root = root();
     let mut missing = Vec::new();
+    let sources = source_files();
     // Markdown: cited repository paths and relative links.
     for f in markdown_files() {
         let text = std::fs::read_to_string(&f).expect("readable");
@@ -431,6 +502,17 @@ fn every_cited_path_exists() {
             .expect("under root")
             .display()
             .to_string();
+        // A bare file name: under the folder cited before it in its paragraph, or anywhere.
+        for (n, para) in paragraphs(&text) {
+            for (name, folder) in bare_names(&para) {
+                if !bare_name_exists(&sources, &name, folder.as_deref()) {
+                    missing.push(format!(
+                        "{rel}:{n}: cites `{name}`, which is in no {}",
+                        folder.map_or("folder of the repository".into(), |d| format!("`{d}`"))
+                    ));
+                }
+            }
+        }
         for (n, line) in text.lines().enumerate() {
             for p in cited_paths(line) {
                 if !root.join(&p).exists() {
@@ -452,11 +534,11 @@ fn every_cited_path_exists() {
         }
     }
     // Doc comments of the Rust sources (the root crate, and `core/` once it exists).
-    let mut sources = Vec::new();
+    let mut commented = Vec::new();
     for dir in ["src", "core/src", "python/src"] {
-        walk(&root.join(dir), "rs", &mut sources);
+        walk(&root.join(dir), "rs", &mut commented);
     }
-    for f in sources {
+    for f in commented {
         let text = std::fs::read_to_string(&f).expect("readable");
         let rel = f
             .strip_prefix(&root)
@@ -476,6 +558,15 @@ fn every_cited_path_exists() {
                     ));
                 }
             }
+            for (name, folder) in bare_names(t) {
+                if !bare_name_exists(&sources, &name, folder.as_deref()) {
+                    missing.push(format!(
+                        "{rel}:{}: doc comment cites `{name}`, which is in no {}",
+                        n + 1,
+                        folder.map_or("folder of the repository".into(), |d| format!("`{d}`"))
+                    ));
+                }
+            }
         }
     }
     assert!(
@@ -484,6 +575,43 @@ fn every_cited_path_exists() {
         missing.len(),
         missing.join("\n")
     );
+}
+
+/// A bare file name is looked up under the folder its paragraph cited before it.
+#[test]
+fn bare_names_are_read_with_their_folder() {
+    assert_eq!(
+        bare_names("- `core/src/steady/`: validate (`crosscheck.rs`); `report.rs` tables"),
+        [
+            (
+                "crosscheck.rs".to_string(),
+                Some("core/src/steady/".to_string())
+            ),
+            (
+                "report.rs".to_string(),
+                Some("core/src/steady/".to_string())
+            )
+        ]
+    );
+    assert_eq!(
+        bare_names("`conftest.py`, `summary.json`, `x.rs y`"),
+        [("conftest.py".to_string(), None)]
+    );
+    let files = source_files();
+    assert!(bare_name_exists(
+        &files,
+        "crosscheck.rs",
+        Some("core/src/steady/")
+    ));
+    assert!(!bare_name_exists(
+        &files,
+        "report.rs",
+        Some("core/src/steady/")
+    ));
+    assert!(bare_name_exists(&files, "steady.rs", Some("src/")));
+    assert!(!bare_name_exists(&files, "no-such-file.rs", None));
+    let p = paragraphs("a\nb\n\n- c\n- d\n  e\n");
+    assert_eq!(p.iter().map(|(n, _)| *n).collect::<Vec<_>>(), [1, 4, 5]);
 }
 
 #[test]
@@ -499,13 +627,57 @@ fn path_finder_reads_what_the_docs_write() {
             "scenarios/paper-protocol-300hz.toml"
         ]
     );
-    assert!(
-        cited_paths("core/src/jkr.rs docs/accuracy/<scene>/ src/… scenarios/*.toml").is_empty()
+    assert_eq!(
+        cited_paths("core/src/jkr.rs, `core/src/steady/`"),
+        ["core/src/jkr.rs", "core/src/steady/"]
     );
+    assert!(cited_paths("docs/accuracy/<scene>/ src/… scenarios/*.toml").is_empty());
     assert!(matches(
         "  fold  x = 449.28... Hz...",
         "fold  x = 449.284138 Hz, |μ|"
     ));
     assert!(!matches("status ok", "status ok detached"));
     assert!(matches("a...", "abc"));
+}
+
+/// Every `cargo install` the docs show builds the versions of Cargo.lock (`--locked`): without
+/// it cargo re-resolves the dependencies, rebuilds a binary the tests never checked and fails
+/// offline (issue 33). The command reference's examples name `fit` too.
+#[test]
+fn docs_install_the_locked_binary_and_help_shows_fit() {
+    let mut unlocked = Vec::new();
+    for f in markdown_files() {
+        let text = std::fs::read_to_string(&f).expect("readable");
+        for (n, line) in text.lines().enumerate() {
+            let mut rest = line;
+            while let Some(at) = rest.find("cargo install") {
+                rest = &rest[at + "cargo install".len()..];
+                let command: String = rest.chars().take_while(|c| *c != '`').collect();
+                if !command.split_whitespace().any(|w| w == "--locked") {
+                    unlocked.push(format!("{}:{}: {line}", f.display(), n + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        unlocked.is_empty(),
+        "cargo install without --locked:\n{}",
+        unlocked.join("\n")
+    );
+    let help = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .arg("help")
+        .output()
+        .expect("djkr help runs");
+    let help = String::from_utf8_lossy(&help.stdout);
+    let examples: Vec<&str> = help
+        .lines()
+        .skip_while(|l| l.trim() != "Examples:")
+        .take_while(|l| !l.trim().is_empty())
+        .collect();
+    assert!(
+        examples
+            .iter()
+            .any(|l| l.trim_start().starts_with("djkr fit ")),
+        "{help}"
+    );
 }

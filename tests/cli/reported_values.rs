@@ -540,3 +540,75 @@ fn subnormal_flags_are_refused_as_keys_are() {
         assert_eq!(r.code, Some(0), "{args:?}: {}", r.stderr);
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Issue 33: a run that never detached reports no pull-off.
+
+/// `scenarios/impacts.toml` loses and regains contact every cycle and never detaches. Its summary
+/// quoted a pull-off of −0.65 N with amplification 11.26; that force is only the most tensile
+/// cycle mean of the run (the third period, during the start-up). The text now says no
+/// pull-off, summary.json leaves `pull_off` empty and gives `most_tensile` (no amplification),
+/// and cycles.csv confirms the force and its time (the reference).
+#[test]
+fn a_run_that_never_detached_reports_no_pull_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("impacts");
+    let r = djkr(&["run", "scenarios/impacts.toml", "--csv", "--out", s(&out)]);
+    assert_eq!(r.code, Some(0), "{}", r.stderr);
+    assert!(
+        r.stdout.contains(
+            "  no pull-off        the sphere never detached; most tensile cycle-averaged force "
+        ),
+        "{}",
+        r.stdout
+    );
+    assert!(!r.stdout.contains("amplification"), "{}", r.stdout);
+    assert!(!r.stdout.contains("pull-off force"), "{}", r.stdout);
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["detached"], false);
+    assert_eq!(summary["pull_off"], serde_json::json!({}));
+    assert_eq!(summary["detachment"], serde_json::json!({}));
+    assert_eq!(summary["non_finite"], serde_json::json!({}));
+    let most = &summary["most_tensile"];
+    assert!(most.get("amplification").is_none(), "{most}");
+    assert_eq!(most["tensile"], true, "{most}");
+    assert!(
+        summary["event_counts"].get("pull-off").is_none(),
+        "{summary}"
+    );
+    // The reference: the most tensile force_mean of cycles.csv, at the end of its period.
+    let text = std::fs::read_to_string(out.join("cycles.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (t_end, mean) = (col("t_end [s]"), col("force_mean [N]"));
+    let (t, f) = lines
+        .map(|l| {
+            let c: Vec<&str> = l.split(',').collect();
+            (
+                c[t_end].parse::<f64>().unwrap(),
+                c[mean].parse::<f64>().unwrap(),
+            )
+        })
+        .fold(
+            (f64::NAN, f64::INFINITY),
+            |a, b| if b.1 < a.1 { b } else { a },
+        );
+    assert!(f < 0.0, "a tensile cycle mean: {f}");
+    assert_eq!(
+        most["force"].as_f64().unwrap().to_bits(),
+        f.to_bits(),
+        "{most}"
+    );
+    assert_eq!(
+        most["time"].as_f64().unwrap().to_bits(),
+        t.to_bits(),
+        "{most}"
+    );
+    assert!(
+        r.stdout.contains(&format!("force {:.1} mN", f * 1e3)),
+        "{}",
+        r.stdout
+    );
+}

@@ -464,3 +464,229 @@ fn summary_json_keys_are_documented() {
          {missing:?}"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Numbers the guide quotes from djkr runs (issue 33): produced by the command shown beside them.
+
+/// A `points.csv` as rows of (column name without its unit, text).
+fn csv_rows(text: &str) -> Vec<std::collections::BTreeMap<String, String>> {
+    let mut lines = text.lines();
+    let header: Vec<String> = lines
+        .next()
+        .unwrap_or_default()
+        .split(',')
+        .map(|h| h.split(" [").next().unwrap_or(h).to_string())
+        .collect();
+    lines
+        .map(|l| {
+            header
+                .iter()
+                .cloned()
+                .zip(l.split(',').map(str::to_string))
+                .collect()
+        })
+        .collect()
+}
+
+/// `djkr sweep ARGS --out TMP`: its `points.csv`, which must equal the committed copy `rel`
+/// (bundled beside the figures; `DJKR_BLESS=1` rewrites it).
+fn sweep_points(args: &[&str], rel: &str) -> String {
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!(
+        "docs-sweep-{}-{}",
+        std::process::id(),
+        rel.replace('/', "_")
+    ));
+    let _ = std::fs::remove_dir_all(&out);
+    let mut argv = vec!["sweep"];
+    argv.extend(args);
+    let out_s = out.to_string_lossy().into_owned();
+    argv.extend(["--out", &out_s]);
+    djkr(&argv).unwrap_or_else(|e| panic!("djkr {}: {e}", argv.join(" ")));
+    let points = std::fs::read_to_string(out.join("points.csv")).expect("points.csv");
+    let _ = std::fs::remove_dir_all(&out);
+    check(rel, &points);
+    points
+}
+
+fn num(row: &std::collections::BTreeMap<String, String>, key: &str) -> f64 {
+    row.get(key)
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("points.csv: no number {key} in {row:?}"))
+}
+
+/// A negative number with the typographic minus.
+fn minus(s: String) -> String {
+    s.replacen('-', "−", 1)
+}
+
+/// Members for a standard error `se` of the mean with standard deviation `sd`: ⌈(sd/se)²⌉.
+fn members_for(sd: f64, se: f64) -> u64 {
+    // Less a rounding error's worth: (0.3/0.1)² is 9.000000000000002 in floating point.
+    ((sd / se).powi(2) * (1.0 - 1e-12)).ceil() as u64
+}
+
+/// Check (or, blessing, rewrite) one generated region of `docs/guide/studies.md`; one test at a
+/// time, since two tests write the same file.
+fn splice_studies(name: &str, generated: &str) {
+    static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one = ONE.lock().unwrap_or_else(|e| e.into_inner());
+    let rel = "docs/guide/studies.md";
+    let doc = std::fs::read_to_string(root().join(rel)).expect("studies.md");
+    check(rel, &splice(&doc, name, generated));
+}
+
+/// `docs/guide/studies.md`, "A worked study": the table and the phase remark, from the 144 runs
+/// of the command shown there (12 s on 2 cores).
+#[test]
+fn worked_study_numbers_come_from_its_command() {
+    let points = sweep_points(
+        &[
+            "scenarios/paper-protocol-300hz.toml",
+            "--set",
+            "base.amplitude=10um:60um:6",
+            "--set",
+            "base.frequency=200,300,400",
+            "--ensemble",
+            "8",
+            "--seed",
+            "1",
+        ],
+        "docs/sweep/amplification-points.csv",
+    );
+    let rows = csv_rows(&points);
+    let amp = |xb: f64, f: f64| {
+        let r = rows
+            .iter()
+            .find(|r| num(r, "base.amplitude") == xb && num(r, "base.frequency") == f)
+            .unwrap_or_else(|| panic!("no point {xb} m, {f} Hz"));
+        num(r, "pull_off_amplification_mean")
+    };
+    let xbs = [10e-6, 20e-6, 30e-6, 40e-6, 50e-6, 60e-6];
+    let mut s = String::from("| X_b | 10 µm | 20 µm | 30 µm | 40 µm | 50 µm | 60 µm |\n");
+    s.push_str("|---|---|---|---|---|---|---|\n");
+    for f in [200.0, 300.0, 400.0] {
+        s.push_str(&format!("| {f} Hz |"));
+        for xb in xbs {
+            s.push_str(&format!(" {:.3} |", amp(xb, f)));
+        }
+        s.push('\n');
+    }
+    let drop = 100.0 * (1.0 - amp(60e-6, 400.0) / amp(60e-6, 200.0));
+    let sd = rows
+        .iter()
+        .map(|r| num(r, "pull_off_amplification_std"))
+        .fold(0.0, f64::max);
+    let rel = rows
+        .iter()
+        .map(|r| num(r, "pull_off_amplification_std") / num(r, "pull_off_amplification_mean"))
+        .fold(0.0, f64::max);
+    s.push_str(&format!(
+        "\n![amplification against X_b](../sweep/amplification.png)\n\n\
+         The amplification grows faster than linearly with X_b and barely depends on the \
+         frequency ({drop:.1} %\nlower at 400 Hz than at 200 Hz, at 60 µm). On this heavy rig \
+         (0.25 kg, resonance at 44 Hz,\nunloading at 5 µm/s) the phase at shaker-on does not \
+         matter: over the 8 members the amplification's\nstandard deviation is at most {sd:.1e} \
+         (relative {rel:.1e}).\n"
+    ));
+    splice_studies("worked study", &s);
+}
+
+/// `docs/guide/studies.md`: the phase spread of the light rig and the ensemble sizes it implies,
+/// from the 64 runs of the command shown there (17 s on 2 cores).
+#[test]
+fn phase_spread_numbers_come_from_its_command() {
+    let points = sweep_points(
+        &[
+            "tests/sweep/light-protocol-300hz.toml",
+            "--ensemble",
+            "64",
+            "--seed",
+            "1",
+        ],
+        "docs/sweep/phase-spread-points.csv",
+    );
+    let rows = csv_rows(&points);
+    let r = &rows[0];
+    let a = |k: &str| num(r, &format!("pull_off_amplification_{k}"));
+    let (mean, sd) = (a("mean"), a("std"));
+    let s = format!(
+        "gives an amplification of {mean:.2} ± {sd:.2} (standard deviation, {:.1} %), from {:.2} \
+         to {:.2} (5–95 %:\n{:.2}–{:.2}; median {:.2}), a pull-off force of {} ± {:.3} N ({} \
+         runs). The\nscatter is no smooth function of the phase: the approach to pull-off under \
+         strong vibration\namplifies any perturbation (\"How reproducible is a pull-off?\"), so \
+         one run is one draw from this distribution,\nand its distribution is what is \
+         reproducible.\n\n**How many members.** The standard error of the mean is σ/√n, so a \
+         target standard error SE needs\nn = (σ/SE)² members. With σ ≈ {sd:.2} here: SE = 0.1 \
+         ({:.1} %) needs {}, SE = 0.05 needs {}, SE = 0.02\nneeds {}.\n",
+        100.0 * sd / mean,
+        a("min"),
+        a("max"),
+        a("q05"),
+        a("q95"),
+        a("q50"),
+        minus(format!("{:.3}", num(r, "pull_off_force_mean"))),
+        num(r, "pull_off_force_std"),
+        num(r, "members"),
+        100.0 * 0.1 / mean,
+        members_for(sd, 0.1),
+        members_for(sd, 0.05),
+        members_for(sd, 0.02),
+    );
+    splice_studies("phase spread", &s);
+}
+
+#[test]
+fn ensemble_sizes_are_the_ceiling_of_the_variance_ratio() {
+    assert_eq!(members_for(0.41, 0.1), 17);
+    assert_eq!(members_for(0.41, 0.05), 68);
+    assert_eq!(members_for(0.3, 0.1), 9);
+    assert_eq!(minus("-0.791".into()), "−0.791");
+}
+
+/// The keys' units, defaults and ranges are quoted once, in the generated scenario reference:
+/// `docs/guide/scenarios.md` has no hand-written key table (it gave `envelope_tol` as
+/// (0, 1e-2] where the parser takes [1e-12, 1e-2], and left out `solver.max_memory`), and every
+/// dotted key it names is one the parser takes.
+#[test]
+fn scenario_guide_names_only_real_keys_and_quotes_no_ranges() {
+    let json = djkr(&["keys", "--json"]).expect("djkr keys --json");
+    let keys: Vec<serde_json::Value> = serde_json::from_str(&json).expect("JSON");
+    let known: Vec<String> = keys
+        .iter()
+        .filter_map(|k| k["key"].as_str())
+        .map(|k| k.replace("[]", "[N]"))
+        .collect();
+    let doc = std::fs::read_to_string(root().join("docs/guide/scenarios.md")).expect("doc");
+    assert!(
+        !doc.lines().any(|l| l.starts_with("| section | key |")),
+        "docs/guide/scenarios.md has a hand-written key table again: link the scenario reference"
+    );
+    let sections: Vec<&str> = known
+        .iter()
+        .filter_map(|k| k.split_once('.').map(|(s, _)| s))
+        .collect();
+    let mut unknown = Vec::new();
+    for quoted in doc.split('`').skip(1).step_by(2) {
+        let Some((section, rest)) = quoted.split_once('.') else {
+            continue;
+        };
+        // `stage[3].until` is the key `stage[N].until`; `stage[N].KEY` is a placeholder.
+        let section = match section.strip_prefix("stage[") {
+            Some(n) if n.trim_end_matches(']').chars().all(|c| c.is_ascii_digit()) => "stage[N]",
+            _ => section,
+        };
+        let plain = rest
+            .chars()
+            .all(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || c == '_');
+        if !sections.contains(&section) || !plain || rest.is_empty() {
+            continue;
+        }
+        if !known.iter().any(|k| *k == format!("{section}.{rest}")) {
+            unknown.push(quoted.to_string());
+        }
+    }
+    assert!(
+        unknown.is_empty(),
+        "docs/guide/scenarios.md names keys the parser does not take: {unknown:?}"
+    );
+}

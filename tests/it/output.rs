@@ -910,8 +910,11 @@ fn non_finite_numbers_are_omitted_from_json_and_listed() {
     let text = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
     assert!(!text.contains("null"), "{text}");
     let j: Value = serde_json::from_str(&text).unwrap();
+    // Not detached: no pull-off (the most tensile force under `most_tensile`, without an
+    // amplification), no detachment time, and no NaN listed for either.
     assert_eq!(j["pull_off"], serde_json::json!({}));
-    // Not detached: no detachment time, and no NaN listed for it.
+    assert!(j["most_tensile"].get("force").is_none(), "{j}");
+    assert!(j["most_tensile"].get("amplification").is_none(), "{j}");
     assert_eq!(j["detachment"], serde_json::json!({}));
     assert!(j["final_state"].get("F").is_none());
     assert!(j["final_state"].get("x_s").is_some());
@@ -919,9 +922,8 @@ fn non_finite_numbers_are_omitted_from_json_and_listed() {
     assert_eq!(
         j["non_finite"],
         serde_json::json!({
-            "pull_off.force": "NaN",
-            "pull_off.amplification": "NaN",
-            "pull_off.time": "inf",
+            "most_tensile.force": "NaN",
+            "most_tensile.time": "inf",
             "final_state.F": "-inf",
             "final_state.G": "NaN",
             "events[0].state.G": "NaN",

@@ -372,6 +372,96 @@ fn validate_json_has_every_method_and_the_steady_block() {
     assert!(rel.abs() < 0.1, "{rel}");
 }
 
+/// A sweep whose response is largest at an end of its range has no peak in it (issue 33): the
+/// paper protocol's rig resonates at 43.6 Hz, far below 300–500 Hz. The text, the JSON and the
+/// figure's title say "no peak in range" and quote no peak or shift; the CSV it wrote confirms
+/// that the largest |δ_A/X_b| is at the low end.
+#[test]
+fn resonance_with_its_maximum_at_the_edge_reports_no_peak() {
+    let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
+    let d = dir.path().join("edge");
+    let ds = d.to_string_lossy().into_owned();
+    let args = [
+        "resonance",
+        "scenarios/paper-protocol-400hz.toml",
+        "--freq",
+        "300:500:21",
+        "--out",
+        &ds,
+    ];
+    let out = djkr(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(!text.contains("peak |δ_A/X_b|"), "{text}");
+    assert!(!text.contains("shift"), "{text}");
+    for line in text
+        .lines()
+        .filter(|l| l.contains("sweep up") || l.contains("sweep down"))
+    {
+        assert!(
+            line.contains("no peak in range: largest |δ_A/X_b| = ")
+                && line.ends_with("at 300.000 Hz, the low end"),
+            "{line}"
+        );
+    }
+    assert!(text.contains("no peak in 300–500 Hz"), "{text}");
+    // The data: the largest |δ_A/X_b| of each sweep is its first row, at 300 Hz.
+    let csv = std::fs::read_to_string(d.join("resonance.csv")).unwrap_or_default();
+    for dir in ["up", "down"] {
+        let rows: Vec<(f64, f64)> = csv
+            .lines()
+            .skip(1)
+            .filter(|l| l.starts_with(dir))
+            .map(|l| {
+                let c: Vec<f64> = l
+                    .split(',')
+                    .skip(1)
+                    .take(2)
+                    .map(|v| v.parse().unwrap_or(f64::NAN))
+                    .collect();
+                (c[0], c[1])
+            })
+            .collect();
+        assert_eq!(rows.len(), 21, "{csv}");
+        let top =
+            rows.iter().copied().fold(
+                (f64::NAN, f64::NEG_INFINITY),
+                |a, b| if b.1 > a.1 { b } else { a },
+            );
+        assert_eq!(top.0, 300.0, "{rows:?}");
+    }
+    let svg = std::fs::read_to_string(d.join("resonance.svg")).unwrap_or_default();
+    assert!(
+        svg.contains("no peak in range (largest at the low end)"),
+        "title of resonance.svg"
+    );
+
+    let mut json_args = args.to_vec();
+    json_args.extend(["--force", "--json"]);
+    let out = djkr(&json_args);
+    let v: serde_json::Value =
+        serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        v["linear_resonance_frequency"]
+            .as_f64()
+            .is_some_and(|f| f < 300.0),
+        "{v}"
+    );
+    for key in ["sweep_up", "sweep_down"] {
+        let s = &v[key];
+        assert!(s.get("peak").is_none(), "{s}");
+        assert_eq!(s["no_peak_in_range"]["largest_at"], "low", "{s}");
+        assert_eq!(s["no_peak_in_range"]["frequency"], 300.0, "{s}");
+        assert!(s.get("harmonic_balance_peak").is_none(), "{s}");
+    }
+    assert!(v.get("linear_peak").is_none(), "{v}");
+    assert_eq!(v["linear_no_peak_in_range"]["largest_at"], "low", "{v}");
+}
+
 #[test]
 fn resonance_and_map_commands_write_their_files() {
     let dir = tempfile::tempdir().unwrap_or_else(|e| panic!("{e}"));
@@ -381,7 +471,7 @@ fn resonance_and_map_commands_write_their_files() {
         "resonance",
         "scenarios/resonance-400hz.toml",
         "--freq",
-        "390:410:3",
+        "396:416:5",
         "--out",
         &ds,
         "--json",
@@ -393,8 +483,11 @@ fn resonance_and_map_commands_write_their_files() {
     );
     let v: serde_json::Value =
         serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("{e}"));
+    // The peak near 406 Hz lies inside 396–416 Hz (at 390:410:3 the largest value was the
+    // 410 Hz end, no peak).
     assert!(v["sweep_up"]["peak"]["frequency"].is_number(), "{v}");
     assert!(v["sweep_down"]["peak"]["frequency"].is_number(), "{v}");
+    assert!(v["sweep_up"].get("no_peak_in_range").is_none(), "{v}");
     for f in [
         "resonance.csv",
         "resonance.h5",
@@ -404,7 +497,7 @@ fn resonance_and_map_commands_write_their_files() {
         assert!(d.join(f).is_file(), "{f} missing");
     }
     let text = std::fs::read_to_string(d.join("resonance.csv")).unwrap_or_default();
-    assert_eq!(text.lines().count(), 1 + 6, "{text}");
+    assert_eq!(text.lines().count(), 1 + 10, "{text}");
     assert!(text.starts_with("direction,frequency [Hz],delta_amp_over_xb [1]"));
     // No temporary files left behind.
     let leftovers: Vec<_> = std::fs::read_dir(&d)

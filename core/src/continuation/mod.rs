@@ -80,11 +80,10 @@
 //! second key is extremal along it (refined by a parabola). Inside the fold curves the system is
 //! bistable.
 //!
-//! # Cost (`cargo bench --bench continuation`, release)
-//! The bundled scene at X_b = 1.5 µm over 340–600 Hz, unstable part and both folds included:
-//! about 170 points, 3000 periods (one adaptive period per corrector iteration, 2n + 2 replays
-//! per Jacobian), 0.1–0.15 s on this 2-core machine. The fold curve from 1.5 µm through the
-//! cusp and back: about 0.4 s.
+//! # Cost
+//! One adaptive period per corrector iteration, 2n + 2 replays per Jacobian: `djkr continue`
+//! prints the points and periods of a branch. Its wall time is measured by `cargo bench --bench
+//! continuation` and quoted once, in docs/guide/benchmarks.md.
 
 pub mod branch;
 pub mod engine;
