@@ -112,6 +112,8 @@ pub struct FitReport {
     pub iterations: usize,
     /// Forward runs made.
     pub forward_runs: usize,
+    /// Right-hand-side evaluations of those runs (the integration's work).
+    pub rhs_evals: u64,
     /// The observable fitted (as named in sweep.csv).
     pub observable: String,
     /// What the numbers need said: bounds hit, parameters not identifiable, no sigma column,
@@ -178,6 +180,7 @@ struct State {
     jac_y: Option<(Vec<f64>, DMatrix<f64>)>,
     iterations: usize,
     runs: usize,
+    rhs_evals: u64,
     stopped: bool,
     failure: Option<String>,
     out_of_iterations: bool,
@@ -253,7 +256,9 @@ impl Problem<'_, '_> {
             })
         };
         self.state.borrow_mut().runs += runs;
-        let mut fresh = r?.into_iter();
+        let r = r?;
+        self.state.borrow_mut().rhs_evals += r.iter().map(|p| p.rhs_evals).sum::<u64>();
+        let mut fresh = r.into_iter();
         for (set, o) in sets.iter().zip(out.iter_mut()) {
             if o.is_none() {
                 let p = fresh.next().ok_or(EvalError::Stopped)?;
@@ -774,6 +779,7 @@ pub fn fit(
             jac_y: None,
             iterations: 0,
             runs: runs0,
+            rhs_evals: preds0.iter().map(|p| p.rhs_evals).sum(),
             stopped: false,
             failure: None,
             out_of_iterations: false,
@@ -1027,6 +1033,7 @@ pub fn fit(
         converged,
         iterations: st.iterations,
         forward_runs: st.runs,
+        rhs_evals: st.rhs_evals,
         observable: data.observable.name().to_string(),
         notes,
         rows: n,

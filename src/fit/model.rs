@@ -26,6 +26,8 @@ pub struct Prediction {
     pub values: Vec<f64>,
     /// The standard error of the members' mean per row (0 without an ensemble).
     pub se: Vec<f64>,
+    /// Right-hand-side evaluations of the runs that made it (all rows and members).
+    pub rhs_evals: u64,
 }
 
 /// Why an evaluation gave no prediction.
@@ -310,6 +312,7 @@ impl ForwardModel {
             .map_err(|e| EvalError::Failed(self.describe_point_error(sets, &e.to_string(), &e)))?;
         let runs: Vec<usize> = (0..sweep.runs()).collect();
         let mut values = vec![f64::NAN; runs.len()];
+        let mut rhs = vec![0u64; runs.len()];
         let mut failure: Option<(usize, String)> = None;
         let opts = RunOptions {
             jobs: self.jobs,
@@ -321,6 +324,7 @@ impl ForwardModel {
             let p = row.point;
             match &row.result {
                 Ok(n) => {
+                    rhs[p] = n.rhs_evals;
                     let v = self.data.observable.of(n);
                     if v.is_finite() {
                         values[p] = v;
@@ -379,7 +383,13 @@ impl ForwardModel {
                         0.0
                     });
                 }
-                Prediction { values: mean, se }
+                let per_set = rows * members;
+                let rhs_evals = rhs[s * per_set..(s + 1) * per_set].iter().sum();
+                Prediction {
+                    values: mean,
+                    se,
+                    rhs_evals,
+                }
             })
             .collect())
     }
