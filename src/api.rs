@@ -1287,12 +1287,13 @@ pub fn fit<S: AsRef<str>, T: AsRef<str>>(
     let data = FitData::parse(data_text, data_name, observable)
         .map_err(|e| ApiError::Invalid(e.to_string()))?;
     let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
-    let scn = source.scenario(&with_starts)?;
+    // The scenario with the overrides must parse (its errors are the user's).
+    source.scenario(&with_starts)?;
     let x0 = free
         .iter()
         .map(|k| f::initial_value(&source, &starts, k).map_err(ApiError::Invalid))
         .collect::<Result<Vec<_>, _>>()?;
-    f::driver::check_start(&free, &x0).map_err(|e| ApiError::Invalid(e.to_string()))?;
+    f::check_start(&free, &x0).map_err(|e| ApiError::Invalid(e.to_string()))?;
     if ensemble.is_some_and(|e| e.0 == 0) {
         return Err(ApiError::Invalid(
             "ensemble = 0: must be a whole number >= 1 (members per row)".into(),
@@ -1312,7 +1313,7 @@ pub fn fit<S: AsRef<str>, T: AsRef<str>>(
         ..FitOptions::default()
     };
     // A stop before the first evaluation ended is a cancellation, as a stop after it.
-    let outcome = f::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut |_| {}).map_err(|e| {
+    let outcome = f::fit(&model, &free, &x0, opts, &mut |_| {}).map_err(|e| {
         if e.stopped {
             ApiError::Cancelled
         } else {

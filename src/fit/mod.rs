@@ -8,27 +8,41 @@
 //!   transformation.
 //! - `model` ([`ForwardModel`]): the forward model, every row a run of the sweep engine (with an ensemble, the
 //!   mean over members whose phases are fixed by the seed).
-//! - `driver` ([`fit()`]): Levenberg–Marquardt with finite-difference Jacobians, covariance, correlation,
-//!   χ², AIC and BIC ([`FitReport`] is `fit.json`).
+//! - `driver` ([`fit()`]): the fit's steps, over
+//!   - `problem`: the model's evaluation at points of the fit coordinates, finite-difference
+//!     Jacobians checked against the model's error;
+//!   - `lm`: the optimiser, Levenberg–Marquardt with Nielsen's damping;
+//!   - `starts`: multi-start (Latin hypercube) and the distinct minima;
+//!   - `tolerance`: the forward runs' tolerances from the data's sigma;
+//!   - `uncertainty`: covariance per direction, the linear model's check, profile likelihood;
+//!   - `report` ([`FitReport`] is `fit.json`).
 //!
 //! This module also gives the starting values ([`initial_value`]), the fitted scenario
 //! ([`fitted_toml`]) and the residual table ([`residuals_csv`]).
 
 pub(crate) mod data;
 pub(crate) mod driver;
-pub(crate) mod figure;
+pub mod figure;
+pub mod files;
 pub(crate) mod free;
+pub(crate) mod lm;
 pub(crate) mod model;
+pub(crate) mod problem;
+pub(crate) mod report;
+pub(crate) mod starts;
 pub(crate) mod stencil;
+pub(crate) mod tolerance;
+pub(crate) mod uncertainty;
 
 pub use data::{FitData, Observable};
-pub use driver::{
-    check_start, fd_step, fit, sets_per_iteration, FitEvent, FitOptions, FitOutcome, FitReport,
-    Parameter,
-};
+pub use driver::{check_start, expected_runs, fit, sets_per_iteration};
 pub use figure::fit_figure;
-pub use free::FreeKey;
+pub use free::{fittable_keys, FreeKey};
 pub use model::ForwardModel;
+pub use problem::fd_step;
+pub use report::{
+    FitError, FitEvent, FitOptions, FitOutcome, FitReport, Parameter, StartReport, Tolerances,
+};
 
 use crate::output::table::format_f64;
 use crate::scenario::overrides::{Override, SetKey};
