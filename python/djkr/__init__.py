@@ -40,6 +40,7 @@ Examples
 """
 
 from ._djkr import (
+    Fit,
     OutputFolderError,
     Run,
     ScenarioError,
@@ -56,6 +57,7 @@ from ._djkr import (
 )
 
 __all__ = [
+    "Fit",
     "OutputFolderError",
     "Run",
     "ScenarioError",

@@ -413,6 +413,33 @@ def resonance(
     >>> up.frequency[up.delta_amp_over_xb.idxmax()]   # Hz, the resonance peak
     """
 
+class Fit:
+    """The result of ``djkr.fit``."""
+
+    report: Dict[str, Any]
+    """The content of ``fit.json`` (a dict)."""
+    keys: List[str]
+    """The keys, in the order of ``covariance``."""
+    parameters: Dict[str, float]
+    """Each key's estimate (its SI unit)."""
+    sigma: Dict[str, Optional[float]]
+    """Each key's standard deviation (its SI unit), ``None`` where the fit gives none."""
+    intervals: Dict[str, Optional[Tuple[float, float]]]
+    """Each key's 68 % interval ``(lo, hi)``, ``None`` without one."""
+    covariance: npt.NDArray[np.float64]
+    """The covariance in the keys' units (numpy array, NaN where a key has no sigma)."""
+    residuals: Dict[str, Any]
+    """The columns of ``residuals.csv`` (dict of numpy arrays)."""
+    def __getitem__(self, key: str) -> Any:
+        """``fit.json``'s entry ``key`` (``r["chi2"]``, ``r["parameters"]``, ``r["notes"]``)."""
+        ...
+    def __contains__(self, key: str) -> bool:
+        """``fit.json``'s keys."""
+        ...
+    def to_pandas(self) -> Any:
+        """The residuals' table as a ``pandas.DataFrame`` (needs pandas)."""
+        ...
+
 def fit(
     data: Any,
     scenario: Scenario,
@@ -422,7 +449,12 @@ def fit(
     ensemble: Optional[int] = None,
     seed: int = 0,
     jobs: Optional[int] = None,
-) -> Dict[str, Any]:
+    max_iterations: int = 30,
+    starts: int = 1,
+    profile: bool = False,
+    out: Optional[Union[str, "os.PathLike[str]"]] = None,
+    force: bool = False,
+) -> "Fit":
     """Estimate scenario keys from measured data, as ``djkr fit``: weighted least squares by
     Levenberg-Marquardt, each data row predicted by a run of the scenario with that row's
     conditions set (all cores).

@@ -227,9 +227,8 @@ fn analyse(
     let k = ev.k();
     let mut notes = Vec::new();
     let at_bound: Vec<bool> = y.iter().zip(&ev.tr).map(|(&y, t)| t.at_bound(y)).collect();
-    let mut jy = ev.jacobian_y(y)?;
+    let (mut jy, snr) = ev.jacobian_snr(y)?;
     // A column that stands below the model's error even at its widest step is no information.
-    let snr = ev.st.borrow().snr.clone();
     for j in 0..k {
         if snr.get(j).is_some_and(|&r| r < 1.0) {
             jy.column_mut(j).fill(0.0);
@@ -253,7 +252,7 @@ fn analyse(
         notes.push(format!(
             "not identifiable: the data do not fix the combination {combo} (in the fit \
              coordinates; singular value {:.3e}, below {:e} of the largest {:.3e}): no sigma for \
-             {}; the other keys keep theirs",
+             {}, whose interval is the profile likelihood's; the other keys keep theirs",
             d.singular,
             uncertainty::SINGULAR_REL,
             c.singular.first().copied().unwrap_or(f64::NAN),
@@ -266,6 +265,14 @@ fn analyse(
     }
     let mut sigma = c.sigma.clone();
     let mut cov = c.cov.clone();
+    // The keys of a direction the data cannot fix get their profile's interval: how far the
+    // data let them go.
+    let mut unfixed = vec![false; k];
+    for d in &c.unidentified {
+        for &(j, _) in &d.loadings {
+            unfixed[j] = true;
+        }
+    }
     // The linear model's check at ±1σ (not with an ensemble: its χ² is noisy by construction).
     let mut flagged = vec![false; k];
     if !ev.ensemble() {
@@ -344,7 +351,7 @@ fn analyse(
         .collect();
     let mut lower: Option<(f64, Vec<f64>)> = None;
     for j in 0..k {
-        if !(flagged[j] || opts.profile && sigma[j].is_some()) {
+        if !(flagged[j] || unfixed[j] || opts.profile && sigma[j].is_some()) {
             continue;
         }
         ev.event(FitEvent::Stage {
@@ -936,7 +943,7 @@ pub fn fit(
             }
         }
     } else if converged {
-        let snr = ev.st.borrow().snr.clone();
+        let snr = ev.jacobian_snr(&y_best).map(|(_, s)| s).unwrap_or_default();
         for (j, f) in free.iter().enumerate() {
             if snr.get(j).is_some_and(|&r| r < 3.0) && !at_bound[j] {
                 notes.push(format!(

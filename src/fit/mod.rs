@@ -292,6 +292,81 @@ pub fn residuals_csv(model: &ForwardModel, outcome: &FitOutcome) -> String {
     out
 }
 
+/// A column of the residuals' table.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ResidualColumn {
+    /// Numbers (SI; NaN for a sigma the file does not give).
+    Num(Vec<f64>),
+    /// A text condition's cells.
+    Text(Vec<String>),
+}
+
+/// The columns of `residuals.csv` (named as its header), for Python's DataFrame.
+pub fn residual_columns(
+    model: &ForwardModel,
+    outcome: &FitOutcome,
+) -> Vec<(String, ResidualColumn)> {
+    let data = model.data();
+    let u = data.observable.unit();
+    let mut out = Vec::new();
+    for (j, c) in data.conditions.iter().enumerate() {
+        let name = match c.unit {
+            Some(unit) => format!("{} [{unit}]", c.key),
+            None => c.key.to_string(),
+        };
+        let col = match c.unit {
+            Some(_) => ResidualColumn::Num(
+                data.rows
+                    .iter()
+                    .map(|r| match &r.conditions[j] {
+                        data::CondValue::Num(x) => *x,
+                        data::CondValue::Text(_) => f64::NAN,
+                    })
+                    .collect(),
+            ),
+            None => ResidualColumn::Text(
+                data.rows
+                    .iter()
+                    .map(|r| match &r.conditions[j] {
+                        data::CondValue::Num(x) => format_f64(*x),
+                        data::CondValue::Text(t) => t.clone(),
+                    })
+                    .collect(),
+            ),
+        };
+        out.push((name, col));
+    }
+    let obs: Vec<f64> = data.rows.iter().map(|r| r.observed).collect();
+    let fit = &outcome.prediction.values;
+    let num = |name: String, v: Vec<f64>| (name, ResidualColumn::Num(v));
+    out.push(num(format!("observed [{u}]"), obs.clone()));
+    out.push(num(
+        format!("sigma [{u}]"),
+        data.rows
+            .iter()
+            .map(|r| r.sigma.unwrap_or(f64::NAN))
+            .collect(),
+    ));
+    if model.members() > 1 {
+        out.push(num(
+            format!("ensemble_se [{u}]"),
+            outcome.prediction.se.clone(),
+        ));
+    }
+    out.push(num(format!("fitted [{u}]"), fit.clone()));
+    out.push(num(
+        format!("residual [{u}]"),
+        obs.iter().zip(fit).map(|(o, f)| o - f).collect(),
+    ));
+    out.push(num(
+        "normalized_residual [1]".into(),
+        (0..obs.len())
+            .map(|i| (obs[i] - fit[i]) / outcome.weights[i])
+            .collect(),
+    ));
+    out
+}
+
 /// A text cell, quoted when it needs to be.
 fn csv_text(t: &str) -> String {
     if t.contains([',', '"', '\n', '\r']) {

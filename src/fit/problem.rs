@@ -60,6 +60,9 @@ pub struct Counters {
     pub iterations: usize,
 }
 
+/// A Jacobian kept: its point (y), the matrix, and its columns' signal-to-noise ratios.
+type LastJacobian = (Vec<f64>, DMatrix<f64>, Vec<f64>);
+
 /// The evaluation of a fit's model at points of the fit coordinates.
 pub struct Evaluator<'a, 'b> {
     model: ForwardModel,
@@ -79,8 +82,11 @@ pub struct Evaluator<'a, 'b> {
     /// With an ensemble: each key's half-step in y, kept from one Jacobian to the next.
     steps: RefCell<Vec<f64>>,
     cache: RefCell<VecDeque<(ParamSet, Prediction)>>,
-    /// The last Jacobian (∂(pred/w)/∂y at a point, all keys) and its point.
-    jac: RefCell<Option<(Vec<f64>, DMatrix<f64>)>>,
+    /// The last Jacobian (∂(pred/w)/∂y at a point, all keys), its point and its columns'
+    /// signal-to-noise ratios.
+    jac: RefCell<Option<LastJacobian>>,
+    /// The base forward-difference step (from the model's error).
+    h0: RefCell<f64>,
     stop: Option<&'a AtomicBool>,
     /// Counters and the best point.
     pub st: RefCell<Counters>,
@@ -116,6 +122,7 @@ impl<'a, 'b> Evaluator<'a, 'b> {
             w,
             err,
             h: RefCell::new(vec![h; k]),
+            h0: RefCell::new(h),
             noise,
             steps: RefCell::new(vec![half; k]),
             cache: RefCell::new(VecDeque::new()),
@@ -151,6 +158,7 @@ impl<'a, 'b> Evaluator<'a, 'b> {
     pub fn set_error(&mut self, err: Vec<f64>, h: f64) {
         self.err = err;
         *self.h.borrow_mut() = vec![h; self.tr.len()];
+        *self.h0.borrow_mut() = h;
         *self.jac.borrow_mut() = None;
     }
 
@@ -322,10 +330,20 @@ impl<'a, 'b> Evaluator<'a, 'b> {
         self.jacobian_cols(y, &all)
     }
 
+    /// [`Self::jacobian_y`] and each column's signal-to-noise ratio at its last step.
+    pub fn jacobian_snr(&self, y: &[f64]) -> Result<(DMatrix<f64>, Vec<f64>), EvalError> {
+        let j = self.jacobian_y(y)?;
+        let snr = match &*self.jac.borrow() {
+            Some((jy, _, snr)) if jy.as_slice() == y => snr.clone(),
+            _ => self.st.borrow().snr.clone(),
+        };
+        Ok((j, snr))
+    }
+
     /// The columns `cols` of [`Self::jacobian_y`] (the others 0); kept as the last Jacobian
     /// when they are all.
     pub fn jacobian_cols(&self, y: &[f64], cols: &[usize]) -> Result<DMatrix<f64>, EvalError> {
-        if let Some((jy, j)) = &*self.jac.borrow() {
+        if let Some((jy, j, _)) = &*self.jac.borrow() {
             if jy.as_slice() == y {
                 return Ok(j.clone());
             }
@@ -335,14 +353,28 @@ impl<'a, 'b> Evaluator<'a, 'b> {
             None => self.forward_y(y, cols)?,
         };
         if cols.len() == self.k() {
-            *self.jac.borrow_mut() = Some((y.to_vec(), jac.clone()));
+            let snr = self.st.borrow().snr.clone();
+            *self.jac.borrow_mut() = Some((y.to_vec(), jac.clone(), snr));
         }
         Ok(jac)
     }
 
     /// Forward differences of each key's step, widened where a column's change does not stand
-    /// [`super::stencil::TARGET_SNR`] times above the model error (a batch per round).
+    /// [`super::stencil::TARGET_SNR`] times above the model error (a batch per round). Each
+    /// Jacobian starts from the base step (a step widened far from the estimate, where the
+    /// response was flat, would make a secant of the Jacobian at the estimate), except for a
+    /// key whose column stood below the error even at its widest step (a key without effect).
     fn forward_y(&self, y: &[f64], cols: &[usize]) -> Result<DMatrix<f64>, EvalError> {
+        {
+            let h0 = *self.h0.borrow();
+            let last = self.st.borrow().snr.clone();
+            let mut h = self.h.borrow_mut();
+            for &j in cols {
+                if last.get(j).is_none_or(|&r| r >= 1.0) {
+                    h[j] = h0;
+                }
+            }
+        }
         let base = self.eval_y(y)?;
         let k = y.len();
         let n = self.obs.len();
@@ -350,7 +382,14 @@ impl<'a, 'b> Evaluator<'a, 'b> {
             .map(|i| 2.0 * (self.err[i] / self.w[i]).powi(2))
             .sum();
         let mut jac = DMatrix::zeros(n, k);
-        let mut ratios = vec![f64::INFINITY; k];
+        let mut ratios = {
+            let last = self.st.borrow().snr.clone();
+            if last.len() == k {
+                last
+            } else {
+                vec![f64::INFINITY; k]
+            }
+        };
         let mut todo: Vec<usize> = cols.to_vec();
         for round in 0..=MAX_WIDENINGS {
             let h = self.h.borrow().clone();
