@@ -7,14 +7,15 @@
 //! [`GRID`] points of the plotted condition across the group's range (not segments between the
 //! data points), with dashed lines at ±1σ of the model from the parameters' covariance (the
 //! delta method: `σ_m² = gᵀ C g`, `g` the forward difference of the model at each grid point
-//! with the fit's last steps). The title holds the estimates and χ²/dof. Below: each row's
-//! `(observed − fitted)/σ`, with lines at 0 and ±1. Without a numeric condition, or when the
+//! with the fit's last steps). Its title holds the estimates. Below: each row's
+//! `(observed − fitted)/σ`, with lines at 0 and ±1, under a title with the data file and
+//! χ²/dof. Without a numeric condition, or when the
 //! grid's runs cannot be made (a stop, a failed run), the model is drawn as rings at the data
 //! points.
 
 use std::sync::atomic::AtomicBool;
 
-use crate::output::table::{format_f64, format_pm};
+use crate::output::table::{format_pm, format_sig};
 use crate::plot::{display_unit, Figure, LegendPosition, Series, Style};
 
 use super::data::{CondValue, DataRow, FitData};
@@ -65,24 +66,37 @@ fn layout(data: &FitData) -> Layout {
             _ => i as f64,
         })
         .collect();
+    // Each other numeric condition in the unit that reads best over its column (um, not m).
+    let shown: Vec<Option<(f64, String)>> = data
+        .conditions
+        .iter()
+        .enumerate()
+        .map(|(j, c)| {
+            let col: Vec<f64> = data
+                .rows
+                .iter()
+                .filter_map(|r| match r.conditions[j] {
+                    CondValue::Num(x) => Some(x),
+                    CondValue::Text(_) => None,
+                })
+                .collect();
+            c.unit.map(|u| display_unit(u, &col))
+        })
+        .collect();
     let label_of = |i: usize| -> String {
         data.conditions
             .iter()
             .enumerate()
             .filter(|(j, _)| Some(*j) != xj)
             .map(|(j, c)| {
-                let v = match &data.rows[i].conditions[j] {
-                    CondValue::Num(x) => format_f64(*x),
-                    CondValue::Text(t) => t.clone(),
+                let v = match (&data.rows[i].conditions[j], &shown[j]) {
+                    (CondValue::Num(x), Some((f, u))) if u != "1" => {
+                        format!("{} {u}", short(x * f))
+                    }
+                    (CondValue::Num(x), _) => short(*x),
+                    (CondValue::Text(t), _) => t.clone(),
                 };
-                format!(
-                    "{} = {v}{}",
-                    c.key,
-                    c.unit
-                        .filter(|u| *u != "1")
-                        .map(|u| format!(" {u}"))
-                        .unwrap_or_default()
-                )
+                format!("{} = {v}", c.key)
             })
             .collect::<Vec<_>>()
             .join(", ")
@@ -99,6 +113,19 @@ fn layout(data: &FitData) -> Layout {
         idx.sort_by(|&a, &b| xs[a].total_cmp(&xs[b]));
     }
     Layout { xj, xs, groups }
+}
+
+/// A condition's value in a legend: 4 significant digits, without trailing zeros (`5 µm`, not
+/// `5.000 µm` nor `4.9999999999999996e-6 m`).
+fn short(x: f64) -> String {
+    let t = format_sig(x, 4);
+    match t.split_once('e') {
+        Some((m, e)) if m.contains('.') => {
+            format!("{}e{e}", m.trim_end_matches('0').trim_end_matches('.'))
+        }
+        None if t.contains('.') => t.trim_end_matches('0').trim_end_matches('.').to_string(),
+        _ => t,
+    }
 }
 
 /// `GRID` values from `a` to `b` (log-spaced when both are positive and span more than a factor
@@ -261,18 +288,21 @@ pub fn fit_figure(
         .collect::<Vec<_>>()
         .join(", ");
     let mut fig = Figure::new(
-        format!(
-            "djkr fit of {} ({} rows): {estimates}; chi2/dof = {:.2}/{}",
-            data.name, r.rows, r.chi2, r.dof
-        ),
+        estimates,
         x_label.clone(),
         format!("{} [{yunit}]", data.observable.name()),
     );
     fig.legend = LegendPosition::default();
     let mut res = Figure::new(
         format!(
-            "normalised residuals (observed - fitted)/sigma; chi2/dof = {:.2}/{} = {:.3}",
-            r.chi2, r.dof, r.reduced_chi2
+            "{}, {} rows: chi2/dof = {:.2}/{} = {:.3}; residuals (observed - fitted)/sigma",
+            std::path::Path::new(&data.name)
+                .file_name()
+                .map_or(data.name.clone(), |f| f.to_string_lossy().into_owned()),
+            r.rows,
+            r.chi2,
+            r.dof,
+            r.reduced_chi2
         ),
         x_label,
         "(observed - fitted)/sigma [1]".to_string(),
@@ -412,4 +442,24 @@ pub fn curve_runs(model: &ForwardModel, k: usize) -> usize {
         return 0;
     }
     l.groups.len() * GRID * (1 + k) * model.members()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn legend_values_are_short() {
+        assert_eq!(short(4.999_999_999_999_999_6), "5");
+        assert_eq!(short(10.0), "10");
+        assert_eq!(short(0.0), "0");
+        assert_eq!(short(2.5), "2.5");
+        assert_eq!(short(1234.5678), "1235");
+        let g = grid(10.0, 80.0);
+        assert_eq!(g.len(), GRID);
+        assert!((g[0] - 10.0).abs() < 1e-12 && (g[GRID - 1] - 80.0).abs() < 1e-12);
+        // Wider than a factor 20: log-spaced.
+        let g = grid(30.0, 3000.0);
+        assert!((g[1] / g[0] - g[2] / g[1]).abs() < 1e-9);
+    }
 }

@@ -28,8 +28,8 @@
 //! time, each point's other keys refitted from the point before, out to the scan's reach
 //! ([`reach`]: a factor 100 either side for a key in log space, ±100 % of the starting magnitude
 //! for a linear one, within the bounds). For a smooth profile a side ends at the first point
-//! above `Δχ² = 1`; where the model jumps it goes on to the reach (a jump's spike of χ² does not
-//! end it) unless a point lies above [`STOP_DCHI2`]. Each point's refit is at most
+//! above `Δχ² = 1`; where the model jumps it goes on to the reach whatever χ² it meets (a
+//! jump's spike of χ² must not hide a lower valley beyond it). Each point's refit is at most
 //! [`PROFILE_ITERATIONS`] iterations from the point before. The end is interpolated
 //! linearly in `√Δχ²` between the outermost point inside and the next one, and refined by one
 //! more point. An interval that reaches the end of the scan is *open* there (the data do not
@@ -52,9 +52,6 @@ pub const LINEAR_FACTOR: f64 = 2.0;
 /// The smallest first step of a profile scan in the fit coordinate (where σ is far smaller, as
 /// at a jump).
 pub const FIRST_STEP_MIN: f64 = 0.01;
-
-/// Δχ² above which a point ends a side of a scan where the model jumps.
-pub const STOP_DCHI2: f64 = 16.0;
 
 /// Most iterations of the refit of the other keys at one point of a profile (each starts from
 /// the point before, one step away).
@@ -316,7 +313,7 @@ pub fn scan<P: Profiler + ?Sized>(
                 if outside.is_none() {
                     outside = Some((d, dchi2));
                 }
-                if !jumpy || dchi2 > STOP_DCHI2 {
+                if !jumpy {
                     break;
                 }
             }
