@@ -173,15 +173,32 @@ fn optimise(ev: &Evaluator, y0: &[f64], r0: DVector<f64>, s: &lm::Settings) -> (
     (o, y)
 }
 
-/// The profile of a key through an [`Evaluator`]: the other keys refitted.
+/// The profile of a key through an [`Evaluator`]: the other keys refitted, each point started
+/// from the point before moved along `dir` (the other keys' regression on the profiled one,
+/// from the covariance: where the linear model puts the conditional minimum).
 struct ProfileOf<'e, 'a, 'b> {
     ev: &'e Evaluator<'a, 'b>,
     s: lm::Settings,
+    dir: Vec<f64>,
 }
 
 impl uncertainty::Profiler for ProfileOf<'_, '_, '_> {
     fn point(&mut self, j: usize, yj: f64, from: &[f64]) -> Result<Option<(f64, Vec<f64>)>, Halt> {
-        let mut base = from.to_vec();
+        let step = yj - from[j];
+        let mut base: Vec<f64> = from
+            .iter()
+            .zip(&self.dir)
+            .zip(&self.ev.tr)
+            .map(|((&y, &d), t)| {
+                let v = y + d * step;
+                // Within the bounds (a bounded key's regression may point beyond them).
+                match (t.lo, t.hi) {
+                    (Some(l), _) if v <= l => y,
+                    (_, Some(h)) if v >= h => y,
+                    _ => v,
+                }
+            })
+            .collect();
         base[j] = yj;
         let idx: Vec<usize> = (0..self.ev.k()).filter(|&c| c != j).collect();
         let mut view = View::new(self.ev, base.clone(), idx);
@@ -275,6 +292,7 @@ fn analyse(
     }
     // The linear model's check at ±1σ (not with an ensemble: its χ² is noisy by construction).
     let mut flagged = vec![false; k];
+    let mut jumpy = vec![false; k];
     if !ev.ensemble() {
         let offsets: Vec<(usize, Vec<f64>)> = (0..k)
             .filter_map(|j| uncertainty::linear_offset(&c, j).map(|d| (j, d)))
@@ -303,8 +321,10 @@ fn analyse(
             Err(e) => return Err(e),
         };
         let mut found: Vec<Vec<String>> = vec![Vec::new(); k];
+        let mut sides: Vec<Vec<f64>> = vec![Vec::new(); k];
         for ((j, sign), p) in which.iter().zip(&preds) {
             let d = p.as_ref().map_or(f64::NAN, |p| ev.chi2(p) - chi2);
+            sides[*j].push(d);
             if !uncertainty::linear_agrees(d) {
                 flagged[*j] = true;
                 found[*j].push(format!(
@@ -320,15 +340,21 @@ fn analyse(
         }
         for j in 0..k {
             if flagged[j] {
+                jumpy[j] = uncertainty::jumps(&sides[j]);
                 notes.push(format!(
                     "{}: the model is not linear over one sigma ({} where the curvature puts 1, \
-                     outside [{}, {}]): a jump or a kink of the model; the sigma from the \
-                     curvature means nothing there, and the interval is the profile \
-                     likelihood's",
+                     outside [{}, {}]): {}; the sigma from the curvature means nothing there, \
+                     and the interval is the profile likelihood's",
                     free[j].key,
                     found[j].join(", "),
                     1.0 / uncertainty::LINEAR_FACTOR,
-                    uncertainty::LINEAR_FACTOR
+                    uncertainty::LINEAR_FACTOR,
+                    if jumpy[j] {
+                        "a jump or a kink of the model (chi2 rises steeply on both sides, or \
+                         falls on one)"
+                    } else {
+                        "chi2 is far from quadratic over one sigma"
+                    }
                 ));
             }
         }
@@ -361,12 +387,23 @@ fn analyse(
         let t = &ev.tr[j];
         let limits = uncertainty::reach(t.log, y[j], t.lo, t.hi);
         let first = match sigma[j] {
-            Some(s) if !flagged[j] => s,
+            Some(s) if !jumpy[j] => s,
             Some(s) => s.max(uncertainty::FIRST_STEP_MIN),
             None => uncertainty::FIRST_STEP_MIN,
         };
+        let dir: Vec<f64> = (0..k)
+            .map(|i| {
+                let r = c.cov[(i, j)] / c.cov[(j, j)];
+                if i != j && r.is_finite() {
+                    r
+                } else {
+                    0.0
+                }
+            })
+            .collect();
         let mut p = ProfileOf {
             ev,
+            dir,
             s: lm::Settings {
                 max_iterations: uncertainty::PROFILE_ITERATIONS,
                 gtol: 1e-2,
@@ -468,9 +505,18 @@ pub fn fit(
     let mut notes = Vec::new();
 
     // 1. The tolerances, from the data.
+    // The scenario as the fit starts it: the fixed overrides and the free keys' starts (a key
+    // that the file lacks, such as a saturated law's v_sat, is given by its start).
+    let mut at_start = model.fixed().to_vec();
+    for (f, &x) in free.iter().zip(x0) {
+        at_start.push(
+            crate::scenario::overrides::Override::from_key(f.key, x)
+                .map_err(|e| FitError::new(e.to_string()))?,
+        );
+    }
     let scn = model
         .source()
-        .scenario(model.fixed())
+        .scenario(&at_start)
         .map_err(|e| FitError::new(e.to_string()))?;
     let is_set = |key: &str| model.fixed().iter().any(|o| o.key().to_string() == key);
     let tol_s = tolerance::Scenario {

@@ -16,8 +16,9 @@
 //! (key `j` moved by one σ, the others by their regression on it) is where the linear model puts
 //! the profile's `Δχ² = 1`. The true `Δχ²` is evaluated there (2k parameter sets); where it lies
 //! outside `[1/F, F]` with `F =` [`LINEAR_FACTOR`] on either side, σ means nothing for that
-//! key (a jump or a kink of the model within one σ): `notes` says so, and the key's interval
-//! is its profile's instead. The last accepted step is checked too: where the linear model
+//! key: `notes` says so, and the key's interval is its profile's instead. Where χ² rises
+//! steeply on both sides or falls on one ([`jumps`]) the model jumps or kinks, and its profile
+//! is scanned to its reach. The last accepted step is checked too: where the linear model
 //! predicted a fall of χ² of at least 1 and the fall met differs from it by more than half,
 //! every key's interval is its profile's. With an ensemble the check is not made (its χ² is
 //! noisy by construction; the sandwich covariance accounts for that noise).
@@ -25,7 +26,8 @@
 //! **Profile-likelihood interval** (Venzon & Moolgavkar 1988): the `θⱼ` for which the minimum
 //! of χ² over the other keys is at most `χ²(θ̂) + 1` (68 %). [`scan`] steps out from the
 //! estimate on each side in the fit coordinate, from one σ (or [`FIRST_STEP_MIN`]) doubling each
-//! time, each point's other keys refitted from the point before, out to the scan's reach
+//! time, each point's other keys refitted from the point before moved along their regression
+//! on the key (the covariance's: where the linear model puts their conditional minimum), out to the scan's reach
 //! ([`reach`]: a factor 100 either side for a key in log space, ±100 % of the starting magnitude
 //! for a linear one, within the bounds). For a smooth profile a side ends at the first point
 //! above `Δχ² = 1`; where the model jumps it goes on to the reach whatever χ² it meets (a
@@ -49,13 +51,17 @@ pub const LOADING_MIN: f64 = 0.01;
 /// The factor by which the true Δχ² at ±1σ may differ from the linear model's 1.
 pub const LINEAR_FACTOR: f64 = 2.0;
 
+/// The Δχ² at ±1σ above which, on both sides, the model jumps or kinks (rather than being
+/// smooth and far from quadratic).
+pub const JUMP_DCHI2: f64 = 4.0;
+
 /// The smallest first step of a profile scan in the fit coordinate (where σ is far smaller, as
 /// at a jump).
 pub const FIRST_STEP_MIN: f64 = 0.01;
 
 /// Most iterations of the refit of the other keys at one point of a profile (each starts from
 /// the point before, one step away).
-pub const PROFILE_ITERATIONS: usize = 5;
+pub const PROFILE_ITERATIONS: usize = 4;
 
 /// How far below the estimate's χ² a point must lie to show that the estimate is not the
 /// minimum (above the model's numerical noise).
@@ -201,6 +207,17 @@ pub fn linear_offset(c: &Curvature, j: usize) -> Option<Vec<f64>> {
 /// factor [`LINEAR_FACTOR`]).
 pub fn linear_agrees(dchi2: f64) -> bool {
     (1.0 / LINEAR_FACTOR..=LINEAR_FACTOR).contains(&dchi2)
+}
+
+/// Whether the true Δχ² at the points of ±1σ (`sides`, NaN where a run failed) show a jump or
+/// a kink rather than a smooth profile that is far from quadratic: χ² rising above
+/// [`JUMP_DCHI2`] on both sides (the curvature's σ more than twice too large both ways), or
+/// falling below the estimate's on one side, or a run failing within one σ. A smooth but
+/// asymmetric profile (0.1 on one side, 2.3 on the other, as in log space far from the
+/// minimum's quadratic region) is not one.
+pub fn jumps(sides: &[f64]) -> bool {
+    sides.iter().any(|d| d.is_nan() || *d < 0.0)
+        || (!sides.is_empty() && sides.iter().all(|&d| d > JUMP_DCHI2))
 }
 
 /// Whether the last accepted step disagrees with the linear model: it predicted a fall of at
@@ -508,6 +525,10 @@ mod tests {
 
     #[test]
     fn the_linear_checks() {
+        // The damping case (issue 36): 179 and 34 where the curvature puts 1: a jump.
+        assert!(jumps(&[179.4, 34.3]) && jumps(&[-1.2, 8.4]) && jumps(&[f64::NAN, 1.0]));
+        // The plain law fitted to saturated data: asymmetric, smooth.
+        assert!(!jumps(&[0.105, 2.317]) && !jumps(&[6.5, 2.37]) && !jumps(&[1.0, 1.1]));
         assert!(linear_agrees(1.0) && linear_agrees(0.6) && linear_agrees(1.9));
         assert!(!linear_agrees(8.4) && !linear_agrees(0.3) && !linear_agrees(-1.2));
         assert!(step_disagrees(3.0, 0.1) && !step_disagrees(3.0, 2.5) && !step_disagrees(0.5, 0.0));
