@@ -159,6 +159,8 @@ struct Venture {
 struct BdfStep {
     /// The new point's τ (τ_n + m).
     tau: f64,
+    /// The step (periods).
+    m: u64,
     /// The index of the period the new point starts.
     k: u64,
     /// τ of the oldest history point (Milne's device).
@@ -255,6 +257,10 @@ const MAX_JAC_AGE: u32 = 4;
 const MAX_RATIO: f64 = 2.0;
 /// Newton iterations per corrector solve.
 const MAX_NEWTON: usize = 4;
+/// A Newton iterate whose error estimate is this many times what the step may have ends the
+/// iteration: the step will be refused whatever the remaining corrections, which shrink
+/// quadratically (measured on the paper protocols: by 10⁻²–10⁻⁴ per iteration).
+const HOPELESS: f64 = 100.0;
 /// Largest Newton correction, in the scaled norm (the orbit's amplitudes).
 const MAX_NEWTON_STEP: f64 = 1.0;
 
@@ -661,6 +667,7 @@ impl Envelope {
         });
         BdfStep {
             tau,
+            m,
             k: newest.tau as u64 + m,
             tau_oldest: taus[0],
             predicted,
@@ -671,7 +678,8 @@ impl Envelope {
 
     /// Newton on the corrector of `bdf` from its predictor: the corrected point and the
     /// iterations it took, or `None` when the step is refused (the skip was reduced) or the
-    /// largest multiplier reached its limit (jumps stop or pause).
+    /// largest multiplier reached its limit (jumps stop or pause). An iterate whose error
+    /// estimate is already [`HOPELESS`] is returned as it is: the error test refuses it.
     fn newton(
         &mut self,
         sim: &mut Simulator,
@@ -730,6 +738,12 @@ impl Envelope {
                 z[i] -= dz[i] * sc[i];
             }
             if step <= 0.01 * self.settings.tol {
+                converged = true;
+                break;
+            }
+            if self.milne_error(bdf, &z, bdf.m) > HOPELESS {
+                // No more trial periods for a step the error test will refuse: `attempt`
+                // refuses it from this iterate.
                 converged = true;
                 break;
             }
