@@ -199,6 +199,9 @@ pub struct Envelope {
     backoff: u64,
     /// What the current run of attempts (since the last pause) cost and gained.
     venture: Venture,
+    /// The current pause ([`Envelope::cooldown`]) is a back-off: its periods count in
+    /// [`EnvelopeStats::backoff_periods`].
+    backing_off: bool,
     /// The drift per period at the newest boundaries since the history was last forgotten
     /// (period index, [`Envelope::drift`]), oldest first, spanning at most [`DECAY_WINDOW`]
     /// periods.
@@ -278,6 +281,7 @@ impl Envelope {
             towards_pull_off: false,
             backoff: FIRST_BACKOFF,
             venture: Venture::default(),
+            backing_off: false,
             drifts: std::collections::VecDeque::new(),
             direct_cost: 0.0,
             evals_left_at: None,
@@ -398,6 +402,9 @@ impl Envelope {
         }
         if self.cooldown > 0 {
             self.cooldown -= 1;
+            if self.backing_off {
+                self.stats.backoff_periods += 1;
+            }
             return Ok(0);
         }
         if self.history.len() < ORDER + 1 {
@@ -406,6 +413,7 @@ impl Envelope {
         if self.drift().is_none_or(|d| d > FAST_DRIFT) {
             // No slow drift to follow yet: spend no trial periods on it.
             self.cooldown = COOLDOWN;
+            self.backing_off = false;
             return Ok(0);
         }
         let n = self.history.len();
@@ -796,6 +804,7 @@ impl Envelope {
             self.venture = Venture::default();
             self.cooldown = self.backoff;
             self.backoff = self.backoff.saturating_mul(2);
+            self.backing_off = true;
         }
     }
 
@@ -809,9 +818,11 @@ impl Envelope {
         if v.skipped as f64 * self.direct_cost > v.spent as f64 {
             self.cooldown = COOLDOWN;
             self.backoff = FIRST_BACKOFF;
+            self.backing_off = false;
         } else {
             self.cooldown = self.backoff;
             self.backoff = self.backoff.saturating_mul(2);
+            self.backing_off = true;
         }
     }
 
@@ -860,7 +871,10 @@ impl Envelope {
             return Ok(None);
         }
         self.stats.trial_periods += 1;
-        let t = match sim.trial_period(s, k, TRIAL_TOLERANCE) {
+        let before = sim.stats().rhs_evals;
+        let t = sim.trial_period(s, k, TRIAL_TOLERANCE);
+        self.stats.trial_rhs_evals += sim.stats().rhs_evals.saturating_sub(before);
+        let t = match t {
             Ok(t) => t,
             // The run's budgets hold across trial periods too.
             Err(
