@@ -202,7 +202,8 @@ pub struct EnvelopeStats {
     /// Right-hand-side evaluations of the trial periods (counted in `Stats::rhs_evals` too).
     pub trial_rhs_evals: u64,
     /// Base periods integrated directly because the back-off held envelope steps back: after
-    /// runs of attempts that did not pay, or the multiplier reaching its limit in a transient.
+    /// runs of attempts that did not pay, or the multiplier reaching its limit in a transient,
+    /// or while the trial periods' net cost was over its budget.
     pub backoff_periods: u64,
 }
 
