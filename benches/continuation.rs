@@ -9,12 +9,12 @@
 //!
 //! `cargo bench --bench continuation`.
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::continuation::branch::{self, PointKind, Settings};
-use djkr::continuation::family::Family;
-use djkr::continuation::folds;
 use djkr::scenario::family::{family, parameter};
 use djkr::scenario::overrides::Override;
 use djkr::scenario::parse::ScenarioSource;
+use djkr_core::continuation::branch::{self, PointKind, Settings};
+use djkr_core::continuation::family::Family;
+use djkr_core::continuation::folds;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;

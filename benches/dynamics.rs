@@ -27,8 +27,8 @@ mod common;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::catalogue::{vibrating_hold, Bundled};
-use djkr::dynamics::NoObserver;
 use djkr::scenario::{Method, Scenario};
+use djkr_core::dynamics::NoObserver;
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 

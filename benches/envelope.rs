@@ -20,8 +20,8 @@
 //! `cargo bench --bench envelope`
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::catalogue::Bundled;
-use djkr::dynamics::{EnvelopeMode, NoObserver, Observer};
 use djkr::scenario::Scenario;
+use djkr_core::dynamics::{EnvelopeMode, NoObserver, Observer};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
@@ -37,7 +37,7 @@ impl Observer for Samples {}
 fn simulate(
     s: &Scenario,
     samples: bool,
-) -> Result<djkr::dynamics::RunResult, djkr::dynamics::SimError> {
+) -> Result<djkr_core::dynamics::RunResult, djkr_core::dynamics::SimError> {
     if samples {
         s.simulate(&mut Samples)
     } else {

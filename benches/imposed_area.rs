@@ -5,12 +5,12 @@
 //! ≤ 2 ms, table ≤ 0.3 s.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::adhesion::GentSchultz;
 use djkr::catalogue::{
     figs_4_to_8_grid, ImposedCycle, CYCLE_400HZ, CYCLE_400HZ_TRUNCATED, PULL_OFF_400HZ,
 };
-use djkr::imposed_area::{cycle, pull_off, pull_off_table};
-use djkr::material::Material;
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::imposed_area::{cycle, pull_off, pull_off_table};
+use djkr_core::material::Material;
 use std::hint::black_box;
 
 fn bench_cycle(c: &mut Criterion) {

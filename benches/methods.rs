@@ -17,8 +17,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::accuracy::{method_label, method_name};
 use djkr::catalogue::{hold_400hz_1s, vibrating_hold, Bundled};
-use djkr::dynamics::NoObserver;
 use djkr::scenario::{Method, Scenario};
+use djkr_core::dynamics::NoObserver;
 use std::hint::black_box;
 use std::time::Duration;
 

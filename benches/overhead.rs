@@ -10,7 +10,7 @@
 
 mod common;
 
-use djkr::dynamics::NoObserver;
+use djkr_core::dynamics::NoObserver;
 use std::hint::black_box;
 use std::time::Instant;
 

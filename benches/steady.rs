@@ -13,8 +13,8 @@
 //! `cargo bench --bench steady`.
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::catalogue::Bundled;
-use djkr::steady::sweep::{self, Direction, Linearisation};
-use djkr::steady::{Options, Problem, Strategy};
+use djkr_core::steady::sweep::{self, Direction, Linearisation};
+use djkr_core::steady::{Options, Problem, Strategy};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 

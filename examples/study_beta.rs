@@ -9,11 +9,11 @@
 mod common;
 
 use common::{Args, Table};
-use djkr::adhesion::GentSchultz;
-use djkr::beta_fit::{self, BetaFitConfig, RatioPoint};
-use djkr::closed_form::{self as cf, DeltaAmpForm};
-use djkr::imposed_area;
-use djkr::material::Material;
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::beta_fit::{self, BetaFitConfig, RatioPoint};
+use djkr_core::closed_form::{self as cf, DeltaAmpForm};
+use djkr_core::imposed_area;
+use djkr_core::material::Material;
 use std::f64::consts::PI;
 
 const M: Material = Material::PAPER;

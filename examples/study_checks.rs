@@ -10,10 +10,10 @@ mod common;
 
 use common::{sci, Args, Table};
 use djkr::catalogue::{self, cycle_balances, summarise_balances};
-use djkr::dynamics::{EventKind, Recorder, RunResult};
-use djkr::jkr;
-use djkr::material::Material;
 use djkr::scenario::{Initial, Method, Scenario, Until};
+use djkr_core::dynamics::{EventKind, Recorder, RunResult};
+use djkr_core::jkr;
+use djkr_core::material::Material;
 use std::fmt::Write as _;
 
 const M: Material = Material::PAPER;
@@ -29,7 +29,7 @@ fn run(s: &Scenario) -> (RunResult, Recorder) {
     }
 }
 
-fn first(r: &RunResult, k: EventKind) -> Option<djkr::dynamics::Event> {
+fn first(r: &RunResult, k: EventKind) -> Option<djkr_core::dynamics::Event> {
     r.events.iter().find(|e| e.kind == k).copied()
 }
 

@@ -10,10 +10,10 @@
 mod common;
 
 use common::{sci, Args, Table};
-use djkr::adhesion::GentSchultz;
 use djkr::catalogue;
-use djkr::gs_fit::{self, GsFitOptions};
-use djkr::material::Material;
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::gs_fit::{self, GsFitOptions};
+use djkr_core::material::Material;
 use std::fmt::Write as _;
 
 const M: Material = Material::PAPER;

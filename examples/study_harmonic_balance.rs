@@ -1,4 +1,4 @@
-//! Harmonic balance on the imposed-area cycle (`djkr::describing`): the transfer |δ1/X_b| and
+//! Harmonic balance on the imposed-area cycle (`djkr_core::describing`): the transfer |δ1/X_b| and
 //! the effective contact (stiffness and damping) against eq. (37)'s linear spring, on the light
 //! rig of the catalogue and on the bundled resonance and impact scenes; the branches traced by
 //! the contact amplitude; the loop area against the first-harmonic dissipation.
@@ -10,14 +10,14 @@
 mod common;
 
 use common::{sci, Args, Table};
-use djkr::adhesion::{ConstantW, GentSchultz, Law};
 use djkr::catalogue::{self, Bundled};
-use djkr::describing::{self, Support};
-use djkr::imposed_area::{self, indentation_at};
-use djkr::jkr;
-use djkr::material::Material;
-use djkr::rig::Rig;
-use djkr::transfer;
+use djkr_core::adhesion::{ConstantW, GentSchultz, Law};
+use djkr_core::describing::{self, Support};
+use djkr_core::imposed_area::{self, indentation_at};
+use djkr_core::jkr;
+use djkr_core::material::Material;
+use djkr_core::rig::Rig;
+use djkr_core::transfer;
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 

@@ -10,12 +10,12 @@
 mod common;
 
 use common::{sci, Args, Table};
-use djkr::adhesion::{AdhesionLaw, GentSchultz};
 use djkr::catalogue;
-use djkr::imposed_area::{cycle, cycle_with, indentation_at, pull_off, pull_off_table};
-use djkr::jkr;
-use djkr::material::Material;
-use djkr::quadrature::QuadratureRule;
+use djkr_core::adhesion::{AdhesionLaw, GentSchultz};
+use djkr_core::imposed_area::{cycle, cycle_with, indentation_at, pull_off, pull_off_table};
+use djkr_core::jkr;
+use djkr_core::material::Material;
+use djkr_core::quadrature::QuadratureRule;
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 

@@ -1,7 +1,7 @@
 //! Which integrator when: every method on the catalogue scenes, timed (minimum wall over
 //! repeats, robust to load) with its error against a converged reference; the basis of the
 //! `auto` rule (`dynamics::methods::auto_method`) and of the method tables in README and the
-//! module docs of `djkr::dynamics`. Also `ode_solvers`' own Dop853/Dopri5 on a closed-form
+//! module docs of `djkr_core::dynamics`. Also `ode_solvers`' own Dop853/Dopri5 on a closed-form
 //! oscillator (why djkr has its own DP8).
 //!
 //!   cargo run --release --example study_methods            # 3 repeats, about 1 min
@@ -14,8 +14,8 @@ mod common;
 use common::{ms, sci, Args, Table};
 use djkr::accuracy::{self, StudyConfig};
 use djkr::catalogue::{self, Bundled};
-use djkr::dynamics::{NoObserver, Recorder};
 use djkr::scenario::{Holder, Method, Scenario};
+use djkr_core::dynamics::{NoObserver, Recorder};
 use std::fmt::Write as _;
 
 const METHODS: [Method; 5] = [
@@ -269,7 +269,8 @@ fn main() {
     ] {
         for rtol in [1e-8, 1e-10, 1e-12] {
             let (mut s, osc) = catalogue::free_flight(5e-3, 2e-3, 0.5);
-            s.rig.law = djkr::adhesion::Law::GentSchultz(djkr::adhesion::GentSchultz::PAPER);
+            s.rig.law =
+                djkr_core::adhesion::Law::GentSchultz(djkr_core::adhesion::GentSchultz::PAPER);
             s.solver.method = m;
             s.solver.rtol = rtol;
             let mut rec = Recorder::default();

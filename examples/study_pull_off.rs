@@ -13,8 +13,8 @@ mod common;
 use common::{sci, Args, Table};
 use djkr::accuracy::{self, method_name};
 use djkr::catalogue::{self, Bundled};
-use djkr::dynamics::{EventKind, RunResult};
 use djkr::scenario::Method;
+use djkr_core::dynamics::{EventKind, RunResult};
 use std::fmt::Write as _;
 
 fn detach_time(r: &RunResult) -> Option<f64> {

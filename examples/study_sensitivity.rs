@@ -14,10 +14,10 @@ mod common;
 
 use common::{sci, Args, Table};
 use djkr::catalogue::Bundled;
-use djkr::dynamics::{CycleRecord, EnvelopeMode, Event, EventKind, Observer, RunResult};
 use djkr::scenario::Scenario;
 use djkr::sensitivity;
 use djkr::sweep::stats::Summary;
+use djkr_core::dynamics::{CycleRecord, EnvelopeMode, Event, EventKind, Observer, RunResult};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 use std::fmt::Write as _;

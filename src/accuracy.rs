@@ -47,33 +47,33 @@
 //! difference between two gradings), with the median time per cycle. [`closed_form_map`] maps the
 //! closed form's error against the exact pull-off, ln(A_exact / A_approx), over (n, v_max/v0).
 
-use crate::adhesion::GentSchultz;
-use crate::beta_fit::{self, ExactPoint};
-use crate::dynamics::{CycleRecord, EventKind, Observer, RunResult, Sample, SimError, Stats};
-use crate::error::ParamError;
-use crate::imposed_area;
-use crate::jkr;
-use crate::material::Material;
 use crate::output::{Column, Table};
 use crate::plot::{Figure, Heatmap, LegendPosition, Series, Style};
-use crate::quadrature::QuadratureRule;
 use crate::scenario::{Method, Scenario};
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::beta_fit::{self, ExactPoint};
+use djkr_core::dynamics::{CycleRecord, EventKind, Observer, RunResult, Sample, SimError, Stats};
+use djkr_core::error::ParamError;
+use djkr_core::imposed_area;
+use djkr_core::jkr;
+use djkr_core::material::Material;
+use djkr_core::quadrature::QuadratureRule;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;
 use std::time::Instant;
 
-pub use crate::dynamics::methods::method_name;
+pub use djkr_core::dynamics::methods::method_name;
 
-/// Parse a method name ([`crate::dynamics::methods::METHODS`]); `flag` names the source.
+/// Parse a method name ([`djkr_core::dynamics::methods::METHODS`]); `flag` names the source.
 pub fn parse_method(flag: &str, text: &str) -> Result<Method, ParamError> {
-    crate::dynamics::methods::method_from_name(text.trim()).ok_or_else(|| {
+    djkr_core::dynamics::methods::method_from_name(text.trim()).ok_or_else(|| {
         ParamError::new(
             flag,
             text.trim(),
             format!(
                 "must be one of {}",
-                crate::dynamics::methods::method_names().join(", ")
+                djkr_core::dynamics::methods::method_names().join(", ")
             ),
         )
     })
@@ -476,7 +476,7 @@ fn with_solver(s: &Scenario, method: Method, rtol: f64, atol_ratio: f64) -> Scen
     t.solver.method = method;
     t.solver.rtol = rtol;
     t.solver.atol = rtol * atol_ratio;
-    t.solver.envelope = crate::dynamics::EnvelopeMode::Off;
+    t.solver.envelope = djkr_core::dynamics::EnvelopeMode::Off;
     t
 }
 
@@ -934,12 +934,18 @@ pub fn study_figure(st: &Study, measure: Measure) -> Figure {
         Measure::PullOffForce => e.pull_off_force,
     };
     let y_label = match measure {
-        Measure::PullOffRelevant => "max relative error: F_po, last-cycle ⟨F⟩, ⟨δ⟩, δ_A",
-        Measure::PullOffForce => "relative error of the pull-off force",
+        Measure::PullOffRelevant => "max relative error: F_po, last-cycle ⟨F⟩, ⟨δ⟩, δ_A (–)",
+        Measure::PullOffForce => "relative error of the pull-off force (–)",
     };
+    let walls: Vec<f64> = st
+        .rows
+        .iter()
+        .filter_map(|r| r.outcome.as_ref().ok().map(|m| m.wall_median_s))
+        .collect();
+    let (ts, t_label) = crate::plot::axis_label("median wall time", "s", &walls);
     let mut fig = Figure::new(
         format!("Work-precision: {}", short_name(&st.scene)),
-        "wall time (s, median)",
+        t_label,
         y_label,
     )
     .with_log(true, true)
@@ -951,9 +957,9 @@ pub fn study_figure(st: &Study, measure: Measure) -> Figure {
         let (mut x, mut y) = (Vec::new(), Vec::new());
         for r in st.rows.iter().filter(|r| r.method == name) {
             if let Ok(me) = &r.outcome {
-                x.push(me.wall_median_s);
+                x.push(me.wall_median_s * ts);
                 y.push(pick(&me.errors).max(1e-16));
-                t_all.push(me.wall_median_s);
+                t_all.push(me.wall_median_s * ts);
             }
         }
         fig = fig.with_series(Series::new(name, x, y, Style::LineMarkers).with_color(i));
@@ -969,7 +975,7 @@ pub fn study_figure(st: &Study, measure: Measure) -> Figure {
                 vec![u, u],
                 Style::Dashed,
             )
-            .with_color(9),
+            .with_color(crate::plot::GREY),
         );
     }
     fig
@@ -1125,13 +1131,13 @@ pub fn closed_form_map(
     freq: f64,
     beta: f64,
 ) -> Result<Vec<MapPoint>, ParamError> {
-    crate::error::positive("--freq", freq, "Hz")?;
-    crate::error::positive("beta", beta, "(dimensionless)")?;
+    djkr_core::error::positive("--freq", freq, "Hz")?;
+    djkr_core::error::positive("beta", beta, "(dimensionless)")?;
     for &n in n_values {
-        crate::error::positive("n", n, "(dimensionless)")?;
+        djkr_core::error::positive("n", n, "(dimensionless)")?;
     }
     for &r in speed_ratios {
-        crate::error::positive("v_max/v0", r, "(dimensionless)")?;
+        djkr_core::error::positive("v_max/v0", r, "(dimensionless)")?;
     }
     let m = Material::PAPER;
     let v0 = GentSchultz::PAPER.v0;
@@ -1190,9 +1196,9 @@ pub fn closed_form_heatmap(
         title: format!(
             "Closed form vs exact pull-off: |ln(A_exact/A_approx)|, β = {beta}, {freq} Hz"
         ),
-        x_label: "v_max / v0".into(),
-        y_label: "Gent–Schultz exponent n".into(),
-        z_label: "|ln ratio|".into(),
+        x_label: "v_max / v0 (–)".into(),
+        y_label: "Gent–Schultz exponent n (–)".into(),
+        z_label: "|ln ratio| (–)".into(),
         x: speed_ratios.to_vec(),
         y: n_values.to_vec(),
         z: points
@@ -1225,8 +1231,8 @@ pub fn quadrature_figure(q: &QuadratureStudy) -> Figure {
             "Imposed-area cycle: tanh-sinh nodes vs worst error ({} cases)",
             q.cases
         ),
-        "tanh-sinh nodes (2 law evaluations each)",
-        "worst error",
+        "tanh-sinh nodes, 2 law evaluations each (–)",
+        "worst error (–)",
     )
     .with_log(false, true)
     .with_series(Series::new(

@@ -15,25 +15,15 @@
 //! - [`finite_json`]: a report as JSON, refusing non-finite numbers (JSON has none).
 //!
 //! Every long computation here takes its cancellation from the scenario's
-//! [`Solver::cancel`](crate::dynamics::Solver::cancel) (or, for a sweep, a stop flag), so a
-//! caller can stop it from another thread ([`crate::cancel`]).
+//! [`Solver::cancel`](djkr_core::dynamics::Solver::cancel) (or, for a sweep, a stop flag), so a
+//! caller can stop it from another thread ([`djkr_core::cancel`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use serde_json::{json, Value};
-use thiserror::Error;
 
-use crate::adhesion::{GentSchultz, Law};
-use crate::closed_form::DeltaAmpForm;
-use crate::comparators;
-use crate::dynamics::SimError;
-use crate::dynamics::{
-    CycleRecord, Ending, Event, Gap, Observer, Reason, RunResult, Sample, Status,
-};
-use crate::error::{non_negative, positive, ParamError};
-use crate::imposed_area::{self, Cycle};
-use crate::material::Material;
+use crate::error::Error;
 use crate::output::summary::{summary_json, SummaryFiles};
 use crate::output::table::Table;
 use crate::output::{cycles, OutputError, OutputPaths, RunWriter, TimeSeriesWriter};
@@ -41,15 +31,21 @@ use crate::reports::steady::{self as report, ValidateReport};
 use crate::run_plot::RunPlotError;
 use crate::scenario::checks::{contact_radius_error, small_contact_warning};
 use crate::scenario::overrides::{Override, OverrideError};
-use crate::scenario::parse::ScenarioError;
 use crate::scenario::{Initial, Scenario};
-use crate::steady::sweep::{self as steady_sweep, Direction, Linearisation, SweepPoint};
-use crate::steady::{crosscheck, Options, Problem, SteadyError};
-use crate::sweep::{
-    rows_table, run_all, Axis, Ensemble, Grid, RunOptions, SpecError, Sweep, SweepError,
+use crate::sweep::{rows_table, run_all, Axis, Ensemble, Grid, RunOptions, Sweep};
+use djkr_core::adhesion::{GentSchultz, Law};
+use djkr_core::closed_form::DeltaAmpForm;
+use djkr_core::comparators;
+use djkr_core::dynamics::{
+    CycleRecord, Ending, Event, Gap, Observer, Reason, RunResult, Sample, Status,
 };
-use crate::text::excerpt;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::error::{non_negative, positive, ParamError};
+use djkr_core::imposed_area::{self, Cycle};
+use djkr_core::material::Material;
+use djkr_core::steady::sweep::{self as steady_sweep, Direction, Linearisation, SweepPoint};
+use djkr_core::steady::{crosscheck, Options, Problem, SteadyError};
+use djkr_core::text::excerpt;
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// Limits on the grids and lists of the commands that take ranges: each bounds the work one
 /// invocation may ask for (a 100000 × 100000 shortcut map is 1e10 steady states).
@@ -76,144 +72,6 @@ pub mod limits {
     pub const ACCURACY_REPEATS: usize = 100;
     /// `accuracy --nodes`: node counts.
     pub const ACCURACY_NODES: usize = 32;
-}
-
-/// Why a call failed. [`ApiError::is_input`] tells bad input (the caller's to fix; Python's
-/// `ScenarioError`) from a computation that failed or was cancelled.
-#[derive(Debug, Error)]
-pub enum ApiError {
-    /// An argument out of range or malformed.
-    #[error(transparent)]
-    Param(#[from] ParamError),
-    /// A scenario that does not parse or validate (also a bad override value).
-    #[error(transparent)]
-    Scenario(#[from] ScenarioError),
-    /// A `KEY=VALUE` override that does not parse.
-    #[error(transparent)]
-    Override(#[from] OverrideError),
-    /// A sweep's `KEY=SPEC` that does not parse.
-    #[error(transparent)]
-    Spec(#[from] SpecError),
-    /// A sweep whose points or ensemble do not validate.
-    #[error(transparent)]
-    Sweep(#[from] SweepError),
-    /// Other bad input, with its message.
-    #[error("{0}")]
-    Invalid(String),
-    /// A run kept in memory whose known samples exceed `solver.max_memory` ([`crate::memory`]).
-    #[error(transparent)]
-    Memory(#[from] crate::memory::MemoryError),
-    /// The scenario cannot describe a periodic steady state (no `[base]`, ...).
-    #[error("{source_name}: {error}")]
-    SteadySetup {
-        /// The scenario's name.
-        source_name: String,
-        /// Why.
-        error: SteadyError,
-    },
-    /// The steady-state search failed.
-    #[error("{source_name}: {error}")]
-    Steady {
-        /// The scenario's name.
-        source_name: String,
-        /// Why.
-        error: SteadyError,
-    },
-    /// The run could not start (the scenario cannot be simulated; nothing written).
-    #[error("{source_name}: run could not start (no output written): {error}")]
-    Run {
-        /// The scenario's name.
-        source_name: String,
-        /// Why.
-        error: SimError,
-    },
-    /// The run started and ended early: stopped by a budget (`solver.max_steps`, `max_wall_s`,
-    /// `max_events`, `max_memory`) or failed mid-way. What it computed is kept in `record`
-    /// (and, with a run folder, published there with its status).
-    #[error("{source_name}: run {}: {}", .ending.status().name(), .ending.message.as_deref().unwrap_or(""))]
-    Ended {
-        /// The scenario's name.
-        source_name: String,
-        /// Its status, reason and message.
-        ending: Ending,
-        /// The run up to where it ended.
-        record: Box<RunRecord>,
-    },
-    /// Writing the run folder failed.
-    #[error("{context}: {error}")]
-    Output {
-        /// Which folder and step.
-        context: String,
-        /// Why.
-        error: OutputError,
-    },
-    /// Drawing the run's figure failed.
-    #[error("drawing the run's figure into {}: {error}", dir.display())]
-    Plot {
-        /// The run folder.
-        dir: PathBuf,
-        /// Why.
-        error: RunPlotError,
-    },
-    /// A report held a non-finite number where JSON has none (an internal error).
-    #[error("internal error: non-finite value at {0}")]
-    NonFinite(String),
-    /// Stopped from another thread ([`crate::cancel`]).
-    #[error("cancelled")]
-    Cancelled,
-}
-
-impl ApiError {
-    /// True for bad input: an argument, a scenario, an override, a sweep's grid.
-    pub fn is_input(&self) -> bool {
-        matches!(
-            self,
-            ApiError::Param(_)
-                | ApiError::Scenario(_)
-                | ApiError::Override(_)
-                | ApiError::Spec(_)
-                | ApiError::Sweep(_)
-                | ApiError::Invalid(_)
-                | ApiError::Memory(_)
-                | ApiError::SteadySetup { .. }
-        )
-    }
-
-    /// True when the output folder refused the run before it started: a file djkr did not write
-    /// at a name it publishes (without `force`), a name that is not a regular file, a path that
-    /// is not a folder, another run holding the folder, or output that would not fit the free
-    /// disk space. The command line treats these as bad input (exit status 2), as
-    /// [`ApiError::is_input`]; a failure to write once the run has started is not one.
-    pub fn is_output_refusal(&self) -> bool {
-        matches!(
-            self,
-            ApiError::Output {
-                error: OutputError::Clash { .. }
-                    | OutputError::NotRegular { .. }
-                    | OutputError::NotAFolder { .. }
-                    | OutputError::Busy { .. }
-                    | OutputError::DiskSpace { .. },
-                ..
-            }
-        )
-    }
-
-    /// A steady-state error about the scenario named `source_name`: bad input when the
-    /// scenario cannot describe a steady state, [`ApiError::Cancelled`] when cancelled.
-    pub fn from_steady(source_name: &str, error: SteadyError) -> Self {
-        let source_name = source_name.to_string();
-        match error {
-            SteadyError::Sim(SimError::Cancelled { .. }) => ApiError::Cancelled,
-            e @ SteadyError::Setup(_) => ApiError::SteadySetup {
-                source_name,
-                error: e,
-            },
-            e => ApiError::Steady {
-                source_name,
-                error: e,
-            },
-        }
-    }
 }
 
 /// The longest path the system can open, in bytes, and the longest name in it (Linux's
@@ -259,7 +117,7 @@ impl<'a> Arg<'a> {
 }
 
 /// Parse a quantity that must be > 0 (and normal: a subnormal is refused as for every key,
-/// [`crate::error::subnormal_error`]).
+/// [`djkr_core::error::subnormal_error`]).
 pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
     refuse_subnormal(
@@ -301,9 +159,9 @@ pub fn normal_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, Pa
     Ok(v)
 }
 
-/// `Err` naming `name = text` when `v` is subnormal ([`crate::error::subnormal_error`]).
+/// `Err` naming `name = text` when `v` is subnormal ([`djkr_core::error::subnormal_error`]).
 fn refuse_subnormal(name: &str, text: &str, v: f64, allowed: &str) -> Result<(), ParamError> {
-    match crate::error::subnormal_error(v, allowed) {
+    match djkr_core::error::subnormal_error(v, allowed) {
         Some(e) => Err(ParamError::new(name, excerpt(text), e)),
         None => Ok(()),
     }
@@ -414,11 +272,11 @@ pub fn range(
     text: &str,
     dim: Dimension,
     max: usize,
-) -> Result<(f64, f64, usize), ApiError> {
+) -> Result<(f64, f64, usize), Error> {
     let shown = excerpt(text);
     let parts: Vec<&str> = text.split(':').collect();
     if parts.len() != 3 {
-        return Err(ApiError::Invalid(format!(
+        return Err(Error::Invalid(format!(
             "{name} = {shown}: expected START:STOP:COUNT, e.g. 300:500:101"
         )));
     }
@@ -431,18 +289,18 @@ pub fn range(
     let lo = parse(parts[0].trim())?;
     let hi = parse(parts[1].trim())?;
     let n: usize = parts[2].trim().parse().map_err(|_| {
-        ApiError::Invalid(format!(
+        Error::Invalid(format!(
             "{name} = {shown}: COUNT = {} must be an integer >= 1",
             excerpt(parts[2])
         ))
     })?;
     if n == 0 || n > max {
-        return Err(ApiError::Invalid(format!(
+        return Err(Error::Invalid(format!(
             "{name} = {shown}: COUNT = {n} must be in 1..={max} (the limit of this command)"
         )));
     }
     if hi < lo {
-        return Err(ApiError::Invalid(format!(
+        return Err(Error::Invalid(format!(
             "{name} = {shown}: STOP must be >= START"
         )));
     }
@@ -478,18 +336,18 @@ pub fn default_material() -> (Material, Law) {
 
 /// A report as a JSON value, refusing non-finite numbers (serde_json would write `null`); the
 /// error names the path of the first one (`$.notes[0]`).
-pub fn finite_json(report: &impl serde::Serialize) -> Result<Value, ApiError> {
-    let v = serde_json::to_value(report).map_err(|e| ApiError::NonFinite(e.to_string()))?;
+pub fn finite_json(report: &impl serde::Serialize) -> Result<Value, Error> {
+    let v = serde_json::to_value(report).map_err(|e| Error::NonFinite(e.to_string()))?;
     check_finite(&v)?;
     Ok(v)
 }
 
 /// Refuse a JSON value that holds `null` where a number was (a non-finite number), naming its
 /// path.
-pub fn check_finite(v: &Value) -> Result<(), ApiError> {
-    fn check(v: &Value, path: &str) -> Result<(), ApiError> {
+pub fn check_finite(v: &Value) -> Result<(), Error> {
+    fn check(v: &Value, path: &str) -> Result<(), Error> {
         match v {
-            Value::Null => Err(ApiError::NonFinite(path.to_string())),
+            Value::Null => Err(Error::NonFinite(path.to_string())),
             Value::Object(o) => o
                 .iter()
                 .try_for_each(|(k, x)| check(x, &format!("{path}.{k}"))),
@@ -667,7 +525,7 @@ pub enum PullOffMethod {
     Approx {
         /// a_A (m).
         a_amp: f64,
-        /// β of eq. (24) (the paper's: [`crate::closed_form::BETA_PAPER`]).
+        /// β of eq. (24) (the paper's: [`djkr_core::closed_form::BETA_PAPER`]).
         beta: f64,
         /// The δ_A form.
         form: DeltaAmpForm,
@@ -766,7 +624,7 @@ pub fn pull_off(
             (r, a_amp)
         }
         PullOffMethod::Approx { a_amp, beta, form } => {
-            let p = crate::closed_form::pull_off_approx(m, law, omega, a_amp, beta, form)?;
+            let p = djkr_core::closed_form::pull_off_approx(m, law, omega, a_amp, beta, form)?;
             let r = PullOffReport {
                 method: "approx (closed form, eqs. 20-24)",
                 a_mean: p.a_mean,
@@ -1008,31 +866,30 @@ pub fn close_run_folder(
 /// the run folder `djkr run --out` writes (`run.h5`, `summary.json`, the CSV files and figure
 /// its `[output]` asks for), by the same writer. A run whose known samples would not fit in
 /// `solver.max_memory` is refused before it starts ([`crate::memory::check_in_memory`]; an input
-/// error). Cancelled through `scn.solver.cancel` ([`ApiError::Cancelled`]; a run folder is still
+/// error). Cancelled through `scn.solver.cancel` ([`Error::Cancelled`]; a run folder is still
 /// published, with reason `SIGINT`). A run stopped by a budget (`solver.max_memory` included: the
-/// bytes held in memory) or failed mid-way returns [`ApiError::Ended`] with what it computed, and
+/// bytes held in memory) or failed mid-way returns [`Error::Ended`] with what it computed, and
 /// its run folder is published with its status.
-pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, ApiError> {
+pub fn run(scn: &Scenario, out: Option<&Path>) -> Result<RunRecord, Error> {
     run_into(scn, out, false)
 }
 
 /// [`run`], with `force` (`djkr run --force`): files of the names the run publishes in `out`
 /// that djkr did not write are overwritten instead of refused.
-pub fn run_into(scn: &Scenario, out: Option<&Path>, force: bool) -> Result<RunRecord, ApiError> {
+pub fn run_into(scn: &Scenario, out: Option<&Path>, force: bool) -> Result<RunRecord, Error> {
     crate::memory::check_in_memory(scn)?;
     let options = FolderOptions {
         force,
         ..FolderOptions::of(scn)
     };
     let mut writer = match out {
-        Some(dir) => {
-            Some(
-                open_run_folder(scn, dir, options).map_err(|error| ApiError::Output {
-                    context: "out".into(),
-                    error,
-                })?,
-            )
-        }
+        Some(dir) => Some(
+            open_run_folder(scn, dir, options).map_err(|error| Error::Output {
+                input: Some("out"),
+                context: None,
+                error,
+            })?,
+        ),
         None => None,
     };
     let mut obs = InMemory {
@@ -1048,8 +905,8 @@ pub fn run_into(scn: &Scenario, out: Option<&Path>, force: bool) -> Result<RunRe
     let outcome = match outcome {
         Ok(o) => o,
         Err(error) => {
-            return Err(ApiError::Run {
-                source_name: scn.source_name.clone(),
+            return Err(Error::Run {
+                source: scn.source(),
                 error,
             })
         }
@@ -1066,13 +923,14 @@ pub fn run_into(scn: &Scenario, out: Option<&Path>, force: bool) -> Result<RunRe
         (Some(w), Some(dir)) => {
             let written =
                 close_run_folder(w, dir, &result, &ending, scn.output.plot).map_err(|error| {
-                    ApiError::Output {
-                        context: format!("writing results into {}", dir.display()),
+                    Error::Output {
+                        input: None,
+                        context: Some(format!("writing results into {}", dir.display())),
                         error,
                     }
                 })?;
             if let Some(error) = written.plot_error {
-                return Err(ApiError::Plot {
+                return Err(Error::Plot {
                     dir: dir.to_path_buf(),
                     error,
                 });
@@ -1108,9 +966,9 @@ pub fn run_into(scn: &Scenario, out: Option<&Path>, force: bool) -> Result<RunRe
     };
     match ending.status() {
         Status::Ok => Ok(record),
-        _ if ending.reason == Some(Reason::Sigint) => Err(ApiError::Cancelled),
-        _ => Err(ApiError::Ended {
-            source_name: scn.source_name.clone(),
+        _ if ending.reason == Some(Reason::Sigint) => Err(Error::Cancelled),
+        _ => Err(Error::Ended {
+            source: scn.source(),
             ending,
             record: Box::new(record),
         }),
@@ -1151,12 +1009,12 @@ pub enum Sweeps {
 
 impl Sweeps {
     /// `up`, `down` or `both`.
-    pub fn parse(name: &str, text: &str) -> Result<Sweeps, ApiError> {
+    pub fn parse(name: &str, text: &str) -> Result<Sweeps, Error> {
         match text {
             "up" => Ok(Sweeps::Up),
             "down" => Ok(Sweeps::Down),
             "both" => Ok(Sweeps::Both),
-            _ => Err(ApiError::Invalid(format!(
+            _ => Err(Error::Invalid(format!(
                 "{name} = {}: must be up, down or both",
                 excerpt(text)
             ))),
@@ -1229,14 +1087,14 @@ pub fn resonance(
 /// run sorted by (point, member). `axes` are `KEY=SPEC` as after `--set` (a list `10um,30um`,
 /// a range `START:STOP:N` or `START:STOP:Nlog`), swept as the Cartesian grid, the first key
 /// slowest; `ensemble` is (members, seed); `jobs` 0 is one per core. A raised `stop` abandons
-/// the sweep ([`ApiError::Cancelled`]).
+/// the sweep ([`Error::Cancelled`]).
 pub fn sweep<S: AsRef<str>>(
     source: crate::scenario::parse::ScenarioSource,
     axes: &[S],
     ensemble: Option<(usize, u64)>,
     jobs: usize,
     stop: Option<&AtomicBool>,
-) -> Result<Table, ApiError> {
+) -> Result<Table, Error> {
     let axes = axes
         .iter()
         .map(|s| Axis::parse(s.as_ref()))
@@ -1253,7 +1111,7 @@ pub fn sweep<S: AsRef<str>>(
         },
     );
     if stop.is_some_and(|f| f.load(std::sync::atomic::Ordering::SeqCst)) {
-        return Err(ApiError::Cancelled);
+        return Err(Error::Cancelled);
     }
     Ok(rows_table(&sweep.key_columns(), &rows))
 }
@@ -1262,7 +1120,7 @@ pub fn sweep<S: AsRef<str>>(
 /// CSV `data_text` (named `data_name` in messages), with `set` (`KEY=VALUE`) for every row (a
 /// free key's `--set` is its starting value), an optional ensemble `(members, seed)` and `jobs`
 /// threads (0: one per core). Returns the content of `fit.json`. A raised `stop` is
-/// [`ApiError::Cancelled`]. [`fit_report`] takes the other options and gives the residuals.
+/// [`Error::Cancelled`]. [`fit_report`] takes the other options and gives the residuals.
 #[allow(clippy::too_many_arguments)]
 pub fn fit<S: AsRef<str>, T: AsRef<str>>(
     source: crate::scenario::parse::ScenarioSource,
@@ -1274,7 +1132,7 @@ pub fn fit<S: AsRef<str>, T: AsRef<str>>(
     ensemble: Option<(usize, u64)>,
     jobs: usize,
     stop: Option<&AtomicBool>,
-) -> Result<serde_json::Value, ApiError> {
+) -> Result<serde_json::Value, Error> {
     let r = fit_report(
         source,
         data_text,
@@ -1348,9 +1206,9 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
     jobs: usize,
     extra: &FitExtra,
     stop: Option<&AtomicBool>,
-) -> Result<FitResult, ApiError> {
+) -> Result<FitResult, Error> {
     use crate::fit::{self as f, FitData, FitOptions, ForwardModel, FreeKey};
-    let free = FreeKey::parse_all(free).map_err(ApiError::Invalid)?;
+    let free = FreeKey::parse_all(free).map_err(Error::Invalid)?;
     let all = set
         .iter()
         .map(|s| Override::parse(s.as_ref()))
@@ -1359,22 +1217,22 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
         .into_iter()
         .partition(|o| free.iter().any(|k| k.key == o.key()));
     let data = FitData::parse(data_text, data_name, observable)
-        .map_err(|e| ApiError::Invalid(e.to_string()))?;
+        .map_err(|e| Error::Invalid(e.to_string()))?;
     let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
     // The scenario with the overrides must parse (its errors are the user's).
     source.scenario(&with_starts)?;
     let x0 = free
         .iter()
-        .map(|k| f::initial_value(&source, &starts, k).map_err(ApiError::Invalid))
+        .map(|k| f::initial_value(&source, &starts, k).map_err(Error::Invalid))
         .collect::<Result<Vec<_>, _>>()?;
-    f::check_start(&free, &x0).map_err(|e| ApiError::Invalid(e.to_string()))?;
+    f::check_start(&free, &x0).map_err(|e| Error::Invalid(e.to_string()))?;
     if ensemble.is_some_and(|e| e.0 == 0) {
-        return Err(ApiError::Invalid(
+        return Err(Error::Invalid(
             "ensemble = 0: must be a whole number >= 1 (members per row)".into(),
         ));
     }
     if extra.starts == 0 {
-        return Err(ApiError::Invalid(
+        return Err(Error::Invalid(
             "starts = 0: must be a whole number >= 1 (starting points)".into(),
         ));
     }
@@ -1386,12 +1244,13 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
         ensemble,
         jobs,
     )
-    .map_err(ApiError::Invalid)?;
+    .map_err(Error::Invalid)?;
     // The folder is claimed and locked before the fit starts, as the command line does.
     let _lock = match &extra.out {
         Some((dir, force)) => {
-            let output = |error| ApiError::Output {
-                context: format!("out={}", dir.display()),
+            let output = |error| Error::Output {
+                input: Some("out"),
+                context: None,
                 error,
             };
             crate::output::folder::claim(dir, &f::files::FILES, *force).map_err(output)?;
@@ -1411,9 +1270,9 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
     // A stop before the first evaluation ended is a cancellation, as a stop after it.
     let outcome = f::fit(&model, &free, &x0, opts, &mut |_| {}).map_err(|e| {
         if e.stopped {
-            ApiError::Cancelled
+            Error::Cancelled
         } else {
-            ApiError::Invalid(e.to_string())
+            Error::Invalid(e.to_string())
         }
     })?;
     if let Some((dir, _)) = &extra.out {
@@ -1427,13 +1286,19 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
             stop,
             &mut || {},
         )
-        .map_err(|m| ApiError::Invalid(format!("out={}: {m}", dir.display())))?;
+        .map_err(|m| {
+            Error::Invalid(format!(
+                "{}={}: {m}",
+                crate::error::input("out"),
+                dir.display()
+            ))
+        })?;
     }
     if outcome.report.interrupted {
-        return Err(ApiError::Cancelled);
+        return Err(Error::Cancelled);
     }
     let report =
-        serde_json::to_value(&outcome.report).map_err(|e| ApiError::Invalid(e.to_string()))?;
+        serde_json::to_value(&outcome.report).map_err(|e| Error::Invalid(e.to_string()))?;
     Ok(FitResult {
         report,
         residuals: f::residual_columns(&model, &outcome)

@@ -27,10 +27,10 @@
 //! Gent–Schultz law ([`GentSchultz::PAPER`]). The builders only construct values; a test or
 //! study changes the solver settings or the stages of its copy as it needs.
 
-use crate::adhesion::{ConstantW, GentSchultz, Law};
-use crate::material::Material;
 use crate::scenario::parse::{parse_scenario, ScenarioError};
 use crate::scenario::*;
+use djkr_core::adhesion::{ConstantW, GentSchultz, Law};
+use djkr_core::material::Material;
 use std::f64::consts::PI;
 
 /// A stage with a generous safety limit (10⁷ s).
@@ -168,7 +168,7 @@ pub fn soft_spring_jkr() -> Scenario {
 
 /// [`soft_spring_jkr`] unloaded at 1 mm/s to pull-off: **load control**. Known answer: the most
 /// tensile force is the load-controlled pull-off force −3/2 πRw0
-/// ([`crate::jkr::load_controlled_pull_off_force`]), detachment follows right after it.
+/// ([`djkr_core::jkr::load_controlled_pull_off_force`]), detachment follows right after it.
 pub fn load_controlled_unload() -> Scenario {
     let mut s = soft_spring_jkr();
     s.stages = vec![stage(StageKind::Unload, 1e-3, Until::PullOff, None)];
@@ -177,8 +177,8 @@ pub fn load_controlled_unload() -> Scenario {
 
 /// [`soft_spring_jkr`] through a rigid link unloaded at 0.1 mm/s: **displacement control**.
 /// Known answer: the contact follows the JKR curve past −3/2 πRw0 and is lost at
-/// a³ = πwR²/(6K), F = −5/6 πRw ([`crate::jkr::displacement_controlled_pull_off_radius`],
-/// [`crate::jkr::displacement_controlled_pull_off_force`]).
+/// a³ = πwR²/(6K), F = −5/6 πRw ([`djkr_core::jkr::displacement_controlled_pull_off_radius`],
+/// [`djkr_core::jkr::displacement_controlled_pull_off_force`]).
 pub fn displacement_controlled_unload() -> Scenario {
     let mut s = soft_spring_jkr();
     s.rig.holder = Holder::Rigid;
@@ -328,7 +328,7 @@ pub fn gs_soft_spring_unload(speed: f64) -> Scenario {
 // Vibration
 // ------------------------------------------------------------------------------------------
 
-pub use crate::rig::light_rig;
+pub use djkr_core::rig::light_rig;
 
 /// [`light_rig`] with the paper's Gent–Schultz law and a base shaking at `frequency` (Hz) with
 /// amplitude `xb` (m), starting in JKR equilibrium under a 20 mN preload; one hold stage of
@@ -477,10 +477,10 @@ pub fn synthetic_unloading_record(
     dt: f64,
     substeps: usize,
     a_end: f64,
-) -> Vec<crate::gs_fit::UnloadingRow> {
-    use crate::adhesion::AdhesionLaw;
-    use crate::gs_fit::UnloadingRow;
-    use crate::jkr;
+) -> Vec<djkr_core::gs_fit::UnloadingRow> {
+    use djkr_core::adhesion::AdhesionLaw;
+    use djkr_core::gs_fit::UnloadingRow;
+    use djkr_core::jkr;
     let m = Material::PAPER;
     let delta0 = jkr::equilibrium_indentation(&m, a0, law.w0);
     let delta = |t: f64| delta0 - speed * t;
@@ -513,18 +513,18 @@ pub fn synthetic_unloading_record(
 /// The reference record of the fit tests and study: [`synthetic_unloading_record`] of the
 /// paper's law, a 2 mm contact unloaded at 10 µm/s, sampled at 250 Hz (a camera), 20 RK4
 /// substeps per sample, down to a = 0.3 mm: crack speeds from ~0 to ~30 v0.
-pub fn paper_unloading_record() -> Vec<crate::gs_fit::UnloadingRow> {
+pub fn paper_unloading_record() -> Vec<djkr_core::gs_fit::UnloadingRow> {
     synthetic_unloading_record(&GentSchultz::PAPER, 2e-3, 10e-6, 0.004, 20, 0.3e-3)
 }
 
 /// `rows` with independent Gaussian noise of standard deviations `sigma_a` (m) on the radius and
 /// `sigma_f` (N) on the force, deterministic for a `seed` (xorshift64* uniforms, Box–Muller).
 pub fn add_noise(
-    rows: &[crate::gs_fit::UnloadingRow],
+    rows: &[djkr_core::gs_fit::UnloadingRow],
     sigma_a: f64,
     sigma_f: f64,
     seed: u64,
-) -> Vec<crate::gs_fit::UnloadingRow> {
+) -> Vec<djkr_core::gs_fit::UnloadingRow> {
     let mut state = seed.max(1);
     let mut uniform = || {
         state ^= state >> 12;
@@ -538,7 +538,7 @@ pub fn add_noise(
         (-2.0 * u1.ln()).sqrt() * (2.0 * PI * u2).cos()
     };
     rows.iter()
-        .map(|r| crate::gs_fit::UnloadingRow {
+        .map(|r| djkr_core::gs_fit::UnloadingRow {
             t: r.t,
             a: r.a + sigma_a * gauss(),
             force: r.force + sigma_f * gauss(),
@@ -616,11 +616,11 @@ pub struct CycleBalance {
 /// ⟨F⟩ − m g − ⟨F_holder⟩ = −(m Δv + c Δx_s)/T (for contact damping, Δδ = Δx_s over a period).
 pub fn cycle_balances(
     rig: &Rig,
-    cycles: &[crate::dynamics::CycleRecord],
-    samples: &[crate::dynamics::Sample],
-    events: &[crate::dynamics::Event],
+    cycles: &[djkr_core::dynamics::CycleRecord],
+    samples: &[djkr_core::dynamics::Sample],
+    events: &[djkr_core::dynamics::Event],
 ) -> Vec<CycleBalance> {
-    use crate::dynamics::EventKind;
+    use djkr_core::dynamics::EventKind;
     let at = |t: f64| {
         let i = samples.partition_point(|s| s.t < t);
         [i.checked_sub(1), Some(i)]

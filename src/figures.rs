@@ -1,5 +1,5 @@
 //! The paper's figures as data (and plots): Fig. 2 (δ cycles), Fig. 3(a) (mean force vs mean
-//! indentation), Fig. 3(b) (exact/approximate pull-off ratio, via [`crate::beta_fit`]) and
+//! indentation), Fig. 3(b) (exact/approximate pull-off ratio, via [`djkr_core::beta_fit`]) and
 //! Figs. 4–8 (pull-off quantities vs a_A at 200, 300, 400 Hz, exact and approximate).
 //!
 //! The data functions are pure; [`write_figures`] writes each figure as CSV (SI values, headers
@@ -11,14 +11,14 @@
 //! - Figs. 4–8 dashed lines: the closed form with the δ_A derived from eqs. (14)−(15) (docs/MODEL.md);
 //!   the CSV also has the printed eq. (23) column.
 
-use crate::adhesion::GentSchultz;
-use crate::beta_fit::{self, BetaFitConfig, RatioPoint};
-use crate::closed_form::{self, DeltaAmpForm};
-use crate::error::ParamError;
-use crate::imposed_area::{self, PullOff};
-use crate::material::Material;
 use crate::output::{Column, OutputError, Table};
 use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style};
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::beta_fit::{self, BetaFitConfig, RatioPoint};
+use djkr_core::closed_form::{self, DeltaAmpForm};
+use djkr_core::error::ParamError;
+use djkr_core::imposed_area::{self, PullOff};
+use djkr_core::material::Material;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -462,19 +462,29 @@ pub fn write_figures(
     Ok(files)
 }
 
+/// `values` times `k`.
+fn scaled(values: &[f64], k: f64) -> Vec<f64> {
+    values.iter().map(|v| v * k).collect()
+}
+
 /// Fig. 2: the indentation over one cycle, one line per mean contact radius.
 fn fig2_figure(curves: &[Fig2Curve]) -> Figure {
+    let all: Vec<f64> = curves
+        .iter()
+        .flat_map(|c| c.delta.iter().copied())
+        .collect();
+    let (ds, d_label) = plot::axis_label("δ", "m", &all);
     let mut fig = Figure::new(
         "Fig. 2: indentation over one cycle (200 Hz, a_A = 1 mm)",
         "ωt (rad)",
-        "δ (µm)",
+        d_label,
     );
     for (k, c) in curves.iter().enumerate() {
         fig = fig.with_series(
             Series::new(
                 format!("a_m = {:.0} µm", c.a_mean * 1e6),
                 c.theta.clone(),
-                c.delta.iter().map(|d| d * 1e6).collect(),
+                scaled(&c.delta, ds),
                 Style::Line,
             )
             .with_color(k),
@@ -486,20 +496,29 @@ fn fig2_figure(curves: &[Fig2Curve]) -> Figure {
 /// Fig. 3(a): the mean force against the mean indentation, exact and (dashed) closed form with
 /// speed correction `beta`, one colour per amplitude.
 fn fig3a_figure(curves: &[Fig3aCurve], beta: f64) -> Figure {
+    let deltas: Vec<f64> = curves
+        .iter()
+        .flat_map(|c| c.delta_mean.iter().chain(&c.approx_delta_mean).copied())
+        .collect();
+    let forces: Vec<f64> = curves
+        .iter()
+        .flat_map(|c| c.force_mean.iter().chain(&c.approx_force_mean).copied())
+        .collect();
+    let (ds, d_label) = plot::axis_label("δ_m", "m", &deltas);
+    let (fs, f_label) = plot::axis_label("F_m", "N", &forces);
     let mut fig = Figure::new(
         format!("Fig. 3(a): F_m vs δ_m at 400 Hz (dashed: eq. 18, β = {beta})"),
-        "δ_m (µm)",
-        "F_m (N)",
+        d_label,
+        f_label,
     )
     .with_legend(LegendPosition::LowerRight);
     for (k, c) in curves.iter().enumerate() {
-        let x: Vec<f64> = c.delta_mean.iter().map(|d| d * 1e6).collect();
         fig = fig
             .with_series(
                 Series::new(
                     format!("exact, a_A = {:.0} µm", c.a_amp * 1e6),
-                    x,
-                    c.force_mean.clone(),
+                    scaled(&c.delta_mean, ds),
+                    scaled(&c.force_mean, fs),
                     Style::Line,
                 )
                 .with_color(k),
@@ -507,8 +526,8 @@ fn fig3a_figure(curves: &[Fig3aCurve], beta: f64) -> Figure {
             .with_series(
                 Series::new(
                     format!("approx, a_A = {:.0} µm", c.a_amp * 1e6),
-                    c.approx_delta_mean.iter().map(|d| d * 1e6).collect(),
-                    c.approx_force_mean.clone(),
+                    scaled(&c.approx_delta_mean, ds),
+                    scaled(&c.approx_force_mean, fs),
                     Style::Dashed,
                 )
                 .with_color(k),
@@ -523,8 +542,8 @@ fn fig3a_figure(curves: &[Fig3aCurve], beta: f64) -> Figure {
 fn fig3b_figure(pts: &[RatioPoint], beta: f64) -> Figure {
     let mut fig = Figure::new(
         format!("Fig. 3(b): exact / approximate pull-off amplification (β = {beta})"),
-        "v_max / v0",
-        "ratio",
+        "v_max / v0 (–)",
+        "exact / approximate amplification (–)",
     )
     .with_log(true, false);
     let mut ns: Vec<f64> = pts.iter().map(|p| p.n).collect();
@@ -545,65 +564,100 @@ fn fig3b_figure(pts: &[RatioPoint], beta: f64) -> Figure {
 }
 
 /// Figs. 4–8 from the table `rows`, with their stems: each quantity at pull-off, exact and
-/// (dashed) closed form, one colour per frequency.
+/// (dashed) closed form, one colour per frequency; axes in the unit that suits their values.
 #[allow(clippy::float_cmp)] // series are selected by grid values copied from the grid, not computed
 fn figs4to8_figures(rows: &[TableRow], beta: f64) -> Vec<(&'static str, Figure)> {
-    type Pick = fn(&TableRow) -> (f64, f64);
-    let specs: [(&str, &str, &str, Pick, Pick, bool); 5] = [
-        (
-            "fig4",
-            "Fig. 4: mean contact radius at pull-off",
-            "a_m,po (mm)",
-            |r| (r.a_amp * 1e3, r.exact.cycle.a_mean * 1e3),
-            |r| (r.a_amp * 1e3, r.approx.a_mean * 1e3),
-            false,
-        ),
-        (
-            "fig5",
-            "Fig. 5: mean indentation at pull-off",
-            "δ_m,po (µm)",
-            |r| (r.a_amp * 1e3, r.exact.cycle.harmonics.delta_mean * 1e6),
-            |r| (r.a_amp * 1e3, r.approx.delta_mean * 1e6),
-            false,
-        ),
-        (
-            "fig6",
-            "Fig. 6: indentation amplitude at pull-off",
-            "δ_A,po (µm)",
-            |r| (r.a_amp * 1e3, r.exact.cycle.harmonics.delta_amp * 1e6),
-            |r| (r.a_amp * 1e3, r.approx.delta_amp * 1e6),
-            false,
-        ),
-        (
-            "fig7",
-            "Fig. 7: pull-off amplification F_m,po / F0",
-            "F_m,po / F0",
-            |r| (r.a_amp * 1e3, r.exact.amplification),
-            |r| (r.a_amp * 1e3, r.approx.amplification),
-            false,
-        ),
-        (
-            "fig8",
-            "Fig. 8: indentation amplitude vs mean at pull-off",
-            "δ_A,po (µm)",
-            |r| {
+    /// One of the five figures: its stem, title, quantities (x, y, y's SI unit), the exact and
+    /// closed-form (x, y) of a row in SI, and markers (else a line) for the exact values.
+    struct Spec {
+        stem: &'static str,
+        title: &'static str,
+        x: &'static str,
+        y: &'static str,
+        y_unit: &'static str,
+        exact: fn(&TableRow) -> (f64, f64),
+        approx: fn(&TableRow) -> (f64, f64),
+        markers: bool,
+    }
+    let specs = [
+        Spec {
+            stem: "fig4",
+            title: "Fig. 4: mean contact radius at pull-off",
+            x: "a_A",
+            y: "a_m,po",
+            y_unit: "m",
+            exact: |r| (r.a_amp, r.exact.cycle.a_mean),
+            approx: |r| (r.a_amp, r.approx.a_mean),
+            markers: false,
+        },
+        Spec {
+            stem: "fig5",
+            title: "Fig. 5: mean indentation at pull-off",
+            x: "a_A",
+            y: "δ_m,po",
+            y_unit: "m",
+            exact: |r| (r.a_amp, r.exact.cycle.harmonics.delta_mean),
+            approx: |r| (r.a_amp, r.approx.delta_mean),
+            markers: false,
+        },
+        Spec {
+            stem: "fig6",
+            title: "Fig. 6: indentation amplitude at pull-off",
+            x: "a_A",
+            y: "δ_A,po",
+            y_unit: "m",
+            exact: |r| (r.a_amp, r.exact.cycle.harmonics.delta_amp),
+            approx: |r| (r.a_amp, r.approx.delta_amp),
+            markers: false,
+        },
+        Spec {
+            stem: "fig7",
+            title: "Fig. 7: pull-off amplification F_m,po / F0",
+            x: "a_A",
+            y: "F_m,po / F0",
+            y_unit: "1",
+            exact: |r| (r.a_amp, r.exact.amplification),
+            approx: |r| (r.a_amp, r.approx.amplification),
+            markers: false,
+        },
+        Spec {
+            stem: "fig8",
+            title: "Fig. 8: indentation amplitude vs mean at pull-off",
+            x: "δ_m,po",
+            y: "δ_A,po",
+            y_unit: "m",
+            exact: |r| {
                 (
-                    r.exact.cycle.harmonics.delta_mean * 1e6,
-                    r.exact.cycle.harmonics.delta_amp * 1e6,
+                    r.exact.cycle.harmonics.delta_mean,
+                    r.exact.cycle.harmonics.delta_amp,
                 )
             },
-            |r| (r.approx.delta_mean * 1e6, r.approx.delta_amp * 1e6),
-            true,
-        ),
+            approx: |r| (r.approx.delta_mean, r.approx.delta_amp),
+            markers: true,
+        },
     ];
     let mut figs = Vec::new();
-    for (stem, title, ylabel, exact, approx, markers) in specs {
-        let xlabel = if markers { "δ_m,po (µm)" } else { "a_A (mm)" };
-        let mut fig = Figure::new(format!("{title} (dashed: β = {beta})"), xlabel, ylabel);
+    for Spec {
+        stem,
+        title,
+        x: xq,
+        y: yq,
+        y_unit: yu,
+        exact,
+        approx,
+        markers,
+    } in specs
+    {
+        let (xs, ys): (Vec<f64>, Vec<f64>) =
+            rows.iter().flat_map(|r| [exact(r), approx(r)]).unzip();
+        let (xf, x_label) = plot::axis_label(xq, "m", &xs);
+        let (yf, y_label) = plot::axis_label(yq, yu, &ys);
+        let mut fig = Figure::new(format!("{title} (dashed: β = {beta})"), x_label, y_label);
         for (k, &f) in TABLE_FREQUENCIES.iter().enumerate() {
             let sel: Vec<&TableRow> = rows.iter().filter(|r| r.frequency == f).collect();
-            let (ex, ey): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| exact(r)).unzip();
-            let (ax, ay): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| approx(r)).unzip();
+            let display = |p: (f64, f64)| (p.0 * xf, p.1 * yf);
+            let (ex, ey): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| display(exact(r))).unzip();
+            let (ax, ay): (Vec<f64>, Vec<f64>) = sel.iter().map(|r| display(approx(r))).unzip();
             let style = if markers { Style::Markers } else { Style::Line };
             fig = fig
                 .with_series(Series::new(format!("exact, {f:.0} Hz"), ex, ey, style).with_color(k))

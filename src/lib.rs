@@ -1,8 +1,10 @@
 //! djkr: dynamic JKR adhesion of a rigid sphere on a vibrating viscoelastic substrate.
 //!
-//! The physics lives in pure functions: [`jkr`] (contact relations), [`adhesion`] (rate-dependent
-//! work of adhesion), [`imposed_area`] (the paper's Sec. 2.1 method), [`closed_form`] (eqs. 16–24,
-//! 29), [`comparators`] (Shui et al., Yi et al.), [`dynamics`] (the time-domain simulator).
+//! The physics is the `djkr-core` crate, addressed as itself: [`djkr_core::jkr`] (contact
+//! relations), [`djkr_core::adhesion`] (rate-dependent work of adhesion),
+//! [`djkr_core::imposed_area`] (the paper's Sec. 2.1 method), [`djkr_core::closed_form`] (eqs.
+//! 16–24, 29), [`djkr_core::comparators`] (Shui et al., Yi et al.), [`djkr_core::dynamics`] (the
+//! time-domain simulator).
 //! I/O lives at the edges: [`scenario::parse`], [`output`], [`plot`], and the CLI.
 //!
 //! Running a scenario from Rust is what `djkr run FILE` does: load and validate the file
@@ -25,10 +27,8 @@
 //!
 //! # What the crate offers
 //!
-//! The physics is the `djkr-core` crate, whose modules this crate re-exports under the same
-//! names (`djkr::dynamics`, `djkr::steady`, `djkr::continuation`, …). This crate adds what
-//! reads and writes files and what the command line and Python share; the names a user composes
-//! are at the top level:
+//! This crate adds to the physics what reads and writes files and what the command line and
+//! Python share; the names a user composes are at the top level:
 //!
 //! - scenarios: [`Scenario`] (with [`Scenario::set`] for a typed change of one key),
 //!   [`load_scenario`], [`load_scenario_with`], [`ScenarioSource`], [`ScenarioError`], and the
@@ -48,6 +48,7 @@
 pub mod accuracy;
 pub mod api;
 pub mod catalogue;
+pub mod error;
 pub mod figures;
 pub mod fit;
 pub mod input;
@@ -59,11 +60,6 @@ pub mod run_plot;
 pub mod scenario;
 pub mod sensitivity;
 pub mod sweep;
-
-pub use djkr_core::{
-    adhesion, beta_fit, cancel, closed_form, comparators, continuation, describing, dynamics,
-    error, gs_fit, imposed_area, jkr, material, quadrature, rig, steady, text, transfer, units,
-};
 
 pub use api::{run, validate, RunRecord};
 pub use output::{Column, SummaryFiles, Table, TimeSeriesWriter};

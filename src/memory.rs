@@ -20,8 +20,8 @@
 
 use thiserror::Error;
 
-use crate::dynamics::protocol::Until;
 use crate::scenario::Scenario;
+use djkr_core::dynamics::protocol::Until;
 
 /// Bytes a time-series sample held in memory takes at the peak: 11 `f64` columns and two `i64`
 /// columns, stage and segment (104 bytes a row), each column a `Vec` that doubles its capacity

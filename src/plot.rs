@@ -11,6 +11,13 @@
 //! is drawn and encoded in memory, then written by [`crate::output::write_atomic`] (partial name,
 //! renamed into place), so an interrupted run leaves no `stem.png` / `stem.svg` that looks
 //! complete but is not.
+//!
+//! What a reader sees: the legend lists every labelled series and sits where it covers no data
+//! (the emptiest corner of the plotting area, else outside it on the right:
+//! `src/plot/layout.rs`); the colours are colour-blind safe and series that share a colour
+//! differ in marker and dash (`src/plot/look.rs`); a line denser than the pixels is drawn as
+//! the min–max band of each pixel column, never as a line through some of its samples; axis
+//! values are in the SI prefix that suits them ([`display_unit`], [`axis_label`]).
 
 use plotters::coord::combinators::{IntoLogRange, LogCoord};
 use plotters::coord::ranged1d::{
@@ -24,9 +31,17 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use thiserror::Error;
 
+mod layout;
+mod look;
+
+use layout::{column_band, dashes, place_legend, Corner, Placement, Prim, Px};
+use look::{look, Look};
+pub use look::{Shape, COLOR_COUNT, GREY};
+
 /// The unit a reader expects for values `values` of SI unit `si`, and the factor from SI to it:
-/// µm rather than `1e-5` m, mN rather than `0.02` N (the largest |value| picks the prefix that
-/// puts it in [1, 1000)). Units without prefixed forms here (Hz, Pa, J/m^2, dimensionless) stay SI.
+/// µm rather than `1e-5` m, mN rather than `0.02` N, kHz rather than `1500` Hz (the largest
+/// |value| picks the prefix that puts it in [1, 1000)). Units without prefixed forms here
+/// (J/m^2, rad, dimensionless) stay as given.
 pub fn display_unit(si: &str, values: &[f64]) -> (f64, String) {
     let top = values
         .iter()
@@ -48,23 +63,45 @@ pub fn display_unit(si: &str, values: &[f64]) -> (f64, String) {
         "m/s" if top > 0.0 => pick(&[(1.0, "m/s"), (1e3, "mm/s"), (1e6, "µm/s")]),
         "s" if top > 0.0 => pick(&[(1.0, "s"), (1e3, "ms"), (1e6, "µs")]),
         "kg" if top > 0.0 => pick(&[(1.0, "kg"), (1e3, "g"), (1e6, "mg")]),
+        "Hz" if top > 0.0 => pick(&[(1e-6, "MHz"), (1e-3, "kHz"), (1.0, "Hz")]),
+        "Pa" if top > 0.0 => pick(&[(1e-9, "GPa"), (1e-6, "MPa"), (1e-3, "kPa"), (1.0, "Pa")]),
+        "N/m" if top > 0.0 => pick(&[(1e-3, "kN/m"), (1.0, "N/m")]),
         _ => (1.0, si.to_string()),
     }
+}
+
+/// The unit written in an axis label for SI unit `si`: "–" for a dimensionless quantity (`""`
+/// or `"1"`), else `si` itself.
+pub fn unit_text(si: &str) -> &str {
+    match si {
+        "" | "1" | "-" => "–",
+        u => u,
+    }
+}
+
+/// An axis label for `quantity` of SI unit `si` over `values`, in the unit a reader expects
+/// ([`display_unit`]), and the factor from SI to that unit: `("base.amplitude", "m", [3e-6])`
+/// gives `(1e6, "base.amplitude (µm)")`; a dimensionless quantity is labelled `(–)`.
+pub fn axis_label(quantity: &str, si: &str, values: &[f64]) -> (f64, String) {
+    let (f, unit) = display_unit(si, values);
+    (f, format!("{quantity} ({})", unit_text(&unit)))
 }
 
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Style {
-    /// Solid line through the points in order.
+    /// Line through the points in order (solid, or the dash pattern of its palette index);
+    /// denser than the pixels, a band from the smallest to the largest value of each pixel
+    /// column.
     Line,
     /// Dashed line through the points in order.
     Dashed,
-    /// One filled circle per point, no line.
+    /// One filled marker per point (a circle, or the shape of its palette index), no line.
     Markers,
-    /// Solid line plus a marker at every point.
+    /// [`Style::Line`] plus a marker at every point.
     LineMarkers,
-    /// One ring (a hollow circle, larger than a marker) per point, no line: drawn over or under
-    /// the filled markers of another series at the same points, both stay visible.
+    /// One ring (a hollow marker, larger than a filled one) per point, no line: drawn over or
+    /// under the filled markers of another series at the same points, both stay visible.
     Rings,
     /// Light vertical bands over the whole height of the plot, drawn under every other series:
     /// `x` holds their edges in pairs (`[a0, b0, a1, b1, ...]`, one band from each `a` to its
@@ -84,7 +121,10 @@ pub struct Series {
     pub y: Vec<f64>,
     /// Line or marker style.
     pub style: Style,
-    /// Index into the palette ([`palette_color`]); `None` uses the series' position in the figure.
+    /// Index into the palette ([`palette_color`]; [`GREY`] for reference lines and marks); `None`
+    /// uses the series' position in the figure. Indices from [`COLOR_COUNT`] on repeat the
+    /// colours with another marker shape and dash pattern, so that series with different
+    /// indices never look alike.
     pub color: Option<usize>,
 }
 
@@ -107,7 +147,9 @@ impl Series {
     }
 }
 
-/// Where the legend box sits.
+/// The corner a figure's legend box prefers. The legend goes into the first corner, this one
+/// first, where it covers no data, and outside the plotting area when every corner covers data
+/// (the plotting area then narrows to make room on its right).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum LegendPosition {
     /// Upper left corner (default).
@@ -140,7 +182,7 @@ pub struct Figure {
     pub y_range: Option<(f64, f64)>,
     /// The data, drawn in order (later series on top).
     pub series: Vec<Series>,
-    /// Legend placement.
+    /// The corner the legend prefers (it moves where it covers no data).
     pub legend: LegendPosition,
     /// Image size in pixels (width, height), for both PNG and SVG.
     pub size: (u32, u32),
@@ -192,7 +234,7 @@ impl Figure {
         self
     }
 
-    /// Place the legend.
+    /// Prefer a corner for the legend.
     pub fn with_legend(mut self, pos: LegendPosition) -> Self {
         self.legend = pos;
         self
@@ -264,25 +306,11 @@ pub enum PlotError {
 /// Default image size (width, height) in pixels.
 pub const DEFAULT_SIZE: (u32, u32) = (1000, 700);
 
-/// Palette: black, blue, red, green, then further distinct colours (the paper's order is black,
-/// blue, red for 200, 300, 400 Hz). Indices wrap around.
-const PALETTE: [RGBColor; 10] = [
-    RGBColor(0, 0, 0),
-    RGBColor(31, 82, 204),
-    RGBColor(214, 39, 40),
-    RGBColor(44, 160, 44),
-    RGBColor(148, 103, 189),
-    RGBColor(255, 127, 14),
-    RGBColor(23, 190, 207),
-    RGBColor(140, 86, 75),
-    RGBColor(227, 119, 194),
-    RGBColor(127, 127, 127),
-];
-
-/// Palette colour `index` (wrapping) as (r, g, b).
+/// Palette colour `index` as (r, g, b): Okabe and Ito's colours for colour-blind readers,
+/// repeating every [`COLOR_COUNT`] series (which then differ in marker and dash); [`GREY`]
+/// is the neutral grey.
 pub fn palette_color(index: usize) -> (u8, u8, u8) {
-    let c = PALETTE[index % PALETTE.len()];
-    (c.0, c.1, c.2)
+    look::rgb(index)
 }
 
 const FONT_FAMILY: &str = "sans-serif";
@@ -599,7 +627,8 @@ pub fn tick_label(v: f64) -> String {
 /// Tick formatter for one axis over [lo, hi]. Linear: values within 1e-9 of the span of zero
 /// print as "0" (tick positions carry float noise). Log: only 10^k are labelled when the axis
 /// spans two decades or more, else only 1, 2 and 5 × 10^k (plotters proposes every light tick,
-/// whose labels would overlap).
+/// whose labels would overlap); on an axis without a power of ten, every tick (round values:
+/// [`round_ticks`]).
 fn axis_formatter(log: bool, lo: f64, hi: f64) -> impl Fn(&f64) -> String {
     let span = (hi - lo).abs();
     let decades = if log && lo > 0.0 && hi > 0.0 {
@@ -607,6 +636,7 @@ fn axis_formatter(log: bool, lo: f64, hi: f64) -> impl Fn(&f64) -> String {
     } else {
         0.0
     };
+    let spans = !log || spans_power_of_ten(lo, hi);
     move |v: &f64| {
         let v = *v;
         if !log {
@@ -624,6 +654,8 @@ fn axis_formatter(log: bool, lo: f64, hi: f64) -> impl Fn(&f64) -> String {
         let near = |m: f64| (mantissa - m).abs() < 1e-6 * m || (mantissa - 10.0 * m).abs() < 1e-5;
         let keep = if decades >= 2.0 {
             near(1.0)
+        } else if !spans {
+            true
         } else {
             near(1.0) || near(2.0) || near(5.0)
         };
@@ -651,6 +683,12 @@ impl Ranged for LogAxis {
         self.0.map(value, limit)
     }
     fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        let r = self.0.range();
+        if !spans_power_of_ten(r.start, r.end) {
+            // plotters starts at the next power of ten, past the end of such an axis: it would
+            // have no tick at all. Round values instead.
+            return round_ticks(r.start, r.end);
+        }
         let mut k = self.0.key_points(hint);
         k.sort_by(f64::total_cmp);
         k.dedup();
@@ -659,6 +697,30 @@ impl Ranged for LogAxis {
     fn range(&self) -> std::ops::Range<f64> {
         self.0.range()
     }
+}
+
+/// True when [lo, hi] (> 0) holds a power of ten.
+fn spans_power_of_ten(lo: f64, hi: f64) -> bool {
+    let (lo, hi) = (lo.min(hi), lo.max(hi));
+    lo > 0.0 && 10f64.powf(lo.log10().ceil()) <= hi * (1.0 + 1e-12)
+}
+
+/// Four to ten round values (1, 2 or 5 × 10^k apart) in [lo, hi].
+fn round_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let (lo, hi) = (lo.min(hi), lo.max(hi));
+    if !(hi > lo && lo.is_finite() && hi.is_finite()) {
+        return Vec::new();
+    }
+    let raw = (hi - lo) / 5.0;
+    let e = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * e)
+        .find(|s| (hi - lo) / s <= 10.0)
+        .unwrap_or(10.0 * e);
+    let first = (lo / step).ceil() as i64;
+    let last = (hi / step).floor() as i64;
+    (first..=last).map(|k| k as f64 * step).collect()
 }
 
 /// Pixel sizes for a figure of `size`, from a design at 700 px on its short side.
@@ -674,26 +736,23 @@ type Chart<'a, DB, XS, YS> = ChartContext<
     Cartesian2d<<XS as AsRangedCoord>::CoordDescType, <YS as AsRangedCoord>::CoordDescType>,
 >;
 
-/// The Cartesian chart shared by line figures and heat maps, with its title as a caption (heat
-/// maps title the whole figure instead, colour bar included).
-fn titled_chart<'a, DB, XS, YS>(
+/// The Cartesian chart shared by line figures and heat maps, drawn below their title (which
+/// spans the whole width: legend or colour bar included), `extra_right` px of room on its right.
+fn chart_below_title<'a, DB, XS, YS>(
     area: &'a DrawingArea<DB, Shift>,
-    title: Option<&str>,
     px: &impl Fn(f64) -> u32,
     xs: XS,
     ys: YS,
+    extra_right: u32,
 ) -> Result<Chart<'a, DB, XS, YS>, String>
 where
     DB: DrawingBackend,
     XS: AsRangedCoord<Value = f64>,
     YS: AsRangedCoord<Value = f64>,
 {
-    let mut builder = ChartBuilder::on(area);
-    if let Some(title) = title {
-        builder.caption(title, (FONT_FAMILY, px(26.0)));
-    }
-    builder
+    ChartBuilder::on(area)
         .margin(px(18.0))
+        .margin_right(px(18.0) + extra_right)
         .x_label_area_size(px(60.0))
         .y_label_area_size(px(95.0))
         .build_cartesian_2d(xs, ys)
@@ -739,10 +798,10 @@ fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) 
     let (x0, x1) = axis_range(xs, fig.x_log, fig.x_range);
     let (y0, y1) = axis_range(ys, fig.y_log, fig.y_range);
     match (fig.x_log, fig.y_log) {
-        (false, false) => draw_xy(root, fig, x0..x1, y0..y1),
-        (true, false) => draw_xy(root, fig, log_axis(x0, x1), y0..y1),
-        (false, true) => draw_xy(root, fig, x0..x1, log_axis(y0, y1)),
-        (true, true) => draw_xy(root, fig, log_axis(x0, x1), log_axis(y0, y1)),
+        (false, false) => draw_xy(root, fig, || x0..x1, || y0..y1),
+        (true, false) => draw_xy(root, fig, || log_axis(x0, x1), || y0..y1),
+        (false, true) => draw_xy(root, fig, || x0..x1, || log_axis(y0, y1)),
+        (true, true) => draw_xy(root, fig, || log_axis(x0, x1), || log_axis(y0, y1)),
     }
 }
 
@@ -763,7 +822,271 @@ fn segments(s: &Series, x_log: bool, y_log: bool) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
-fn draw_xy<DB, XS, YS>(root: &DrawingArea<DB, Shift>, fig: &Figure, xs: XS, ys: YS) -> DrawResult
+/// The look of series `i` of a figure.
+fn series_look(i: usize, s: &Series) -> Look {
+    look(s.color.unwrap_or(i), s.style == Style::Dashed)
+}
+
+/// Line widths and marker sizes of a figure of `size`, in px.
+#[derive(Debug, Clone, Copy)]
+struct Strokes {
+    /// Pixels per design pixel (700 px on the short side).
+    scale: f64,
+    line: u32,
+    radius: i32,
+    ring: i32,
+}
+
+impl Strokes {
+    fn of(size: (u32, u32)) -> Self {
+        let px = px_scale(size);
+        Self {
+            scale: f64::from(size.0.min(size.1)) / 700.0,
+            line: px(2.0),
+            radius: px(4.0) as i32,
+            ring: px(7.0) as i32,
+        }
+    }
+
+    fn dash(&self, pattern: &[f64]) -> Vec<f64> {
+        pattern.iter().map(|v| (v * self.scale).max(1.0)).collect()
+    }
+}
+
+/// The primitives of every series but the shaded spans, in drawing order, each with its series'
+/// index; `map` takes data to pixels of the plotting area.
+fn primitives(fig: &Figure, st: Strokes, map: &impl Fn(f64, f64) -> Px) -> Vec<(usize, Prim)> {
+    let mut out = Vec::new();
+    for (i, s) in fig.series.iter().enumerate() {
+        if s.style == Style::Band {
+            continue;
+        }
+        let lk = series_look(i, s);
+        for seg in segments(s, fig.x_log, fig.y_log) {
+            let pts: Vec<Px> = seg.iter().map(|&(x, y)| map(x, y)).collect();
+            if matches!(s.style, Style::Line | Style::LineMarkers | Style::Dashed) {
+                let solid = lk.dash.is_empty();
+                match column_band(&pts, (st.line as i32 / 2).max(1)) {
+                    Some(band) if solid => out.push((i, Prim::Fill { points: band })),
+                    _ => {
+                        for d in dashes(&pts, &st.dash(lk.dash)) {
+                            out.push((
+                                i,
+                                Prim::Path {
+                                    points: d,
+                                    width: st.line,
+                                },
+                            ));
+                        }
+                    }
+                }
+            }
+            let marker = |at: Px, ring: bool| Prim::Marker {
+                at,
+                shape: lk.shape,
+                size: if ring { st.ring } else { st.radius },
+                filled: !ring,
+                width: st.line,
+            };
+            match s.style {
+                Style::Markers | Style::LineMarkers => {
+                    out.extend(pts.iter().map(|&p| (i, marker(p, false))));
+                }
+                Style::Rings => out.extend(pts.iter().map(|&p| (i, marker(p, true)))),
+                _ => {}
+            }
+        }
+    }
+    out
+}
+
+/// The shaded spans of the `Band` series, each with its series' index: pixel columns x0..x1.
+fn shaded_spans(fig: &Figure, map_x: &impl Fn(f64) -> i32) -> Vec<(usize, (i32, i32))> {
+    let mut out = Vec::new();
+    for (i, s) in fig.series.iter().enumerate() {
+        if s.style != Style::Band {
+            continue;
+        }
+        for b in s.x.chunks_exact(2) {
+            if plottable(b[0], fig.x_log) && plottable(b[1], fig.x_log) {
+                let (a, c) = (map_x(b[0]), map_x(b[1]));
+                out.push((i, (a.min(c), a.max(c))));
+            }
+        }
+    }
+    out
+}
+
+/// The vertices of a marker of `shape` and half-width `size` centred at `at` (circles are drawn
+/// as circles, not from vertices).
+fn shape_vertices(shape: Shape, at: Px, size: i32) -> Vec<Px> {
+    let s = f64::from(size);
+    let rel: Vec<(f64, f64)> = match shape {
+        Shape::Circle => Vec::new(),
+        Shape::Square => vec![(-0.9, -0.9), (0.9, -0.9), (0.9, 0.9), (-0.9, 0.9)],
+        Shape::TriangleUp => vec![(0.0, -1.2), (1.1, 0.8), (-1.1, 0.8)],
+        Shape::Diamond => vec![(0.0, -1.25), (1.25, 0.0), (0.0, 1.25), (-1.25, 0.0)],
+        Shape::TriangleDown => vec![(0.0, 1.2), (1.1, -0.8), (-1.1, -0.8)],
+    };
+    rel.iter()
+        .map(|(dx, dy)| {
+            (
+                at.0 + (dx * s).round() as i32,
+                at.1 + (dy * s).round() as i32,
+            )
+        })
+        .collect()
+}
+
+/// Draw one primitive in `color` on `area` (pixels of the plotting area).
+fn draw_prim<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    prim: &Prim,
+    color: RGBColor,
+) -> DrawResult {
+    let err = |e: &dyn std::fmt::Display| e.to_string();
+    match prim {
+        Prim::Path { points, width } => area
+            .draw(&PathElement::new(
+                points.clone(),
+                color.stroke_width(*width),
+            ))
+            .map_err(|e| err(&e)),
+        Prim::Fill { points } => area
+            .draw(&Polygon::new(points.clone(), color.filled()))
+            .map_err(|e| err(&e)),
+        Prim::Marker {
+            at,
+            shape,
+            size,
+            filled,
+            width,
+        } => {
+            let style = if *filled {
+                color.filled()
+            } else {
+                color.stroke_width(*width)
+            };
+            if *shape == Shape::Circle {
+                return area
+                    .draw(&Circle::new(*at, *size, style))
+                    .map_err(|e| err(&e));
+            }
+            let mut v = shape_vertices(*shape, *at, *size);
+            if *filled {
+                area.draw(&Polygon::new(v, style)).map_err(|e| err(&e))
+            } else {
+                v.push(v[0]);
+                area.draw(&PathElement::new(v, style)).map_err(|e| err(&e))
+            }
+        }
+    }
+}
+
+/// The legend's rows: the labelled series, their text, and the box they need.
+struct LegendBox {
+    /// Indices of the labelled series, in order.
+    entries: Vec<usize>,
+    /// Rows per column.
+    rows: usize,
+    /// One column's width (px).
+    col_w: i32,
+    /// Box size (px).
+    size: (i32, i32),
+}
+
+/// Legend metrics at the design size (px): padding, glyph width, row height, font size.
+const LEGEND_PAD: f64 = 8.0;
+const LEGEND_GLYPH: f64 = 34.0;
+const LEGEND_ROW: f64 = 22.0;
+const LEGEND_FONT: f64 = 16.0;
+/// Gap between the legend box and the edges of the plotting area (design px).
+const LEGEND_MARGIN: f64 = 10.0;
+
+/// The legend box of `fig` for a plotting area `max_h` px high (its rows split into columns
+/// when they do not fit), `None` when no series is labelled.
+fn legend_box<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    fig: &Figure,
+    px: &impl Fn(f64) -> u32,
+    max_h: i32,
+) -> Result<Option<LegendBox>, String> {
+    let entries: Vec<usize> = (0..fig.series.len())
+        .filter(|&i| !fig.series[i].label.is_empty())
+        .collect();
+    // A lone series needs no key: the axes name it.
+    if entries.is_empty() || fig.series.len() < 2 {
+        return Ok(None);
+    }
+    let font = (FONT_FAMILY, px(LEGEND_FONT)).into_font();
+    let style = TextStyle::from(font).color(&BLACK);
+    let mut text_w = 0u32;
+    for &i in &entries {
+        let (w, _) = area
+            .estimate_text_size(&fig.series[i].label, &style)
+            .map_err(|e| e.to_string())?;
+        text_w = text_w.max(w);
+    }
+    let (pad, glyph, row) = (
+        px(LEGEND_PAD) as i32,
+        px(LEGEND_GLYPH) as i32,
+        px(LEGEND_ROW) as i32,
+    );
+    let fit = ((max_h - 2 * px(LEGEND_MARGIN) as i32 - pad) / row).max(1) as usize;
+    let cols = entries.len().div_ceil(fit);
+    let rows = entries.len().div_ceil(cols);
+    let col_w = glyph + 2 * pad + text_w as i32 + pad / 2;
+    let size = (col_w * cols as i32, row * rows as i32 + pad);
+    Ok(Some(LegendBox {
+        entries,
+        rows,
+        col_w,
+        size,
+    }))
+}
+
+/// Draw `title` centred over the whole of `area`, a little below its top edge, and return the
+/// area below it.
+fn below_title<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    px: &impl Fn(f64) -> u32,
+) -> Result<DrawingArea<DB, Shift>, String> {
+    area.margin(px(10.0), 0, 0, 0)
+        .titled(title, (FONT_FAMILY, px(26.0)))
+        .map_err(|e| e.to_string())
+}
+
+/// The corners in the order a figure prefers them: its own first.
+fn corner_order(pref: LegendPosition) -> [Corner; 4] {
+    let first = match pref {
+        LegendPosition::UpperLeft => Corner::UpperLeft,
+        LegendPosition::UpperRight => Corner::UpperRight,
+        LegendPosition::LowerLeft => Corner::LowerLeft,
+        LegendPosition::LowerRight => Corner::LowerRight,
+    };
+    let mut order = [first; 4];
+    let mut k = 1;
+    for c in [
+        Corner::UpperRight,
+        Corner::UpperLeft,
+        Corner::LowerRight,
+        Corner::LowerLeft,
+    ] {
+        if c != first {
+            order[k] = c;
+            k += 1;
+        }
+    }
+    order
+}
+
+fn draw_xy<DB, XS, YS>(
+    root: &DrawingArea<DB, Shift>,
+    fig: &Figure,
+    xs: impl Fn() -> XS,
+    ys: impl Fn() -> YS,
+) -> DrawResult
 where
     DB: DrawingBackend,
     XS: AsRangedCoord<Value = f64>,
@@ -774,7 +1097,55 @@ where
     let err = |e: &dyn std::fmt::Display| e.to_string();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let px = px_scale(fig.size);
-    let mut chart = titled_chart(root, Some(&fig.title), &px, xs, ys)?;
+    let st = Strokes::of(fig.size);
+    let margin = px(LEGEND_MARGIN) as i32;
+
+    // Where the legend goes, decided on a scratch copy of the chart (same size, same layout):
+    // the data's pixels are known only once the chart is laid out, and a legend outside the
+    // plotting area changes the layout.
+    let (legend, placement) = {
+        let mut scratch = String::new();
+        let probe_root =
+            SVGBackend::with_string(&mut scratch, root.dim_in_pixel()).into_drawing_area();
+        let probe_body = below_title(&probe_root, &fig.title, &px)?;
+        let probe = chart_below_title(&probe_body, &px, xs(), ys(), 0)?;
+        let area = probe.plotting_area();
+        let base = area.get_base_pixel();
+        let (w, h) = area.dim_in_pixel();
+        let map = |x: f64, y: f64| {
+            let p = probe.backend_coord(&(x, y));
+            (p.0 - base.0, p.1 - base.1)
+        };
+        let y_any = probe.y_range().start;
+        let legend = legend_box(&probe_root, fig, &px, h as i32)?;
+        let mut placement = Placement::Outside;
+        if let Some(lb) = &legend {
+            let prims: Vec<Prim> = primitives(fig, st, &map).into_iter().map(|p| p.1).collect();
+            let shades: Vec<(i32, i32)> = shaded_spans(fig, &|x| map(x, y_any).0)
+                .into_iter()
+                .map(|s| s.1)
+                .collect();
+            placement = place_legend(
+                (w as i32, h as i32),
+                lb.size,
+                margin,
+                &prims,
+                &shades,
+                &corner_order(fig.legend),
+                // Outside, the legend may take up to half the width from the plot.
+                w as i32 / 2,
+            );
+        }
+        (legend, placement)
+    };
+    let outside = legend.is_some() && placement == Placement::Outside;
+    let extra = match (&legend, outside) {
+        (Some(lb), true) => (lb.size.0 + margin) as u32,
+        _ => 0,
+    };
+    // The title over the whole width, also when the legend takes room on the right.
+    let body = below_title(root, &fig.title, &px)?;
+    let mut chart = chart_below_title(&body, &px, xs(), ys(), extra)?;
     draw_axes(
         &mut chart,
         (&fig.x_label, &fig.y_label),
@@ -782,166 +1153,123 @@ where
         &px,
         true,
     )?;
-
-    let stroke = px(2.0);
-    let dash = px(9.0);
-    let gap = px(6.0);
-    let radius = px(4.0);
-    let ring = px(7.0);
-    // Bands first, under the lines and markers they shade.
-    let (y_lo, y_hi) = {
-        let r = chart.y_range();
-        (r.start, r.end)
+    let plot = chart.plotting_area().strip_coord_spec();
+    let base = chart.plotting_area().get_base_pixel();
+    let map = |x: f64, y: f64| {
+        let p = chart.backend_coord(&(x, y));
+        (p.0 - base.0, p.1 - base.1)
     };
-    for (i, s) in fig.series.iter().enumerate() {
-        if s.style != Style::Band {
-            continue;
-        }
-        let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
-        let bands =
-            s.x.chunks_exact(2)
-                .filter(|b| plottable(b[0], fig.x_log) && plottable(b[1], fig.x_log));
-        chart
-            .draw_series(
-                bands.map(|b| {
-                    Rectangle::new([(b[0], y_lo), (b[1], y_hi)], color.mix(0.18).filled())
-                }),
-            )
-            .map_err(|e| err(&e))?;
+    let y_any = chart.y_range().start;
+    let (_, h) = plot.dim_in_pixel();
+    // Shaded spans first, under the lines and markers.
+    for (i, (a, b)) in shaded_spans(fig, &|x| map(x, y_any).0) {
+        let color = series_look(i, &fig.series[i]).color;
+        plot.draw(&Rectangle::new(
+            [(a, 0), (b, h as i32)],
+            color.mix(0.18).filled(),
+        ))
+        .map_err(|e| err(&e))?;
     }
-    for (i, s) in fig.series.iter().enumerate() {
-        let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
-        let line_style = color.stroke_width(stroke);
-        if s.style == Style::Band {
-            continue;
-        }
-        for seg in segments(s, fig.x_log, fig.y_log) {
-            if matches!(s.style, Style::Line | Style::LineMarkers) {
-                chart
-                    .draw_series(LineSeries::new(seg.iter().copied(), line_style))
-                    .map_err(|e| err(&e))?;
-            }
-            if s.style == Style::Dashed {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        seg.iter().copied(),
-                        dash,
-                        gap,
-                        line_style,
-                    ))
-                    .map_err(|e| err(&e))?;
-            }
-            if matches!(s.style, Style::Markers | Style::LineMarkers) {
-                chart
-                    .draw_series(seg.iter().map(|&p| Circle::new(p, radius, color.filled())))
-                    .map_err(|e| err(&e))?;
-            }
-            if s.style == Style::Rings {
-                chart
-                    .draw_series(seg.iter().map(|&p| Circle::new(p, ring, line_style)))
-                    .map_err(|e| err(&e))?;
-            }
+    for (i, prim) in primitives(fig, st, &map) {
+        draw_prim(&plot, &prim, series_look(i, &fig.series[i]).color)?;
+    }
+    let Some(lb) = legend else {
+        return Ok(());
+    };
+    match placement {
+        Placement::Inside(at) => draw_legend(&plot, fig, &lb, at, &px, st),
+        // Right of the plotting area, level with its top: drawn on the whole area (the plotting
+        // area clips what lies outside it).
+        Placement::Outside => {
+            let (w, _) = plot.dim_in_pixel();
+            let r = root.get_base_pixel();
+            let at = (base.0 - r.0 + w as i32 + margin, base.1 - r.1);
+            draw_legend(root, fig, &lb, at, &px, st)
         }
     }
-    draw_legend(&chart.plotting_area().strip_coord_spec(), fig, px)
 }
 
-/// The legend, drawn by hand in pixel coordinates of the plotting area (plotters' own legend
-/// needs `DB: 'static` when the backend is generic). Series with an empty label are left out.
+/// Draw the legend box `lb` with its top-left corner at `at` (pixels of the plotting area; to
+/// its right when outside it). plotters' own legend needs `DB: 'static` with a generic backend
+/// and has fixed corners only. The box is a white fill of opacity 0.88 and a grey frame.
 fn draw_legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     fig: &Figure,
-    px: impl Fn(f64) -> u32,
+    lb: &LegendBox,
+    (x0, y0): Px,
+    px: &impl Fn(f64) -> u32,
+    st: Strokes,
 ) -> DrawResult {
     let err = |e: &dyn std::fmt::Display| e.to_string();
-    let entries: Vec<(usize, &Series)> = fig
-        .series
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| !s.label.is_empty())
-        .collect();
-    if entries.is_empty() {
-        return Ok(());
-    }
-    let font = (FONT_FAMILY, px(16.0)).into_font();
-    let text_style = TextStyle::from(font.clone()).color(&BLACK);
-    let mut text_w = 0u32;
-    for (_, s) in &entries {
-        let (w, _) = area
-            .estimate_text_size(&s.label, &text_style)
-            .map_err(|e| err(&e))?;
-        text_w = text_w.max(w);
-    }
-    let pad = px(8.0) as i32;
-    let glyph_w = px(34.0) as i32;
-    let row_h = px(22.0) as i32;
-    let box_w = glyph_w + 2 * pad + text_w as i32 + pad / 2;
-    let box_h = row_h * entries.len() as i32 + pad;
-    let (aw, ah) = area.dim_in_pixel();
-    let (aw, ah) = (aw as i32, ah as i32);
-    let margin = px(10.0) as i32;
-    let x0 = match fig.legend {
-        LegendPosition::UpperLeft | LegendPosition::LowerLeft => margin,
-        LegendPosition::UpperRight | LegendPosition::LowerRight => aw - margin - box_w,
-    };
-    let y0 = match fig.legend {
-        LegendPosition::UpperLeft | LegendPosition::UpperRight => margin,
-        LegendPosition::LowerLeft | LegendPosition::LowerRight => ah - margin - box_h,
-    };
+    let (bw, bh) = lb.size;
     area.draw(&Rectangle::new(
-        [(x0, y0), (x0 + box_w, y0 + box_h)],
+        [(x0, y0), (x0 + bw, y0 + bh)],
         WHITE.mix(0.88).filled(),
     ))
     .map_err(|e| err(&e))?;
     area.draw(&Rectangle::new(
-        [(x0, y0), (x0 + box_w, y0 + box_h)],
+        [(x0, y0), (x0 + bw, y0 + bh)],
         RGBColor(120, 120, 120).stroke_width(1),
     ))
     .map_err(|e| err(&e))?;
-    let stroke = px(2.0);
-    let radius = px(4.0) as i32;
-    let ring = px(7.0) as i32;
-    for (row, (i, s)) in entries.iter().enumerate() {
-        let color = PALETTE[s.color.unwrap_or(*i) % PALETTE.len()];
-        let line = color.stroke_width(stroke);
-        let yc = y0 + pad / 2 + row_h * row as i32 + row_h / 2;
-        let gx = x0 + pad;
+    let font = (FONT_FAMILY, px(LEGEND_FONT)).into_font();
+    let text_style =
+        TextStyle::from(font)
+            .color(&BLACK)
+            .pos(plotters::style::text_anchor::Pos::new(
+                plotters::style::text_anchor::HPos::Left,
+                plotters::style::text_anchor::VPos::Center,
+            ));
+    let (pad, glyph_w, row_h) = (
+        px(LEGEND_PAD) as i32,
+        px(LEGEND_GLYPH) as i32,
+        px(LEGEND_ROW) as i32,
+    );
+    for (k, &i) in lb.entries.iter().enumerate() {
+        let s = &fig.series[i];
+        let lk = series_look(i, s);
+        let (col, row) = ((k / lb.rows) as i32, (k % lb.rows) as i32);
+        let yc = y0 + pad / 2 + row_h * row + row_h / 2;
+        let gx = x0 + col * lb.col_w + pad;
+        let centre = (gx + glyph_w / 2, yc);
+        let mut glyph: Vec<Prim> = Vec::new();
         match s.style {
-            Style::Line | Style::LineMarkers => {
-                area.draw(&PathElement::new(vec![(gx, yc), (gx + glyph_w, yc)], line))
-                    .map_err(|e| err(&e))?;
-            }
-            Style::Dashed => {
-                let d = glyph_w / 4;
-                for k in [0, 2] {
-                    let a = gx + k * d + d / 4;
-                    area.draw(&PathElement::new(vec![(a, yc), (a + d + d / 4, yc)], line))
-                        .map_err(|e| err(&e))?;
+            Style::Line | Style::LineMarkers | Style::Dashed => {
+                for d in dashes(&[(gx, yc), (gx + glyph_w, yc)], &st.dash(lk.dash)) {
+                    glyph.push(Prim::Path {
+                        points: d,
+                        width: st.line,
+                    });
                 }
             }
             Style::Band => {
                 area.draw(&Rectangle::new(
                     [(gx, yc - row_h / 3), (gx + glyph_w, yc + row_h / 3)],
-                    color.mix(0.18).filled(),
+                    lk.color.mix(0.18).filled(),
                 ))
                 .map_err(|e| err(&e))?;
             }
             Style::Markers | Style::Rings => {}
         }
-        if matches!(s.style, Style::Markers | Style::LineMarkers) {
-            area.draw(&Circle::new((gx + glyph_w / 2, yc), radius, color.filled()))
-                .map_err(|e| err(&e))?;
+        if matches!(s.style, Style::Markers | Style::LineMarkers | Style::Rings) {
+            let ring = s.style == Style::Rings;
+            glyph.push(Prim::Marker {
+                at: centre,
+                shape: lk.shape,
+                size: if ring { st.ring } else { st.radius },
+                filled: !ring,
+                width: st.line,
+            });
         }
-        if s.style == Style::Rings {
-            area.draw(&Circle::new((gx + glyph_w / 2, yc), ring, line))
-                .map_err(|e| err(&e))?;
+        for g in &glyph {
+            draw_prim(area, g, lk.color)?;
         }
-        let ts = text_style.pos(plotters::style::text_anchor::Pos::new(
-            plotters::style::text_anchor::HPos::Left,
-            plotters::style::text_anchor::VPos::Center,
-        ));
-        area.draw(&Text::new(s.label.clone(), (gx + glyph_w + pad, yc), ts))
-            .map_err(|e| err(&e))?;
+        area.draw(&Text::new(
+            s.label.clone(),
+            (gx + glyph_w + pad, yc),
+            text_style.clone(),
+        ))
+        .map_err(|e| err(&e))?;
     }
     Ok(())
 }
@@ -1087,7 +1415,7 @@ where
 {
     let err = |e: &dyn std::fmt::Display| e.to_string();
     let px = px_scale(map.size);
-    let mut chart = titled_chart(area, None, &px, xs, ys)?;
+    let mut chart = chart_below_title(area, &px, xs, ys, 0)?;
     let zr = z_scale(map);
     let nx = map.x.len();
     let cells = (0..map.y.len()).flat_map(|iy| {
@@ -1322,7 +1650,15 @@ mod tests {
         assert_eq!(display_unit("N", &[0.02, f64::NAN]), (1e3, "mN".into()));
         assert_eq!(display_unit("m/s", &[4.45e-5]), (1e6, "µm/s".into()));
         assert_eq!(display_unit("Hz", &[400.0]), (1.0, "Hz".into()));
+        assert_eq!(display_unit("Hz", &[300.0, 1500.0]), (1e-3, "kHz".into()));
+        assert_eq!(display_unit("Pa", &[9.33e6]), (1e-6, "MPa".into()));
         assert_eq!(display_unit("m", &[0.0]), (1.0, "m".into()));
+        // Issue 33: fold_curves.png had its amplitude axis in metres (1e-6).
+        assert_eq!(
+            axis_label("base.amplitude", "m", &[1e-6, 4e-6]),
+            (1e6, "base.amplitude (µm)".into())
+        );
+        assert_eq!(axis_label("ratio", "1", &[2.0]), (1.0, "ratio (–)".into()));
     }
 
     #[test]
@@ -1333,6 +1669,17 @@ mod tests {
         assert_eq!(log(&200.0), "200");
         assert_eq!(log(&300.0), "");
         assert_eq!(log(&1000.0), "1000");
+        // No power of ten in range: round ticks, each labelled (plotters gave none at all).
+        let narrow = axis_formatter(true, 39.0, 68.0);
+        assert_eq!(narrow(&45.0), "45");
+        assert_eq!(
+            log_axis(39.0, 68.0).key_points(10),
+            vec![40.0, 45.0, 50.0, 55.0, 60.0, 65.0]
+        );
+        assert_eq!(
+            round_ticks(20.0, 90.0),
+            vec![20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0]
+        );
         let wide = axis_formatter(true, 1e-2, 1e2);
         assert_eq!(wide(&0.1), "0.1");
         assert_eq!(wide(&0.2), "");

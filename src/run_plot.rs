@@ -7,19 +7,25 @@
 //! | a(t) | F–δ loop of the last cycles before pull-off |
 //! | δ(t) | per-cycle ⟨δ⟩ and δ_A |
 //!
-//! The time panels mark the stage starts (dashed) and the events (impact, contact loss,
-//! pull-off). Long series are thinned for drawing by keeping each pixel column's extremes (so
-//! the envelope of a vibration is drawn as it is), never averaged. Where envelope following
-//! skipped base periods (the file's `/gaps`), every line breaks and the time panels shade the
-//! skipped spans ("envelope: N periods skipped"): a line across a gap would draw a motion
-//! nothing computed.
+//! The time panels mark the stage starts (dashed) and the events (impact, contact loss, the
+//! detachment: the `pull-off` event, when the contact was lost for good). The pull-off itself,
+//! the most tensile (cycle-mean) force, is marked at its force and time in F(t) and ⟨F⟩, and only
+//! when the run detached with a tensile force (the file's `detached` and `pull_off_force`); a
+//! title names a pull-off only then. Long series are thinned for reading by keeping the extremes
+//! of buckets much narrower than a pixel column (never averaged); the plot layer then draws a
+//! series denser than the pixels as the min–max band of each pixel column, so a vibration is
+//! drawn as the band it fills, without the moiré of a line through some of its samples. Where
+//! envelope following skipped base periods (the file's `/gaps`), every line breaks and the time
+//! panels shade the skipped spans ("envelope: N periods skipped"): a line across a gap would draw
+//! a motion nothing computed. Axes are in the SI prefix that suits the run (mN or N, µm or mm,
+//! ms or s).
 
 use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
 use crate::input::{self, InputError, InputKind};
-use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style};
+use crate::plot::{self, Figure, LegendPosition, PlotError, Series, Style, GREY};
 
 /// The figure's file stem in a run folder.
 pub const RUN_PLOT_STEM: &str = "run";
@@ -27,10 +33,14 @@ pub const RUN_PLOT_STEM: &str = "run";
 pub const RUN_PLOT_FILES: [&str; 2] = ["run.png", "run.svg"];
 /// Image size (width, height) in pixels.
 pub const RUN_PLOT_SIZE: (u32, u32) = (1600, 1500);
-/// Points per drawn series at most (about two per pixel column).
-const MAX_POINTS: usize = 3000;
+/// Points per series handed to the plot layer at most: the extremes of 10 000 buckets, more
+/// than ten per pixel column, so that the plot layer's min–max band of each column is that of
+/// the samples.
+const MAX_POINTS: usize = 20_000;
 /// Cycles in the F–δ loop.
 const LOOP_CYCLES: usize = 3;
+/// Points of the F–δ loop at most (its abscissa goes back and forth: a line, not a band).
+const LOOP_POINTS: usize = 3000;
 /// Markers per event kind at most (impacts can happen every cycle).
 const MAX_EVENT_MARKERS: usize = 300;
 
@@ -71,6 +81,10 @@ pub struct RunSeries {
     pub segment: Vec<i64>,
     /// Gaps of the time series: t_start, t_end (s), periods skipped (`/gaps`).
     pub gaps: Vec<(f64, f64, i64)>,
+    /// The pull-off, (time (s), force (N)): the most tensile (cycle-mean) contact force, present
+    /// only for a run that detached with a tensile force (root attributes `detached`,
+    /// `pull_off_time`, `pull_off_force`).
+    pub pull_off: Option<(f64, f64)>,
 }
 
 /// Open a run file for reading: through the one reader of input files
@@ -103,18 +117,24 @@ pub fn read_run(path: &Path) -> Result<RunSeries, RunPlotError> {
             .and_then(|d| d.read_f64())
             .map_err(|e| err(format!("dataset {name}: {e}")))
     };
-    let source = f
-        .root()
-        .attrs()
-        .ok()
-        .and_then(|a| a.get("source").and_then(|v| v.as_str().map(str::to_string)))
+    let attrs = f.root().attrs().unwrap_or_default();
+    let source = attrs
+        .get("source")
+        .and_then(|v| v.as_str().map(str::to_string))
         .unwrap_or_default();
+    let number = |name: &str| attrs.get(name).and_then(|v| v.as_f64());
+    let detached = attrs.get("detached").and_then(|v| v.as_i64()) == Some(1);
+    let pull_off = match (number("pull_off_time"), number("pull_off_force")) {
+        (Some(t), Some(force)) if detached && t.is_finite() && force < 0.0 => Some((t, force)),
+        _ => None,
+    };
     let mut s = RunSeries {
         source,
         t: f64s("t")?,
         force: f64s("F")?,
         a: f64s("a")?,
         delta: f64s("delta")?,
+        pull_off,
         ..RunSeries::default()
     };
     let kinds = f
@@ -293,29 +313,86 @@ fn thin_to(x: &[f64], y: &[f64], max: usize) -> (Vec<f64>, Vec<f64>) {
     (xo, yo)
 }
 
-/// One time panel: the series, the stage starts and the events.
-fn time_panel(
-    s: &RunSeries,
-    title: &str,
-    y_label: &str,
-    y: &[f64],
-    scale: f64,
-    event_value: fn(&(String, f64, f64, f64, f64)) -> f64,
-) -> Figure {
-    let (tx, ty) = thin_broken(&s.t, y, &stretches(&s.segment, s.t.len()));
-    let ty: Vec<f64> = ty.iter().map(|v| v * scale).collect();
+/// Palette indices of the marks, the same in every panel: the pull-off an orange square (the
+/// orange of the palette, in its second cycle), the detachment a blue ring (so that a contact
+/// loss at the same point stays visible inside), impacts green, contact losses vermillion.
+const PULL_OFF_COLOR: usize = plot::COLOR_COUNT + 5;
+const DETACHMENT_COLOR: usize = 1;
+const IMPACT_COLOR: usize = 3;
+const CONTACT_LOSS_COLOR: usize = 2;
+
+/// The event kinds marked in the time panels: the file's kind, its legend text, colour, style.
+const MARKED_EVENTS: [(&str, &str, usize, Style); 3] = [
+    ("pull-off", "detachment", DETACHMENT_COLOR, Style::Rings),
+    ("impact", "impact", IMPACT_COLOR, Style::Markers),
+    (
+        "contact-loss",
+        "contact loss",
+        CONTACT_LOSS_COLOR,
+        Style::Markers,
+    ),
+];
+
+/// What a time panel shows: the quantity's name and SI unit, its samples, and its value at an
+/// event.
+struct Quantity<'a> {
+    title: &'a str,
+    name: &'a str,
+    unit: &'a str,
+    values: &'a [f64],
+    at_event: fn(&(String, f64, f64, f64, f64)) -> f64,
+}
+
+/// The pull-off marker of a panel in display units (`None`: the run has no pull-off).
+fn pull_off_marker(s: &RunSeries, t_scale: f64, f_scale: f64) -> Option<Series> {
+    let (t, force) = s.pull_off?;
+    // Under vibration the pull-off force is a cycle mean, reached at the end of its cycle.
+    let mean = s
+        .cycles
+        .iter()
+        .any(|c| (c[1] - t).abs() <= 1e-9 * t.abs().max(f64::MIN_POSITIVE));
+    let label = if mean {
+        "pull-off: most tensile ⟨F⟩"
+    } else {
+        "pull-off: most tensile F"
+    };
+    Some(
+        Series::new(
+            label,
+            vec![t * t_scale],
+            vec![force * f_scale],
+            Style::Markers,
+        )
+        .with_color(PULL_OFF_COLOR),
+    )
+}
+
+/// The display unit of the run's time axis.
+fn time_axis(s: &RunSeries) -> (f64, String) {
+    let ends: Vec<f64> = s.t.first().into_iter().chain(s.t.last()).copied().collect();
+    plot::axis_label("t", "s", &ends)
+}
+
+/// One time panel: the series, the stage starts and the events; F(t) also the pull-off.
+fn time_panel(s: &RunSeries, q: &Quantity, force: bool) -> Figure {
+    let (ts, t_label) = time_axis(s);
+    let (ys, y_label) = plot::axis_label(q.name, q.unit, q.values);
+    let (tx, ty) = thin_broken(&s.t, q.values, &stretches(&s.segment, s.t.len()));
+    let tx: Vec<f64> = tx.iter().map(|v| v * ts).collect();
+    let ty: Vec<f64> = ty.iter().map(|v| v * ys).collect();
     let (lo, hi) = ty
         .iter()
         .filter(|v| v.is_finite())
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
             (a.min(*v), b.max(*v))
         });
-    let mut fig = Figure::new(title, "t (s)", y_label).with_legend(LegendPosition::LowerLeft);
-    if let Some(band) = gap_band(s) {
+    let mut fig = Figure::new(q.title, t_label, y_label).with_legend(LegendPosition::UpperRight);
+    if let Some(band) = gap_band(s, ts) {
         fig.series.push(band);
     }
+    let trace = q.title.split_whitespace().last().unwrap_or_default();
     fig.series
-        .push(Series::new("", tx, ty, Style::Line).with_color(0));
+        .push(Series::new(trace, tx, ty, Style::Line).with_color(0));
     if lo.is_finite() && hi.is_finite() {
         let (mut bx, mut by) = (Vec::new(), Vec::new());
         for e in s
@@ -323,41 +400,42 @@ fn time_panel(
             .iter()
             .filter(|e| e.0 == "stage-start" && e.1 > 0.0)
         {
-            bx.extend([e.1, e.1, f64::NAN]);
+            bx.extend([e.1 * ts, e.1 * ts, f64::NAN]);
             by.extend([lo, hi, f64::NAN]);
         }
         if !bx.is_empty() {
             fig.series
-                .push(Series::new("stage start", bx, by, Style::Dashed).with_color(9));
+                .push(Series::new("stage start", bx, by, Style::Dashed).with_color(GREY));
         }
     }
-    // Pull-off as a ring, first: the contact loss it often coincides with stays visible inside.
-    for (kind, color, style) in [
-        ("pull-off", 1, Style::Rings),
-        ("impact", 3, Style::Markers),
-        ("contact-loss", 2, Style::Markers),
-    ] {
+    if force {
+        fig.series.extend(pull_off_marker(s, ts, ys));
+    }
+    // The detachment as a ring, first: the contact loss it often coincides with stays visible
+    // inside.
+    for (kind, label, color, style) in MARKED_EVENTS {
         let (ex, ey): (Vec<f64>, Vec<f64>) = s
             .events
             .iter()
             .filter(|e| e.0 == kind)
             .take(MAX_EVENT_MARKERS)
-            .map(|e| (e.1, event_value(e) * scale))
+            .map(|e| (e.1 * ts, (q.at_event)(e) * ys))
             .unzip();
         if !ex.is_empty() {
             fig.series
-                .push(Series::new(kind, ex, ey, style).with_color(color));
+                .push(Series::new(label, ex, ey, style).with_color(color));
         }
     }
     fig
 }
 
-/// The shaded spans of the gaps, labelled with the periods skipped in them (`None`: no gap).
-fn gap_band(s: &RunSeries) -> Option<Series> {
+/// The shaded spans of the gaps (times scaled by `ts`), labelled with the periods skipped in
+/// them (`None`: no gap).
+fn gap_band(s: &RunSeries, ts: f64) -> Option<Series> {
     if s.gaps.is_empty() {
         return None;
     }
-    let x: Vec<f64> = s.gaps.iter().flat_map(|g| [g.0, g.1]).collect();
+    let x: Vec<f64> = s.gaps.iter().flat_map(|g| [g.0 * ts, g.1 * ts]).collect();
     let periods: i64 = s.gaps.iter().map(|g| g.2).sum();
     let y = vec![f64::NAN; x.len()];
     Some(
@@ -367,72 +445,93 @@ fn gap_band(s: &RunSeries) -> Option<Series> {
             y,
             Style::Band,
         )
-        .with_color(7),
+        .with_color(GREY),
     )
+}
+
+/// "the last cycle" or "the last k cycles".
+fn last_cycles(k: usize) -> String {
+    if k == 1 {
+        "the last cycle".to_string()
+    } else {
+        format!("the last {k} cycles")
+    }
 }
 
 /// The six panels of a run's figure.
 pub fn run_panels(s: &RunSeries) -> Vec<Figure> {
     let f = time_panel(
         s,
-        "contact force F(t)",
-        "F (mN, compressive +)",
-        &s.force,
-        1e3,
-        |e| e.2,
+        &Quantity {
+            title: "contact force F(t)",
+            name: "F, compressive +",
+            unit: "N",
+            values: &s.force,
+            at_event: |e| e.2,
+        },
+        true,
     );
-    let a = time_panel(s, "contact radius a(t)", "a (mm)", &s.a, 1e3, |e| e.3);
+    let a = time_panel(
+        s,
+        &Quantity {
+            title: "contact radius a(t)",
+            name: "a",
+            unit: "m",
+            values: &s.a,
+            at_event: |e| e.3,
+        },
+        false,
+    );
     let d = time_panel(
         s,
-        "indentation δ(t)",
-        "δ (µm, compressive +)",
-        &s.delta,
-        1e6,
-        |e| e.4,
+        &Quantity {
+            title: "indentation δ(t)",
+            name: "δ, compressive +",
+            unit: "m",
+            values: &s.delta,
+            at_event: |e| e.4,
+        },
+        false,
     );
+    let cycle_ends: Vec<f64> = s.cycles.iter().map(|c| c[1]).collect();
+    let (cts, ct_label) = plot::axis_label("t at the cycle's end", "s", &cycle_ends);
+    let mean_forces: Vec<f64> = s
+        .cycles
+        .iter()
+        .map(|c| c[2])
+        .chain(s.pull_off.map(|p| p.1))
+        .collect();
+    let (fs, f_label) = plot::axis_label("⟨F⟩", "N", &mean_forces);
     let mut fm = Figure::new(
         if s.cycles.is_empty() {
             "per-cycle mean force: no cycles (the shaker never ran)"
         } else {
             "per-cycle mean force ⟨F⟩"
         },
-        "t at the cycle's end (s)",
-        "⟨F⟩ (mN)",
-    );
-    let (cx, cy) = broken_cycles(&s.cycles, |c| c[2] * 1e3);
+        ct_label.clone(),
+        f_label,
+    )
+    .with_legend(LegendPosition::UpperRight);
+    let (cx, cy) = broken_cycles(&s.cycles, |c| c[2]);
     let (cx, cy) = thin_nan(&cx, &cy);
     let lone = isolated(&cx, &cy);
+    let scale = |v: Vec<f64>, k: f64| -> Vec<f64> { v.iter().map(|x| x * k).collect() };
     fm.series
-        .push(Series::new("", cx, cy, Style::Line).with_color(1));
+        .push(Series::new("", scale(cx, cts), scale(cy, fs), Style::Line).with_color(1));
     if let Some((x, y)) = lone {
         fm.series
-            .push(Series::new("", x, y, Style::Markers).with_color(1));
+            .push(Series::new("", scale(x, cts), scale(y, fs), Style::Markers).with_color(1));
     }
-    if let Some(po) = s.events.iter().find(|e| e.0 == "pull-off") {
-        if let Some(best) = s
-            .cycles
-            .iter()
-            .filter(|c| c[1] <= po.1)
-            .min_by(|a, b| a[2].total_cmp(&b[2]))
-        {
-            fm.series.push(
-                Series::new(
-                    "pull-off force",
-                    vec![best[1]],
-                    vec![best[2] * 1e3],
-                    Style::Markers,
-                )
-                .with_color(2),
-            );
-        }
+    if let Some(po) = pull_off_marker(s, cts, fs) {
+        fm.series[0].label = "⟨F⟩ of each cycle".into();
+        fm.series.push(po);
     }
-    // The F–δ loop: the last cycles that end before pull-off (or the run's end); without
-    // cycles, the whole run.
-    let end = s
-        .events
-        .iter()
-        .find(|e| e.0 == "pull-off")
-        .map_or(f64::INFINITY, |e| e.1);
+    // The F–δ loop: the last cycles that end before the detachment, else the last of the run;
+    // without cycles, the whole run. The title says which.
+    let (end, until) = match s.events.iter().find(|e| e.0 == "pull-off") {
+        Some(e) => (e.1, " before the detachment"),
+        None => (f64::INFINITY, " of the run"),
+    };
     let before: Vec<&[f64; 5]> = s.cycles.iter().filter(|c| c[1] <= end).collect();
     let (t0, t1, loop_title) = match before.len() {
         0 => (
@@ -446,14 +545,14 @@ pub fn run_panels(s: &RunSeries) -> Vec<Figure> {
             (
                 first[0],
                 before[n - 1][1],
-                format!("F–δ loop: the last {k} cycle(s) before pull-off"),
+                format!("F–δ loop: {}{until}", last_cycles(k)),
             )
         }
     };
     let inside: Vec<usize> = (0..s.t.len().min(s.delta.len()).min(s.force.len()))
         .filter(|&i| s.t[i] >= t0 && s.t[i] <= t1)
         .collect();
-    let stride = inside.len().div_ceil(MAX_POINTS).max(1);
+    let stride = inside.len().div_ceil(LOOP_POINTS).max(1);
     let seg = |i: usize| s.segment.get(i).copied().unwrap_or(0);
     let (mut lx, mut ly) = (Vec::new(), Vec::new());
     let mut prev: Option<usize> = None;
@@ -467,24 +566,29 @@ pub fn run_panels(s: &RunSeries) -> Vec<Figure> {
             lx.push(f64::NAN);
             ly.push(f64::NAN);
         }
-        lx.push(s.delta[i] * 1e6);
-        ly.push(s.force[i] * 1e3);
+        lx.push(s.delta[i]);
+        ly.push(s.force[i]);
         prev = Some(i);
     }
-    let mut lp = Figure::new(loop_title, "δ (µm)", "F (mN)");
+    let (lxs, lx_label) = plot::axis_label("δ", "m", &lx);
+    let (lys, ly_label) = plot::axis_label("F", "N", &ly);
+    let mut lp = Figure::new(loop_title, lx_label, ly_label);
     lp.series
-        .push(Series::new("", lx, ly, Style::Line).with_color(4));
-    let mut dp = Figure::new("per-cycle ⟨δ⟩ and δ_A", "t at the cycle's end (s)", "µm")
+        .push(Series::new("", scale(lx, lxs), scale(ly, lys), Style::Line).with_color(4));
+    let deltas: Vec<f64> = s.cycles.iter().flat_map(|c| [c[3], c[4]]).collect();
+    let (ds, d_label) = plot::axis_label("⟨δ⟩, δ_A", "m", &deltas);
+    let mut dp = Figure::new("per-cycle ⟨δ⟩ and δ_A", ct_label, d_label)
         .with_legend(LegendPosition::UpperRight);
     for (name, idx, color) in [("⟨δ⟩", 3, 0), ("δ_A", 4, 2)] {
-        let (x, y) = broken_cycles(&s.cycles, |c| c[idx] * 1e6);
+        let (x, y) = broken_cycles(&s.cycles, |c| c[idx]);
         let (x, y) = thin_nan(&x, &y);
         let lone = isolated(&x, &y);
         dp.series
-            .push(Series::new(name, x, y, Style::Line).with_color(color));
+            .push(Series::new(name, scale(x, cts), scale(y, ds), Style::Line).with_color(color));
         if let Some((x, y)) = lone {
-            dp.series
-                .push(Series::new("", x, y, Style::Markers).with_color(color));
+            dp.series.push(
+                Series::new("", scale(x, cts), scale(y, ds), Style::Markers).with_color(color),
+            );
         }
     }
     vec![f, fm, a, lp, d, dp]
@@ -513,34 +617,139 @@ pub fn plot_run_dir(dir: &Path) -> Result<(PathBuf, PathBuf), RunPlotError> {
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_contact_loss_at_the_pull_off_stays_visible() {
-        // Issue 25: the contact-loss marker was drawn under the pull-off marker at the same
-        // point. The pull-off is a ring drawn first; the dots of the other events come after it.
-        let ev = |kind: &str| (kind.to_string(), 1.0, -0.01, 1e-4, -1e-6);
-        let s = RunSeries {
+    fn series(events: Vec<(String, f64, f64, f64, f64)>) -> RunSeries {
+        RunSeries {
             source: "x".into(),
             t: vec![0.0, 1.0, 2.0],
             force: vec![0.0, -0.01, 0.0],
             a: vec![1e-3, 1e-4, 0.0],
             delta: vec![1e-6, -1e-6, -2e-6],
-            events: vec![ev("contact-loss"), ev("pull-off")],
-            cycles: Vec::new(),
-            segment: Vec::new(),
-            gaps: Vec::new(),
-        };
-        let panels = run_panels(&s);
+            events,
+            ..RunSeries::default()
+        }
+    }
+
+    #[test]
+    fn a_contact_loss_at_the_detachment_stays_visible() {
+        // Issue 25: the contact-loss marker was drawn under the pull-off marker at the same
+        // point. The detachment is a ring drawn first; the dots of the other events come after.
+        let ev = |kind: &str| (kind.to_string(), 1.0, -0.01, 1e-4, -1e-6);
+        let panels = run_panels(&series(vec![ev("contact-loss"), ev("pull-off")]));
         // The time panels: F, a and δ (positions 0, 2, 4).
         for fig in [&panels[0], &panels[2], &panels[4]] {
             let pos = |label: &str| fig.series.iter().position(|x| x.label == label).unwrap();
-            let (po, cl) = (pos("pull-off"), pos("contact-loss"));
+            let (po, cl) = (pos("detachment"), pos("contact loss"));
             assert_eq!(fig.series[po].style, Style::Rings, "{}", fig.title);
             assert_eq!(fig.series[cl].style, Style::Markers, "{}", fig.title);
             assert!(
                 po < cl,
-                "{}: the pull-off ring must be drawn first",
+                "{}: the detachment ring must be drawn first",
                 fig.title
             );
         }
+    }
+
+    #[test]
+    fn the_pull_off_is_marked_at_its_force_and_time_and_only_when_there_was_one() {
+        // Issue 33: the "pull-off" marker sat at F = 0 at the detachment (21.59 s) instead of
+        // at the most tensile cycle mean (-102.8 mN at 20.83 s).
+        let det = ("pull-off".to_string(), 2.0, 0.0, 0.0, -2e-6);
+        let mut s = series(vec![det.clone()]);
+        s.cycles = vec![[0.0, 0.5, -0.005, 0.0, 1e-6], [0.5, 1.0, -0.009, 0.0, 1e-6]];
+        s.pull_off = Some((1.0, -0.009));
+        let panels = run_panels(&s);
+        for fig in [&panels[0], &panels[1]] {
+            let po = fig
+                .series
+                .iter()
+                .find(|x| x.label.starts_with("pull-off"))
+                .unwrap_or_else(|| panic!("{}: no pull-off", fig.title));
+            assert_eq!(po.label, "pull-off: most tensile ⟨F⟩", "{}", fig.title);
+            // Time in s (a 2 s run), force in mN.
+            assert!(fig.y_label.ends_with("(mN)"), "{}", fig.y_label);
+            assert_eq!((po.x[0], po.y[0]), (1.0, -9.0), "{}", fig.title);
+        }
+        let det_marker = panels[0]
+            .series
+            .iter()
+            .find(|x| x.label == "detachment")
+            .unwrap();
+        assert_eq!((det_marker.x[0], det_marker.y[0]), (2.0, 0.0));
+        assert_eq!(
+            panels[3].title,
+            "F–δ loop: the last 2 cycles before the detachment"
+        );
+        // No pull-off (no detachment, or no tensile force): no marker, no title naming one.
+        let mut s = series(Vec::new());
+        s.cycles = vec![[0.0, 0.5, 0.005, 0.0, 1e-6], [0.5, 1.0, 0.009, 0.0, 1e-6]];
+        let panels = run_panels(&s);
+        for fig in &panels {
+            assert!(!fig.title.contains("pull-off"), "{}", fig.title);
+            assert!(
+                fig.series.iter().all(|x| !x.label.contains("pull-off")),
+                "{}",
+                fig.title
+            );
+        }
+        assert_eq!(panels[3].title, "F–δ loop: the last 2 cycles of the run");
+    }
+
+    #[test]
+    fn a_dense_oscillation_is_drawn_as_the_band_it_fills() {
+        // Issue 33: F(t) of a vibration denser than the pixels showed a moiré that looked like
+        // beating (a line through thinned samples). 300 000 samples of a constant-amplitude
+        // sine, 3000 periods: several periods per pixel column, so every column of the drawn
+        // band must reach from the trough to the crest.
+        let n = 300_000;
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * 1e-5).collect();
+        let force: Vec<f64> = t
+            .iter()
+            .map(|&t| 0.1 * (std::f64::consts::TAU * 1000.0 * t).sin())
+            .collect();
+        let s = RunSeries {
+            source: "x".into(),
+            a: vec![1e-3; n],
+            delta: vec![1e-6; n],
+            t,
+            force,
+            ..RunSeries::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let panels = run_panels(&s);
+        let (_, svg) =
+            plot::render_panels(&panels[..1], 1, (800, 500), &dir.path().join("f")).unwrap();
+        let svg = std::fs::read_to_string(svg).unwrap();
+        let band = svg
+            .lines()
+            .find(|l| l.starts_with("<polygon") && l.contains("fill=\"#000000\""))
+            .expect("the trace is drawn as a band");
+        let pts: Vec<(i32, i32)> = band
+            .split("points=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap()
+            .split_whitespace()
+            .map(|p| {
+                let (x, y) = p.split_once(',').unwrap();
+                (x.parse().unwrap(), y.parse().unwrap())
+            })
+            .collect();
+        let mut extent = std::collections::BTreeMap::<i32, (i32, i32)>::new();
+        for (x, y) in pts {
+            let e = extent.entry(x).or_insert((y, y));
+            *e = (e.0.min(y), e.1.max(y));
+        }
+        let heights: Vec<i32> = extent.values().map(|e| e.1 - e.0).collect();
+        let (lo, hi) = (
+            *heights.iter().min().unwrap(),
+            *heights.iter().max().unwrap(),
+        );
+        assert!(heights.len() > 400, "{} columns", heights.len());
+        assert!(
+            f64::from(lo) >= 0.97 * f64::from(hi),
+            "column heights from {lo} to {hi} px: the band beats"
+        );
     }
 }

@@ -19,10 +19,10 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::dynamics::protocol::Initial;
-use crate::dynamics::{NoObserver, RunResult, SimError};
 use crate::scenario::Scenario;
 use crate::sweep::stats::Summary;
+use djkr_core::dynamics::protocol::Initial;
+use djkr_core::dynamics::{NoObserver, RunResult, SimError};
 
 /// Relative spread of the pull-off force above which a pull-off is reported as sensitive:
 /// well above what the integration tolerances move (rtol ≤ 1e-6 moves a deterministic pull-off

@@ -2,10 +2,10 @@
 //! reference against closed forms, failures reported as rows, the imposed-area studies, the CLI.
 
 use djkr::accuracy::*;
-use djkr::dynamics::{EventKind, Sample};
-use djkr::jkr;
-use djkr::material::Material;
 use djkr::scenario::*;
+use djkr_core::dynamics::{EventKind, Sample};
+use djkr_core::jkr;
+use djkr_core::material::Material;
 use std::process::Command;
 
 const M: Material = Material::PAPER;

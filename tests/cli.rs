@@ -288,10 +288,11 @@ fn material_file_sets_material_and_law() {
     assert!((num(&json(&a), "amplification") - 1.0).abs() < 1e-12);
     let mut a = base.to_vec();
     a.extend(["--material", cw.to_str().unwrap()]);
-    let law = djkr::adhesion::ConstantW { w0: 0.240 };
-    let m = djkr::material::Material::PAPER;
+    let law = djkr_core::adhesion::ConstantW { w0: 0.240 };
+    let m = djkr_core::material::Material::PAPER;
     let exact =
-        djkr::imposed_area::pull_off(&m, &law, 2.0 * std::f64::consts::PI * 300.0, 0.5e-3).unwrap();
+        djkr_core::imposed_area::pull_off(&m, &law, 2.0 * std::f64::consts::PI * 300.0, 0.5e-3)
+            .unwrap();
     assert!((num(&json(&a), "force") - exact.force).abs() < 1e-9 * exact.force.abs());
     let o = djkr(&[
         "pulloff",
@@ -311,17 +312,17 @@ fn material_file_sets_material_and_law() {
 /// `--v0`/`--n` flags, refuse a law without them, naming the file and the law (exit 2).
 #[test]
 fn material_file_with_any_law() {
-    use djkr::adhesion::SaturatedGentSchultz;
-    use djkr::closed_form::{pull_off_approx, DeltaAmpForm};
+    use djkr_core::adhesion::SaturatedGentSchultz;
+    use djkr_core::closed_form::{pull_off_approx, DeltaAmpForm};
     let good = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenarios/good");
     let sat_file = good.join("saturated.toml");
     let sat = SaturatedGentSchultz::new(0.240, 4.45e-5, 0.531, 0.1).unwrap();
-    let m = djkr::material::Material::PAPER;
+    let m = djkr_core::material::Material::PAPER;
     let omega = 2.0 * std::f64::consts::PI * 300.0;
     let base = ["pulloff", "--freq", "300", "--a-amp", "0.5mm", "--json"];
     let mut a = base.to_vec();
     a.extend(["--material", sat_file.to_str().unwrap()]);
-    let exact = djkr::imposed_area::pull_off(&m, &sat, omega, 0.5e-3).unwrap();
+    let exact = djkr_core::imposed_area::pull_off(&m, &sat, omega, 0.5e-3).unwrap();
     assert!((num(&json(&a), "force") / exact.force - 1.0).abs() < 1e-9);
     a.extend(["--method", "approx"]);
     let approx = pull_off_approx(&m, &sat, omega, 0.5e-3, 2.5, DeltaAmpForm::Derived).unwrap();
@@ -1028,7 +1029,7 @@ fn chaos_note_only_where_the_approach_to_pull_off_is_rough() {
         let j = read_summary(&od);
         let roughness = j["pull_off"]["approach_roughness"].as_f64().unwrap();
         assert_eq!(
-            roughness > djkr::dynamics::ROUGH_APPROACH,
+            roughness > djkr_core::dynamics::ROUGH_APPROACH,
             chaotic,
             "{roughness}"
         );

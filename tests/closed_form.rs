@@ -1,13 +1,13 @@
 //! Closed forms (eqs. 16–24, 29), the comparator models (Shui, Yi) and the β refit, checked against
 //! independent references.
 
-use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz};
-use djkr::beta_fit::{self, BetaFitConfig};
-use djkr::closed_form::{self as cf, DeltaAmpForm};
-use djkr::comparators::{self as cmp, ShuiSystem};
-use djkr::imposed_area;
-use djkr::jkr;
-use djkr::material::Material;
+use djkr_core::adhesion::{AdhesionLaw, ConstantW, GentSchultz};
+use djkr_core::beta_fit::{self, BetaFitConfig};
+use djkr_core::closed_form::{self as cf, DeltaAmpForm};
+use djkr_core::comparators::{self as cmp, ShuiSystem};
+use djkr_core::imposed_area;
+use djkr_core::jkr;
+use djkr_core::material::Material;
 use proptest::prelude::*;
 use std::f64::consts::PI;
 

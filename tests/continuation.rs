@@ -1,19 +1,19 @@
-//! Continuation of periodic orbits (`djkr continue`, [`djkr::continuation`]) against independent
+//! Continuation of periodic orbits (`djkr continue`, [`djkr_core::continuation`]) against independent
 //! references: the jumps of up and down sweeps bracket the folds, the multiplier at a fold is 1,
 //! a linear system reproduces the linear transfer and e^{λT}, the branch is the same traced
 //! either way, and the fold curves agree with the branches they summarise.
 
-use djkr::continuation::branch::{self, Branch, PointKind, Settings};
-use djkr::continuation::family::{Family, Parameter};
-use djkr::continuation::folds;
-use djkr::continuation::ContinuationError;
-use djkr::describing::{self, Setup};
 use djkr::scenario::family::parameter;
 use djkr::scenario::overrides::Override;
 use djkr::scenario::parse::ScenarioSource;
-use djkr::steady::sweep::{self as fsweep, Direction};
-use djkr::steady::{Options, Problem};
-use djkr::transfer;
+use djkr_core::continuation::branch::{self, Branch, PointKind, Settings};
+use djkr_core::continuation::family::{Family, Parameter};
+use djkr_core::continuation::folds;
+use djkr_core::continuation::ContinuationError;
+use djkr_core::describing::{self, Setup};
+use djkr_core::steady::sweep::{self as fsweep, Direction};
+use djkr_core::steady::{Options, Problem};
+use djkr_core::transfer;
 use nalgebra::Complex;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -505,7 +505,11 @@ fn keys_that_do_not_change_a_periodic_orbit_are_refused_with_the_list() {
     .map(|_| ())
     .unwrap_err()
     .to_string();
-    assert!(e.contains("--set base.frequency=400"), "{e}");
+    let e = djkr::error::render(&e, &djkr::error::Plain);
+    assert!(
+        e.starts_with("set base.frequency=400: base.frequency is the continuation parameter"),
+        "{e}"
+    );
 }
 
 fn djkr(args: &[&str]) -> std::process::Output {
@@ -765,7 +769,7 @@ fn a_densely_tabulated_law_continues_like_the_law_it_samples() {
     // analytic law's work (periods integrated; the wall time is measured in the closing note of
     // issue 25, not here).
     let dir = tempfile::tempdir().unwrap();
-    let gs = djkr::adhesion::GentSchultz::PAPER;
+    let gs = djkr_core::adhesion::GentSchultz::PAPER;
     let s_max = (999.0 / gs.v0).asinh();
     let n = 55_000;
     let mut rows: Vec<f64> = (0..n)
@@ -776,7 +780,7 @@ fn a_densely_tabulated_law_continues_like_the_law_it_samples() {
     rows.sort_by(f64::total_cmp);
     let mut csv = String::from("speed,w\n");
     for v in rows {
-        use djkr::adhesion::AdhesionLaw;
+        use djkr_core::adhesion::AdhesionLaw;
         csv.push_str(&format!("{v:?},{:?}\n", gs.work_of_adhesion(v)));
     }
     std::fs::write(dir.path().join("law.csv"), csv).unwrap();

@@ -2,15 +2,15 @@
 //! harmonics in θ without folding, JKR finite differences, the linear transfer, loop areas). The
 //! measured tables are `examples/study_harmonic_balance.rs` → `docs/studies/harmonic-balance.md`.
 
-use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz, Law};
 use djkr::catalogue;
-use djkr::describing::{self, DescribingError, Support};
-use djkr::imposed_area::{self, indentation_at};
-use djkr::jkr;
-use djkr::material::Material;
-use djkr::quadrature::QuadratureRule;
-use djkr::rig::{Damping, DampingOn, Holder, Rig, Sphere};
-use djkr::transfer::{self, Transfer};
+use djkr_core::adhesion::{AdhesionLaw, ConstantW, GentSchultz, Law};
+use djkr_core::describing::{self, DescribingError, Support};
+use djkr_core::imposed_area::{self, indentation_at};
+use djkr_core::jkr;
+use djkr_core::material::Material;
+use djkr_core::quadrature::QuadratureRule;
+use djkr_core::rig::{Damping, DampingOn, Holder, Rig, Sphere};
+use djkr_core::transfer::{self, Transfer};
 use std::f64::consts::PI;
 
 const M: Material = Material::PAPER;

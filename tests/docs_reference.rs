@@ -173,7 +173,7 @@ fn output_columns() -> String {
         name: "base.amplitude".into(),
         unit: Some("m".into()),
     }];
-    let map = djkr::steady::map::ShortcutMap {
+    let map = djkr_core::steady::map::ShortcutMap {
         frequencies: Vec::new(),
         amplitudes: Vec::new(),
         cells: Vec::new(),
@@ -263,9 +263,9 @@ fn output_columns() -> String {
 
 /// A short branch of `scenarios/resonance-400hz.toml` in `base.frequency` (a fraction of a
 /// second): the branch tables' columns depend on the parameter, so they come from a real one.
-fn example_branch() -> djkr::continuation::branch::Branch {
-    use djkr::continuation::branch;
+fn example_branch() -> djkr_core::continuation::branch::Branch {
     use djkr::scenario::family::{family, parameter};
+    use djkr_core::continuation::branch;
     let source =
         djkr::scenario::parse::ScenarioSource::read(&root().join("scenarios/resonance-400hz.toml"))
             .expect("bundled scenario");

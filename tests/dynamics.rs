@@ -3,12 +3,12 @@
 //! tolerances are the values measured by `examples/study_checks.rs` (`docs/studies/checks.md`)
 //! with a margin.
 
-use djkr::adhesion::{ConstantW, GentSchultz, Law};
 use djkr::catalogue::{self, stage};
-use djkr::dynamics::{EventKind, Recorder, RunResult};
-use djkr::jkr;
-use djkr::material::Material;
 use djkr::scenario::*;
+use djkr_core::adhesion::{ConstantW, GentSchultz, Law};
+use djkr_core::dynamics::{EventKind, Recorder, RunResult};
+use djkr_core::jkr;
+use djkr_core::material::Material;
 
 const M: Material = Material::PAPER;
 
@@ -18,7 +18,7 @@ fn run(s: &Scenario) -> (RunResult, Recorder) {
     (r, rec)
 }
 
-fn first(r: &RunResult, k: EventKind) -> Option<djkr::dynamics::Event> {
+fn first(r: &RunResult, k: EventKind) -> Option<djkr_core::dynamics::Event> {
     r.events.iter().find(|e| e.kind == k).copied()
 }
 
@@ -158,7 +158,7 @@ fn stage_of_whole_periods_records_every_cycle() {
         s.stages = vec![stage(StageKind::Hold, 0.0, Until::Duration(d), Some(true))];
         let after = n as f64 * (2.0 * std::f64::consts::PI / (2.0 * std::f64::consts::PI * f)) > d;
         any_after |= after;
-        let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
+        let r = s.simulate(&mut djkr_core::dynamics::NoObserver).unwrap();
         assert_eq!(
             r.cycle_count, n as u64,
             "{f} Hz, {n} periods (boundary after the stage end by rounding: {after})"
@@ -474,15 +474,15 @@ fn ramp_oscillator_orders(
     x0: f64,
     n: usize,
     steps: impl Fn(
-        &djkr::dynamics::model::Model,
-        &djkr::dynamics::model::Drive,
-        djkr::dynamics::State,
+        &djkr_core::dynamics::model::Model,
+        &djkr_core::dynamics::model::Drive,
+        djkr_core::dynamics::State,
         f64,
         usize,
-    ) -> djkr::dynamics::State,
+    ) -> djkr_core::dynamics::State,
 ) -> (f64, f64) {
-    use djkr::dynamics::model::{resolve, Drive, NQ};
-    use djkr::dynamics::State;
+    use djkr_core::dynamics::model::{resolve, Drive, NQ};
+    use djkr_core::dynamics::State;
     // Without gravity, so that the spring end starts at the sphere (the drive below).
     let mut s = catalogue::soft_spring_jkr();
     s.initial = Initial::Gap(-x0);
@@ -522,7 +522,7 @@ fn ramp_oscillator_orders(
 }
 
 /// Fixed steps ignore the error estimate.
-const NO_CONTROL: djkr::dynamics::Tol = djkr::dynamics::Tol {
+const NO_CONTROL: djkr_core::dynamics::Tol = djkr_core::dynamics::Tol {
     rtol: 1.0,
     atol: 1.0,
 };
@@ -531,7 +531,7 @@ const NO_CONTROL: djkr::dynamics::Tol = djkr::dynamics::Tol {
 /// (closed form): halving h divides the error by ≈ 2⁴.
 #[test]
 fn esdirk_fixed_step_order_is_four() {
-    use djkr::dynamics::kernels::esdirk_step;
+    use djkr_core::dynamics::kernels::esdirk_step;
     let (p1, p2) = ramp_oscillator_orders(-1.0, 40, |model, drive, mut y, h, n| {
         for _ in 0..n {
             y = esdirk_step(model, drive, &y, h, NO_CONTROL).unwrap().y;
@@ -549,10 +549,10 @@ fn esdirk_fixed_step_order_is_four() {
 /// time (the `ode_solvers` Dop853 tableau's c₁₂ = 0) would show as order 1.
 #[test]
 fn dp8_fixed_step_order_is_eight() {
-    use djkr::dynamics::kernels::{dp8_step, rates_at};
+    use djkr_core::dynamics::kernels::{dp8_step, rates_at};
     let (p1, p2) = ramp_oscillator_orders(-1e-3, 10, |model, drive, mut y, h, n| {
         let (mut k, mut fq) = rates_at(model, drive, &y).unwrap();
-        let mut o = djkr::dynamics::StepOut::default();
+        let mut o = djkr_core::dynamics::StepOut::default();
         for _ in 0..n {
             let (mut k1, mut fq1) = (k, fq);
             dp8_step(
@@ -604,8 +604,8 @@ fn sampling_shaker_off_and_observer_stop() {
     assert!(max_jump <= 2e-6 * 2.0 * std::f64::consts::PI * 300.0 * 1e-4 * 1.01);
 
     struct StopAt(usize);
-    impl djkr::dynamics::Observer for StopAt {
-        fn sample(&mut self, _: &djkr::dynamics::Sample) -> bool {
+    impl djkr_core::dynamics::Observer for StopAt {
+        fn sample(&mut self, _: &djkr_core::dynamics::Sample) -> bool {
             self.0 -= 1;
             self.0 > 0
         }
@@ -682,8 +682,8 @@ fn bundled_with_method(file: &str, name: &str) -> Result<Scenario, String> {
 /// here; a changed capability fails this list.
 #[test]
 fn registry_lists_what_each_method_provides() {
-    use djkr::dynamics::methods::{self, METHODS};
-    use djkr::dynamics::{Capabilities, Reach};
+    use djkr_core::dynamics::methods::{self, METHODS};
+    use djkr_core::dynamics::{Capabilities, Reach};
     const IMPLICIT: Capabilities = Capabilities {
         algebraic_radius: true,
         turning_points: false,
@@ -751,7 +751,7 @@ fn registry_lists_what_each_method_provides() {
 /// to its method); any other name is refused with the registry's list, in its order.
 #[test]
 fn parser_accepts_the_registry_names_for_solver_method() {
-    use djkr::dynamics::methods::{method_from_name, method_names};
+    use djkr_core::dynamics::methods::{method_from_name, method_names};
     for name in method_names() {
         let s = bundled_with_method("resonance-400hz.toml", name)
             .unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -780,20 +780,20 @@ fn parser_accepts_the_registry_names_for_solver_method() {
 /// which does, reports the two per period).
 #[test]
 fn capabilities_match_what_the_steppers_do() {
-    use djkr::dynamics::methods::{method_names, METHODS};
-    use djkr::dynamics::StepOut;
-    use djkr::dynamics::{model, protocol};
+    use djkr_core::dynamics::methods::{method_names, METHODS};
+    use djkr_core::dynamics::StepOut;
+    use djkr_core::dynamics::{model, protocol};
     let constant = bundled_with_method("quasi-static-jkr.toml", "auto").unwrap();
     for name in method_names() {
-        let method = djkr::dynamics::methods::method_from_name(name).unwrap();
-        let algebraic = djkr::dynamics::methods::build(method, &constant.rig)
+        let method = djkr_core::dynamics::methods::method_from_name(name).unwrap();
+        let algebraic = djkr_core::dynamics::methods::build(method, &constant.rig)
             .capabilities()
             .algebraic_radius;
         let read = bundled_with_method("quasi-static-jkr.toml", name);
         assert_eq!(read.is_ok(), algebraic, "{name}: {:?}", read.err());
         let mut s = constant.clone();
         s.solver.method = method;
-        let r = s.simulate(&mut djkr::dynamics::NoObserver);
+        let r = s.simulate(&mut djkr_core::dynamics::NoObserver);
         assert_eq!(r.is_ok(), algebraic, "{name}: {:?}", r.err());
     }
     let s = bundled_with_method("resonance-400hz.toml", "auto").unwrap();
@@ -802,7 +802,7 @@ fn capabilities_match_what_the_steppers_do() {
     drive.shaker = true;
     drive.t_on = y0.t;
     let period = 2.0 * std::f64::consts::PI / m.omega;
-    let tol = djkr::dynamics::Tol {
+    let tol = djkr_core::dynamics::Tol {
         rtol: 1e-8,
         atol: 1e-10,
     };

@@ -2,8 +2,8 @@
 //! right-hand-side evaluations, which are deterministic (the wall time is the benchmark's,
 //! `benches/envelope.rs`). The reference is the same scenario integrated period by period.
 use djkr::catalogue::Bundled;
-use djkr::dynamics::{EnvelopeMode, NoObserver, Observer, RunResult};
 use djkr::scenario::Scenario;
+use djkr_core::dynamics::{EnvelopeMode, NoObserver, Observer, RunResult};
 
 /// Takes the time-series samples as `djkr run`'s writer does (they bound the step), and drops
 /// them.

@@ -12,9 +12,9 @@
 #[path = "extremes/matrix.rs"]
 mod matrix;
 
-use djkr::adhesion::{AdhesionLaw, GentSchultz};
-use djkr::dynamics::Sample;
-use djkr::imposed_area;
+use djkr_core::adhesion::{AdhesionLaw, GentSchultz};
+use djkr_core::dynamics::Sample;
+use djkr_core::imposed_area;
 use matrix::{constant, gs, sample_problem, M};
 use std::f64::consts::PI;
 

@@ -1,9 +1,9 @@
 //! The paper's figures as data, checked against what the paper's text states and against closed
 //! forms, plus the files `write_figures` produces.
 
-use djkr::adhesion::GentSchultz;
 use djkr::figures::{self, FigureId};
-use djkr::material::Material;
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::material::Material;
 use std::f64::consts::PI;
 
 const M: Material = Material::PAPER;
@@ -47,7 +47,7 @@ fn figs4_to_8_table_against_jkr_and_the_papers_claims() {
     let amps: Vec<f64> = vec![0.0, 0.05e-3, 0.1e-3, 0.25e-3, 0.5e-3, 1.0e-3];
     let rows = figures::table(&M, &LAW, &figures::TABLE_FREQUENCIES, &amps, 2.5).unwrap();
     assert_eq!(rows.len(), 18);
-    let a_jkr = djkr::jkr::load_controlled_pull_off_radius(&M, M.w0);
+    let a_jkr = djkr_core::jkr::load_controlled_pull_off_radius(&M, M.w0);
     for r in &rows {
         if r.a_amp == 0.0 {
             assert!((r.exact.amplification - 1.0).abs() < 1e-8);
@@ -94,7 +94,7 @@ fn fig3a_minimum_is_the_pull_off() {
     let curves = figures::fig3a(&M, &LAW, &[0.5e-3], 2.5, 400).unwrap();
     let c = &curves[0];
     let fmin = c.force_mean.iter().cloned().fold(f64::INFINITY, f64::min);
-    let po = djkr::imposed_area::pull_off(&M, &LAW, 2.0 * PI * 400.0, 0.5e-3).unwrap();
+    let po = djkr_core::imposed_area::pull_off(&M, &LAW, 2.0 * PI * 400.0, 0.5e-3).unwrap();
     assert!(fmin >= po.force - 1e-12 * po.force.abs());
     assert!(
         (fmin / po.force - 1.0).abs() < 2e-3,

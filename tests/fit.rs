@@ -725,7 +725,8 @@ fn coverage_study_light_rig_ensemble() {
 /// cancellation (Python's KeyboardInterrupt), not invalid input; the same call unraised fits.
 #[test]
 fn api_fit_stopped_before_the_first_evaluation_is_cancelled() {
-    use djkr::api::{self, ApiError};
+    use djkr::api;
+    use djkr::error::Error as ApiError;
     use std::sync::atomic::AtomicBool;
     let source = ScenarioSource::read(Path::new("tests/sweep/tiny.toml")).unwrap();
     let data = "base.amplitude [um],pull_off_amplification [1]\n2,6.5\n5,8.0\n10,10.0\n";

@@ -23,8 +23,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use djkr::dynamics::{Event, Observer, Sample, SimError};
 use djkr::scenario::parse::{ScenarioError, ScenarioSource};
+use djkr_core::dynamics::{Event, Observer, Sample, SimError};
 
 /// Cases of the default suite.
 const QUICK_CASES: usize = 2000;

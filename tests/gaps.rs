@@ -315,7 +315,7 @@ fn dense_windows_are_validated_naming_the_key() {
 #[test]
 fn a_run_without_gaps_has_segment_zero_and_an_empty_gaps_group() {
     let mut scn = scene("sample_rate = 2000");
-    scn.solver.envelope = djkr::dynamics::EnvelopeMode::Off;
+    scn.solver.envelope = djkr_core::dynamics::EnvelopeMode::Off;
     scn.stages[3].max_duration = 2.0;
     scn.stages[3].until = djkr::scenario::Until::Duration(2.0);
     let dir = tempfile::tempdir().unwrap();

@@ -4,10 +4,10 @@
 //! ȧ = crack_speed(G(a, δ)), force from the JKR relation. The measured tables are
 //! `examples/study_gs_fit.rs` → `docs/studies/gs-fit.md`.
 
-use djkr::adhesion::GentSchultz;
 use djkr::catalogue;
-use djkr::gs_fit::{self, GsFitOptions, UnloadingRow};
-use djkr::material::Material;
+use djkr_core::adhesion::GentSchultz;
+use djkr_core::gs_fit::{self, GsFitOptions, UnloadingRow};
+use djkr_core::material::Material;
 
 const M: Material = Material::PAPER;
 

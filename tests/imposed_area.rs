@@ -8,13 +8,13 @@
 //! The measured tables (quadrature worst case, the pull-off table with dense checks, several
 //! minima, uniform sampling) are `examples/study_imposed_area.rs` → `docs/studies/imposed-area.md`.
 
-use djkr::adhesion::{AdhesionLaw, ConstantW, GentSchultz, TabulatedLaw};
-use djkr::imposed_area::{
+use djkr_core::adhesion::{AdhesionLaw, ConstantW, GentSchultz, TabulatedLaw};
+use djkr_core::imposed_area::{
     cycle, cycle_with, cycle_with_kinks, indentation_at, pull_off, pull_off_table, Cycle,
 };
-use djkr::jkr;
-use djkr::material::Material;
-use djkr::quadrature::QuadratureRule;
+use djkr_core::jkr;
+use djkr_core::material::Material;
+use djkr_core::quadrature::QuadratureRule;
 use std::f64::consts::PI;
 
 const M: Material = Material::PAPER;

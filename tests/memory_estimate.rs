@@ -12,7 +12,8 @@ use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-use djkr::api::{self, ApiError};
+use djkr::api;
+use djkr::error::Error as ApiError;
 use djkr::memory::{Estimate, SAMPLE_BYTES};
 use djkr::scenario::parse::ScenarioSource;
 

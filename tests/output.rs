@@ -12,10 +12,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use djkr::dynamics::{
-    CycleRecord, Event, EventCounts, EventKind, Gap, Observer, PullOffSummary, RunResult, Sample,
-    Stats,
-};
 use djkr::output::folder::MANIFEST_NAME;
 use djkr::output::hdf5_file::{hdf5_bytes, RunTables};
 use djkr::output::timeseries::{events_table, gaps_table, SERIES};
@@ -23,6 +19,10 @@ use djkr::output::{cycles::cycle_table, OutputError, RunWriter, TimeSeriesWriter
 use djkr::output::{FLUSH_ROWS, LOCK_NAME, SPILL_ROWS};
 use djkr::scenario::parse::parse_scenario;
 use djkr::scenario::Scenario;
+use djkr_core::dynamics::{
+    CycleRecord, Event, EventCounts, EventKind, Gap, Observer, PullOffSummary, RunResult, Sample,
+    Stats,
+};
 use serde_json::Value;
 
 const SCENARIO: &str = r#"# a scenario for the writer tests
@@ -454,14 +454,14 @@ fn a_stopped_run_opens_in_h5py() {
     for max_steps in [2_000u64, (SPILL_ROWS + FLUSH_ROWS / 2) as u64] {
         let dir = tempfile::tempdir().unwrap();
         let mut scn = scenario();
-        scn.stages[0].until = djkr::dynamics::protocol::Until::Duration(1e3);
+        scn.stages[0].until = djkr_core::dynamics::protocol::Until::Duration(1e3);
         scn.solver.max_steps = max_steps;
-        scn.solver.envelope = djkr::dynamics::EnvelopeMode::Off;
+        scn.solver.envelope = djkr_core::dynamics::EnvelopeMode::Off;
         scn.output.sample_rate = 0.0;
         let mut w = RunWriter::create(dir.path(), &scn, true).unwrap();
         let outcome = scn.simulate_partial(&mut w).unwrap();
         let ending = outcome.ending();
-        assert_eq!(ending.reason, Some(djkr::dynamics::Reason::MaxSteps));
+        assert_eq!(ending.reason, Some(djkr_core::dynamics::Reason::MaxSteps));
         assert_eq!(w.is_streaming(), max_steps as usize > SPILL_ROWS);
         let paths = w.finish_with(&outcome.result, &ending).unwrap();
         let summary: Value = serde_json::from_str(&paths.summary_text).unwrap();
@@ -1278,7 +1278,7 @@ fn api_run_claims_the_figure_before_the_run_like_the_command_line() {
     std::fs::write(&mine, b"the user's own picture").unwrap();
     let err = djkr::api::run(&scn, Some(dir.path())).unwrap_err();
     assert!(
-        matches!(err, djkr::api::ApiError::Output { .. }),
+        matches!(err, djkr::error::Error::Output { .. }),
         "expected the folder to refuse before the run: {err}"
     );
     assert!(err.to_string().contains("run.png"), "{err}");

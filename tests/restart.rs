@@ -3,8 +3,8 @@
 //! state matches one unbroken run.
 
 use djkr::catalogue;
-use djkr::dynamics::Recorder;
 use djkr::scenario::{Initial, Until};
+use djkr_core::dynamics::Recorder;
 
 #[test]
 fn split_run_matches_unbroken_run() {

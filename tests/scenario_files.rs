@@ -5,12 +5,12 @@
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
-use djkr::adhesion::{AdhesionLaw, Law};
-use djkr::jkr;
 use djkr::scenario::parse::{load_scenario, material_and_law, ScenarioError};
 use djkr::scenario::{
     ContactFormation, DampingOn, Holder, Initial, Method, Scenario, StageKind, Until,
 };
+use djkr_core::adhesion::{AdhesionLaw, Law};
+use djkr_core::jkr;
 
 fn dir(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
@@ -132,7 +132,7 @@ fn good_files_carry_the_values_written() {
     assert_eq!(r.rig.holder, Holder::Rigid);
     assert_eq!(
         r.rig.law,
-        Law::Constant(djkr::adhesion::ConstantW { w0: 0.240 })
+        Law::Constant(djkr_core::adhesion::ConstantW { w0: 0.240 })
     );
 
     let w = load("tests/scenarios/good/resting-on-weight.toml");
@@ -149,13 +149,18 @@ fn good_files_carry_the_values_written() {
 #[test]
 fn material_and_law_reads_a_full_scenario() {
     let (m, law) = material_and_law(&dir("scenarios/paper-protocol-300hz.toml")).unwrap();
-    assert_eq!(m, djkr::material::Material::PAPER);
-    assert_eq!(law, Law::GentSchultz(djkr::adhesion::GentSchultz::PAPER));
+    assert_eq!(m, djkr_core::material::Material::PAPER);
+    assert_eq!(
+        law,
+        Law::GentSchultz(djkr_core::adhesion::GentSchultz::PAPER)
+    );
     let e = material_and_law(&dir("tests/scenarios/bad/negative-radius.toml")).unwrap_err();
     assert!(e.to_string().contains("material.R = -0.051"), "{e}");
     let missing = dir("tests/scenarios/no-such-file.toml");
     match material_and_law(&missing) {
-        Err(ScenarioError::Io { file, .. }) => assert!(file.ends_with("no-such-file.toml")),
+        Err(ScenarioError::Io { source, .. }) => {
+            assert!(source.file.ends_with("no-such-file.toml"))
+        }
         other => panic!("{other:?}"),
     }
 }
@@ -234,7 +239,7 @@ fn paper_protocol_follows_the_paper_and_stays_far_above_resonance() {
         assert_eq!(base.frequency, f);
         assert_eq!(
             s.rig.law,
-            Law::GentSchultz(djkr::adhesion::GentSchultz::PAPER)
+            Law::GentSchultz(djkr_core::adhesion::GentSchultz::PAPER)
         );
         let Holder::Spring { stiffness: k } = s.rig.holder else {
             panic!("spring expected")
@@ -418,8 +423,8 @@ fn mutated_files_never_panic_and_always_name_the_file() {
 /// numbers its comment promises and that run.h5 / summary.json hold that very run.
 #[test]
 fn quasi_static_jkr_runs_to_the_jkr_numbers_and_writes_them() {
-    use djkr::dynamics::EventKind;
     use djkr::output::RunWriter;
+    use djkr_core::dynamics::EventKind;
 
     let s = load("scenarios/quasi-static-jkr.toml");
     let out = tempfile::tempdir().unwrap();
@@ -476,7 +481,7 @@ fn quasi_static_jkr_runs_to_the_jkr_numbers_and_writes_them() {
 /// should be close to exact (0.02 % seen).
 #[test]
 fn vibrating_scenes_respond_as_their_comments_say() {
-    use djkr::dynamics::Recorder;
+    use djkr_core::dynamics::Recorder;
 
     for (file, hold, expect, tol) in [
         ("scenarios/resonance-400hz.toml", 0usize, 13.5, 0.01),
@@ -518,7 +523,7 @@ fn every_good_file_runs_to_completion() {
         s.solver.max_wall_s = s.solver.max_wall_s.min(30.0);
         let t = std::time::Instant::now();
         let r = s
-            .simulate(&mut djkr::dynamics::NoObserver)
+            .simulate(&mut djkr_core::dynamics::NoObserver)
             .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
         assert!(r.final_state.t > 0.0, "{}", f.display());
         eprintln!("{}: {:.2} s", f.display(), t.elapsed().as_secs_f64());
@@ -551,7 +556,7 @@ fn fuzz_found_reproducers_run_to_completion() {
                 "material.K" => s.rig.material.k = v,
                 "material.w0" => {
                     s.rig.material.w0 = v;
-                    s.rig.law = Law::Constant(djkr::adhesion::ConstantW { w0: v });
+                    s.rig.law = Law::Constant(djkr_core::adhesion::ConstantW { w0: v });
                 }
                 "stage[0].speed" => s.stages[0].speed = v,
                 "base.amplitude" => {
@@ -567,11 +572,11 @@ fn fuzz_found_reproducers_run_to_completion() {
         std::thread::spawn(move || {
             // Events that never end would fill memory: the observer stops them by panicking.
             struct Cap(u64);
-            impl djkr::dynamics::Observer for Cap {
+            impl djkr_core::dynamics::Observer for Cap {
                 fn wants_samples(&self) -> bool {
                     false
                 }
-                fn event(&mut self, _e: &djkr::dynamics::Event) {
+                fn event(&mut self, _e: &djkr_core::dynamics::Event) {
                     self.0 += 1;
                     assert!(self.0 < 1_000_000, "more than 1e6 events: they never end");
                 }
@@ -616,7 +621,7 @@ fn a_table_held_flat_beyond_its_last_row_reaches_pull_off_at_nearby_speeds() {
     ] {
         let mut s = base.clone();
         s.stages[2].speed = speed;
-        match s.simulate(&mut djkr::dynamics::NoObserver) {
+        match s.simulate(&mut djkr_core::dynamics::NoObserver) {
             Ok(r) if r.detached && r.pull_off.force < 0.0 && r.pull_off.amplification < 50.0 => {}
             Ok(r) => failures.push(format!("{speed}: {:?}", r.pull_off)),
             Err(e) => failures.push(format!("{speed}: {e}")),

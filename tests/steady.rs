@@ -2,14 +2,14 @@
 //! compared with: the force balance, the linear transfer at small amplitude, reproducible sweeps
 //! through a nonlinear resonance, and the `validate` / `resonance` / `shortcut-map` commands.
 
-use djkr::adhesion::{ConstantW, Law};
 use djkr::catalogue::{self, Bundled};
-use djkr::describing::{self, Setup};
-use djkr::material::Material;
 use djkr::scenario::{Initial, Scenario};
-use djkr::steady::sweep::{self, Direction};
-use djkr::steady::{crosscheck, Options, Problem, Steady, SteadyMethod, Strategy};
-use djkr::transfer;
+use djkr_core::adhesion::{ConstantW, Law};
+use djkr_core::describing::{self, Setup};
+use djkr_core::material::Material;
+use djkr_core::steady::sweep::{self, Direction};
+use djkr_core::steady::{crosscheck, Options, Problem, Steady, SteadyMethod, Strategy};
+use djkr_core::transfer;
 use std::process::Command;
 
 /// A bundled scenario, by file name, through the catalogue (`djkr::catalogue::Bundled`).

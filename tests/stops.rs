@@ -9,9 +9,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use djkr::api::{self, ApiError, SAMPLE_BYTES};
-use djkr::dynamics::{Reason, SimError, Status};
+use djkr::api::{self, SAMPLE_BYTES};
+use djkr::error::Error as ApiError;
 use djkr::scenario::parse::parse_scenario;
+use djkr_core::dynamics::{Reason, SimError, Status};
 use serde_json::Value;
 
 const TINY: &str = "tests/sweep/tiny.toml";
@@ -95,7 +96,9 @@ max_wall_s = 3
 #[test]
 fn the_step_budget_message_states_the_budget_set_and_the_steps_taken() {
     let s = parse_scenario(DEFECT_14, "defect14.toml", None).unwrap();
-    let o = s.simulate_partial(&mut djkr::dynamics::NoObserver).unwrap();
+    let o = s
+        .simulate_partial(&mut djkr_core::dynamics::NoObserver)
+        .unwrap();
     let e = o.error.as_ref().expect("the step budget stops this run");
     match e {
         SimError::StepBudget {
@@ -231,7 +234,7 @@ fn a_run_that_fails_mid_way_publishes_what_it_computed() {
 /// Every reason a `SimError` gives, with its status (the documented names).
 #[test]
 fn every_error_has_a_documented_reason() {
-    let state = Box::new(djkr::dynamics::Sample {
+    let state = Box::new(djkr_core::dynamics::Sample {
         t: 1.0,
         x_s: 0.0,
         v_s: 0.0,

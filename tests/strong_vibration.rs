@@ -2,8 +2,8 @@
 //! (opt-in) a scan over base amplitudes.
 
 use djkr::catalogue;
-use djkr::dynamics::{EventKind, Recorder};
 use djkr::scenario::{Stage, StageKind, Until};
+use djkr_core::dynamics::{EventKind, Recorder};
 use std::f64::consts::PI;
 
 fn hold(duration: f64, vibration: bool) -> Stage {
@@ -66,8 +66,8 @@ fn base_phase_delays_the_shaker_start() {
 }
 
 use djkr::catalogue::Bundled;
-use djkr::dynamics::{CycleRecord, EnvelopeMode, RunResult};
 use djkr::scenario::Scenario;
+use djkr_core::dynamics::{CycleRecord, EnvelopeMode, RunResult};
 
 /// A bundled paper protocol with the base amplitude `xb` (m), the unload's time limit raised
 /// to 400 s, no time series, envelope following as given.
@@ -99,7 +99,7 @@ fn deep_healing_points_run_to_pull_off() {
     for b in [Bundled::PaperProtocol200, Bundled::PaperProtocol300] {
         let direct = protocol(b, 100e-6, EnvelopeMode::Off);
         let r = direct
-            .simulate(&mut djkr::dynamics::NoObserver)
+            .simulate(&mut djkr_core::dynamics::NoObserver)
             .unwrap_or_else(|e| panic!("{}: {e}", b.path()));
         assert!(r.detached, "{}", b.path());
         assert!(
@@ -109,7 +109,7 @@ fn deep_healing_points_run_to_pull_off() {
             r.pull_off.amplification
         );
         let env = protocol(b, 100e-6, EnvelopeMode::Auto)
-            .simulate(&mut djkr::dynamics::NoObserver)
+            .simulate(&mut djkr_core::dynamics::NoObserver)
             .unwrap_or_else(|e| panic!("{}: {e}", b.path()));
         let rel = (env.pull_off.force / r.pull_off.force - 1.0).abs();
         assert!(rel < 1e-4, "{}: envelope vs direct {rel:e}", b.path());
@@ -123,9 +123,9 @@ fn deep_healing_points_run_to_pull_off() {
 fn gentle_rig_unload_runs_at_both_tolerances() {
     for rtol in [1e-8, 1e-10] {
         let mut s = catalogue::vibrating_hold(10e-6, 400.0, 3.0);
-        s.rig.damping = Some(djkr::rig::Damping {
+        s.rig.damping = Some(djkr_core::rig::Damping {
             c: 0.5,
-            on: djkr::rig::DampingOn::Sphere,
+            on: djkr_core::rig::DampingOn::Sphere,
         });
         s.stages.push(catalogue::stage(
             StageKind::Unload,
@@ -136,7 +136,7 @@ fn gentle_rig_unload_runs_at_both_tolerances() {
         s.solver.rtol = rtol;
         s.solver.envelope = EnvelopeMode::Off;
         let r = s
-            .simulate(&mut djkr::dynamics::NoObserver)
+            .simulate(&mut djkr_core::dynamics::NoObserver)
             .unwrap_or_else(|e| panic!("rtol {rtol:e}: {e}"));
         assert!(r.detached, "rtol {rtol:e}");
         assert!(
@@ -222,12 +222,12 @@ fn scan_of_base_amplitudes() {
             let xb = xb_um * 1e-6;
             let t = std::time::Instant::now();
             let env = protocol(b, xb, EnvelopeMode::Auto)
-                .simulate(&mut djkr::dynamics::NoObserver)
+                .simulate(&mut djkr_core::dynamics::NoObserver)
                 .unwrap_or_else(|e| panic!("{} X_b {xb_um} um, envelope: {e}", b.path()));
             let t_env = t.elapsed().as_secs_f64();
             let t = std::time::Instant::now();
             let direct = protocol(b, xb, EnvelopeMode::Off)
-                .simulate(&mut djkr::dynamics::NoObserver)
+                .simulate(&mut djkr_core::dynamics::NoObserver)
                 .unwrap_or_else(|e| panic!("{} X_b {xb_um} um, direct: {e}", b.path()));
             let t_dir = t.elapsed().as_secs_f64();
             let rel = (env.pull_off.force / direct.pull_off.force - 1.0).abs();
@@ -255,7 +255,7 @@ fn twins_tell_a_deterministic_from_a_chaotic_pull_off() {
         (Bundled::GentleUnload300, true),
     ] {
         let s = b.scenario().unwrap();
-        let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
+        let r = s.simulate(&mut djkr_core::dynamics::NoObserver).unwrap();
         let x = sensitivity::twins(&s, &r, 3, sensitivity::EPSILON)
             .expect("both have a base")
             .unwrap_or_else(|e| panic!("{}: {e}", b.path()));
@@ -290,13 +290,13 @@ fn a_hold_at_its_periodic_steady_state_jumps_to_its_end() {
     for (xb, f, duration) in [(10e-6, 400.0, 1.0), (20e-6, 300.0, 3.0)] {
         let run = |envelope| {
             let mut s = catalogue::vibrating_hold(xb, f, duration);
-            s.rig.damping = Some(djkr::rig::Damping {
+            s.rig.damping = Some(djkr_core::rig::Damping {
                 c: 0.5,
-                on: djkr::rig::DampingOn::Sphere,
+                on: djkr_core::rig::DampingOn::Sphere,
             });
             s.output.sample_rate = 0.0;
             s.solver.envelope = envelope;
-            s.simulate(&mut djkr::dynamics::NoObserver)
+            s.simulate(&mut djkr_core::dynamics::NoObserver)
                 .unwrap_or_else(|e| panic!("{f} Hz: {e}"))
         };
         let (direct, env) = (run(EnvelopeMode::Off), run(EnvelopeMode::Auto));
@@ -335,8 +335,10 @@ fn a_steady_shaker_is_not_overshot_at_the_same_place_every_period() {
     let mut reference = s.clone();
     s.solver.rtol = 1e-7;
     reference.solver.rtol = 1e-11;
-    let r = s.simulate(&mut djkr::dynamics::NoObserver).unwrap();
-    let refr = reference.simulate(&mut djkr::dynamics::NoObserver).unwrap();
+    let r = s.simulate(&mut djkr_core::dynamics::NoObserver).unwrap();
+    let refr = reference
+        .simulate(&mut djkr_core::dynamics::NoObserver)
+        .unwrap();
     let attempts = r.stats.steps + r.stats.rejected;
     let share = r.stats.rejected as f64 / attempts as f64;
     assert!(

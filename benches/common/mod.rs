@@ -3,7 +3,7 @@
 //! `Stats::rhs_evals` for DP8.
 
 use djkr::catalogue::hold_400hz_1s;
-use djkr::dynamics::model::{resolve, Drive, Model, NQ};
+use djkr_core::dynamics::model::{resolve, Drive, Model, NQ};
 use std::hint::black_box;
 
 /// One DP8 stage evaluation in contact and healing (G < w0): G, ȧ = law⁻¹(G), the
@@ -36,7 +36,7 @@ impl OneRhs {
         let (model, drive) = hold_model_and_drive();
         let phase0 = drive.phase(&model, 1e-4);
         let a0 = 1.2e-3;
-        let d0 = djkr::jkr::equilibrium_indentation(&model.mat, a0, model.w0);
+        let d0 = djkr_core::jkr::equilibrium_indentation(&model.mat, a0, model.w0);
         Self {
             model,
             drive,
@@ -50,12 +50,12 @@ impl OneRhs {
 
     /// Evaluate once; returns ȧ (the caller passes it to `black_box`).
     #[inline]
-    pub fn call(&mut self) -> Result<f64, djkr::dynamics::StepFail> {
+    pub fn call(&mut self) -> Result<f64, djkr_core::dynamics::StepFail> {
         self.dt += 1e-12;
         let kin =
             self.drive
                 .at_advanced(&self.model, 1e-4 + self.dt, self.phase0, black_box(self.dt));
-        djkr::dynamics::kernels::rates(
+        djkr_core::dynamics::kernels::rates(
             &self.model,
             &kin,
             black_box(self.d0 - kin.xb + 1e-7),

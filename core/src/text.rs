@@ -2,7 +2,8 @@
 //! is about, but a value can be a 1.5 MB string and a "line" the whole of a binary file, and a
 //! file that failed to parse may be one the user did not mean to show (`adhesion.file =
 //! "/etc/shadow"`): every value or line echoed in a message goes through [`excerpt`], which keeps
-//! at most [`EXCERPT_CHARS`] characters on one line.
+//! at most [`EXCERPT_CHARS`] characters on one line. Numbers a message shows to a reader go
+//! through [`format_sig`].
 
 /// The most characters of a value or line an error message shows.
 pub const EXCERPT_CHARS: usize = 80;
@@ -42,6 +43,33 @@ pub fn unquoted_line(line: &str) -> String {
         line.chars().count(),
         fields.len()
     )
+}
+
+/// `x` to `sig` significant digits for a human reader: plain decimals for magnitudes in
+/// [1e-3, 1e6) (`560.178239`, not `5.60178239e2`), exponent notation beyond. Machine files use
+/// djkr's `format_f64` (the shortest round trip) instead.
+pub fn format_sig(x: f64, sig: usize) -> String {
+    let m = x.abs();
+    if !x.is_finite() || x == 0.0 {
+        return format!("{x}");
+    }
+    let sig = sig.max(1);
+    if (1e-3..1e6).contains(&m) {
+        // Digits after the point: sig minus the digits before it (rounding may add one).
+        let mut exp = m.log10().floor() as i64;
+        // 999.9996 to 6 digits rounds up into the next decade: one digit fewer after the point.
+        if format!("{m:.prec$e}", prec = sig - 1)
+            .parse::<f64>()
+            .unwrap_or(m)
+            >= 10f64.powi(exp as i32 + 1)
+        {
+            exp += 1;
+        }
+        let decimals = (sig as i64 - 1 - exp).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.prec$e}", prec = sig - 1)
+    }
 }
 
 #[cfg(test)]

@@ -264,13 +264,13 @@ pub fn min_wall<T>(repeats: usize, mut f: impl FnMut() -> T) -> (f64, T) {
 
 /// Keeps a run's period records (the run result holds only the last).
 #[derive(Debug, Default)]
-pub struct Cycles(pub Vec<djkr::dynamics::CycleRecord>);
+pub struct Cycles(pub Vec<djkr_core::dynamics::CycleRecord>);
 
-impl djkr::dynamics::Observer for Cycles {
+impl djkr_core::dynamics::Observer for Cycles {
     fn wants_samples(&self) -> bool {
         false
     }
-    fn cycle(&mut self, c: &djkr::dynamics::CycleRecord) {
+    fn cycle(&mut self, c: &djkr_core::dynamics::CycleRecord) {
         self.0.push(*c);
     }
 }
@@ -278,8 +278,13 @@ impl djkr::dynamics::Observer for Cycles {
 /// Run `s`, keeping its period records.
 pub fn with_cycles(
     s: &djkr::scenario::Scenario,
-) -> Result<(djkr::dynamics::RunResult, Vec<djkr::dynamics::CycleRecord>), djkr::dynamics::SimError>
-{
+) -> Result<
+    (
+        djkr_core::dynamics::RunResult,
+        Vec<djkr_core::dynamics::CycleRecord>,
+    ),
+    djkr_core::dynamics::SimError,
+> {
     let mut c = Cycles::default();
     let r = s.simulate(&mut c)?;
     Ok((r, c.0))

@@ -21,7 +21,7 @@
 //!   `RuntimeError`).
 //! - Long calls (`run`, `validate`, `resonance`, `sweep`) run on a worker thread with the
 //!   interpreter lock released; the main thread polls for signals every `POLL` (20 ms) and on
-//!   Ctrl-C raises the computation's cancellation flag ([`djkr::cancel`]), waits for the worker to
+//!   Ctrl-C raises the computation's cancellation flag ([`djkr_core::cancel`]), waits for the worker to
 //!   stop (tens of microseconds of simulation) and raises `KeyboardInterrupt`. Other Python
 //!   threads (which Python never interrupts) run them in place, without the lock.
 
@@ -42,22 +42,23 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple, PyType};
 
-use djkr::adhesion::Law;
-use djkr::api::{self, ApiError, Arg};
-use djkr::cancel::{Cancel, CancelFlag};
-use djkr::closed_form::{DeltaAmpForm, BETA_PAPER};
-use djkr::dynamics::Event;
+use djkr::api::{self, Arg};
+use djkr::error::Error as ApiError;
 use djkr::input::{show_limit, InputKind};
-use djkr::material::Material;
 use djkr::output::table::{Column, Data, Table};
 use djkr::output::timeseries::{kind_name, stage_index, SEGMENT, SERIES, STAGE};
 use djkr::scenario::overrides::SetKey;
 use djkr::scenario::parse::{self, ScenarioSource};
-use djkr::steady::{Options, Problem};
 use djkr::sweep::stats::{point_stats, points_table};
 use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
-use djkr::text::excerpt;
-use djkr::units::Dimension;
+use djkr_core::adhesion::Law;
+use djkr_core::cancel::{Cancel, CancelFlag};
+use djkr_core::closed_form::{DeltaAmpForm, BETA_PAPER};
+use djkr_core::dynamics::Event;
+use djkr_core::material::Material;
+use djkr_core::steady::{Options, Problem};
+use djkr_core::text::excerpt;
+use djkr_core::units::Dimension;
 
 create_exception!(
     djkr,
@@ -98,19 +99,68 @@ const POLL: Duration = Duration::from_millis(20);
 /// unknown `set=` key is `set={'base.amplitud': ...}: unknown key; ...` (its value plays no
 /// part), every other override is named with its value, `set={'base.amplitude': '-1um'}: ...`.
 fn api_err(e: ApiError) -> PyErr {
+    let text = python_words(&e.in_words(&PyWords::default()));
     match e {
         ApiError::Cancelled => PyKeyboardInterrupt::new_err("cancelled"),
-        ApiError::Override(o) => {
-            let key = o.set.split_once('=').map_or(o.set.as_str(), |(k, _)| k);
-            ScenarioError::new_err(format!(
-                "set={{'{}': ...}}: {}",
-                excerpt(key.trim()),
-                python_words(&o.message)
-            ))
+        e if e.is_output_refusal() => OutputFolderError::new_err(text),
+        e if e.is_input() => ScenarioError::new_err(text),
+        _ => PyRuntimeError::new_err(text),
+    }
+}
+
+/// Python's words for the library's errors ([`djkr::error::Words`]): an input is the keyword
+/// argument that gives it (`a_amp`), overrides are `set={'K': V}` (a value as Python writes it),
+/// a sweep's axis is `grid={'K': ...}`.
+#[derive(Default)]
+struct PyWords {
+    /// The keys a sweep's `grid=` sets: their overrides are named `grid={...}`, the others
+    /// `set={...}`.
+    grid: Vec<String>,
+}
+
+impl djkr::error::Words for PyWords {
+    fn input(&self, name: &str) -> String {
+        match name {
+            // An argument named alone in a sentence (`set= does not add stages`).
+            "set" | "grid" | "ensemble" | "seed" => format!("{name}="),
+            "force" => "force=True".into(),
+            _ => name.to_string(),
         }
-        e if e.is_output_refusal() => OutputFolderError::new_err(python_words(&e.to_string())),
-        e if e.is_input() => ScenarioError::new_err(python_words(&e.to_string())),
-        e => PyRuntimeError::new_err(python_words(&e.to_string())),
+    }
+    fn overrides(&self, items: &[String]) -> String {
+        // Consecutive overrides of one argument together: `set={...} grid={...}`.
+        let mut groups: Vec<(&str, Vec<String>)> = Vec::new();
+        for i in items {
+            let (k, item) = match i.split_once('=') {
+                Some((k, v)) => (k, format!("'{k}': {}", python_value(v))),
+                None => (i.as_str(), format!("'{i}': ...")),
+            };
+            let arg = if self.grid.iter().any(|g| g == k) {
+                "grid"
+            } else {
+                "set"
+            };
+            match groups.last_mut() {
+                Some((a, v)) if *a == arg => v.push(item),
+                _ => groups.push((arg, vec![item])),
+            }
+        }
+        groups
+            .iter()
+            .map(|(arg, v)| format!("{arg}={{{}}}", v.join(", ")))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+    fn malformed_override(&self, set: &str) -> String {
+        let key = set.split_once('=').map_or(set, |(k, _)| k);
+        format!("set={{'{}': ...}}", key.trim())
+    }
+    fn axis(&self, spec: &str) -> String {
+        let key = spec.split_once('=').map_or(spec, |(k, _)| k);
+        format!("grid={{'{}': ...}}", key.trim())
+    }
+    fn input_value(&self, name: &str, value: &str) -> String {
+        format!("{name} = {value}")
     }
 }
 
@@ -1230,7 +1280,7 @@ fn run(
         let rec = match api::run_into(&s, out.as_deref(), force) {
             Ok(rec) => Ok(rec),
             Err(e @ ApiError::Ended { .. }) => {
-                let message = python_words(&e.to_string());
+                let message = python_words(&e.in_words(&PyWords::default()));
                 match e {
                     ApiError::Ended { record, .. } => Err((message, record)),
                     e => return Err(e),
@@ -1411,7 +1461,9 @@ fn pulloff(
                 form: DeltaAmpForm::Derived,
             },
             "yi" => api::PullOffMethod::Yi {
-                delta_amp: djkr::comparators::yi_indentation_amplitude_from_area_amplitude(&m, aa),
+                delta_amp: djkr_core::comparators::yi_indentation_amplitude_from_area_amplitude(
+                    &m, aa,
+                ),
             },
             "shui" => return Err(input_err(
                 "method = \"shui\": Shui et al.'s eq. (5) needs the sphere's mass, the damping \
@@ -1485,7 +1537,7 @@ fn validate(
         let mut s = source.scenario(&api::overrides(&sets)?)?;
         s.solver.cancel = stop.token();
         let r = api::validate(&s, &Options::default())
-            .map_err(|e| ApiError::from_steady(source.name(), e))?;
+            .map_err(|e| ApiError::from_steady(djkr::error::Source::file(source.name()), e))?;
         if stop.is_cancelled() {
             return Err(ApiError::Cancelled);
         }
@@ -1595,8 +1647,8 @@ fn resonance(
         let source = scn.source()?;
         let mut s = source.scenario(&api::overrides(&sets)?)?;
         s.solver.cancel = stop.token();
-        let (problem, start) =
-            Problem::from_plan(&s.plan()).map_err(|e| ApiError::from_steady(source.name(), e))?;
+        let (problem, start) = Problem::from_plan(&s.plan())
+            .map_err(|e| ApiError::from_steady(djkr::error::Source::file(source.name()), e))?;
         let r = api::resonance(
             &problem,
             &start,
@@ -1747,6 +1799,17 @@ fn sweep(
             "seed = {s}: seeds the ensemble's phases; give ensemble=N too"
         )));
     }
+    // The axes of `grid=` (the values of `set=` are one-value axes too).
+    let grid_keys: Vec<String> = axes
+        .iter()
+        .map(|a| {
+            a.split_once('=')
+                .map_or(a.as_str(), |(k, _)| k)
+                .trim()
+                .to_string()
+        })
+        .filter(|k| !fixed.iter().any(|f| f.to_string() == *k))
+        .collect();
     let table = interruptible(py, move |stop| {
         let source = scn.source()?;
         api::sweep(
@@ -1756,7 +1819,7 @@ fn sweep(
             jobs.unwrap_or(0),
             Some(stop.flag()),
         )
-        .map_err(|e| sweep_words(e, &fixed))
+        .map_err(|e| sweep_words(e, &fixed, &grid_keys))
     })?;
     guarded(|| table_to_py(py, table))
 }
@@ -1775,7 +1838,7 @@ fn spec_err(arg: &str, e: &SpecError) -> PyErr {
 /// A sweep's error in Python's words, naming the argument a point's key came from: a value
 /// of `set=` (`fixed`) as `set={'base.amplitude': '-1um'}: ...`, one of `grid=` as
 /// `grid={'base.amplitude': [..., '-1um', ...]} (point 1): ...`.
-fn sweep_words(e: ApiError, fixed: &[SetKey]) -> ApiError {
+fn sweep_words(e: ApiError, fixed: &[SetKey], grid_keys: &[String]) -> ApiError {
     let text = match &e {
         ApiError::Sweep(SweepError::Override {
             point,
@@ -1796,29 +1859,10 @@ fn sweep_words(e: ApiError, fixed: &[SetKey]) -> ApiError {
         // A point's scenario (`point 3: FILE --set K=V ...: ...`) and the ensemble's clash with
         // a swept `base.phase` name the point's overrides: each by the argument it came from.
         ApiError::Sweep(e @ (SweepError::Point { .. } | SweepError::Ensemble { .. })) => {
-            let text = e.to_string();
-            let mut out = String::with_capacity(text.len());
-            let mut rest = text.as_str();
-            while let Some(i) = rest.find("--set") {
-                out.push_str(&rest[..i]);
-                match override_item(&rest[i + 5..]) {
-                    Some((key, value, next)) => {
-                        let arg = if fixed.iter().any(|k| k.to_string() == key) {
-                            "set"
-                        } else {
-                            "grid"
-                        };
-                        out.push_str(&format!("{arg}={{'{key}': {}}}", python_value(value)));
-                        rest = next;
-                    }
-                    None => {
-                        out.push_str("--set");
-                        rest = &rest[i + 5..];
-                    }
-                }
-            }
-            out.push_str(rest);
-            python_words(&out)
+            let words = PyWords {
+                grid: grid_keys.to_vec(),
+            };
+            python_words(&e.in_words(&words))
         }
         ApiError::Spec(s) => format!(
             "grid={{'{}': ...}}: {}",

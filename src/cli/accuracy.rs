@@ -10,14 +10,14 @@ use super::common::{
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::accuracy::{self, Measure, StudyConfig};
-use djkr::beta_fit::log_space;
-use djkr::dynamics::methods::method_name;
-use djkr::dynamics::Method;
-use djkr::error::ParamError;
 use djkr::plot;
 use djkr::scenario::checks;
 use djkr::scenario::Scenario;
-use djkr::units::Dimension;
+use djkr_core::beta_fit::log_space;
+use djkr_core::dynamics::methods::method_name;
+use djkr_core::dynamics::Method;
+use djkr_core::error::ParamError;
+use djkr_core::units::Dimension;
 use std::path::{Path, PathBuf};
 
 /// Flags of `djkr accuracy`.
@@ -82,7 +82,7 @@ fn list<T>(flag: &str, text: &str, f: impl Fn(&str) -> Result<T, ParamError>) ->
     if v.is_empty() {
         bail!(
             "{flag} = {}: needs at least one comma-separated value",
-            djkr::text::excerpt(text)
+            djkr_core::text::excerpt(text)
         );
     }
     Ok(v)

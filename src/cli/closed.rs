@@ -6,9 +6,9 @@ use super::common::{
 };
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::beta_fit::{self, BetaFitConfig};
-use djkr::closed_form;
-use djkr::units::Dimension;
+use djkr_core::beta_fit::{self, BetaFitConfig};
+use djkr_core::closed_form;
+use djkr_core::units::Dimension;
 use serde_json::json;
 use std::path::PathBuf;
 
@@ -45,8 +45,8 @@ pub fn required_speed(a: &RequiredSpeedArgs) -> Result<()> {
     )?;
     let beta = beta_from("--beta", &a.beta)?;
     let v = closed_form::vibration_speed_for_amplification(&law, target, beta).map_err(|e| {
-        djkr::error::ParamError {
-            value: djkr::text::excerpt(&a.amplification),
+        djkr_core::error::ParamError {
+            value: djkr_core::text::excerpt(&a.amplification),
             ..e.renamed("--amplification")
         }
     })?;
@@ -110,7 +110,7 @@ fn range(flag: &str, text: &str) -> Result<(f64, f64, usize)> {
     let bad = || {
         anyhow::anyhow!(
             "{flag} = {shown_text}: expected MIN:MAX:COUNT with 0 < MIN < MAX and COUNT >= 1",
-            shown_text = djkr::text::excerpt(text)
+            shown_text = djkr_core::text::excerpt(text)
         )
     };
     if parts.len() != 3 {
@@ -239,8 +239,8 @@ fn write_beta_outputs(dir: &std::path::Path, fit: &beta_fit::BetaFit) -> Result<
     djkr::reports::beta_fit::ratios_table(fit).save_csv(&dir.join("beta_ratios.csv"))?;
     let fig = Figure::new(
         "β refit: error of the closed form",
-        "β",
-        "RMS ln(A_exact / A_approx)",
+        "β (–)",
+        "RMS ln(A_exact / A_approx) (–)",
     )
     .with_series(Series::new(
         "error",

@@ -2,12 +2,12 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::adhesion::{GentSchultz, Law};
-use djkr::material::Material;
 use djkr::scenario::overrides::Override;
 use djkr::scenario::parse::ScenarioSource;
 use djkr::scenario::Scenario;
-use djkr::units::Dimension;
+use djkr_core::adhesion::{GentSchultz, Law};
+use djkr_core::material::Material;
+use djkr_core::units::Dimension;
 use std::path::{Path, PathBuf};
 
 pub use djkr::api::{
@@ -112,7 +112,7 @@ impl MaterialArgs {
                 Law::Saturated(s) => s.base.w0 = m.w0,
                 Law::Tabulated(_) => bail!(
                     "--w0 = {shown_t}: {} has a tabulated law, whose w0 is its table's w(0); edit the table instead",
-                    self.origin(), shown_t = djkr::text::excerpt(t)),
+                    self.origin(), shown_t = djkr_core::text::excerpt(t)),
             }
         }
         if self.v0.is_some() || self.n.is_some() {
@@ -203,7 +203,7 @@ pub fn limit_count(flag: &str, text: &str, count: usize, max: usize, what: &str)
     if count > max {
         bail!(
             "{flag} = {shown_text}: {count} {what}, more than the limit of {max}",
-            shown_text = djkr::text::excerpt(text)
+            shown_text = djkr_core::text::excerpt(text)
         );
     }
     Ok(())
@@ -248,10 +248,10 @@ pub struct BudgetStopped(pub String);
 
 /// The wall-clock budget of a whole command: a watchdog thread raises a cancellation flag when
 /// `seconds` have passed, which every simulator the command builds polls (the scenario's
-/// `solver.cancel`, [`djkr::cancel`]); the command then stops with what it has computed. Dropped
+/// `solver.cancel`, [`djkr_core::cancel`]); the command then stops with what it has computed. Dropped
 /// when the command is done, it ends its watchdog at once.
 pub struct CommandBudget {
-    flag: std::sync::Arc<djkr::cancel::CancelFlag>,
+    flag: std::sync::Arc<djkr_core::cancel::CancelFlag>,
     done: Option<std::sync::mpsc::Sender<()>>,
     watchdog: Option<std::thread::JoinHandle<()>>,
     /// The budget (s).
@@ -261,7 +261,7 @@ pub struct CommandBudget {
 impl CommandBudget {
     /// Start the clock: `seconds` from now (a budget beyond any run's is never reached).
     pub fn start(seconds: f64) -> Self {
-        let flag = std::sync::Arc::new(djkr::cancel::CancelFlag::acquire());
+        let flag = std::sync::Arc::new(djkr_core::cancel::CancelFlag::acquire());
         let (done, wait) = std::sync::mpsc::channel::<()>();
         let raise = std::sync::Arc::clone(&flag);
         let limit =
@@ -280,7 +280,7 @@ impl CommandBudget {
     }
 
     /// The token to put into the scenario's solver settings.
-    pub fn token(&self) -> djkr::cancel::Cancel {
+    pub fn token(&self) -> djkr_core::cancel::Cancel {
         self.flag.token()
     }
 

@@ -8,18 +8,18 @@ use super::common::{print_json, write_atomic, SetArgs};
 use super::steady::{progress_bar, stem};
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::continuation::branch::{self, Branch, BranchPoint, PointKind};
-use djkr::continuation::family::{Family, Parameter};
-use djkr::continuation::folds::{self, FoldCurve, FoldPointKind};
-use djkr::continuation::sweep::{self, SweepPoint};
 use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::output::table::{format_f64, format_sig};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::reports::continuation::{self as report, ContinuationReport};
 use djkr::scenario::family::{family as scenario_family, parameter};
 use djkr::scenario::parse::ScenarioSource;
-use djkr::steady::Options;
-use djkr::units::parse_quantity;
+use djkr_core::continuation::branch::{self, Branch, BranchPoint, PointKind};
+use djkr_core::continuation::family::{Family, Parameter};
+use djkr_core::continuation::folds::{self, FoldCurve, FoldPointKind};
+use djkr_core::continuation::sweep::{self, SweepPoint};
+use djkr_core::steady::Options;
+use djkr_core::units::parse_quantity;
 use std::path::{Path, PathBuf};
 
 /// Flags of `djkr continue`.
@@ -99,7 +99,7 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
             "{flag} = {shown_text}: expected START:STOP for {} ({}), e.g. 340:600",
             p.name(),
             p.info.unit,
-            shown_text = djkr::text::excerpt(text)
+            shown_text = djkr_core::text::excerpt(text)
         );
     }
     let a = parse_quantity(flag, parts[0].trim(), p.info.dimension)?;
@@ -109,7 +109,7 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
             "{flag} = {shown_text}: START and STOP must be finite and differ ({} in {})",
             p.name(),
             p.info.unit,
-            shown_text = djkr::text::excerpt(text)
+            shown_text = djkr_core::text::excerpt(text)
         );
     }
     Ok((a, b))
@@ -117,11 +117,11 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
 
 /// A dimensionless tolerance flag in (lo, hi).
 fn tolerance(flag: &str, text: &str, lo: f64, hi: f64) -> Result<f64> {
-    let v = parse_quantity(flag, text, djkr::units::Dimension::Dimensionless)?;
+    let v = parse_quantity(flag, text, djkr_core::units::Dimension::Dimensionless)?;
     if !(v.is_finite() && v > lo && v < hi) {
         bail!(
             "{flag} = {shown_text}: must be in ({lo:e}, {hi:e})",
-            shown_text = djkr::text::excerpt(text)
+            shown_text = djkr_core::text::excerpt(text)
         );
     }
     Ok(v)
@@ -134,7 +134,7 @@ fn check_ends(flag: &str, text: &str, family: &Family, values: &[[f64; 2]]) -> R
         if let Err(e) = family.setup(&v[..n]) {
             bail!(
                 "{flag} = {shown_text}: {e}",
-                shown_text = djkr::text::excerpt(text)
+                shown_text = djkr_core::text::excerpt(text)
             );
         }
     }
@@ -516,14 +516,14 @@ fn branch_figure(file: &Path, b: &Branch, up: &[SweepPoint], down: &[SweepPoint]
             stem(file)
         )
     };
-    let mut fig = Figure::new(
-        title,
-        format!("{} ({})", info.key, info.unit),
-        "|δ_A / X_b|",
-    )
-    .with_legend(LegendPosition::UpperRight);
+    let values: Vec<f64> = b.points.iter().map(|p| p.value).collect();
+    let (xf, x_label) = plot::axis_label(info.key, info.unit, &values);
+    let in_unit = |x: Vec<f64>| -> Vec<f64> { x.iter().map(|v| v * xf).collect() };
+    let mut fig =
+        Figure::new(title, x_label, "|δ_A / X_b| (–)").with_legend(LegendPosition::UpperRight);
     let (xs, ys) = runs(&b.points, true);
     let (xu, yu) = runs(&b.points, false);
+    let (xs, xu) = (in_unit(xs), in_unit(xu));
     fig = fig
         .with_series(Series::new("stable", xs, ys, Style::Line).with_color(0))
         .with_series(Series::new("unstable", xu, yu, Style::Dashed).with_color(0));
@@ -537,7 +537,11 @@ fn branch_figure(file: &Path, b: &Branch, up: &[SweepPoint], down: &[SweepPoint]
         }
         let (x, y): (Vec<f64>, Vec<f64>) = pts
             .iter()
-            .filter_map(|p| p.steady.as_ref().map(|s| (p.value, s.transfer_magnitude())))
+            .filter_map(|p| {
+                p.steady
+                    .as_ref()
+                    .map(|s| (p.value * xf, s.transfer_magnitude()))
+            })
             .unzip();
         fig = fig.with_series(Series::new(name, x, y, style).with_color(color));
     }
@@ -550,7 +554,7 @@ fn branch_figure(file: &Path, b: &Branch, up: &[SweepPoint], down: &[SweepPoint]
     ] {
         let (x, y): (Vec<f64>, Vec<f64>) = b
             .of_kind(kind)
-            .map(|p| (p.value, p.delta_amp_over_xb()))
+            .map(|p| (p.value * xf, p.delta_amp_over_xb()))
             .unzip();
         if !x.is_empty() {
             fig = fig.with_series(Series::new(name, x, y, Style::Markers).with_color(color));
@@ -561,23 +565,37 @@ fn branch_figure(file: &Path, b: &Branch, up: &[SweepPoint], down: &[SweepPoint]
 
 fn fold_figure(file: &Path, b: &Branch, q: &Parameter, curves: &[FoldCurve]) -> Figure {
     let info = b.parameter.info;
-    let mut fig = Figure::new(
-        format!("fold curves: bistable between them ({})", stem(file)),
-        format!("{} ({})", info.key, info.unit),
-        format!("{} ({})", q.name(), q.info.unit),
-    )
-    .with_legend(LegendPosition::LowerRight);
+    // Both axes in the unit that suits their values (µm rather than 1e-6 m).
+    let all = || curves.iter().flat_map(|c| c.points.iter());
+    let xv: Vec<f64> = all().map(|p| p.values[0]).collect();
+    let yv: Vec<f64> = all().map(|p| p.values[1]).collect();
+    let (xf, x_label) = plot::axis_label(info.key, info.unit, &xv);
+    let (yf, y_label) = plot::axis_label(q.name(), q.info.unit, &yv);
+    // The title says what the figure holds: no curve, and why, when there is none.
+    let title = match (
+        curves.is_empty(),
+        b.of_kind(PointKind::Fold).next().is_none(),
+    ) {
+        (false, _) => format!("fold curves: bistable between them ({})", stem(file)),
+        (true, true) => format!(
+            "no fold curve: the branch has no fold in range ({})",
+            stem(file)
+        ),
+        (true, false) => format!("no fold curve could be followed ({})", stem(file)),
+    };
+    let mut fig = Figure::new(title, x_label, y_label).with_legend(LegendPosition::LowerRight);
     for (i, c) in curves.iter().enumerate() {
-        let (x, y): (Vec<f64>, Vec<f64>) =
-            c.points.iter().map(|p| (p.values[0], p.values[1])).unzip();
+        let (x, y): (Vec<f64>, Vec<f64>) = c
+            .points
+            .iter()
+            .map(|p| (p.values[0] * xf, p.values[1] * yf))
+            .unzip();
         fig = fig
             .with_series(Series::new(format!("fold curve {i}"), x, y, Style::Line).with_color(i));
     }
-    let (x, y): (Vec<f64>, Vec<f64>) = curves
-        .iter()
-        .flat_map(|c| c.points.iter())
+    let (x, y): (Vec<f64>, Vec<f64>) = all()
         .filter(|p| p.kind == FoldPointKind::Cusp)
-        .map(|p| (p.values[0], p.values[1]))
+        .map(|p| (p.values[0] * xf, p.values[1] * yf))
         .unzip();
     if !x.is_empty() {
         fig = fig.with_series(Series::new("cusp", x, y, Style::Markers).with_color(3));
@@ -586,8 +604,15 @@ fn fold_figure(file: &Path, b: &Branch, q: &Parameter, curves: &[FoldCurve]) -> 
         .first()
         .and_then(|c| c.points.first())
         .map_or(f64::NAN, |p| p.values[1]);
-    let (x, y): (Vec<f64>, Vec<f64>) = b.of_kind(PointKind::Fold).map(|p| (p.value, q0)).unzip();
-    fig.with_series(Series::new("folds of the branch", x, y, Style::Markers).with_color(4))
+    let (x, y): (Vec<f64>, Vec<f64>) = b
+        .of_kind(PointKind::Fold)
+        .map(|p| (p.value * xf, q0 * yf))
+        .unzip();
+    if !x.is_empty() {
+        fig =
+            fig.with_series(Series::new("folds of the branch", x, y, Style::Markers).with_color(4));
+    }
+    fig
 }
 
 fn print_report(file: &Path, r: &ContinuationReport) -> anyhow::Result<()> {

@@ -4,7 +4,7 @@ use super::common::MaterialArgs;
 use anyhow::{bail, Result};
 use clap::Args;
 use djkr::figures::{write_figures, FigureId};
-use djkr::units::Dimension;
+use djkr_core::units::Dimension;
 use std::path::PathBuf;
 
 /// Flags of `djkr figures`.
@@ -39,7 +39,7 @@ pub fn figures(a: &FiguresArgs) -> Result<()> {
                 FigureId::parse(t).ok_or_else(|| {
                     anyhow::anyhow!(
                         "--only = {shown_t}: unknown figure; allowed: fig2, fig3a, fig3b, fig4-8",
-                        shown_t = djkr::text::excerpt(t)
+                        shown_t = djkr_core::text::excerpt(t)
                     )
                 })
             })

@@ -3,8 +3,8 @@
 use super::common::{print_json, print_table, reject_unused, MaterialArgs};
 use anyhow::{bail, Result};
 use clap::Args;
-use djkr::gs_fit::{self, GsFitOptions, GsFitReport};
 use djkr::input::{read_text, InputKind};
+use djkr_core::gs_fit::{self, GsFitOptions, GsFitReport};
 use std::path::PathBuf;
 
 /// Flags of `djkr gs-fit`.

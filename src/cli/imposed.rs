@@ -7,7 +7,7 @@ use super::common::{
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use djkr::api::{self, Arg, PullOffReport};
-use djkr::units::Dimension;
+use djkr_core::units::Dimension;
 use serde_json::json;
 
 /// Flags of `djkr cycle`.
@@ -179,7 +179,7 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
         Some(t) => {
             let v = non_negative_quantity("--a-amp", t, Dimension::Length)?;
             if let Some(e) = djkr::scenario::checks::contact_radius_error(v, m.r) {
-                bail!("--a-amp = {}: {e}", djkr::text::excerpt(t));
+                bail!("--a-amp = {}: {e}", djkr_core::text::excerpt(t));
             }
             Some(v)
         }
@@ -197,11 +197,11 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
         PulloffMethod::Approx => {
             let beta = match &a.beta {
                 Some(t) => beta_from("--beta", t)?,
-                None => djkr::closed_form::BETA_PAPER,
+                None => djkr_core::closed_form::BETA_PAPER,
             };
             let form = match a.delta_form.unwrap_or(DeltaForm::Derived) {
-                DeltaForm::Derived => djkr::closed_form::DeltaAmpForm::Derived,
-                DeltaForm::Printed => djkr::closed_form::DeltaAmpForm::Printed,
+                DeltaForm::Derived => djkr_core::closed_form::DeltaAmpForm::Derived,
+                DeltaForm::Printed => djkr_core::closed_form::DeltaAmpForm::Printed,
             };
             api::PullOffMethod::Approx {
                 a_amp: need_a_amp()?,
@@ -264,12 +264,12 @@ fn report(r: &PullOffReport, json_out: bool) -> Result<()> {
 
 fn comparators(
     a: &PulloffArgs,
-    m: &djkr::material::Material,
-    law: &djkr::adhesion::Law,
+    m: &djkr_core::material::Material,
+    law: &djkr_core::adhesion::Law,
     omega: f64,
     a_amp: Option<f64>,
 ) -> Result<()> {
-    use djkr::comparators as cmp;
+    use djkr_core::comparators as cmp;
     let r = if a.method == PulloffMethod::Shui {
         let need = |flag: &str, v: &Option<String>| {
             v.clone()

@@ -21,6 +21,7 @@ mod signals;
 mod steady;
 mod sweep;
 mod validate;
+mod words;
 
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
@@ -216,7 +217,7 @@ pub fn main() -> ExitCode {
 }
 
 /// Parse the command line. clap's own messages (an invalid value, an unknown argument) quote
-/// what was typed through [`djkr::text::excerpt`], as every djkr message does; they end djkr
+/// what was typed through [`djkr_core::text::excerpt`], as every djkr message does; they end djkr
 /// here, as `Cli::parse` would (exit status 2, or 0 for `--help` and `--version`). A path
 /// argument longer than the system allows is refused (`Err`) before it reaches any message.
 fn parse_args() -> anyhow::Result<Cli> {
@@ -230,7 +231,7 @@ fn parse_args() -> anyhow::Result<Cli> {
 /// `e` with each value it quotes cut to an excerpt (a 100 kB `--method` was echoed whole).
 fn short_values(mut e: clap::Error) -> clap::Error {
     use clap::error::ContextValue;
-    use djkr::text::{excerpt, EXCERPT_CHARS};
+    use djkr_core::text::{excerpt, EXCERPT_CHARS};
     let long = |s: &str| s.chars().count() > EXCERPT_CHARS;
     let cut: Vec<_> = e
         .context()
@@ -327,18 +328,7 @@ fn tune_allocator() {
 /// line already holds: library errors that show their I/O cause in their own message and also
 /// chain it as their `source` printed the OS message twice.
 fn error_text(e: &anyhow::Error) -> String {
-    let mut out = String::new();
-    for cause in e.chain() {
-        let t = cause.to_string();
-        if t.is_empty() || out.contains(&t) {
-            continue;
-        }
-        if !out.is_empty() {
-            out.push_str(": ");
-        }
-        out.push_str(&t);
-    }
-    out
+    words::text(e)
 }
 
 #[cfg(test)]

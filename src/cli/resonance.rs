@@ -15,9 +15,9 @@ use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::plot::{self, Figure, LegendPosition, Series, Style};
 use djkr::reports::steady::{self as report, ResonanceReport};
 use djkr::scenario::Scenario;
-use djkr::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
-use djkr::steady::{Options, Problem};
-use djkr::units::Dimension;
+use djkr_core::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
+use djkr_core::steady::{Options, Problem};
+use djkr_core::units::Dimension;
 use std::path::{Path, PathBuf};
 
 /// Sweep direction(s).
@@ -218,22 +218,28 @@ fn figures(
     hi: f64,
 ) -> (Figure, Figure) {
     let amplitude = sweeps.first().map_or(f64::NAN, |s| s.amplitude);
+    // The frequency axis in Hz or kHz, as its range suits.
+    let (ff, f_label) = plot::axis_label("frequency f", "Hz", &[lo, hi]);
     let mut fig = Figure::new(
         format!(
             "frequency response, X_b = {:.3} µm ({})",
             amplitude * 1e6,
             stem(file)
         ),
-        "frequency f (Hz)",
-        "|δ_A / X_b|",
+        f_label.clone(),
+        "|δ_A / X_b| (–)",
     )
     .with_legend(LegendPosition::UpperRight);
     let mut phase = Figure::new(
-        format!("phase of δ_1 ({})", stem(file)),
-        "frequency f (Hz)",
-        "phase φ (rad), δ − δ_m ≈ |δ_1| sin(ωt + φ)",
+        format!(
+            "phase φ of δ_1, δ − δ_m ≈ |δ_1| sin(ωt + φ) ({})",
+            stem(file)
+        ),
+        f_label,
+        "phase φ (rad)",
     )
     .with_legend(LegendPosition::UpperRight);
+    let in_unit = |x: Vec<f64>| -> Vec<f64> { x.iter().map(|f| f * ff).collect() };
     for (i, sw) in sweeps.iter().enumerate() {
         // The second sweep as rings over the first's dots: both visible where they agree.
         let style = if i == 0 {
@@ -244,7 +250,7 @@ fn figures(
         let label = format!("time domain, sweep {}", sw.direction.name());
         let series = |f: &dyn Fn(&SweepPoint) -> Option<f64>| {
             let (x, y) = report::sorted_by_frequency(&sw.points, f);
-            Series::new(label.clone(), x, y, style).with_color(i)
+            Series::new(label.clone(), in_unit(x), y, style).with_color(i)
         };
         fig = fig.with_series(series(&|p| {
             p.steady.as_ref().map(|s| s.transfer_magnitude())
@@ -255,7 +261,8 @@ fn figures(
                 p.harmonic.map(|h| h.harmonics.delta_amp / amplitude)
             });
             let name = format!("harmonic balance, {}", sw.direction.name());
-            fig = fig.with_series(Series::new(name, x, y, Style::Dashed).with_color(3 + i));
+            fig =
+                fig.with_series(Series::new(name, in_unit(x), y, Style::Dashed).with_color(3 + i));
         }
     }
     if let Some(l) = lin {
@@ -263,6 +270,7 @@ fn figures(
         let y: Vec<f64> = fd.iter().map(|&f| l.linear(f).magnitude()).collect();
         let yp: Vec<f64> = fd.iter().map(|&f| l.linear(f).phase()).collect();
         let name = "linear transfer, k_c = 3/2 K a_0";
+        let fd = in_unit(fd);
         fig = fig.with_series(Series::new(name, fd.clone(), y, Style::Line).with_color(2));
         phase =
             phase.with_series(Series::new("linear transfer", fd, yp, Style::Line).with_color(2));

@@ -5,15 +5,15 @@ use super::signals;
 use anyhow::{Context, Result};
 use clap::Args;
 use djkr::api::{close_run_folder, open_run_folder, FolderOptions};
-use djkr::cancel::Cancel;
-use djkr::dynamics::{
-    self, Ending, Event, Model, Observer, Outcome, Reason, RunResult, Sample, SimError, Status,
-    StepSamples,
-};
 use djkr::output::RunWriter;
 use djkr::scenario::checks;
 use djkr::scenario::parse::{ScenarioError, ScenarioSource};
 use djkr::sensitivity::Sensitivity;
+use djkr_core::cancel::Cancel;
+use djkr_core::dynamics::{
+    self, Ending, Event, Model, Observer, Outcome, Reason, RunResult, Sample, SimError, Status,
+    StepSamples,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -236,7 +236,8 @@ pub fn run(a: &RunArgs) -> Result<()> {
             // them (the exit status still says the signal came).
             Err(e) if signals::received().is_some() => {
                 eprintln!(
-                    "warning: {e:#}: the run's files are written without the sensitivity section"
+                    "warning: {}: the run's files are written without the sensitivity section",
+                    super::words::text(&e)
                 );
                 None
             }
@@ -463,7 +464,7 @@ fn print_pull_off(
 /// What `--sensitivity` measured; without it, for a pull-off under vibration
 /// (`vibrating_pull_off`), what the roughness of its approach suggests and how to check it: the
 /// chaos note only where the cycle means fluctuated before the pull-off
-/// ([`djkr::dynamics::ApproachRoughness`]).
+/// ([`djkr_core::dynamics::ApproachRoughness`]).
 fn print_sensitivity(
     sens: Option<&Sensitivity>,
     vibrating_pull_off: Option<&RunResult>,
@@ -506,7 +507,7 @@ fn print_sensitivity(
                  cycle means fluctuated is not defined as a fraction of them; an approach that \
                  loses contact is often chaotic: --sensitivity measures how many digits hold",
                 r.approach_zero_means,
-                djkr::dynamics::ROUGHNESS_PERIODS
+                djkr_core::dynamics::ROUGHNESS_PERIODS
             ),
             Some(r) if r.pull_off_likely_sensitive() => summary_line!(
                 "  note               the cycle means fluctuated by up to {:.1} % from period \
@@ -514,13 +515,13 @@ fn print_sensitivity(
                  approach is likely chaotic and tiny input changes move the pull-off by percent; \
                  --sensitivity measures how many digits hold",
                 100.0 * r.approach_roughness,
-                djkr::dynamics::ROUGH_APPROACH
+                djkr_core::dynamics::ROUGH_APPROACH
             ),
             Some(r) if !r.approach_roughness.is_nan() => summary_line!(
                 "  check              smooth approach to the pull-off (cycle means rough to \
                  {:.1e}, below {:.0e}): likely deterministic; --sensitivity measures it",
                 r.approach_roughness,
-                djkr::dynamics::ROUGH_APPROACH
+                djkr_core::dynamics::ROUGH_APPROACH
             ),
             Some(_) => summary_line!(
                 "  check              pull-off under vibration: --sensitivity measures how many \
@@ -592,10 +593,11 @@ pub fn check(a: &CheckArgs) -> Result<()> {
             }
             Err(e) => {
                 failed += 1;
+                let text = e.in_words(&super::words::Flags);
                 match e {
                     // An override's error names the override, not the file: say which file.
-                    ScenarioError::Override { .. } => eprintln!("error: {}: {e}", f.display()),
-                    _ => eprintln!("error: {e}"),
+                    ScenarioError::Override { .. } => eprintln!("error: {}: {text}", f.display()),
+                    _ => eprintln!("error: {text}"),
                 }
             }
         }

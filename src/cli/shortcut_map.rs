@@ -13,9 +13,9 @@ use djkr::output::hdf5_file::{hdf5_tables, Attr};
 use djkr::plot::{self, Heatmap};
 use djkr::reports::steady::{self as report, ShortcutMapReport};
 use djkr::scenario::Scenario;
-use djkr::steady::map::{self as smap, MapCell, ShortcutMap};
-use djkr::steady::{sweep, Problem};
-use djkr::units::Dimension;
+use djkr_core::steady::map::{self as smap, MapCell, ShortcutMap};
+use djkr_core::steady::{sweep, Problem};
+use djkr_core::units::Dimension;
 use std::path::{Path, PathBuf};
 
 /// Flags of `djkr shortcut-map`.
@@ -174,17 +174,19 @@ fn heatmap(m: &ShortcutMap, title: String, z: Vec<f64>, log_amp: bool) -> Heatma
     let (lo, hi) = valid.fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
     // A logarithmic colour scale only when the errors span more than a decade.
     let z_log = hi > 10.0 * lo;
+    let (ff, f_label) = plot::axis_label("base frequency f", "Hz", &m.frequencies);
+    let (af, a_label) = plot::axis_label("base amplitude X_b", "m", &m.amplitudes);
     Heatmap {
         title,
-        x_label: "base frequency f (Hz)".into(),
-        y_label: "base amplitude X_b (µm)".into(),
+        x_label: f_label,
+        y_label: a_label,
         z_label: if z_log {
-            "|relative error| (log colour scale)".into()
+            "|relative error|, log colour scale (–)".into()
         } else {
-            "|relative error|".into()
+            "|relative error| (–)".into()
         },
-        x: m.frequencies.clone(),
-        y: m.amplitudes.iter().map(|x| x * 1e6).collect(),
+        x: m.frequencies.iter().map(|f| f * ff).collect(),
+        y: m.amplitudes.iter().map(|x| x * af).collect(),
         z,
         x_log: false,
         y_log: log_amp,

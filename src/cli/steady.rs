@@ -5,8 +5,8 @@
 use super::common::{positive_quantity, SetArgs};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
-use djkr::steady::{Options, Strategy};
-use djkr::units::Dimension;
+use djkr_core::steady::{Options, Strategy};
+use djkr_core::units::Dimension;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::Path;
 use std::time::Duration;

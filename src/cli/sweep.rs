@@ -469,7 +469,7 @@ fn absolute(p: &Path) -> Result<PathBuf> {
 /// written into an `#SBATCH` or comment line, a newline would start a command of its own.
 fn check_script_values(a: &SweepRunArgs, file: &Path, out: &Path, exe: &Path) -> Result<()> {
     use djkr::sweep::slurm::{check_partition, check_script_text, check_sweep_folder, check_time};
-    use djkr::text::excerpt;
+    use djkr_core::text::excerpt;
     if let Some(p) = &a.slurm_partition {
         check_partition(p)
             .map_err(|e| anyhow::anyhow!("--slurm-partition = {}: {e}", excerpt(p)))?;

@@ -8,7 +8,7 @@ use super::steady::SteadyArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use djkr::reports::steady::ValidateReport;
-use djkr::steady::crosscheck::Prediction;
+use djkr_core::steady::crosscheck::Prediction;
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
 use std::time::Duration;

@@ -11,7 +11,7 @@
 //!
 //! Lines starting with `#` are comments. A bad file is refused naming the file, the line (as an
 //! editor numbers it: CRLF files, blank and comment lines counted) and the column, as the scenario
-//! parser does. A message quotes at most [`crate::text::EXCERPT_CHARS`] characters of a cell, and
+//! parser does. A message quotes at most [`djkr_core::text::EXCERPT_CHARS`] characters of a cell, and
 //! a header cell only when djkr recognises it (see [`shown_cell`]). A row whose
 //! |observed| / sigma passes [`MAX_WEIGHTED`] is refused: its χ² could not be finite. The file is
 //! read with a size limit of 16 MiB ([`crate::input::InputKind::FitData`]) and holds at most
@@ -24,8 +24,8 @@ use thiserror::Error;
 use crate::input::{read_text, show_limit, InputKind};
 use crate::scenario::overrides::SetKey;
 use crate::sweep::spec::{key_kind, KeyKind};
-use crate::text::excerpt;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::text::excerpt;
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// An observable a fit can use: a numeric column of `sweep.csv` that a run's physics gives
 /// (not its bookkeeping such as `steps` or `wall_s`).

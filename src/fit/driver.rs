@@ -118,7 +118,7 @@ pub fn sets_per_iteration(members: usize, k: usize) -> usize {
 /// coordinate (before anything runs).
 pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
     for (f, &x) in free.iter().zip(x0) {
-        let given = crate::text::excerpt(&f.given);
+        let given = djkr_core::text::excerpt(&f.given);
         let t = Transform::new(f, x);
         if !x.is_finite() || !t.inside(t.y(x)) {
             return Err(FitError::new(format!(
@@ -522,7 +522,7 @@ pub fn fit(
     let tol_s = tolerance::Scenario {
         rtol: scn.solver.rtol,
         envelope_tol: scn.solver.envelope_tol,
-        envelope: scn.solver.envelope == crate::dynamics::methods::EnvelopeMode::Auto,
+        envelope: scn.solver.envelope == djkr_core::dynamics::methods::EnvelopeMode::Auto,
         rtol_set: is_set("solver.rtol"),
         envelope_tol_set: is_set("solver.envelope_tol"),
     };

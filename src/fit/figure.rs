@@ -15,8 +15,9 @@
 
 use std::sync::atomic::AtomicBool;
 
-use crate::output::table::{format_pm, format_sig};
-use crate::plot::{display_unit, Figure, LegendPosition, Series, Style};
+use crate::output::table::format_pm;
+use crate::plot::{display_unit, unit_text, Figure, LegendPosition, Series, Style};
+use djkr_core::text::format_sig;
 
 use super::data::{CondValue, DataRow, FitData};
 use super::model::{EvalError, ForwardModel};
@@ -268,8 +269,8 @@ pub fn fit_figure(
         None => (1.0, String::new()),
     };
     let x_label = match xj {
-        Some(j) => format!("{} [{xunit}]", data.conditions[j].key),
-        None => "row".to_string(),
+        Some(j) => format!("{} [{}]", data.conditions[j].key, unit_text(&xunit)),
+        None => "row [–]".to_string(),
     };
     let obs: Vec<f64> = data.rows.iter().map(|r| r.observed).collect();
     let (yf, yunit) = display_unit(data.observable.unit(), &obs);
@@ -290,7 +291,7 @@ pub fn fit_figure(
     let mut fig = Figure::new(
         estimates,
         x_label.clone(),
-        format!("{} [{yunit}]", data.observable.name()),
+        format!("{} [{}]", data.observable.name(), unit_text(&yunit)),
     );
     fig.legend = LegendPosition::default();
     let mut res = Figure::new(

@@ -18,8 +18,8 @@
 use crate::scenario::overrides::SetKey;
 use crate::scenario::range_error;
 use crate::sweep::spec::{key_kind, KeyKind};
-use crate::text::excerpt;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::text::excerpt;
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// A free key as given on the command line, parsed.
 #[derive(Debug, Clone, PartialEq)]

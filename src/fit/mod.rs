@@ -47,7 +47,7 @@ pub use report::{
 use crate::output::table::format_f64;
 use crate::scenario::overrides::{Override, SetKey};
 use crate::scenario::parse::ScenarioSource;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// A number from a TOML value as a scenario file holds it: a number (SI) or a string with
 /// units.
@@ -56,10 +56,10 @@ fn toml_number(v: &toml::Value, key: &SetKey, dim: Dimension) -> Result<f64, Str
         toml::Value::Float(x) => Ok(*x),
         toml::Value::Integer(i) => Ok(*i as f64),
         toml::Value::String(s) => parse_quantity(&key.to_string(), s, dim)
-            .map_err(|e| format!("{key} = '{}': {}", crate::text::excerpt(s), e.allowed)),
+            .map_err(|e| format!("{key} = '{}': {}", djkr_core::text::excerpt(s), e.allowed)),
         other => Err(format!(
             "{key} = {}: not a number",
-            crate::text::excerpt(&other.to_string())
+            djkr_core::text::excerpt(&other.to_string())
         )),
     }
 }
@@ -125,7 +125,7 @@ pub fn fitted_toml(
         .text()
         .parse()
         .map_err(|e| format!("{}: {e}", source.name()))?;
-    crate::scenario::overrides::apply(&mut table, &all, source.name())
+    crate::scenario::overrides::apply(&mut table, &all, &crate::error::Source::file(source.name()))
         .map_err(|e| e.to_string())?;
     let mut doc: toml_edit::DocumentMut = source
         .text()
@@ -410,7 +410,12 @@ mod tests {
         let mut all = fixed.clone();
         all.push(Override::from_key(free[0].key, 6.1e-5).unwrap());
         all.push(Override::from_key(free[1].key, 0.07).unwrap());
-        crate::scenario::overrides::apply(&mut expected, &all, "lab.toml").unwrap();
+        crate::scenario::overrides::apply(
+            &mut expected,
+            &all,
+            &crate::error::Source::file("lab.toml"),
+        )
+        .unwrap();
         let got: toml::Table = out.parse().unwrap();
         assert_eq!(got, expected);
     }

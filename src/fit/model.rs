@@ -17,7 +17,7 @@ use crate::sweep::spec::{KeyCell, SpecForm, SpecValue};
 use crate::sweep::{check_runs, run_sweep, RunOptions, Sweep};
 
 use super::data::{CondValue, FitData};
-use crate::text::excerpt;
+use djkr_core::text::excerpt;
 
 /// The model's prediction for every data row, at one parameter set.
 #[derive(Debug, Clone, PartialEq)]
@@ -136,7 +136,7 @@ impl ForwardModel {
         let budget = self
             .source
             .scenario(&self.fixed)
-            .map_or(crate::dynamics::methods::DEFAULT_MAX_MEMORY, |s| {
+            .map_or(djkr_core::dynamics::methods::DEFAULT_MAX_MEMORY, |s| {
                 s.solver.max_memory
             });
         let bytes = self.batch_bytes(runs);

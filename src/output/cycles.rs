@@ -10,7 +10,7 @@
 
 use super::table::{Cell, Column, Data, Field, Table};
 use super::timeseries::stage_index;
-use crate::dynamics::CycleRecord;
+use djkr_core::dynamics::CycleRecord;
 
 /// How a cycle field is read from a record.
 #[derive(Debug, Clone, Copy)]

@@ -1,7 +1,7 @@
 //! The disk space a run's files need: refused before the run where it is certain, watched while
 //! the run streams where it is not.
 //!
-//! **Before the run** ([`check_up_front`]) djkr counts only the samples a run is certain to take:
+//! **Before the run** (`check_up_front`) djkr counts only the samples a run is certain to take:
 //! `[output] sample_rate` over the stages with a fixed `duration` (the count of
 //! [`crate::memory::Estimate`]), at [`HDF5_ROW_BYTES`] a sample (and [`CSV_ROW_BYTES`] more with
 //! CSV). A stage that ends at a preload or at pull-off may end long before its `max_duration`

@@ -78,8 +78,8 @@ use super::cycles::{cycle_schema, HARMONIC_CONVENTION};
 use super::table::{Column, Data, Descriptions, Kind, Table, DESCRIPTIONS_GROUP};
 use super::timeseries::{events_table, gaps_table, TimeSeriesWriter, GAPS_DESCRIPTION};
 use super::OutputError;
-use crate::dynamics::RunResult;
 use crate::scenario::Scenario;
+use djkr_core::dynamics::RunResult;
 
 /// Version of the layout above, stored as the root attribute `layout_version`. 2: the
 /// descriptions moved from a `description` attribute per dataset and group to the table

@@ -30,10 +30,10 @@ use super::hdf5_file::{H5Stream, RunTables, RECORD_CHUNK};
 use super::table::{CsvWriter, Table};
 use super::timeseries::{self, TimeSeriesWriter};
 use super::{cycles, io_err, AtomicFile, OutputError, CSV_NAMES, FLUSH_ROWS, HDF5_NAME};
-use crate::dynamics::model::Model;
-use crate::dynamics::Sample;
-use crate::dynamics::StepSamples;
 use crate::scenario::Scenario;
+use djkr_core::dynamics::model::Model;
+use djkr_core::dynamics::Sample;
+use djkr_core::dynamics::StepSamples;
 
 /// A sample not built yet, or built already, with its segment index (the `segment` column).
 #[derive(Debug, Clone, Copy)]

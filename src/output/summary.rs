@@ -39,7 +39,7 @@
 //! signal stopped it) or `failed` (the integration failed mid-way); `reason` names why
 //! (`max_steps`, `max_wall_s`, `max_events`, `memory`, `disk`, `SIGINT`, `SIGTERM`, `non-finite`,
 //! `step-underflow`, `no-progress`, `stage-timeout`, `method-failed`, `setup`:
-//! [`crate::dynamics::Reason`]) and
+//! [`djkr_core::dynamics::Reason`]) and
 //! `message` says what happened, when and in which stage; both are absent when ok (the file
 //! has no `null`: see the non-finite rule below). A stopped
 //! or failed run's numbers (`final_state`, `pull_off`, `cycles`, `events`, ...) and files
@@ -97,8 +97,8 @@ use serde_json::{Map, Value};
 use super::cycles::cycle_table;
 use super::table::Data;
 use super::timeseries::{kind_name, stage_index, SERIES, STAGE, STAGE_UNIT};
-use crate::dynamics::{CycleRecord, Ending, RunResult, Sample};
 use crate::scenario::{checks, Scenario};
+use djkr_core::dynamics::{CycleRecord, Ending, RunResult, Sample};
 
 /// Version of the summary layout, stored as `format_version`.
 pub const SUMMARY_VERSION: i64 = 1;
@@ -330,7 +330,7 @@ impl Builder {
         let po = if checks::pull_off_recorded(result) {
             result.pull_off
         } else {
-            crate::dynamics::PullOffSummary {
+            djkr_core::dynamics::PullOffSummary {
                 force: f64::NAN,
                 amplification: f64::NAN,
                 time: f64::NAN,

@@ -633,32 +633,7 @@ pub fn format_f64(x: f64) -> String {
     }
 }
 
-/// `x` to `sig` significant digits for a human reader: plain decimals for magnitudes in
-/// [1e-3, 1e6) (`560.178239`, not `5.60178239e2`), exponent notation beyond. Machine files use
-/// [`format_f64`] (the shortest round trip) instead.
-pub fn format_sig(x: f64, sig: usize) -> String {
-    let m = x.abs();
-    if !x.is_finite() || x == 0.0 {
-        return format!("{x}");
-    }
-    let sig = sig.max(1);
-    if (1e-3..1e6).contains(&m) {
-        // Digits after the point: sig minus the digits before it (rounding may add one).
-        let mut exp = m.log10().floor() as i64;
-        // 999.9996 to 6 digits rounds up into the next decade: one digit fewer after the point.
-        if format!("{m:.prec$e}", prec = sig - 1)
-            .parse::<f64>()
-            .unwrap_or(m)
-            >= 10f64.powi(exp as i32 + 1)
-        {
-            exp += 1;
-        }
-        let decimals = (sig as i64 - 1 - exp).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.prec$e}", prec = sig - 1)
-    }
-}
+pub use djkr_core::text::format_sig;
 
 /// A value with its standard deviation for a human reader, to the digits the deviation supports:
 /// σ to two significant digits and the value to the same decimal place, with a shared power of

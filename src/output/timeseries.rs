@@ -6,7 +6,7 @@
 //! to the HDF5 file in batches ([`super::RunWriter`]: memory independent of run length).
 
 use super::table::{Cell, Column, Data, Field, Table};
-use crate::dynamics::{Event, EventKind, Gap, Observer, Sample};
+use djkr_core::dynamics::{Event, EventKind, Gap, Observer, Sample};
 
 /// One f64 time-series column: the same name in HDF5 (dataset), JSON (key) and, with its unit,
 /// in the CSV header (`F [N]`).

@@ -1,7 +1,7 @@
 //! The tables of `djkr beta-fit` (`beta_error_curve.csv`, `beta_ratios.csv`).
 
-use crate::beta_fit::{BetaFit, RatioPoint};
 use crate::output::{Column, Table};
+use djkr_core::beta_fit::{BetaFit, RatioPoint};
 
 /// The error curve as a table (`beta_error_curve.csv`): β, RMS of ln(A_exact/A_approx).
 pub fn error_curve_table(fit: &BetaFit) -> Table {

@@ -6,13 +6,13 @@
 
 use serde::ser::{Serialize, SerializeMap, Serializer};
 
-use crate::continuation::branch::{Branch, BranchEnd, BranchPoint, PointKind};
-use crate::continuation::folds::{FoldCurve, FoldPoint, FoldPointKind};
-use crate::continuation::sweep::SweepPoint;
-use crate::dynamics::CycleRecord;
 use crate::output::{Column, Table};
 use crate::reports::steady::{orbit_column, Orbit, OrbitQuantity as Q};
-use crate::steady::Steady;
+use djkr_core::continuation::branch::{Branch, BranchEnd, BranchPoint, PointKind};
+use djkr_core::continuation::folds::{FoldCurve, FoldPoint, FoldPointKind};
+use djkr_core::continuation::sweep::SweepPoint;
+use djkr_core::dynamics::CycleRecord;
+use djkr_core::steady::Steady;
 
 impl Orbit for BranchPoint {
     fn record(&self) -> &CycleRecord {

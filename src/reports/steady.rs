@@ -9,13 +9,13 @@
 
 use serde::Serialize;
 
-use crate::describing::HarmonicBalance;
-use crate::dynamics::CycleRecord;
 use crate::output::{Column, Table};
-use crate::steady::crosscheck::{Comparison, ForceBalance, Prediction};
-use crate::steady::map::{MapCell, ShortcutMap};
-use crate::steady::sweep::{self, Linearisation, Sweep, SweepPoint};
-use crate::steady::{Steady, SteadyMethod};
+use djkr_core::describing::HarmonicBalance;
+use djkr_core::dynamics::CycleRecord;
+use djkr_core::steady::crosscheck::{Comparison, ForceBalance, Prediction};
+use djkr_core::steady::map::{MapCell, ShortcutMap};
+use djkr_core::steady::sweep::{self, Linearisation, Sweep, SweepPoint};
+use djkr_core::steady::{Steady, SteadyMethod};
 
 /// The root attribute `missing` of `resonance.h5` and `shortcut-map.h5`.
 pub const MISSING: &str =

@@ -23,12 +23,12 @@
 //! radius beyond [`SMALL_CONTACT_LIMIT`] R, the rule `djkr pulloff` and `djkr cycle` use too
 //! ([`small_contact_warning`]).
 
-use crate::adhesion::AdhesionLaw;
-use crate::dynamics::methods;
-use crate::dynamics::protocol::{initial_state, Initial, Until};
-use crate::dynamics::{model, RunResult, SimError};
-use crate::jkr;
-use crate::material::Material;
+use djkr_core::adhesion::AdhesionLaw;
+use djkr_core::dynamics::methods;
+use djkr_core::dynamics::protocol::{initial_state, Initial, Until};
+use djkr_core::dynamics::{model, RunResult, SimError};
+use djkr_core::jkr;
+use djkr_core::material::Material;
 
 use super::{Holder, Scenario};
 
@@ -386,8 +386,8 @@ pub fn no_tensile_pull_off(s: &Scenario, r: &RunResult) -> Option<String> {
         "no tensile pull-off: no {what} was tensile before the sphere detached (the most \
          tensile, {} mN at t = {} s, is {}): it came off without an adhesive pull-off, so \
          pull_off.force is no pull-off force and pull_off.amplification is left out",
-        crate::output::table::format_sig(r.pull_off.force * 1e3, 4),
-        crate::output::table::format_sig(r.pull_off.time, 4),
+        djkr_core::text::format_sig(r.pull_off.force * 1e3, 4),
+        djkr_core::text::format_sig(r.pull_off.time, 4),
         if r.pull_off.force > 0.0 {
             "compressive"
         } else {

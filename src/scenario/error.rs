@@ -1,31 +1,33 @@
 //! Why a scenario was rejected ([`ScenarioError`]), and how values are shown in its messages:
 //! shared by the parser, `--set` and typed setting, none of which owns the others.
 
-use thiserror::Error;
+use std::fmt;
+
 use toml::Value;
 
+use crate::error::{render, Plain, Source, Words};
 use crate::input::InputError;
-use crate::text::excerpt;
+use djkr_core::text::excerpt;
 
-/// Why a scenario file was rejected. Every variant names the file; value errors also name the
-/// dotted key, the value as written and what is allowed.
-#[derive(Debug, Error)]
+/// Why a scenario file was rejected. Every variant names where the scenario came from (its file
+/// and the overrides applied to it, [`Source`]); value errors also name the dotted key, the value
+/// as written and what is allowed. The overrides are worded by each front end
+/// ([`ScenarioError::in_words`]); `Display` uses the library's own words ([`Plain`]).
+#[derive(Debug)]
 pub enum ScenarioError {
     /// The file could not be read: missing, unreadable, not a regular file, too large or not
     /// text ([`crate::input::read_text`]).
-    #[error("{file}: {cause}")]
     Io {
         /// The file.
-        file: String,
+        source: Source,
         /// Why (shown in the message, so not also chained as a `source`, which made the command
         /// line print it twice).
         cause: InputError,
     },
     /// TOML syntax error.
-    #[error("{file}: TOML syntax error at line {line}, column {column}: {message}")]
     Syntax {
         /// The file.
-        file: String,
+        source: Source,
         /// 1-based line.
         line: usize,
         /// 1-based column (in characters).
@@ -34,10 +36,9 @@ pub enum ScenarioError {
         message: String,
     },
     /// A value of the wrong type or out of range.
-    #[error("{file}: {} = {}: {allowed}", excerpt(.key), excerpt(.value))]
     Value {
-        /// The file.
-        file: String,
+        /// The file and its overrides.
+        source: Source,
         /// Dotted key, e.g. `stage[1].speed`.
         key: String,
         /// The value as written.
@@ -46,10 +47,9 @@ pub enum ScenarioError {
         allowed: String,
     },
     /// A key or section that is missing, unknown, or in conflict with another.
-    #[error("{file}: {}: {message}", excerpt(.key))]
     Key {
-        /// The file.
-        file: String,
+        /// The file and its overrides.
+        source: Source,
         /// Dotted key or section, e.g. `material.K`, `[foo]`, `stage[0]`.
         key: String,
         /// What is wrong and what is expected.
@@ -57,20 +57,17 @@ pub enum ScenarioError {
     },
     /// Valid values that the simulator cannot run together (a massless sphere with damping, an
     /// explicit method on a rate-independent law): what it would refuse when setting the run up.
-    #[error("{file}: {message}")]
     Setup {
-        /// The file.
-        file: String,
+        /// The file and its overrides.
+        source: Source,
         /// What cannot be simulated, and what to change.
         message: String,
     },
-    /// A `--set KEY=VALUE` override that does not fit the file (a stage it does not have), or
-    /// whose value the file's rules reject: named by the override rather than by the file's key
-    /// and value.
-    #[error("--set {}: {message}", excerpt(.set))]
+    /// An override that does not fit the file (a stage it does not have), or whose value the
+    /// file's rules reject: named by the override rather than by the file's key and value.
     Override {
         /// The file the override was applied to.
-        file: String,
+        source: Source,
         /// The override, `KEY=VALUE`.
         set: String,
         /// Its dotted key.
@@ -81,16 +78,21 @@ pub enum ScenarioError {
 }
 
 impl ScenarioError {
+    /// Where the scenario came from.
+    pub fn source(&self) -> &Source {
+        match self {
+            ScenarioError::Io { source, .. }
+            | ScenarioError::Syntax { source, .. }
+            | ScenarioError::Value { source, .. }
+            | ScenarioError::Key { source, .. }
+            | ScenarioError::Setup { source, .. }
+            | ScenarioError::Override { source, .. } => source,
+        }
+    }
+
     /// The file the error is about.
     pub fn file(&self) -> &str {
-        match self {
-            ScenarioError::Io { file, .. }
-            | ScenarioError::Syntax { file, .. }
-            | ScenarioError::Value { file, .. }
-            | ScenarioError::Key { file, .. }
-            | ScenarioError::Setup { file, .. }
-            | ScenarioError::Override { file, .. } => file,
-        }
+        &self.source().file
     }
 
     /// The dotted key the error is about, when there is one.
@@ -102,7 +104,53 @@ impl ScenarioError {
             _ => None,
         }
     }
+
+    /// The message in the words of a front end (`w`): the overrides as it takes them.
+    pub fn in_words(&self, w: &dyn Words) -> String {
+        let at = |s: &Source| s.words(w);
+        let text = match self {
+            ScenarioError::Io { source, cause } => format!("{}: {cause}", at(source)),
+            ScenarioError::Syntax {
+                source,
+                line,
+                column,
+                message,
+            } => format!(
+                "{}: TOML syntax error at line {line}, column {column}: {message}",
+                at(source)
+            ),
+            ScenarioError::Value {
+                source,
+                key,
+                value,
+                allowed,
+            } => format!(
+                "{}: {} = {}: {allowed}",
+                at(source),
+                excerpt(key),
+                excerpt(value)
+            ),
+            ScenarioError::Key {
+                source,
+                key,
+                message,
+            } => format!("{}: {}: {message}", at(source), excerpt(key)),
+            ScenarioError::Setup { source, message } => format!("{}: {message}", at(source)),
+            ScenarioError::Override { set, message, .. } => {
+                format!("{}: {message}", w.overrides(&[excerpt(set)]))
+            }
+        };
+        render(&text, w)
+    }
 }
+
+impl fmt::Display for ScenarioError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.in_words(&Plain))
+    }
+}
+
+impl std::error::Error for ScenarioError {}
 
 /// Shows a float as a user would write it: shortest round-trip digits, exponent form outside
 /// [1e-3, 1e9), TOML's spelling of non-finite values.

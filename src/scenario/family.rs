@@ -12,12 +12,12 @@ use super::keys::{Kind, KEYS};
 use super::overrides::{Override, SetKey};
 use super::parse::{ScenarioError, ScenarioSource};
 use super::Scenario;
-use crate::continuation::family::{Family, Parameter, ParameterInfo, Scene, Setup};
-use crate::continuation::ContinuationError;
-use crate::dynamics::protocol::Initial;
-use crate::steady::Problem;
-use crate::text::excerpt;
-use crate::units::Dimension;
+use djkr_core::continuation::family::{Family, Parameter, ParameterInfo, Scene, Setup};
+use djkr_core::continuation::ContinuationError;
+use djkr_core::dynamics::protocol::Initial;
+use djkr_core::steady::Problem;
+use djkr_core::text::excerpt;
+use djkr_core::units::Dimension;
 
 /// The keys a periodic orbit can be continued in: those of the table of keys with a parameter
 /// name ([`KeyInfo::param`](super::keys::KeyInfo#structfield.param)), in table order.
@@ -100,10 +100,11 @@ pub fn family(
     for o in fixed {
         if let Some(p) = params.iter().find(|p| p.name() == o.key().to_string()) {
             return Err(ContinuationError::Input(format!(
-                "--set {}: {} is the continuation parameter, whose values come from its \
-                 range; drop the --set",
-                excerpt(&o.to_string()),
-                p.name()
+                "{}: {} is the continuation parameter, whose values come from its \
+                 range; drop the {}",
+                crate::error::set_item(&excerpt(&o.to_string())),
+                p.name(),
+                crate::error::input("set")
             )));
         }
     }

@@ -13,9 +13,9 @@
 //! is `stage[N].speed` in messages and `--set`.
 
 use super::Scenario;
-use crate::dynamics::protocol::{Initial, StageKind, Until};
-use crate::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder};
-use crate::units::Dimension;
+use djkr_core::dynamics::protocol::{Initial, StageKind, Until};
+use djkr_core::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder};
+use djkr_core::units::Dimension;
 
 /// Default gravitational acceleration (m/s²) when `sphere.gravity` is absent.
 pub const DEFAULT_GRAVITY: f64 = 9.807;
@@ -194,9 +194,9 @@ fn refused(key: &str, message: impl Into<String>) -> Refused {
 
 /// The law rebuilt with the material's `w0` (a law carries its own copy).
 fn rebuild_law(s: &mut Scenario) -> Result<(), Refused> {
-    use crate::adhesion::{ConstantW, GentSchultz, Law, SaturatedGentSchultz};
+    use djkr_core::adhesion::{ConstantW, GentSchultz, Law, SaturatedGentSchultz};
     let w0 = s.rig.material.w0;
-    let param = |e: crate::error::ParamError| Refused {
+    let param = |e: djkr_core::error::ParamError| Refused {
         key: format!("adhesion.{}", e.name),
         message: e.allowed,
         value: Some(e.value),
@@ -208,7 +208,7 @@ fn rebuild_law(s: &mut Scenario) -> Result<(), Refused> {
             SaturatedGentSchultz::new(w0, g.base.v0, g.base.n, g.v_sat).map_err(param)?,
         ),
         Law::Tabulated(t) => {
-            let w_table = crate::adhesion::AdhesionLaw::w0(t);
+            let w_table = djkr_core::adhesion::AdhesionLaw::w0(t);
             let rtol = TABLE_W0_RTOL;
             if (w_table - w0).abs() > rtol * w0 {
                 return Err(Refused {
@@ -228,8 +228,8 @@ fn rebuild_law(s: &mut Scenario) -> Result<(), Refused> {
 /// Write a Gent–Schultz constant (`v0`, `n`, `v_sat`) of the scenario's law, refusing a law
 /// that does not take it as the parser does.
 fn put_law(s: &mut Scenario, name: &str, v: f64) -> Result<(), Refused> {
-    use crate::adhesion::{GentSchultz, Law, SaturatedGentSchultz};
-    let param = |e: crate::error::ParamError| Refused {
+    use djkr_core::adhesion::{GentSchultz, Law, SaturatedGentSchultz};
+    let param = |e: djkr_core::error::ParamError| Refused {
         key: format!("adhesion.{}", e.name),
         message: e.allowed,
         value: Some(e.value),
@@ -343,7 +343,7 @@ pub const KEYS: &[KeyInfo] = &[
             s.rig.material.w0 = v;
             rebuild_law(s)
         }),
-    k("adhesion", "law", "", Kind::Choice(&crate::adhesion::LAW_NAMES), Some("\"constant\""),
+    k("adhesion", "law", "", Kind::Choice(&djkr_core::adhesion::LAW_NAMES), Some("\"constant\""),
         "\"constant\", \"gent-schultz\", \"gent-schultz-saturated\", \"tabulated\"",
         "rate dependence of the work of adhesion w(v) (required in [adhesion]; absent section: constant w0)"),
     k("adhesion", "v0", "m/s", num(D::Speed), None, "> 0", "Gent-Schultz reference speed v0, C = v0^-n (required by the gent-schultz laws)")
@@ -492,7 +492,7 @@ pub const KEYS: &[KeyInfo] = &[
             st.max_duration = v;
             Ok(())
         }),
-    k("solver", "method", "", Kind::Choice(&crate::dynamics::methods::METHOD_NAMES), Some("\"auto\""),
+    k("solver", "method", "", Kind::Choice(&djkr_core::dynamics::methods::METHOD_NAMES), Some("\"auto\""),
         "\"auto\", \"dp8\", \"dopri5\", \"dop853\", \"implicit\"", "integrator (auto: embedded while it can, implicit where stiff)"),
     k("solver", "rtol", "", BARE, Some("1e-8"), "[1e-14, 1e-2]", "relative tolerance")
         .access(|s, _| Some(s.solver.rtol), |s, _, v| {
@@ -521,7 +521,7 @@ pub const KEYS: &[KeyInfo] = &[
         }),
     k("solver", "max_memory", "B", Kind::Whole, Some("2147483648"), ">= 1048576", "budget of memory for the run's records (bytes)")
         .access(|s, _| Some(s.solver.max_memory as f64), |s, _, v| {
-            s.solver.max_memory = whole(v, crate::dynamics::methods::MIN_MAX_MEMORY, "solver.max_memory", MAX_MEMORY_ALLOWED)?;
+            s.solver.max_memory = whole(v, djkr_core::dynamics::methods::MIN_MAX_MEMORY, "solver.max_memory", MAX_MEMORY_ALLOWED)?;
             Ok(())
         }),
     k("solver", "event_tol", "s", num(D::Time), Some("1e-12"), "> 0", "time tolerance of contact events (a warning above 1e-9)")
@@ -550,7 +550,7 @@ pub const KEYS: &[KeyInfo] = &[
 ];
 
 fn law_constant(s: &Scenario, name: &str) -> Option<f64> {
-    use crate::adhesion::Law;
+    use djkr_core::adhesion::Law;
     match (&s.rig.law, name) {
         (Law::GentSchultz(g), "v0") => Some(g.v0),
         (Law::GentSchultz(g), "n") => Some(g.n),
@@ -664,7 +664,7 @@ mod tests {
     #[test]
     fn defaults_are_the_values_an_absent_key_takes() {
         let d = |s: &str, n: &str| default_json(find(s, n).and_then(|k| k.default).unwrap());
-        let solver = crate::dynamics::Solver::default();
+        let solver = djkr_core::dynamics::Solver::default();
         assert_eq!(d("solver", "rtol"), serde_json::json!(solver.rtol));
         assert_eq!(d("solver", "atol"), serde_json::json!(solver.atol));
         assert_eq!(

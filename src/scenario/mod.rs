@@ -17,9 +17,9 @@ pub mod parse;
 mod set;
 pub use set::range_error;
 
-pub use crate::dynamics::protocol::{Initial, Stage, StageKind, Until};
-pub use crate::dynamics::{Method, Solver};
-pub use crate::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder, Rig, Sphere};
+pub use djkr_core::dynamics::protocol::{Initial, Stage, StageKind, Until};
+pub use djkr_core::dynamics::{Method, Solver};
+pub use djkr_core::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder, Rig, Sphere};
 
 /// Output settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -79,8 +79,8 @@ pub struct Scenario {
 
 impl Scenario {
     /// The runnable protocol: rig, initial state, stages, solver and the output cadence.
-    pub fn plan(&self) -> crate::dynamics::Plan<'_> {
-        crate::dynamics::Plan {
+    pub fn plan(&self) -> djkr_core::dynamics::Plan<'_> {
+        djkr_core::dynamics::Plan {
             rig: &self.rig,
             initial: self.initial,
             stages: &self.stages,
@@ -90,26 +90,26 @@ impl Scenario {
         }
     }
 
-    /// Simulate the scenario ([`crate::dynamics::run`]), feeding `obs` with samples, events and
+    /// Simulate the scenario ([`djkr_core::dynamics::run`]), feeding `obs` with samples, events and
     /// cycle records.
     pub fn simulate(
         &self,
-        obs: &mut dyn crate::dynamics::Observer,
-    ) -> Result<crate::dynamics::RunResult, crate::dynamics::SimError> {
-        crate::dynamics::run(&self.plan(), obs)
+        obs: &mut dyn djkr_core::dynamics::Observer,
+    ) -> Result<djkr_core::dynamics::RunResult, djkr_core::dynamics::SimError> {
+        djkr_core::dynamics::run(&self.plan(), obs)
     }
 
     /// [`Scenario::simulate`], keeping what a run that ends early computed
-    /// ([`crate::dynamics::run_partial`]).
+    /// ([`djkr_core::dynamics::run_partial`]).
     pub fn simulate_partial(
         &self,
-        obs: &mut dyn crate::dynamics::Observer,
-    ) -> Result<crate::dynamics::Outcome, crate::dynamics::SimError> {
-        crate::dynamics::run_partial(&self.plan(), obs)
+        obs: &mut dyn djkr_core::dynamics::Observer,
+    ) -> Result<djkr_core::dynamics::Outcome, djkr_core::dynamics::SimError> {
+        djkr_core::dynamics::run_partial(&self.plan(), obs)
     }
 
     /// The scales the protocol adds to the rig's model (initial gap, fastest spring-end speed).
-    pub fn run_scales(&self) -> crate::dynamics::model::RunScales {
-        crate::dynamics::protocol::run_scales(&self.initial, &self.stages)
+    pub fn run_scales(&self) -> djkr_core::dynamics::model::RunScales {
+        djkr_core::dynamics::protocol::run_scales(&self.initial, &self.stages)
     }
 }

@@ -37,22 +37,43 @@
 
 use std::fmt;
 
-use thiserror::Error;
 use toml::{Table, Value};
 
 use super::error::{show, show_float, ScenarioError};
 use super::keys::{self, section_keys, STAGE_END_KEYS, STAGE_SECTION};
-use crate::text::excerpt;
+use crate::error::{input, render, set_item, Plain, Source, Words};
+use djkr_core::text::excerpt;
 
 /// A malformed override, or one naming a key no scenario file takes.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("--set {}: {message}", crate::text::excerpt(.set))]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct OverrideError {
     /// The override as given (`KEY=VALUE`, or what was given instead).
     pub set: String,
     /// What is wrong, and what is allowed.
     pub message: String,
 }
+
+impl OverrideError {
+    /// The message in the words of a front end.
+    pub fn in_words(&self, w: &dyn Words) -> String {
+        render(
+            &format!(
+                "{}: {}",
+                w.malformed_override(&excerpt(&self.set)),
+                self.message
+            ),
+            w,
+        )
+    }
+}
+
+impl fmt::Display for OverrideError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.in_words(&Plain))
+    }
+}
+
+impl std::error::Error for OverrideError {}
 
 /// A key of a scenario file, as error messages print it: `version`, `base.amplitude`,
 /// `stage[3].speed`.
@@ -422,7 +443,7 @@ fn section_names() -> String {
 
 /// `file --set K=V --set K2=V2`: what a scenario with overrides is called in messages and
 /// records.
-pub(crate) fn describe(file: &str, overrides: &[Override]) -> String {
+pub(crate) fn describe(file: &str, overrides: &[String]) -> String {
     let mut s = file.to_string();
     for o in overrides {
         s.push_str(&format!(" --set {o}"));
@@ -434,10 +455,10 @@ pub(crate) fn describe(file: &str, overrides: &[Override]) -> String {
 pub(crate) fn apply(
     table: &mut Table,
     overrides: &[Override],
-    file: &str,
+    file: &Source,
 ) -> Result<(), ScenarioError> {
     let err = |o: &Override, message: String| ScenarioError::Override {
-        file: file.to_string(),
+        source: file.clone(),
         set: o.to_string(),
         key: o.key.to_string(),
         message,
@@ -447,8 +468,9 @@ pub(crate) fn apply(
             return Err(err(
                 o,
                 format!(
-                    "{} is already set by --set {first}; set each key once",
-                    o.key
+                    "{} is already set by {}; set each key once",
+                    o.key,
+                    set_item(&first.to_string())
                 ),
             ));
         }
@@ -479,7 +501,8 @@ pub(crate) fn apply(
                         return Err(err(
                             o,
                             format!(
-                                "{file} has no [[{s}]]; --set changes stages, it does not add them"
+                                "{file} has no [[{s}]]; {} changes stages, it does not add them",
+                                input("set")
                             ),
                         ))
                     }
@@ -510,7 +533,8 @@ pub(crate) fn apply(
                         return Err(err(
                             o,
                             format!(
-                                "no such stage: {file} has {n} stage(s) ({range}; stages count from 0); --set does not add stages"
+                                "no such stage: {file} has {n} stage(s) ({range}; stages count from 0); {} does not add stages",
+                                input("set")
                             ),
                         ));
                     }
@@ -546,7 +570,7 @@ pub(crate) fn apply(
 
 /// A validation error about a key that an override set, reported as that override's
 /// (`--set base.amplitude=-1um: must be ...`) rather than as the file's.
-pub(crate) fn attribute(e: ScenarioError, overrides: &[Override], file: &str) -> ScenarioError {
+pub(crate) fn attribute(e: ScenarioError, overrides: &[Override], file: &Source) -> ScenarioError {
     let (key, message) = match &e {
         ScenarioError::Value { key, allowed, .. } => (key, allowed),
         ScenarioError::Key { key, message, .. } => (key, message),
@@ -554,7 +578,7 @@ pub(crate) fn attribute(e: ScenarioError, overrides: &[Override], file: &str) ->
     };
     match overrides.iter().find(|o| o.key.to_string() == *key) {
         Some(o) => ScenarioError::Override {
-            file: file.to_string(),
+            source: file.clone(),
             set: o.to_string(),
             key: key.clone(),
             message: message.clone(),
@@ -573,7 +597,9 @@ mod tests {
     }
 
     fn key_err(t: &str) -> String {
-        SetKey::parse(t).unwrap_err().to_string()
+        SetKey::parse(t)
+            .unwrap_err()
+            .in_words(&crate::error::TestFlags)
     }
 
     #[test]
@@ -720,18 +746,24 @@ mod tests {
 
     #[test]
     fn malformed_overrides_are_named() {
-        let e = Override::parse("base.amplitude").unwrap_err().to_string();
+        let e = Override::parse("base.amplitude")
+            .unwrap_err()
+            .in_words(&crate::error::TestFlags);
         assert_eq!(
             e,
             "--set base.amplitude: expected KEY=VALUE, e.g. base.amplitude=30um or stage[0].speed=1mm/s"
         );
-        let e = Override::parse("=30um").unwrap_err().to_string();
+        let e = Override::parse("=30um")
+            .unwrap_err()
+            .in_words(&crate::error::TestFlags);
         assert!(e.starts_with("--set =30um: empty key"), "{e}");
-        let e = Override::parse("base.amplitude=").unwrap_err().to_string();
+        let e = Override::parse("base.amplitude=")
+            .unwrap_err()
+            .in_words(&crate::error::TestFlags);
         assert!(e.starts_with("--set base.amplitude=: empty value"), "{e}");
         let e = Override::parse("base.amplitud=30um")
             .unwrap_err()
-            .to_string();
+            .in_words(&crate::error::TestFlags);
         assert_eq!(
             e,
             "--set base.amplitud=30um: unknown key; [base] takes amplitude, frequency, phase"
@@ -784,7 +816,7 @@ until = "pull-off"
     }
 
     fn err(list: &[&str]) -> String {
-        with(list).unwrap_err().to_string()
+        with(list).unwrap_err().in_words(&crate::error::TestFlags)
     }
 
     #[test]
@@ -829,7 +861,7 @@ until = "pull-off"
         let src = ScenarioSource::parse(&f, "x.toml", None).unwrap();
         let e = src.scenario(&set(&["base.amplitude=-1um"])).unwrap_err();
         assert_eq!(
-            e.to_string(),
+            e.in_words(&crate::error::TestFlags),
             s("--set base.amplitude=-1um: must be a finite number >= 0 (m)")
         );
         assert_eq!(e.file(), "x.toml");
@@ -871,14 +903,14 @@ until = "pull-off"
             .unwrap()
             .scenario(&set(&["stage[1].speed=1e-5"]))
             .unwrap_err()
-            .to_string();
+            .in_words(&crate::error::TestFlags);
         assert!(e.contains("y.toml has 1 stage(s) (only stage[0];"), "{e}");
         let none = FILE.split("[[stage]]").next().unwrap_or_default();
         let e = ScenarioSource::parse(none, "z.toml", None)
             .unwrap()
             .scenario(&set(&["stage[0].speed=1e-5"]))
             .unwrap_err()
-            .to_string();
+            .in_words(&crate::error::TestFlags);
         assert!(e.contains("z.toml has no [[stage]]"), "{e}");
     }
 
@@ -929,7 +961,7 @@ until = "pull-off"
             .unwrap()
             .scenario(&set(&["base.amplitude=1um"]))
             .unwrap_err()
-            .to_string();
+            .in_words(&crate::error::TestFlags);
         assert_eq!(
             e,
             "--set base.amplitude=1um: x.toml gives base = 3, not a section [base]: fix the file first"

@@ -11,7 +11,7 @@
 //! "> 0" means a finite, normal (not subnormal) positive number throughout.
 //!
 //! Physical quantities are bare numbers in SI, or strings with a unit (`R = "51mm"`,
-//! `frequency = "0.3kHz"`) parsed by [`crate::units::parse_quantity`]. Integers are accepted
+//! `frequency = "0.3kHz"`) parsed by [`djkr_core::units::parse_quantity`]. Integers are accepted
 //! wherever a number is (`stiffness = 200`).
 //!
 //! The key names are a contract (docs/guide/scenarios.md and the generated
@@ -36,16 +36,17 @@ use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
     Scenario, Solver, Sphere, Stage, StageKind, Until,
 };
-use crate::adhesion::LAW_NAMES;
-use crate::adhesion::{
+use crate::error::Source;
+use crate::input::{self, InputKind};
+use djkr_core::adhesion::LAW_NAMES;
+use djkr_core::adhesion::{
     AdhesionLaw, ConstantW, GentSchultz, Law, SaturatedGentSchultz, TabulatedLaw,
 };
-use crate::dynamics::methods::{method_from_name, method_names, EnvelopeMode};
-use crate::error::ParamError;
-use crate::input::{self, InputKind};
-use crate::jkr;
-use crate::material::Material;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::dynamics::methods::{method_from_name, method_names, EnvelopeMode};
+use djkr_core::error::ParamError;
+use djkr_core::jkr;
+use djkr_core::material::Material;
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// The scenario-file format version this parser reads.
 pub const SCENARIO_VERSION: i64 = 1;
@@ -100,7 +101,7 @@ impl ScenarioSource {
     /// [`parse_scenario`]). Only the syntax is checked here.
     pub fn parse(text: &str, source_name: &str, base_dir: Option<&Path>) -> Result<Self> {
         let table = Parser {
-            file: source_name,
+            source: &Source::file(source_name),
             tables: None,
         }
         .parse_toml(text)?;
@@ -136,22 +137,18 @@ impl ScenarioSource {
     /// `source_name`.
     pub fn scenario(&self, overrides: &[Override]) -> Result<Scenario> {
         let base_dir = self.base_dir.as_deref();
+        let file = Source::file(&self.name);
         if overrides.is_empty() {
-            return build(
-                &self.table,
-                &self.text,
-                &self.name,
-                base_dir,
-                Vec::new(),
-                &self.tables,
-            );
+            return build(&self.table, &self.text, &file, base_dir, &self.tables);
         }
         let mut table = self.table.clone();
-        overrides::apply(&mut table, overrides, &self.name)?;
-        let name = overrides::describe(&self.name, overrides);
-        let list = overrides.iter().map(ToString::to_string).collect();
-        build(&table, &self.text, &name, base_dir, list, &self.tables)
-            .map_err(|e| overrides::attribute(e, overrides, &self.name))
+        overrides::apply(&mut table, overrides, &file)?;
+        let source = Source {
+            file: self.name.clone(),
+            set: overrides.iter().map(ToString::to_string).collect(),
+        };
+        build(&table, &self.text, &source, base_dir, &self.tables)
+            .map_err(|e| overrides::attribute(e, overrides, &file))
     }
 }
 
@@ -159,13 +156,12 @@ impl ScenarioSource {
 fn build(
     root: &Table,
     text: &str,
-    source_name: &str,
+    source: &Source,
     base_dir: Option<&Path>,
-    overrides: Vec<String>,
     tables: &LawTables,
 ) -> Result<Scenario> {
     let p = Parser {
-        file: source_name,
+        source,
         tables: Some(tables),
     };
     let top = Section::root(root);
@@ -198,13 +194,13 @@ fn build(
         solver,
         output,
         source_text: text.to_string(),
-        source_name: source_name.to_string(),
-        overrides,
+        source_name: overrides::describe(&source.file, &source.set),
+        overrides: source.set.to_vec(),
     };
     // What the simulator would refuse when it sets the run up is refused here, so `check` and
     // every command agree with `run`.
     checks::setup_check(&scenario).map_err(|e| ScenarioError::Setup {
-        file: source_name.to_string(),
+        source: source.clone(),
         message: e.to_string(),
     })?;
     Ok(scenario)
@@ -227,8 +223,9 @@ pub fn parse_material_and_law(
     source_name: &str,
     base_dir: Option<&Path>,
 ) -> Result<(Material, Law)> {
+    let source = Source::file(source_name);
     let p = Parser {
-        file: source_name,
+        source: &source,
         tables: None,
     };
     let root = p.parse_toml(text)?;
@@ -242,7 +239,7 @@ pub fn parse_material_and_law(
 
 fn read_text(path: &Path, name: &str) -> Result<String> {
     input::read_text(path, InputKind::Scenario).map_err(|cause| ScenarioError::Io {
-        file: name.to_string(),
+        source: Source::file(name),
         cause,
     })
 }
@@ -357,7 +354,7 @@ pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
     if v.is_finite() && v >= f64::MIN_POSITIVE {
         bound_error(key, v, unit)
     } else if let Some(e) =
-        crate::error::subnormal_error(v, &format!("a normal finite number > 0 ({unit})"))
+        djkr_core::error::subnormal_error(v, &format!("a normal finite number > 0 ({unit})"))
     {
         Some(e)
     } else {
@@ -368,7 +365,7 @@ pub(crate) fn positive_error(key: &str, v: f64, unit: &str) -> Option<String> {
 /// As [`positive_error`] for a key >= 0.
 pub(crate) fn non_negative_error(key: &str, v: f64, unit: &str) -> Option<String> {
     if let Some(e) =
-        crate::error::subnormal_error(v, &format!("0 or a normal finite number > 0 ({unit})"))
+        djkr_core::error::subnormal_error(v, &format!("0 or a normal finite number > 0 ({unit})"))
     {
         // As for the keys > 0: a subnormal has lost digits, and its reciprocal overflows.
         Some(e)
@@ -502,7 +499,7 @@ pub(crate) fn physics_error(
 }
 
 struct Parser<'a> {
-    file: &'a str,
+    source: &'a Source,
     /// The law tables read for this file so far (`None`: read each one).
     tables: Option<&'a LawTables>,
 }
@@ -520,7 +517,7 @@ impl Parser<'_> {
         allowed: impl Into<String>,
     ) -> ScenarioError {
         ScenarioError::Value {
-            file: self.file.to_string(),
+            source: self.source.clone(),
             key: key.to_string(),
             value: value.to_string(),
             allowed: allowed.into(),
@@ -529,7 +526,7 @@ impl Parser<'_> {
 
     fn key_err(&self, key: &str, message: impl Into<String>) -> ScenarioError {
         ScenarioError::Key {
-            file: self.file.to_string(),
+            source: self.source.clone(),
             key: key.to_string(),
             message: message.into(),
         }
@@ -542,7 +539,7 @@ impl Parser<'_> {
             let line = before.matches('\n').count() + 1;
             let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
             ScenarioError::Syntax {
-                file: self.file.to_string(),
+                source: self.source.clone(),
                 line,
                 column,
                 message: e.message().trim().to_string(),
@@ -1224,7 +1221,7 @@ impl Parser<'_> {
         if let Some(n) = self.whole_number(
             &s,
             "max_memory",
-            crate::dynamics::methods::MIN_MAX_MEMORY,
+            djkr_core::dynamics::methods::MIN_MAX_MEMORY,
             "must be a whole number of bytes >= 1048576 (1 MiB; default 2147483648 = 2 GiB)",
         )? {
             solver.max_memory = n;
@@ -1309,7 +1306,7 @@ impl Parser<'_> {
                 return Err(self.value_err(
                     key,
                     show(v),
-                    format!("{ALLOWED}; a list cannot be given with --set: write it in the scenario file's [output]"),
+                    format!("{ALLOWED}; a list cannot be given with {}: write it in the scenario file's [output]", crate::error::input("set")),
                 ))
             }
             other => return Err(self.value_err(key, show(other), ALLOWED)),

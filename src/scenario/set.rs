@@ -19,6 +19,7 @@ use super::keys::{self, Refused};
 use super::overrides::SetKey;
 use super::parse::{self, show_float, ScenarioError};
 use super::{ContactFormation, Holder, Initial, Scenario, StageKind};
+use crate::error::{input, set_item, Source};
 
 impl Scenario {
     /// Set the numeric key `key` to `v` (SI), validated as the file parser validates the file
@@ -29,7 +30,7 @@ impl Scenario {
         let shown = show_float(v);
         let set = format!("{key}={shown}");
         let over = |message: String| ScenarioError::Override {
-            file: file.clone(),
+            source: Source::file(&file),
             set: set.clone(),
             key: key.to_string(),
             message,
@@ -38,13 +39,15 @@ impl Scenario {
             .ok_or_else(|| over("unknown key".into()))?;
         let Some(put) = info.put else {
             return Err(over(format!(
-                "{key} is not a number: give it as text (--set {key}=VALUE)"
+                "{key} is not a number: give it as text ({})",
+                set_item(&format!("{key}=VALUE"))
             )));
         };
         let prefix = format!("{key}=");
         if let Some(first) = self.overrides.iter().find(|o| o.starts_with(&prefix)) {
             return Err(over(format!(
-                "{key} is already set by --set {first}; set each key once"
+                "{key} is already set by {}; set each key once",
+                set_item(first)
             )));
         }
         let index = key.index().unwrap_or(0);
@@ -55,25 +58,26 @@ impl Scenario {
                 _ => format!("stage[0] to stage[{}]", n - 1),
             };
             return Err(over(format!(
-                "no such stage: {file} has {n} stage(s) ({range}; stages count from 0); --set does not add stages"
+                "no such stage: {file} has {n} stage(s) ({range}; stages count from 0); {} does not add stages",
+                input("set")
             )));
         }
         self.overrides.push(set.clone());
         self.source_name.push_str(&format!(" --set {set}"));
-        let name = self.source_name.clone();
+        let source = self.source();
         let attribute = |r: Refused| {
             if r.key == key.to_string() {
                 over(r.message)
             } else {
                 match r.value {
                     Some(value) => ScenarioError::Value {
-                        file: name.clone(),
+                        source: source.clone(),
                         key: r.key,
                         value,
                         allowed: r.message,
                     },
                     None => ScenarioError::Key {
-                        file: name.clone(),
+                        source: source.clone(),
                         key: r.key,
                         message: r.message,
                     },
@@ -86,9 +90,17 @@ impl Scenario {
         put(self, index, v).map_err(attribute)?;
         self.cross_check(&shown, key).map_err(attribute)?;
         checks::setup_check(self).map_err(|e| ScenarioError::Setup {
-            file: name.clone(),
+            source: source.clone(),
             message: e.to_string(),
         })
+    }
+
+    /// Where the scenario came from: its file and the overrides applied to it.
+    pub fn source(&self) -> Source {
+        Source {
+            file: self.file_name().to_string(),
+            set: self.overrides.clone().into(),
+        }
     }
 
     /// The scenario file's name: `source_name` without its overrides.
@@ -332,7 +344,7 @@ sample_rate = 1000
             .unwrap();
         assert_eq!(s, want);
         assert_eq!(
-            s.set(key("base.frequency"), 300.0).unwrap_err().to_string(),
+            s.set(key("base.frequency"), 300.0).unwrap_err().in_words(&crate::error::TestFlags),
             "--set base.frequency=300.0: base.frequency is already set by --set base.frequency=350.0; set each key once"
         );
     }

@@ -6,23 +6,20 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::Instant;
 
-use thiserror::Error;
-
-use crate::dynamics::{CycleRecord, Event, Model, Observer, Sample, Status, StepSamples};
 use crate::output::RunWriter;
 use crate::scenario::overrides::{Override, SetKey};
 use crate::scenario::parse::{ScenarioError, ScenarioSource};
 use crate::scenario::Scenario;
+use djkr_core::dynamics::{CycleRecord, Event, Model, Observer, Sample, Status, StepSamples};
 
 use super::grid::{Grid, MAX_RUNS};
 use super::phase::ensemble_phase;
 use super::row::{KeyColumn, Row, RunNumbers};
 
 /// Why a sweep cannot start.
-#[derive(Debug, Error)]
+#[derive(Debug)]
 pub enum SweepError {
     /// A point the scenario's rules reject: `--set base.amplitude=-1um (point 3): must be ...`.
-    #[error("--set {set} (point {point}): {message}")]
     Override {
         /// The point (from 0).
         point: usize,
@@ -32,16 +29,13 @@ pub enum SweepError {
         message: String,
     },
     /// A point whose scenario is invalid for a reason that is not one override's.
-    #[error("point {point}: {source}")]
     Point {
         /// The point (from 0).
         point: usize,
         /// The scenario's error.
-        #[source]
-        source: ScenarioError,
+        source: Box<ScenarioError>,
     },
     /// The ensemble cannot be drawn.
-    #[error("--ensemble {members}: {message}")]
     Ensemble {
         /// The members asked for.
         members: usize,
@@ -58,6 +52,40 @@ pub struct Ensemble {
     /// Seed of the phases.
     pub seed: u64,
 }
+
+impl SweepError {
+    /// The message in the words of a front end.
+    pub fn in_words(&self, w: &dyn crate::error::Words) -> String {
+        let text = match self {
+            SweepError::Override {
+                point,
+                set,
+                message,
+            } => format!(
+                "{} (point {point}): {message}",
+                w.overrides(std::slice::from_ref(set))
+            ),
+            SweepError::Point { point, source } => {
+                format!("point {point}: {}", source.in_words(w))
+            }
+            SweepError::Ensemble { members, message } => {
+                format!(
+                    "{}: {message}",
+                    w.input_value("ensemble", &members.to_string())
+                )
+            }
+        };
+        crate::error::render(&text, w)
+    }
+}
+
+impl std::fmt::Display for SweepError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.in_words(&crate::error::Plain))
+    }
+}
+
+impl std::error::Error for SweepError {}
 
 /// The runs of a study, the product of `factors` (each a count and what it counts:
 /// `(12, "points")`, `(8, "members")`), refused past [`MAX_RUNS`] with the product as given:
@@ -123,8 +151,8 @@ impl Sweep {
             }
             if let Some(a) = grid.axes().iter().find(|a| a.key == phase_key) {
                 return Err(err(format!(
-                    "the ensemble draws base.phase, which --set {} also sets: drop one",
-                    a.shown()
+                    "the ensemble draws base.phase, which {} also sets: drop one",
+                    crate::error::set_item(&a.shown())
                 )));
             }
             check_runs(&[(grid.points(), "points"), (e.members, "members")]).map_err(err)?;
@@ -383,7 +411,10 @@ fn point_error(point: usize, e: ScenarioError) -> SweepError {
             set,
             message,
         },
-        source => SweepError::Point { point, source },
+        source => SweepError::Point {
+            point,
+            source: Box::new(source),
+        },
     }
 }
 
@@ -438,12 +469,12 @@ impl Observer for SweepObserver<'_> {
             w.cycle(c);
         }
     }
-    fn gap(&mut self, g: &crate::dynamics::Gap) {
+    fn gap(&mut self, g: &djkr_core::dynamics::Gap) {
         if let Some(w) = self.inner.as_deref_mut() {
             w.gap(g);
         }
     }
-    fn stop_reason(&self) -> Option<crate::dynamics::Reason> {
+    fn stop_reason(&self) -> Option<djkr_core::dynamics::Reason> {
         // The kept run's writer (the free disk space); a stop of the sweep's is no run's reason.
         if self.stopped {
             return None;

@@ -115,7 +115,7 @@ impl Shard {
     /// Parse `K/N` (1 ≤ K ≤ N).
     pub fn parse(text: &str) -> Result<Shard, String> {
         let bad = || {
-            format!("--shard {shown_text}: expected K/N with 1 <= K <= N, e.g. 3/10 (or 'slurm' in a Slurm array job)", shown_text = crate::text::excerpt(text))
+            format!("--shard {shown_text}: expected K/N with 1 <= K <= N, e.g. 3/10 (or 'slurm' in a Slurm array job)", shown_text = djkr_core::text::excerpt(text))
         };
         let (k, n) = text.trim().split_once('/').ok_or_else(bad)?;
         let (k, n) = (
@@ -138,7 +138,7 @@ impl Shard {
             v.trim().parse::<usize>().map_err(|_| {
                 format!(
                     "--shard slurm: {k} = {}: not a whole number",
-                    crate::text::excerpt(&v)
+                    djkr_core::text::excerpt(&v)
                 )
             })
         };

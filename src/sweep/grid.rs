@@ -205,12 +205,16 @@ mod tests {
         assert!(e.to_string().contains("already swept"), "{e}");
         let e = grid(&["base.frequency=200,300", "base.amplitude=1um"], true).unwrap_err();
         assert!(e.to_string().contains("--zip pairs"), "{e}");
-        let e = Axis::parse("base.amplitud=1um").unwrap_err().to_string();
+        let e = Axis::parse("base.amplitud=1um")
+            .unwrap_err()
+            .in_words(&crate::error::TestFlags);
         assert!(
             e.starts_with("--set base.amplitud=1um: unknown key; [base] takes amplitude"),
             "{e}"
         );
-        let e = Axis::parse("base.amplitude").unwrap_err().to_string();
+        let e = Axis::parse("base.amplitude")
+            .unwrap_err()
+            .in_words(&crate::error::TestFlags);
         assert!(e.contains("expected KEY=SPEC"), "{e}");
         let e = grid(
             &[

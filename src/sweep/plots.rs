@@ -4,8 +4,13 @@
 //!   point's mean with bars of ± one standard deviation of the members;
 //! - `amplification-map`: with exactly two swept keys, both numeric, a heat map of the (mean)
 //!   amplification;
-//! - `phase`: with an ensemble, each member's amplification against its base phase, one colour
-//!   per point.
+//! - `phase`: with an ensemble, each member's amplification against its base phase, one look
+//!   (colour, then marker shape) per point, named in the legend; more points than there are
+//!   distinct looks ([`MAX_KEYED_POINTS`]) are drawn alike, and the legend says so.
+//!
+//! Axes are in the unit that suits the swept values (µm, kHz, ...: [`plot::axis_label`]);
+//! dimensionless ones say `(–)`. The legends are placed by the plot layer where they cover no
+//! data.
 //!
 //! A log range (`START:STOP:Nlog`) gets a log axis. Points whose runs all failed are gaps.
 
@@ -26,13 +31,17 @@ pub const AMPLIFICATION_MAP: &str = "amplification-map";
 /// The phase figure's stem.
 pub const PHASE: &str = "phase";
 
-/// The axis label of key `k` in the display unit `unit` ([`plot::display_unit`]).
+/// The axis label of key `k` in the display unit `unit` ([`plot::display_unit`]; "–" for a
+/// dimensionless key).
 fn label(k: &KeyInfo, unit: &str) -> String {
     match k.unit.as_deref() {
-        Some(u) if u != "1" => format!("{} ({unit})", k.name),
-        _ => k.name.clone(),
+        Some(_) => format!("{} ({})", k.name, plot::unit_text(unit)),
+        None => k.name.clone(),
     }
 }
+
+/// Points of a phase figure that can each have a look of their own (7 colours × 5 markers).
+pub const MAX_KEYED_POINTS: usize = 35;
 
 /// The display unit of key `j` over the sweep's points, and its factor from SI.
 fn key_display(keys: &[KeyInfo], points: &[PointStats], j: usize) -> (f64, String) {
@@ -173,12 +182,19 @@ fn amplification_figure(
     }
     let (xf, xu) = key_display(keys, points, xj);
     let mut fig = Figure::new(
-        format!("pull-off amplification against {}", keys[xj].name),
+        if ensemble {
+            format!(
+                "pull-off amplification against {} (bars < 0.1 % not drawn)",
+                keys[xj].name
+            )
+        } else {
+            format!("pull-off amplification against {}", keys[xj].name)
+        },
         label(&keys[xj], &xu),
         if ensemble {
-            "pull-off amplification (mean ± std of members; bars < 0.1 % not drawn)"
+            "pull-off amplification, mean ± std of members (–)"
         } else {
-            "pull-off amplification"
+            "pull-off amplification (–)"
         },
     )
     .with_log(keys[xj].log, false)
@@ -256,7 +272,7 @@ fn amplification_map(
         ),
         x_label: label(&keys[xj], &xu),
         y_label: label(&keys[yj], &yu),
-        z_label: "pull-off amplification".into(),
+        z_label: "pull-off amplification (–)".into(),
         x_log: keys[xj].log,
         y_log: keys[yj].log,
         x: x.iter().map(|v| v * xf).collect(),
@@ -268,17 +284,17 @@ fn amplification_map(
     })
 }
 
-/// `phase`: each member's amplification against its base phase, one colour per point (named
-/// by the varying keys `vary` when there are at most 10 points).
+/// `phase`: each member's amplification against its base phase, one look per point, named by
+/// the varying keys `vary` (by its number when no key varies); more than [`MAX_KEYED_POINTS`]
+/// points are drawn alike as one series that says so.
 fn phase_figure(keys: &[KeyInfo], points: &[PointStats], rows: &[Row], vary: &[usize]) -> Figure {
     let mut fig = Figure::new(
         "pull-off amplification against the base phase at shaker-on",
         "phase (rad)",
-        "pull-off amplification",
+        "pull-off amplification (–)",
     )
     .with_x_range(0.0, std::f64::consts::TAU)
     .with_legend(LegendPosition::UpperRight);
-    let labelled = points.len() <= 10;
     let mut by_point: BTreeMap<usize, (Vec<f64>, Vec<f64>)> = BTreeMap::new();
     for r in rows {
         if let Some(a) = r.amplification() {
@@ -287,6 +303,25 @@ fn phase_figure(keys: &[KeyInfo], points: &[PointStats], rows: &[Row], vary: &[u
             e.1.push(a);
         }
     }
+    if by_point.len() > MAX_KEYED_POINTS {
+        let n = by_point.len();
+        let (xs, ys): (Vec<f64>, Vec<f64>) = by_point
+            .into_values()
+            .flat_map(|(x, y)| x.into_iter().zip(y))
+            .unzip();
+        fig.series.push(
+            Series::new(
+                format!("members of all {n} points (too many to tell apart)"),
+                xs,
+                ys,
+                Style::Markers,
+            )
+            .with_color(1),
+        );
+        return fig;
+    }
+    // One point needs no legend; two or more each get a look and a name.
+    let labelled = by_point.len() >= 2;
     for (i, (p, (xs, ys))) in by_point.into_iter().enumerate() {
         let name = if labelled {
             points

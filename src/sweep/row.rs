@@ -15,8 +15,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::dynamics::RunResult;
 use crate::output::table::{Column, Field, Table};
+use djkr_core::dynamics::RunResult;
 
 use super::spec::KeyCell;
 
@@ -345,7 +345,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                 format!(
                     "line {line}, column {}: '{}' is not a number",
                     schema[j].name,
-                    crate::text::excerpt(cell(j))
+                    djkr_core::text::excerpt(cell(j))
                 )
             })
         };
@@ -354,7 +354,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                 format!(
                     "line {line}, column {}: '{}' is not a whole number",
                     schema[j].name,
-                    crate::text::excerpt(cell(j))
+                    djkr_core::text::excerpt(cell(j))
                 )
             })
         };
@@ -375,7 +375,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
                     other => {
                         return Err(format!(
                             "line {line}, column detached: '{}' is not true or false",
-                            crate::text::excerpt(other)
+                            djkr_core::text::excerpt(other)
                         ))
                     }
                 };
@@ -395,7 +395,7 @@ pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String
             other => {
                 return Err(format!(
                     "line {line}, column status: '{}' is not ok, stopped or error",
-                    crate::text::excerpt(other)
+                    djkr_core::text::excerpt(other)
                 ))
             }
         };

@@ -15,26 +15,45 @@
 
 use std::fmt;
 
-use thiserror::Error;
-
 use crate::output::table::format_f64;
 use crate::scenario::keys::Kind;
 use crate::scenario::overrides::{SetKey, SetValue};
-use crate::text::excerpt;
-use crate::units::{parse_quantity, Dimension};
+use djkr_core::text::excerpt;
+use djkr_core::units::{parse_quantity, Dimension};
 
 /// Most values one SPEC may give (a range's N): beyond it a sweep is a typo, not a study.
 pub const MAX_SPEC_VALUES: usize = 1_000_000;
 
 /// A SPEC that cannot be read, or a key that no file takes: `--set KEY=SPEC: what is wrong`.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
-#[error("--set {}: {message}", crate::text::excerpt(.set))]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct SpecError {
     /// `KEY=SPEC` as given.
     pub set: String,
     /// What is wrong, and what is allowed.
     pub message: String,
 }
+
+impl SpecError {
+    /// The message in the words of a front end.
+    pub fn in_words(&self, w: &dyn crate::error::Words) -> String {
+        crate::error::render(
+            &format!(
+                "{}: {}",
+                w.axis(&djkr_core::text::excerpt(&self.set)),
+                self.message
+            ),
+            w,
+        )
+    }
+}
+
+impl std::fmt::Display for SpecError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.in_words(&crate::error::Plain))
+    }
+}
+
+impl std::error::Error for SpecError {}
 
 /// What a key's values are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -282,7 +301,7 @@ mod tests {
     fn err(t: &str, spec: &str) -> String {
         parse_spec(&key(t), spec, &format!("{t}={spec}"))
             .unwrap_err()
-            .to_string()
+            .in_words(&crate::error::TestFlags)
     }
 
     #[test]

@@ -9,12 +9,12 @@
 //! checks the measured wall time is below that.
 #![allow(dead_code)]
 
-use djkr::adhesion::{ConstantW, GentSchultz, Law};
 use djkr::catalogue::{self, stage, vibrating_hold};
-use djkr::dynamics::{CycleRecord, Event, Observer, RunResult, Sample};
-use djkr::imposed_area;
-use djkr::material::Material;
 use djkr::scenario::*;
+use djkr_core::adhesion::{ConstantW, GentSchultz, Law};
+use djkr_core::dynamics::{CycleRecord, Event, Observer, RunResult, Sample};
+use djkr_core::imposed_area;
+use djkr_core::material::Material;
 use std::f64::consts::PI;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::mpsc;
@@ -198,8 +198,8 @@ pub fn run_time(s: &Scenario) -> Outcome {
 }
 
 pub fn summarise(r: &RunResult, chk: &Checker) -> String {
-    let count = |k: djkr::dynamics::EventKind| r.events.iter().filter(|e| e.kind == k).count();
-    use djkr::dynamics::EventKind as K;
+    let count = |k: djkr_core::dynamics::EventKind| r.events.iter().filter(|e| e.kind == k).count();
+    use djkr_core::dynamics::EventKind as K;
     // Numbers that do not depend on the output cadence (explicit methods report samples at
     // their macro-step ends only): the final state, event counts, the last cycle's mean force.
     let f = &r.final_state;
