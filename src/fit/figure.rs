@@ -306,7 +306,7 @@ pub fn fit_figure(
             r.reduced_chi2
         ),
         x_label,
-        "(observed - fitted)/sigma [1]".to_string(),
+        format!("(observed - fitted)/sigma [{}]", unit_text("1")),
     );
     res.legend = LegendPosition::default();
     let single = l.groups.len() == 1;
