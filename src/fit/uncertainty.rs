@@ -455,7 +455,17 @@ mod tests {
         // Asked to stop at a lower point, the scan ends there.
         let mut p = Closed { f, calls: 0 };
         let r = scan(&mut p, 0, &[0.0], 11.87, 2.8e-4, (a, b), true, true).unwrap();
-        assert!(r.lower.is_some() && r.points.len() < 8, "{r:?}");
+        // (Doubling from 2.8e-4, the valley falls below LOWER_DCHI2 at the 10th point.)
+        let (last, before) = r.points.split_last().expect("points");
+        assert!(
+            r.lower
+                .as_ref()
+                .is_some_and(|(_, y)| (y[0] - last.0).abs() < 1e-12)
+                && last.1 < -LOWER_DCHI2,
+            "{r:?}"
+        );
+        assert!(before.iter().all(|p| p.1 >= -LOWER_DCHI2), "{r:?}");
+        assert!(r.lo > -0.2, "not scanned on past it: {r:?}");
         // Without the jump rule, the spike ended the scan at once.
         let mut p = Closed { f, calls: 0 };
         let r = scan(&mut p, 0, &[0.0], 11.87, 2.8e-4, (a, b), false, false).unwrap();
