@@ -26,23 +26,45 @@
 //! **Interruption.** The best parameter set met so far (lowest χ²) is kept at every evaluation;
 //! a stop (Ctrl-C) ends the fit and that set is the result, said so in `notes`.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DVector;
 
+use super::analysis::{analyse, Analysis};
 use super::free::{FreeKey, Transform};
-use super::lm::{self, End, Halt, LeastSquares, Outcome};
+use super::lm::{self, End, Halt, Outcome};
 use super::model::{EvalError, ForwardModel, Prediction};
-use super::problem::{fd_step, Evaluator, View};
+use super::problem::{fd_step, Evaluator};
 use super::report::{
-    FitError, FitEvent, FitOptions, FitOutcome, FitReport, Parameter, StartReport, Tolerances,
+    self, FitError, FitEvent, FitOptions, FitOutcome, FitReport, StartReport, Tolerances,
 };
 use super::stencil::{pooled_se, stencil, INITIAL_HALF_STEP};
-use super::{starts, tolerance, uncertainty};
+use super::{optimiser, starts, tolerance};
 
 /// How many times a profile's lower point may restart the optimiser.
 pub const MAX_RESTARTS: usize = 3;
 
 /// How many times a failed check of the tolerances may tighten them.
 const MAX_TIGHTENINGS: usize = 2;
+
+/// Each row's weight (the σ of its residual): the data's sigma joined with the pooled standard
+/// error of the ensemble mean (0 without one), or 1 without a sigma column.
+fn weights(data: &super::data::FitData, pooled: &[f64]) -> Vec<f64> {
+    (0..data.rows.len())
+        .map(|i| {
+            if data.has_sigma {
+                let s = data.rows[i].sigma.unwrap_or(1.0);
+                let w2 = s * s + pooled[i] * pooled[i];
+                // A sigma of 1e-200 squares to 0: the weight was 0 and every residual infinite.
+                if w2.is_normal() {
+                    w2.sqrt()
+                } else {
+                    s.hypot(pooled[i])
+                }
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
 
 /// Degrees of freedom: rows − free keys.
 fn dof_of(n: usize, k: usize) -> usize {
@@ -154,304 +176,224 @@ fn settings(max_iterations: usize, has_sigma: bool, dof: usize) -> lm::Settings 
     }
 }
 
-/// One optimisation's end.
-struct End1 {
-    /// The start (y).
-    start: Vec<f64>,
-    /// The optimiser's outcome (None: the start could not be evaluated, with why).
-    outcome: Result<Outcome, String>,
-    /// The estimate (y).
-    y: Vec<f64>,
+/// What the fit's steps 3 and 4 work with, fixed for the fit.
+struct Context<'c> {
+    model: &'c ForwardModel,
+    free: &'c [FreeKey],
+    tr: &'c [Transform],
+    tol_s: &'c tolerance::Scenario,
+    /// The fit chose its own tolerances (then they are checked at the estimate).
+    chosen: bool,
+    w: &'c [f64],
+    obs_abs: &'c [f64],
+    s: &'c lm::Settings,
+    opts: &'c FitOptions<'c>,
+    dof: usize,
 }
 
-/// Optimise all keys of `ev` from `y0` (residuals `r0`).
-fn optimise(ev: &Evaluator, y0: &[f64], r0: DVector<f64>, s: &lm::Settings) -> (Outcome, Vec<f64>) {
-    let mut view = View::new(ev, y0.to_vec(), (0..ev.k()).collect());
-    let u0 = view.u_of(y0);
-    let o = lm::minimise(&mut view, &u0, r0, s);
-    let y = view.y_of(&o.u);
-    (o, y)
+/// Where steps 3 and 4 settled.
+struct Settled {
+    /// The estimate's optimisation (None: no start could be optimised).
+    current: Option<(Outcome, Vec<f64>)>,
+    /// The uncertainty analysis at the estimate (a converged fit whose analysis ran).
+    analysis: Option<Analysis>,
+    /// The model's error at the estimate against the scenario's tolerances (in sigma).
+    model_error: Option<f64>,
+    /// The tolerances the fit ended at.
+    rtol: f64,
+    envelope_tol: f64,
+    stopped: bool,
 }
 
-/// The profile of a key through an [`Evaluator`]: the other keys refitted, each point started
-/// from the point before moved along `dir` (the other keys' regression on the profiled one,
-/// from the covariance: where the linear model puts the conditional minimum).
-struct ProfileOf<'e, 'a, 'b> {
-    ev: &'e Evaluator<'a, 'b>,
-    s: lm::Settings,
-    dir: Vec<f64>,
-}
-
-impl uncertainty::Profiler for ProfileOf<'_, '_, '_> {
-    fn point(&mut self, j: usize, yj: f64, from: &[f64]) -> Result<Option<(f64, Vec<f64>)>, Halt> {
-        let step = yj - from[j];
-        let mut base: Vec<f64> = from
-            .iter()
-            .zip(&self.dir)
-            .zip(&self.ev.tr)
-            .map(|((&y, &d), t)| {
-                let v = y + d * step;
-                // Within the bounds (a bounded key's regression may point beyond them).
-                match (t.lo, t.hi) {
-                    (Some(l), _) if v <= l => y,
-                    (_, Some(h)) if v >= h => y,
-                    _ => v,
-                }
-            })
-            .collect();
-        base[j] = yj;
-        let idx: Vec<usize> = (0..self.ev.k()).filter(|&c| c != j).collect();
-        let mut view = View::new(self.ev, base.clone(), idx);
-        let u0 = view.u_of(&base);
-        let Some(r0) = view.residuals(&u0)? else {
-            return Ok(None);
-        };
-        if u0.is_empty() {
-            return Ok(Some((r0.norm_squared(), base)));
+/// The model's relative error at `rtol` and `env` ([`tolerance::RTOL_GAIN`],
+/// [`tolerance::ENVELOPE_GAIN`]; the latter only with envelope following).
+fn error_level(tol_s: &tolerance::Scenario, rtol: f64, env: f64) -> f64 {
+    tolerance::RTOL_GAIN * rtol
+        + if tol_s.envelope {
+            tolerance::ENVELOPE_GAIN * env
+        } else {
+            0.0
         }
-        let o = lm::minimise(&mut view, &u0, r0, &self.s);
-        if o.end == End::Halted(Halt::Stopped) {
-            return Err(Halt::Stopped);
-        }
-        Ok(Some((o.chi2, view.y_of(&o.u))))
-    }
 }
 
-/// The uncertainty analysis of a converged fit at `y` (χ² `chi2`, the optimiser's last step
-/// `last`): σ per key in y (None where none), the covariance in y, intervals in y with whether
-/// they are the profile's, notes, and a lower point met by a profile (χ², y).
-struct Analysis {
-    sigma: Vec<Option<f64>>,
-    cov: DMatrix<f64>,
-    intervals: Vec<Option<(f64, f64, bool)>>,
-    notes: Vec<String>,
-    lower: Option<(f64, Vec<f64>)>,
-}
-
+/// Steps 3 and 4 from the best end `current`: the check of the tolerances at the estimate
+/// (tighter ones and the optimiser again where the model's error is above what the data
+/// allow, at most [`MAX_TIGHTENINGS`] times), then for a converged fit the uncertainty
+/// analysis ([`analyse`]), whose profile may meet a lower χ² and restart the optimiser (at most
+/// [`MAX_RESTARTS`] times), until neither moves the estimate.
 #[allow(clippy::too_many_arguments)]
-fn analyse(
-    ev: &Evaluator,
-    free: &[FreeKey],
-    y: &[f64],
-    chi2: f64,
-    last: Option<&lm::Step>,
-    scale: f64,
-    ratio: Option<&DVector<f64>>,
-    opts: &FitOptions,
-    s: &lm::Settings,
-    may_restart: bool,
-) -> Result<Analysis, EvalError> {
-    let k = ev.k();
-    let mut notes = Vec::new();
-    let at_bound: Vec<bool> = y.iter().zip(&ev.tr).map(|(&y, t)| t.at_bound(y)).collect();
-    let (mut jy, snr) = ev.jacobian_snr(y)?;
-    // A column that stands below the model's error even at its widest step is no information.
-    for j in 0..k {
-        if snr.get(j).is_some_and(|&r| r < 1.0) {
-            jy.column_mut(j).fill(0.0);
+fn settle(
+    ev: &mut Evaluator,
+    c: &Context,
+    mut current: Option<(Outcome, Vec<f64>)>,
+    mut rtol: f64,
+    mut envelope_tol: f64,
+    mut stopped: bool,
+    notes: &mut Vec<String>,
+) -> Settled {
+    let (n, data, members) = (c.model.data().rows.len(), c.model.data(), c.model.members());
+    let k = c.free.len();
+    let mut model_error = None;
+    let mut analysis: Option<Analysis> = None;
+    let mut restarts = 0;
+    let mut tightenings = 0;
+    let reference = c.model;
+    // 3 and 4: the check of the tolerances, then the uncertainty, until neither moves the
+    // estimate.
+    while let (false, Some((o, y))) = (stopped, current.clone()) {
+        if let End::Halted(Halt::Failed(m)) = &o.end {
+            notes.push(format!("a forward run failed, which ended the fit: {m}"));
+            break;
         }
-    }
-    let usable: Vec<bool> = at_bound.iter().map(|b| !b).collect();
-    let c = uncertainty::curvature(&jy, &usable, scale, ratio);
-    for d in &c.unidentified {
-        let combo = d
-            .loadings
-            .iter()
-            .map(|&(j, l)| {
-                if (l - 1.0).abs() < 1e-9 {
-                    free[j].key.to_string()
-                } else {
-                    format!("{l:+.3} {}", free[j].key)
-                }
-            })
-            .collect::<Vec<_>>()
-            .join(" ");
-        notes.push(format!(
-            "not identifiable: the data do not fix the combination {combo} (in the fit \
-             coordinates; singular value {:.3e}, below {:e} of the largest {:.3e}): no sigma for \
-             {}, whose interval is the profile likelihood's; the other keys keep theirs",
-            d.singular,
-            uncertainty::SINGULAR_REL,
-            c.singular.first().copied().unwrap_or(f64::NAN),
-            d.loadings
-                .iter()
-                .map(|&(j, _)| free[j].key.to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
-    }
-    let mut sigma = c.sigma.clone();
-    let mut cov = c.cov.clone();
-    // The keys of a direction the data cannot fix get their profile's interval: how far the
-    // data let them go.
-    let mut unfixed = vec![false; k];
-    for d in &c.unidentified {
-        for &(j, _) in &d.loadings {
-            unfixed[j] = true;
-        }
-    }
-    // The linear model's check at ±1σ (not with an ensemble: its χ² is noisy by construction).
-    let mut flagged = vec![false; k];
-    let mut jumpy = vec![false; k];
-    if !ev.ensemble() {
-        let offsets: Vec<(usize, Vec<f64>)> = (0..k)
-            .filter_map(|j| uncertainty::linear_offset(&c, j).map(|d| (j, d)))
-            .collect();
-        let mut points = Vec::new();
-        let mut which = Vec::new();
-        for (j, d) in &offsets {
-            for sign in [-1.0, 1.0] {
-                let p: Vec<f64> = y.iter().zip(d).map(|(a, b)| a + sign * b).collect();
-                if p.iter().zip(&ev.tr).all(|(&v, t)| t.inside(v)) {
-                    points.push(p);
-                    which.push((*j, sign));
-                }
-            }
-        }
-        if !points.is_empty() {
+        if c.chosen {
             ev.event(FitEvent::Stage {
-                what: "checking the linear model at +-1 sigma".into(),
-                runs_expected: points.len() * ev.model().runs_per_set(),
+                what: "checking the model's error at the scenario's tolerances".into(),
+                runs_expected: c.model.runs_per_set(),
             });
-        }
-        let preds = match ev.predict_y(&points) {
-            Ok(p) => p.into_iter().map(Some).collect(),
-            // A run that fails within one σ: the response is not what σ assumes.
-            Err(EvalError::Failed(_)) => vec![None; points.len()],
-            Err(e) => return Err(e),
-        };
-        let mut found: Vec<Vec<String>> = vec![Vec::new(); k];
-        let mut sides: Vec<Vec<f64>> = vec![Vec::new(); k];
-        for ((j, sign), p) in which.iter().zip(&preds) {
-            let d = p.as_ref().map_or(f64::NAN, |p| ev.chi2(p) - chi2);
-            sides[*j].push(d);
-            if !uncertainty::linear_agrees(d) {
-                flagged[*j] = true;
-                found[*j].push(format!(
-                    "{} at {}1 sigma",
-                    if d.is_nan() {
-                        "a run failed".to_string()
-                    } else {
-                        format!("delta chi2 = {d:.3}")
-                    },
-                    if *sign < 0.0 { "-" } else { "+" }
-                ));
-            }
-        }
-        for j in 0..k {
-            if flagged[j] {
-                jumpy[j] = uncertainty::jumps(&sides[j]);
-                notes.push(format!(
-                    "{}: the model is not linear over one sigma ({} where the curvature puts 1, \
-                     outside [{}, {}]): {}; the sigma from the curvature means nothing there, \
-                     and the interval is the profile likelihood's",
-                    free[j].key,
-                    found[j].join(", "),
-                    1.0 / uncertainty::LINEAR_FACTOR,
-                    uncertainty::LINEAR_FACTOR,
-                    if jumpy[j] {
-                        "a jump or a kink of the model (chi2 rises steeply on both sides, or \
-                         falls on one)"
-                    } else {
-                        "chi2 is far from quadratic over one sigma"
+            let x = ev.x_of_y(&y);
+            let p_fit = ev.eval_y(&y);
+            let p_ref = ev.predict_on(reference, std::slice::from_ref(&x));
+            match (p_fit, p_ref) {
+                (Ok(pf), Ok(mut pr)) => {
+                    let pr = pr.remove(0);
+                    let e = (0..n)
+                        .map(|i| (pf.values[i] - pr.values[i]).abs() / c.w[i])
+                        .fold(0.0, f64::max);
+                    model_error = Some(e);
+                    if e > tolerance::ERROR_FRACTION && tightenings < MAX_TIGHTENINGS {
+                        tightenings += 1;
+                        let (r, en) = tolerance::tighten(c.tol_s, rtol, envelope_tol, e);
+                        notes.push(format!(
+                            "at the estimate the model's error was {e:.3} sigma at rtol {rtol:e}, \
+                             envelope_tol {envelope_tol:e} (more than {} allowed): the fit went \
+                             on at rtol {r:e}, envelope_tol {en:e}",
+                            tolerance::ERROR_FRACTION
+                        ));
+                        rtol = r;
+                        envelope_tol = en;
+                        let lvl = error_level(c.tol_s, rtol, envelope_tol);
+                        ev.set_model(c.model.with_solver(tolerance::overrides(
+                            c.tol_s,
+                            rtol,
+                            envelope_tol,
+                        )));
+                        ev.set_error(c.obs_abs.iter().map(|o| lvl * o).collect(), fd_step(lvl));
+                        match ev.eval_y(&y) {
+                            Ok(p) => {
+                                let (o2, y2) =
+                                    optimiser::optimise(ev, &y, ev.residuals_of(&p), c.s);
+                                stopped |= o2.end == End::Halted(Halt::Stopped);
+                                current = Some((o2, y2));
+                                continue;
+                            }
+                            Err(EvalError::Stopped) => {
+                                stopped = true;
+                                break;
+                            }
+                            Err(EvalError::Failed(m)) => {
+                                notes.push(format!(
+                                    "a forward run failed, which ended the fit: {m}"
+                                ));
+                                break;
+                            }
+                        }
                     }
-                ));
-            }
-        }
-        if let Some(st) = last {
-            if uncertainty::step_disagrees(st.predicted, st.actual) {
-                notes.push(format!(
-                    "along the optimiser's last step the linear model predicted a fall of chi2 \
-                     of {:.3}, the model gave {:.3}: every interval is the profile \
-                     likelihood's",
-                    st.predicted, st.actual
-                ));
-                for (j, f) in flagged.iter_mut().enumerate() {
-                    *f |= sigma[j].is_some();
+                }
+                (Err(EvalError::Stopped), _) | (_, Err(EvalError::Stopped)) => {
+                    stopped = true;
+                    break;
+                }
+                (Err(EvalError::Failed(m)), _) | (_, Err(EvalError::Failed(m))) => {
+                    notes.push(format!(
+                        "the check of the model's error at the scenario's tolerances failed: {m}"
+                    ));
                 }
             }
         }
-    }
-    let mut intervals: Vec<Option<(f64, f64, bool)>> = (0..k)
-        .map(|j| sigma[j].map(|s| (y[j] - s, y[j] + s, false)))
-        .collect();
-    let mut lower: Option<(f64, Vec<f64>)> = None;
-    for j in 0..k {
-        if !(flagged[j] || unfixed[j] || opts.profile && sigma[j].is_some()) {
-            continue;
+        if !o.end.converged() {
+            break;
         }
         ev.event(FitEvent::Stage {
-            what: format!("profile likelihood of {}", free[j].key),
-            runs_expected: 20 * ev.model().runs_per_set() * k,
+            what: "uncertainties".into(),
+            runs_expected: 2 * k * c.model.runs_per_set(),
         });
-        let t = &ev.tr[j];
-        let limits = uncertainty::reach(t.log, y[j], t.lo, t.hi);
-        let first = match sigma[j] {
-            Some(s) if !jumpy[j] => s,
-            Some(s) => s.max(uncertainty::FIRST_STEP_MIN),
-            None => uncertainty::FIRST_STEP_MIN,
+        let scale = if data.has_sigma {
+            1.0
+        } else {
+            o.chi2 / c.dof as f64
         };
-        let dir: Vec<f64> = (0..k)
-            .map(|i| {
-                let r = c.cov[(i, j)] / c.cov[(j, j)];
-                if i != j && r.is_finite() {
-                    r
-                } else {
-                    0.0
-                }
+        let ratio = {
+            let st = ev.st.borrow();
+            (members > 1 && data.has_sigma && st.se2_sets > 0).then(|| {
+                DVector::from_fn(n, |i, _| {
+                    let sg = data.rows[i].sigma.unwrap_or(1.0);
+                    (sg * sg + st.se2[i] / st.se2_sets as f64) / (c.w[i] * c.w[i])
+                })
             })
-            .collect();
-        let mut p = ProfileOf {
-            ev,
-            dir,
-            s: lm::Settings {
-                max_iterations: uncertainty::PROFILE_ITERATIONS,
-                gtol: 1e-2,
-                ..*s
-            },
         };
-        let prof =
-            match uncertainty::scan(&mut p, j, y, chi2, first, limits, flagged[j], may_restart) {
-                Ok(p) => p,
-                Err(_) => return Err(EvalError::Stopped),
-            };
-        if let Some((c2, yl)) = prof.lower.clone() {
-            if lower.as_ref().is_none_or(|(b, _)| c2 < *b) {
-                lower = Some((c2, yl));
+        match analyse(
+            ev,
+            c.free,
+            &y,
+            o.chi2,
+            o.last_step.as_ref(),
+            scale,
+            ratio.as_ref(),
+            c.opts,
+            c.s,
+            restarts < MAX_RESTARTS,
+        ) {
+            Ok(a) => {
+                if let (Some((c2, yl)), true) = (&a.lower, restarts < MAX_RESTARTS) {
+                    restarts += 1;
+                    notes.push(format!(
+                        "a profile met chi2 = {c2:.4} at {}, below the estimate's {:.4}: the fit \
+                         went on from there",
+                        describe(c.free, c.tr, yl),
+                        o.chi2
+                    ));
+                    match ev.eval_y(yl) {
+                        Ok(p) => {
+                            let (o2, y2) = optimiser::optimise(ev, yl, ev.residuals_of(&p), c.s);
+                            stopped |= o2.end == End::Halted(Halt::Stopped);
+                            if o2.chi2 < o.chi2 {
+                                current = Some((o2, y2));
+                            }
+                            continue;
+                        }
+                        Err(EvalError::Stopped) => stopped = true,
+                        Err(EvalError::Failed(_)) => analysis = Some(a),
+                    }
+                } else {
+                    if let Some((c2, yl)) = &a.lower {
+                        notes.push(format!(
+                            "a profile met chi2 = {c2:.4} at {}, below the estimate's {:.4}, \
+                             after {MAX_RESTARTS} restarts from such points: the model has \
+                             many minima; see the intervals",
+                            describe(c.free, c.tr, yl),
+                            o.chi2
+                        ));
+                    }
+                    analysis = Some(a);
+                }
             }
-            if may_restart {
-                // The fit goes on from there: the other intervals would be redone anyway.
-                break;
-            }
-        }
-        let x = |v: f64| t.x(v);
-        for (open, end) in [(prof.open_lo, prof.lo), (prof.open_hi, prof.hi)] {
-            if open {
+            Err(EvalError::Stopped) => stopped = true,
+            Err(EvalError::Failed(m)) => {
                 notes.push(format!(
-                    "{}: its profile-likelihood interval reaches the end of the scan at {} {} \
-                     (the data do not bound it there)",
-                    free[j].key,
-                    crate::output::table::format_sig(x(end), 4),
-                    free[j].unit
+                    "no sigma: a run of the uncertainty analysis failed: {m}"
                 ));
             }
         }
-        intervals[j] = Some((prof.lo, prof.hi, true));
-        if flagged[j] {
-            sigma[j] = None;
-            for i in 0..k {
-                cov[(i, j)] = f64::NAN;
-                cov[(j, i)] = f64::NAN;
-            }
-        }
+        break;
     }
-    Ok(Analysis {
-        sigma,
-        cov,
-        intervals,
-        notes,
-        lower,
-    })
+    Settled {
+        current,
+        analysis,
+        model_error,
+        rtol,
+        envelope_tol,
+        stopped,
+    }
 }
 
 /// Fit the free keys `free` (starting at `x0`, SI) of `model` to its data.
@@ -481,25 +423,7 @@ pub fn fit(
         .map(|(f, &x)| Transform::new(f, x))
         .collect();
     check_start(free, x0)?;
-    // Start a little inside a bound: at a bound dy/du = 0 and the key could not move.
-    let y0: Vec<f64> = x0
-        .iter()
-        .zip(&tr)
-        .map(|(&x, t)| {
-            let mut y = t.y(x);
-            let span = match (t.lo, t.hi) {
-                (Some(l), Some(h)) => 0.01 * (h - l),
-                _ => 0.01,
-            };
-            if t.lo.is_some_and(|l| y - l < span) {
-                y = t.lo.unwrap_or(y) + span;
-            }
-            if t.hi.is_some_and(|h| h - y < span) {
-                y = t.hi.unwrap_or(y) - span;
-            }
-            y
-        })
-        .collect();
+    let y0 = optimiser::start_inside(&tr, x0);
     let dof = dof_of(n, k);
     let members = model.members();
     let mut notes = Vec::new();
@@ -526,32 +450,8 @@ pub fn fit(
         rtol_set: is_set("solver.rtol"),
         envelope_tol_set: is_set("solver.envelope_tol"),
     };
-    let eps = if members > 1 {
-        Err(
-            "the scenario's: with an ensemble its standard error, not the integration, limits \
-             the accuracy (and a chaotic member changes entirely with any tolerance)"
-                .to_string(),
-        )
-    } else if !data.has_sigma {
-        Err("the scenario's: the data have no sigma column to scale the model's error".into())
-    } else {
-        Ok(tolerance::ERROR_FRACTION
-            * data
-                .rows
-                .iter()
-                .filter(|r| r.observed != 0.0)
-                .map(|r| r.sigma.unwrap_or(f64::INFINITY) / r.observed.abs())
-                .fold(f64::INFINITY, f64::min))
-    };
-    let (mut rtol, mut envelope_tol, chosen, why) = tolerance::choose(&tol_s, eps);
-    let error_level = |rtol: f64, env: f64| {
-        tolerance::RTOL_GAIN * rtol
-            + if tol_s.envelope {
-                tolerance::ENVELOPE_GAIN * env
-            } else {
-                0.0
-            }
-    };
+    let eps = tolerance::data_error(data, members);
+    let (rtol, envelope_tol, chosen, why) = tolerance::choose(&tol_s, eps);
     let fit_model = model.with_solver(tolerance::overrides(&tol_s, rtol, envelope_tol));
 
     // The first evaluation: the start (with an ensemble, also the first Jacobian's stencil,
@@ -567,7 +467,7 @@ pub fn fit(
             }
         }
     }
-    let eps_rel = error_level(rtol, envelope_tol);
+    let eps_rel = error_level(&tol_s, rtol, envelope_tol);
     let obs_abs: Vec<f64> = data.rows.iter().map(|r| r.observed.abs()).collect();
     let mut ev = Evaluator::new(
         fit_model,
@@ -597,22 +497,7 @@ pub fn fit(
         .cloned()
         .ok_or_else(|| FitError::new("no prediction"))?;
     let pooled = pooled_se(&preds0);
-    let w: Vec<f64> = (0..n)
-        .map(|i| {
-            if data.has_sigma {
-                let s = data.rows[i].sigma.unwrap_or(1.0);
-                let w2 = s * s + pooled[i] * pooled[i];
-                // A sigma of 1e-200 squares to 0: the weight was 0 and every residual infinite.
-                if w2.is_normal() {
-                    w2.sqrt()
-                } else {
-                    s.hypot(pooled[i])
-                }
-            } else {
-                1.0
-            }
-        })
-        .collect();
+    let w = weights(data, &pooled);
     check_start_chi2(data, &p0, &w)?;
     ev.w = w.clone();
     if members > 1 {
@@ -648,234 +533,44 @@ pub fn fit(
     let s = settings(opts.max_iterations, data.has_sigma, dof);
 
     // 2. The optimiser from each start.
-    let mut start_ys = vec![y0.clone()];
-    if opts.starts > 1 {
-        let ranges: Vec<(f64, f64)> = tr
-            .iter()
-            .zip(&y0)
-            .map(|(t, &y)| starts::range(t.log, y, t.lo, t.hi))
-            .collect();
-        for p in starts::latin_hypercube(opts.starts - 1, k, starts::SEED) {
-            start_ys.push(
-                p.iter()
-                    .zip(&ranges)
-                    .map(|(q, (a, b))| a + q * (b - a))
-                    .collect(),
-            );
-        }
-    }
-    let mut ends: Vec<End1> = Vec::new();
-    let mut stopped = false;
-    for (i, ys) in start_ys.iter().enumerate() {
-        if opts.starts > 1 {
-            ev.event(FitEvent::Stage {
-                what: format!("start {} of {}", i + 1, opts.starts),
-                runs_expected: expected_runs(model, k, opts.starts - i),
-            });
-        }
-        let r0 = if i == 0 {
-            Ok(ev.residuals_of(&p0))
-        } else {
-            match ev.eval_y(ys) {
-                Ok(p) if ev.chi2(&p).is_finite() => Ok(ev.residuals_of(&p)),
-                Ok(_) => Err("chi2 is not finite at this start".to_string()),
-                Err(EvalError::Failed(m)) => Err(format!("a run failed at this start: {m}")),
-                Err(EvalError::Stopped) => {
-                    stopped = true;
-                    break;
-                }
-            }
-        };
-        let end = match r0 {
-            Ok(r0) => {
-                let (o, y) = optimise(&ev, ys, r0, &s);
-                let halted = o.end == End::Halted(Halt::Stopped);
-                let e = End1 {
-                    start: ys.clone(),
-                    y,
-                    outcome: Ok(o),
-                };
-                if halted {
-                    stopped = true;
-                }
-                e
-            }
-            Err(m) => End1 {
-                start: ys.clone(),
-                y: ys.clone(),
-                outcome: Err(m),
-            },
-        };
-        ends.push(end);
-        if stopped {
-            break;
-        }
-    }
-    let best_i = (0..ends.len())
-        .filter(|&i| ends[i].outcome.is_ok())
-        .min_by(|&a, &b| {
-            let c = |i: usize| ends[i].outcome.as_ref().map_or(f64::INFINITY, |o| o.chi2);
-            c(a).total_cmp(&c(b))
-        });
-    let mut current: Option<(Outcome, Vec<f64>)> = best_i.and_then(|i| {
+    let start_ys = optimiser::start_points(&tr, &y0, opts.starts);
+    let (ends, stopped) = optimiser::run_starts(&ev, &start_ys, &p0, &s, model, opts.starts);
+    let best_i = optimiser::best(&ends);
+    let current: Option<(Outcome, Vec<f64>)> = best_i.and_then(|i| {
         ends[i]
             .outcome
             .as_ref()
             .ok()
             .map(|o| (o.clone(), ends[i].y.clone()))
     });
-    let mut model_error = None;
-    let mut analysis: Option<Analysis> = None;
-    let mut restarts = 0;
-    let mut tightenings = 0;
-    let reference = model.clone();
-    // 3 and 4: the check of the tolerances, then the uncertainty, until neither moves the
-    // estimate.
-    while let (false, Some((o, y))) = (stopped, current.clone()) {
-        if let End::Halted(Halt::Failed(m)) = &o.end {
-            notes.push(format!("a forward run failed, which ended the fit: {m}"));
-            break;
-        }
-        if chosen {
-            ev.event(FitEvent::Stage {
-                what: "checking the model's error at the scenario's tolerances".into(),
-                runs_expected: model.runs_per_set(),
-            });
-            let x = ev.x_of_y(&y);
-            let p_fit = ev.eval_y(&y);
-            let p_ref = ev.predict_on(&reference, std::slice::from_ref(&x));
-            match (p_fit, p_ref) {
-                (Ok(pf), Ok(mut pr)) => {
-                    let pr = pr.remove(0);
-                    let e = (0..n)
-                        .map(|i| (pf.values[i] - pr.values[i]).abs() / w[i])
-                        .fold(0.0, f64::max);
-                    model_error = Some(e);
-                    if e > tolerance::ERROR_FRACTION && tightenings < MAX_TIGHTENINGS {
-                        tightenings += 1;
-                        let (r, en) = tolerance::tighten(&tol_s, rtol, envelope_tol, e);
-                        notes.push(format!(
-                            "at the estimate the model's error was {e:.3} sigma at rtol {rtol:e}, \
-                             envelope_tol {envelope_tol:e} (more than {} allowed): the fit went \
-                             on at rtol {r:e}, envelope_tol {en:e}",
-                            tolerance::ERROR_FRACTION
-                        ));
-                        rtol = r;
-                        envelope_tol = en;
-                        let lvl = error_level(rtol, envelope_tol);
-                        ev.set_model(model.with_solver(tolerance::overrides(
-                            &tol_s,
-                            rtol,
-                            envelope_tol,
-                        )));
-                        ev.set_error(obs_abs.iter().map(|o| lvl * o).collect(), fd_step(lvl));
-                        match ev.eval_y(&y) {
-                            Ok(p) => {
-                                let (o2, y2) = optimise(&ev, &y, ev.residuals_of(&p), &s);
-                                stopped |= o2.end == End::Halted(Halt::Stopped);
-                                current = Some((o2, y2));
-                                continue;
-                            }
-                            Err(EvalError::Stopped) => {
-                                stopped = true;
-                                break;
-                            }
-                            Err(EvalError::Failed(m)) => {
-                                notes.push(format!(
-                                    "a forward run failed, which ended the fit: {m}"
-                                ));
-                                break;
-                            }
-                        }
-                    }
-                }
-                (Err(EvalError::Stopped), _) | (_, Err(EvalError::Stopped)) => {
-                    stopped = true;
-                    break;
-                }
-                (Err(EvalError::Failed(m)), _) | (_, Err(EvalError::Failed(m))) => {
-                    notes.push(format!(
-                        "the check of the model's error at the scenario's tolerances failed: {m}"
-                    ));
-                }
-            }
-        }
-        if !o.end.converged() {
-            break;
-        }
-        ev.event(FitEvent::Stage {
-            what: "uncertainties".into(),
-            runs_expected: 2 * k * model.runs_per_set(),
-        });
-        let scale = if data.has_sigma {
-            1.0
-        } else {
-            o.chi2 / dof as f64
-        };
-        let ratio = {
-            let st = ev.st.borrow();
-            (members > 1 && data.has_sigma && st.se2_sets > 0).then(|| {
-                DVector::from_fn(n, |i, _| {
-                    let sg = data.rows[i].sigma.unwrap_or(1.0);
-                    (sg * sg + st.se2[i] / st.se2_sets as f64) / (w[i] * w[i])
-                })
-            })
-        };
-        match analyse(
-            &ev,
+    let settled = settle(
+        &mut ev,
+        &Context {
+            model,
             free,
-            &y,
-            o.chi2,
-            o.last_step.as_ref(),
-            scale,
-            ratio.as_ref(),
-            &opts,
-            &s,
-            restarts < MAX_RESTARTS,
-        ) {
-            Ok(a) => {
-                if let (Some((c2, yl)), true) = (&a.lower, restarts < MAX_RESTARTS) {
-                    restarts += 1;
-                    notes.push(format!(
-                        "a profile met chi2 = {c2:.4} at {}, below the estimate's {:.4}: the fit \
-                         went on from there",
-                        describe(free, &tr, yl),
-                        o.chi2
-                    ));
-                    match ev.eval_y(yl) {
-                        Ok(p) => {
-                            let (o2, y2) = optimise(&ev, yl, ev.residuals_of(&p), &s);
-                            stopped |= o2.end == End::Halted(Halt::Stopped);
-                            if o2.chi2 < o.chi2 {
-                                current = Some((o2, y2));
-                            }
-                            continue;
-                        }
-                        Err(EvalError::Stopped) => stopped = true,
-                        Err(EvalError::Failed(_)) => analysis = Some(a),
-                    }
-                } else {
-                    if let Some((c2, yl)) = &a.lower {
-                        notes.push(format!(
-                            "a profile met chi2 = {c2:.4} at {}, below the estimate's {:.4}, \
-                             after {MAX_RESTARTS} restarts from such points: the model has \
-                             many minima; see the intervals",
-                            describe(free, &tr, yl),
-                            o.chi2
-                        ));
-                    }
-                    analysis = Some(a);
-                }
-            }
-            Err(EvalError::Stopped) => stopped = true,
-            Err(EvalError::Failed(m)) => {
-                notes.push(format!(
-                    "no sigma: a run of the uncertainty analysis failed: {m}"
-                ));
-            }
-        }
-        break;
-    }
+            tr: &tr,
+            tol_s: &tol_s,
+            chosen,
+            w: &w,
+            obs_abs: &obs_abs,
+            s: &s,
+            opts: &opts,
+            dof,
+        },
+        current,
+        rtol,
+        envelope_tol,
+        stopped,
+        &mut notes,
+    );
+    let Settled {
+        current,
+        analysis,
+        model_error,
+        rtol,
+        envelope_tol,
+        mut stopped,
+    } = settled;
     // The estimate: the current one, or after a stop the best met.
     let st_best = ev.st.borrow().best.clone();
     let (chi2_fit, y_best, end, iterations_best) = match (&current, stopped) {
@@ -896,7 +591,7 @@ pub fn fit(
         .filter(|(_, y, _)| *y == y_best)
         .map(|(_, _, p)| p.clone());
     let prediction = match (chosen && !stopped, pred_fit) {
-        (true, _) => match ev.predict_on(&reference, std::slice::from_ref(&values)) {
+        (true, _) => match ev.predict_on(model, std::slice::from_ref(&values)) {
             Ok(mut p) => Some(p.remove(0)),
             Err(EvalError::Stopped) => {
                 stopped = true;
@@ -923,32 +618,14 @@ pub fn fit(
         )));
     }
     let converged = end.converged() && !stopped;
-    if stopped {
-        notes.push(
-            "interrupted: the estimate is the best met so far (lowest chi2), not converged; no \
-             sigma"
-                .into(),
-        );
-    } else if !converged {
-        notes.push(format!(
-            "not converged ({}): the estimate is the best met; no sigma is given for a fit that \
-             did not converge",
-            end.words()
-        ));
-    }
     let reduced = chi2 / dof as f64;
-    if data.has_sigma && reduced > 10.0 {
-        notes.push(format!(
-            "poor fit: reduced chi2 = {reduced:.3e}: the model does not describe the data within \
-             their sigma, or the fit ended in a local minimum ({}); the sigma of the parameters \
-             are not reliable",
-            if opts.starts > 1 {
-                format!("the best of {} starts", opts.starts)
-            } else {
-                "try --starts N to fit from N starting points".to_string()
-            }
-        ));
-    }
+    notes.extend(report::verdict(
+        stopped,
+        converged,
+        &end.words(),
+        data.has_sigma.then_some(reduced),
+        opts.starts,
+    ));
     let at_bound: Vec<bool> = y_best
         .iter()
         .zip(&tr)
@@ -962,43 +639,19 @@ pub fn fit(
             ));
         }
     }
+    let keys_named: Vec<String> = free.iter().map(|f| f.key.to_string()).collect();
     if members > 1 {
-        let steps = ev.steps();
         let snr = ev.st.borrow().snr.clone();
-        let list = |f: &dyn Fn(usize) -> String| {
-            (0..k)
-                .map(|j| format!("{} {}", free[j].key, f(j)))
-                .collect::<Vec<_>>()
-                .join(", ")
-        };
-        notes.push(format!(
-            "Jacobians by central differences whose steps widen until the change stands 10 times \
-             above the ensemble noise; half-steps in the fit coordinates at the estimate: {}; \
-             signal-to-noise: {}",
-            list(&|j| format!("{:.3}", steps[j])),
-            list(&|j| format!("{:.1}", snr.get(j).copied().unwrap_or(f64::NAN)))
+        notes.extend(report::columns(
+            &keys_named,
+            Some(&ev.steps()),
+            &snr,
+            &at_bound,
         ));
-        for (j, f) in free.iter().enumerate() {
-            if snr.get(j).is_some_and(|&r| r < 3.0) {
-                notes.push(format!(
-                    "{}: the ensemble noise dominates its Jacobian column even at the widest step \
-                     (signal-to-noise {:.1} < 3), so its sigma is uncertain: fit with more \
-                     --ensemble members",
-                    f.key, snr[j]
-                ));
-            }
-        }
     } else if converged {
+        // The Jacobian at the estimate is the optimiser's last (not computed again).
         let snr = ev.jacobian_snr(&y_best).map(|(_, s)| s).unwrap_or_default();
-        for (j, f) in free.iter().enumerate() {
-            if snr.get(j).is_some_and(|&r| r < 3.0) && !at_bound[j] {
-                notes.push(format!(
-                    "{}: its Jacobian column stands at most {:.1} times above the model's \
-                     numerical error even at the widest step: the data barely see it",
-                    f.key, snr[j]
-                ));
-            }
-        }
+        notes.extend(report::columns(&keys_named, None, &snr, &at_bound));
     }
     // Minima of the starts.
     let ends_y: Vec<Option<(Vec<f64>, f64)>> = ends
@@ -1007,27 +660,16 @@ pub fn fit(
         .collect();
     let minima = starts::minima(&ends_y);
     if opts.starts > 1 {
-        let best_m = best_i.map(|i| minima[i]);
-        let q = starts::chi2_95(k);
-        let mut seen = Vec::new();
-        for (i, e) in ends.iter().enumerate() {
-            let Ok(o) = &e.outcome else { continue };
-            let m = minima[i];
-            if Some(m) == best_m || seen.contains(&m) || !o.end.converged() {
-                continue;
-            }
-            seen.push(m);
-            if o.chi2 - chi2_fit <= q {
-                notes.push(format!(
-                    "another minimum lies within delta chi2 = {:.3} of the best (less than \
-                     {q}, the 95 % quantile for {k} key(s)): {} (start {}); the data do not tell \
-                     it from the estimate",
-                    o.chi2 - chi2_fit,
-                    describe(free, &tr, &e.y),
-                    i + 1
-                ));
-            }
-        }
+        let found: Vec<Option<(f64, bool, String)>> = ends
+            .iter()
+            .map(|e| {
+                e.outcome
+                    .as_ref()
+                    .ok()
+                    .map(|o| (o.chi2, o.end.converged(), describe(free, &tr, &e.y)))
+            })
+            .collect();
+        notes.extend(report::other_minima(&found, &minima, best_i, chi2_fit, k));
     }
     let start_reports: Vec<StartReport> = ends
         .iter()
@@ -1046,94 +688,18 @@ pub fn fit(
         })
         .collect();
     // σ, covariance and intervals (a converged fit only).
-    let analysis = analysis.filter(|_| converged);
-    let mut sigma_y: Vec<Option<f64>> = vec![None; k];
-    let mut cov_y = DMatrix::from_element(k, k, f64::NAN);
-    let mut intervals: Vec<Option<(f64, f64, bool)>> = vec![None; k];
-    if let Some(a) = analysis {
+    let analysis = analysis.filter(|_| converged).map(|a| {
         notes.extend(a.notes);
-        for j in 0..k {
-            if !at_bound[j] {
-                sigma_y[j] = a.sigma[j];
-                intervals[j] = a.intervals[j];
-            }
-        }
-        cov_y = a.cov;
-    }
-    let dx: Vec<f64> = y_best.iter().zip(&tr).map(|(&y, t)| t.dx_dy(y)).collect();
-    let mut sigma: Vec<Option<f64>> = (0..k).map(|j| sigma_y[j].map(|s| s * dx[j])).collect();
-    for (j, f) in free.iter().enumerate() {
-        if let Some(s) = sigma[j] {
-            if !s.is_finite() {
-                sigma[j] = None;
-                notes.push(format!("{}: sigma is not finite; none given", f.key));
-            } else if s <= 0.0 {
-                sigma[j] = None;
-                notes.push(format!(
-                    "{}: sigma underflowed to 0 (the rows' sigma are far below what the model \
-                     resolves); none given",
-                    f.key
-                ));
-            }
-        }
-    }
-    let has = |j: usize| sigma[j].is_some();
-    let covariance: Vec<Vec<Option<f64>>> = (0..k)
-        .map(|a| {
-            (0..k)
-                .map(|b| (has(a) && has(b)).then(|| cov_y[(a, b)] * dx[a] * dx[b]))
-                .collect()
-        })
-        .collect();
-    let correlation: Vec<Vec<Option<f64>>> = (0..k)
-        .map(|a| {
-            (0..k)
-                .map(|b| {
-                    (has(a) && has(b))
-                        .then(|| cov_y[(a, b)] / (cov_y[(a, a)] * cov_y[(b, b)]).sqrt())
-                })
-                .collect()
-        })
-        .collect();
-    for a in 0..k {
-        for b in a + 1..k {
-            if let Some(c) = correlation[a][b] {
-                if c.abs() > 0.999 {
-                    notes.push(format!(
-                        "not identifiable separately: {} and {} are correlated by {c:.4} \
-                         (> 0.999); their sigma are large and mostly shared",
-                        free[a].key, free[b].key
-                    ));
-                }
-            }
-        }
-    }
-    let parameters = free
-        .iter()
-        .enumerate()
-        .map(|(j, f)| {
-            let interval =
-                intervals[j].filter(|_| sigma[j].is_some() || intervals[j].is_some_and(|i| i.2));
-            Parameter {
-                key: f.key.to_string(),
-                value: values[j],
-                sigma: sigma[j],
-                interval: interval.map(|(lo, hi, _)| {
-                    let (a, b) = (tr[j].x(lo), tr[j].x(hi));
-                    [a.min(b), a.max(b)]
-                }),
-                interval_from: interval.map(|i| if i.2 { "profile" } else { "curvature" }),
-                unit: f.unit.to_string(),
-                initial: x0[j],
-            }
-        })
-        .collect();
+        (a.sigma, a.cov, a.intervals)
+    });
+    let keys = report::keys(free, &tr, x0, &values, &y_best, &at_bound, analysis);
+    notes.extend(keys.notes);
     let steps = ev.steps();
     let st = ev.st.borrow();
     let report = FitReport {
-        parameters,
-        covariance,
-        correlation,
+        parameters: keys.parameters,
+        covariance: keys.covariance,
+        correlation: keys.correlation,
         chi2,
         dof,
         reduced_chi2: reduced,
@@ -1166,19 +732,7 @@ pub fn fit(
         values,
         prediction,
         weights: w,
-        cov_y: (0..k)
-            .map(|a| {
-                (0..k)
-                    .map(|b| {
-                        if has(a) && has(b) {
-                            cov_y[(a, b)]
-                        } else {
-                            f64::NAN
-                        }
-                    })
-                    .collect()
-            })
-            .collect(),
+        cov_y: keys.cov_y,
         stepped: (0..k)
             .map(|j| {
                 let mut y = y_best.clone();
@@ -1232,5 +786,21 @@ mod tests {
         close(fd_step(1e-8), 1e-4);
         close(fd_step(1e-14), 1e-6);
         close(fd_step(1.0), 0.1);
+    }
+
+    /// A row's weight joins its sigma and the ensemble's standard error in quadrature (checked
+    /// against 3-4-5), survives a sigma whose square underflows, and is 1 without a sigma
+    /// column.
+    #[test]
+    fn weights_join_sigma_and_the_ensemble_error() {
+        let csv = "base.amplitude [um],pull_off_amplification [1],sigma [1]\n\
+                   10,2.0,0.03\n20,1e-180,1e-200\n";
+        let d = super::super::data::FitData::parse(csv, "d.csv", None).expect("data");
+        let w = weights(&d, &[0.04, 0.0]);
+        assert!((w[0] - 0.05).abs() < 1e-15 && w[1] > 0.0, "{w:?}");
+        assert!((w[1] / 1e-200 - 1.0).abs() < 1e-12, "{w:?}");
+        let csv = "base.amplitude [um],pull_off_amplification [1]\n10,2.0\n";
+        let d = super::super::data::FitData::parse(csv, "d.csv", None).expect("data");
+        assert_eq!(weights(&d, &[0.5]), vec![1.0]);
     }
 }

@@ -51,8 +51,8 @@ impl FreeKey {
         if !physical(&key) {
             return Err(err(format!(
                 "{key} is a numerical setting of the run, not a constant of the rig: only \
-                 physical keys can be fitted (set a numerical setting with --set; a fit chooses \
-                 solver.rtol and solver.envelope_tol from the data's sigma). Keys that can be \
+                 physical keys can be fitted (a numerical setting is given as an override; a fit \
+                 chooses solver.rtol and solver.envelope_tol from the data's sigma). Keys that can be \
                  freed: {}",
                 fittable_keys().join(", ")
             )));

@@ -20,6 +20,7 @@
 //! This module also gives the starting values ([`initial_value`]), the fitted scenario
 //! ([`fitted_toml`]) and the residual table ([`residuals_csv`]).
 
+pub(crate) mod analysis;
 pub(crate) mod data;
 pub(crate) mod driver;
 pub mod figure;
@@ -27,6 +28,7 @@ pub mod files;
 pub(crate) mod free;
 pub(crate) mod lm;
 pub(crate) mod model;
+pub(crate) mod optimiser;
 pub(crate) mod problem;
 pub(crate) mod report;
 pub(crate) mod starts;

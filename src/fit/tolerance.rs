@@ -91,13 +91,13 @@ pub fn choose(s: &Scenario, eps: Result<f64, String>) -> (f64, f64, bool, String
              relative sigma ({eps:.3e} relative){}",
             match (s.rtol_set, s.envelope_tol_set) {
                 (true, true) => "",
-                (true, false) => "; solver.rtol as --set gives it",
-                (false, true) => "; solver.envelope_tol as --set gives it",
+                (true, false) => "; solver.rtol as overridden",
+                (false, true) => "; solver.envelope_tol as overridden",
                 (false, false) => "",
             }
         )
     } else if s.rtol_set && (s.envelope_tol_set || !s.envelope) {
-        "the scenario's: --set gives them".into()
+        "the scenario's, or as overridden".into()
     } else {
         "the scenario's: the data are as precise as its tolerances resolve".into()
     };
@@ -134,6 +134,29 @@ pub fn tighten(s: &Scenario, rtol: f64, envelope_tol: f64, error: f64) -> (f64, 
     )
 }
 
+/// The model error the data allow, relative: [`ERROR_FRACTION`] of the smallest relative sigma
+/// of the rows (those observed non-zero); or why the scenario's tolerances are kept (an ensemble
+/// of `members > 1`, or no sigma column).
+pub fn data_error(data: &super::data::FitData, members: usize) -> Result<f64, String> {
+    if members > 1 {
+        Err(
+            "the scenario's: with an ensemble its standard error, not the integration, limits \
+             the accuracy (and a chaotic member changes entirely with any tolerance)"
+                .to_string(),
+        )
+    } else if !data.has_sigma {
+        Err("the scenario's: the data have no sigma column to scale the model's error".into())
+    } else {
+        Ok(ERROR_FRACTION
+            * data
+                .rows
+                .iter()
+                .filter(|r| r.observed != 0.0)
+                .map(|r| r.sigma.unwrap_or(f64::INFINITY) / r.observed.abs())
+                .fold(f64::INFINITY, f64::min))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -163,7 +186,7 @@ mod tests {
         let (r, e, _, why) = choose(&set, Ok(2e-4));
         assert_eq!(r.to_bits(), 1e-8f64.to_bits());
         assert!(
-            (e - 2e-4).abs() < 1e-16 && why.contains("solver.rtol as --set"),
+            (e - 2e-4).abs() < 1e-16 && why.contains("solver.rtol as overridden"),
             "{why}"
         );
         let (r, e, chosen, why) = choose(&PAPER, Ok(1e-9));
@@ -191,5 +214,21 @@ mod tests {
             (r.to_bits(), e.to_bits()),
             (1e-8f64.to_bits(), 1e-6f64.to_bits())
         );
+    }
+
+    /// 1 % of the smallest relative sigma: rows at 2 % and 5 % (an observed 0 has no relative
+    /// sigma and is left out) give 2e-4; an ensemble or a file without sigma keeps the
+    /// scenario's.
+    #[test]
+    fn the_error_follows_the_smallest_relative_sigma() {
+        let csv = "base.amplitude [um],pull_off_amplification [1],sigma [1]\n\
+                   10,2.0,0.04\n20,4.0,0.2\n30,0,0.01\n";
+        let d = super::super::data::FitData::parse(csv, "d.csv", None).expect("data");
+        let e = data_error(&d, 1).expect("an error level");
+        assert!((e - 0.01 * 0.02).abs() < 1e-18, "{e}");
+        assert!(data_error(&d, 8).is_err_and(|m| m.contains("ensemble")));
+        let csv = "base.amplitude [um],pull_off_amplification [1]\n10,2.0\n20,4.0\n";
+        let d = super::super::data::FitData::parse(csv, "d.csv", None).expect("data");
+        assert!(data_error(&d, 1).is_err_and(|m| m.contains("no sigma column")));
     }
 }
