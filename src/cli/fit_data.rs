@@ -169,6 +169,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     let t0 = std::time::Instant::now();
     let mut expected = expected0;
     let mut runs = 0usize;
+    let mut started = false;
     let mut progress = |e: FitEvent| match e {
         FitEvent::Run => {
             runs += 1;
@@ -186,8 +187,9 @@ pub fn fit(a: &FitArgs) -> Result<()> {
                 expected = runs + runs_expected;
                 bar.set_length(expected as u64);
             }
-            // Without a terminal (a log, a pipe) the bar is hidden: each stage is a line.
-            if bar.is_hidden() {
+            // Without a terminal (a log, a pipe) the bar is hidden: each stage is a line, from
+            // the first iteration's on (input refused at the starting values stays one line).
+            if bar.is_hidden() && started {
                 eprintln!("fit: {what}");
             }
             bar.set_prefix(what);
@@ -198,6 +200,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
             best,
             runs: done,
         } => {
+            started = true;
             let line = format!("iteration {iteration}, best chi2 {best:.6e}, chi2 {chi2:.6e}");
             // Without a terminal: one line per iteration, with the runs and the times.
             if bar.is_hidden() {
