@@ -84,8 +84,14 @@ fn bench(c: &mut Criterion) {
     };
     match fit() {
         Ok(j) => eprintln!(
-            "fit: {} forward runs, {} iterations, converged {}, chi2 {:.2}, parameters {}",
-            j["forward_runs"], j["iterations"], j["converged"], j["chi2"], j["parameters"]
+            "fit: {} forward runs, {} RHS evaluations, {} iterations, converged {}, chi2 {:.2}, \
+             parameters {}",
+            j["forward_runs"],
+            j["rhs_evals"],
+            j["iterations"],
+            j["converged"],
+            j["chi2"],
+            j["parameters"]
         ),
         Err(e) => {
             eprintln!("fit bench: {e}");

@@ -1097,7 +1097,7 @@ pub fn sweep<S: AsRef<str>>(
 /// CSV `data_text` (named `data_name` in messages), with `set` (`KEY=VALUE`) for every row (a
 /// free key's `--set` is its starting value), an optional ensemble `(members, seed)` and `jobs`
 /// threads (0: one per core). Returns the content of `fit.json`. A raised `stop` is
-/// [`Error::Cancelled`].
+/// [`Error::Cancelled`]. [`fit_report`] takes the other options and gives the residuals.
 #[allow(clippy::too_many_arguments)]
 pub fn fit<S: AsRef<str>, T: AsRef<str>>(
     source: crate::scenario::parse::ScenarioSource,
@@ -1110,6 +1110,80 @@ pub fn fit<S: AsRef<str>, T: AsRef<str>>(
     jobs: usize,
     stop: Option<&AtomicBool>,
 ) -> Result<serde_json::Value, Error> {
+    let r = fit_report(
+        source,
+        data_text,
+        data_name,
+        free,
+        observable,
+        set,
+        ensemble,
+        jobs,
+        &FitExtra::default(),
+        stop,
+    )?;
+    Ok(r.report)
+}
+
+/// The options of [`fit_report`] beyond [`fit`]'s.
+#[derive(Debug, Clone)]
+pub struct FitExtra {
+    /// Most iterations of each optimisation (`--max-iterations`).
+    pub max_iterations: usize,
+    /// Starting points (`--starts`).
+    pub starts: usize,
+    /// Profile-likelihood intervals for every key (`--profile`).
+    pub profile: bool,
+    /// An output folder for the fit's files (`--out`), and whether to overwrite files of those
+    /// names that djkr did not write (`--force`).
+    pub out: Option<(PathBuf, bool)>,
+}
+
+impl Default for FitExtra {
+    fn default() -> Self {
+        FitExtra {
+            max_iterations: 30,
+            starts: 1,
+            profile: false,
+            out: None,
+        }
+    }
+}
+
+/// A column of the residuals' table: numbers, or the text of a text condition.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Column {
+    /// Numbers (SI, in the column's unit).
+    Num(Vec<f64>),
+    /// Text as the data file gave it.
+    Text(Vec<String>),
+}
+
+/// What [`fit_report`] gives: `fit.json`, the residuals' table as `residuals.csv` holds it
+/// (column name with unit, values), and the covariance in the keys' units.
+#[derive(Debug, Clone)]
+pub struct FitResult {
+    /// The content of `fit.json`.
+    pub report: serde_json::Value,
+    /// The columns of `residuals.csv`.
+    pub residuals: Vec<(String, Column)>,
+}
+
+/// [`fit`] with the command line's other options ([`FitExtra`]): with an output folder, it is
+/// claimed and locked before the fit starts and the fit's files are written there.
+#[allow(clippy::too_many_arguments)]
+pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
+    source: crate::scenario::parse::ScenarioSource,
+    data_text: &str,
+    data_name: &str,
+    free: &[S],
+    observable: Option<&str>,
+    set: &[T],
+    ensemble: Option<(usize, u64)>,
+    jobs: usize,
+    extra: &FitExtra,
+    stop: Option<&AtomicBool>,
+) -> Result<FitResult, Error> {
     use crate::fit::{self as f, FitData, FitOptions, ForwardModel, FreeKey};
     let free = FreeKey::parse_all(free).map_err(Error::Invalid)?;
     let all = set
@@ -1122,42 +1196,101 @@ pub fn fit<S: AsRef<str>, T: AsRef<str>>(
     let data = FitData::parse(data_text, data_name, observable)
         .map_err(|e| Error::Invalid(e.to_string()))?;
     let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
-    let scn = source.scenario(&with_starts)?;
+    // The scenario with the overrides must parse (its errors are the user's).
+    source.scenario(&with_starts)?;
     let x0 = free
         .iter()
         .map(|k| f::initial_value(&source, &starts, k).map_err(Error::Invalid))
         .collect::<Result<Vec<_>, _>>()?;
-    f::driver::check_start(&free, &x0).map_err(|e| Error::Invalid(e.to_string()))?;
+    f::check_start(&free, &x0).map_err(|e| Error::Invalid(e.to_string()))?;
     if ensemble.is_some_and(|e| e.0 == 0) {
         return Err(Error::Invalid(
             "ensemble = 0: must be a whole number >= 1 (members per row)".into(),
         ));
     }
+    if extra.starts == 0 {
+        return Err(Error::Invalid(
+            "starts = 0: must be a whole number >= 1 (starting points)".into(),
+        ));
+    }
     let model = ForwardModel::new(
-        source,
+        source.clone(),
         data,
         free.iter().map(|k| k.key).collect(),
-        fixed,
+        fixed.clone(),
         ensemble,
         jobs,
     )
     .map_err(Error::Invalid)?;
+    // The folder is claimed and locked before the fit starts, as the command line does.
+    let _lock = match &extra.out {
+        Some((dir, force)) => {
+            let output = |error| Error::Output {
+                input: Some("out"),
+                context: None,
+                error,
+            };
+            crate::output::folder::claim(dir, &f::files::FILES, *force).map_err(output)?;
+            if *force {
+                crate::output::folder::force_overwrite(dir);
+            }
+            crate::output::folder::DirLock::acquire(dir).map_err(output)?
+        }
+        None => None,
+    };
     let opts = FitOptions {
+        max_iterations: extra.max_iterations,
+        starts: extra.starts,
+        profile: extra.profile,
         stop,
-        ..FitOptions::default()
     };
     // A stop before the first evaluation ended is a cancellation, as a stop after it.
-    let outcome = f::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut |_| {}).map_err(|e| {
+    let outcome = f::fit(&model, &free, &x0, opts, &mut |_| {}).map_err(|e| {
         if e.stopped {
             Error::Cancelled
         } else {
             Error::Invalid(e.to_string())
         }
     })?;
+    if let Some((dir, _)) = &extra.out {
+        f::files::write(
+            dir,
+            &source,
+            &fixed,
+            &free,
+            &model,
+            &outcome,
+            stop,
+            &mut || {},
+        )
+        .map_err(|m| {
+            Error::Invalid(format!(
+                "{}={}: {m}",
+                crate::error::input("out"),
+                dir.display()
+            ))
+        })?;
+    }
     if outcome.report.interrupted {
         return Err(Error::Cancelled);
     }
-    serde_json::to_value(&outcome.report).map_err(|e| Error::Invalid(e.to_string()))
+    let report =
+        serde_json::to_value(&outcome.report).map_err(|e| Error::Invalid(e.to_string()))?;
+    Ok(FitResult {
+        report,
+        residuals: f::residual_columns(&model, &outcome)
+            .into_iter()
+            .map(|(name, c)| {
+                (
+                    name,
+                    match c {
+                        f::ResidualColumn::Num(v) => Column::Num(v),
+                        f::ResidualColumn::Text(v) => Column::Text(v),
+                    },
+                )
+            })
+            .collect(),
+    })
 }
 
 #[cfg(test)]

@@ -44,6 +44,7 @@ Examples
 """
 
 from ._djkr import (
+    Fit,
     OutputFolderError,
     Run,
     ScenarioError,
@@ -61,6 +62,7 @@ from ._djkr import (
 )
 
 __all__ = [
+    "Fit",
     "OutputFolderError",
     "Run",
     "ScenarioError",

@@ -430,6 +430,51 @@ def resonance(
     >>> djkr.resonance_peak(up.frequency, up.delta_amp_over_xb)   # as djkr resonance finds it
     """
 
+class Fit:
+    """The result of ``djkr.fit``: the content of ``fit.json`` and the residuals' table.
+
+    ``r["chi2"]``, ``r["parameters"]``, ... read ``fit.json`` as a dict does (``r.report`` is
+    that dict). ``r.parameters`` maps each key to its estimate and ``r.sigma`` to its standard
+    deviation (``None`` where the fit gives none: not converged, a bound hit, a key the data do
+    not fix, a model that is not linear over one sigma), both in the key's SI unit;
+    ``r.keys`` is their order, ``r.covariance`` the covariance matrix in that order (a numpy
+    array in the keys' units, NaN where a key has no sigma), ``r.intervals`` each key's 68 %
+    interval ``(lo, hi)`` (the profile likelihood's where ``fit.json`` says so).
+    ``r.residuals`` holds the columns of ``residuals.csv`` (numpy arrays; text conditions as
+    lists): ``pandas.DataFrame(r.residuals)`` is its table, as is ``r.to_pandas()``.
+
+    Examples
+    --------
+    >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
+    ...              free=["adhesion.v0", "adhesion.n"])
+    >>> r.parameters["adhesion.n"], r.sigma["adhesion.n"], r.covariance
+    >>> r.to_pandas()[["fitted [1]", "normalized_residual [1]"]]
+    """
+
+    report: Dict[str, Any]
+    """The content of ``fit.json`` (a dict)."""
+    keys: List[str]
+    """The keys, in the order of ``covariance``."""
+    parameters: Dict[str, float]
+    """Each key's estimate (its SI unit)."""
+    sigma: Dict[str, Optional[float]]
+    """Each key's standard deviation (its SI unit), ``None`` where the fit gives none."""
+    intervals: Dict[str, Optional[Tuple[float, float]]]
+    """Each key's 68 % interval ``(lo, hi)``, ``None`` without one."""
+    covariance: npt.NDArray[np.float64]
+    """The covariance in the keys' units (numpy array, NaN where a key has no sigma)."""
+    residuals: Dict[str, Any]
+    """The columns of ``residuals.csv`` (dict of numpy arrays)."""
+    def __getitem__(self, key: str) -> Any:
+        """Return self[key]."""
+        ...
+    def __contains__(self, key: str) -> bool:
+        """Return key in self."""
+        ...
+    def to_pandas(self) -> Any:
+        """The residuals' table as a ``pandas.DataFrame`` (needs pandas)."""
+        ...
+
 def fit(
     data: Any,
     scenario: Scenario,
@@ -439,7 +484,12 @@ def fit(
     ensemble: Optional[int] = None,
     seed: int = 0,
     jobs: Optional[int] = None,
-) -> Dict[str, Any]:
+    max_iterations: int = 30,
+    starts: int = 1,
+    profile: bool = False,
+    out: Optional[Union[str, "os.PathLike[str]"]] = None,
+    force: bool = False,
+) -> "Fit":
     """Estimate scenario keys from measured data, as ``djkr fit``: weighted least squares by
     Levenberg-Marquardt, each data row predicted by a run of the scenario with that row's
     conditions set (all cores).
@@ -471,16 +521,33 @@ def fit(
         Seed of the ensemble's phases (default 0).
     jobs : int, optional
         Runs at a time (default: one per core).
+    max_iterations : int, optional
+        Most iterations (Jacobians) of each run of the optimiser (default 30).
+    starts : int, optional
+        Starting points (default 1): the given one and ``starts - 1`` drawn by Latin hypercube
+        (between a key's bounds, or a factor 10 either side of the start in log space, +-50 %
+        for a linear key); ``r["starts"]`` lists them and the minimum each reached.
+    profile : bool, optional
+        Give every key its profile-likelihood interval (default: only where the model is not
+        linear over one sigma).
+    out : str or os.PathLike, optional
+        A folder for the fit's files, as ``djkr fit --out``: ``fit.json``, ``residuals.csv``,
+        ``fitted.toml``, ``fit.png``, ``fit.svg``.
+    force : bool, optional
+        Overwrite files of those names in ``out`` that djkr did not write (``--force``).
 
     Returns
     -------
-    dict
-        The content of ``fit.json``: ``parameters`` (list of dicts with ``key``, ``value``,
-        ``sigma`` (both in the key's own unit), ``unit``, ``initial``), ``correlation`` (matrix in
-        the order of ``parameters``), ``chi2``, ``dof``, ``reduced_chi2``, ``aic`` (chi2 + 2k),
-        ``bic`` (chi2 + k ln n), ``converged``, ``iterations``, ``forward_runs``, ``observable``
-        and ``notes`` (bounds hit, parameters the data do not determine, a fit that did not
-        converge).
+    Fit
+        ``r["parameters"]``, ``r["chi2"]``, ... are the content of ``fit.json`` (``r.report``):
+        ``parameters`` (list of dicts with ``key``, ``value``, ``sigma``, ``interval``,
+        ``interval_from``, in the key's own unit, ``unit``, ``initial``), ``covariance`` and
+        ``correlation`` (matrices in the order of ``parameters``), ``chi2``, ``dof``,
+        ``reduced_chi2``, ``aic`` (chi2 + 2k), ``bic`` (chi2 + k ln n), ``converged``,
+        ``termination``, ``iterations``, ``forward_runs``, ``rhs_evals``, ``starts``,
+        ``tolerances``, ``observable`` and ``notes``. ``r.parameters``, ``r.sigma``,
+        ``r.intervals`` (dicts by key), ``r.covariance`` (numpy array) and ``r.residuals`` (the
+        columns of ``residuals.csv``; ``r.to_pandas()`` as a DataFrame) are the same as arrays.
 
     Raises
     ------
@@ -495,7 +562,8 @@ def fit(
     >>> import djkr
     >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
     ...              free=["adhesion.v0", "adhesion.n"])
-    >>> [(p["key"], p["value"], p["sigma"]) for p in r["parameters"]]
+    >>> r.parameters, r.sigma, r.covariance
+    >>> r.to_pandas()                      # the residuals' table
     >>> r["aic"], r["notes"]
     """
     ...

@@ -33,7 +33,7 @@ use std::sync::mpsc::{self, RecvTimeoutError};
 use std::sync::{Mutex, OnceLock};
 use std::time::Duration;
 
-use numpy::PyArray1;
+use numpy::{PyArray1, PyArrayMethods};
 use pyo3::create_exception;
 use pyo3::exceptions::{
     PyKeyboardInterrupt, PyRuntimeError, PyRuntimeWarning, PyTypeError, PyValueError,
@@ -2106,16 +2106,33 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
 ///     Seed of the ensemble's phases (default 0).
 /// jobs : int, optional
 ///     Runs at a time (default: one per core).
+/// max_iterations : int, optional
+///     Most iterations (Jacobians) of each run of the optimiser (default 30).
+/// starts : int, optional
+///     Starting points (default 1): the given one and ``starts - 1`` drawn by Latin hypercube
+///     (between a key's bounds, or a factor 10 either side of the start in log space, +-50 %
+///     for a linear key); ``r["starts"]`` lists them and the minimum each reached.
+/// profile : bool, optional
+///     Give every key its profile-likelihood interval (default: only where the model is not
+///     linear over one sigma).
+/// out : str or os.PathLike, optional
+///     A folder for the fit's files, as ``djkr fit --out``: ``fit.json``, ``residuals.csv``,
+///     ``fitted.toml``, ``fit.png``, ``fit.svg``.
+/// force : bool, optional
+///     Overwrite files of those names in ``out`` that djkr did not write (``--force``).
 ///
 /// Returns
 /// -------
-/// dict
-///     The content of ``fit.json``: ``parameters`` (list of dicts with ``key``, ``value``,
-///     ``sigma`` (both in the key's own unit), ``unit``, ``initial``), ``correlation`` (matrix in
-///     the order of ``parameters``), ``chi2``, ``dof``, ``reduced_chi2``, ``aic`` (chi2 + 2k),
-///     ``bic`` (chi2 + k ln n), ``converged``, ``iterations``, ``forward_runs``, ``observable``
-///     and ``notes`` (bounds hit, parameters the data do not determine, a fit that did not
-///     converge).
+/// Fit
+///     ``r["parameters"]``, ``r["chi2"]``, ... are the content of ``fit.json`` (``r.report``):
+///     ``parameters`` (list of dicts with ``key``, ``value``, ``sigma``, ``interval``,
+///     ``interval_from``, in the key's own unit, ``unit``, ``initial``), ``covariance`` and
+///     ``correlation`` (matrices in the order of ``parameters``), ``chi2``, ``dof``,
+///     ``reduced_chi2``, ``aic`` (chi2 + 2k), ``bic`` (chi2 + k ln n), ``converged``,
+///     ``termination``, ``iterations``, ``forward_runs``, ``rhs_evals``, ``starts``,
+///     ``tolerances``, ``observable`` and ``notes``. ``r.parameters``, ``r.sigma``,
+///     ``r.intervals`` (dicts by key), ``r.covariance`` (numpy array) and ``r.residuals`` (the
+///     columns of ``residuals.csv``; ``r.to_pandas()`` as a DataFrame) are the same as arrays.
 ///
 /// Raises
 /// ------
@@ -2130,10 +2147,14 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
 /// >>> import djkr
 /// >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
 /// ...              free=["adhesion.v0", "adhesion.n"])
-/// >>> [(p["key"], p["value"], p["sigma"]) for p in r["parameters"]]
+/// >>> r.parameters, r.sigma, r.covariance
+/// >>> r.to_pandas()                      # the residuals' table
 /// >>> r["aic"], r["notes"]
 #[pyfunction]
-#[pyo3(signature = (data, scenario, free, observable = None, set = None, ensemble = None, seed = None, jobs = None))]
+#[pyo3(
+    signature = (data, scenario, free, observable = None, set = None, ensemble = None, seed = None, jobs = None, max_iterations = None, starts = None, profile = None, out = None, force = None),
+    text_signature = "(data, scenario, free, observable=None, set=None, ensemble=None, seed=None, jobs=None, max_iterations=30, starts=1, profile=False, out=None, force=False)"
+)]
 #[allow(clippy::too_many_arguments)]
 fn fit(
     py: Python<'_>,
@@ -2145,7 +2166,12 @@ fn fit(
     ensemble: Option<&Bound<'_, PyAny>>,
     seed: Option<&Bound<'_, PyAny>>,
     jobs: Option<&Bound<'_, PyAny>>,
-) -> PyResult<Py<PyAny>> {
+    max_iterations: Option<&Bound<'_, PyAny>>,
+    starts: Option<&Bound<'_, PyAny>>,
+    profile: Option<&Bound<'_, PyAny>>,
+    out: Option<&Bound<'_, PyAny>>,
+    force: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Fit> {
     type Args = (
         Scenario,
         (String, String),
@@ -2214,9 +2240,26 @@ fn fit(
             "jobs = 0: must be a whole number >= 1 (runs at a time)",
         ));
     }
-    let v = interruptible(py, move |stop| {
+    let extra = guarded(|| {
+        let whole = |v, name, lo| whole_arg(v, name, lo, 1_000_000).map(|w| w.map(|w| w as usize));
+        let out = path_arg(out, "out")?;
+        let force = bool_arg(force, "force")?;
+        if force && out.is_none() {
+            return Err(input_err(
+                "force=True has no effect without out= (it lets a fit overwrite files in its \
+                 folder): leave it out",
+            ));
+        }
+        Ok(api::FitExtra {
+            max_iterations: whole(max_iterations, "max_iterations", 0)?.unwrap_or(30),
+            starts: whole(starts, "starts", 1)?.unwrap_or(1),
+            profile: bool_arg(profile, "profile")?,
+            out: out.map(|o| (o, force)),
+        })
+    })?;
+    let r = interruptible(py, move |stop| {
         let source = scn.source()?;
-        api::fit(
+        api::fit_report(
             source,
             &text,
             &name,
@@ -2225,10 +2268,135 @@ fn fit(
             &set,
             ensemble.map(|m| (m, seed)),
             jobs.unwrap_or(0),
+            &extra,
             Some(stop.flag()),
         )
     })?;
-    guarded(|| json_to_py(py, &v))
+    guarded(|| Fit::new(py, r))
+}
+
+/// The result of ``djkr.fit``: the content of ``fit.json`` and the residuals' table.
+///
+/// ``r["chi2"]``, ``r["parameters"]``, ... read ``fit.json`` as a dict does (``r.report`` is
+/// that dict). ``r.parameters`` maps each key to its estimate and ``r.sigma`` to its standard
+/// deviation (``None`` where the fit gives none: not converged, a bound hit, a key the data do
+/// not fix, a model that is not linear over one sigma), both in the key's SI unit;
+/// ``r.keys`` is their order, ``r.covariance`` the covariance matrix in that order (a numpy
+/// array in the keys' units, NaN where a key has no sigma), ``r.intervals`` each key's 68 %
+/// interval ``(lo, hi)`` (the profile likelihood's where ``fit.json`` says so).
+/// ``r.residuals`` holds the columns of ``residuals.csv`` (numpy arrays; text conditions as
+/// lists): ``pandas.DataFrame(r.residuals)`` is its table, as is ``r.to_pandas()``.
+///
+/// Examples
+/// --------
+/// >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
+/// ...              free=["adhesion.v0", "adhesion.n"])
+/// >>> r.parameters["adhesion.n"], r.sigma["adhesion.n"], r.covariance
+/// >>> r.to_pandas()[["fitted [1]", "normalized_residual [1]"]]
+#[pyclass(module = "djkr", frozen)]
+struct Fit {
+    /// The content of ``fit.json`` (a dict).
+    #[pyo3(get)]
+    report: Py<PyAny>,
+    /// The keys, in the order of ``covariance``.
+    #[pyo3(get)]
+    keys: Py<PyAny>,
+    /// Each key's estimate (its SI unit).
+    #[pyo3(get)]
+    parameters: Py<PyAny>,
+    /// Each key's standard deviation (its SI unit), ``None`` where the fit gives none.
+    #[pyo3(get)]
+    sigma: Py<PyAny>,
+    /// Each key's 68 % interval ``(lo, hi)``, ``None`` without one.
+    #[pyo3(get)]
+    intervals: Py<PyAny>,
+    /// The covariance in the keys' units (numpy array, NaN where a key has no sigma).
+    #[pyo3(get)]
+    covariance: Py<PyAny>,
+    /// The columns of ``residuals.csv`` (dict of numpy arrays).
+    #[pyo3(get)]
+    residuals: Py<PyAny>,
+}
+
+impl Fit {
+    fn new(py: Python<'_>, r: api::FitResult) -> PyResult<Fit> {
+        let params = r.report["parameters"]
+            .as_array()
+            .cloned()
+            .unwrap_or_default();
+        let keys = PyList::empty(py);
+        let parameters = PyDict::new(py);
+        let sigma = PyDict::new(py);
+        let intervals = PyDict::new(py);
+        for p in &params {
+            let key = p["key"].as_str().unwrap_or_default();
+            keys.append(key)?;
+            parameters.set_item(key, p["value"].as_f64())?;
+            sigma.set_item(key, p["sigma"].as_f64())?;
+            let iv = p["interval"]
+                .as_array()
+                .and_then(|a| Some((a.first()?.as_f64()?, a.get(1)?.as_f64()?)));
+            intervals.set_item(key, iv)?;
+        }
+        let k = params.len();
+        let cov: Vec<f64> = (0..k)
+            .flat_map(|a| {
+                let row = r.report["covariance"][a].clone();
+                (0..k).map(move |b| row[b].as_f64().unwrap_or(f64::NAN))
+            })
+            .collect();
+        let covariance = PyArray1::from_vec(py, cov)
+            .reshape([k, k])?
+            .into_any()
+            .unbind();
+        let residuals = PyDict::new(py);
+        for (name, c) in r.residuals {
+            match c {
+                api::Column::Num(v) => residuals.set_item(name, PyArray1::from_vec(py, v))?,
+                api::Column::Text(v) => residuals.set_item(name, v)?,
+            }
+        }
+        Ok(Fit {
+            report: json_to_py(py, &r.report)?,
+            keys: keys.into_any().unbind(),
+            parameters: parameters.into_any().unbind(),
+            sigma: sigma.into_any().unbind(),
+            intervals: intervals.into_any().unbind(),
+            covariance,
+            residuals: residuals.into_any().unbind(),
+        })
+    }
+}
+
+#[pymethods]
+impl Fit {
+    /// ``fit.json``'s entry ``key`` (``r["chi2"]``, ``r["parameters"]``, ``r["notes"]``).
+    fn __getitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+        Ok(self.report.bind(py).get_item(key)?.unbind())
+    }
+
+    /// ``fit.json``'s keys.
+    fn __contains__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<bool> {
+        self.report.bind(py).contains(key)
+    }
+
+    /// The residuals' table as a ``pandas.DataFrame`` (needs pandas).
+    fn to_pandas(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let pd = py.import("pandas")?;
+        Ok(pd
+            .call_method1("DataFrame", (self.residuals.bind(py),))?
+            .unbind())
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let r = self.report.bind(py);
+        Ok(format!(
+            "<djkr.Fit chi2={} converged={} parameters={}>",
+            r.get_item("chi2")?.repr()?,
+            r.get_item("converged")?.repr()?,
+            self.parameters.bind(py).repr()?
+        ))
+    }
 }
 
 /// A grid value as a sweep SPEC: a string as given (`"10um:60um:6"`, `"10um,30um"`), a list
@@ -2270,6 +2438,7 @@ fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OutputFolderError", m.py().get_type::<OutputFolderError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Run>()?;
+    m.add_class::<Fit>()?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(cycle, m)?)?;
     m.add_function(wrap_pyfunction!(pulloff, m)?)?;

@@ -13,7 +13,7 @@ use std::time::Duration;
 
 /// Flags of `djkr fit`.
 #[derive(Args, Debug)]
-#[command(after_help = FIT_HELP)]
+#[command(after_help = fit_help())]
 pub struct FitArgs {
     /// Data CSV: one column per condition named by its scenario key with its unit
     /// (`base.amplitude [um]`), one observable named as in sweep.csv
@@ -42,9 +42,18 @@ pub struct FitArgs {
     /// Runs at a time [default: one per core].
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
-    /// Most iterations (Jacobians) of Levenberg–Marquardt.
+    /// Most iterations (Jacobians) of each run of Levenberg–Marquardt (each start, each refit).
     #[arg(long, value_name = "N", default_value_t = 30)]
     max_iterations: usize,
+    /// Fit from N starting points: the given one and N - 1 drawn by Latin hypercube (between
+    /// a key's bounds, or a factor 10 either side of the start in log space, +-50 % for a linear
+    /// key); fit.json lists every start and the minimum it reached, and the best is the estimate.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    starts: usize,
+    /// Give every key its profile-likelihood interval (chi2 + 1, the other keys refitted);
+    /// without it only where the model is not linear over one sigma.
+    #[arg(long)]
+    profile: bool,
     /// Print fit.json on stdout.
     #[arg(long)]
     json: bool,
@@ -57,25 +66,45 @@ pub struct FitArgs {
     force: bool,
 }
 
+/// At most this many starts (each a whole fit).
+const MAX_STARTS: usize = 1000;
+
 const FIT_HELP: &str = "Example (the law comparison of docs/guide/fit.md):
   djkr fit data.csv --scenario scenarios/paper-protocol-300hz.toml \\
       --free adhesion.v0 --free adhesion.n --out out/fit-gs
+The optimiser is Levenberg-Marquardt with Nielsen's damping: a failed step raises the damping and
+tries again; it stops when the Gauss-Newton step would lower chi2 by less than 1e-3 (converged),
+when two steps lowered chi2 by less than 1e-6 of it, when no step changes the parameters by more
+than 1e-6, or after --max-iterations. A fit that did not converge gets no sigma. At the estimate
+the linear model is checked at +-1 sigma; where it fails (a jump of the model) the key's interval
+is its profile likelihood's (--profile: for every key). The forward runs' tolerances follow from
+the data's sigma (a model error of at most 1 % of it, checked at the estimate; --set
+solver.rtol=... or solver.envelope_tol=... wins).
 Exit status: 0 fitted (fit.json says whether it converged), 2 bad input, 130 Ctrl-C (the best
 estimate so far is written).";
 
-/// The files a fit writes.
-const FILES: [&str; 5] = [
-    "fit.json",
-    "residuals.csv",
-    "fitted.toml",
-    "fit.png",
-    "fit.svg",
-];
+/// The help after the flags: [`FIT_HELP`] and the keys that can be freed.
+fn fit_help() -> String {
+    format!(
+        "{FIT_HELP}\n\nKeys that can be freed (the rig's and its protocol's physical constants; \
+         solver.*, output.*, stage durations and limits are refused): {}",
+        fit::fittable_keys().join(", ")
+    )
+}
 
 /// Run `djkr fit`.
 pub fn fit(a: &FitArgs) -> Result<()> {
     if a.jobs == Some(0) {
         bail!("--jobs 0: must be a whole number >= 1 (runs at a time)");
+    }
+    if a.starts == 0 {
+        bail!("--starts 0: must be a whole number >= 1 (starting points)");
+    }
+    if a.starts > MAX_STARTS {
+        bail!(
+            "--starts {}: at most {MAX_STARTS} starting points",
+            a.starts
+        );
     }
     let ensemble = match (a.ensemble, a.seed) {
         (Some(0), _) => bail!("--ensemble 0: must be a whole number >= 1 (members per row)"),
@@ -96,7 +125,8 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     let data = FitData::read(&a.data, a.observable.as_deref())?;
     let source = ScenarioSource::read(&a.scenario)?;
     let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
-    let scn = source.scenario(&with_starts)?;
+    // The scenario with the overrides must parse (its errors are the user's).
+    source.scenario(&with_starts)?;
     let x0 = free
         .iter()
         .map(|f| fit::initial_value(&source, &starts, f).map_err(anyhow::Error::msg))
@@ -118,13 +148,13 @@ pub fn fit(a: &FitArgs) -> Result<()> {
         "stopping: forward runs in progress are abandoned and the best estimate so far is \
          written (none before the first evaluation has ended); Ctrl-C again to quit at once",
     );
-    super::common::claim_out(&out, &FILES, a.force).context("--out")?;
+    super::common::claim_out(&out, &fit::files::FILES, a.force).context("--out")?;
     let _lock = djkr::output::folder::DirLock::acquire(&out)?;
-    let per_iteration = model.runs_per_set() * fit::sets_per_iteration(model.members(), free.len());
-    let bar = ProgressBar::new((model.runs_per_set() + 6 * per_iteration) as u64);
+    let expected0 = fit::expected_runs(&model, free.len(), a.starts);
+    let bar = ProgressBar::new(expected0 as u64);
     bar.set_style(
         ProgressStyle::with_template(
-            "{spinner} [{elapsed}] {bar:30} {pos}/{len} runs (length grows if the fit needs \
+            "{spinner} [{elapsed}] {prefix} {bar:30} {pos}/{len} runs (expected; grows if the fit needs \
              more), ETA {eta} {msg}",
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -132,25 +162,63 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     bar.enable_steady_tick(Duration::from_millis(200));
     let opts = FitOptions {
         max_iterations: a.max_iterations,
+        starts: a.starts,
+        profile: a.profile,
         stop: Some(signals::flag()),
     };
+    let t0 = std::time::Instant::now();
+    let mut expected = expected0;
+    let mut runs = 0usize;
+    let mut started = false;
     let mut progress = |e: FitEvent| match e {
         FitEvent::Run => {
-            if bar.position() + 1 >= bar.length().unwrap_or(0) {
-                bar.inc_length(per_iteration as u64);
+            runs += 1;
+            if runs >= expected {
+                expected = runs + runs / 4 + 1;
+                bar.set_length(expected as u64);
             }
             bar.inc(1);
         }
-        FitEvent::Best { iteration, chi2 } => {
-            let line = format!("iteration {iteration}, best chi2 {chi2:.6e}");
-            // Without a terminal (a log, a pipe) the bar is hidden: each new best is a line.
+        FitEvent::Stage {
+            what,
+            runs_expected,
+        } => {
+            if runs + runs_expected > expected {
+                expected = runs + runs_expected;
+                bar.set_length(expected as u64);
+            }
+            // Without a terminal (a log, a pipe) the bar is hidden: each stage is a line, from
+            // the first iteration's on (input refused at the starting values stays one line).
+            if bar.is_hidden() && started {
+                eprintln!("fit: {what}");
+            }
+            bar.set_prefix(what);
+        }
+        FitEvent::Iteration {
+            iteration,
+            chi2,
+            best,
+            runs: done,
+        } => {
+            started = true;
+            let line = format!("iteration {iteration}, best chi2 {best:.6e}, chi2 {chi2:.6e}");
+            // Without a terminal: one line per iteration, with the runs and the times.
             if bar.is_hidden() {
-                eprintln!("fit: {line} after {} forward runs", bar.position());
+                let el = t0.elapsed().as_secs_f64();
+                let eta = if done > 0 {
+                    el / done as f64 * expected.saturating_sub(done) as f64
+                } else {
+                    f64::NAN
+                };
+                eprintln!(
+                    "fit: {line}, {done} of about {expected} forward runs, {el:.1} s elapsed, \
+                     ETA {eta:.0} s"
+                );
             }
             bar.set_message(line);
         }
     };
-    let outcome = fit::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut progress);
+    let outcome = fit::fit(&model, &free, &x0, opts, &mut progress);
     bar.finish_and_clear();
     let outcome = match outcome {
         Err(e) if e.stopped => {
@@ -159,48 +227,39 @@ pub fn fit(a: &FitArgs) -> Result<()> {
         }
         o => o?,
     };
-    let header = format!(
-        "Written by djkr fit: {} with the estimates of {}\nfrom {} (fit.json beside this file). \
-         Each value written in says so in a comment.\n{}",
-        source.name(),
-        outcome
-            .report
-            .parameters
-            .iter()
-            .map(|p| format!(
-                "{} = {} {}",
-                p.key,
-                djkr::output::table::format_f64(p.value),
-                p.unit
-            ))
-            .collect::<Vec<_>>()
-            .join(", "),
-        model.data().name,
-        if fixed.is_empty() {
-            String::new()
-        } else {
-            format!(
-                "With {}.",
-                fixed
-                    .iter()
-                    .map(|o| format!("--set {o}"))
-                    .collect::<Vec<_>>()
-                    .join(" ")
-            )
-        }
+    // The figure's model on a grid of the plotted condition: more runs, with their own bar.
+    let with_sigma = outcome
+        .report
+        .parameters
+        .iter()
+        .filter(|p| p.sigma.is_some())
+        .count();
+    let grid_runs = fit::figure::curve_runs(&model, with_sigma);
+    let bar = ProgressBar::new(grid_runs as u64);
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed}] fit.png: the model on a grid {bar:30} {pos}/{len} runs, ETA {eta}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let toml = fit::fitted_toml(&source, &fixed, &free, &outcome.values, &header)
-        .map_err(anyhow::Error::msg)?;
-    let json = serde_json::to_string_pretty(&outcome.report)?;
-    write(&out, "fit.json", format!("{json}\n").as_bytes())?;
-    write(
+    if bar.is_hidden() && grid_runs > 0 && !outcome.report.interrupted {
+        eprintln!(
+            "fit: fit.png: the model on a grid of the plotted condition ({grid_runs} forward runs)"
+        );
+    }
+    let json = fit::files::write(
         &out,
-        "residuals.csv",
-        fit::residuals_csv(&model, &outcome).as_bytes(),
-    )?;
-    write(&out, "fitted.toml", toml.as_bytes())?;
-    let fig = fit::fit_figure(&model, &outcome);
-    djkr::plot::render(&fig, &out.join("fit")).context("fit.png/fit.svg")?;
+        &source,
+        &fixed,
+        &free,
+        &model,
+        &outcome,
+        Some(signals::flag()),
+        &mut || bar.inc(1),
+    )
+    .map_err(anyhow::Error::msg)
+    .context("--out")?;
+    bar.finish_and_clear();
     for n in &outcome.report.notes {
         eprintln!("note: {n}");
     }
@@ -209,7 +268,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     } else {
         report(&outcome.report, &out)?;
     }
-    if outcome.report.interrupted {
+    if outcome.report.interrupted || signals::flag().load(std::sync::atomic::Ordering::SeqCst) {
         eprintln!(
             "stopped: the files in {} hold the best estimate so far",
             out.display()
@@ -217,11 +276,6 @@ pub fn fit(a: &FitArgs) -> Result<()> {
         return Err(Interrupted(signals::received()).into());
     }
     Ok(())
-}
-
-/// Write one of the fit's files atomically.
-fn write(out: &Path, name: &str, bytes: &[u8]) -> Result<()> {
-    djkr::output::write_atomic(&out.join(name), bytes).with_context(|| format!("--out {name}"))
 }
 
 /// `--out` left out: out/<data name>-fit.
@@ -276,8 +330,16 @@ fn report(r: &djkr::fit::FitReport, out: &Path) -> Result<()> {
         } else {
             " (no sigma: see the notes)"
         };
+        let interval = match (p.interval, p.interval_from) {
+            (Some([lo, hi]), Some("profile")) => format!(
+                ", 68 % interval [{}, {}]{unit} (profile likelihood)",
+                djkr::output::table::format_sig(lo, 4),
+                djkr::output::table::format_sig(hi, 4)
+            ),
+            _ => String::new(),
+        };
         outln!(
-            "  {} = {}{unit}{no_sigma}  (from {})",
+            "  {} = {}{unit}{no_sigma}{interval}  (from {})",
             p.key,
             djkr::output::table::format_pm(p.value, p.sigma),
             djkr::output::table::format_f64(p.initial)

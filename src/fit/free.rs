@@ -48,6 +48,15 @@ impl FreeKey {
             None => (arg.trim(), None),
         };
         let key = SetKey::parse(k).map_err(|e| err(e.message))?;
+        if !physical(&key) {
+            return Err(err(format!(
+                "{key} is a numerical setting of the run, not a constant of the rig: only \
+                 physical keys can be fitted (a numerical setting is given as an override; a fit \
+                 chooses solver.rtol and solver.envelope_tol from the data's sigma). Keys that can be \
+                 freed: {}",
+                fittable_keys().join(", ")
+            )));
+        }
         let (dim, unit) = match key_kind(&key) {
             Some(KeyKind::Number { dim, unit }) => (dim.unwrap_or(Dimension::Dimensionless), unit),
             _ => {
@@ -137,6 +146,48 @@ impl FreeKey {
             && x0 > 0.0
             && self.lo.is_none_or(|l| l > 0.0)
     }
+}
+
+/// The sections whose numeric keys describe the rig and its protocol, and so can be fitted:
+/// the material, the adhesion law, the sphere, its holder, the damping, the base motion, the
+/// contact's formation and the initial state; of a stage, its speed and its preload (what the
+/// rig does, not when djkr stops it). Refused: `version`, `solver.*` (tolerances, budgets),
+/// `output.*`, and a stage's `duration` and `max_duration` (a stage's end and a safety limit:
+/// freeing `stage[0].max_duration` made every parameter lose its sigma, issue 36).
+const PHYSICAL_SECTIONS: [&str; 8] = [
+    "material", "adhesion", "sphere", "spring", "damping", "base", "contact", "initial",
+];
+
+/// A stage's keys that can be fitted.
+const PHYSICAL_STAGE_KEYS: [&str; 2] = ["speed", "preload"];
+
+/// Whether `key` is a physical key (see [`PHYSICAL_SECTIONS`]).
+pub fn physical(key: &SetKey) -> bool {
+    match key.section() {
+        Some(crate::scenario::keys::STAGE_SECTION) => PHYSICAL_STAGE_KEYS.contains(&key.name()),
+        Some(s) => PHYSICAL_SECTIONS.contains(&s),
+        None => false,
+    }
+}
+
+/// Every key a fit can free, as `--free` takes it (`stage[N].speed` for the stages' keys), in
+/// the order of the scenario format: the numeric keys of [`physical`].
+pub fn fittable_keys() -> Vec<String> {
+    use crate::scenario::keys::{Kind, KEYS, STAGE_SECTION};
+    KEYS.iter()
+        .filter(|k| matches!(k.kind, Kind::Number(_)))
+        .filter_map(|k| {
+            if k.section == STAGE_SECTION {
+                PHYSICAL_STAGE_KEYS
+                    .contains(&k.name)
+                    .then(|| format!("stage[N].{}", k.name))
+            } else {
+                PHYSICAL_SECTIONS
+                    .contains(&k.section)
+                    .then(|| format!("{}.{}", k.section, k.name))
+            }
+        })
+        .collect()
 }
 
 /// How one key maps between `x`, `y` and `u` (see the module documentation).
@@ -284,6 +335,49 @@ mod tests {
         );
     }
 
+    /// Numerical settings are refused with the list of the keys that can be freed (issue 36,
+    /// item 4: `--free solver.rtol` was fitted to 1e-8 ± 7e-4); physical keys are accepted.
+    #[test]
+    fn only_physical_keys_can_be_freed() {
+        for bad in [
+            "solver.rtol",
+            "solver.envelope_tol",
+            "solver.max_wall_s",
+            "output.sample_rate",
+            "stage[0].max_duration",
+            "stage[1].duration",
+            "version",
+        ] {
+            let e = FreeKey::parse(bad).unwrap_err();
+            assert!(
+                e.contains("not a constant of the rig")
+                    && e.contains("Keys that can be freed: material.K, material.R")
+                    && e.contains("stage[N].speed"),
+                "{bad}: {e}"
+            );
+        }
+        let list = fittable_keys();
+        for good in [
+            "adhesion.v0",
+            "adhesion.n",
+            "damping.c",
+            "material.K",
+            "spring.stiffness",
+            "base.phase",
+            "initial.gap",
+            "stage[N].speed",
+            "stage[N].preload",
+        ] {
+            assert!(list.iter().any(|k| k == good), "{good} not in {list:?}");
+            let key = good.replace("[N]", "[0]");
+            let f = FreeKey::parse(&key);
+            assert!(f.is_ok(), "{key}: {f:?}");
+        }
+        assert!(!list
+            .iter()
+            .any(|k| k.starts_with("solver.") || k.contains("duration")));
+    }
+
     /// Bounds are held to the key's range (issue 35, item 12: -1e308:1e308 overflowed the
     /// fit's coordinate and was refused as `adhesion.n=nan`, a value nobody gave); a bound at
     /// an open edge of the range (0 for a key > 0, 2 pi for the phase) is a bound.
@@ -326,7 +420,9 @@ mod tests {
     /// a span of nearly the largest double stays finite in the transform.
     #[test]
     fn wide_bounds_stay_finite_or_are_refused() {
-        let f = FreeKey::parse("solver.max_wall_s=0:1.7e308").unwrap();
+        // (Only numerical settings such as solver.max_wall_s reach 1.7e308; physical keys have
+        // an upper bound, and a start of 1e-300 against 1e9 still overflows.)
+        let f = FreeKey::parse("damping.c=0:1e9").unwrap();
         let t = Transform::new(&f, 1.0);
         for u in [
             -3.0,

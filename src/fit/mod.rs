@@ -8,27 +8,43 @@
 //!   transformation.
 //! - `model` ([`ForwardModel`]): the forward model, every row a run of the sweep engine (with an ensemble, the
 //!   mean over members whose phases are fixed by the seed).
-//! - `driver` ([`fit()`]): Levenberg–Marquardt with finite-difference Jacobians, covariance, correlation,
-//!   χ², AIC and BIC ([`FitReport`] is `fit.json`).
+//! - `driver` ([`fit()`]): the fit's steps, over
+//!   - `problem`: the model's evaluation at points of the fit coordinates, finite-difference
+//!     Jacobians checked against the model's error;
+//!   - `lm`: the optimiser, Levenberg–Marquardt with Nielsen's damping;
+//!   - `starts`: multi-start (Latin hypercube) and the distinct minima;
+//!   - `tolerance`: the forward runs' tolerances from the data's sigma;
+//!   - `uncertainty`: covariance per direction, the linear model's check, profile likelihood;
+//!   - `report` ([`FitReport`] is `fit.json`).
 //!
 //! This module also gives the starting values ([`initial_value`]), the fitted scenario
 //! ([`fitted_toml`]) and the residual table ([`residuals_csv`]).
 
+pub(crate) mod analysis;
 pub(crate) mod data;
 pub(crate) mod driver;
-pub(crate) mod figure;
+pub mod figure;
+pub mod files;
 pub(crate) mod free;
+pub(crate) mod lm;
 pub(crate) mod model;
+pub(crate) mod optimiser;
+pub(crate) mod problem;
+pub(crate) mod report;
+pub(crate) mod starts;
 pub(crate) mod stencil;
+pub(crate) mod tolerance;
+pub(crate) mod uncertainty;
 
 pub use data::{FitData, Observable};
-pub use driver::{
-    check_start, fd_step, fit, sets_per_iteration, FitEvent, FitOptions, FitOutcome, FitReport,
-    Parameter,
-};
+pub use driver::{check_start, expected_runs, fit, sets_per_iteration};
 pub use figure::fit_figure;
-pub use free::FreeKey;
+pub use free::{fittable_keys, FreeKey};
 pub use model::ForwardModel;
+pub use problem::fd_step;
+pub use report::{
+    FitError, FitEvent, FitOptions, FitOutcome, FitReport, Parameter, StartReport, Tolerances,
+};
 
 use crate::output::table::format_f64;
 use crate::scenario::overrides::{Override, SetKey};
@@ -275,6 +291,81 @@ pub fn residuals_csv(model: &ForwardModel, outcome: &FitOutcome) -> String {
         out.push_str(&cells.join(","));
         out.push('\n');
     }
+    out
+}
+
+/// A column of the residuals' table.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ResidualColumn {
+    /// Numbers (SI; NaN for a sigma the file does not give).
+    Num(Vec<f64>),
+    /// A text condition's cells.
+    Text(Vec<String>),
+}
+
+/// The columns of `residuals.csv` (named as its header), for Python's DataFrame.
+pub fn residual_columns(
+    model: &ForwardModel,
+    outcome: &FitOutcome,
+) -> Vec<(String, ResidualColumn)> {
+    let data = model.data();
+    let u = data.observable.unit();
+    let mut out = Vec::new();
+    for (j, c) in data.conditions.iter().enumerate() {
+        let name = match c.unit {
+            Some(unit) => format!("{} [{unit}]", c.key),
+            None => c.key.to_string(),
+        };
+        let col = match c.unit {
+            Some(_) => ResidualColumn::Num(
+                data.rows
+                    .iter()
+                    .map(|r| match &r.conditions[j] {
+                        data::CondValue::Num(x) => *x,
+                        data::CondValue::Text(_) => f64::NAN,
+                    })
+                    .collect(),
+            ),
+            None => ResidualColumn::Text(
+                data.rows
+                    .iter()
+                    .map(|r| match &r.conditions[j] {
+                        data::CondValue::Num(x) => format_f64(*x),
+                        data::CondValue::Text(t) => t.clone(),
+                    })
+                    .collect(),
+            ),
+        };
+        out.push((name, col));
+    }
+    let obs: Vec<f64> = data.rows.iter().map(|r| r.observed).collect();
+    let fit = &outcome.prediction.values;
+    let num = |name: String, v: Vec<f64>| (name, ResidualColumn::Num(v));
+    out.push(num(format!("observed [{u}]"), obs.clone()));
+    out.push(num(
+        format!("sigma [{u}]"),
+        data.rows
+            .iter()
+            .map(|r| r.sigma.unwrap_or(f64::NAN))
+            .collect(),
+    ));
+    if model.members() > 1 {
+        out.push(num(
+            format!("ensemble_se [{u}]"),
+            outcome.prediction.se.clone(),
+        ));
+    }
+    out.push(num(format!("fitted [{u}]"), fit.clone()));
+    out.push(num(
+        format!("residual [{u}]"),
+        obs.iter().zip(fit).map(|(o, f)| o - f).collect(),
+    ));
+    out.push(num(
+        "normalized_residual [1]".into(),
+        (0..obs.len())
+            .map(|i| (obs[i] - fit[i]) / outcome.weights[i])
+            .collect(),
+    ));
     out
 }
 

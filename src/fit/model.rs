@@ -27,6 +27,8 @@ pub struct Prediction {
     pub values: Vec<f64>,
     /// The standard error of the members' mean per row (0 without an ensemble).
     pub se: Vec<f64>,
+    /// Right-hand-side evaluations of the runs that made it (all rows and members).
+    pub rhs_evals: u64,
 }
 
 /// Why an evaluation gave no prediction.
@@ -48,6 +50,9 @@ pub struct ForwardModel {
     data: FitData,
     free: Vec<SetKey>,
     fixed: Vec<Override>,
+    /// The fit's own solver settings (tolerances chosen from the data), set after `fixed` on
+    /// every run; none unless [`Self::with_solver`] gave some.
+    solver: Vec<Override>,
     ensemble: Option<(usize, u64)>,
     jobs: usize,
 }
@@ -101,6 +106,7 @@ impl ForwardModel {
             data,
             free,
             fixed,
+            solver: Vec::new(),
             ensemble,
             jobs,
         };
@@ -175,6 +181,7 @@ impl ForwardModel {
         self.data.conditions.len()
             + self.free.len()
             + self.fixed.len()
+            + self.solver.len()
             + usize::from(self.ensemble.is_some())
     }
 
@@ -203,13 +210,37 @@ impl ForwardModel {
                     .unwrap_or(0)
             })
             .sum();
-        let text_fixed: usize = self.fixed.iter().map(|o| 2 * o.to_string().len()).sum();
+        let text_fixed: usize = self
+            .fixed
+            .iter()
+            .chain(&self.solver)
+            .map(|o| 2 * o.to_string().len())
+            .sum();
         let per_run = std::mem::size_of::<f64>()
             + std::mem::size_of::<usize>()
             + self.batch_axes() * value
             + text_conditions
             + text_fixed;
         runs as f64 * per_run as f64
+    }
+
+    /// The same model with the solver settings `solver` (`solver.rtol`, `solver.envelope_tol`)
+    /// set on every run after the fixed overrides; a key the fixed overrides set is left to
+    /// them (`--set` wins).
+    pub fn with_solver(&self, solver: Vec<Override>) -> ForwardModel {
+        let solver = solver
+            .into_iter()
+            .filter(|o| !self.fixed.iter().any(|f| f.key() == o.key()))
+            .collect();
+        ForwardModel {
+            solver,
+            ..self.clone()
+        }
+    }
+
+    /// The fit's own solver settings ([`Self::with_solver`]).
+    pub fn solver(&self) -> &[Override] {
+        &self.solver
     }
 
     /// The data.
@@ -230,6 +261,16 @@ impl ForwardModel {
     /// The fixed overrides.
     pub fn fixed(&self) -> &[Override] {
         &self.fixed
+    }
+
+    /// The ensemble `(members, seed)`, if any.
+    pub fn ensemble(&self) -> Option<(usize, u64)> {
+        self.ensemble
+    }
+
+    /// Threads (0: one per core).
+    pub fn jobs(&self) -> usize {
+        self.jobs
     }
 
     /// Members per row (1 without an ensemble).
@@ -284,7 +325,7 @@ impl ForwardModel {
         for (j, k) in self.free.iter().enumerate() {
             axis(*k, &|s, _, _| num(sets[s][j]));
         }
-        for o in &self.fixed {
+        for o in self.fixed.iter().chain(&self.solver) {
             let text = o.to_string();
             let value = text.split_once('=').map_or("", |p| p.1).to_string();
             axis(o.key(), &|_, _, _| SpecValue {
@@ -322,6 +363,7 @@ impl ForwardModel {
             .map_err(|e| EvalError::Failed(self.describe_point_error(sets, &e.to_string(), &e)))?;
         let runs: Vec<usize> = (0..sweep.runs()).collect();
         let mut values = vec![f64::NAN; runs.len()];
+        let mut rhs = vec![0u64; runs.len()];
         let mut failure: Option<(usize, String)> = None;
         let opts = RunOptions {
             jobs: self.jobs,
@@ -333,6 +375,7 @@ impl ForwardModel {
             let p = row.point;
             match &row.result {
                 Ok(n) => {
+                    rhs[p] = n.rhs_evals;
                     let v = self.data.observable.of(n);
                     if v.is_finite() {
                         values[p] = v;
@@ -391,7 +434,13 @@ impl ForwardModel {
                         0.0
                     });
                 }
-                Prediction { values: mean, se }
+                let per_set = rows * members;
+                let rhs_evals = rhs[s * per_set..(s + 1) * per_set].iter().sum();
+                Prediction {
+                    values: mean,
+                    se,
+                    rhs_evals,
+                }
             })
             .collect())
     }

@@ -751,3 +751,458 @@ fn api_fit_stopped_before_the_first_evaluation_is_cancelled() {
         "{j}"
     );
 }
+
+// Issue 36: the seven cases of `djkr fit` off the happy path, each on a cheap rig that shows the
+// same behaviour (the paper protocol with short dwells, 0.05 s and 0.1 s, unloading at 30 um/s
+// to 3 mm/s: a run takes about 0.03 s) unless said otherwise. The paper protocol's 18 rows of
+// the issue are `issue36_cases_on_the_paper_protocol` (--ignored).
+
+/// The cheap rig's fixed overrides.
+const SHORT: [&str; 2] = ["stage[1].duration=0.05", "stage[2].duration=0.1"];
+/// The cheap rig's conditions: amplitude, unloading speed.
+const COND_CHEAP: &str = "base.amplitude [um],stage[3].speed [um/s]";
+
+fn cheap_cells() -> Vec<String> {
+    [
+        (5.0, 100.0),
+        (10.0, 100.0),
+        (20.0, 100.0),
+        (0.0, 30.0),
+        (0.0, 300.0),
+        (0.0, 3000.0),
+    ]
+    .iter()
+    .map(|(a, v)| format!("{a},{v}"))
+    .collect()
+}
+
+/// Data of the cheap rig made with v0 = 60 um/s and n = 0.5, with 2 % noise (seed 3).
+fn cheap_data(dir: &Path) -> std::path::PathBuf {
+    let mut sets: Vec<&str> = SHORT.to_vec();
+    sets.extend(["adhesion.v0=6e-5", "adhesion.n=0.5"]);
+    let values = truth(HEAVY, COND_CHEAP, &cheap_cells(), &sets);
+    let data = dir.join("cheap.csv");
+    write_data(&data, COND_CHEAP, &cheap_cells(), &values, 0.02, 3);
+    data
+}
+
+/// `djkr fit` on the cheap rig with `extra` flags: fit.json and stderr.
+fn fit_cheap(data: &Path, out: &Path, extra: &[&str]) -> (Value, String) {
+    let mut args: Vec<String> = vec![
+        "fit".into(),
+        data.to_str().unwrap().into(),
+        "--scenario".into(),
+        HEAVY.into(),
+        "--out".into(),
+        out.to_str().unwrap().into(),
+    ];
+    for s in SHORT {
+        args.extend(["--set".into(), s.into()]);
+    }
+    args.extend(extra.iter().map(|s| s.to_string()));
+    let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .args(&args)
+        .output()
+        .expect("djkr runs");
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(o.status.success(), "{args:?}: {err}");
+    (fit_json(out), err)
+}
+
+fn notes(j: &Value) -> Vec<String> {
+    j["notes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap().to_string())
+        .collect()
+}
+
+/// Cases 1 and 7. From adhesion.n = 0.3 (far from the data's 0.5) the fit keeps trying after
+/// rejected steps and ends where the fit from the scenario's values ends (chi2 within 0.05,
+/// estimates within 0.1 sigma), converged, with sigma. Its progress without a terminal is one
+/// line per iteration, each with the best chi2, the runs done and expected, the elapsed time
+/// and an ETA. A fit cut short by --max-iterations 1 says it did not converge and gives no
+/// sigma, no covariance, and no hint about ensembles. About 6 s.
+#[test]
+fn issue36_a_far_start_converges_and_an_unconverged_fit_has_no_sigma() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = cheap_data(dir.path());
+    let free = ["--free", "adhesion.v0", "--free", "adhesion.n"];
+    let (near, _) = fit_cheap(&data, &dir.path().join("near"), &free);
+    let mut far_args = free.to_vec();
+    far_args.extend(["--set", "adhesion.n=0.3"]);
+    let (far, err) = fit_cheap(&data, &dir.path().join("far"), &far_args);
+    eprintln!("near: {near}\nfar: {far}\n{err}");
+    for j in [&near, &far] {
+        assert_eq!(j["converged"], true, "{j}");
+        assert!(!j["termination"].as_str().unwrap().starts_with("iterations"));
+    }
+    let chi2 = |j: &Value| j["chi2"].as_f64().unwrap();
+    assert!((chi2(&near) - chi2(&far)).abs() < 0.05, "{near} {far}");
+    assert!(far["iterations"].as_u64().unwrap() > 1);
+    for key in ["adhesion.v0", "adhesion.n"] {
+        let (a, b) = (param(&near, key), param(&far, key));
+        let s = a["sigma"].as_f64().unwrap();
+        assert!(b["sigma"].as_f64().unwrap() > 0.0);
+        let d = (a["value"].as_f64().unwrap() - b["value"].as_f64().unwrap()).abs();
+        assert!(d < 0.1 * s, "{key}: {a} {b}");
+    }
+    // Progress: a line per iteration (0 is the start).
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("fit: iteration "))
+        .collect();
+    assert_eq!(
+        lines.len() as u64,
+        far["iterations"].as_u64().unwrap() + 1,
+        "{err}"
+    );
+    for l in &lines {
+        assert!(
+            l.contains("best chi2")
+                && l.contains(" of about ")
+                && l.contains("forward runs")
+                && l.contains("s elapsed")
+                && l.contains("ETA"),
+            "{l}"
+        );
+    }
+    // Cut short: not converged, no sigma, no covariance, no misleading hint.
+    let mut short = far_args.clone();
+    short.extend(["--max-iterations", "1"]);
+    let (cut, _) = fit_cheap(&data, &dir.path().join("cut"), &short);
+    assert_eq!(cut["converged"], false, "{cut}");
+    for p in cut["parameters"].as_array().unwrap() {
+        assert!(p["sigma"].is_null() && p["interval"].is_null(), "{cut}");
+    }
+    assert!(cut["covariance"].as_array().unwrap().iter().all(|r| r
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(Value::is_null)));
+    let n = notes(&cut);
+    assert!(
+        n.iter()
+            .any(|n| n.starts_with("not converged (iterations") && n.contains("no sigma is given")),
+        "{n:?}"
+    );
+    assert!(!n.iter().any(|n| n.contains("ensemble")), "{n:?}");
+}
+
+/// Case 3. A key without effect on the data (initial.gap: the approach's start, forgotten
+/// after the dwell) freed beside v0 and n: the note names the direction the data cannot fix
+/// (initial.gap alone), initial.gap has no sigma, and v0 and n keep theirs, within 5 % of the
+/// fit without the useless key. About 9 s.
+#[test]
+fn issue36_a_useless_key_removes_only_its_own_sigma() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = cheap_data(dir.path());
+    let two = ["--free", "adhesion.v0", "--free", "adhesion.n"];
+    let (a, _) = fit_cheap(&data, &dir.path().join("two"), &two);
+    let mut three = two.to_vec();
+    three.extend(["--free", "initial.gap"]);
+    let (b, _) = fit_cheap(&data, &dir.path().join("three"), &three);
+    eprintln!("{b}");
+    assert_eq!(b["converged"], true, "{b}");
+    for key in ["adhesion.v0", "adhesion.n"] {
+        let (sa, sb) = (
+            param(&a, key)["sigma"].as_f64().unwrap(),
+            param(&b, key)["sigma"].as_f64().unwrap(),
+        );
+        assert!((sb / sa - 1.0).abs() < 0.05, "{key}: {sa} {sb}");
+    }
+    assert!(param(&b, "initial.gap")["sigma"].is_null());
+    let n = notes(&b);
+    let unfixed: Vec<&String> = n
+        .iter()
+        .filter(|n| n.starts_with("not identifiable"))
+        .collect();
+    assert_eq!(unfixed.len(), 1, "{n:?}");
+    assert!(
+        unfixed[0].contains("combination initial.gap (")
+            && !unfixed[0].contains("adhesion.v0")
+            && !unfixed[0].contains("adhesion.n"),
+        "{unfixed:?}"
+    );
+}
+
+/// Case 4. Numerical settings are refused as fit parameters (exit status 2, one line, the keys
+/// that can be freed listed), and `djkr help fit` lists them.
+#[test]
+fn issue36_numerical_settings_are_not_fit_parameters() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("d.csv");
+    std::fs::write(
+        &data,
+        "base.amplitude [um],pull_off_amplification [1]\n10,1.7\n20,2.1\n30,3\n",
+    )
+    .unwrap();
+    for key in ["solver.rtol", "output.sample_rate", "stage[3].max_duration"] {
+        let o = djkr(&[
+            "fit",
+            data.to_str().unwrap(),
+            "--scenario",
+            HEAVY,
+            "--free",
+            key,
+            "--out",
+            dir.path().join("out").to_str().unwrap(),
+        ]);
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{key}: {e}");
+        assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+        assert!(
+            e.contains(&format!("--free {key}: {key} is a numerical setting"))
+                && e.contains("Keys that can be freed: material.K")
+                && e.contains("adhesion.v0")
+                && e.contains("damping.c"),
+            "{e}"
+        );
+    }
+    assert!(!dir.path().join("out").exists());
+    let o = djkr(&["help", "fit"]);
+    let h = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    assert!(
+        h.contains("Keys that can be freed")
+            && h.contains("adhesion.n")
+            && h.contains("stage[N].speed"),
+        "{h}"
+    );
+    let list = h.split("Keys that can be freed").nth(1).unwrap();
+    assert!(
+        !list.contains("solver.rtol") && !list.contains("max_duration"),
+        "{list}"
+    );
+}
+
+/// Case 5 on the cheap rig: `--starts 3` from n = 3 reports every start (its start, estimate,
+/// chi2, convergence and the minimum it reached), the drawn starts lie in the documented range
+/// (a factor 10 either side of v0's start, +-50 % of n's), and the estimate is the best start's.
+/// About 8 s.
+#[test]
+fn issue36_starts_are_reported_and_the_best_is_the_estimate() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = cheap_data(dir.path());
+    let (j, _) = fit_cheap(
+        &data,
+        &dir.path().join("starts"),
+        &[
+            "--free",
+            "adhesion.v0",
+            "--free",
+            "adhesion.n",
+            "--set",
+            "adhesion.n=3",
+            "--starts",
+            "3",
+        ],
+    );
+    let starts = j["starts"].as_array().unwrap();
+    assert_eq!(starts.len(), 3, "{j}");
+    let chi2s: Vec<f64> = starts.iter().map(|s| s["chi2"].as_f64().unwrap()).collect();
+    let best = chi2s.iter().copied().fold(f64::INFINITY, f64::min);
+    // The estimate is the best start's (its chi2 at the scenario's tolerances is within the
+    // model's error of the fit's).
+    assert!((j["chi2"].as_f64().unwrap() - best).abs() < 0.05, "{j}");
+    let start = |s: &Value, i: usize| s["start"][i].as_f64().unwrap();
+    assert_eq!(start(&starts[0], 1), 3.0);
+    for s in &starts[1..] {
+        assert!(
+            (4.45e-6..=4.45e-4).contains(&start(s, 0)) && (1.5..=4.5).contains(&start(s, 1)),
+            "{s}"
+        );
+        assert!(s["estimate"].as_array().unwrap().len() == 2);
+    }
+    for (s, c) in starts.iter().zip(&chi2s) {
+        // Every start converged to the one minimum of this rig (numbered 0).
+        assert_eq!(s["converged"], true, "{s}");
+        assert_eq!(s["minimum"], 0, "{s}: chi2 {c} against {best}");
+    }
+}
+
+/// Case 6. The report shows the fit: fit.json's covariance (in the keys' units) is symmetric
+/// with sigma squared on its diagonal and the correlation off it; each key's interval is the
+/// curvature's (log space for v0: value times exp(-+sigma/value)); fit.svg has a data and a model
+/// entry in its legend, the model's +-1 sigma, the estimates and chi2/dof, and a residual panel.
+/// About 3 s.
+#[test]
+fn issue36_the_report_shows_the_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = cheap_data(dir.path());
+    let out = dir.path().join("fit");
+    let (j, _) = fit_cheap(
+        &data,
+        &out,
+        &["--free", "adhesion.v0", "--free", "adhesion.n"],
+    );
+    let cov = &j["covariance"];
+    let keys = ["adhesion.v0", "adhesion.n"];
+    for (a, ka) in keys.iter().enumerate() {
+        let pa = param(&j, ka);
+        let sa = pa["sigma"].as_f64().unwrap();
+        let c = cov[a][a].as_f64().unwrap();
+        assert!((c.sqrt() / sa - 1.0).abs() < 1e-9, "{j}");
+        for (b, kb) in keys.iter().enumerate() {
+            let sb = param(&j, kb)["sigma"].as_f64().unwrap();
+            let cab = cov[a][b].as_f64().unwrap();
+            assert_eq!(cab.to_bits(), cov[b][a].as_f64().unwrap().to_bits());
+            let r = j["correlation"][a][b].as_f64().unwrap();
+            assert!((cab / (sa * sb) - r).abs() < 1e-9, "{j}");
+        }
+        assert_eq!(pa["interval_from"], "curvature");
+    }
+    let v0 = param(&j, "adhesion.v0");
+    let (x, s) = (v0["value"].as_f64().unwrap(), v0["sigma"].as_f64().unwrap());
+    let iv = v0["interval"].as_array().unwrap();
+    assert!((iv[0].as_f64().unwrap() / (x * (-s / x).exp()) - 1.0).abs() < 1e-12);
+    assert!((iv[1].as_f64().unwrap() / (x * (s / x).exp()) - 1.0).abs() < 1e-12);
+    let n = param(&j, "adhesion.n");
+    let (x, s) = (n["value"].as_f64().unwrap(), n["sigma"].as_f64().unwrap());
+    let iv = n["interval"].as_array().unwrap();
+    assert!((iv[0].as_f64().unwrap() - (x - s)).abs() < 1e-12);
+    let svg = std::fs::read_to_string(out.join("fit.svg")).unwrap();
+    for want in [
+        "data +- sigma, base.amplitude = 0 µm",
+        "data +- sigma, base.amplitude = 5 µm",
+        "model, base.amplitude = 0 µm",
+        "model +- 1 sigma (parameters)",
+        "adhesion.v0 = (",
+        "adhesion.n = 0.",
+        "chi2/dof = ",
+        "residuals (observed - fitted)/sigma",
+    ] {
+        assert!(svg.contains(want), "{want} not in fit.svg");
+    }
+    assert!(out.join("fit.png").is_file());
+}
+
+/// Case 2, on a rig whose model jumps under any change of its parameters: the light, chaotic
+/// rig (`tests/sweep/tiny.toml`) fitted without an ensemble, where one run's pull-off moves by
+/// percent for any change of adhesion.n. The curvature's sigma would be as confident as the
+/// issue's `c = 221.45 ± 0.061`: instead the check of the linear model at +-1 sigma says that
+/// the model is not linear there, the key gets no sigma and its interval is the profile
+/// likelihood's (holding the estimate), and the check of the tolerances at the estimate finds
+/// the loose tolerances' error far above what the data allow and goes on at the scenario's.
+/// (The paper protocol's damping case is in `issue36_cases_on_the_paper_protocol`.) About 2 s.
+#[test]
+fn issue36_a_model_that_jumps_gets_a_note_and_a_profile_interval() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = dir.path().join("tiny.csv");
+    std::fs::write(
+        &data,
+        "base.amplitude [um],pull_off_amplification [1],sigma [1]\n2,6.5,0.1\n5,8.0,0.1\n\
+         10,10.0,0.15\n20,12,0.2\n",
+    )
+    .unwrap();
+    let out = dir.path().join("fit");
+    let j = run_fit(
+        &data,
+        &out,
+        "tests/sweep/tiny.toml",
+        &["--free", "adhesion.n"],
+    );
+    eprintln!("{j}");
+    let n = notes(&j);
+    assert!(
+        n.iter()
+            .any(|n| n.starts_with("adhesion.n: the model is not linear over one sigma")),
+        "{n:?}"
+    );
+    assert!(
+        n.iter()
+            .any(|n| n.starts_with("at the estimate the model's error was")
+                && n.contains("the fit went on at rtol 1e-8, envelope_tol 1e-6")),
+        "{n:?}"
+    );
+    let p = param(&j, "adhesion.n");
+    assert!(p["sigma"].is_null(), "{p}");
+    assert_eq!(p["interval_from"], "profile");
+    let iv = p["interval"].as_array().unwrap();
+    let v = p["value"].as_f64().unwrap();
+    assert!(
+        iv[0].as_f64().unwrap() <= v && v <= iv[1].as_f64().unwrap(),
+        "{p}"
+    );
+    assert!(j["covariance"][0][0].is_null());
+}
+
+/// Opt-in: the cases of issue 36 on the paper protocol as the issue ran them: 18 rows at
+/// 200/300/400 Hz and 10, 20, 30, 40, 60, 80 um made with v0 = 60 um/s, n = 0.5 (damping.c =
+/// 10, the file's) plus 2 % noise, fitted for v0 and n:
+/// - from the file's values (the reference);
+/// - case 1, from n = 0.3: converged to the reference's chi2 (within 0.1), with sigma;
+/// - case 2, damping.c freed too: either its chi2 is the reference's (within 0.1: c stayed
+///   where the data cannot tell it from 10), or c has no sigma, a note, and an interval
+///   holding 10; never a sigma that excludes 10 by 3 of them;
+/// - case 3, initial.gap freed too (no effect on the data): v0 and n keep their sigma (within
+///   5 %), initial.gap has none;
+/// - case 5, from n = 0.8 with --starts 4: the estimate's chi2 is the reference's (within 0.1)
+///   and every start is listed.
+#[test]
+#[ignore = "fits of 18 rows of the paper protocol: many minutes"]
+fn issue36_cases_on_the_paper_protocol() {
+    let dir = tempfile::tempdir().unwrap();
+    let cond: Vec<(f64, f64)> = [200.0, 300.0, 400.0]
+        .iter()
+        .flat_map(|&f| [10.0, 20.0, 30.0, 40.0, 60.0, 80.0].map(|a| (f, a)))
+        .collect();
+    let values = truth(
+        HEAVY,
+        COND2,
+        &cells2(&cond),
+        &["adhesion.v0=6e-5", "adhesion.n=0.5"],
+    );
+    let data = dir.path().join("data.csv");
+    write_data(&data, COND2, &cells2(&cond), &values, 0.02, 36);
+    let fit = |name: &str, extra: &[&str]| -> Value {
+        let mut a = vec!["--free", "adhesion.v0", "--free", "adhesion.n"];
+        a.extend_from_slice(extra);
+        let t0 = std::time::Instant::now();
+        let j = run_fit(&data, &dir.path().join(name), HEAVY, &a);
+        eprintln!(
+            "{name} ({:.0} s, {} runs, {} RHS evaluations): chi2 {}, converged {}, {}\n  notes: {}",
+            t0.elapsed().as_secs_f64(),
+            j["forward_runs"],
+            j["rhs_evals"],
+            j["chi2"],
+            j["converged"],
+            j["parameters"],
+            j["notes"]
+        );
+        j
+    };
+    let chi2 = |j: &Value| j["chi2"].as_f64().unwrap();
+    let r = fit("reference", &[]);
+    assert_eq!(r["converged"], true);
+    let c1 = fit("case1", &["--set", "adhesion.n=0.3"]);
+    assert_eq!(c1["converged"], true, "{c1}");
+    assert!((chi2(&c1) - chi2(&r)).abs() < 0.1, "{c1}");
+    assert!(param(&c1, "adhesion.n")["sigma"].as_f64().is_some());
+    let c2 = fit("case2", &["--free", "damping.c"]);
+    let c = param(&c2, "damping.c");
+    let cv = c["value"].as_f64().unwrap();
+    if let Some(s) = c["sigma"].as_f64() {
+        assert!((cv - 10.0).abs() < 3.0 * s, "{c2}");
+    } else if chi2(&c2) > chi2(&r) + 0.1 {
+        let iv = c["interval"].as_array().unwrap();
+        assert!(
+            iv[0].as_f64().unwrap() <= 10.0 && 10.0 <= iv[1].as_f64().unwrap(),
+            "{c2}"
+        );
+        assert!(!notes(&c2).is_empty());
+    }
+    let c3 = fit("case3", &["--free", "initial.gap"]);
+    for key in ["adhesion.v0", "adhesion.n"] {
+        let (a, b) = (
+            param(&r, key)["sigma"].as_f64().unwrap(),
+            param(&c3, key)["sigma"].as_f64().unwrap(),
+        );
+        assert!((b / a - 1.0).abs() < 0.05, "{key}: {a} {b}");
+    }
+    assert!(param(&c3, "initial.gap")["sigma"].is_null());
+    let c5 = fit("case5", &["--set", "adhesion.n=0.8", "--starts", "4"]);
+    assert!(chi2(&c5) < chi2(&r) + 0.1, "{c5}");
+    assert_eq!(c5["starts"].as_array().unwrap().len(), 4);
+}

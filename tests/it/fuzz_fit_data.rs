@@ -442,10 +442,9 @@ fn one_case(source: &ScenarioSource, inp: &Input, name: &str) -> Result<&'static
         Err(e) => return check("refused: data", e.0),
     };
     let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
-    let scn = match source.scenario(&with_starts) {
-        Ok(s) => s,
-        Err(e) => return check("refused: scenario", e.to_string()),
-    };
+    if let Err(e) = source.scenario(&with_starts) {
+        return check("refused: scenario", e.to_string());
+    }
     let x0 = match free
         .iter()
         .map(|f| fit::initial_value(source, &starts, f))
@@ -473,9 +472,9 @@ fn one_case(source: &ScenarioSource, inp: &Input, name: &str) -> Result<&'static
     };
     let opts = FitOptions {
         max_iterations: 1,
-        stop: None,
+        ..FitOptions::default()
     };
-    match fit::fit(&model, &free, &x0, scn.solver.rtol, opts, &mut |_| {}) {
+    match fit::fit(&model, &free, &x0, opts, &mut |_| {}) {
         Err(e) => check("fit refused or failed", e.message),
         Ok(o) => {
             let r = &o.report;

@@ -15,6 +15,7 @@ mod continuation;
 mod describing;
 mod docs_reference;
 mod dynamics;
+mod envelope_cost;
 mod extremes;
 mod figures;
 mod fit;

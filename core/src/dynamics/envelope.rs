@@ -159,6 +159,8 @@ struct Venture {
 struct BdfStep {
     /// The new point's τ (τ_n + m).
     tau: f64,
+    /// The step (periods).
+    m: u64,
     /// The index of the period the new point starts.
     k: u64,
     /// τ of the oldest history point (Milne's device).
@@ -197,6 +199,12 @@ pub struct Envelope {
     backoff: u64,
     /// What the current run of attempts (since the last pause) cost and gained.
     venture: Venture,
+    /// The current pause ([`Envelope::cooldown`]) is a back-off: its periods count in
+    /// [`EnvelopeStats::backoff_periods`].
+    backing_off: bool,
+    /// RHS evaluations the run's jumps saved: the periods jumped over, each at the running
+    /// mean cost of a direct period when it was jumped ([`Envelope::affordable`]).
+    saved: f64,
     /// The drift per period at the newest boundaries since the history was last forgotten
     /// (period index, [`Envelope::drift`]), oldest first, spanning at most [`DECAY_WINDOW`]
     /// periods.
@@ -228,6 +236,16 @@ const COOLDOWN: u64 = 16;
 /// Direct periods after the first run of attempts that did not pay, or the multiplier first
 /// reaching its limit outside a pull-off stage (then twice as many each time).
 const FIRST_BACKOFF: u64 = 16;
+/// The trial periods' net cost (their RHS evaluations minus those the jumps saved) may reach
+/// this share of the run's other evaluations, plus [`BUDGET_ALLOWANCE`] direct periods, before
+/// no more are spent ([`Envelope::affordable`]).
+const BUDGET_SHARE: f64 = 0.01;
+/// Direct periods' worth of trial periods a run may spend beyond [`BUDGET_SHARE`]: what finding
+/// out costs before envelope following pays. Measured on the bundled scenes (the paper
+/// protocols at `envelope_tol` 1e-6 to 1e-4 and X_b = 10–150 µm, the peer's scene, the gentle
+/// and the resonance rig), the net cost beyond 1 % of the run's work peaked at 29–66 periods'
+/// worth, 94 on the gentle rig's 3 s ring-up: twice that never binds where following pays.
+const BUDGET_ALLOWANCE: f64 = 128.0;
 /// Trial periods run at this fraction of the run's tolerances. An integration error e of one
 /// trial period enters a jump of m periods m times over, and it is systematic (every trial
 /// starts the same way), so it accumulates along the unload like m e per jump instead of
@@ -255,6 +273,10 @@ const MAX_JAC_AGE: u32 = 4;
 const MAX_RATIO: f64 = 2.0;
 /// Newton iterations per corrector solve.
 const MAX_NEWTON: usize = 4;
+/// A Newton iterate whose error estimate is this many times what the step may have ends the
+/// iteration: the step will be refused whatever the remaining corrections, which shrink
+/// quadratically (measured on the paper protocols: by 10⁻²–10⁻⁴ per iteration).
+const HOPELESS: f64 = 100.0;
 /// Largest Newton correction, in the scaled norm (the orbit's amplitudes).
 const MAX_NEWTON_STEP: f64 = 1.0;
 
@@ -272,6 +294,8 @@ impl Envelope {
             towards_pull_off: false,
             backoff: FIRST_BACKOFF,
             venture: Venture::default(),
+            backing_off: false,
+            saved: 0.0,
             drifts: std::collections::VecDeque::new(),
             direct_cost: 0.0,
             evals_left_at: None,
@@ -388,10 +412,18 @@ impl Envelope {
             // The history before the periodic steady state is no envelope of what follows.
             self.forget();
             self.stats.steady_jumps += 1;
+            // A jump that pays for the attempts before it: no back-off carries past it.
+            self.venture = Venture::default();
+            self.cooldown = 0;
+            self.backoff = FIRST_BACKOFF;
+            self.backing_off = false;
             return Ok(self.land(sim, z, far, k));
         }
         if self.cooldown > 0 {
             self.cooldown -= 1;
+            if self.backing_off {
+                self.stats.backoff_periods += 1;
+            }
             return Ok(0);
         }
         if self.history.len() < ORDER + 1 {
@@ -400,6 +432,7 @@ impl Envelope {
         if self.drift().is_none_or(|d| d > FAST_DRIFT) {
             // No slow drift to follow yet: spend no trial periods on it.
             self.cooldown = COOLDOWN;
+            self.backing_off = false;
             return Ok(0);
         }
         let n = self.history.len();
@@ -407,6 +440,11 @@ impl Envelope {
         let h_prev = self.history[n - 1].tau - self.history[n - 2].tau;
         loop {
             if self.stop || self.cooldown > 0 {
+                return Ok(0);
+            }
+            if !self.affordable(sim) {
+                // Over budget: integrate on, and look again at the next boundary.
+                self.stats.backoff_periods += 1;
                 return Ok(0);
             }
             // The BDF step from the newest envelope point, its growth bounded for stability.
@@ -468,6 +506,9 @@ impl Envelope {
         let Some(drift) = self.drift() else {
             return Ok(None);
         };
+        if !self.affordable(sim) {
+            return Ok(None);
+        }
         // How near: the drift over the rate it decays at (the search takes a fresh multiplier
         // before it accepts anything). A drift that does not decay is no approach to a fixed
         // point; a NaN fails the test too.
@@ -580,6 +621,7 @@ impl Envelope {
     /// the new envelope point, the run moved there; returns the periods skipped.
     fn land(&mut self, sim: &mut Simulator, z: State, target: u64, k: u64) -> u64 {
         let skipped = target - k;
+        self.saved += skipped as f64 * self.direct_cost;
         self.stats.jumps += 1;
         self.stats.periods_skipped += skipped;
         self.push(Point {
@@ -661,6 +703,7 @@ impl Envelope {
         });
         BdfStep {
             tau,
+            m,
             k: newest.tau as u64 + m,
             tau_oldest: taus[0],
             predicted,
@@ -671,7 +714,8 @@ impl Envelope {
 
     /// Newton on the corrector of `bdf` from its predictor: the corrected point and the
     /// iterations it took, or `None` when the step is refused (the skip was reduced) or the
-    /// largest multiplier reached its limit (jumps stop or pause).
+    /// largest multiplier reached its limit (jumps stop or pause). An iterate whose error
+    /// estimate is already [`HOPELESS`] is returned as it is: the error test refuses it.
     fn newton(
         &mut self,
         sim: &mut Simulator,
@@ -733,6 +777,12 @@ impl Envelope {
                 converged = true;
                 break;
             }
+            if self.milne_error(bdf, &z, bdf.m) > HOPELESS {
+                // No more trial periods for a step the error test will refuse: `attempt`
+                // refuses it from this iterate.
+                converged = true;
+                break;
+            }
         }
         if !converged {
             if fresh_jac {
@@ -782,6 +832,7 @@ impl Envelope {
             self.venture = Venture::default();
             self.cooldown = self.backoff;
             self.backoff = self.backoff.saturating_mul(2);
+            self.backing_off = true;
         }
     }
 
@@ -795,10 +846,24 @@ impl Envelope {
         if v.skipped as f64 * self.direct_cost > v.spent as f64 {
             self.cooldown = COOLDOWN;
             self.backoff = FIRST_BACKOFF;
+            self.backing_off = false;
         } else {
             self.cooldown = self.backoff;
             self.backoff = self.backoff.saturating_mul(2);
+            self.backing_off = true;
         }
+    }
+
+    /// Whether the run may spend trial periods now: while their net cost, the RHS evaluations
+    /// of every trial period so far minus those the jumps saved, is at most [`BUDGET_SHARE`] of
+    /// the run's other evaluations plus [`BUDGET_ALLOWANCE`] direct periods. Each attempt is
+    /// checked, so the net cost never exceeds that by more than one attempt (at most seven trial
+    /// periods): `auto` never costs materially more than integrating every period, however its
+    /// attempts fare and however many stages restart them.
+    fn affordable(&self, sim: &Simulator) -> bool {
+        let trial = self.stats.trial_rhs_evals as f64;
+        let work = (sim.stats().rhs_evals as f64 - trial).max(0.0);
+        trial - self.saved <= BUDGET_SHARE * work + BUDGET_ALLOWANCE * self.direct_cost
     }
 
     /// The corrected point `z`'s local error by Milne's device, as a fraction of the share of
@@ -846,7 +911,10 @@ impl Envelope {
             return Ok(None);
         }
         self.stats.trial_periods += 1;
-        let t = match sim.trial_period(s, k, TRIAL_TOLERANCE) {
+        let before = sim.stats().rhs_evals;
+        let t = sim.trial_period(s, k, TRIAL_TOLERANCE);
+        self.stats.trial_rhs_evals += sim.stats().rhs_evals.saturating_sub(before);
+        let t = match t {
             Ok(t) => t,
             // The run's budgets hold across trial periods too.
             Err(

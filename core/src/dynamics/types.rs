@@ -199,6 +199,12 @@ pub struct EnvelopeStats {
     pub rejected: u64,
     /// Jumps to the end of a stage from its periodic steady state (counted in `jumps` too).
     pub steady_jumps: u64,
+    /// Right-hand-side evaluations of the trial periods (counted in `Stats::rhs_evals` too).
+    pub trial_rhs_evals: u64,
+    /// Base periods integrated directly because the back-off held envelope steps back: after
+    /// runs of attempts that did not pay, or the multiplier reaching its limit in a transient,
+    /// or while the trial periods' net cost was over its budget.
+    pub backoff_periods: u64,
 }
 
 /// Periods before the pull-off over which [`ApproachRoughness`] looks for fluctuating cycle means.
