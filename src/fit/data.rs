@@ -24,6 +24,7 @@ use thiserror::Error;
 use crate::input::{read_text, show_limit, InputKind};
 use crate::scenario::overrides::SetKey;
 use crate::sweep::spec::{key_kind, KeyKind};
+use crate::words::input_value;
 use djkr_core::text::excerpt;
 use djkr_core::units::{parse_quantity, Dimension};
 
@@ -335,8 +336,8 @@ impl FitData {
         let wanted = match observable {
             Some(o) => Some(Observable::parse(o).ok_or_else(|| {
                 fail(format!(
-                    "--observable {}: djkr does not produce it; it produces {}",
-                    excerpt(o),
+                    "{}: djkr does not produce it; it produces {}",
+                    input_value("observable", &excerpt(o)),
                     Observable::list()
                 ))
             })?),
@@ -396,7 +397,7 @@ impl FitData {
             }
             let key = SetKey::parse(&cname).map_err(|_| {
                 at(format!(
-                    "neither a scenario key (as --set takes it: base.amplitude, stage[3].speed) \
+                    "neither a scenario key (as «set» takes it: base.amplitude, stage[3].speed) \
                      nor an observable djkr produces ({}), nor sigma",
                     Observable::list()
                 ))
@@ -423,8 +424,8 @@ impl FitData {
             (Some(o), _) => {
                 if !observables.iter().any(|(p, _)| *p == o) {
                     return Err(fail(format!(
-                        "--observable {}: the file has no {} column{}",
-                        o.name(),
+                        "{}: the file has no {} column{}",
+                        input_value("observable", o.name()),
                         o.name(),
                         if observables.is_empty() {
                             String::new()
@@ -451,7 +452,7 @@ impl FitData {
             }
             (None, _) => {
                 return Err(fail(format!(
-                    "the file has several observables ({}): name the one to fit with --observable",
+                    "the file has several observables ({}): name the one to fit with «observable»",
                     observables
                         .iter()
                         .map(|(p, _)| p.name())

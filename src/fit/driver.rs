@@ -38,6 +38,7 @@ use super::report::{
 };
 use super::stencil::{pooled_se, stencil, INITIAL_HALF_STEP};
 use super::{optimiser, starts, tolerance};
+use crate::words::{input_value, set_item};
 
 /// How many times a profile's lower point may restart the optimiser.
 pub const MAX_RESTARTS: usize = 3;
@@ -144,9 +145,11 @@ pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
         let t = Transform::new(f, x);
         if !x.is_finite() || !t.inside(t.y(x)) {
             return Err(FitError::new(format!(
-                "--free {given}: the starting value {x} {} (the scenario's) lies outside the \
-                 bounds; start inside with --set {}=VALUE",
-                f.unit, f.key
+                "{}: the starting value {x} {} (the scenario's) lies outside the bounds; start \
+                 inside with {}",
+                input_value("free", &given),
+                f.unit,
+                set_item(&format!("{}=VALUE", f.key))
             )));
         }
         // A linear key moves in units of its starting magnitude: bounds 1e300 times that (a
@@ -157,10 +160,12 @@ pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
         };
         if !span_ok {
             return Err(FitError::new(format!(
-                "--free {given}: the bounds lie too far from the starting value {x} {} for the \
-                 fit's coordinate (the value over its starting magnitude): narrow them, or start \
-                 nearer with --set {}=VALUE",
-                f.unit, f.key
+                "{}: the bounds lie too far from the starting value {x} {} for the fit's \
+                 coordinate (the value over its starting magnitude): narrow them, or start nearer \
+                 with {}",
+                input_value("free", &given),
+                f.unit,
+                set_item(&format!("{}=VALUE", f.key))
             )));
         }
     }
@@ -409,7 +414,7 @@ pub fn fit(
     let n = data.rows.len();
     let k = free.len();
     if k == 0 {
-        return Err(FitError::new("give at least one --free KEY"));
+        return Err(FitError::new("give at least one «free» KEY"));
     }
     if n <= k {
         return Err(FitError::new(format!(

@@ -43,12 +43,12 @@ fn header(
             String::new()
         } else {
             format!(
-                "With {}.",
+                "With the overrides {}.",
                 fixed
                     .iter()
-                    .map(|o| format!("--set {o}"))
+                    .map(|o| o.to_string())
                     .collect::<Vec<_>>()
-                    .join(" ")
+                    .join(", ")
             )
         }
     )

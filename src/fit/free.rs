@@ -18,6 +18,7 @@
 use crate::scenario::overrides::SetKey;
 use crate::scenario::range_error;
 use crate::sweep::spec::{key_kind, KeyKind};
+use crate::words::input_value;
 use djkr_core::text::excerpt;
 use djkr_core::units::{parse_quantity, Dimension};
 
@@ -42,7 +43,7 @@ impl FreeKey {
     /// Parse `KEY` or `KEY=LO:HI` (either bound may be left empty: `KEY=0.1:`, `KEY=:2`; units
     /// welcome). A key must be numeric.
     pub fn parse(arg: &str) -> Result<FreeKey, String> {
-        let err = |m: String| format!("--free {}: {m}", excerpt(arg));
+        let err = |m: String| format!("{}: {m}", input_value("free", &excerpt(arg)));
         let (k, range) = match arg.split_once('=') {
             Some((k, r)) => (k.trim(), Some(r.trim())),
             None => (arg.trim(), None),
@@ -128,10 +129,10 @@ impl FreeKey {
             let f = FreeKey::parse(a.as_ref())?;
             if let Some(first) = out.iter().find(|g| g.key == f.key) {
                 return Err(format!(
-                    "--free {}: {} is already free by --free {}: give each key once",
-                    excerpt(&f.given),
+                    "{}: {} is already free by {}: give each key once",
+                    input_value("free", &excerpt(&f.given)),
                     f.key,
-                    excerpt(&first.given)
+                    input_value("free", &excerpt(&first.given))
                 ));
             }
             out.push(f);

@@ -49,6 +49,7 @@ pub use report::{
 use crate::output::table::format_f64;
 use crate::scenario::overrides::{Override, SetKey};
 use crate::scenario::parse::ScenarioSource;
+use crate::words::{input_value, set_item};
 use djkr_core::units::{parse_quantity, Dimension};
 
 /// A number from a TOML value as a scenario file holds it: a number (SI) or a string with
@@ -93,9 +94,10 @@ pub fn initial_value(
     };
     let missing = || {
         format!(
-            "--free {}: {} does not give {key}: give its starting value with --set {key}=VALUE",
-            free.given,
-            source.name()
+            "{}: {} does not give {key}: give its starting value with {}",
+            input_value("free", &free.given),
+            source.name(),
+            set_item(&format!("{key}=VALUE"))
         )
     };
     let v = section
@@ -135,7 +137,7 @@ pub fn fitted_toml(
         .map_err(|e| format!("{}: {e}", source.name()))?;
     for (n, o) in all.iter().enumerate() {
         let how = if n < fixed.len() {
-            "set by --set"
+            "fixed by an override"
         } else {
             "fitted"
         };
@@ -403,7 +405,7 @@ mod tests {
             "# The rig of the lab's run 12.\n",
             "# from the rate sweep\nv0 = 6.1e-5  # fitted; the file had \"44.5 um/s\" # first guess\n",
             "n = 0.531\n",
-            "duration = 0.1  # set by --set; the file had 0.05\n",
+            "duration = 0.1  # fixed by an override; the file had 0.05\n",
             "c = 0.07  # fitted; the file did not give it\n",
         ] {
             assert!(out.contains(kept), "{kept:?} not in:\n{out}");

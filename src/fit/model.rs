@@ -454,7 +454,7 @@ impl ForwardModel {
             .grid()
             .overrides(point)
             .iter()
-            .map(|o| format!("--set {}", excerpt(&o.to_string())))
+            .map(|o| set_item(&excerpt(&o.to_string())))
             .collect();
         format!(
             "{} line {} ({})",
@@ -480,7 +480,7 @@ impl ForwardModel {
         // quoted cut, and without the sweep's point number, which means nothing to a fit.
         let text = match e {
             crate::sweep::SweepError::Override { set, message, .. } => {
-                format!("--set {}: {message}", excerpt(set))
+                format!("{}: {message}", set_item(&excerpt(set)))
             }
             _ => text.to_string(),
         };
