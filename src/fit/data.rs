@@ -711,7 +711,7 @@ mod tests {
             "base.amplitude [m],pull_off_force [N],force_mean [N]\n1,1,1\n",
             None,
         );
-        assert!(m.contains("--observable"), "{m}");
+        assert!(m.contains("«observable»"), "{m}");
         let m = e(
             "base.amplitude [m],pull_off_force [N]\n1,1\n",
             Some("wall_s"),

@@ -324,7 +324,7 @@ mod tests {
         assert!(FreeKey::parse("adhesion.v0=1Hz:2Hz").is_err());
         let e = FreeKey::parse_all(&["adhesion.n", "adhesion.v0", "adhesion.n=0.1:2"]).unwrap_err();
         assert_eq!(
-            e,
+            crate::words::render(&e, &crate::words::TestFlags),
             "--free adhesion.n=0.1:2: adhesion.n is already free by --free adhesion.n: give each \
              key once"
         );
@@ -385,6 +385,7 @@ mod tests {
     #[test]
     fn bounds_are_held_to_the_keys_range() {
         let e = FreeKey::parse("adhesion.n=-1e308:1e308").unwrap_err();
+        let e = crate::words::render(&e, &crate::words::TestFlags);
         assert_eq!(
             e,
             "--free adhesion.n=-1e308:1e308: LO '-1e308' lies outside the range of adhesion.n: \
