@@ -68,31 +68,32 @@ fn bench(c: &mut Criterion) {
             return;
         }
     };
-    let free = ["adhesion.v0", "adhesion.n"];
-    let fit = || {
-        api::fit(
-            source.clone(),
-            &text,
-            "data.csv",
-            &free,
-            None,
-            &[] as &[&str],
-            None,
-            0,
-            None,
-        )
+    let request = match (
+        djkr::fit::FitData::parse(&text, "data.csv", None),
+        djkr::fit::FreeKey::parse_all(&["adhesion.v0", "adhesion.n"]),
+    ) {
+        (Ok(data), Ok(free)) => api::FitRequest::new(source, data, free),
+        (Err(e), _) => return eprintln!("fit bench: {e}"),
+        (_, Err(e)) => return eprintln!("fit bench: {e}"),
     };
+    let fit = || api::fit(&request, None);
     match fit() {
-        Ok(j) => eprintln!(
-            "fit: {} forward runs, {} RHS evaluations, {} iterations, converged {}, chi2 {:.2}, \
-             parameters {}",
-            j["forward_runs"],
-            j["rhs_evals"],
-            j["iterations"],
-            j["converged"],
-            j["chi2"],
-            j["parameters"]
-        ),
+        Ok(r) => {
+            let r = &r.report;
+            eprintln!(
+                "fit: {} forward runs, {} RHS evaluations, {} iterations, converged {}, chi2 \
+                 {:.2}, parameters {:?}",
+                r.forward_runs,
+                r.rhs_evals,
+                r.iterations,
+                r.converged,
+                r.chi2,
+                r.parameters
+                    .iter()
+                    .map(|p| (p.key.clone(), p.value, p.sigma))
+                    .collect::<Vec<_>>()
+            )
+        }
         Err(e) => {
             eprintln!("fit bench: {e}");
             return;

@@ -1093,55 +1093,49 @@ pub fn sweep<S: AsRef<str>>(
     Ok(rows_table(&sweep.key_columns(), &rows))
 }
 
-/// `djkr fit` without files: fit `free` keys (`KEY` or `KEY=LO:HI`) of `source` to the data
-/// CSV `data_text` (named `data_name` in messages), with `set` (`KEY=VALUE`) for every row (a
-/// free key's `--set` is its starting value), an optional ensemble `(members, seed)` and `jobs`
-/// threads (0: one per core). Returns the content of `fit.json`. A raised `stop` is
-/// [`Error::Cancelled`]. [`fit_report`] takes the other options and gives the residuals.
-#[allow(clippy::too_many_arguments)]
-pub fn fit<S: AsRef<str>, T: AsRef<str>>(
-    source: crate::scenario::parse::ScenarioSource,
-    data_text: &str,
-    data_name: &str,
-    free: &[S],
-    observable: Option<&str>,
-    set: &[T],
-    ensemble: Option<(usize, u64)>,
-    jobs: usize,
-    stop: Option<&AtomicBool>,
-) -> Result<serde_json::Value, Error> {
-    let r = fit_report(
-        source,
-        data_text,
-        data_name,
-        free,
-        observable,
-        set,
-        ensemble,
-        jobs,
-        &FitExtra::default(),
-        stop,
-    )?;
-    Ok(r.report)
-}
-
-/// The options of [`fit_report`] beyond [`fit`]'s.
+/// A fit of measured data ([`fit`]): the scenario, the data, the keys to free and the options,
+/// all typed (the front ends parse their text: [`crate::fit::FreeKey::parse_all`],
+/// [`overrides`], [`crate::fit::FitData::parse`]).
 #[derive(Debug, Clone)]
-pub struct FitExtra {
-    /// Most iterations of each optimisation (`--max-iterations`).
+pub struct FitRequest {
+    /// The scenario file, read and parsed.
+    pub source: crate::scenario::parse::ScenarioSource,
+    /// The measured data.
+    pub data: crate::fit::FitData,
+    /// The keys to fit, with their bounds.
+    pub free: Vec<crate::fit::FreeKey>,
+    /// Overrides: of a free key its starting value, of another key its value for every row.
+    pub set: Vec<Override>,
+    /// An ensemble per row: `(members, seed)` (chaotic rigs).
+    pub ensemble: Option<(usize, u64)>,
+    /// Threads (0: one per core).
+    pub jobs: usize,
+    /// Most iterations of each optimisation.
     pub max_iterations: usize,
-    /// Starting points (`--starts`).
+    /// Starting points.
     pub starts: usize,
-    /// Profile-likelihood intervals for every key (`--profile`).
+    /// Profile-likelihood intervals for every key.
     pub profile: bool,
-    /// An output folder for the fit's files (`--out`), and whether to overwrite files of those
-    /// names that djkr did not write (`--force`).
+    /// An output folder for the fit's files, and whether to overwrite files of those names that
+    /// djkr did not write.
     pub out: Option<(PathBuf, bool)>,
 }
 
-impl Default for FitExtra {
-    fn default() -> Self {
-        FitExtra {
+impl FitRequest {
+    /// A fit of `data` on `source` for `free`, with the defaults: no overrides, no ensemble, one
+    /// thread per core, 30 iterations, one start, no profiles, no folder.
+    pub fn new(
+        source: crate::scenario::parse::ScenarioSource,
+        data: crate::fit::FitData,
+        free: Vec<crate::fit::FreeKey>,
+    ) -> Self {
+        FitRequest {
+            source,
+            data,
+            free,
+            set: Vec::new(),
+            ensemble: None,
+            jobs: 0,
             max_iterations: 30,
             starts: 1,
             profile: false,
@@ -1159,50 +1153,35 @@ pub enum Column {
     Text(Vec<String>),
 }
 
-/// What [`fit_report`] gives: `fit.json`, the residuals' table as `residuals.csv` holds it
-/// (column name with unit, values), and the covariance in the keys' units.
+/// What [`fit`] gives: the report `fit.json` holds (with the covariance in the keys' units) and
+/// the residuals' table as `residuals.csv` holds it (column name with unit, values).
 #[derive(Debug, Clone)]
 pub struct FitResult {
-    /// The content of `fit.json`.
-    pub report: serde_json::Value,
+    /// The report (`fit.json`).
+    pub report: crate::fit::FitReport,
     /// The columns of `residuals.csv`.
     pub residuals: Vec<(String, Column)>,
 }
 
-/// [`fit`] with the command line's other options ([`FitExtra`]): with an output folder, it is
-/// claimed and locked before the fit starts and the fit's files are written there.
-#[allow(clippy::too_many_arguments)]
-pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
-    source: crate::scenario::parse::ScenarioSource,
-    data_text: &str,
-    data_name: &str,
-    free: &[S],
-    observable: Option<&str>,
-    set: &[T],
-    ensemble: Option<(usize, u64)>,
-    jobs: usize,
-    extra: &FitExtra,
-    stop: Option<&AtomicBool>,
-) -> Result<FitResult, Error> {
-    use crate::fit::{self as f, FitData, FitOptions, ForwardModel, FreeKey};
-    let free = FreeKey::parse_all(free).map_err(Error::Invalid)?;
-    let all = set
+/// Fit the request's data: with an output folder, it is claimed and locked before the fit
+/// starts and the fit's files are written there. A stop raised through `stop` ends it as
+/// [`Error::Cancelled`] (after writing the best estimate so far, with a folder).
+pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Error> {
+    use crate::fit::{self as f, FitOptions, ForwardModel};
+    let (source, free, ensemble, extra) = (&req.source, &req.free, req.ensemble, req);
+    let (starts, fixed): (Vec<Override>, Vec<Override>) = req
+        .set
         .iter()
-        .map(|s| Override::parse(s.as_ref()))
-        .collect::<Result<Vec<_>, _>>()?;
-    let (starts, fixed): (Vec<Override>, Vec<Override>) = all
-        .into_iter()
+        .cloned()
         .partition(|o| free.iter().any(|k| k.key == o.key()));
-    let data = FitData::parse(data_text, data_name, observable)
-        .map_err(|e| Error::Invalid(e.to_string()))?;
     let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
     // The scenario with the overrides must parse (its errors are the user's).
     source.scenario(&with_starts)?;
     let x0 = free
         .iter()
-        .map(|k| f::initial_value(&source, &starts, k).map_err(Error::Invalid))
+        .map(|k| f::initial_value(source, &starts, k).map_err(Error::Invalid))
         .collect::<Result<Vec<_>, _>>()?;
-    f::check_start(&free, &x0).map_err(|e| Error::Invalid(e.to_string()))?;
+    f::check_start(free, &x0).map_err(|e| Error::Invalid(e.to_string()))?;
     if ensemble.is_some_and(|e| e.0 == 0) {
         return Err(Error::Invalid(
             "ensemble = 0: must be a whole number >= 1 (members per row)".into(),
@@ -1215,11 +1194,11 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
     }
     let model = ForwardModel::new(
         source.clone(),
-        data,
+        req.data.clone(),
         free.iter().map(|k| k.key).collect(),
         fixed.clone(),
         ensemble,
-        jobs,
+        req.jobs,
     )
     .map_err(Error::Invalid)?;
     // The folder is claimed and locked before the fit starts, as the command line does.
@@ -1245,7 +1224,7 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
         stop,
     };
     // A stop before the first evaluation ended is a cancellation, as a stop after it.
-    let outcome = f::fit(&model, &free, &x0, opts, &mut |_| {}).map_err(|e| {
+    let outcome = f::fit(&model, free, &x0, opts, &mut |_| {}).map_err(|e| {
         if e.stopped {
             Error::Cancelled
         } else {
@@ -1255,9 +1234,9 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
     if let Some((dir, _)) = &extra.out {
         f::files::write(
             dir,
-            &source,
+            source,
             &fixed,
-            &free,
+            free,
             &model,
             &outcome,
             stop,
@@ -1274,10 +1253,7 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
     if outcome.report.interrupted {
         return Err(Error::Cancelled);
     }
-    let report =
-        serde_json::to_value(&outcome.report).map_err(|e| Error::Invalid(e.to_string()))?;
     Ok(FitResult {
-        report,
         residuals: f::residual_columns(&model, &outcome)
             .into_iter()
             .map(|(name, c)| {
@@ -1290,6 +1266,7 @@ pub fn fit_report<S: AsRef<str>, T: AsRef<str>>(
                 )
             })
             .collect(),
+        report: outcome.report,
     })
 }
 

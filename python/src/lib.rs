@@ -2250,27 +2250,30 @@ fn fit(
                  folder): leave it out",
             ));
         }
-        Ok(api::FitExtra {
-            max_iterations: whole(max_iterations, "max_iterations", 0)?.unwrap_or(30),
-            starts: whole(starts, "starts", 1)?.unwrap_or(1),
-            profile: bool_arg(profile, "profile")?,
-            out: out.map(|o| (o, force)),
-        })
+        Ok((
+            whole(max_iterations, "max_iterations", 0)?.unwrap_or(30),
+            whole(starts, "starts", 1)?.unwrap_or(1),
+            bool_arg(profile, "profile")?,
+            out.map(|o| (o, force)),
+        ))
     })?;
     let r = interruptible(py, move |stop| {
+        let (max_iterations, starts, profile, out) = extra;
         let source = scn.source()?;
-        api::fit_report(
-            source,
-            &text,
-            &name,
-            &free,
-            observable.as_deref(),
-            &set,
-            ensemble.map(|m| (m, seed)),
-            jobs.unwrap_or(0),
-            &extra,
-            Some(stop.flag()),
-        )
+        let free = djkr::fit::FreeKey::parse_all(&free).map_err(ApiError::Invalid)?;
+        let data = djkr::fit::FitData::parse(&text, &name, observable.as_deref())
+            .map_err(|e| ApiError::Invalid(e.to_string()))?;
+        let request = api::FitRequest {
+            set: api::overrides(&set)?,
+            ensemble: ensemble.map(|m| (m, seed)),
+            jobs: jobs.unwrap_or(0),
+            max_iterations,
+            starts,
+            profile,
+            out,
+            ..api::FitRequest::new(source, data, free)
+        };
+        api::fit(&request, Some(stop.flag()))
     })?;
     guarded(|| Fit::new(py, r))
 }
@@ -2320,10 +2323,10 @@ struct Fit {
 
 impl Fit {
     fn new(py: Python<'_>, r: api::FitResult) -> PyResult<Fit> {
-        let params = r.report["parameters"]
-            .as_array()
-            .cloned()
-            .unwrap_or_default();
+        // The dict is fit.json's content: the report as JSON.
+        let report = serde_json::to_value(&r.report)
+            .map_err(|e| PyRuntimeError::new_err(format!("fit report: {e}")))?;
+        let params = report["parameters"].as_array().cloned().unwrap_or_default();
         let keys = PyList::empty(py);
         let parameters = PyDict::new(py);
         let sigma = PyDict::new(py);
@@ -2341,7 +2344,7 @@ impl Fit {
         let k = params.len();
         let cov: Vec<f64> = (0..k)
             .flat_map(|a| {
-                let row = r.report["covariance"][a].clone();
+                let row = report["covariance"][a].clone();
                 (0..k).map(move |b| row[b].as_f64().unwrap_or(f64::NAN))
             })
             .collect();
@@ -2357,7 +2360,7 @@ impl Fit {
             }
         }
         Ok(Fit {
-            report: json_to_py(py, &r.report)?,
+            report: json_to_py(py, &report)?,
             keys: keys.into_any().unbind(),
             parameters: parameters.into_any().unbind(),
             sigma: sigma.into_any().unbind(),

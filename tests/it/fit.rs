@@ -730,26 +730,19 @@ fn api_fit_stopped_before_the_first_evaluation_is_cancelled() {
     use std::sync::atomic::AtomicBool;
     let source = ScenarioSource::read(Path::new("tests/sweep/tiny.toml")).unwrap();
     let data = "base.amplitude [um],pull_off_amplification [1]\n2,6.5\n5,8.0\n10,10.0\n";
-    let call = |stop: &AtomicBool| {
-        api::fit(
-            source.clone(),
-            data,
-            "d.csv",
-            &["adhesion.n"],
-            None,
-            &[] as &[&str],
-            None,
-            1,
-            Some(stop),
+    let request = api::FitRequest {
+        jobs: 1,
+        ..api::FitRequest::new(
+            source,
+            djkr::fit::FitData::parse(data, "d.csv", None).unwrap(),
+            djkr::fit::FreeKey::parse_all(&["adhesion.n"]).unwrap(),
         )
     };
+    let call = |stop: &AtomicBool| api::fit(&request, Some(stop));
     let e = call(&AtomicBool::new(true)).unwrap_err();
     assert!(matches!(e, ApiError::Cancelled), "{e}");
-    let j = call(&AtomicBool::new(false)).unwrap();
-    assert!(
-        j["parameters"][0]["value"].as_f64().unwrap().is_finite(),
-        "{j}"
-    );
+    let r = call(&AtomicBool::new(false)).unwrap();
+    assert!(r.report.parameters[0].value.is_finite(), "{r:?}");
 }
 
 // Issue 36: the seven cases of `djkr fit` off the happy path, each on a cheap rig that shows the
