@@ -525,14 +525,17 @@ fn members_for(sd: f64, se: f64) -> u64 {
     ((sd / se).powi(2) * (1.0 - 1e-12)).ceil() as u64
 }
 
-/// Check (or, blessing, rewrite) one generated region of `docs/guide/studies.md`; one test at a
-/// time, since two tests write the same file.
-fn splice_studies(name: &str, generated: &str) {
+/// Check (or, blessing, rewrite) one generated region of the chapter `rel`; one test at a time,
+/// since several tests write the same file.
+fn splice_chapter(rel: &str, name: &str, generated: &str) {
     static ONE: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let _one = ONE.lock().unwrap_or_else(|e| e.into_inner());
-    let rel = "docs/guide/studies.md";
-    let doc = std::fs::read_to_string(root().join(rel)).expect("studies.md");
+    let doc = std::fs::read_to_string(root().join(rel)).unwrap_or_else(|e| panic!("{rel}: {e}"));
     check(rel, &splice(&doc, name, generated));
+}
+
+fn splice_studies(name: &str, generated: &str) {
+    splice_chapter("docs/guide/studies.md", name, generated);
 }
 
 /// `docs/guide/studies.md`, "A worked study": the table and the phase remark, from the 144 runs
@@ -689,4 +692,371 @@ fn scenario_guide_names_only_real_keys_and_quotes_no_ranges() {
         unknown.is_empty(),
         "docs/guide/scenarios.md names keys the parser does not take: {unknown:?}"
     );
+}
+
+/// A relative difference in per cent with its sign (typographic minus), to about two digits.
+fn percent(x: f64) -> String {
+    let v = (100.0 * x).abs();
+    let digits = if v >= 10.0 {
+        format!("{v:.0}")
+    } else if v >= 1.0 {
+        format!("{v:.1}")
+    } else if v >= 0.01 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.0e}")
+    };
+    format!("{}{digits} %", if x < 0.0 { "−" } else { "+" })
+}
+
+/// `djkr validate SCENE --json`, parsed.
+fn validate_json(scene: &str) -> serde_json::Value {
+    let out = djkr(&["validate", scene, "--json"])
+        .unwrap_or_else(|e| panic!("djkr validate {scene} --json: {e}"));
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("djkr validate {scene} --json: {e}"))
+}
+
+/// `docs/guide/physics.md`, "Periodic steady state": the table of relative differences between
+/// the predictors and the time domain, and the impacts remark, from `djkr validate` on the three
+/// scenes shown there (about a second in all).
+#[test]
+fn validate_table_comes_from_djkr_validate() {
+    let mut s = String::from(
+        "| relative difference from the time domain | δ_m | δ_A | F_m |\n|---|---|---|---|\n",
+    );
+    let predictors = [
+        ("imposed area", "imposed_area"),
+        ("harmonic balance", "harmonic_balance"),
+        ("linear transfer (37)", "linear_transfer"),
+    ];
+    for scene in ["resonance-400hz", "paper-protocol-400hz"] {
+        let v = validate_json(&format!("scenarios/{scene}.toml"));
+        for (label, key) in predictors {
+            let r = &v["relative_difference"][key];
+            let cell = |q: &str| {
+                r[q].as_f64().map(percent).unwrap_or_else(|| {
+                    panic!("djkr validate {scene}: no relative_difference.{key}.{q}: {v}")
+                })
+            };
+            s.push_str(&format!(
+                "| {scene}, {label} | {} | {} | {} |\n",
+                cell("delta_mean"),
+                cell("delta_amp"),
+                cell("force_mean")
+            ));
+        }
+    }
+    let v = validate_json("scenarios/impacts.toml");
+    assert_eq!(
+        v["steady"]["contact_lost"], true,
+        "impacts.toml: the steady cycle no longer loses contact; rewrite the remark: {v}"
+    );
+    let imposed = v["relative_difference"]["imposed_area"]["force_mean"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("impacts.toml: no imposed-area F_m: {v}"));
+    let hb_note = v["notes"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(serde_json::Value::as_str)
+        .find(|n| n.starts_with("harmonic balance:"));
+    let hb = if v["harmonic_balance"].is_null() {
+        match hb_note {
+            Some(n) if n.contains("did not converge") => {
+                "harmonic balance does not converge there".to_string()
+            }
+            _ => panic!("impacts.toml: harmonic balance is missing for a new reason: {v}"),
+        }
+    } else {
+        format!(
+            "harmonic balance's is off by {}",
+            percent(
+                v["relative_difference"]["harmonic_balance"]["force_mean"]
+                    .as_f64()
+                    .unwrap_or(f64::NAN)
+            )
+        )
+    };
+    s.push_str(&format!(
+        "\n- In `impacts.toml`, contact is lost every cycle. The imposed-area F_m is off there by \
+         {}, and\n  {hb}.\n",
+        percent(imposed)
+    ));
+    splice_chapter("docs/guide/physics.md", "validate table", &s);
+}
+
+/// `docs/guide/physics.md`, "Periodic steady state": how close harmonic balance and the linear
+/// transfer (37) come to the time domain's |δ_A/X_b| over the 101 frequencies of the resonance
+/// command shown there (the up sweep; a fraction of a second).
+#[test]
+fn harmonic_balance_errors_come_from_djkr_resonance() {
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("docs-resonance-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let out_s = out.to_string_lossy().into_owned();
+    let args = [
+        "resonance",
+        "scenarios/resonance-400hz.toml",
+        "--freq",
+        "300:500:101",
+        "--out",
+        &out_s,
+    ];
+    djkr(&args).unwrap_or_else(|e| panic!("djkr {}: {e}", args.join(" ")));
+    let csv = std::fs::read_to_string(out.join("resonance.csv")).expect("resonance.csv");
+    let _ = std::fs::remove_dir_all(&out);
+    let rows: Vec<_> = csv_rows(&csv)
+        .into_iter()
+        .filter(|r| r.get("direction").is_some_and(|d| d == "up"))
+        .collect();
+    let err = |r: &std::collections::BTreeMap<String, String>, k: &str| {
+        let td = num(r, "delta_amp_over_xb");
+        (num(r, k) - td).abs() / td
+    };
+    let hb: Vec<f64> = rows
+        .iter()
+        .map(|r| err(r, "hb_delta_amp_over_xb"))
+        .collect();
+    let lin: Vec<f64> = rows
+        .iter()
+        .map(|r| err(r, "linear_delta_amp_over_xb"))
+        .collect();
+    assert!(
+        hb.iter().chain(&lin).all(|e| e.is_finite()),
+        "a frequency without a time-domain, linear or harmonic-balance value: {csv}"
+    );
+    let n = rows.len();
+    let closer = hb.iter().zip(&lin).filter(|(h, l)| h < l).count();
+    let at = if closer == n {
+        format!("at all {n} frequencies")
+    } else {
+        format!("at {closer} of {n} frequencies")
+    };
+    let worst = |v: &[f64]| 100.0 * v.iter().cloned().fold(0.0, f64::max);
+    let mean = |v: &[f64]| 100.0 * v.iter().sum::<f64>() / v.len() as f64;
+    let s = format!(
+        "Harmonic balance is closer to the time domain's |δ_A/X_b| than eq. (37) {at} of the \
+         command above:\nworst error {:.1} % against {:.1} %, mean {:.2} % against {:.1} %.\n",
+        worst(&hb),
+        worst(&lin),
+        mean(&hb),
+        mean(&lin)
+    );
+    splice_chapter("docs/guide/physics.md", "harmonic balance errors", &s);
+}
+
+/// The studies' documents are measurements: each says on its first lines by which command it was
+/// made and on which date (`Generated by `cargo run --release --example NAME` on YYYY-MM-DD`), and
+/// the example it names exists, so a reader can rerun it. The work-precision folders say so in
+/// `docs/accuracy/README.md`.
+#[test]
+fn every_study_names_its_command_and_date() {
+    let mut docs: Vec<PathBuf> = std::fs::read_dir(root().join("docs/studies"))
+        .expect("docs/studies")
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .filter(|p| !p.ends_with("README.md"))
+        .collect();
+    docs.push(root().join("docs/extremes.md"));
+    docs.sort();
+    assert!(docs.len() >= 8, "{docs:?}");
+    let mut problems = Vec::new();
+    for p in &docs {
+        let rel = p.strip_prefix(root()).expect("under root").display();
+        let text = std::fs::read_to_string(p).expect("readable");
+        let Some(line) = text
+            .lines()
+            .take(5)
+            .find(|l| l.starts_with("Generated by `"))
+        else {
+            problems.push(format!(
+                "{rel}: no `Generated by `COMMAND` on DATE` line on top"
+            ));
+            continue;
+        };
+        let command = line["Generated by `".len()..]
+            .split('`')
+            .next()
+            .unwrap_or_default();
+        let dated = line
+            .split_once("` on ")
+            .map(|(_, d)| d.as_bytes())
+            .is_some_and(|d| {
+                d.len() >= 10
+                    && d[..10].iter().enumerate().all(|(i, c)| {
+                        if i == 4 || i == 7 {
+                            *c == b'-'
+                        } else {
+                            c.is_ascii_digit()
+                        }
+                    })
+            });
+        if !dated {
+            problems.push(format!("{rel}: `{line}` gives no date (YYYY-MM-DD)"));
+        }
+        match command
+            .split_whitespace()
+            .skip_while(|w| *w != "--example")
+            .nth(1)
+        {
+            Some(name) if root().join(format!("examples/{name}.rs")).exists() => {}
+            _ => problems.push(format!("{rel}: `{command}` names no example of examples/")),
+        }
+    }
+    let accuracy = std::fs::read_to_string(root().join("docs/accuracy/README.md"))
+        .expect("docs/accuracy/README.md");
+    for e in std::fs::read_dir(root().join("docs/accuracy"))
+        .expect("docs/accuracy")
+        .flatten()
+    {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if e.path().is_dir() && name != "imposed-area" {
+            let wp =
+                std::fs::read_to_string(e.path().join("work_precision.md")).unwrap_or_default();
+            if !wp.starts_with("Scene: ") {
+                problems.push(format!(
+                    "docs/accuracy/{name}/work_precision.md does not name its scene on line 1"
+                ));
+            }
+        }
+    }
+    if !(accuracy.contains("djkr accuracy FILE --out docs/accuracy/<scene>")
+        && accuracy.contains("djkr accuracy --imposed-area --out docs/accuracy/imposed-area"))
+    {
+        problems.push("docs/accuracy/README.md does not give the commands".into());
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// `x` to `digits` significant digits, without an exponent (1.7887, 12.740, 38.598).
+fn significant(x: f64, digits: i32) -> String {
+    let decimals = (digits - 1 - x.abs().log10().floor() as i32).max(0) as usize;
+    format!("{x:.decimals$}")
+}
+
+/// `docs/guide/numerics.md`, "Strong vibration": the 18-point amplification table, from the
+/// sweep shown there (the three bundled protocols differ only in `base.frequency`; 18 runs, a few
+/// seconds).
+#[test]
+fn strong_vibration_table_comes_from_its_sweep() {
+    let points = sweep_points(
+        &[
+            "scenarios/paper-protocol-300hz.toml",
+            "--set",
+            "base.amplitude=10um,20um,60um,80um,100um,150um",
+            "--set",
+            "base.frequency=200,300,400",
+            "--set",
+            "stage[3].max_duration=400",
+        ],
+        "docs/sweep/strong-vibration-points.csv",
+    );
+    let rows = csv_rows(&points);
+    let xbs = [10, 20, 60, 80, 100, 150];
+    let mut s = String::from("| X_b | 10 µm | 20 µm | 60 µm | 80 µm | 100 µm | 150 µm |\n");
+    s.push_str("|---|---|---|---|---|---|---|\n");
+    for f in [200.0, 300.0, 400.0] {
+        s.push_str(&format!("| {f} Hz |"));
+        for xb in xbs {
+            let r = rows
+                .iter()
+                .find(|r| {
+                    (num(r, "base.amplitude") - xb as f64 * 1e-6).abs() < 1e-12
+                        && num(r, "base.frequency") == f
+                })
+                .unwrap_or_else(|| panic!("no point {xb} µm, {f} Hz in {points}"));
+            s.push_str(&format!(
+                " {} |",
+                significant(num(r, "pull_off_amplification_mean"), 5)
+            ));
+        }
+        s.push('\n');
+    }
+    splice_chapter("docs/guide/numerics.md", "strong vibration table", &s);
+}
+
+/// `djkr run SCENE ARGS --out TMP`: its stdout and stderr together, and its `summary.json`.
+fn run_scene(scene: &str, args: &[&str], tag: &str) -> (String, serde_json::Value) {
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("docs-run-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .arg("run")
+        .arg(scene)
+        .args(args)
+        .arg("--out")
+        .arg(&out)
+        .env_remove("COLUMNS")
+        .output()
+        .expect("djkr runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(o.status.success(), "djkr run {scene} {args:?}: {text}");
+    let summary = std::fs::read_to_string(out.join("summary.json")).expect("summary.json");
+    let _ = std::fs::remove_dir_all(&out);
+    (
+        text,
+        serde_json::from_str(&summary).expect("summary.json is JSON"),
+    )
+}
+
+/// `docs/guide/numerics.md`, "What djkr says": the approach roughness of the two rigs, from
+/// `summary.json` of the runs named there (a fraction of a second each).
+#[test]
+fn approach_roughness_comes_from_the_runs() {
+    let roughness = |scene: &str, tag: &str| {
+        let (_, v) = run_scene(scene, &[], tag);
+        v["pull_off"]["approach_roughness"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{scene}: no pull_off.approach_roughness in {v}"))
+    };
+    let heavy = roughness("scenarios/paper-protocol-300hz.toml", "heavy");
+    let light = roughness("tests/sweep/light-protocol-300hz.toml", "light");
+    let s = format!(
+        "A period-1 orbit under the unloading ramp\nchanges its means smoothly ({heavy:.1e} on the \
+         heavy rig of `scenarios/paper-protocol-300hz.toml`);\na chaotic approach makes them \
+         fluctuate by a sizeable fraction of the force ({light:.2} on the light\nrig of \
+         `tests/sweep/light-protocol-300hz.toml`, `djkr run FILE`, `summary.json`).\n"
+    );
+    splice_chapter("docs/guide/numerics.md", "approach roughness", &s);
+}
+
+/// `docs/guide/numerics.md`, "What djkr says": the lines of `djkr run
+/// scenarios/gentle-unload-300hz.toml --sensitivity` that the guide shows (five runs in
+/// parallel, a few seconds).
+#[test]
+fn sensitivity_example_is_what_djkr_run_prints() {
+    let (text, _) = run_scene(
+        "scenarios/gentle-unload-300hz.toml",
+        &["--sensitivity"],
+        "sensitivity",
+    );
+    let mut shown = Vec::new();
+    let mut keep = false;
+    for l in text.lines() {
+        let label = l.starts_with("  ") && !l.starts_with("   ");
+        if label {
+            keep = ["  pull-off force", "  reached at", "  sensitivity"]
+                .iter()
+                .any(|p| l.starts_with(p));
+        }
+        if keep && l.starts_with("  ") {
+            shown.push(l);
+        } else if !l.starts_with("  ") {
+            keep = false;
+        }
+    }
+    assert!(
+        shown.iter().any(|l| l.starts_with("  sensitivity")),
+        "no sensitivity line in:\n{text}"
+    );
+    let s = format!(
+        "```text\n$ djkr run scenarios/gentle-unload-300hz.toml --sensitivity\n{}\n```\n",
+        shown.join("\n")
+    );
+    splice_chapter("docs/guide/numerics.md", "sensitivity example", &s);
 }
