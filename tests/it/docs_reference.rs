@@ -1060,3 +1060,173 @@ fn sensitivity_example_is_what_djkr_run_prints() {
     );
     splice_chapter("docs/guide/numerics.md", "sensitivity example", &s);
 }
+
+/// `djkr continue scenarios/resonance-400hz.toml --param base.frequency --range 340:600 ARGS
+/// --json`, parsed.
+fn continue_json(args: &[&str]) -> serde_json::Value {
+    let mut argv = vec![
+        "continue",
+        "scenarios/resonance-400hz.toml",
+        "--param",
+        "base.frequency",
+        "--range",
+        "340:600",
+    ];
+    argv.extend(args);
+    argv.push("--json");
+    let out = djkr(&argv).unwrap_or_else(|e| panic!("djkr {}: {e}", argv.join(" ")));
+    serde_json::from_str(&out).unwrap_or_else(|e| panic!("djkr {}: {e}", argv.join(" ")))
+}
+
+/// `docs/guide/physics.md`, "Where the resonance is bistable": the cusp, the table of folds and
+/// the mean radius at the upper fold, from the continuations shown there (about 3 s in all).
+#[test]
+fn bistable_wedge_comes_from_djkr_continue() {
+    let fold_curves = continue_json(&[
+        "--fold-param",
+        "base.amplitude",
+        "--fold-range",
+        "3um:0.5um",
+    ]);
+    let cusp = &fold_curves["cusp"];
+    let c = |k: &str| {
+        cusp[k]
+            .as_f64()
+            .unwrap_or_else(|| panic!("no cusp.{k} in the fold curves: {fold_curves}"))
+    };
+    let (fc, xc) = (c("base.frequency"), c("base.amplitude"));
+    let mut s = format!(
+        "The wedge is born at the **cusp at {fc:.3} Hz, X_b = {:.4} µm** (|δ_A/X_b| = {:.1}).\n\n\
+         | X_b | lower fold | upper fold | bistable window |\n|---|---|---|---|\n\
+         | {:.4} µm (cusp) | {fc:.3} Hz | {fc:.3} Hz | 0 |\n",
+        xc * 1e6,
+        c("delta_amp_over_xb"),
+        xc * 1e6,
+    );
+    let mut upper_radius = Vec::new();
+    for xb in ["1.1", "1.2", "1.5", "2", "2.5", "3"] {
+        let set = format!("base.amplitude={xb}um");
+        let v = continue_json(&["--set", &set]);
+        let folds: Vec<(f64, f64)> = v["folds"]
+            .as_array()
+            .into_iter()
+            .flatten()
+            .map(|f| {
+                (
+                    f["base.frequency"].as_f64().expect("fold frequency"),
+                    f["a_mean"].as_f64().expect("fold a_mean"),
+                )
+            })
+            .collect();
+        assert_eq!(folds.len(), 2, "X_b = {xb} µm: two folds expected: {v}");
+        let lower = folds
+            .iter()
+            .cloned()
+            .fold((f64::INFINITY, 0.0), |m, f| if f.0 < m.0 { f } else { m });
+        let upper =
+            folds.iter().cloned().fold(
+                (f64::NEG_INFINITY, 0.0),
+                |m, f| if f.0 > m.0 { f } else { m },
+            );
+        let w = upper.0 - lower.0;
+        let window = if w < 1.0 {
+            format!("{w:.2}")
+        } else {
+            format!("{w:.1}")
+        };
+        s.push_str(&format!(
+            "| {xb} µm | {:.3} Hz | {:.3} Hz | {window} Hz |\n",
+            lower.0, upper.0
+        ));
+        if xb == "1.5" || xb == "3" {
+            upper_radius.push(format!("{:.2} mm at {xb} µm", upper.1 * 1e3));
+        }
+    }
+    let statics = validate_json("scenarios/resonance-400hz.toml");
+    let a0 = statics["linear_transfer"]["a_mean"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("no static radius (linear_transfer.a_mean): {statics}"));
+    s.push_str(&format!(
+        "\nThe mean contact radius at the upper fold is {}, against {:.2} mm static (the linear \
+         transfer's a_m\nin `djkr validate`).\n",
+        upper_radius.join(" and "),
+        a0 * 1e3
+    ));
+    splice_chapter("docs/guide/physics.md", "bistable wedge", &s);
+}
+
+/// `docs/guide/physics.md`, "Periodic steady state": the hysteretic response at X_b = 1.5 µm,
+/// from the resonance command shown there (under a second).
+#[test]
+fn hysteresis_numbers_come_from_djkr_resonance() {
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("docs-resonance-1.5um-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let out_s = out.to_string_lossy().into_owned();
+    let args = [
+        "resonance",
+        "scenarios/resonance-400hz.toml",
+        "--freq",
+        "300:500:101",
+        "--set",
+        "base.amplitude=1.5um",
+        "--out",
+        &out_s,
+        "--json",
+    ];
+    let json = djkr(&args).unwrap_or_else(|e| panic!("djkr {}: {e}", args.join(" ")));
+    let v: serde_json::Value = serde_json::from_str(&json).expect("resonance --json");
+    let csv = std::fs::read_to_string(out.join("resonance.csv")).expect("resonance.csv");
+    let _ = std::fs::remove_dir_all(&out);
+    let rows = csv_rows(&csv);
+    // (frequency, value) of one direction, in the order swept.
+    let series = |dir: &str, col: &str| -> Vec<(f64, f64)> {
+        rows.iter()
+            .filter(|r| r.get("direction").is_some_and(|d| d == dir))
+            .map(|r| (num(r, "frequency"), num(r, col)))
+            .collect()
+    };
+    // The largest change between neighbours, as (before, after).
+    let jump = |s: &[(f64, f64)], down: bool| {
+        s.windows(2)
+            .max_by(|a, b| {
+                let d = |w: &[(f64, f64)]| {
+                    if down {
+                        w[0].1 - w[1].1
+                    } else {
+                        w[1].1 - w[0].1
+                    }
+                };
+                d(a).total_cmp(&d(b))
+            })
+            .map(|w| (w[0], w[1]))
+            .expect("a sweep of more than one frequency")
+    };
+    let peak = |k: &str| {
+        let p = &v["sweep_up"][k];
+        (
+            p["height"]
+                .as_f64()
+                .unwrap_or_else(|| panic!("no sweep_up.{k}: {v}")),
+            p["frequency"].as_f64().unwrap_or(f64::NAN),
+        )
+    };
+    let (up_h, up_f) = peak("peak");
+    let (hb_h, hb_f) = peak("harmonic_balance_peak");
+    let (up_a, up_b) = jump(&series("up", "delta_amp_over_xb"), true);
+    let (dn_a, dn_b) = jump(&series("down", "delta_amp_over_xb"), false);
+    let (hb_a, hb_b) = jump(&series("up", "hb_delta_amp_over_xb"), true);
+    let s = format!(
+        "At X_b = 1.5 µm the resonance hardens and becomes hysteretic. Sweeping up reaches {up_h:.2} \
+         at {up_f:.0} Hz\nand then jumps down ({:.2} at {:.0} Hz); sweeping down stays on the low \
+         branch down to {:.0} Hz and jumps up at\n{:.0} Hz ({:.2}). Harmonic balance bends the \
+         same way but folds early: sweeping up it drops from {:.2} at {:.0} Hz\nto {:.2} at \
+         {:.0} Hz (peak {hb_h:.2} at {hb_f:.0} Hz).\n",
+        up_b.1, up_b.0, dn_a.0, dn_b.0, dn_b.1, hb_a.1, hb_a.0, hb_b.1, hb_b.0,
+    );
+    assert!(
+        up_a.0 <= up_f + 1e-9,
+        "the up sweep jumps before its peak: {up_a:?} {up_f}"
+    );
+    splice_chapter("docs/guide/physics.md", "hysteresis at 1.5 um", &s);
+}
