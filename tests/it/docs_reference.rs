@@ -1230,3 +1230,40 @@ fn hysteresis_numbers_come_from_djkr_resonance() {
     );
     splice_chapter("docs/guide/physics.md", "hysteresis at 1.5 um", &s);
 }
+
+/// `docs/guide/physics.md`, "What djkr finds": the exact pull-off amplification of the paper's
+/// material, from `djkr pulloff --freq F --a-amp A --json` (48 points of a fraction of a
+/// millisecond each): the three amplitudes of the table and the largest over a_A = 0.1…1.5 mm in
+/// steps of 0.1 mm.
+#[test]
+fn pull_off_table_comes_from_djkr_pulloff() {
+    let amplification = |f: u32, a_tenths_mm: u32| {
+        let (freq, amp) = (f.to_string(), format!("{}mm", a_tenths_mm as f64 / 10.0));
+        let out = djkr(&["pulloff", "--freq", &freq, "--a-amp", &amp, "--json"])
+            .unwrap_or_else(|e| panic!("djkr pulloff --freq {freq} --a-amp {amp}: {e}"));
+        let v: serde_json::Value = serde_json::from_str(&out).expect("pulloff --json");
+        v["amplification"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("djkr pulloff --freq {freq} --a-amp {amp}: {v}"))
+    };
+    let mut s = String::from(
+        "| f | a_A = 0.5 mm | 1 mm | 1.5 mm | largest on a 0.1 mm grid of a_A (at a_A) |\n\
+         |---|---|---|---|---|\n",
+    );
+    for f in [200, 300, 400] {
+        let grid: Vec<(u32, f64)> = (1..=15).map(|a| (a, amplification(f, a))).collect();
+        let at = |a: u32| grid[(a - 1) as usize].1;
+        let (a_max, max) =
+            grid.iter()
+                .cloned()
+                .fold((0, f64::NEG_INFINITY), |m, p| if p.1 > m.1 { p } else { m });
+        s.push_str(&format!(
+            "| {f} Hz | {:.1} | {:.1} | {:.1} | {max:.1} ({:.1} mm) |\n",
+            at(5),
+            at(10),
+            at(15),
+            a_max as f64 / 10.0
+        ));
+    }
+    splice_chapter("docs/guide/physics.md", "pull-off table", &s);
+}
