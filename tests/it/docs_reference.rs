@@ -291,7 +291,13 @@ fn splice(doc: &str, name: &str, generated: &str) -> String {
         + doc[after..]
             .find("<!-- END GENERATED -->")
             .expect("END GENERATED marker");
-    format!("{}\n{}\n{}", &doc[..after], generated.trim(), &doc[end..])
+    // Blank lines off, leading spaces kept (a region inside a list item is indented).
+    format!(
+        "{}\n{}\n{}",
+        &doc[..after],
+        generated.trim_matches('\n'),
+        &doc[end..]
+    )
 }
 
 /// The scenario reference from the JSON of `djkr keys --json` (a list of objects with `key`,
@@ -1266,4 +1272,50 @@ fn pull_off_table_comes_from_djkr_pulloff() {
         ));
     }
     splice_chapter("docs/guide/physics.md", "pull-off table", &s);
+}
+
+/// `docs/guide/physics.md`, "Closed form": the indentation amplitude at pull-off by the exact
+/// method and the closed form's two δ_A forms, from `djkr pulloff --json` (nine points, a
+/// fraction of a second in all).
+#[test]
+fn delta_amplitude_forms_come_from_djkr_pulloff() {
+    let delta_amp = |a: &str, extra: &[&str]| {
+        let mut argv = vec!["pulloff", "--freq", "200", "--a-amp", a, "--json"];
+        argv.extend(extra);
+        let out = djkr(&argv).unwrap_or_else(|e| panic!("djkr {}: {e}", argv.join(" ")));
+        let v: serde_json::Value = serde_json::from_str(&out).expect("pulloff --json");
+        v["delta_amp"]
+            .as_f64()
+            .unwrap_or_else(|| panic!("djkr {}: no delta_amp: {v}", argv.join(" ")))
+    };
+    let amps = ["0.05mm", "0.3mm", "1mm"];
+    let forms: [&[&str]; 3] = [
+        &[],
+        &["--method", "approx"],
+        &["--method", "approx", "--delta-form", "printed"],
+    ];
+    let values: Vec<Vec<f64>> = forms
+        .iter()
+        .map(|f| amps.iter().map(|a| delta_amp(a, f)).collect())
+        .collect();
+    let under = (0..3).all(|k| values[1][k] < values[0][k] && values[2][k] < values[0][k]);
+    assert!(
+        under,
+        "a closed form no longer undershoots the exact δ_A: {values:?}; rewrite the text"
+    );
+    let um = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{:.0}", x * 1e6))
+            .collect::<Vec<_>>()
+            .join(" / ")
+    };
+    let s = format!(
+        "  Both undershoot the exact first harmonic at pull-off (`djkr pulloff --freq 200 --a-amp A`, \
+         the\n  closed form with `--method approx [--delta-form printed]`; a_A = 0.05 / 0.3 / 1 mm): \
+         exact\n  {} µm, derived {} µm, printed {} µm.\n",
+        um(&values[0]),
+        um(&values[1]),
+        um(&values[2])
+    );
+    splice_chapter("docs/guide/physics.md", "delta_A forms", &s);
 }
