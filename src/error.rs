@@ -279,6 +279,16 @@ mod tests {
         assert_eq!(render("a «b", &Flags), "a «b");
         let t = format!("already set by {}", set_item("adhesion.n=0.5"));
         assert_eq!(render(&t, &Flags), "already set by --set adhesion.n=0.5");
+        // An input with its value, and a sweep's axis.
+        let t = format!("{}: too many", input_value("ensemble", "5"));
+        assert_eq!(render(&t, &Flags), "--ensemble 5: too many");
+        assert_eq!(render(&t, &Plain), "ensemble = 5: too many");
+        let t = format!("swept by {}", axis_item("base.amplitude=1um:2um:3"));
+        assert_eq!(
+            render(&t, &Flags),
+            "swept by --set base.amplitude=1um:2um:3"
+        );
+        assert_eq!(render(&t, &Plain), "swept by axis base.amplitude=1um:2um:3");
         let s = Source {
             file: "s.toml".into(),
             set: vec!["base.amplitude=30um".into(), "adhesion.n=0.5".into()].into(),
