@@ -31,7 +31,7 @@ use nalgebra::DVector;
 use super::analysis::{analyse, Analysis};
 use super::free::{FreeKey, Transform};
 use super::lm::{self, End, Halt, Outcome};
-use super::model::{EvalError, ForwardModel, Prediction};
+use super::model::{expected_runs, EvalError, ForwardModel, Prediction};
 use super::problem::{fd_step, Evaluator};
 use super::report::{
     self, FitError, FitEvent, FitOptions, FitOutcome, FitReport, StartReport, Tolerances,
@@ -124,17 +124,6 @@ fn check_start_chi2(
             u => format!(" {u}"),
         }
     )))
-}
-
-/// Parameter sets a typical iteration evaluates (the trial step and the Jacobian's) with `k`
-/// free keys: `k + 1` with forward differences, `2k + 1` with an ensemble's central ones; for a
-/// progress bar's length.
-pub fn sets_per_iteration(members: usize, k: usize) -> usize {
-    if members > 1 {
-        2 * k + 1
-    } else {
-        k + 1
-    }
 }
 
 /// Refuse a starting value outside its key's bounds, and bounds too far from it for the fit's
@@ -769,13 +758,6 @@ fn describe(free: &[FreeKey], tr: &[Transform], y: &[f64]) -> String {
         })
         .collect::<Vec<_>>()
         .join(", ")
-}
-
-/// Forward runs a fit is expected to take (for progress): the start, and per start about 8
-/// iterations of [`sets_per_iteration`], and the check of the uncertainties.
-pub fn expected_runs(model: &ForwardModel, k: usize, starts: usize) -> usize {
-    let per_set = model.runs_per_set();
-    per_set * (1 + starts.max(1) * 8 * sets_per_iteration(model.members(), k) + 2 * k)
 }
 
 #[cfg(test)]

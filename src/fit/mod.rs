@@ -37,10 +37,11 @@ pub(crate) mod tolerance;
 pub(crate) mod uncertainty;
 
 pub use data::{FitData, Observable};
-pub use driver::{check_start, expected_runs, fit, sets_per_iteration};
+pub use driver::{check_start, fit};
 pub use figure::fit_figure;
 pub use free::{fittable_keys, FreeKey};
 pub use model::ForwardModel;
+pub use model::{expected_runs, sets_per_iteration};
 pub use problem::fd_step;
 pub use report::{
     FitError, FitEvent, FitOptions, FitOutcome, FitReport, Parameter, StartReport, Tolerances,

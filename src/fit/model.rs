@@ -115,7 +115,7 @@ impl ForwardModel {
     }
 
     /// Refuse a fit whose largest batch of runs (every run of one iteration: rows × members ×
-    /// [`super::sets_per_iteration`], one grid built in memory before any of them runs) would
+    /// [`sets_per_iteration`], one grid built in memory before any of them runs) would
     /// pass the bounds of a sweep: [`crate::sweep::check_runs`]'s count of runs, and the memory
     /// the batch's grid holds ([`Self::batch_bytes`]) against the scenario's
     /// `solver.max_memory`, the budget of issue 24 (the parser's default when the scenario with
@@ -125,7 +125,7 @@ impl ForwardModel {
     fn check_batch_size(&self) -> Result<(), String> {
         let rows = self.data.rows.len();
         let members = self.members();
-        let sets = super::sets_per_iteration(members, self.free.len());
+        let sets = sets_per_iteration(members, self.free.len());
         let what = match self.ensemble {
             Some((m, _)) => input_value("ensemble", &m.to_string()),
             None => self.data.name.clone(),
@@ -492,6 +492,24 @@ impl ForwardModel {
             None => text,
         }
     }
+}
+
+/// Parameter sets a typical iteration evaluates (the trial step and the Jacobian's) with `k`
+/// free keys: `k + 1` with forward differences, `2k + 1` with an ensemble's central ones; for a
+/// progress bar's length.
+pub fn sets_per_iteration(members: usize, k: usize) -> usize {
+    if members > 1 {
+        2 * k + 1
+    } else {
+        k + 1
+    }
+}
+
+/// Forward runs a fit is expected to take (for progress): the start, and per start about 8
+/// iterations of [`sets_per_iteration`], and the check of the uncertainties.
+pub fn expected_runs(model: &ForwardModel, k: usize, starts: usize) -> usize {
+    let per_set = model.runs_per_set();
+    per_set * (1 + starts.max(1) * 8 * sets_per_iteration(model.members(), k) + 2 * k)
 }
 
 #[cfg(test)]

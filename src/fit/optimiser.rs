@@ -4,9 +4,9 @@
 
 use nalgebra::DVector;
 
-use super::driver::expected_runs;
 use super::free::Transform;
 use super::lm::{self, End, Halt, Outcome};
+use super::model::expected_runs;
 use super::model::{EvalError, ForwardModel, Prediction};
 use super::problem::{Evaluator, View};
 use super::report::FitEvent;
