@@ -29,6 +29,7 @@ pub(crate) mod free;
 pub(crate) mod lm;
 pub(crate) mod model;
 pub(crate) mod optimiser;
+pub mod predict;
 pub(crate) mod problem;
 pub(crate) mod report;
 pub(crate) mod starts;
