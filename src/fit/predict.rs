@@ -205,8 +205,8 @@ impl FitFolder {
                 input("out")
             )));
         }
-        let text = read_text(&json_path, InputKind::FitData)
-            .map_err(|e| bad(format!("fit.json: {e}")))?;
+        let text =
+            read_text(&json_path, InputKind::FitData).map_err(|e| bad(format!("fit.json: {e}")))?;
         let json: FitJson = serde_json::from_str(&text)
             .map_err(|e| bad(format!("fit.json is not a fit's report: {e}")))?;
         let source = ScenarioSource::read(&dir.join("fitted.toml"))
@@ -298,7 +298,8 @@ fn read_residuals(path: &Path, observable: Observable) -> Result<FitData, String
         let r = r.map_err(|e| e.to_string())?;
         rows.push(r.iter().map(str::to_string).collect());
     }
-    let with_sigma = sigma.filter(|&s| rows.iter().all(|r| r.get(s).is_some_and(|c| !c.is_empty())));
+    let with_sigma =
+        sigma.filter(|&s| rows.iter().all(|r| r.get(s).is_some_and(|c| !c.is_empty())));
     let unit = observable.unit();
     let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
     let mut h: Vec<String> = head[..obs].to_vec();
@@ -502,8 +503,15 @@ pub fn predict(
     };
     let n = data.rows.len();
     let keys: Vec<SetKey> = fit.free.iter().map(|f| f.key).collect();
-    let model = ForwardModel::new(fit.source.clone(), data.clone(), keys, Vec::new(), None, req.jobs)
-        .map_err(Error::Invalid)?;
+    let model = ForwardModel::new(
+        fit.source.clone(),
+        data.clone(),
+        keys,
+        Vec::new(),
+        None,
+        req.jobs,
+    )
+    .map_err(Error::Invalid)?;
     let scn = fit
         .source
         .scenario(&[])
@@ -516,8 +524,11 @@ pub fn predict(
         Some((r, e)) => model.with_solver(vec![
             Override::from_key(SetKey::parse("solver.rtol").map_err(Error::Override)?, r)
                 .map_err(Error::Override)?,
-            Override::from_key(SetKey::parse("solver.envelope_tol").map_err(Error::Override)?, e)
-                .map_err(Error::Override)?,
+            Override::from_key(
+                SetKey::parse("solver.envelope_tol").map_err(Error::Override)?,
+                e,
+            )
+            .map_err(Error::Override)?,
         ]),
         None => model.clone(),
     };
@@ -527,7 +538,12 @@ pub fn predict(
         } else {
             0.0
         };
-    let y_hat: Vec<f64> = fit.tr.iter().zip(&fit.values).map(|(t, &x)| t.y(x)).collect();
+    let y_hat: Vec<f64> = fit
+        .tr
+        .iter()
+        .zip(&fit.values)
+        .map(|(t, &x)| t.y(x))
+        .collect();
     let mut progress = |e: FitEvent| {
         if e == FitEvent::Run {
             on_run();
@@ -548,7 +564,7 @@ pub fn predict(
         EvalError::Failed(m) => Error::Invalid(m),
     };
     let value = ev
-        .predict_on(&model, &[fit.values.clone()])
+        .predict_on(&model, std::slice::from_ref(&fit.values))
         .map_err(failed)?
         .pop()
         .ok_or(Error::Cancelled)?;
@@ -640,6 +656,72 @@ pub fn predict(
     })
 }
 
+/// The files `predict` writes.
+pub const FILES: [&str; 2] = ["prediction.csv", "prediction.json"];
+
+/// `prediction.csv`: the conditions, `value`, `sigma_parameters`, `sigma_ensemble`, `sigma`,
+/// the 68 % and 95 % bands, and with samples `sigma_samples`, each headed `name [unit]` (SI);
+/// an empty cell where a σ is null.
+pub fn prediction_csv(r: &PredictReport) -> String {
+    use crate::output::table::format_f64;
+    let u = &r.unit;
+    let mut head: Vec<String> = r
+        .conditions
+        .iter()
+        .map(|c| match c.unit {
+            Some(unit) => format!("{} [{unit}]", c.key),
+            None => c.key.clone(),
+        })
+        .collect();
+    let mut cols = vec![
+        "value",
+        "sigma_parameters",
+        "sigma_ensemble",
+        "sigma",
+        "lo68",
+        "hi68",
+        "lo95",
+        "hi95",
+    ];
+    if r.samples > 0 {
+        cols.push("sigma_samples");
+    }
+    head.extend(cols.iter().map(|c| format!("{c} [{u}]")));
+    let mut out = head.join(",");
+    out.push('\n');
+    let opt = |x: Option<f64>| x.map(format_f64).unwrap_or_default();
+    for row in &r.rows {
+        let mut cells: Vec<String> = row
+            .conditions
+            .iter()
+            .map(|c| match c {
+                Cell::Num(x) => format_f64(*x),
+                Cell::Text(t) => {
+                    if t.contains([',', '"', '\n', '\r']) {
+                        format!("\"{}\"", t.replace('"', "\"\""))
+                    } else {
+                        t.clone()
+                    }
+                }
+            })
+            .collect();
+        cells.push(format_f64(row.value));
+        cells.push(opt(row.sigma_parameters));
+        cells.push(format_f64(row.sigma_ensemble));
+        cells.push(opt(row.sigma));
+        cells.push(opt(row.lo68));
+        cells.push(opt(row.hi68));
+        cells.push(opt(row.lo95));
+        cells.push(opt(row.hi95));
+        if r.samples > 0 {
+            cells.push(opt(row.sigma_samples));
+        }
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -681,9 +763,9 @@ mod tests {
     fn a_key_without_variance_is_held_at_its_estimate() {
         let cov = DMatrix::from_row_slice(2, 2, &[0.25, f64::NAN, f64::NAN, f64::NAN]);
         let jac = DMatrix::from_row_slice(1, 2, &[2.0, 100.0]);
-        assert_eq!(propagate(&jac, &cov), vec![1.0]);
+        assert_eq!(propagate(&jac, &cov)[0].to_bits(), 1.0f64.to_bits());
         for d in draws(&[1.0, 5.0], &cov, 10, 1) {
-            assert_eq!(d[1], 5.0);
+            assert_eq!(d[1].to_bits(), 5.0f64.to_bits());
         }
     }
 
