@@ -36,7 +36,7 @@ pub struct PredictArgs {
     /// Print prediction.json on stdout.
     #[arg(long)]
     json: bool,
-    /// Output folder for prediction.csv and prediction.json.
+    /// Output folder for prediction.csv, prediction.json, prediction.png and prediction.svg.
     #[arg(long, value_name = "DIR")]
     out: PathBuf,
     /// Overwrite files of those names in --out that djkr did not write.
@@ -82,7 +82,7 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
         jobs: a.jobs.unwrap_or(0),
     };
     // The fit is read (and a folder without one refused) before the output folder is claimed.
-    predict::FitFolder::read(&req.fit)?;
+    let fit = predict::FitFolder::read(&req.fit)?;
     signals::install("stopping: forward runs in progress are abandoned; nothing is written");
     super::common::claim_out(&a.out, &predict::FILES, a.force).context("--out")?;
     let _lock = djkr::output::folder::DirLock::acquire(&a.out)?;
@@ -110,6 +110,16 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
         predict::prediction_csv(&report).as_bytes(),
     )?;
     put("prediction.json", format!("{json}\n").as_bytes())?;
+    match predict::prediction_figure(&report, &fit.data) {
+        Some(fig) => {
+            djkr::plot::render(&fig, &a.out.join("prediction"))
+                .map_err(|e| anyhow::anyhow!("prediction.png/prediction.svg: {e}"))?;
+        }
+        None => eprintln!(
+            "note: no figure: no numeric condition takes two values in the grid (give --set \
+             KEY=SPEC with several values)"
+        ),
+    }
     if a.json {
         println!("{json}");
     } else {

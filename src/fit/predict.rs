@@ -657,7 +657,188 @@ pub fn predict(
 }
 
 /// The files `predict` writes.
-pub const FILES: [&str; 2] = ["prediction.csv", "prediction.json"];
+pub const FILES: [&str; 4] = [
+    "prediction.csv",
+    "prediction.json",
+    "prediction.png",
+    "prediction.svg",
+];
+
+/// Whether two condition cells are the same value (numbers within 1e-9 relative: a grid's range
+/// and a data file's decimal need not agree to the bit).
+fn same(a: &Cell, b: &Cell) -> bool {
+    match (a, b) {
+        (Cell::Num(x), Cell::Num(y)) => (x - y).abs() <= 1e-9 * x.abs().max(y.abs()),
+        (Cell::Text(x), Cell::Text(y)) => x == y,
+        _ => false,
+    }
+}
+
+/// The figure of a prediction: the value over the grid's first condition that varies (numeric),
+/// its 68 % band (dashed) and 95 % band (the same colour, another dash), one colour per value of
+/// the other conditions, and the fit's data (markers with ±σ where given) where the other
+/// conditions match a group's. `None` without a numeric condition that takes two values.
+pub fn prediction_figure(r: &PredictReport, data: &FitData) -> Option<crate::plot::Figure> {
+    use crate::plot::{axis_label, Figure, Series, Style, COLOR_COUNT};
+    let varies = |j: usize| {
+        let first = &r.rows.first()?.conditions[j];
+        Some(r.rows.iter().any(|row| !same(&row.conditions[j], first)))
+    };
+    let xj = (0..r.conditions.len())
+        .find(|&j| r.conditions[j].unit.is_some() && varies(j) == Some(true))?;
+    let others: Vec<usize> = (0..r.conditions.len())
+        .filter(|&j| j != xj && varies(j) == Some(true))
+        .collect();
+    // Groups: rows with the same values of the other varying conditions, in order of first
+    // appearance.
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (i, row) in r.rows.iter().enumerate() {
+        match groups.iter_mut().find(|g| {
+            others
+                .iter()
+                .all(|&j| same(&r.rows[g[0]].conditions[j], &row.conditions[j]))
+        }) {
+            Some(g) => g.push(i),
+            None => groups.push(vec![i]),
+        }
+    }
+    let num = |c: &Cell| match c {
+        Cell::Num(x) => *x,
+        Cell::Text(_) => f64::NAN,
+    };
+    let xs: Vec<f64> = r.rows.iter().map(|row| num(&row.conditions[xj])).collect();
+    let xkey = &r.conditions[xj];
+    let (fx, xlabel) = axis_label(&xkey.key, xkey.unit.unwrap_or(""), &xs);
+    let all_y: Vec<f64> = r.rows.iter().map(|row| row.value).collect();
+    let (fy, ylabel) = axis_label(&r.observable, &r.unit, &all_y);
+    let mut fig = Figure::new(
+        format!(
+            "{} predicted from the fit ({}), with 68 % and 95 % bands",
+            r.observable,
+            r.keys.join(", ")
+        ),
+        xlabel,
+        ylabel,
+    );
+    // The data's column of each grid condition, where it has one.
+    let data_col: Vec<Option<usize>> = r
+        .conditions
+        .iter()
+        .map(|c| {
+            data.conditions
+                .iter()
+                .position(|d| d.key.to_string() == c.key)
+        })
+        .collect();
+    for (g, rows) in groups.iter().enumerate() {
+        let mut idx = rows.clone();
+        idx.sort_by(|&a, &b| xs[a].total_cmp(&xs[b]));
+        let name = others
+            .iter()
+            .map(|&j| {
+                let c = &r.rows[idx[0]].conditions[j];
+                match (c, r.conditions[j].unit) {
+                    (Cell::Num(x), Some(u)) => {
+                        let (f, unit) = crate::plot::display_unit(u, &[*x]);
+                        format!(
+                            "{} = {} {}",
+                            r.conditions[j].key,
+                            crate::plot::tick_label(x * f),
+                            crate::plot::unit_text(&unit)
+                        )
+                    }
+                    (c, _) => format!(
+                        "{} = {}",
+                        r.conditions[j].key,
+                        match c {
+                            Cell::Num(x) => crate::output::table::format_f64(*x),
+                            Cell::Text(t) => t.clone(),
+                        }
+                    ),
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        let x: Vec<f64> = idx.iter().map(|&i| xs[i] * fx).collect();
+        let y = |f: &dyn Fn(&PredictRow) -> Option<f64>| -> Vec<f64> {
+            idx.iter()
+                .map(|&i| f(&r.rows[i]).map_or(f64::NAN, |v| v * fy))
+                .collect()
+        };
+        let label = |what: &str| {
+            if name.is_empty() {
+                what.to_string()
+            } else if what == "prediction" {
+                name.clone()
+            } else if g == 0 {
+                what.to_string()
+            } else {
+                String::new()
+            }
+        };
+        fig = fig.with_series(
+            Series::new(
+                label("prediction"),
+                x.clone(),
+                y(&|r| Some(r.value)),
+                Style::Line,
+            )
+            .with_color(g),
+        );
+        if r.rows.iter().any(|row| row.sigma.is_some()) {
+            for (what, lo, hi, style, colour) in [
+                (
+                    "68 % band",
+                    (|r: &PredictRow| r.lo68) as fn(&PredictRow) -> Option<f64>,
+                    (|r: &PredictRow| r.hi68) as fn(&PredictRow) -> Option<f64>,
+                    Style::Dashed,
+                    g,
+                ),
+                (
+                    "95 % band",
+                    |r| r.lo95,
+                    |r| r.hi95,
+                    Style::Line,
+                    g + COLOR_COUNT,
+                ),
+            ] {
+                fig = fig.with_series(
+                    Series::new(label(what), x.clone(), y(&lo), style).with_color(colour),
+                );
+                fig = fig.with_series(Series::new("", x.clone(), y(&hi), style).with_color(colour));
+            }
+        }
+        // The data where the other conditions match this group's.
+        if let Some(dx) = data_col[xj] {
+            let (mut px, mut py) = (Vec::new(), Vec::new());
+            for d in &data.rows {
+                let cell = |k: usize| match &d.conditions[k] {
+                    CondValue::Num(x) => Cell::Num(*x),
+                    CondValue::Text(t) => Cell::Text(t.clone()),
+                };
+                let matches = (0..r.conditions.len()).filter(|&j| j != xj).all(|j| {
+                    data_col[j].is_none_or(|k| same(&cell(k), &r.rows[idx[0]].conditions[j]))
+                });
+                if matches {
+                    px.push(num(&cell(dx)) * fx);
+                    py.push(d.observed * fy);
+                }
+            }
+            if !px.is_empty() {
+                fig = fig.with_series(
+                    Series::new(
+                        if g == 0 { "data (the fit's)" } else { "" },
+                        px,
+                        py,
+                        Style::Markers,
+                    )
+                    .with_color(g),
+                );
+            }
+        }
+    }
+    Some(fig)
+}
 
 /// `prediction.csv`: the conditions, `value`, `sigma_parameters`, `sigma_ensemble`, `sigma`,
 /// the 68 % and 95 % bands, and with samples `sigma_samples`, each headed `name [unit]` (SI);
