@@ -22,6 +22,7 @@
 
 pub(crate) mod analysis;
 pub(crate) mod data;
+pub mod design;
 pub(crate) mod driver;
 pub mod figure;
 pub mod files;
