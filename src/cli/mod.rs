@@ -14,6 +14,7 @@ mod fit_data;
 mod imposed;
 mod keys;
 mod plot;
+mod predict;
 mod resonance;
 mod run;
 mod shortcut_map;
@@ -123,6 +124,11 @@ enum Command {
     /// Exit status: 0 fitted (fit.json says whether it converged), 2 bad input, 130 Ctrl-C
     /// (the best estimate so far is written), 3 SIGTERM.
     Fit(fit_data::FitArgs),
+    /// Predict with uncertainty from a fit: the model at the fit's estimate over a grid of
+    /// conditions (as `djkr sweep --set`), with sigma from the parameters' covariance (linear
+    /// propagation, and with --samples parameter draws) and 68/95 % bands: prediction.csv,
+    /// prediction.json. Exit status: 0 predicted, 2 bad input, 130 Ctrl-C
+    Predict(predict::PredictArgs),
     /// Reproduce the paper's figures (Figs. 2, 3(a), 3(b), 4–8) as CSV + PNG + SVG.
     Figures(figures::FiguresArgs),
     /// Run a scenario to its periodic steady state (shooting, time-stepping as the fallback) and
@@ -174,6 +180,7 @@ pub fn main() -> ExitCode {
         Command::BetaFit(a) => closed::beta_fit(&a),
         Command::GsFit(a) => fit::gs_fit(&a),
         Command::Fit(a) => fit_data::fit(&a),
+        Command::Predict(a) => predict::predict(&a),
         Command::Figures(a) => figures::figures(&a),
         Command::Validate(a) => validate::validate(&a),
         Command::Resonance(a) => resonance::resonance(&a),

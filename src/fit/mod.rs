@@ -22,6 +22,7 @@
 
 pub(crate) mod analysis;
 pub(crate) mod data;
+pub mod design;
 pub(crate) mod driver;
 pub mod figure;
 pub mod files;
@@ -29,6 +30,7 @@ pub(crate) mod free;
 pub(crate) mod lm;
 pub(crate) mod model;
 pub(crate) mod optimiser;
+pub mod predict;
 pub(crate) mod problem;
 pub(crate) mod report;
 pub(crate) mod starts;

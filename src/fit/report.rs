@@ -83,6 +83,11 @@ pub struct Parameter {
     pub unit: String,
     /// The starting value (the scenario's, in `unit`).
     pub initial: f64,
+    /// The fit coordinate: `"log"` (`ln x`) or `"linear"` (`x / |initial|`, or `x` from a start
+    /// of 0); what `predict` and `design` differentiate and draw in.
+    pub coordinate: &'static str,
+    /// The bounds `[lo, hi]` the key was fitted within (in `unit`; null where none).
+    pub bounds: [Option<f64>; 2],
 }
 
 /// One start of a multi-start fit.
@@ -335,6 +340,8 @@ pub fn keys(
                 interval_from: interval.map(|i| if i.2 { "profile" } else { "curvature" }),
                 unit: f.unit.to_string(),
                 initial: x0[j],
+                coordinate: if tr[j].log { "log" } else { "linear" },
+                bounds: [f.lo, f.hi],
             }
         })
         .collect();

@@ -453,6 +453,17 @@ fn every_figure_keeps_its_legend_off_the_data_and_its_axes_in_units() {
         "--out",
         &d("fit"),
     ]);
+    djkr(&[
+        "predict",
+        "--fit",
+        &d("fit"),
+        "--set",
+        "base.frequency=200:400:5",
+        "--set",
+        "base.amplitude=10um,30um",
+        "--out",
+        &d("predict"),
+    ]);
     djkr(&["figures", "--out", &d("figures")]);
     djkr(&["beta-fit", "--out", &d("beta-fit")]);
     eprintln!("figures made in {:.1} s", t0.elapsed().as_secs_f64());
@@ -475,6 +486,7 @@ fn every_figure_keeps_its_legend_off_the_data_and_its_axes_in_units() {
         "imposed-area/quadrature.svg",
         "imposed-area/closed_form_map.svg",
         "fit/fit.svg",
+        "predict/prediction.svg",
         "figures/fig2.svg",
         "figures/fig3a.svg",
         "figures/fig3b.svg",

@@ -770,7 +770,7 @@ fn cheap_cells() -> Vec<String> {
 }
 
 /// Data of the cheap rig made with v0 = 60 um/s and n = 0.5, with 2 % noise (seed 3).
-fn cheap_data(dir: &Path) -> std::path::PathBuf {
+pub(crate) fn cheap_data(dir: &Path) -> std::path::PathBuf {
     let mut sets: Vec<&str> = SHORT.to_vec();
     sets.extend(["adhesion.v0=6e-5", "adhesion.n=0.5"]);
     let values = truth(HEAVY, COND_CHEAP, &cheap_cells(), &sets);
@@ -780,7 +780,7 @@ fn cheap_data(dir: &Path) -> std::path::PathBuf {
 }
 
 /// `djkr fit` on the cheap rig with `extra` flags: fit.json and stderr.
-fn fit_cheap(data: &Path, out: &Path, extra: &[&str]) -> (Value, String) {
+pub(crate) fn fit_cheap(data: &Path, out: &Path, extra: &[&str]) -> (Value, String) {
     let mut args: Vec<String> = vec![
         "fit".into(),
         data.to_str().unwrap().into(),

@@ -25,6 +25,7 @@ mod gaps;
 mod gent_schultz_fitting;
 mod imposed_area;
 mod output;
+mod predict;
 mod restart;
 mod scenario_files;
 mod steady;

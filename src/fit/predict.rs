@@ -1,0 +1,960 @@
+//! Predictions from a fit, with their uncertainty (`djkr predict`, issue 34): the model at the
+//! fit's estimate over a grid of conditions, and the standard deviation that the parameters'
+//! covariance gives it.
+//!
+//! - **The fit**: a fit's folder ([`FitFolder::read`]): `fit.json` (the estimates, their
+//!   covariance in the keys' units, the fit coordinates, the tolerances), `fitted.toml` (the
+//!   scenario with the estimates and the fit's fixed overrides written in) and `residuals.csv`
+//!   (the data's conditions).
+//! - **The grid**: the axes of a sweep ([`crate::sweep::Axis`], `KEY=SPEC` as `djkr sweep --set`
+//!   takes it; the Cartesian grid), or without axes the data's own conditions.
+//! - **Linear propagation** (the delta method, /work/shared/STATS.md): with `g` the gradient of
+//!   the prediction in the fit coordinates `y` (`ln x` for a key fitted in log space) and `C_y`
+//!   the covariance there, `σ_parameters² = g C_y gᵀ`. The gradient is the fit's own Jacobian
+//!   ([`super::problem::Evaluator::jacobian_y`]): forward differences of step `√ε` (ε the error
+//!   level of the fit's tolerances), widened where a column does not stand above the model's
+//!   error, at the fit's tolerances; the value itself runs at the scenario's (`fitted.toml`'s),
+//!   as the fit's residuals do.
+//! - **Samples**: with `samples = N`, N draws `y⁽ˢ⁾ ~ N(ŷ, C_y)` (so a key in log space stays
+//!   positive), the model run at each; `sigma_samples` is their standard deviation. Where it
+//!   and `sigma_parameters` differ by more than [`DISAGREEMENT`] (either way) the model is not
+//!   linear over the parameters' uncertainty, and a note says the samples are the ones to trust.
+//! - **Bands**: `sigma = √(σ_parameters² + σ_ensemble²)`; `lo68, hi68 = value ∓ sigma`, `lo95,
+//!   hi95 = value ∓ 1.96 sigma` (normal quantiles).
+//!
+//! [`propagate`], [`draws`] and [`spread`] are the pure parts, tested against closed forms; the
+//! forward model is the fit's.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+
+use crate::error::Error;
+use crate::input::{read_text, InputKind};
+use crate::scenario::overrides::{Override, SetKey};
+use crate::scenario::parse::ScenarioSource;
+use crate::sweep::grid::{Axis, Grid};
+use crate::sweep::spec::KeyCell;
+use crate::words::{input, input_value};
+
+use super::data::{CondValue, Condition, DataRow, FitData, Observable};
+use super::free::{FreeKey, Transform};
+use super::model::{EvalError, ForwardModel};
+use super::problem::{fd_step, Evaluator};
+use super::FitEvent;
+
+/// The factor beyond which `sigma_samples` and `sigma_parameters` are said to disagree (a
+/// ratio above it or below its inverse): a model that is not linear over the parameters'
+/// uncertainty. With N samples the ratio's own sampling error is about `1/√(2N)` (7 % at 100), so
+/// a factor 1.5 is not reached by chance.
+pub const DISAGREEMENT: f64 = 1.5;
+
+/// The normal quantile of a two-sided 95 % band.
+pub const Z95: f64 = 1.959_963_984_540_054;
+
+/// What to predict.
+#[derive(Debug, Clone)]
+pub struct PredictRequest {
+    /// The fit's folder (`fit.json`, `fitted.toml`, `residuals.csv`).
+    pub fit: PathBuf,
+    /// The grid's axes (the Cartesian grid, first key slowest); empty: the data's own
+    /// conditions.
+    pub grid: Vec<Axis>,
+    /// Parameter draws for `sigma_samples` (0: none).
+    pub samples: usize,
+    /// The draws' seed.
+    pub seed: u64,
+    /// Threads (0: one per core).
+    pub jobs: usize,
+}
+
+/// A condition's value in a row: a number (SI) or text.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Cell {
+    /// SI number.
+    Num(f64),
+    /// Text as given.
+    Text(String),
+}
+
+/// A condition column of the prediction.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ConditionColumn {
+    /// The scenario key.
+    pub key: String,
+    /// Its SI unit (null: text).
+    pub unit: Option<&'static str>,
+}
+
+/// One grid point's prediction (in the observable's SI unit).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PredictRow {
+    /// The conditions, in the order of [`PredictReport::conditions`].
+    pub conditions: Vec<Cell>,
+    /// The model at the estimate.
+    pub value: f64,
+    /// Its σ from the parameters' covariance (linear propagation); null where no key has a σ.
+    pub sigma_parameters: Option<f64>,
+    /// The ensemble's standard error (0 without an ensemble).
+    pub sigma_ensemble: f64,
+    /// `√(sigma_parameters² + sigma_ensemble²)`.
+    pub sigma: Option<f64>,
+    /// `value − sigma`.
+    pub lo68: Option<f64>,
+    /// `value + sigma`.
+    pub hi68: Option<f64>,
+    /// `value − 1.96 sigma`.
+    pub lo95: Option<f64>,
+    /// `value + 1.96 sigma`.
+    pub hi95: Option<f64>,
+    /// The standard deviation of the model over the parameter draws (null without samples).
+    pub sigma_samples: Option<f64>,
+}
+
+/// What `predict` reports (`prediction.json`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PredictReport {
+    /// The observable (as named in sweep.csv).
+    pub observable: String,
+    /// Its SI unit.
+    pub unit: String,
+    /// The condition columns.
+    pub conditions: Vec<ConditionColumn>,
+    /// The free keys whose covariance is propagated (those with a σ).
+    pub keys: Vec<String>,
+    /// One row per grid point.
+    pub rows: Vec<PredictRow>,
+    /// Parameter draws made.
+    pub samples: usize,
+    /// Their seed.
+    pub seed: u64,
+    /// Forward runs made.
+    pub forward_runs: usize,
+    /// What the numbers need said.
+    pub notes: Vec<String>,
+}
+
+/// One parameter of `fit.json`, as read back.
+#[derive(Debug, Clone, Deserialize)]
+struct FitParameter {
+    key: String,
+    value: f64,
+    initial: f64,
+    #[serde(default)]
+    coordinate: Option<String>,
+    #[serde(default)]
+    bounds: Option<[Option<f64>; 2]>,
+}
+
+/// The tolerances of `fit.json`, as read back.
+#[derive(Debug, Clone, Deserialize)]
+struct FitTolerances {
+    rtol: f64,
+    envelope_tol: f64,
+    chosen: bool,
+}
+
+/// What `predict` reads of `fit.json`.
+#[derive(Debug, Clone, Deserialize)]
+struct FitJson {
+    parameters: Vec<FitParameter>,
+    covariance: Vec<Vec<Option<f64>>>,
+    observable: String,
+    converged: bool,
+    tolerances: FitTolerances,
+}
+
+/// A fit's folder, read.
+#[derive(Debug, Clone)]
+pub struct FitFolder {
+    /// `fitted.toml`.
+    pub source: ScenarioSource,
+    /// The free keys (bounds as fitted).
+    pub free: Vec<FreeKey>,
+    /// Their transforms to the fit coordinates.
+    pub tr: Vec<Transform>,
+    /// The estimates (SI).
+    pub values: Vec<f64>,
+    /// The covariance in the fit coordinates (NaN where a key has no σ).
+    pub cov_y: DMatrix<f64>,
+    /// The observable fitted.
+    pub observable: Observable,
+    /// The data (from `residuals.csv`: the conditions, observed values and sigma).
+    pub data: FitData,
+    /// The fit's solver tolerances, when it chose its own: `(rtol, envelope_tol)`.
+    pub tolerances: Option<(f64, f64)>,
+    /// Whether the fit converged.
+    pub converged: bool,
+}
+
+impl FitFolder {
+    /// Read the fit in `dir`. A folder without `fit.json` (no fit) is refused in one line.
+    pub fn read(dir: &Path) -> Result<FitFolder, Error> {
+        let shown = dir.display().to_string();
+        let bad = |m: String| Error::Invalid(format!("{}: {m}", input_value("fit", &shown)));
+        if !dir.is_dir() {
+            return Err(bad("not a folder: give the folder a fit wrote".into()));
+        }
+        let json_path = dir.join("fit.json");
+        if !json_path.exists() {
+            return Err(bad(format!(
+                "holds no fit (no fit.json): give the folder a fit wrote (its {})",
+                input("out")
+            )));
+        }
+        let text =
+            read_text(&json_path, InputKind::FitData).map_err(|e| bad(format!("fit.json: {e}")))?;
+        let json: FitJson = serde_json::from_str(&text)
+            .map_err(|e| bad(format!("fit.json is not a fit's report: {e}")))?;
+        let source = ScenarioSource::read(&dir.join("fitted.toml"))
+            .map_err(|e| bad(format!("fitted.toml: {e}")))?;
+        let observable = Observable::parse(&json.observable).ok_or_else(|| {
+            bad(format!(
+                "fit.json: observable '{}' is not one djkr produces",
+                djkr_core::text::excerpt(&json.observable)
+            ))
+        })?;
+        let k = json.parameters.len();
+        if json.covariance.len() != k || json.covariance.iter().any(|r| r.len() != k) {
+            return Err(bad(format!(
+                "fit.json: the covariance is not {k} x {k} (the parameters')"
+            )));
+        }
+        let mut free = Vec::with_capacity(k);
+        let mut tr = Vec::with_capacity(k);
+        for p in &json.parameters {
+            let mut f = FreeKey::parse(&p.key).map_err(|m| bad(format!("fit.json: {m}")))?;
+            if let Some([lo, hi]) = p.bounds {
+                f.lo = lo;
+                f.hi = hi;
+            }
+            let t = Transform::new(&f, p.initial);
+            if let Some(c) = &p.coordinate {
+                let want = c == "log";
+                if want != t.log {
+                    return Err(bad(format!(
+                        "fit.json: {} has coordinate '{}', which its start and bounds do not \
+                         give",
+                        p.key,
+                        djkr_core::text::excerpt(c)
+                    )));
+                }
+            }
+            free.push(f);
+            tr.push(t);
+        }
+        let values: Vec<f64> = json.parameters.iter().map(|p| p.value).collect();
+        let dx: Vec<f64> = tr
+            .iter()
+            .zip(&values)
+            .map(|(t, &x)| t.dx_dy(t.y(x)))
+            .collect();
+        let cov_y = DMatrix::from_fn(k, k, |a, b| match json.covariance[a][b] {
+            Some(c) => c / (dx[a] * dx[b]),
+            None => f64::NAN,
+        });
+        let data = read_residuals(&dir.join("residuals.csv"), observable)
+            .map_err(|m| bad(format!("residuals.csv: {m}")))?;
+        Ok(FitFolder {
+            source,
+            free,
+            tr,
+            values,
+            cov_y,
+            observable,
+            data,
+            tolerances: json
+                .tolerances
+                .chosen
+                .then_some((json.tolerances.rtol, json.tolerances.envelope_tol)),
+            converged: json.converged,
+        })
+    }
+}
+
+/// The data of a fit from its `residuals.csv`: the condition columns (those before
+/// `observed`), `observed` as the observable and `sigma` where given.
+fn read_residuals(path: &Path, observable: Observable) -> Result<FitData, String> {
+    let text = read_text(path, InputKind::FitData).map_err(|e| e.to_string())?;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(true)
+        .from_reader(text.as_bytes());
+    let head: Vec<String> = reader
+        .headers()
+        .map_err(|e| e.to_string())?
+        .iter()
+        .map(str::to_string)
+        .collect();
+    let obs = head
+        .iter()
+        .position(|h| h.starts_with("observed"))
+        .ok_or("no 'observed' column")?;
+    let sigma = head.iter().position(|h| h.starts_with("sigma"));
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    for r in reader.records() {
+        let r = r.map_err(|e| e.to_string())?;
+        rows.push(r.iter().map(str::to_string).collect());
+    }
+    let with_sigma =
+        sigma.filter(|&s| rows.iter().all(|r| r.get(s).is_some_and(|c| !c.is_empty())));
+    let unit = observable.unit();
+    let mut w = csv::WriterBuilder::new().from_writer(Vec::new());
+    let mut h: Vec<String> = head[..obs].to_vec();
+    h.push(format!("{} [{unit}]", observable.name()));
+    if with_sigma.is_some() {
+        h.push(format!("sigma [{unit}]"));
+    }
+    w.write_record(&h).map_err(|e| e.to_string())?;
+    for r in &rows {
+        let mut cells: Vec<&str> = r[..obs.min(r.len())].iter().map(String::as_str).collect();
+        cells.push(r.get(obs).map_or("", String::as_str));
+        if let Some(s) = with_sigma {
+            cells.push(r.get(s).map_or("", String::as_str));
+        }
+        w.write_record(&cells).map_err(|e| e.to_string())?;
+    }
+    let bytes = w.into_inner().map_err(|e| e.to_string())?;
+    let csv_text = String::from_utf8(bytes).map_err(|e| e.to_string())?;
+    FitData::parse(&csv_text, "residuals.csv", Some(observable.name())).map_err(|e| e.0)
+}
+
+/// `σ` of each row from the Jacobian `jac` (rows × keys, ∂prediction/∂y) and the covariance
+/// `cov` in the same coordinates: `√(g C gᵀ)` per row. Keys whose variance is not finite are
+/// left out (held at the estimate).
+pub fn propagate(jac: &DMatrix<f64>, cov: &DMatrix<f64>) -> Vec<f64> {
+    let k = cov.nrows();
+    let keep: Vec<usize> = (0..k).filter(|&j| cov[(j, j)].is_finite()).collect();
+    (0..jac.nrows())
+        .map(|i| {
+            let mut v = 0.0;
+            for &a in &keep {
+                for &b in &keep {
+                    v += jac[(i, a)] * cov[(a, b)] * jac[(i, b)];
+                }
+            }
+            v.max(0.0).sqrt()
+        })
+        .collect()
+}
+
+/// A deterministic stream of standard normal numbers (SplitMix64 and Box–Muller).
+struct Normal {
+    state: u64,
+    spare: Option<f64>,
+}
+
+impl Normal {
+    fn new(seed: u64) -> Normal {
+        Normal {
+            state: seed ^ 0x5DEE_CE66_D1CE_4E5B,
+            spare: None,
+        }
+    }
+
+    fn uniform(&mut self) -> f64 {
+        self.state = self.state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        // In (0, 1): never 0, so that the logarithm below is finite.
+        ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+
+    fn next(&mut self) -> f64 {
+        if let Some(s) = self.spare.take() {
+            return s;
+        }
+        let (u, v) = (self.uniform(), self.uniform());
+        let r = (-2.0 * u.ln()).sqrt();
+        let t = std::f64::consts::TAU * v;
+        self.spare = Some(r * t.sin());
+        r * t.cos()
+    }
+}
+
+/// `n` draws from `N(y, cov)` (seeded): the keys whose variance is not finite stay at `y`. The
+/// square root of the covariance is its symmetric eigen-decomposition's (`V √Λ`, negative
+/// eigenvalues of rounding taken as 0), so a singular covariance draws too.
+pub fn draws(y: &[f64], cov: &DMatrix<f64>, n: usize, seed: u64) -> Vec<Vec<f64>> {
+    let keep: Vec<usize> = (0..y.len()).filter(|&j| cov[(j, j)].is_finite()).collect();
+    let m = keep.len();
+    let sub = DMatrix::from_fn(m, m, |a, b| {
+        0.5 * (cov[(keep[a], keep[b])] + cov[(keep[b], keep[a])])
+    });
+    let eig = nalgebra::SymmetricEigen::new(sub);
+    let root = DMatrix::from_fn(m, m, |a, b| {
+        eig.eigenvectors[(a, b)] * eig.eigenvalues[b].max(0.0).sqrt()
+    });
+    let mut rng = Normal::new(seed);
+    (0..n)
+        .map(|_| {
+            let z: Vec<f64> = (0..m).map(|_| rng.next()).collect();
+            let mut out = y.to_vec();
+            for (a, &ja) in keep.iter().enumerate() {
+                out[ja] += (0..m).map(|b| root[(a, b)] * z[b]).sum::<f64>();
+            }
+            out
+        })
+        .collect()
+}
+
+/// The standard deviation (with `n − 1`) of each row over the samples `values` (one vector of
+/// rows per sample); null with fewer than 2 samples.
+pub fn spread(values: &[Vec<f64>], rows: usize) -> Vec<Option<f64>> {
+    let n = values.len();
+    (0..rows)
+        .map(|i| {
+            (n >= 2).then(|| {
+                let mean = values.iter().map(|v| v[i]).sum::<f64>() / n as f64;
+                let ss: f64 = values.iter().map(|v| (v[i] - mean).powi(2)).sum();
+                (ss / (n - 1) as f64).sqrt()
+            })
+        })
+        .collect()
+}
+
+/// A prediction's row from its value and its σ parts.
+pub fn row(
+    conditions: Vec<Cell>,
+    value: f64,
+    sigma_parameters: Option<f64>,
+    sigma_ensemble: f64,
+    sigma_samples: Option<f64>,
+) -> PredictRow {
+    let sigma = sigma_parameters.map(|s| s.hypot(sigma_ensemble));
+    PredictRow {
+        conditions,
+        value,
+        sigma_parameters,
+        sigma_ensemble,
+        sigma,
+        lo68: sigma.map(|s| value - s),
+        hi68: sigma.map(|s| value + s),
+        lo95: sigma.map(|s| value - Z95 * s),
+        hi95: sigma.map(|s| value + Z95 * s),
+        sigma_samples,
+    }
+}
+
+/// The grid's data: one row per grid point, the axes as conditions (observed 0, no sigma).
+fn grid_data(axes: &[Axis], observable: Observable) -> Result<FitData, Error> {
+    let grid = Grid::new(axes.to_vec(), false).map_err(Error::Spec)?;
+    let conditions: Vec<Condition> = grid
+        .axes()
+        .iter()
+        .map(|a| Condition {
+            key: a.key,
+            unit: a.unit(),
+        })
+        .collect();
+    let rows = (0..grid.points())
+        .map(|p| DataRow {
+            line: p as u64 + 2,
+            conditions: grid
+                .cells(p)
+                .into_iter()
+                .map(|c| match c {
+                    KeyCell::Num(x) => CondValue::Num(x),
+                    KeyCell::Text(t) => CondValue::Text(t),
+                })
+                .collect(),
+            observed: 0.0,
+            sigma: None,
+        })
+        .collect();
+    Ok(FitData {
+        name: input("set"),
+        conditions,
+        observable,
+        has_sigma: false,
+        observable_column: (0, String::new()),
+        sigma_column: None,
+        rows,
+    })
+}
+
+/// Predict with uncertainty from a fit over a grid ([`PredictRequest`]); `stop` abandons the
+/// runs (then [`Error::Cancelled`]), `on_run` is called as each forward run ends.
+pub fn predict(
+    req: &PredictRequest,
+    stop: Option<&AtomicBool>,
+    on_run: &mut dyn FnMut(),
+) -> Result<PredictReport, Error> {
+    let fit = FitFolder::read(&req.fit)?;
+    let mut notes = Vec::new();
+    for a in &req.grid {
+        if fit.free.iter().any(|f| f.key == a.key) {
+            return Err(Error::Invalid(format!(
+                "{}: {} is a key the fit estimated, not a condition: its value is the fit's \
+                 estimate",
+                input_value("set", &a.shown()),
+                a.key
+            )));
+        }
+    }
+    let data = if req.grid.is_empty() {
+        fit.data.clone()
+    } else {
+        grid_data(&req.grid, fit.observable)?
+    };
+    let n = data.rows.len();
+    let keys: Vec<SetKey> = fit.free.iter().map(|f| f.key).collect();
+    let model = ForwardModel::new(
+        fit.source.clone(),
+        data.clone(),
+        keys,
+        Vec::new(),
+        None,
+        req.jobs,
+    )
+    .map_err(Error::Invalid)?;
+    let scn = fit
+        .source
+        .scenario(&[])
+        .map_err(|e| Error::Invalid(e.to_string()))?;
+    let envelope = scn.solver.envelope == djkr_core::dynamics::methods::EnvelopeMode::Auto;
+    let (rtol, env) = fit
+        .tolerances
+        .unwrap_or((scn.solver.rtol, scn.solver.envelope_tol));
+    let fit_model = match fit.tolerances {
+        Some((r, e)) => model.with_solver(vec![
+            Override::from_key(SetKey::parse("solver.rtol").map_err(Error::Override)?, r)
+                .map_err(Error::Override)?,
+            Override::from_key(
+                SetKey::parse("solver.envelope_tol").map_err(Error::Override)?,
+                e,
+            )
+            .map_err(Error::Override)?,
+        ]),
+        None => model.clone(),
+    };
+    let eps_rel = super::tolerance::RTOL_GAIN * rtol
+        + if envelope {
+            super::tolerance::ENVELOPE_GAIN * env
+        } else {
+            0.0
+        };
+    let y_hat: Vec<f64> = fit
+        .tr
+        .iter()
+        .zip(&fit.values)
+        .map(|(t, &x)| t.y(x))
+        .collect();
+    let mut progress = |e: FitEvent| {
+        if e == FitEvent::Run {
+            on_run();
+        }
+    };
+    let mut ev = Evaluator::new(
+        fit_model,
+        fit.tr.clone(),
+        vec![1.0; n],
+        vec![0.0; n],
+        fd_step(eps_rel),
+        None,
+        stop,
+        &mut progress,
+    );
+    let failed = |e: EvalError| match e {
+        EvalError::Stopped => Error::Cancelled,
+        EvalError::Failed(m) => Error::Invalid(m),
+    };
+    let value = ev
+        .predict_on(&model, std::slice::from_ref(&fit.values))
+        .map_err(failed)?
+        .pop()
+        .ok_or(Error::Cancelled)?;
+    ev.set_error(
+        value.values.iter().map(|v| eps_rel * v.abs()).collect(),
+        fd_step(eps_rel),
+    );
+    let has_sigma: Vec<bool> = (0..fit.free.len())
+        .map(|j| fit.cov_y[(j, j)].is_finite())
+        .collect();
+    let sigma_p: Vec<Option<f64>> = if has_sigma.iter().any(|&h| h) {
+        let jac = ev.jacobian_y(&y_hat).map_err(failed)?;
+        propagate(&jac, &fit.cov_y).into_iter().map(Some).collect()
+    } else {
+        notes.push(
+            "no key of the fit has a sigma (see the fit's notes): the prediction has none".into(),
+        );
+        vec![None; n]
+    };
+    for (j, f) in fit.free.iter().enumerate() {
+        if !has_sigma[j] && has_sigma.iter().any(|&h| h) {
+            notes.push(format!(
+                "{}: the fit gave it no sigma; it is held at its estimate in sigma_parameters",
+                f.key
+            ));
+        }
+    }
+    if !fit.converged {
+        notes.push("the fit did not converge: its estimate is the best point it met".into());
+    }
+    let sigma_s = if req.samples > 0 {
+        let ys = draws(&y_hat, &fit.cov_y, req.samples, req.seed);
+        let preds = ev.predict_y(&ys).map_err(failed)?;
+        let values: Vec<Vec<f64>> = preds.into_iter().map(|p| p.values).collect();
+        spread(&values, n)
+    } else {
+        vec![None; n]
+    };
+    let mut disagree = 0;
+    let rows: Vec<PredictRow> = (0..n)
+        .map(|i| {
+            if let (Some(p), Some(s)) = (sigma_p[i], sigma_s[i]) {
+                if s > DISAGREEMENT * p || p > DISAGREEMENT * s {
+                    disagree += 1;
+                }
+            }
+            let cells = data.rows[i]
+                .conditions
+                .iter()
+                .map(|c| match c {
+                    CondValue::Num(x) => Cell::Num(*x),
+                    CondValue::Text(t) => Cell::Text(t.clone()),
+                })
+                .collect();
+            row(cells, value.values[i], sigma_p[i], 0.0, sigma_s[i])
+        })
+        .collect();
+    if disagree > 0 {
+        notes.push(format!(
+            "at {disagree} of {n} points sigma_samples and sigma_parameters differ by more than a \
+             factor {DISAGREEMENT}: the model is not linear over the parameters' uncertainty \
+             there; trust sigma_samples"
+        ));
+    }
+    let forward_runs = ev.st.borrow().runs;
+    Ok(PredictReport {
+        observable: fit.observable.name().to_string(),
+        unit: fit.observable.unit().to_string(),
+        conditions: data
+            .conditions
+            .iter()
+            .map(|c| ConditionColumn {
+                key: c.key.to_string(),
+                unit: c.unit,
+            })
+            .collect(),
+        keys: fit
+            .free
+            .iter()
+            .zip(&has_sigma)
+            .filter(|(_, &h)| h)
+            .map(|(f, _)| f.key.to_string())
+            .collect(),
+        rows,
+        samples: req.samples,
+        seed: req.seed,
+        forward_runs,
+        notes,
+    })
+}
+
+/// The files `predict` writes.
+pub const FILES: [&str; 4] = [
+    "prediction.csv",
+    "prediction.json",
+    "prediction.png",
+    "prediction.svg",
+];
+
+/// Whether two condition cells are the same value (numbers within 1e-9 relative: a grid's range
+/// and a data file's decimal need not agree to the bit).
+fn same(a: &Cell, b: &Cell) -> bool {
+    match (a, b) {
+        (Cell::Num(x), Cell::Num(y)) => (x - y).abs() <= 1e-9 * x.abs().max(y.abs()),
+        (Cell::Text(x), Cell::Text(y)) => x == y,
+        _ => false,
+    }
+}
+
+/// The figure of a prediction: the value over the grid's first condition that varies (numeric),
+/// its 68 % band (dashed) and 95 % band (the same colour, another dash), one colour per value of
+/// the other conditions, and the fit's data (markers with ±σ where given) where the other
+/// conditions match a group's. `None` without a numeric condition that takes two values.
+pub fn prediction_figure(r: &PredictReport, data: &FitData) -> Option<crate::plot::Figure> {
+    use crate::plot::{axis_label, Figure, Series, Style, COLOR_COUNT};
+    let varies = |j: usize| {
+        let first = &r.rows.first()?.conditions[j];
+        Some(r.rows.iter().any(|row| !same(&row.conditions[j], first)))
+    };
+    let xj = (0..r.conditions.len())
+        .find(|&j| r.conditions[j].unit.is_some() && varies(j) == Some(true))?;
+    let others: Vec<usize> = (0..r.conditions.len())
+        .filter(|&j| j != xj && varies(j) == Some(true))
+        .collect();
+    // Groups: rows with the same values of the other varying conditions, in order of first
+    // appearance.
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (i, row) in r.rows.iter().enumerate() {
+        match groups.iter_mut().find(|g| {
+            others
+                .iter()
+                .all(|&j| same(&r.rows[g[0]].conditions[j], &row.conditions[j]))
+        }) {
+            Some(g) => g.push(i),
+            None => groups.push(vec![i]),
+        }
+    }
+    let num = |c: &Cell| match c {
+        Cell::Num(x) => *x,
+        Cell::Text(_) => f64::NAN,
+    };
+    let xs: Vec<f64> = r.rows.iter().map(|row| num(&row.conditions[xj])).collect();
+    let xkey = &r.conditions[xj];
+    let (fx, xlabel) = axis_label(&xkey.key, xkey.unit.unwrap_or(""), &xs);
+    let all_y: Vec<f64> = r.rows.iter().map(|row| row.value).collect();
+    let (fy, ylabel) = axis_label(&r.observable, &r.unit, &all_y);
+    let mut fig = Figure::new(
+        format!(
+            "{} predicted from the fit ({}), with 68 % and 95 % bands",
+            r.observable,
+            r.keys.join(", ")
+        ),
+        xlabel,
+        ylabel,
+    );
+    // The data's column of each grid condition, where it has one.
+    let data_col: Vec<Option<usize>> = r
+        .conditions
+        .iter()
+        .map(|c| {
+            data.conditions
+                .iter()
+                .position(|d| d.key.to_string() == c.key)
+        })
+        .collect();
+    for (g, rows) in groups.iter().enumerate() {
+        let mut idx = rows.clone();
+        idx.sort_by(|&a, &b| xs[a].total_cmp(&xs[b]));
+        let name = others
+            .iter()
+            .map(|&j| {
+                let c = &r.rows[idx[0]].conditions[j];
+                match (c, r.conditions[j].unit) {
+                    (Cell::Num(x), Some(u)) => {
+                        let (f, unit) = crate::plot::display_unit(u, &[*x]);
+                        format!(
+                            "{} = {} {}",
+                            r.conditions[j].key,
+                            crate::plot::tick_label(x * f),
+                            crate::plot::unit_text(&unit)
+                        )
+                    }
+                    (c, _) => format!(
+                        "{} = {}",
+                        r.conditions[j].key,
+                        match c {
+                            Cell::Num(x) => crate::output::table::format_f64(*x),
+                            Cell::Text(t) => t.clone(),
+                        }
+                    ),
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ");
+        let x: Vec<f64> = idx.iter().map(|&i| xs[i] * fx).collect();
+        let y = |f: &dyn Fn(&PredictRow) -> Option<f64>| -> Vec<f64> {
+            idx.iter()
+                .map(|&i| f(&r.rows[i]).map_or(f64::NAN, |v| v * fy))
+                .collect()
+        };
+        let label = |what: &str| {
+            if name.is_empty() {
+                what.to_string()
+            } else if what == "prediction" {
+                name.clone()
+            } else if g == 0 {
+                what.to_string()
+            } else {
+                String::new()
+            }
+        };
+        fig = fig.with_series(
+            Series::new(
+                label("prediction"),
+                x.clone(),
+                y(&|r| Some(r.value)),
+                Style::Line,
+            )
+            .with_color(g),
+        );
+        if r.rows.iter().any(|row| row.sigma.is_some()) {
+            for (what, lo, hi, style, colour) in [
+                (
+                    "68 % band",
+                    (|r: &PredictRow| r.lo68) as fn(&PredictRow) -> Option<f64>,
+                    (|r: &PredictRow| r.hi68) as fn(&PredictRow) -> Option<f64>,
+                    Style::Dashed,
+                    g,
+                ),
+                (
+                    "95 % band",
+                    |r| r.lo95,
+                    |r| r.hi95,
+                    Style::Line,
+                    g + COLOR_COUNT,
+                ),
+            ] {
+                fig = fig.with_series(
+                    Series::new(label(what), x.clone(), y(&lo), style).with_color(colour),
+                );
+                fig = fig.with_series(Series::new("", x.clone(), y(&hi), style).with_color(colour));
+            }
+        }
+        // The data where the other conditions match this group's.
+        if let Some(dx) = data_col[xj] {
+            let (mut px, mut py) = (Vec::new(), Vec::new());
+            for d in &data.rows {
+                let cell = |k: usize| match &d.conditions[k] {
+                    CondValue::Num(x) => Cell::Num(*x),
+                    CondValue::Text(t) => Cell::Text(t.clone()),
+                };
+                let matches = (0..r.conditions.len()).filter(|&j| j != xj).all(|j| {
+                    data_col[j].is_none_or(|k| same(&cell(k), &r.rows[idx[0]].conditions[j]))
+                });
+                if matches {
+                    px.push(num(&cell(dx)) * fx);
+                    py.push(d.observed * fy);
+                }
+            }
+            if !px.is_empty() {
+                fig = fig.with_series(
+                    Series::new(
+                        if g == 0 { "data (the fit's)" } else { "" },
+                        px,
+                        py,
+                        Style::Markers,
+                    )
+                    .with_color(g),
+                );
+            }
+        }
+    }
+    Some(fig)
+}
+
+/// `prediction.csv`: the conditions, `value`, `sigma_parameters`, `sigma_ensemble`, `sigma`,
+/// the 68 % and 95 % bands, and with samples `sigma_samples`, each headed `name [unit]` (SI);
+/// an empty cell where a σ is null.
+pub fn prediction_csv(r: &PredictReport) -> String {
+    use crate::output::table::format_f64;
+    let u = &r.unit;
+    let mut head: Vec<String> = r
+        .conditions
+        .iter()
+        .map(|c| match c.unit {
+            Some(unit) => format!("{} [{unit}]", c.key),
+            None => c.key.clone(),
+        })
+        .collect();
+    let mut cols = vec![
+        "value",
+        "sigma_parameters",
+        "sigma_ensemble",
+        "sigma",
+        "lo68",
+        "hi68",
+        "lo95",
+        "hi95",
+    ];
+    if r.samples > 0 {
+        cols.push("sigma_samples");
+    }
+    head.extend(cols.iter().map(|c| format!("{c} [{u}]")));
+    let mut out = head.join(",");
+    out.push('\n');
+    let opt = |x: Option<f64>| x.map(format_f64).unwrap_or_default();
+    for row in &r.rows {
+        let mut cells: Vec<String> = row
+            .conditions
+            .iter()
+            .map(|c| match c {
+                Cell::Num(x) => format_f64(*x),
+                Cell::Text(t) => {
+                    if t.contains([',', '"', '\n', '\r']) {
+                        format!("\"{}\"", t.replace('"', "\"\""))
+                    } else {
+                        t.clone()
+                    }
+                }
+            })
+            .collect();
+        cells.push(format_f64(row.value));
+        cells.push(opt(row.sigma_parameters));
+        cells.push(format_f64(row.sigma_ensemble));
+        cells.push(opt(row.sigma));
+        cells.push(opt(row.lo68));
+        cells.push(opt(row.hi68));
+        cells.push(opt(row.lo95));
+        cells.push(opt(row.hi95));
+        if r.samples > 0 {
+            cells.push(opt(row.sigma_samples));
+        }
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A straight line `m(x) = a + b x` in the parameters (a, b): its gradient is (1, x), so
+    /// `σ² = C_aa + 2x C_ab + x² C_bb` exactly, and samples of it are normal with that σ.
+    #[test]
+    fn linear_propagation_is_exact_for_a_line_and_the_samples_agree() {
+        let cov = DMatrix::from_row_slice(2, 2, &[0.04, -0.012, -0.012, 0.01]);
+        let xs = [-2.0, 0.0, 0.5, 3.0];
+        let jac = DMatrix::from_fn(xs.len(), 2, |i, j| if j == 0 { 1.0 } else { xs[i] });
+        let s = propagate(&jac, &cov);
+        for (i, &x) in xs.iter().enumerate() {
+            let exact: f64 = 0.04 + 2.0 * x * -0.012 + x * x * 0.01;
+            assert!((s[i] - exact.sqrt()).abs() <= 1e-15 * exact.sqrt().max(1.0));
+        }
+        let theta = [1.5, -0.7];
+        let n = 4000;
+        let ds = draws(&theta, &cov, n, 7);
+        let values: Vec<Vec<f64>> = ds
+            .iter()
+            .map(|d| xs.iter().map(|&x| d[0] + d[1] * x).collect())
+            .collect();
+        let sp = spread(&values, xs.len());
+        for i in 0..xs.len() {
+            let sd = sp[i].unwrap();
+            // The sample standard deviation's own σ is σ/√(2(n − 1)): within 4 of them.
+            let tol = 4.0 * s[i] / (2.0 * (n as f64 - 1.0)).sqrt();
+            assert!(
+                (sd - s[i]).abs() < tol,
+                "x = {}: samples {sd}, linear {}, tolerance {tol}",
+                xs[i],
+                s[i]
+            );
+        }
+    }
+
+    #[test]
+    fn a_key_without_variance_is_held_at_its_estimate() {
+        let cov = DMatrix::from_row_slice(2, 2, &[0.25, f64::NAN, f64::NAN, f64::NAN]);
+        let jac = DMatrix::from_row_slice(1, 2, &[2.0, 100.0]);
+        assert_eq!(propagate(&jac, &cov)[0].to_bits(), 1.0f64.to_bits());
+        for d in draws(&[1.0, 5.0], &cov, 10, 1) {
+            assert_eq!(d[1].to_bits(), 5.0f64.to_bits());
+        }
+    }
+
+    #[test]
+    fn bands_are_normal_quantiles_of_the_combined_sigma() {
+        let r = row(vec![], 10.0, Some(3.0), 4.0, None);
+        assert_eq!(r.sigma, Some(5.0));
+        assert_eq!(r.lo68, Some(5.0));
+        assert_eq!(r.hi95, Some(10.0 + Z95 * 5.0));
+    }
+}
