@@ -152,6 +152,9 @@ pub fn apt_install(packages: &[&str]) -> Result<(), String> {
     if !is_root() || !have("apt-get") {
         return Err("installing Debian packages needs root and apt-get".into());
     }
+    // Tests of one binary run in parallel threads; dpkg takes one installation at a time.
+    static APT: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = APT.lock().unwrap_or_else(|e| e.into_inner());
     let _ = writeln!(
         std::io::stderr(),
         "installing {} with apt-get",
@@ -274,6 +277,10 @@ pub fn clean(mut c: Command) -> Command {
 /// sources, `core/src` included), or why there is none. Installs only under [`may_install`]
 /// (see [`venv`]); the notebook's packages (nbclient …) are added then too.
 pub fn djkr_python() -> Result<PathBuf, String> {
+    // Tests of one binary run in parallel threads: two of them installing into the venv at once
+    // (a fresh CI's first build of the package) would break each other's pip.
+    static SETUP: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = SETUP.lock().unwrap_or_else(|e| e.into_inner());
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let py = venv("python-venv", &PACKAGES, &IMPORTS)?;
     let bin = py.parent().expect("venv bin directory").to_path_buf();
