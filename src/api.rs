@@ -1168,7 +1168,7 @@ pub struct FitResult {
 /// [`Error::Cancelled`] (after writing the best estimate so far, with a folder).
 pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Error> {
     use crate::fit::{self as f, FitOptions, ForwardModel};
-    let (source, free, ensemble, extra) = (&req.source, &req.free, req.ensemble, req);
+    let (source, free, ensemble) = (&req.source, &req.free, req.ensemble);
     let (starts, fixed): (Vec<Override>, Vec<Override>) = req
         .set
         .iter()
@@ -1187,7 +1187,7 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
             "ensemble = 0: must be a whole number >= 1 (members per row)".into(),
         ));
     }
-    if extra.starts == 0 {
+    if req.starts == 0 {
         return Err(Error::Invalid(
             "starts = 0: must be a whole number >= 1 (starting points)".into(),
         ));
@@ -1202,7 +1202,7 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
     )
     .map_err(Error::Invalid)?;
     // The folder is claimed and locked before the fit starts, as the command line does.
-    let _lock = match &extra.out {
+    let _lock = match &req.out {
         Some((dir, force)) => {
             let output = |error| Error::Output {
                 input: Some("out"),
@@ -1218,9 +1218,9 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
         None => None,
     };
     let opts = FitOptions {
-        max_iterations: extra.max_iterations,
-        starts: extra.starts,
-        profile: extra.profile,
+        max_iterations: req.max_iterations,
+        starts: req.starts,
+        profile: req.profile,
         stop,
     };
     // A stop before the first evaluation ended is a cancellation, as a stop after it.
@@ -1231,7 +1231,7 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
             Error::Invalid(e.to_string())
         }
     })?;
-    if let Some((dir, _)) = &extra.out {
+    if let Some((dir, _)) = &req.out {
         f::files::write(
             dir,
             source,

@@ -342,13 +342,7 @@ fn tree_table(
     source: &Source,
 ) -> Result<Table> {
     if depth > MAX_TREE_DEPTH {
-        return Err(ScenarioError::Key {
-            source: source.clone(),
-            key: key.to_string(),
-            message: format!(
-                "nested more than {MAX_TREE_DEPTH} deep, the limit of a scenario file"
-            ),
-        });
+        return Err(too_deep(key, source));
     }
     let mut t = Table::new();
     for (k, v) in items {
@@ -369,15 +363,18 @@ fn tree_table(
     Ok(t)
 }
 
+/// A table or list at `key` nested deeper than [`MAX_TREE_DEPTH`].
+fn too_deep(key: &str, source: &Source) -> ScenarioError {
+    ScenarioError::Key {
+        source: source.clone(),
+        key: key.to_string(),
+        message: format!("nested more than {MAX_TREE_DEPTH} deep, the limit of a scenario file"),
+    }
+}
+
 fn tree_value(v: Tree, key: &str, depth: usize, source: &Source) -> Result<Value> {
     if matches!(v, Tree::List(_)) && depth > MAX_TREE_DEPTH {
-        return Err(ScenarioError::Key {
-            source: source.clone(),
-            key: key.to_string(),
-            message: format!(
-                "nested more than {MAX_TREE_DEPTH} deep, the limit of a scenario file"
-            ),
-        });
+        return Err(too_deep(key, source));
     }
     Ok(match v {
         Tree::Bool(b) => Value::Boolean(b),
