@@ -42,14 +42,15 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PySlice, PyString, PyTuple, PyType};
 
-use djkr::api::{self, Arg};
+use djkr::api;
 use djkr::error::Error as ApiError;
 use djkr::input::{show_limit, InputKind};
-use djkr::output::table::{Column, Data, Table};
 use djkr::output::timeseries::{self, kind_name, stage_index, SEGMENT, SERIES, STAGE};
+use djkr::output::{Column, Data, Table};
+use djkr::scenario::overrides::Override;
 use djkr::scenario::overrides::SetKey;
 use djkr::scenario::parse::{self, ScenarioSource, Tree};
-use djkr::sweep::stats::{point_stats, points_table};
+use djkr::sweep::{point_stats, points_table};
 use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
 use djkr_core::adhesion::Law;
 use djkr_core::cancel::{Cancel, CancelFlag};
@@ -177,7 +178,12 @@ fn python_value(v: &str) -> String {
 }
 
 fn input_err(e: impl std::fmt::Display) -> PyErr {
-    ScenarioError::new_err(e.to_string())
+    ScenarioError::new_err(djkr::error::render(&e.to_string(), &PyWords::default()))
+}
+
+/// A quantity argument (a number, or a string with a unit) for the request field `name`.
+fn quantity(v: &Bound<'_, PyAny>, name: &str, dim: Dimension) -> PyResult<api::Quantity> {
+    api::Quantity::parse(name, &arg_text(v, name)?, dim).map_err(input_err)
 }
 
 fn panic_text(payload: Box<dyn std::any::Any + Send>) -> String {
@@ -485,7 +491,7 @@ fn key_text(k: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
 fn refuse_replaced(sets: &[String], command: &str, replaced: &[(&str, &str)]) -> PyResult<()> {
     // A malformed override is reported later, where the scenario is built, in the same words
     // as before.
-    let Ok(overrides) = api::overrides(sets) else {
+    let Ok(overrides) = Override::parse_all(sets) else {
         return Ok(());
     };
     match api::replaced_override(&overrides, replaced) {
@@ -1221,7 +1227,7 @@ fn run(
     }
     let (rec, name) = interruptible(py, move |stop| {
         let source = scn.source()?;
-        let mut s = source.scenario(&api::overrides(&sets)?)?;
+        let mut s = source.scenario(&Override::parse_all(&sets)?)?;
         s.solver.cancel = stop.token();
         // A run that ended early keeps what it computed: it travels with its message to
         // become the exception's `run`.
@@ -1305,25 +1311,17 @@ fn cycle(
 ) -> PyResult<Py<PyAny>> {
     guarded(|| {
         let (m, law) = material_of(material)?;
-        let (f, am, aa) = (
-            arg_text(freq, "freq")?,
-            arg_text(a_mean, "a_mean")?,
-            arg_text(a_amp, "a_amp")?,
-        );
+        let req = api::CycleRequest {
+            freq: quantity(freq, "freq", Dimension::Frequency)?,
+            a_mean: quantity(a_mean, "a_mean", Dimension::Length)?,
+            a_amp: quantity(a_amp, "a_amp", Dimension::Length)?,
+        };
         let r = py
-            .detach(|| {
-                api::cycle(
-                    &m,
-                    &law,
-                    Arg::new("freq", &f),
-                    Arg::new("a_mean", &am),
-                    Arg::new("a_amp", &aa),
-                )
-            })
+            .detach(|| api::cycle(&m, &law, &req))
             .map_err(input_err)?;
         warn(py, &r.notes)?;
-        let v = r.json();
-        api::check_finite(&v).map_err(api_err)?;
+        api::check_finite(&r).map_err(api_err)?;
+        let v = serde_json::to_value(&r).map_err(|e| input_err(e.to_string()))?;
         json_to_py(py, &v)
     })
 }
@@ -1390,29 +1388,17 @@ fn pulloff(
             )));
         }
         let (m, law) = material_of(material)?;
-        let omega = api::omega_from("freq", &arg_text(freq, "freq")?).map_err(input_err)?;
-        let aa = api::non_negative_quantity("a_amp", &arg_text(a_amp, "a_amp")?, Dimension::Length)
-            .map_err(input_err)?;
+        let a_amp = quantity(a_amp, "a_amp", Dimension::Length)?;
         let how = match method {
-            "exact" => api::PullOffMethod::Exact { a_amp: aa },
-            "approx" => api::PullOffMethod::Approx {
-                a_amp: aa,
+            "exact" => api::PullOff::Exact { a_amp },
+            "approx" => api::PullOff::Approx {
+                a_amp,
                 beta: match beta {
-                    Some(b) => api::positive_quantity(
-                        "beta",
-                        &arg_text(b, "beta")?,
-                        Dimension::Dimensionless,
-                    )
-                    .map_err(input_err)?,
-                    None => BETA_PAPER,
+                    Some(b) => Some(quantity(b, "beta", Dimension::Dimensionless)?),
+                    None => None,
                 },
-                form: DeltaAmpForm::Derived,
             },
-            "yi" => api::PullOffMethod::Yi {
-                delta_amp: djkr_core::comparators::yi_indentation_amplitude_from_area_amplitude(
-                    &m, aa,
-                ),
-            },
+            "yi" => api::PullOff::Yi { a_amp },
             "shui" => return Err(input_err(
                 "method = \"shui\": Shui et al.'s eq. (5) needs the sphere's mass, the damping \
                      and the base amplitude, which djkr.pulloff does not take; use the command \
@@ -1425,12 +1411,16 @@ fn pulloff(
                 )))
             }
         };
+        let req = api::PullOffRequest {
+            freq: quantity(freq, "freq", Dimension::Frequency)?,
+            method: how,
+        };
         let r = py
-            .detach(|| api::pull_off(&m, &law, omega, how))
+            .detach(|| api::pull_off(&m, &law, &req))
             .map_err(input_err)?;
         warn(py, &r.warnings)?;
-        let v = r.json();
-        api::check_finite(&v).map_err(api_err)?;
+        api::check_finite(&r).map_err(api_err)?;
+        let v = serde_json::to_value(&r).map_err(|e| input_err(e.to_string()))?;
         json_to_py(py, &v)
     })
 }
@@ -1482,7 +1472,7 @@ fn validate(
     refuse_replaced(&sets, "validate", &[("solver.rtol", STEADY_RTOL)])?;
     let report = interruptible(py, move |stop| {
         let source = scn.source()?;
-        let mut s = source.scenario(&api::overrides(&sets)?)?;
+        let mut s = source.scenario(&Override::parse_all(&sets)?)?;
         s.solver.cancel = stop.token();
         let r = api::validate(&s, &Options::default())
             .map_err(|e| ApiError::from_steady(djkr::error::Source::file(source.name()), e))?;
@@ -1492,7 +1482,8 @@ fn validate(
         Ok(r)
     })?;
     guarded(|| {
-        let v = api::finite_json(&report).map_err(api_err)?;
+        api::check_finite(&report).map_err(api_err)?;
+        let v = serde_json::to_value(&report).map_err(|e| input_err(e.to_string()))?;
         if let Some(e) = api::force_balance_violation(&report) {
             warn(py, &[e])?;
         }
@@ -1586,14 +1577,9 @@ fn resonance(
     };
     let which = api::Sweeps::parse("sweep", &sweep).map_err(api_err)?;
     let table = interruptible(py, move |stop| {
-        let freqs = api::range(
-            "freq",
-            &range_text,
-            Dimension::Frequency,
-            api::limits::RESONANCE_FREQUENCIES,
-        )?;
+        let freqs = api::frequency_range("freq", &range_text)?;
         let source = scn.source()?;
-        let mut s = source.scenario(&api::overrides(&sets)?)?;
+        let mut s = source.scenario(&Override::parse_all(&sets)?)?;
         s.solver.cancel = stop.token();
         let (problem, start) = Problem::from_plan(&s.plan())
             .map_err(|e| ApiError::from_steady(djkr::error::Source::file(source.name()), e))?;
@@ -1657,7 +1643,7 @@ fn resonance_peak(py: Python<'_>, frequency: Vec<f64>, height: Vec<f64>) -> PyRe
         .collect();
     v.sort_by(|a, b| a.0.total_cmp(&b.0));
     let d = PyDict::new(py);
-    match djkr::reports::steady::maximum(&v) {
+    match api::resonance_peak(&v) {
         Some(Ok(p)) => {
             d.set_item("frequency", p.frequency)?;
             d.set_item("height", p.height)?;
@@ -2264,7 +2250,7 @@ fn fit(
         let data = djkr::fit::FitData::parse(&text, &name, observable.as_deref())
             .map_err(|e| ApiError::Invalid(e.to_string()))?;
         let request = api::FitRequest {
-            set: api::overrides(&set)?,
+            set: Override::parse_all(&set)?,
             ensemble: ensemble.map(|m| (m, seed)),
             jobs: jobs.unwrap_or(0),
             max_iterations,

@@ -269,7 +269,7 @@ fn short_values(mut e: clap::Error) -> clap::Error {
     e
 }
 
-/// Refuse a path argument that no system call would take ([`djkr::api::path_length_error`]),
+/// Refuse a path argument that no system call would take ([`crate::api::path_length_error`]),
 /// quoting its beginning: every later message names the file by its path, whole, which for
 /// such a path would be the 100 kB the user pasted.
 fn check_path_lengths(cmd: &clap::Command, m: &clap::ArgMatches) -> anyhow::Result<()> {
@@ -282,7 +282,7 @@ fn check_path_lengths(cmd: &clap::Command, m: &clap::ArgMatches) -> anyhow::Resu
             continue;
         };
         for value in raw {
-            if let Some(e) = djkr::api::path_length_error(std::path::Path::new(value)) {
+            if let Some(e) = crate::api::path_length_error(std::path::Path::new(value)) {
                 let name = match arg.get_long() {
                     Some(l) => format!("--{l}"),
                     None => arg

@@ -1,12 +1,12 @@
 //! `djkr predict --fit DIR [--set KEY=SPEC]... [--samples N] --out DIR`: thin over
-//! [`djkr::fit::predict`].
+//! [`crate::fit::predict`].
 
 use super::signals;
 use super::sweep::Interrupted;
+use crate::fit::predict::{self, PredictRequest};
+use crate::sweep::Axis;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::fit::predict::{self, PredictRequest};
-use djkr::sweep::Axis;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -85,7 +85,7 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
     let fit = predict::FitFolder::read(&req.fit)?;
     signals::install("stopping: forward runs in progress are abandoned; nothing is written");
     super::common::claim_out(&a.out, &predict::FILES, a.force).context("--out")?;
-    let _lock = djkr::output::folder::DirLock::acquire(&a.out)?;
+    let _lock = crate::output::folder::DirLock::acquire(&a.out)?;
     let bar = ProgressBar::new_spinner();
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed}] predict: {pos} forward runs")
@@ -95,7 +95,7 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
     let report = predict::predict(&req, Some(signals::flag()), &mut || bar.inc(1));
     bar.finish_and_clear();
     let report = match report {
-        Err(djkr::error::Error::Cancelled) => {
+        Err(crate::error::Error::Cancelled) => {
             eprintln!("stopped: nothing written in {}", a.out.display());
             return Err(Interrupted(signals::received()).into());
         }
@@ -103,7 +103,7 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
     };
     let json = serde_json::to_string_pretty(&report)?;
     let put = |name: &str, bytes: &[u8]| -> Result<()> {
-        djkr::output::write_atomic(&a.out.join(name), bytes).with_context(|| name.to_string())
+        crate::output::write_atomic(&a.out.join(name), bytes).with_context(|| name.to_string())
     };
     put(
         "prediction.csv",
@@ -112,7 +112,7 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
     put("prediction.json", format!("{json}\n").as_bytes())?;
     match predict::prediction_figure(&report, &fit.data) {
         Some(fig) => {
-            djkr::plot::render(&fig, &a.out.join("prediction"))
+            crate::plot::render(&fig, &a.out.join("prediction"))
                 .map_err(|e| anyhow::anyhow!("prediction.png/prediction.svg: {e}"))?;
         }
         None => eprintln!(
