@@ -12,6 +12,7 @@ mod tools;
 mod accuracy;
 mod closed_form;
 mod continuation;
+mod design;
 mod describing;
 mod docs_reference;
 mod dynamics;
