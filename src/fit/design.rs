@@ -595,10 +595,17 @@ pub fn check(req: &DesignRequest) -> Result<(), Error> {
 fn in_units(cov: &DMatrix<f64>, dx: &[f64]) -> (Vec<f64>, Vec<Vec<f64>>) {
     let k = dx.len();
     let sigma: Vec<f64> = (0..k).map(|a| dx[a] * cov[(a, a)].sqrt()).collect();
+    // Symmetric to the bit (an inverse need not be), 1 on the diagonal.
     let corr = (0..k)
         .map(|a| {
             (0..k)
-                .map(|b| cov[(a, b)] / (cov[(a, a)] * cov[(b, b)]).sqrt())
+                .map(|b| {
+                    if a == b {
+                        1.0
+                    } else {
+                        0.5 * (cov[(a, b)] + cov[(b, a)]) / (cov[(a, a)] * cov[(b, b)]).sqrt()
+                    }
+                })
                 .collect()
         })
         .collect();
