@@ -73,7 +73,12 @@ fn a_straight_lines_d_optimal_design_and_its_exact_covariance() {
         "{:?}",
         p.chosen
     );
-    assert_eq!(p.chosen[0] + p.chosen[10], k, "only the ends: {:?}", p.chosen);
+    assert_eq!(
+        p.chosen[0] + p.chosen[10],
+        k,
+        "only the ends: {:?}",
+        p.chosen
+    );
     // Each design with one of its points moved to the inside has a larger determinant.
     let mut chosen_x = before.to_vec();
     for (i, &c) in p.chosen.iter().enumerate() {
@@ -131,7 +136,11 @@ fn without_data_half_at_each_end_and_the_slopes_variance_is_4_sigma2_over_k() {
         let want = sigma * sigma * 4.0 / k as f64;
         assert!(close(p.expected[(1, 1)], want, 1e-6), "K = {k}");
         // The intercept: σ² Sxx / Δ = σ² (K/2) / (K · K/2 − K²/4) = 2σ²/K.
-        assert!(close(p.expected[(0, 0)], 2.0 * sigma * sigma / k as f64, 1e-6));
+        assert!(close(
+            p.expected[(0, 0)],
+            2.0 * sigma * sigma / k as f64,
+            1e-6
+        ));
     }
 }
 
