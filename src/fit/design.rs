@@ -53,7 +53,7 @@ pub enum Criterion {
 }
 
 /// The criterion's value at information `f` (+∞ where `f` is singular).
-pub fn criterion_value(f: &DMatrix<f64>, c: Criterion) -> f64 {
+pub(crate) fn criterion_value(f: &DMatrix<f64>, c: Criterion) -> f64 {
     let Some(ch) = f.clone().cholesky() else {
         return f64::INFINITY;
     };
@@ -65,7 +65,7 @@ pub fn criterion_value(f: &DMatrix<f64>, c: Criterion) -> f64 {
 }
 
 /// `f0` plus `g gᵀ` for each chosen candidate.
-pub fn information(f0: &DMatrix<f64>, g: &[DVector<f64>], chosen: &[usize]) -> DMatrix<f64> {
+pub(crate) fn information(f0: &DMatrix<f64>, g: &[DVector<f64>], chosen: &[usize]) -> DMatrix<f64> {
     let mut f = f0.clone();
     for &c in chosen {
         f += &g[c] * g[c].transpose();
@@ -77,7 +77,7 @@ pub fn information(f0: &DMatrix<f64>, g: &[DVector<f64>], chosen: &[usize]) -> D
 /// minimise `criterion` of `f0 + Σ g_c g_cᵀ`. Without `repeats`, each candidate at most once
 /// (then `k` may not exceed the candidates). Ties go to the lower index, so the choice is
 /// reproducible.
-pub fn choose(
+pub(crate) fn choose(
     f0: &DMatrix<f64>,
     g: &[DVector<f64>],
     k: usize,
@@ -90,11 +90,11 @@ pub fn choose(
     let mut f = f0.clone();
     for _ in 0..k {
         let mut best: Option<(f64, usize)> = None;
-        for c in 0..g.len() {
+        for (c, o) in outer.iter().enumerate() {
             if !allowed(&chosen, c) {
                 continue;
             }
-            let v = criterion_value(&(&f + &outer[c]), criterion);
+            let v = criterion_value(&(&f + o), criterion);
             if best.is_none_or(|(b, _)| v < b) {
                 best = Some((v, c));
             }
@@ -117,11 +117,11 @@ pub fn choose(
             others.remove(slot);
             let without = information(f0, g, &others);
             let mut best: Option<(f64, usize)> = None;
-            for c in 0..g.len() {
+            for (c, o) in outer.iter().enumerate() {
                 if c == chosen[slot] || !allowed(&others, c) {
                     continue;
                 }
-                let v = criterion_value(&(&without + &outer[c]), criterion);
+                let v = criterion_value(&(&without + o), criterion);
                 // A relative margin, so that rounding cannot swap back and forth.
                 if v < current - 1e-12 * current.abs().max(1.0) && best.is_none_or(|(b, _)| v < b) {
                     best = Some((v, c));
@@ -236,10 +236,10 @@ pub fn plan(
 }
 
 /// Most measurements a design adds.
-pub const MAX_ADD: usize = 10_000;
+pub(crate) const MAX_ADD: usize = 10_000;
 
 /// Most candidates (each costs 2 + free keys forward runs).
-pub const MAX_CANDIDATES: usize = 10_000;
+pub(crate) const MAX_CANDIDATES: usize = 10_000;
 
 /// What a design minimises, as asked for.
 #[derive(Debug, Clone, PartialEq, Eq, Default)]
@@ -628,7 +628,9 @@ pub fn design(
     } = checked(req)?;
     let data = grid_data(&req.candidates, fit.observable)?;
     let at = at_estimate(&fit, &data, req.jobs, true, &[], stop, on_run)?;
-    let jac = at.jac.ok_or(Error::Cancelled)?;
+    let jac = at
+        .jac
+        .ok_or_else(|| Error::Invalid("the candidates' Jacobian was not computed".into()))?;
     let k = fit.free.len();
     let mut notes = Vec::new();
     let mut silent = 0;
@@ -844,7 +846,8 @@ fn classes(info: &[f64]) -> (Vec<Option<usize>>, Vec<(f64, f64)>) {
         .iter()
         .map(|&v| {
             (v > 0.0 && v.is_finite()).then(|| {
-                let t = if m == 1 || b == a {
+                // m = 1 also where all are equal (b − a = 0).
+                let t = if m == 1 {
                     0.0
                 } else {
                     (v.log10() - a) / (b - a) * m as f64

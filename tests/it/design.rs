@@ -85,13 +85,13 @@ fn a_straight_lines_d_optimal_design_and_its_exact_covariance() {
         chosen_x.extend(std::iter::repeat_n(xs[i], c));
     }
     let d_design = det(&chosen_x);
-    for inner in 1..10 {
+    for &inner in &xs[1..10] {
         for m in 0..k {
             let mut all = before.to_vec();
             all.extend(std::iter::repeat_n(0.0, m));
             all.extend(std::iter::repeat_n(1.0, k - 1 - m));
-            all.push(xs[inner]);
-            assert!(det(&all) > d_design, "x = {} beats the design", xs[inner]);
+            all.push(inner);
+            assert!(det(&all) > d_design, "x = {inner} beats the design");
         }
     }
     // The expected covariance is the least-squares covariance of all the measurements.
