@@ -441,7 +441,7 @@ pub fn row(
 }
 
 /// The grid's data: one row per grid point, the axes as conditions (observed 0, no sigma).
-fn grid_data(axes: &[Axis], observable: Observable) -> Result<FitData, Error> {
+pub(crate) fn grid_data(axes: &[Axis], observable: Observable) -> Result<FitData, Error> {
     let grid = Grid::new(axes.to_vec(), false).map_err(Error::Spec)?;
     let conditions: Vec<Condition> = grid
         .axes()
@@ -477,30 +477,52 @@ fn grid_data(axes: &[Axis], observable: Observable) -> Result<FitData, Error> {
     })
 }
 
-/// Predict with uncertainty from a fit over a grid ([`PredictRequest`]); `stop` abandons the
-/// runs (then [`Error::Cancelled`]), `on_run` is called as each forward run ends.
-pub fn predict(
-    req: &PredictRequest,
-    stop: Option<&AtomicBool>,
-    on_run: &mut dyn FnMut(),
-) -> Result<PredictReport, Error> {
-    let fit = FitFolder::read(&req.fit)?;
-    let mut notes = Vec::new();
-    for a in &req.grid {
+/// The model at a fit's estimate over the rows of `data`, and what else [`at_estimate`] was
+/// asked for.
+pub(crate) struct AtEstimate {
+    /// The model at the estimate per row (SI), at the scenario's tolerances (`fitted.toml`'s),
+    /// as the fit's residuals are.
+    pub values: Vec<f64>,
+    /// With `jacobian`: ∂prediction/∂y per row and free key (rows × keys), in the fit
+    /// coordinates, the fit's own Jacobian at the fit's tolerances.
+    pub jac: Option<DMatrix<f64>>,
+    /// The model at each of the `extra` points of the fit coordinates (rows each).
+    pub extra: Vec<Vec<f64>>,
+    /// Forward runs made.
+    pub forward_runs: usize,
+}
+
+/// Refuse a grid axis (of the input `input`) that sets a key the fit estimated.
+pub(crate) fn refuse_free_axes(fit: &FitFolder, axes: &[Axis], input: &str) -> Result<(), Error> {
+    for a in axes {
         if fit.free.iter().any(|f| f.key == a.key) {
             return Err(Error::Invalid(format!(
                 "{}: {} is a key the fit estimated, not a condition: its value is the fit's \
                  estimate",
-                input_value("set", &a.shown()),
+                input_value(input, &a.shown()),
                 a.key
             )));
         }
     }
-    let data = if req.grid.is_empty() {
-        fit.data.clone()
-    } else {
-        grid_data(&req.grid, fit.observable)?
-    };
+    Ok(())
+}
+
+/// The model of the fit in `fit` at its estimate over the rows of `data` (their conditions set
+/// on `fitted.toml`), with `jacobian` its gradient against the free keys as the fit computes
+/// it ([`Evaluator::jacobian_y`]: forward differences of step `√ε`, ε the error level of the
+/// fit's tolerances, widened where a column does not stand above the model's error), and the
+/// model at the points `extra` of the fit coordinates (at the fit's tolerances). Shared by
+/// `predict` and `design`; `stop` abandons the runs ([`Error::Cancelled`]), `on_run` is called
+/// as each forward run ends.
+pub(crate) fn at_estimate(
+    fit: &FitFolder,
+    data: &FitData,
+    jobs: usize,
+    jacobian: bool,
+    extra: &[Vec<f64>],
+    stop: Option<&AtomicBool>,
+    on_run: &mut dyn FnMut(),
+) -> Result<AtEstimate, Error> {
     let n = data.rows.len();
     let keys: Vec<SetKey> = fit.free.iter().map(|f| f.key).collect();
     let model = ForwardModel::new(
@@ -509,7 +531,7 @@ pub fn predict(
         keys,
         Vec::new(),
         None,
-        req.jobs,
+        jobs,
     )
     .map_err(Error::Invalid)?;
     let scn = fit
@@ -572,20 +594,73 @@ pub fn predict(
         value.values.iter().map(|v| eps_rel * v.abs()).collect(),
         fd_step(eps_rel),
     );
+    let jac = if jacobian {
+        Some(ev.jacobian_y(&y_hat).map_err(failed)?)
+    } else {
+        None
+    };
+    let extra = if extra.is_empty() {
+        Vec::new()
+    } else {
+        ev.predict_y(extra)
+            .map_err(failed)?
+            .into_iter()
+            .map(|p| p.values)
+            .collect()
+    };
+    let forward_runs = ev.st.borrow().runs;
+    Ok(AtEstimate {
+        values: value.values,
+        jac,
+        extra,
+        forward_runs,
+    })
+}
+
+/// Predict with uncertainty from a fit over a grid ([`PredictRequest`]); `stop` abandons the
+/// runs (then [`Error::Cancelled`]), `on_run` is called as each forward run ends.
+pub fn predict(
+    req: &PredictRequest,
+    stop: Option<&AtomicBool>,
+    on_run: &mut dyn FnMut(),
+) -> Result<PredictReport, Error> {
+    let fit = FitFolder::read(&req.fit)?;
+    let mut notes = Vec::new();
+    refuse_free_axes(&fit, &req.grid, "set")?;
+    let data = if req.grid.is_empty() {
+        fit.data.clone()
+    } else {
+        grid_data(&req.grid, fit.observable)?
+    };
+    let n = data.rows.len();
     let has_sigma: Vec<bool> = (0..fit.free.len())
         .map(|j| fit.cov_y[(j, j)].is_finite())
         .collect();
-    let sigma_p: Vec<Option<f64>> = if has_sigma.iter().any(|&h| h) {
-        let jac = ev.jacobian_y(&y_hat).map_err(failed)?;
-        propagate(&jac, &fit.cov_y).into_iter().map(Some).collect()
+    let any_sigma = has_sigma.iter().any(|&h| h);
+    let y_hat: Vec<f64> = fit
+        .tr
+        .iter()
+        .zip(&fit.values)
+        .map(|(t, &x)| t.y(x))
+        .collect();
+    let ys = if req.samples > 0 {
+        draws(&y_hat, &fit.cov_y, req.samples, req.seed)
     } else {
-        notes.push(
-            "no key of the fit has a sigma (see the fit's notes): the prediction has none".into(),
-        );
-        vec![None; n]
+        Vec::new()
+    };
+    let at = at_estimate(&fit, &data, req.jobs, any_sigma, &ys, stop, on_run)?;
+    let sigma_p: Vec<Option<f64>> = match &at.jac {
+        Some(jac) => propagate(jac, &fit.cov_y).into_iter().map(Some).collect(),
+        None => {
+            notes.push(
+                "no key of the fit has a sigma (see the fit's notes): the prediction has none"
+                    .into(),
+            );
+            vec![None; n]
+        }
     };
     for (j, f) in fit.free.iter().enumerate() {
-        if !has_sigma[j] && has_sigma.iter().any(|&h| h) {
+        if !has_sigma[j] && any_sigma {
             notes.push(format!(
                 "{}: the fit gave it no sigma; it is held at its estimate in sigma_parameters",
                 f.key
@@ -596,10 +671,7 @@ pub fn predict(
         notes.push("the fit did not converge: its estimate is the best point it met".into());
     }
     let sigma_s = if req.samples > 0 {
-        let ys = draws(&y_hat, &fit.cov_y, req.samples, req.seed);
-        let preds = ev.predict_y(&ys).map_err(failed)?;
-        let values: Vec<Vec<f64>> = preds.into_iter().map(|p| p.values).collect();
-        spread(&values, n)
+        spread(&at.extra, n)
     } else {
         vec![None; n]
     };
@@ -619,7 +691,7 @@ pub fn predict(
                     CondValue::Text(t) => Cell::Text(t.clone()),
                 })
                 .collect();
-            row(cells, value.values[i], sigma_p[i], 0.0, sigma_s[i])
+            row(cells, at.values[i], sigma_p[i], 0.0, sigma_s[i])
         })
         .collect();
     if disagree > 0 {
@@ -629,7 +701,7 @@ pub fn predict(
              there; trust sigma_samples"
         ));
     }
-    let forward_runs = ev.st.borrow().runs;
+    let forward_runs = at.forward_runs;
     Ok(PredictReport {
         observable: fit.observable.name().to_string(),
         unit: fit.observable.unit().to_string(),
