@@ -1,13 +1,13 @@
 //! `djkr design --fit DIR --candidates KEY=SPEC... --add K --out DIR`: thin over
-//! [`djkr::fit::design`].
+//! [`crate::fit::design`].
 
 use super::signals;
 use super::sweep::Interrupted;
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use djkr::fit::design::{self, DesignRequest, Target};
-use djkr::fit::predict::Cell;
-use djkr::sweep::Axis;
+use crate::fit::design::{self, DesignRequest, Target};
+use crate::fit::predict::Cell;
+use crate::sweep::Axis;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -72,7 +72,7 @@ fn axis(text: &str) -> Result<Axis> {
         anyhow!(
             "--candidates {}: {}",
             e.set,
-            djkr::error::render(&e.message, &super::words::Flags)
+            crate::error::render(&e.message, &super::words::Flags)
         )
     })
 }
@@ -96,7 +96,7 @@ pub fn design(a: &DesignArgs) -> Result<()> {
     design::check(&req)?;
     signals::install("stopping: forward runs in progress are abandoned; nothing is written");
     super::common::claim_out(&a.out, &design::FILES, a.force).context("--out")?;
-    let _lock = djkr::output::folder::DirLock::acquire(&a.out)?;
+    let _lock = crate::output::folder::DirLock::acquire(&a.out)?;
     let bar = ProgressBar::new_spinner();
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed}] design: {pos} forward runs")
@@ -106,7 +106,7 @@ pub fn design(a: &DesignArgs) -> Result<()> {
     let report = design::design(&req, Some(signals::flag()), &mut || bar.inc(1));
     bar.finish_and_clear();
     let mut report = match report {
-        Err(djkr::error::Error::Cancelled) => {
+        Err(crate::error::Error::Cancelled) => {
             eprintln!("stopped: nothing written in {}", a.out.display());
             return Err(Interrupted(signals::received()).into());
         }
@@ -150,11 +150,11 @@ pub fn design(a: &DesignArgs) -> Result<()> {
                 .map(
                     |(k, v)| match (v, units.get(k.as_str()).copied().flatten()) {
                         (Cell::Num(x), Some(u)) => {
-                            let (f, unit) = djkr::plot::display_unit(u, &[*x]);
+                            let (f, unit) = crate::plot::display_unit(u, &[*x]);
                             format!(
                                 "{k} = {} {}",
-                                djkr::plot::tick_label(x * f),
-                                djkr::plot::unit_text(&unit)
+                                crate::plot::tick_label(x * f),
+                                crate::plot::unit_text(&unit)
                             )
                         }
                         (Cell::Num(x), None) => format!("{k} = {x}"),

@@ -1034,3 +1034,8 @@ mod tests {
         assert_eq!(c, vec![10, 10, 10]);
     }
 }
+
+/// The straight line, whose optimal designs and covariances are known in closed form.
+#[cfg(test)]
+#[path = "design_tests.rs"]
+mod closed_form_tests;

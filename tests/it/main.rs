@@ -16,7 +16,6 @@ mod accuracy;
 mod closed_form;
 mod continuation;
 mod describing;
-mod design;
 mod docs_reference;
 mod dynamics;
 mod envelope_cost;

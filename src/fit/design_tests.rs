@@ -1,9 +1,9 @@
 //! `djkr design` (issue 34): the design's mathematics on a model linear in its keys, where the
 //! D-optimal design and the expected covariance are known in closed form. The design is
-//! computed by [`djkr::fit::design::plan`], the function the command calls with the model's
+//! computed by [`super::plan`], the function the command calls with the model's
 //! sensitivities; here the sensitivities are those of a straight line, exact.
 
-use djkr::fit::design::{plan, uniform, Criterion};
+use super::{plan, uniform, Criterion};
 use nalgebra::{DMatrix, DVector};
 
 /// The weighted sensitivities of `y = a + b x` to (a, b) at `x` with noise `sigma`.
