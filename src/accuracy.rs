@@ -66,7 +66,7 @@ use std::time::Instant;
 pub use djkr_core::dynamics::methods::method_name;
 
 /// Parse a method name ([`djkr_core::dynamics::methods::METHODS`]); `flag` names the source.
-pub fn parse_method(flag: &str, text: &str) -> Result<Method, ParamError> {
+pub(crate) fn parse_method(flag: &str, text: &str) -> Result<Method, ParamError> {
     djkr_core::dynamics::methods::method_from_name(text.trim()).ok_or_else(|| {
         ParamError::new(
             flag,
@@ -755,8 +755,9 @@ pub(crate) fn work_precision_table(st: &Study) -> Table {
     ])
 }
 
-/// The study as CSV text ([`work_precision_table`]).
-pub fn study_csv(st: &Study) -> String {
+/// The study as CSV text ([`work_precision_table`]), as the tests read it.
+#[cfg(test)]
+pub(crate) fn study_csv(st: &Study) -> String {
     work_precision_table(st).to_csv()
 }
 
@@ -921,7 +922,7 @@ pub enum Measure {
 /// The work-precision figure: the chosen error against median wall time, log axes, one series
 /// per method (points in tolerance order); the reference uncertainty in the same measure as a
 /// dashed line. Errors below 1e-16 are drawn at 1e-16 (exact agreement).
-pub fn study_figure(st: &Study, measure: Measure) -> Figure {
+pub(crate) fn study_figure(st: &Study, measure: Measure) -> Figure {
     let pick = |e: &OutputErrors| match measure {
         Measure::PullOffRelevant => e.pull_off_relevant,
         Measure::PullOffForce => e.pull_off_force,
@@ -986,7 +987,7 @@ fn short_name(s: &str) -> String {
 
 /// One node count of the quadrature study.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct QuadratureRow {
+pub(crate) struct QuadratureRow {
     /// Tanh-sinh nodes.
     pub nodes: usize,
     /// Worst relative error of F_m over the cases.
@@ -1001,7 +1002,7 @@ pub struct QuadratureRow {
 
 /// The quadrature study's result.
 #[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct QuadratureStudy {
+pub(crate) struct QuadratureStudy {
     /// Rows, in node order.
     pub rows: Vec<QuadratureRow>,
     /// Number of cases.
@@ -1015,7 +1016,7 @@ pub struct QuadratureStudy {
 /// a_m/a_A ∈ {−0.9, 0.3, 1, 1.5, 3} (truncated, touching and full-contact cycles), paper K, R,
 /// w0, v0. Reference: graded Gauss–Legendre (16 points, 70 levels, σ = 0.5), checked against
 /// (20, 90, 0.45). Cases run in parallel for the errors; timing is sequential.
-pub fn quadrature_study(node_counts: &[usize], repeats: usize) -> QuadratureStudy {
+pub(crate) fn quadrature_study(node_counts: &[usize], repeats: usize) -> QuadratureStudy {
     let m = Material::PAPER;
     let reference = QuadratureRule::graded_gauss_legendre(16, 70, 0.5);
     let reference2 = QuadratureRule::graded_gauss_legendre(20, 90, 0.45);
@@ -1103,7 +1104,7 @@ pub fn quadrature_study(node_counts: &[usize], repeats: usize) -> QuadratureStud
 
 /// One point of the closed-form error map.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct MapPoint {
+pub(crate) struct MapPoint {
     /// Gent–Schultz exponent n.
     pub n: f64,
     /// v_max/v0.
@@ -1118,7 +1119,7 @@ pub struct MapPoint {
 
 /// ln(A_exact/A_approx) over the (n, v_max/v0) grid at frequency `freq` (Hz) and speed correction
 /// `beta`, paper material and v0 (a_A = v_max/ω). Parallel over the grid. Row-major: n outer.
-pub fn closed_form_map(
+pub(crate) fn closed_form_map(
     n_values: &[f64],
     speed_ratios: &[f64],
     freq: f64,
@@ -1178,7 +1179,7 @@ pub fn closed_form_map(
 }
 
 /// The map as a heat map of |ln ratio| (log colour scale), x = v_max/v0 (log), y = n.
-pub fn closed_form_heatmap(
+pub(crate) fn closed_form_heatmap(
     points: &[MapPoint],
     n_values: &[f64],
     speed_ratios: &[f64],
@@ -1241,3 +1242,7 @@ pub(crate) fn quadrature_figure(q: &QuadratureStudy) -> Figure {
         Style::LineMarkers,
     ))
 }
+
+#[cfg(test)]
+#[path = "accuracy_tests.rs"]
+mod tests;

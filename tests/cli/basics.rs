@@ -1160,3 +1160,62 @@ fn set_refuses_dense_with_a_clear_message() {
     assert!(err.contains("output.dense"), "{err}");
     assert!(err.contains("cannot be given with --set"), "{err}");
 }
+
+// ---------------------------------------------------------------- djkr accuracy
+
+#[test]
+fn cli_errors_name_the_flag() {
+    let o = djkr(&[
+        "accuracy",
+        "scenarios/quasi-static-jkr.toml",
+        "--tolerances",
+        "1e-6,2",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--tolerances"), "{err}");
+    let o = djkr(&[
+        "accuracy",
+        "scenarios/quasi-static-jkr.toml",
+        "--methods",
+        "rk4",
+    ]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--methods"));
+    let o = djkr(&["accuracy"]);
+    assert!(!o.status.success());
+}
+
+#[test]
+fn cli_writes_csv_table_and_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("acc");
+    let o = djkr(&[
+        "accuracy",
+        "scenarios/quasi-static-jkr.toml",
+        "--methods",
+        "implicit,dopri5",
+        "--tolerances",
+        "1e-6",
+        "--repeats",
+        "1",
+        "--ref-rtol",
+        "1e-10",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("work_precision.csv")).unwrap();
+    // dopri5 cannot run a constant-w law at all: skipped up front, saying so (no failed row).
+    assert_eq!(csv.lines().count(), 2);
+    assert!(!csv.contains("dopri5"));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("skipping dopri5"));
+    for f in [
+        "work_precision.md",
+        "work_precision.png",
+        "work_precision.svg",
+        "work_precision_pull_off.png",
+    ] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    assert!(String::from_utf8_lossy(&o.stdout).contains("| implicit | 1e-6 |"));
+}

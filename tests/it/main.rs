@@ -12,7 +12,6 @@ mod tools;
 #[path = "../catalogue/mod.rs"]
 mod catalogue;
 
-mod accuracy;
 mod closed_form;
 mod continuation;
 mod describing;

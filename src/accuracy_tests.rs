@@ -1,12 +1,12 @@
-//! The accuracy module and `djkr accuracy`: error arithmetic against hand-computed values, the
-//! reference against closed forms, failures reported as rows, the imposed-area studies, the CLI.
+//! The accuracy module: error arithmetic against hand-computed values, the reference against
+//! closed forms, failures reported as rows, the imposed-area studies (`djkr accuracy` itself:
+//! tests/cli/basics.rs).
 
-use djkr::accuracy::*;
+use super::*;
 use djkr_core::dynamics::Method;
 use djkr_core::dynamics::{EventKind, Sample};
 use djkr_core::jkr;
 use djkr_core::material::Material;
-use std::process::Command;
 
 const M: Material = Material::PAPER;
 
@@ -106,7 +106,9 @@ fn errors_are_normalised_as_documented() {
 /// rate-independent law) is a failed row with its message, not a crash.
 #[test]
 fn study_of_quasi_static_jkr() {
-    let s = crate::catalogue::quasi_static_jkr();
+    // The bundled scene of the quasi-static JKR limit (rigid holder, massless sphere, constant w0).
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/quasi-static-jkr.toml");
+    let s = crate::load_scenario(&file).unwrap();
     let cfg = StudyConfig {
         methods: vec![Method::Implicit, Method::Dopri5],
         tolerances: vec![1e-6, 1e-9],
@@ -230,66 +232,3 @@ fn closed_form_map_limits() {
     assert!(closed_form_map(&ns, &rs, -1.0, 2.5).is_err());
 }
 
-fn djkr(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_djkr"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-#[test]
-fn cli_errors_name_the_flag() {
-    let o = djkr(&[
-        "accuracy",
-        "scenarios/quasi-static-jkr.toml",
-        "--tolerances",
-        "1e-6,2",
-    ]);
-    assert!(!o.status.success());
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("--tolerances"), "{err}");
-    let o = djkr(&[
-        "accuracy",
-        "scenarios/quasi-static-jkr.toml",
-        "--methods",
-        "rk4",
-    ]);
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--methods"));
-    let o = djkr(&["accuracy"]);
-    assert!(!o.status.success());
-}
-
-#[test]
-fn cli_writes_csv_table_and_plot() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("acc");
-    let o = djkr(&[
-        "accuracy",
-        "scenarios/quasi-static-jkr.toml",
-        "--methods",
-        "implicit,dopri5",
-        "--tolerances",
-        "1e-6",
-        "--repeats",
-        "1",
-        "--ref-rtol",
-        "1e-10",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let csv = std::fs::read_to_string(out.join("work_precision.csv")).unwrap();
-    // dopri5 cannot run a constant-w law at all: skipped up front, saying so (no failed row).
-    assert_eq!(csv.lines().count(), 2);
-    assert!(!csv.contains("dopri5"));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("skipping dopri5"));
-    for f in [
-        "work_precision.md",
-        "work_precision.png",
-        "work_precision.svg",
-        "work_precision_pull_off.png",
-    ] {
-        assert!(out.join(f).exists(), "{f}");
-    }
-    assert!(String::from_utf8_lossy(&o.stdout).contains("| implicit | 1e-6 |"));
-}
