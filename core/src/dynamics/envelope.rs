@@ -69,8 +69,8 @@
 //! periods), out of the last periods before pull-off, and out of a run whose tolerance no skip
 //! can meet (`envelope_tol = 1e-8` on the 200 and 300 Hz protocols: no trial period, the run is
 //! `off`'s to the bit). 300 Hz at 1e-6: 1.281 M → 1.274 M evaluations with samples, against
-//! 1.271 M for `off` (+0.25 %; 200 Hz +0.4 %, 400 Hz +0.6 %); at 1e-5, 505 k → 393 k without
-//! samples (46 % of `off`, 4 347 periods skipped). What the screen cannot see is the error of
+//! 1.271 M for `off` (+0.25 %; 200 Hz +0.4 %, 400 Hz +0.6 %); at 1e-5, 505 k → 495 k with
+//! samples (393 k without, 46 % of `off`, 4 347 periods skipped). What the screen cannot see is the error of
 //! the first, two-period step from direct boundaries, which comes from the direct periods
 //! themselves (their map differs from the trial periods' by the run's integration error, a
 //! Milne distance of 4e-9–3e-8 on the 300 Hz unload whatever the tolerance): at 1e-6 such a
