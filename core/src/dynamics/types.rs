@@ -203,7 +203,8 @@ pub struct EnvelopeStats {
     pub trial_rhs_evals: u64,
     /// Base periods integrated directly because the back-off held envelope steps back: after
     /// runs of attempts that did not pay, or the multiplier reaching its limit in a transient,
-    /// or while the trial periods' net cost was over its budget.
+    /// while the trial periods' net cost was over its budget, or where no skip long enough to
+    /// pay could pass the error test (predicted from the directly integrated boundaries).
     pub backoff_periods: u64,
 }
 
