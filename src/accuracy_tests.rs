@@ -107,7 +107,8 @@ fn errors_are_normalised_as_documented() {
 #[test]
 fn study_of_quasi_static_jkr() {
     // The bundled scene of the quasi-static JKR limit (rigid holder, massless sphere, constant w0).
-    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/quasi-static-jkr.toml");
+    let file =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/quasi-static-jkr.toml");
     let s = crate::load_scenario(&file).unwrap();
     let cfg = StudyConfig {
         methods: vec![Method::Implicit, Method::Dopri5],
@@ -231,4 +232,3 @@ fn closed_form_map_limits() {
     assert_eq!(h.z.len(), 9);
     assert!(closed_form_map(&ns, &rs, -1.0, 2.5).is_err());
 }
-

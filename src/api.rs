@@ -851,11 +851,11 @@ pub(crate) fn pull_off_at(
 /// columns, the stage and the segment index, 8 bytes each (the data itself; while a column
 /// grows, its buffer briefly holds up to twice this: the estimate before the run,
 /// [`crate::memory::SAMPLE_BYTES`], counts that peak).
-pub const SAMPLE_BYTES: u64 = 8 * (crate::output::timeseries::SERIES.len() as u64 + 2);
+pub(crate) const SAMPLE_BYTES: u64 = 8 * (crate::output::timeseries::SERIES.len() as u64 + 2);
 /// Bytes one event holds in memory.
-pub const EVENT_BYTES: u64 = std::mem::size_of::<Event>() as u64;
+pub(crate) const EVENT_BYTES: u64 = std::mem::size_of::<Event>() as u64;
 /// Bytes one period record holds in memory (its table row, 8 bytes a column).
-pub const CYCLE_BYTES: u64 = 8 * cycles::CYCLE_FIELDS.len() as u64;
+pub(crate) const CYCLE_BYTES: u64 = 8 * cycles::CYCLE_FIELDS.len() as u64;
 
 /// Keeps everything in memory and hands it on to a run writer, when there is one. It counts
 /// the bytes it holds (samples, events, period records: [`SAMPLE_BYTES`], [`EVENT_BYTES`],
@@ -1441,6 +1441,17 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
 
 #[cfg(test)]
 mod tests {
+
+    /// The sizes docs/guide/unattended.md ("Memory") gives for what a run holds in memory.
+    #[test]
+    fn the_documented_sizes_are_the_counted_ones() {
+        assert_eq!(SAMPLE_BYTES, 104);
+        // The estimate before a run counts a sample's peak, at most twice its data (a column's
+        // buffer doubles when full) plus a little.
+        assert!(crate::memory::SAMPLE_BYTES >= 2.0 * SAMPLE_BYTES as f64);
+        assert_eq!(EVENT_BYTES, 120);
+        assert_eq!(CYCLE_BYTES, 192);
+    }
     #[test]
     fn a_contact_wider_than_the_sphere_is_refused() {
         let (m, law) = default_material();

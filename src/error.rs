@@ -19,9 +19,10 @@ use djkr_core::error::ParamError;
 use djkr_core::steady::SteadyError;
 use djkr_core::text::excerpt;
 
+pub(crate) use crate::words::input;
 #[cfg(test)]
 pub(crate) use crate::words::TestFlags;
-pub use crate::words::{input, input_value, render, set_item, Plain, Source, Words};
+pub use crate::words::{render, Plain, Source, Words};
 
 use crate::output::OutputError;
 use crate::run_plot::RunPlotError;
@@ -277,10 +278,13 @@ mod tests {
         assert_eq!(render(&text, &Plain), "with a_amp = 1mm: too wide");
         // An unclosed marker is left as it is.
         assert_eq!(render("a «b", &Flags), "a «b");
-        let t = format!("already set by {}", set_item("adhesion.n=0.5"));
+        let t = format!(
+            "already set by {}",
+            crate::words::set_item("adhesion.n=0.5")
+        );
         assert_eq!(render(&t, &Flags), "already set by --set adhesion.n=0.5");
         // An input with its value, and a sweep's axis.
-        let t = format!("{}: too many", input_value("ensemble", "5"));
+        let t = format!("{}: too many", crate::words::input_value("ensemble", "5"));
         assert_eq!(render(&t, &Flags), "--ensemble 5: too many");
         assert_eq!(render(&t, &Plain), "ensemble = 5: too many");
         let t = format!(

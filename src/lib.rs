@@ -5,7 +5,7 @@
 //! [`djkr_core::imposed_area`] (the paper's Sec. 2.1 method), [`djkr_core::closed_form`] (eqs.
 //! 16–24, 29), [`djkr_core::comparators`] (Shui et al., Yi et al.), [`djkr_core::dynamics`] (the
 //! time-domain simulator).
-//! I/O lives at the edges: [`scenario::parse`], [`output`], [`plot`], and the CLI.
+//! I/O lives at the edges: [`scenario::parse`], [`output`], and the command line.
 //!
 //! Running a scenario from Rust is what `djkr run FILE` does: load and validate the file
 //! ([`scenario::parse::load_scenario`], or [`scenario::parse::load_scenario_with`] for `--set`
@@ -27,28 +27,31 @@
 //!
 //! # What the crate offers
 //!
-//! This crate adds to the physics what reads and writes files and what the command line and
-//! Python share; the names a user composes are at the top level:
+//! This crate adds to the physics what reads and writes files and what its two front ends, the
+//! command line and the Python package, share. Its public items are what a third front end
+//! needs; everything else is the crate's own (`pub(crate)`):
 //!
 //! - scenarios: [`Scenario`], built one way ([`ScenarioSource::scenario`]: a file, a text or a
-//!   [`scenario::parse::Tree`], with typed overrides),
-//!   [`load_scenario`], [`load_scenario_with`], [`ScenarioSource`], [`ScenarioError`], and the
-//!   table of every key, [`scenario::keys`];
-//! - running: [`run`] (a [`RunRecord`] in memory, the files in a folder if given),
-//!   [`validate`], sweeps ([`sweep`]), fits of measured data ([`fit`]);
-//! - output: [`TimeSeriesWriter`], [`SummaryFiles`], the format-neutral [`Table`] and its
-//!   [`Column`]s, written as CSV or HDF5 ([`output`]).
+//!   [`scenario::parse::Tree`], with typed [`scenario::overrides::Override`]s),
+//!   [`load_scenario`], [`load_scenario_with`], [`ScenarioError`], the table of every key
+//!   ([`scenario::keys`]) and one-parameter families ([`scenario::family`]);
+//! - commands, each a typed request and a typed report that derives or implements `Serialize`
+//!   ([`api`]): [`run`], [`validate`], [`api::cycle`], [`api::pull_off`], [`api::resonance`],
+//!   [`api::sweep`] (and [`sweep`] for sweep folders), [`api::fit`] (and [`fit`] for data and
+//!   free keys); the accuracy study ([`accuracy`]) and the sensitivity to one ulp
+//!   ([`sensitivity`]);
+//! - errors that carry what happened and where ([`error::Error`], [`ScenarioError`]), worded by
+//!   each front end through [`error::Words`];
+//! - output: [`TimeSeriesWriter`], the format-neutral [`Table`] and its
+//!   [`Column`]s, written as CSV or HDF5 ([`output`]); the one reader of input files
+//!   ([`input`]); memory estimates ([`memory`]).
 //!
-//! Modules used by the command line, the tests and the studies, whose items are public for them
-//! but are not a stable interface: [`api`] (the shared entry points of the command line and
-//! Python), [`catalogue`] (the reference scenes), [`reports`], [`plot`], [`run_plot`],
-//! [`figures`], [`accuracy`], [`sensitivity`], [`memory`], [`input`].
+//! The command line is the private module behind [`cli::main`], which the `djkr` binary calls.
 #![deny(clippy::float_cmp)]
 #![deny(missing_docs)]
 
 pub mod accuracy;
 pub mod api;
-
 pub mod cli;
 pub mod error;
 mod figures;
@@ -71,6 +74,6 @@ mod words;
 pub(crate) mod test_tools;
 
 pub use api::{run, validate, RunRecord};
-pub use output::{Column, SummaryFiles, Table, TimeSeriesWriter};
+pub use output::{Column, Table, TimeSeriesWriter};
 pub use scenario::parse::{load_scenario, load_scenario_with, ScenarioError, ScenarioSource};
 pub use scenario::Scenario;

@@ -3,11 +3,11 @@
 
 use super::signals;
 use super::sweep::Interrupted;
-use anyhow::{anyhow, bail, Context, Result};
-use clap::Args;
 use crate::fit::design::{self, DesignRequest, Target};
 use crate::fit::predict::Cell;
 use crate::sweep::Axis;
+use anyhow::{anyhow, bail, Context, Result};
+use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Duration;

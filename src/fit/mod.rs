@@ -44,9 +44,8 @@ pub(crate) use free::fittable_keys;
 pub use free::FreeKey;
 pub use model::ForwardModel;
 pub(crate) use model::{expected_runs, sets_per_iteration};
-pub use report::{
-    FitError, FitEvent, FitOptions, FitOutcome, FitReport, Parameter, StartReport, Tolerances,
-};
+pub(crate) use report::{FitEvent, FitOptions};
+pub use report::{FitOutcome, FitReport, Parameter, StartReport, Tolerances};
 
 use crate::output::table::format_f64;
 use crate::scenario::overrides::{Override, SetKey};

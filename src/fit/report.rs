@@ -14,7 +14,7 @@ use super::starts;
 
 /// What a fit reports as it goes.
 #[derive(Debug, Clone, PartialEq)]
-pub enum FitEvent {
+pub(crate) enum FitEvent {
     /// A forward run ended.
     Run,
     /// An iteration (a Jacobian) ended, or the first evaluation (`iteration` 0).
@@ -40,7 +40,7 @@ pub enum FitEvent {
 
 /// How to fit.
 #[derive(Debug, Clone, Copy)]
-pub struct FitOptions<'a> {
+pub(crate) struct FitOptions<'a> {
     /// Most Jacobians (iterations) of each optimisation.
     pub max_iterations: usize,
     /// Starting points: the given one and `starts − 1` drawn by Latin hypercube.
@@ -205,7 +205,7 @@ pub struct FitOutcome {
 /// before its first evaluation ended, so that no estimate exists to report.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[error("{message}")]
-pub struct FitError {
+pub(crate) struct FitError {
     /// What went wrong, as one line.
     pub message: String,
     /// The stop flag ended the first evaluation: not an error of the input, and nothing to write.

@@ -77,7 +77,7 @@ use djkr_core::dynamics::{
 };
 pub(crate) use folder::write_atomic;
 use stream::{Background, Pending, Rows, Streaming};
-pub use summary::SummaryFiles;
+pub(crate) use summary::SummaryFiles;
 pub use table::{Column, Data, Field, Table};
 pub use timeseries::TimeSeriesWriter;
 

@@ -109,7 +109,7 @@ pub const SUMMARY_VERSION: i64 = 1;
 /// File names (relative to the output directory) listed under `files`. The default lists none
 /// (a run kept in memory, without a run folder: `files` and `file_bytes` are empty).
 #[derive(Debug, Clone, Default)]
-pub struct SummaryFiles {
+pub(crate) struct SummaryFiles {
     /// The HDF5 file (empty: none written).
     pub hdf5: String,
     /// The time-series CSV, when written.
