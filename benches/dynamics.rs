@@ -19,15 +19,18 @@
 //!   1e-8; with `one_rhs_dp8` it gives the integration's overhead over its RHS work (measured
 //!   in pairs, robust to a noisy machine, by `benches/overhead.rs`).
 //!
-//! Every scene but the peer's comes from `djkr::catalogue`, the scenes the tests prove correct.
+//! Every scene but the peer's comes from `crate::catalogue`, the scenes the tests prove correct.
 //!
 //! `cargo bench --bench dynamics`; each benchmark prints its `Stats` once (steps, rhs), so
 //! wall / (rhs × one_rhs) can be formed.
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
+use crate::catalogue::{vibrating_hold, Bundled};
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::catalogue::{vibrating_hold, Bundled};
-use djkr::scenario::{Method, Scenario};
+use djkr::scenario::Scenario;
+use djkr_core::dynamics::Method;
 use djkr_core::dynamics::NoObserver;
 use std::hint::black_box;
 use std::time::{Duration, Instant};

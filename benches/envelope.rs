@@ -18,8 +18,10 @@
 //! Each run's deterministic counts (RHS evaluations, the envelope's statistics) are printed once.
 //!
 //! `cargo bench --bench envelope`
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
+use crate::catalogue::Bundled;
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::catalogue::Bundled;
 use djkr::scenario::Scenario;
 use djkr_core::dynamics::{EnvelopeMode, NoObserver, Observer};
 use std::hint::black_box;

@@ -11,7 +11,7 @@ use djkr::api;
 use djkr::fit::{FitData, ForwardModel};
 use djkr::scenario::overrides::Override;
 use djkr::scenario::parse::ScenarioSource;
-use djkr::sweep::phase::uniform;
+use djkr::sweep::uniform;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;

@@ -1,13 +1,15 @@
 //! Imposed-area benchmarks: one cycle at the default accuracy, one pull-off point, and the whole
 //! Figs. 4–8 table (3 frequencies × 61 amplitudes), at the catalogue's operating points
-//! (`djkr::catalogue::{CYCLE_400HZ, CYCLE_400HZ_TRUNCATED, PULL_OFF_400HZ, figs_4_to_8_grid}`).
+//! (`crate::catalogue::{CYCLE_400HZ, CYCLE_400HZ_TRUNCATED, PULL_OFF_400HZ, figs_4_to_8_grid}`).
 //! Targets on the 2-core reference machine, release build: cycle ≤ 20 µs, pull-off point
 //! ≤ 2 ms, table ≤ 0.3 s.
 
-use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::catalogue::{
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
+use crate::catalogue::{
     figs_4_to_8_grid, ImposedCycle, CYCLE_400HZ, CYCLE_400HZ_TRUNCATED, PULL_OFF_400HZ,
 };
+use criterion::{criterion_group, criterion_main, Criterion};
 use djkr_core::adhesion::GentSchultz;
 use djkr_core::imposed_area::{cycle, pull_off, pull_off_table};
 use djkr_core::material::Material;

@@ -1,6 +1,6 @@
 //! Per-method comparison (issue 5): one base cycle, a steady 1 s at 400 Hz, and the paper's
 //! protocol at 300 Hz (scenarios/paper-protocol-300hz.toml), for each integrator; the scenes
-//! come from `djkr::catalogue`. The RHS and the
+//! come from `crate::catalogue`. The RHS and the
 //! hot path are benchmarked in benches/dynamics.rs; the accuracy of each (method, tolerance) is
 //! measured by `djkr accuracy` (src/accuracy.rs) on the same scenes.
 //!
@@ -14,10 +14,13 @@
 //! `djkr accuracy docs/accuracy/hold-400hz-1s.toml --tolerances 1e-8,5e-9,1e-9,4e-10`
 //! (the target: 1e-6 in ≤ 10 ms).
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
+use crate::catalogue::{hold_400hz_1s, vibrating_hold, Bundled};
 use criterion::{criterion_group, criterion_main, Criterion};
 use djkr::accuracy::{method_label, method_name};
-use djkr::catalogue::{hold_400hz_1s, vibrating_hold, Bundled};
-use djkr::scenario::{Method, Scenario};
+use djkr::scenario::Scenario;
+use djkr_core::dynamics::Method;
 use djkr_core::dynamics::NoObserver;
 use std::hint::black_box;
 use std::time::Duration;

@@ -8,6 +8,8 @@
 //! `cargo bench --bench overhead [-- ROUNDS]` (default 300): the medians and minima of both
 //! and the median of the per-round ratios.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
 use djkr_core::dynamics::NoObserver;

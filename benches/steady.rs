@@ -11,8 +11,10 @@
 //!   harmonic balance (the time-domain part).
 //!
 //! `cargo bench --bench steady`.
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
+use crate::catalogue::Bundled;
 use criterion::{criterion_group, criterion_main, Criterion};
-use djkr::catalogue::Bundled;
 use djkr_core::steady::sweep::{self, Direction, Linearisation};
 use djkr_core::steady::{Options, Problem, Strategy};
 use std::hint::black_box;

@@ -10,8 +10,9 @@
 //!
 //! Prints one JSON object: every run's wall time and every batch's time per call (s).
 
-use djkr::api::{self, Arg};
+use djkr::api;
 use djkr::scenario::parse::ScenarioSource;
+use djkr_core::units::Dimension;
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -41,16 +42,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for _ in 0..batches {
         let t0 = Instant::now();
         for _ in 0..1000 {
-            let r = api::cycle(
-                &m,
-                &law,
-                Arg::new("freq", black_box("400.0")),
-                Arg::new("a_mean", black_box("0.002")),
-                Arg::new("a_amp", black_box("0.0005")),
-            )?;
-            let v = r.json();
-            api::check_finite(&v)?;
-            black_box(v);
+            let req = api::CycleRequest {
+                freq: api::Quantity::parse("freq", black_box("400.0"), Dimension::Frequency)?,
+                a_mean: api::Quantity::parse("a_mean", black_box("0.002"), Dimension::Length)?,
+                a_amp: api::Quantity::parse("a_amp", black_box("0.0005"), Dimension::Length)?,
+            };
+            let r = api::cycle(&m, &law, &req)?;
+            api::check_finite(&r)?;
+            black_box(serde_json::to_value(&r)?);
         }
         cycle_s.push(t0.elapsed().as_secs_f64() / 1000.0);
     }

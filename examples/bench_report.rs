@@ -5,8 +5,10 @@
 //!   cargo bench --bench imposed_area   # and dynamics, methods, steady
 //!   cargo run --release --example bench_report
 //!
-//! Writes `docs/studies/benchmarks.md`. The scenes are those of `djkr::catalogue`.
+//! Writes `docs/studies/benchmarks.md`. The scenes are those of `crate::catalogue`.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
 use common::{Args, Table};
@@ -102,7 +104,7 @@ fn main() {
     doc +=
         "Criterion's median per benchmark with its 95 % interval, and when it was measured (UTC). \
             The load average above is the report's, not the benches': run them on an idle \
-            machine. Benches: `benches/*.rs`, timing the scenes of `src/catalogue.rs`.\n\n";
+            machine. Benches: `benches/*.rs`, timing the scenes of `tests/catalogue/mod.rs`.\n\n";
     let mut t = Table::new(&["benchmark", "median", "95 % interval", "measured"]);
     for (id, med, lo, hi, when) in &rows {
         t.row([

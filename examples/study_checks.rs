@@ -6,11 +6,15 @@
 //!
 //! Writes `docs/studies/checks.md`. About 10 s on 2 cores.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
+use crate::catalogue::{cycle_balances, summarise_balances};
 use common::{sci, Args, Table};
-use djkr::catalogue::{self, cycle_balances, summarise_balances};
-use djkr::scenario::{Initial, Method, Scenario, Until};
+use djkr::scenario::Scenario;
+use djkr_core::dynamics::protocol::{Initial, Until};
+use djkr_core::dynamics::Method;
 use djkr_core::dynamics::{EventKind, Recorder, RunResult};
 use djkr_core::jkr;
 use djkr_core::material::Material;
@@ -41,7 +45,7 @@ fn main() {
          agreement between methods. Writes checks.md.",
     );
     let mut doc = args.header("Time-domain simulator: checks against independent references");
-    doc += "Each section names the catalogue scene (`src/catalogue.rs`) and the test that asserts \
+    doc += "Each section names the catalogue scene (`tests/catalogue/mod.rs`) and the test that asserts \
             the claim with a margin over the value measured here.\n\n";
 
     // ---------------------------------------------------------------------------------------
@@ -245,17 +249,17 @@ fn main() {
     for (label, formation, floor) in [
         (
             "jump-in",
-            djkr::scenario::ContactFormation::JumpIn,
+            djkr_core::rig::ContactFormation::JumpIn,
             1e-3 * a_j,
         ),
         (
             "seed 1 µm",
-            djkr::scenario::ContactFormation::Seed(1e-6),
+            djkr_core::rig::ContactFormation::Seed(1e-6),
             1e-7,
         ),
         (
             "seed 10 nm",
-            djkr::scenario::ContactFormation::Seed(1e-8),
+            djkr_core::rig::ContactFormation::Seed(1e-8),
             1e-9,
         ),
     ] {

@@ -8,6 +8,8 @@
 //!
 //! Writes `docs/extremes.md`.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 #[path = "../tests/extremes/matrix.rs"]
 mod matrix;

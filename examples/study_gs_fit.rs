@@ -7,10 +7,11 @@
 //!
 //! Writes `docs/studies/gs-fit.md`.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
 use common::{sci, Args, Table};
-use djkr::catalogue;
 use djkr_core::adhesion::GentSchultz;
 use djkr_core::gs_fit::{self, GsFitOptions};
 use djkr_core::material::Material;

@@ -7,10 +7,12 @@
 //!
 //! Writes `docs/studies/harmonic-balance.md`.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
+use crate::catalogue::Bundled;
 use common::{sci, Args, Table};
-use djkr::catalogue::{self, Bundled};
 use djkr_core::adhesion::{ConstantW, GentSchultz, Law};
 use djkr_core::describing::{self, Support};
 use djkr_core::imposed_area::{self, indentation_at};

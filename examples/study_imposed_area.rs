@@ -7,10 +7,11 @@
 //!
 //! Writes `docs/studies/imposed-area.md` and `imposed-area-pull-off.csv`.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
 use common::{sci, Args, Table};
-use djkr::catalogue;
 use djkr_core::adhesion::{AdhesionLaw, GentSchultz};
 use djkr_core::imposed_area::{cycle, cycle_with, indentation_at, pull_off, pull_off_table};
 use djkr_core::jkr;

@@ -9,13 +9,17 @@
 //!
 //! Writes `docs/studies/methods.md` (and `methods.csv`).
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
+use crate::catalogue::Bundled;
 use common::{ms, sci, Args, Table};
 use djkr::accuracy::{self, StudyConfig};
-use djkr::catalogue::{self, Bundled};
-use djkr::scenario::{Holder, Method, Scenario};
+use djkr::scenario::Scenario;
+use djkr_core::dynamics::Method;
 use djkr_core::dynamics::{NoObserver, Recorder};
+use djkr_core::rig::Holder;
 use std::fmt::Write as _;
 
 const METHODS: [Method; 5] = [
@@ -95,7 +99,7 @@ fn main() {
         "Each method at the scene's rtol (1e-8 unless noted, atol 1e-10), minimum wall time over \
          {repeats} runs (robust to machine load, unlike the median). Error: the pull-off-relevant \
          error of `djkr::accuracy` (pull-off force and last cycle's ⟨F⟩, ⟨δ⟩, δ_A) against the \
-         implicit method at rtol 1e-12, checked by DP8 at 1e-12. Scenes from `src/catalogue.rs`.\n"
+         implicit method at rtol 1e-12, checked by DP8 at 1e-12. Scenes from `tests/catalogue/mod.rs`.\n"
     );
     let mut t = Table::new(&[
         "scene",

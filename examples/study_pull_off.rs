@@ -8,12 +8,14 @@
 //!
 //! Writes `docs/studies/pull-off-sensitivity.md`.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
+use crate::catalogue::Bundled;
 use common::{sci, Args, Table};
 use djkr::accuracy::{self, method_name};
-use djkr::catalogue::{self, Bundled};
-use djkr::scenario::Method;
+use djkr_core::dynamics::Method;
 use djkr_core::dynamics::{EventKind, RunResult};
 use std::fmt::Write as _;
 
@@ -168,7 +170,7 @@ fn main() {
         Ok(full) => {
             let mut stopped = full.clone();
             if let Some(last) = stopped.stages.last_mut() {
-                last.until = djkr::scenario::Until::Duration(15.0);
+                last.until = djkr_core::dynamics::protocol::Until::Duration(15.0);
             }
             let cfg = accuracy::StudyConfig::default();
             let mut t = Table::new(&[

@@ -10,13 +10,15 @@
 //!
 //! Writes `docs/studies/sensitivity.md`.
 
+#[path = "../tests/catalogue/mod.rs"]
+mod catalogue;
 mod common;
 
+use crate::catalogue::Bundled;
 use common::{sci, Args, Table};
-use djkr::catalogue::Bundled;
 use djkr::scenario::Scenario;
 use djkr::sensitivity;
-use djkr::sweep::stats::Summary;
+use djkr::sweep::Summary;
 use djkr_core::dynamics::{CycleRecord, EnvelopeMode, Event, EventKind, Observer, RunResult};
 use rayon::prelude::*;
 use std::f64::consts::PI;

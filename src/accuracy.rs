@@ -248,7 +248,7 @@ impl Observer for CycleOutputs {
 }
 
 /// Extract the [`KeyOutputs`] of a run from its result and its period records.
-pub fn key_outputs(r: &RunResult, cycles: Vec<CycleOutput>) -> KeyOutputs {
+pub(crate) fn key_outputs(r: &RunResult, cycles: Vec<CycleOutput>) -> KeyOutputs {
     KeyOutputs {
         pull_off_force: r.pull_off.force,
         detached: r.detached,
@@ -632,7 +632,7 @@ fn opt(x: Option<f64>) -> String {
 
 /// The study as a table (`work_precision.csv`): one row per (method, tolerance), SI values. A
 /// failed run has `failed` in `status`, its message in `message`, and NaN numbers.
-pub fn work_precision_table(st: &Study) -> Table {
+pub(crate) fn work_precision_table(st: &Study) -> Table {
     let ok = |f: &dyn Fn(&Measured) -> f64| -> Vec<f64> {
         st.rows
             .iter()
@@ -765,7 +765,7 @@ fn table_of(columns: Vec<Column>) -> Table {
 }
 
 /// The quadrature study as a table (`quadrature.csv`).
-pub fn quadrature_table(q: &QuadratureStudy) -> Table {
+pub(crate) fn quadrature_table(q: &QuadratureStudy) -> Table {
     let r = &q.rows;
     table_of(vec![
         Column::i64(
@@ -802,7 +802,7 @@ pub fn quadrature_table(q: &QuadratureStudy) -> Table {
 
 /// The closed-form error map as a table (`closed_form_map.csv`; NaN where the exact pull-off
 /// failed).
-pub fn closed_form_map_table(map: &[MapPoint]) -> Table {
+pub(crate) fn closed_form_map_table(map: &[MapPoint]) -> Table {
     let col = |name: &str, description: &str, f: fn(&MapPoint) -> Option<f64>| {
         Column::f64_opt(name, "1", description, map.iter().map(f))
     };
@@ -899,7 +899,7 @@ pub fn study_table(st: &Study) -> String {
 }
 
 /// Human-readable time.
-pub fn fmt_time(s: f64) -> String {
+pub(crate) fn fmt_time(s: f64) -> String {
     if s >= 1.0 {
         format!("{s:.3} s")
     } else if s >= 1e-3 {
@@ -1207,7 +1207,7 @@ pub fn closed_form_heatmap(
 }
 
 /// The quadrature study as a figure: worst relative F_m error against nodes (log y).
-pub fn quadrature_figure(q: &QuadratureStudy) -> Figure {
+pub(crate) fn quadrature_figure(q: &QuadratureStudy) -> Figure {
     let x: Vec<f64> = q.rows.iter().map(|r| r.nodes as f64).collect();
     let y: Vec<f64> = q
         .rows

@@ -23,12 +23,14 @@ use std::sync::atomic::AtomicBool;
 
 use serde_json::{json, Value};
 
-use crate::error::Error;
+use crate::error::{input, Error};
 use crate::output::summary::{summary_json, SummaryFiles};
 use crate::output::table::Table;
 use crate::output::{cycles, OutputError, OutputPaths, RunWriter, TimeSeriesWriter};
 pub use crate::record::RunRecord;
 use crate::reports::steady::{self as report, ValidateReport};
+/// The peak of a frequency response's samples, as `djkr resonance` finds it.
+pub use crate::reports::steady::{maximum as resonance_peak, NoPeak, Peak};
 use crate::run_plot::RunPlotError;
 use crate::scenario::checks::{contact_radius_error, small_contact_warning};
 use crate::scenario::overrides::{Override, OverrideError};
@@ -50,40 +52,40 @@ use djkr_core::units::{parse_quantity, Dimension};
 
 /// Limits on the grids and lists of the commands that take ranges: each bounds the work one
 /// invocation may ask for (a 100000 × 100000 shortcut map is 1e10 steady states).
-pub mod limits {
+pub(crate) mod limits {
     /// `resonance --freq START:STOP:COUNT`: frequencies per sweep.
-    pub const RESONANCE_FREQUENCIES: usize = 2001;
+    pub(crate) const RESONANCE_FREQUENCIES: usize = 2001;
     /// `shortcut-map --freq` and `--amp`: COUNT of each axis.
-    pub const MAP_AXIS: usize = 1001;
+    pub(crate) const MAP_AXIS: usize = 1001;
     /// `shortcut-map`: cells (frequencies × amplitudes).
-    pub const MAP_CELLS: usize = 10_000;
+    pub(crate) const MAP_CELLS: usize = 10_000;
     /// `beta-fit --n-values`: exponents.
-    pub const BETA_FIT_N_VALUES: usize = 100;
+    pub(crate) const BETA_FIT_N_VALUES: usize = 100;
     /// `beta-fit --speed-ratio`: COUNT.
-    pub const BETA_FIT_SPEED_RATIOS: usize = 1000;
+    pub(crate) const BETA_FIT_SPEED_RATIOS: usize = 1000;
     /// `beta-fit`: exact pull-offs (n values × speed ratios).
-    pub const BETA_FIT_PULL_OFFS: usize = 20_000;
+    pub(crate) const BETA_FIT_PULL_OFFS: usize = 20_000;
     /// `beta-fit --beta`: COUNT of the β grid.
-    pub const BETA_FIT_BETAS: usize = 10_000;
+    pub(crate) const BETA_FIT_BETAS: usize = 10_000;
     /// `accuracy --tolerances`: values.
-    pub const ACCURACY_TOLERANCES: usize = 20;
+    pub(crate) const ACCURACY_TOLERANCES: usize = 20;
     /// `accuracy --methods`: values (each method once).
-    pub const ACCURACY_METHODS: usize = 5;
+    pub(crate) const ACCURACY_METHODS: usize = 5;
     /// `accuracy --repeats`.
-    pub const ACCURACY_REPEATS: usize = 100;
+    pub(crate) const ACCURACY_REPEATS: usize = 100;
     /// `accuracy --nodes`: node counts.
-    pub const ACCURACY_NODES: usize = 32;
+    pub(crate) const ACCURACY_NODES: usize = 32;
 }
 
 /// The longest path the system can open, in bytes, and the longest name in it (Linux's
 /// `PATH_MAX` and `NAME_MAX`; macOS has 1024 and 255).
-pub const PATH_BYTES: usize = if cfg!(target_os = "macos") {
+pub(crate) const PATH_BYTES: usize = if cfg!(target_os = "macos") {
     1024
 } else {
     4096
 };
 /// See [`PATH_BYTES`].
-pub const NAME_BYTES: usize = 255;
+pub(crate) const NAME_BYTES: usize = 255;
 
 /// Why no system call would take `path` (longer than [`PATH_BYTES`], or a name in it longer
 /// than [`NAME_BYTES`]), quoting its beginning, or `None`. A path argument is checked so before
@@ -103,7 +105,7 @@ pub fn path_length_error(path: &Path) -> Option<String> {
 
 /// An argument as text with the name errors give it (`--freq`, or `freq`).
 #[derive(Debug, Clone, Copy)]
-pub struct Arg<'a> {
+pub(crate) struct Arg<'a> {
     /// The name.
     pub name: &'a str,
     /// The value as given: a bare SI number or a number with a unit.
@@ -112,14 +114,14 @@ pub struct Arg<'a> {
 
 impl<'a> Arg<'a> {
     /// `name = text`.
-    pub fn new(name: &'a str, text: &'a str) -> Self {
+    pub(crate) fn new(name: &'a str, text: &'a str) -> Self {
         Self { name, text }
     }
 }
 
 /// Parse a quantity that must be > 0 (and normal: a subnormal is refused as for every key,
 /// [`djkr_core::error::subnormal_error`]).
-pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+pub(crate) fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
     refuse_subnormal(
         name,
@@ -134,7 +136,11 @@ pub fn positive_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, 
 }
 
 /// Parse a quantity that must be ≥ 0 (0, or normal: a subnormal is refused).
-pub fn non_negative_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+pub(crate) fn non_negative_quantity(
+    name: &str,
+    text: &str,
+    dim: Dimension,
+) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
     refuse_subnormal(
         name,
@@ -149,7 +155,7 @@ pub fn non_negative_quantity(name: &str, text: &str, dim: Dimension) -> Result<f
 }
 
 /// Parse a quantity of any sign (0, or normal: a subnormal is refused).
-pub fn normal_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
+pub(crate) fn normal_quantity(name: &str, text: &str, dim: Dimension) -> Result<f64, ParamError> {
     let v = parse_quantity(name, text, dim)?;
     refuse_subnormal(
         name,
@@ -179,7 +185,7 @@ fn unit_of(dim: Dimension) -> &'static str {
 /// Parse a quantity that sets the scenario key `key` (`--modulus` sets `material.K`), > 0 and
 /// normal, within that key's range ([`crate::scenario::checks::key_range_error`]: the same
 /// table the scenario parser applies).
-pub fn key_positive_quantity(
+pub(crate) fn key_positive_quantity(
     name: &str,
     text: &str,
     dim: Dimension,
@@ -190,7 +196,7 @@ pub fn key_positive_quantity(
 }
 
 /// As [`key_positive_quantity`], for a quantity that may be 0 (`--base-amp`, `base.amplitude`).
-pub fn key_non_negative_quantity(
+pub(crate) fn key_non_negative_quantity(
     name: &str,
     text: &str,
     dim: Dimension,
@@ -216,10 +222,10 @@ fn key_range(name: &str, text: &str, dim: Dimension, key: &str, v: f64) -> Resul
 
 /// The range of the speed correction β of eq. (24) (`--beta`): it is of order 1 (the paper's
 /// 2.5; `djkr beta-fit` finds it between 0.5 and 10 for n from 0.1 to 0.9).
-pub const BETA_RANGE: (f64, f64) = (1e-2, 1e2);
+pub(crate) const BETA_RANGE: (f64, f64) = (1e-2, 1e2);
 
 /// Parse β of eq. (24), within [`BETA_RANGE`].
-pub fn beta_from(name: &str, text: &str) -> Result<f64, ParamError> {
+pub(crate) fn beta_from(name: &str, text: &str) -> Result<f64, ParamError> {
     let b = positive_quantity(name, text, Dimension::Dimensionless)?;
     let (lo, hi) = BETA_RANGE;
     if !(lo..=hi).contains(&b) {
@@ -236,7 +242,7 @@ pub fn beta_from(name: &str, text: &str) -> Result<f64, ParamError> {
 }
 
 /// Angular frequency from a frequency argument (Hz), within the range of `base.frequency`.
-pub fn omega_from(name: &str, text: &str) -> Result<f64, ParamError> {
+pub(crate) fn omega_from(name: &str, text: &str) -> Result<f64, ParamError> {
     let f = key_positive_quantity(name, text, Dimension::Frequency, "base.frequency")?;
     Ok(2.0 * std::f64::consts::PI * f)
 }
@@ -244,7 +250,7 @@ pub fn omega_from(name: &str, text: &str) -> Result<f64, ParamError> {
 /// Refuse a result that holds a non-finite number (`values`: each with its name), naming the
 /// inputs it came from (`inputs`: `--freq = 400, --a-mean = 1mm`, as the caller spells them):
 /// the inputs are within their ranges but beyond what double precision carries together.
-pub fn finite_result(inputs: &[Arg], values: &[(&str, f64)]) -> Result<(), ParamError> {
+pub(crate) fn finite_result(inputs: &[Arg], values: &[(&str, f64)]) -> Result<(), ParamError> {
     let Some((bad, v)) = values.iter().find(|(_, v)| !v.is_finite()) else {
         return Ok(());
     };
@@ -268,7 +274,7 @@ pub fn finite_result(inputs: &[Arg], values: &[(&str, f64)]) -> Result<(), Param
 /// COUNT = 1 is not required: COUNT = 1 gives START). A grid of frequencies or lengths sets the
 /// base's frequency or amplitude, and is held to the range of `base.frequency` or
 /// `base.amplitude`.
-pub fn range(
+pub(crate) fn range(
     name: &str,
     text: &str,
     dim: Dimension,
@@ -308,9 +314,21 @@ pub fn range(
     Ok((lo, hi, n))
 }
 
+/// A grid of base frequencies as `djkr resonance --freq` and `djkr.resonance(freq=)` take it,
+/// given for the input `name`: `START:STOP:COUNT` (Hz, units welcome: `300Hz:0.5kHz:101`),
+/// within the range of `base.frequency`, at most 2001 frequencies. Returns (start, stop, count).
+pub fn frequency_range(name: &str, text: &str) -> Result<(f64, f64, usize), Error> {
+    range(
+        &input(name),
+        text,
+        Dimension::Frequency,
+        limits::RESONANCE_FREQUENCIES,
+    )
+}
+
 /// `KEY=VALUE` overrides, parsed and their keys checked.
-pub fn overrides<S: AsRef<str>>(sets: &[S]) -> Result<Vec<Override>, OverrideError> {
-    sets.iter().map(|t| Override::parse(t.as_ref())).collect()
+pub(crate) fn overrides<S: AsRef<str>>(sets: &[S]) -> Result<Vec<Override>, OverrideError> {
+    Override::parse_all(sets)
 }
 
 /// The first override of `overrides` whose key a command takes from elsewhere (`replaced`: the
@@ -337,15 +355,21 @@ pub fn default_material() -> (Material, Law) {
 
 /// A report as a JSON value, refusing non-finite numbers (serde_json would write `null`); the
 /// error names the path of the first one (`$.notes[0]`).
-pub fn finite_json(report: &impl serde::Serialize) -> Result<Value, Error> {
+pub(crate) fn finite_json(report: &impl serde::Serialize) -> Result<Value, Error> {
     let v = serde_json::to_value(report).map_err(|e| Error::NonFinite(e.to_string()))?;
-    check_finite(&v)?;
+    check_finite_value(&v)?;
     Ok(v)
 }
 
-/// Refuse a JSON value that holds `null` where a number was (a non-finite number), naming its
-/// path.
-pub fn check_finite(v: &Value) -> Result<(), Error> {
+/// Refuse a report that holds a non-finite number (its JSON would have `null` there), naming
+/// the number's path (`$.notes[0]`).
+pub fn check_finite(report: &impl serde::Serialize) -> Result<(), Error> {
+    let v = serde_json::to_value(report).map_err(|e| Error::Invalid(e.to_string()))?;
+    check_finite_value(&v)
+}
+
+/// [`check_finite`] on a JSON value: serde_json writes a non-finite number as `null`.
+fn check_finite_value(v: &Value) -> Result<(), Error> {
     fn check(v: &Value, path: &str) -> Result<(), Error> {
         match v {
             Value::Null => Err(Error::NonFinite(path.to_string())),
@@ -365,7 +389,7 @@ pub fn check_finite(v: &Value) -> Result<(), Error> {
 /// A formatted number that rounded to zero is shown without a sign: `-0.000000 mm` (a value
 /// of -1e-12 m at 6 decimals, or an IEEE -0.0) becomes `0.000000 mm`. Every number in `text`
 /// is treated alike.
-pub fn no_negative_zero(text: &str) -> String {
+pub(crate) fn no_negative_zero(text: &str) -> String {
     let b = text.as_bytes();
     let mut out = String::with_capacity(text.len());
     let mut i = 0;
@@ -393,7 +417,7 @@ pub fn no_negative_zero(text: &str) -> String {
 }
 
 /// Format a length in the most readable unit.
-pub fn fmt_len(x: f64) -> String {
+pub(crate) fn fmt_len(x: f64) -> String {
     no_negative_zero(&fmt_len_signed(x))
 }
 
@@ -409,7 +433,7 @@ fn fmt_len_signed(x: f64) -> String {
 }
 
 /// Format a force in the most readable unit.
-pub fn fmt_force(f: f64) -> String {
+pub(crate) fn fmt_force(f: f64) -> String {
     no_negative_zero(&fmt_force_signed(f))
 }
 
@@ -436,9 +460,16 @@ pub struct CycleReport {
     pub notes: Vec<String>,
 }
 
+impl serde::Serialize for CycleReport {
+    /// As `djkr cycle --json` prints it.
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.json().serialize(s)
+    }
+}
+
 impl CycleReport {
     /// The object `djkr cycle --json` prints.
-    pub fn json(&self) -> Value {
+    pub(crate) fn json(&self) -> Value {
         let c = &self.cycle;
         json!({
             "a_mean": c.a_mean,
@@ -455,8 +486,139 @@ impl CycleReport {
     }
 }
 
-/// One imposed-area cycle at frequency `freq` (Hz) with a(t) = a_mean + a_amp sin ωt (m).
-pub fn cycle(
+/// A number as a front end received it: a bare SI number or a number with a unit (`400Hz`,
+/// `1mm`), parsed for its dimension, keeping the input's name and the text it came as so that
+/// a message quotes what was typed. The name is a request field (`freq`, `a_amp`); each front
+/// end words it ([`crate::error::Words`]: `--freq` on the command line, `freq` in Python).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Quantity {
+    name: String,
+    text: String,
+    value: f64,
+}
+
+impl Quantity {
+    /// Parse `text` as a quantity of `dim` given for the input `name`.
+    pub fn parse(name: &str, text: &str, dim: Dimension) -> Result<Quantity, ParamError> {
+        let value = djkr_core::units::parse_quantity(&input(name), text, dim)?;
+        Ok(Quantity {
+            name: name.to_string(),
+            text: text.to_string(),
+            value,
+        })
+    }
+
+    /// A value in SI for the input `name` (written in messages as Rust's `{:?}` prints it:
+    /// `0.001`, `1e300`).
+    pub fn si(name: &str, value: f64) -> Quantity {
+        Quantity {
+            name: name.to_string(),
+            text: format!("{value:?}"),
+            value,
+        }
+    }
+
+    /// The value (SI).
+    pub fn value(&self) -> f64 {
+        self.value
+    }
+
+    /// The input's name as messages mark it ([`crate::error::input`]).
+    fn marked(&self) -> String {
+        input(&self.name)
+    }
+}
+
+/// One imposed-area cycle ([`cycle`]): the base frequency (Hz) and the imposed contact radius
+/// a(t) = a_mean + a_amp sin ωt (m).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CycleRequest {
+    /// The base frequency f (Hz): ω = 2πf, within the range of `base.frequency`.
+    pub freq: Quantity,
+    /// The mean contact radius a_m (m), ≥ −a_amp.
+    pub a_mean: Quantity,
+    /// The contact-radius amplitude a_A (m), ≥ 0.
+    pub a_amp: Quantity,
+}
+
+/// One imposed-area cycle (`djkr cycle`, `djkr.cycle`) of the material `m` under the law `law`.
+/// Errors name the request's fields, worded by each front end.
+pub fn cycle(m: &Material, law: &Law, req: &CycleRequest) -> Result<CycleReport, ParamError> {
+    let names = [req.freq.marked(), req.a_mean.marked(), req.a_amp.marked()];
+    cycle_args(
+        m,
+        law,
+        Arg::new(&names[0], &req.freq.text),
+        Arg::new(&names[1], &req.a_mean.text),
+        Arg::new(&names[2], &req.a_amp.text),
+    )
+}
+
+/// The pull-off method of a [`PullOffRequest`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum PullOff {
+    /// The imposed-area method minimised over a_m, at the contact-radius amplitude `a_amp` (m).
+    Exact {
+        /// a_A (m), ≥ 0.
+        a_amp: Quantity,
+    },
+    /// The closed form, eqs. (20)–(24), with the δ_A derived from eqs. (14)–(15).
+    Approx {
+        /// a_A (m), ≥ 0.
+        a_amp: Quantity,
+        /// β of eq. (24) (dimensionless, of order 1); the paper's 2.5 when absent.
+        beta: Option<Quantity>,
+    },
+    /// Yi et al. eq. (8) with δ_m = δ_A, δ_A from a_A (m) by
+    /// [`comparators::yi_indentation_amplitude_from_area_amplitude`].
+    Yi {
+        /// a_A (m), ≥ 0.
+        a_amp: Quantity,
+    },
+}
+
+/// The pull-off under vibration ([`pull_off`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PullOffRequest {
+    /// The base frequency f (Hz), within the range of `base.frequency`.
+    pub freq: Quantity,
+    /// The method and its inputs.
+    pub method: PullOff,
+}
+
+/// The pull-off under vibration (`djkr pulloff`, `djkr.pulloff`) of the material `m` under
+/// the law `law`. Errors name the request's fields, worded by each front end.
+pub fn pull_off(
+    m: &Material,
+    law: &Law,
+    req: &PullOffRequest,
+) -> Result<PullOffReport, ParamError> {
+    let omega = omega_from(&req.freq.marked(), &req.freq.text)?;
+    let a_amp = match &req.method {
+        PullOff::Exact { a_amp } | PullOff::Approx { a_amp, .. } | PullOff::Yi { a_amp } => {
+            non_negative_quantity(&a_amp.marked(), &a_amp.text, Dimension::Length)?
+        }
+    };
+    let method = match &req.method {
+        PullOff::Exact { .. } => PullOffMethod::Exact { a_amp },
+        PullOff::Approx { beta, .. } => PullOffMethod::Approx {
+            a_amp,
+            beta: match beta {
+                Some(b) => positive_quantity(&b.marked(), &b.text, Dimension::Dimensionless)?,
+                None => djkr_core::closed_form::BETA_PAPER,
+            },
+            form: DeltaAmpForm::Derived,
+        },
+        PullOff::Yi { .. } => PullOffMethod::Yi {
+            delta_amp: comparators::yi_indentation_amplitude_from_area_amplitude(m, a_amp),
+        },
+    };
+    pull_off_at(m, law, omega, method)
+}
+
+/// One imposed-area cycle at frequency `freq` (Hz) with a(t) = a_mean + a_amp sin ωt (m), the
+/// inputs as the command line gives them (text, named by their flags).
+pub(crate) fn cycle_args(
     m: &Material,
     law: &Law,
     freq: Arg,
@@ -514,9 +676,9 @@ pub fn cycle(
     })
 }
 
-/// A pull-off method of [`pull_off`] with its inputs.
+/// A pull-off method of [`pull_off_at`] with its inputs in SI.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum PullOffMethod {
+pub(crate) enum PullOffMethod {
     /// The imposed-area method minimised over a_m, at amplitude a_A (m).
     Exact {
         /// a_A (m).
@@ -559,9 +721,16 @@ pub struct PullOffReport {
     pub warnings: Vec<String>,
 }
 
+impl serde::Serialize for PullOffReport {
+    /// As `djkr pulloff --json` prints it.
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        self.json().serialize(s)
+    }
+}
+
 impl PullOffReport {
     /// The object `djkr pulloff --json` prints.
-    pub fn json(&self) -> Value {
+    pub(crate) fn json(&self) -> Value {
         json!({
             "method": self.method,
             "a_mean": self.a_mean,
@@ -575,7 +744,7 @@ impl PullOffReport {
 }
 
 /// The pull-off for vibration at angular frequency `omega` (rad/s) by `method`.
-pub fn pull_off(
+pub(crate) fn pull_off_at(
     m: &Material,
     law: &Law,
     omega: f64,
@@ -765,7 +934,7 @@ impl Observer for InMemory<'_> {
 /// How a run is written into its folder: what `djkr run` takes from its flags (`--csv`,
 /// `--plot`, `--force`) and [`run`] from the scenario's `[output]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct FolderOptions {
+pub(crate) struct FolderOptions {
     /// Also the CSV files.
     pub csv: bool,
     /// Also the run's figure (`run.png`, `run.svg`), drawn from `run.h5` once it is written.
@@ -789,7 +958,7 @@ impl FolderOptions {
 /// publish claimed before it starts (the figure's too with `o.plot`), so that a file of the
 /// user's under one of them stops the run before any work (unless `o.force`). The writer is the
 /// observer that streams the run into the folder; [`close_run_folder`] finishes it.
-pub fn open_run_folder(
+pub(crate) fn open_run_folder(
     scn: &Scenario,
     dir: &Path,
     o: FolderOptions,
@@ -804,7 +973,7 @@ pub fn open_run_folder(
 
 /// What [`close_run_folder`] wrote.
 #[derive(Debug)]
-pub struct RunFolderFiles {
+pub(crate) struct RunFolderFiles {
     /// The run's files (summary, HDF5, CSV).
     pub paths: OutputPaths,
     /// The figure's files (empty without `plot`, or when drawing failed).
@@ -816,7 +985,7 @@ pub struct RunFolderFiles {
 
 /// Finish the run written by `writer` into `dir` (its `result` and how it ended), then draw its
 /// figure from the finished `run.h5` when `plot`.
-pub fn close_run_folder(
+pub(crate) fn close_run_folder(
     writer: RunWriter,
     dir: &Path,
     result: &RunResult,
@@ -1163,7 +1332,7 @@ pub struct FitResult {
     pub residuals: Vec<(String, Column)>,
     /// The fit as `djkr predict` reads it from the fit's folder, made from the texts of its
     /// files (the same whether or not they were written), or why it could not be.
-    pub fitted: Result<crate::fit::predict::FitFolder, String>,
+    pub fitted: Result<crate::fit::FitFolder, String>,
 }
 
 /// Fit the request's data: with an output folder, it is claimed and locked before the fit
@@ -1286,16 +1455,17 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
     })
 }
 
-/// Predict from a fit with uncertainty ([`crate::fit::predict::predict`], as `djkr predict`):
-/// the request is checked first; with an output folder, it is then claimed and locked and the
-/// prediction's files are written there ([`crate::fit::predict::write`]). A stop raised through
-/// `stop` ends it as [`Error::Cancelled`], nothing written.
+/// Predict from a fit with uncertainty, as `djkr predict`: the report `prediction.json` holds
+/// ([`crate::fit::PredictReport::columns`] gives `prediction.csv`'s columns). The request is
+/// checked first; with an output folder `(folder, force)`, it is then claimed and locked and the
+/// prediction's files are written there. A stop raised through `stop` ends it as
+/// [`Error::Cancelled`], nothing written.
 pub fn predict(
-    fit: &crate::fit::predict::FitFolder,
-    req: &crate::fit::predict::PredictRequest,
+    fit: &crate::fit::FitFolder,
+    req: &crate::fit::PredictRequest,
     out: Option<(PathBuf, bool)>,
     stop: Option<&AtomicBool>,
-) -> Result<crate::fit::predict::PredictReport, Error> {
+) -> Result<crate::fit::PredictReport, Error> {
     use crate::fit::predict as p;
     p::check(fit, req)?;
     let output = |error| Error::Output {
@@ -1331,11 +1501,11 @@ mod tests {
     #[test]
     fn a_contact_wider_than_the_sphere_is_refused() {
         let (m, law) = default_material();
-        let e = pull_off(&m, &law, 2513.0, PullOffMethod::Exact { a_amp: 1e300 }).unwrap_err();
+        let e = pull_off_at(&m, &law, 2513.0, PullOffMethod::Exact { a_amp: 1e300 }).unwrap_err();
         assert!(e
             .to_string()
             .starts_with("a_amp = 1e300: the contact radius would exceed"));
-        let e = cycle(
+        let e = cycle_args(
             &m,
             &law,
             Arg::new("freq", "400"),

@@ -21,7 +21,7 @@ use djkr_core::text::excerpt;
 
 #[cfg(test)]
 pub(crate) use crate::words::TestFlags;
-pub use crate::words::{axis_item, input, input_value, render, set_item, Plain, Source, Words};
+pub use crate::words::{input, input_value, render, set_item, Plain, Source, Words};
 
 use crate::output::OutputError;
 use crate::run_plot::RunPlotError;
@@ -197,7 +197,7 @@ impl Error {
 
 /// A continuation's error in the words of `w` (its ranges and parameters are inputs of the
 /// request: `range`, `fold_range`, `param`, `fold_param`).
-pub fn continuation_in_words(
+pub(crate) fn continuation_in_words(
     e: &djkr_core::continuation::ContinuationError,
     w: &dyn Words,
 ) -> String {
@@ -283,7 +283,10 @@ mod tests {
         let t = format!("{}: too many", input_value("ensemble", "5"));
         assert_eq!(render(&t, &Flags), "--ensemble 5: too many");
         assert_eq!(render(&t, &Plain), "ensemble = 5: too many");
-        let t = format!("swept by {}", axis_item("base.amplitude=1um:2um:3"));
+        let t = format!(
+            "swept by {}",
+            crate::words::axis_item("base.amplitude=1um:2um:3")
+        );
         assert_eq!(
             render(&t, &Flags),
             "swept by --set base.amplitude=1um:2um:3"

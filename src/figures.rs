@@ -6,7 +6,7 @@
 //! `name [unit]`: [`crate::output::table`]) plus PNG and SVG, atomically. The tables are
 //! [`fig2_table`], [`fig3a_table`], [`fig3b_table`] and [`figs4to8_table`]. Differences from the paper's captions, kept deliberately:
 //! - Fig. 3(a): the caption says a_A = 3/10, 3/5, 9/10 mm, the text 250, 500, 750 µm; the text's
-//!   values are the default ([`FIG3A_AMPLITUDES`]), the caption's are [`FIG3A_AMPLITUDES_CAPTION`].
+//!   values are the default ([`FIG3A_AMPLITUDES`]).
 //! - Fig. 7: the caption's F0 = −3/2 π R v0 is a misprint for w0 (docs/MODEL.md).
 //! - Figs. 4–8 dashed lines: the closed form with the δ_A derived from eqs. (14)−(15) (docs/MODEL.md);
 //!   the CSV also has the printed eq. (23) column.
@@ -24,16 +24,14 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 /// Fig. 2: imposed mean radii (m) at a_A = 1 mm, 200 Hz.
-pub const FIG2_MEAN_RADII: [f64; 4] = [33e-6, 500e-6, 1000e-6, 1500e-6];
+pub(crate) const FIG2_MEAN_RADII: [f64; 4] = [33e-6, 500e-6, 1000e-6, 1500e-6];
 /// Fig. 3(a): contact-radius amplitudes of the paper's text (m).
-pub const FIG3A_AMPLITUDES: [f64; 3] = [250e-6, 500e-6, 750e-6];
-/// Fig. 3(a): the amplitudes printed in the caption (m).
-pub const FIG3A_AMPLITUDES_CAPTION: [f64; 3] = [300e-6, 600e-6, 900e-6];
+pub(crate) const FIG3A_AMPLITUDES: [f64; 3] = [250e-6, 500e-6, 750e-6];
 /// Figs. 4–8: frequencies (Hz).
 pub const TABLE_FREQUENCIES: [f64; 3] = [200.0, 300.0, 400.0];
 
 /// Figs. 4–8: 61 amplitudes a_A = 0 … 1.5 mm (m).
-pub fn table_amplitudes() -> Vec<f64> {
+pub(crate) fn table_amplitudes() -> Vec<f64> {
     (0..61).map(|i| i as f64 * 25e-6).collect()
 }
 
@@ -244,7 +242,7 @@ fn table_of(columns: Vec<Column>) -> Table {
 }
 
 /// Fig. 2 as a table: `theta [rad]`, then δ for each imposed a_m (`delta_at_a_m_33um [m]`, …).
-pub fn fig2_table(curves: &[Fig2Curve]) -> Table {
+pub(crate) fn fig2_table(curves: &[Fig2Curve]) -> Table {
     let mut cols = vec![Column::f64(
         "theta",
         "rad",
@@ -264,7 +262,7 @@ pub fn fig2_table(curves: &[Fig2Curve]) -> Table {
 }
 
 /// Fig. 3(a) as a table: one row per (a_A, a_m) point, exact and closed-form means.
-pub fn fig3a_table(curves: &[Fig3aCurve]) -> Table {
+pub(crate) fn fig3a_table(curves: &[Fig3aCurve]) -> Table {
     let all = |f: &dyn Fn(&Fig3aCurve) -> &Vec<f64>| -> Vec<f64> {
         curves.iter().flat_map(|c| f(c).iter().copied()).collect()
     };
@@ -312,7 +310,7 @@ pub fn fig3a_table(curves: &[Fig3aCurve]) -> Table {
 }
 
 /// Fig. 3(b) as a table: exact / approximate amplification per (n, v_max/v0).
-pub fn fig3b_table(points: &[RatioPoint]) -> Table {
+pub(crate) fn fig3b_table(points: &[RatioPoint]) -> Table {
     let col = |name: &str, description: &str, f: fn(&RatioPoint) -> f64| {
         Column::f64(name, "1", description, points.iter().map(f).collect())
     };
@@ -332,7 +330,7 @@ pub fn fig3b_table(points: &[RatioPoint]) -> Table {
 }
 
 /// Figs. 4–8 as a table: exact and closed-form pull-off per (frequency, a_A).
-pub fn figs4to8_table(rows: &[TableRow]) -> Table {
+pub(crate) fn figs4to8_table(rows: &[TableRow]) -> Table {
     let col = |name: &str, unit: &str, description: &str, f: fn(&TableRow) -> f64| {
         Column::f64(name, unit, description, rows.iter().map(f).collect())
     };
@@ -669,3 +667,7 @@ fn figs4to8_figures(rows: &[TableRow], beta: f64) -> Vec<(&'static str, Figure)>
     }
     figs
 }
+
+#[cfg(test)]
+#[path = "figures_tests.rs"]
+mod tests;

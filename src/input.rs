@@ -202,7 +202,7 @@ fn too_large(kind: InputKind, limit: u64) -> InputError {
 /// Open `path` to read a file of `kind` (see the module documentation): a regular file of at
 /// most `kind.limit()` bytes when opened, or the reason it is refused. What is read from it
 /// after is bounded by the caller ([`read_from`], or a reader that knows the length).
-pub fn open(path: &Path, kind: InputKind) -> Result<File, InputError> {
+pub(crate) fn open(path: &Path, kind: InputKind) -> Result<File, InputError> {
     open_limited(path, kind, kind.limit())
 }
 
@@ -246,7 +246,7 @@ fn open_limited(path: &Path, kind: InputKind, limit: u64) -> Result<File, InputE
 
 /// Read the rest of `file` (opened by [`open`], or a regular file djkr opened itself), at most
 /// `kind.limit()` bytes.
-pub fn read_from(file: &File, kind: InputKind) -> Result<Vec<u8>, InputError> {
+pub(crate) fn read_from(file: &File, kind: InputKind) -> Result<Vec<u8>, InputError> {
     read_from_limited(file, kind, kind.limit())
 }
 
@@ -264,12 +264,16 @@ fn read_from_limited(file: &File, kind: InputKind, limit: u64) -> Result<Vec<u8>
 
 /// Read `path`, a file of `kind`, whole: at most `kind.limit()` bytes (see the module
 /// documentation).
-pub fn read_bytes(path: &Path, kind: InputKind) -> Result<Vec<u8>, InputError> {
+pub(crate) fn read_bytes(path: &Path, kind: InputKind) -> Result<Vec<u8>, InputError> {
     read_bytes_limited(path, kind, kind.limit())
 }
 
 /// [`read_bytes`] with an explicit limit in bytes (for tests).
-pub fn read_bytes_limited(path: &Path, kind: InputKind, limit: u64) -> Result<Vec<u8>, InputError> {
+pub(crate) fn read_bytes_limited(
+    path: &Path,
+    kind: InputKind,
+    limit: u64,
+) -> Result<Vec<u8>, InputError> {
     let file = open_limited(path, kind, limit)?;
     read_from_limited(&file, kind, limit)
 }
@@ -280,12 +284,16 @@ pub fn read_text(path: &Path, kind: InputKind) -> Result<String, InputError> {
 }
 
 /// [`read_text`] with an explicit limit in bytes (for tests).
-pub fn read_text_limited(path: &Path, kind: InputKind, limit: u64) -> Result<String, InputError> {
+pub(crate) fn read_text_limited(
+    path: &Path,
+    kind: InputKind,
+    limit: u64,
+) -> Result<String, InputError> {
     text(read_bytes_limited(path, kind, limit)?, kind)
 }
 
 /// `bytes` read from a file of `kind` as UTF-8 text.
-pub fn text(bytes: Vec<u8>, kind: InputKind) -> Result<String, InputError> {
+pub(crate) fn text(bytes: Vec<u8>, kind: InputKind) -> Result<String, InputError> {
     String::from_utf8(bytes)
         .map_err(|e| InputError::NotText(e.utf8_error().valid_up_to(), kind.name()))
 }

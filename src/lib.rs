@@ -48,21 +48,27 @@
 
 pub mod accuracy;
 pub mod api;
-pub mod catalogue;
+
+pub mod cli;
 pub mod error;
-pub mod figures;
+mod figures;
 pub mod fit;
 pub mod input;
 pub mod memory;
 pub mod output;
-pub mod plot;
-pub mod record;
-pub mod reports;
-pub mod run_plot;
+mod plot;
+mod record;
+mod reports;
+mod run_plot;
 pub mod scenario;
 pub mod sensitivity;
 pub mod sweep;
-pub mod words;
+mod words;
+
+/// The tests' tools (installing h5py, Python packages), shared with the integration tests.
+#[cfg(test)]
+#[path = "../tests/tools/mod.rs"]
+pub(crate) mod test_tools;
 
 pub use api::{run, validate, RunRecord};
 pub use output::{Column, SummaryFiles, Table, TimeSeriesWriter};

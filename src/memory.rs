@@ -124,7 +124,7 @@ pub struct MemoryError {
 }
 
 /// Refuse a run kept in memory whose known samples would exceed `solver.max_memory`.
-pub fn check_in_memory(scn: &Scenario) -> Result<(), MemoryError> {
+pub(crate) fn check_in_memory(scn: &Scenario) -> Result<(), MemoryError> {
     let Some(e) = Estimate::of(scn) else {
         return Ok(());
     };
@@ -142,7 +142,7 @@ pub fn check_in_memory(scn: &Scenario) -> Result<(), MemoryError> {
 }
 
 /// Bytes in binary units: `2.0 GiB`, `894.1 TiB`, `512 B`.
-pub fn human_bytes(b: f64) -> String {
+pub(crate) fn human_bytes(b: f64) -> String {
     let units = ["B", "KiB", "MiB", "GiB", "TiB", "PiB", "EiB"];
     let mut x = b;
     let mut i = 0;

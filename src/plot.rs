@@ -157,8 +157,6 @@ pub enum LegendPosition {
     UpperLeft,
     /// Upper right corner.
     UpperRight,
-    /// Lower left corner.
-    LowerLeft,
     /// Lower right corner.
     LowerRight,
 }
@@ -225,12 +223,6 @@ impl Figure {
     /// Fix the horizontal range.
     pub fn with_x_range(mut self, lo: f64, hi: f64) -> Self {
         self.x_range = Some((lo, hi));
-        self
-    }
-
-    /// Fix the vertical range.
-    pub fn with_y_range(mut self, lo: f64, hi: f64) -> Self {
-        self.y_range = Some((lo, hi));
         self
     }
 
@@ -305,13 +297,6 @@ pub enum PlotError {
 
 /// Default image size (width, height) in pixels.
 pub const DEFAULT_SIZE: (u32, u32) = (1000, 700);
-
-/// Palette colour `index` as (r, g, b): Okabe and Ito's colours for colour-blind readers,
-/// repeating every [`COLOR_COUNT`] series (which then differ in marker and dash); [`GREY`]
-/// is the neutral grey.
-pub fn palette_color(index: usize) -> (u8, u8, u8) {
-    look::rgb(index)
-}
 
 const FONT_FAMILY: &str = "sans-serif";
 
@@ -1062,7 +1047,6 @@ fn corner_order(pref: LegendPosition) -> [Corner; 4] {
     let first = match pref {
         LegendPosition::UpperLeft => Corner::UpperLeft,
         LegendPosition::UpperRight => Corner::UpperRight,
-        LegendPosition::LowerLeft => Corner::LowerLeft,
         LegendPosition::LowerRight => Corner::LowerRight,
     };
     let mut order = [first; 4];

@@ -64,8 +64,6 @@ pub enum RunPlotError {
 /// What the figure shows, read from a run's `run.h5`.
 #[derive(Debug, Clone, Default)]
 pub struct RunSeries {
-    /// Where the run came from (the `source` attribute).
-    pub source: String,
     /// Time (s).
     pub t: Vec<f64>,
     /// Contact force (N).
@@ -119,10 +117,6 @@ pub fn read_run(path: &Path) -> Result<RunSeries, RunPlotError> {
             .map_err(|e| err(format!("dataset {name}: {e}")))
     };
     let attrs = f.root().attrs().unwrap_or_default();
-    let source = attrs
-        .get("source")
-        .and_then(|v| v.as_str().map(str::to_string))
-        .unwrap_or_default();
     let number = |name: &str| attrs.get(name).and_then(|v| v.as_f64());
     let detached = attrs.get("detached").and_then(|v| v.as_i64()) == Some(1);
     let pull_off = match (number("pull_off_time"), number("pull_off_force")) {
@@ -130,7 +124,6 @@ pub fn read_run(path: &Path) -> Result<RunSeries, RunPlotError> {
         _ => None,
     };
     let mut s = RunSeries {
-        source,
         t: f64s("t")?,
         force: f64s("F")?,
         a: f64s("a")?,
@@ -602,7 +595,6 @@ mod tests {
 
     fn series(events: Vec<(String, f64, f64, f64, f64)>) -> RunSeries {
         RunSeries {
-            source: "x".into(),
             t: vec![0.0, 1.0, 2.0],
             force: vec![0.0, -0.01, 0.0],
             a: vec![1e-3, 1e-4, 0.0],
@@ -690,7 +682,6 @@ mod tests {
             .map(|&t| 0.1 * (std::f64::consts::TAU * 1000.0 * t).sin())
             .collect();
         let s = RunSeries {
-            source: "x".into(),
             a: vec![1e-3; n],
             delta: vec![1e-6; n],
             t,
@@ -736,3 +727,8 @@ mod tests {
         );
     }
 }
+
+/// Gaps as data, from a run to its figure (the run's files and the panels drawn from them).
+#[cfg(test)]
+#[path = "run_plot_gaps_tests.rs"]
+mod gaps_tests;

@@ -171,7 +171,7 @@ fn twin(perturbation: f64, r: &RunResult) -> Twin {
 }
 
 /// The spread of `runs` (the first is the unperturbed run).
-pub fn summarise(perturbed: Perturbed, epsilon: f64, runs: Vec<Twin>) -> Sensitivity {
+pub(crate) fn summarise(perturbed: Perturbed, epsilon: f64, runs: Vec<Twin>) -> Sensitivity {
     let f = Summary::of(runs.iter().map(|t| t.pull_off_force));
     let t = Summary::of(runs.iter().map(|t| t.pull_off_time));
     let spread = if f.mean != 0.0 {
@@ -197,7 +197,7 @@ pub fn summarise(perturbed: Perturbed, epsilon: f64, runs: Vec<Twin>) -> Sensiti
 }
 
 /// Significant digits that values spread by `rel` (relative) share: ⌊−log10 rel⌋, within 1 … 15.
-pub fn shared_digits(rel: f64) -> usize {
+pub(crate) fn shared_digits(rel: f64) -> usize {
     if rel <= 0.0 || rel.is_nan() {
         return 15;
     }

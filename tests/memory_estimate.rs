@@ -110,7 +110,7 @@ sample_rate = {rate}
 fn scenario(text: &str, sets: &[&str]) -> djkr::scenario::Scenario {
     ScenarioSource::parse(text, "<test>", None)
         .unwrap()
-        .scenario(&api::overrides(sets).unwrap())
+        .scenario(&djkr::scenario::overrides::Override::parse_all(sets).unwrap())
         .unwrap()
 }
 

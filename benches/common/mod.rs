@@ -2,7 +2,7 @@
 //! 400 Hz hold), and one explicit right-hand side as a DP8 stage evaluates it, the unit of
 //! `Stats::rhs_evals` for DP8.
 
-use djkr::catalogue::hold_400hz_1s;
+use crate::catalogue::hold_400hz_1s;
 use djkr_core::dynamics::model::{resolve, Drive, Model, NQ};
 use std::hint::black_box;
 

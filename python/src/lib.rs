@@ -42,18 +42,18 @@ use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PySlice, PyString, PyTuple, PyType};
 
-use djkr::api::{self, Arg};
+use djkr::api;
 use djkr::error::Error as ApiError;
 use djkr::input::{show_limit, InputKind};
-use djkr::output::table::{Column, Data, Table};
 use djkr::output::timeseries::{self, kind_name, stage_index, SEGMENT, SERIES, STAGE};
+use djkr::output::{Column, Data, Table};
+use djkr::scenario::overrides::Override;
 use djkr::scenario::overrides::SetKey;
 use djkr::scenario::parse::{self, ScenarioSource, Tree};
-use djkr::sweep::stats::{point_stats, points_table};
+use djkr::sweep::{point_stats, points_table};
 use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
 use djkr_core::adhesion::Law;
 use djkr_core::cancel::{Cancel, CancelFlag};
-use djkr_core::closed_form::{DeltaAmpForm, BETA_PAPER};
 use djkr_core::dynamics::Event;
 use djkr_core::material::Material;
 use djkr_core::steady::{Options, Problem};
@@ -177,7 +177,12 @@ fn python_value(v: &str) -> String {
 }
 
 fn input_err(e: impl std::fmt::Display) -> PyErr {
-    ScenarioError::new_err(e.to_string())
+    ScenarioError::new_err(djkr::error::render(&e.to_string(), &PyWords::default()))
+}
+
+/// A quantity argument (a number, or a string with a unit) for the request field `name`.
+fn quantity(v: &Bound<'_, PyAny>, name: &str, dim: Dimension) -> PyResult<api::Quantity> {
+    api::Quantity::parse(name, &arg_text(v, name)?, dim).map_err(input_err)
 }
 
 fn panic_text(payload: Box<dyn std::any::Any + Send>) -> String {
@@ -485,7 +490,7 @@ fn key_text(k: &Bound<'_, PyAny>, name: &str) -> PyResult<String> {
 fn refuse_replaced(sets: &[String], command: &str, replaced: &[(&str, &str)]) -> PyResult<()> {
     // A malformed override is reported later, where the scenario is built, in the same words
     // as before.
-    let Ok(overrides) = api::overrides(sets) else {
+    let Ok(overrides) = Override::parse_all(sets) else {
         return Ok(());
     };
     match api::replaced_override(&overrides, replaced) {
@@ -1221,7 +1226,7 @@ fn run(
     }
     let (rec, name) = interruptible(py, move |stop| {
         let source = scn.source()?;
-        let mut s = source.scenario(&api::overrides(&sets)?)?;
+        let mut s = source.scenario(&Override::parse_all(&sets)?)?;
         s.solver.cancel = stop.token();
         // A run that ended early keeps what it computed: it travels with its message to
         // become the exception's `run`.
@@ -1305,25 +1310,17 @@ fn cycle(
 ) -> PyResult<Py<PyAny>> {
     guarded(|| {
         let (m, law) = material_of(material)?;
-        let (f, am, aa) = (
-            arg_text(freq, "freq")?,
-            arg_text(a_mean, "a_mean")?,
-            arg_text(a_amp, "a_amp")?,
-        );
+        let req = api::CycleRequest {
+            freq: quantity(freq, "freq", Dimension::Frequency)?,
+            a_mean: quantity(a_mean, "a_mean", Dimension::Length)?,
+            a_amp: quantity(a_amp, "a_amp", Dimension::Length)?,
+        };
         let r = py
-            .detach(|| {
-                api::cycle(
-                    &m,
-                    &law,
-                    Arg::new("freq", &f),
-                    Arg::new("a_mean", &am),
-                    Arg::new("a_amp", &aa),
-                )
-            })
+            .detach(|| api::cycle(&m, &law, &req))
             .map_err(input_err)?;
         warn(py, &r.notes)?;
-        let v = r.json();
-        api::check_finite(&v).map_err(api_err)?;
+        api::check_finite(&r).map_err(api_err)?;
+        let v = serde_json::to_value(&r).map_err(|e| input_err(e.to_string()))?;
         json_to_py(py, &v)
     })
 }
@@ -1390,29 +1387,17 @@ fn pulloff(
             )));
         }
         let (m, law) = material_of(material)?;
-        let omega = api::omega_from("freq", &arg_text(freq, "freq")?).map_err(input_err)?;
-        let aa = api::non_negative_quantity("a_amp", &arg_text(a_amp, "a_amp")?, Dimension::Length)
-            .map_err(input_err)?;
+        let a_amp = quantity(a_amp, "a_amp", Dimension::Length)?;
         let how = match method {
-            "exact" => api::PullOffMethod::Exact { a_amp: aa },
-            "approx" => api::PullOffMethod::Approx {
-                a_amp: aa,
+            "exact" => api::PullOff::Exact { a_amp },
+            "approx" => api::PullOff::Approx {
+                a_amp,
                 beta: match beta {
-                    Some(b) => api::positive_quantity(
-                        "beta",
-                        &arg_text(b, "beta")?,
-                        Dimension::Dimensionless,
-                    )
-                    .map_err(input_err)?,
-                    None => BETA_PAPER,
+                    Some(b) => Some(quantity(b, "beta", Dimension::Dimensionless)?),
+                    None => None,
                 },
-                form: DeltaAmpForm::Derived,
             },
-            "yi" => api::PullOffMethod::Yi {
-                delta_amp: djkr_core::comparators::yi_indentation_amplitude_from_area_amplitude(
-                    &m, aa,
-                ),
-            },
+            "yi" => api::PullOff::Yi { a_amp },
             "shui" => return Err(input_err(
                 "method = \"shui\": Shui et al.'s eq. (5) needs the sphere's mass, the damping \
                      and the base amplitude, which djkr.pulloff does not take; use the command \
@@ -1425,12 +1410,16 @@ fn pulloff(
                 )))
             }
         };
+        let req = api::PullOffRequest {
+            freq: quantity(freq, "freq", Dimension::Frequency)?,
+            method: how,
+        };
         let r = py
-            .detach(|| api::pull_off(&m, &law, omega, how))
+            .detach(|| api::pull_off(&m, &law, &req))
             .map_err(input_err)?;
         warn(py, &r.warnings)?;
-        let v = r.json();
-        api::check_finite(&v).map_err(api_err)?;
+        api::check_finite(&r).map_err(api_err)?;
+        let v = serde_json::to_value(&r).map_err(|e| input_err(e.to_string()))?;
         json_to_py(py, &v)
     })
 }
@@ -1482,7 +1471,7 @@ fn validate(
     refuse_replaced(&sets, "validate", &[("solver.rtol", STEADY_RTOL)])?;
     let report = interruptible(py, move |stop| {
         let source = scn.source()?;
-        let mut s = source.scenario(&api::overrides(&sets)?)?;
+        let mut s = source.scenario(&Override::parse_all(&sets)?)?;
         s.solver.cancel = stop.token();
         let r = api::validate(&s, &Options::default())
             .map_err(|e| ApiError::from_steady(djkr::error::Source::file(source.name()), e))?;
@@ -1492,7 +1481,8 @@ fn validate(
         Ok(r)
     })?;
     guarded(|| {
-        let v = api::finite_json(&report).map_err(api_err)?;
+        api::check_finite(&report).map_err(api_err)?;
+        let v = serde_json::to_value(&report).map_err(|e| input_err(e.to_string()))?;
         if let Some(e) = api::force_balance_violation(&report) {
             warn(py, &[e])?;
         }
@@ -1586,14 +1576,9 @@ fn resonance(
     };
     let which = api::Sweeps::parse("sweep", &sweep).map_err(api_err)?;
     let table = interruptible(py, move |stop| {
-        let freqs = api::range(
-            "freq",
-            &range_text,
-            Dimension::Frequency,
-            api::limits::RESONANCE_FREQUENCIES,
-        )?;
+        let freqs = api::frequency_range("freq", &range_text)?;
         let source = scn.source()?;
-        let mut s = source.scenario(&api::overrides(&sets)?)?;
+        let mut s = source.scenario(&Override::parse_all(&sets)?)?;
         s.solver.cancel = stop.token();
         let (problem, start) = Problem::from_plan(&s.plan())
             .map_err(|e| ApiError::from_steady(djkr::error::Source::file(source.name()), e))?;
@@ -1657,7 +1642,7 @@ fn resonance_peak(py: Python<'_>, frequency: Vec<f64>, height: Vec<f64>) -> PyRe
         .collect();
     v.sort_by(|a, b| a.0.total_cmp(&b.0));
     let d = PyDict::new(py);
-    match djkr::reports::steady::maximum(&v) {
+    match api::resonance_peak(&v) {
         Some(Ok(p)) => {
             d.set_item("frequency", p.frequency)?;
             d.set_item("height", p.height)?;
@@ -2266,7 +2251,7 @@ fn fit(
         let data = djkr::fit::FitData::parse(&text, &name, observable.as_deref())
             .map_err(|e| ApiError::Invalid(e.to_string()))?;
         let request = api::FitRequest {
-            set: api::overrides(&set)?,
+            set: Override::parse_all(&set)?,
             ensemble: ensemble.map(|m| (m, seed)),
             jobs: jobs.unwrap_or(0),
             max_iterations,
@@ -2322,7 +2307,7 @@ struct Fit {
     #[pyo3(get)]
     residuals: Py<PyAny>,
     /// The fit as ``djkr.predict`` reads it (the texts of its files), or why it could not be.
-    fitted: Result<djkr::fit::predict::FitFolder, String>,
+    fitted: Result<djkr::fit::FitFolder, String>,
 }
 
 impl Fit {
@@ -2490,7 +2475,7 @@ fn predict(
     out: Option<&Bound<'_, PyAny>>,
     force: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Prediction> {
-    use djkr::fit::predict::{FitFolder, PredictRequest, MAX_SAMPLES};
+    use djkr::fit::{FitFolder, PredictRequest};
     let (folder, req, out) = guarded(|| {
         let folder: FitFolder = if let Ok(f) = fit.cast::<Fit>() {
             f.get().fitted.clone().map_err(|m| {
@@ -2521,7 +2506,8 @@ fn predict(
         }
         let whole =
             |v, name| whole_arg(v, name, 0, usize::MAX as u64).map(|w| w.map(|w| w as usize));
-        let samples = whole_arg(samples, "samples", 0, MAX_SAMPLES as u64)?.unwrap_or(0) as usize;
+        // The library refuses 1 and more than its bound, in its words.
+        let samples = whole(samples, "samples")?.unwrap_or(0);
         let ensemble = whole(ensemble, "ensemble")?;
         let seed = whole_arg(seed, "seed", 0, u64::MAX)?;
         let observable = match observable {
@@ -2581,43 +2567,14 @@ struct Prediction {
 }
 
 impl Prediction {
-    fn new(py: Python<'_>, r: djkr::fit::predict::PredictReport) -> PyResult<Prediction> {
-        use djkr::fit::predict::{csv_header, row_numbers, Cell};
+    fn new(py: Python<'_>, r: djkr::fit::PredictReport) -> PyResult<Prediction> {
         let report = serde_json::to_value(&r)
             .map_err(|e| PyRuntimeError::new_err(format!("prediction report: {e}")))?;
-        let names = csv_header(&r);
         let columns = PyDict::new(py);
-        let conditions = r.conditions.len();
-        for (j, name) in names.iter().enumerate() {
-            if j < conditions {
-                if r.conditions[j].unit.is_some() {
-                    let v: Vec<f64> = r
-                        .rows
-                        .iter()
-                        .map(|row| match &row.conditions[j] {
-                            Cell::Num(x) => *x,
-                            Cell::Text(_) => f64::NAN,
-                        })
-                        .collect();
-                    columns.set_item(name, PyArray1::from_vec(py, v))?;
-                } else {
-                    let v: Vec<String> = r
-                        .rows
-                        .iter()
-                        .map(|row| match &row.conditions[j] {
-                            Cell::Text(t) => t.clone(),
-                            Cell::Num(x) => x.to_string(),
-                        })
-                        .collect();
-                    columns.set_item(name, v)?;
-                }
-            } else {
-                let v: Vec<f64> = r
-                    .rows
-                    .iter()
-                    .map(|row| row_numbers(&r, row)[j - conditions].unwrap_or(f64::NAN))
-                    .collect();
-                columns.set_item(name, PyArray1::from_vec(py, v))?;
+        for (name, c) in r.columns() {
+            match c {
+                api::Column::Num(v) => columns.set_item(name, PyArray1::from_vec(py, v))?,
+                api::Column::Text(v) => columns.set_item(name, v)?,
             }
         }
         Ok(Prediction {

@@ -7,12 +7,12 @@ use super::common::{
     limit_count, limits, load_scenario, out_name, positive_quantity, reject_unused, write_atomic,
     SetArgs,
 };
+use crate::accuracy::{self, Measure, StudyConfig};
+use crate::plot;
+use crate::scenario::checks;
+use crate::scenario::Scenario;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::accuracy::{self, Measure, StudyConfig};
-use djkr::plot;
-use djkr::scenario::checks;
-use djkr::scenario::Scenario;
 use djkr_core::beta_fit::log_space;
 use djkr_core::dynamics::methods::method_name;
 use djkr_core::dynamics::Method;
@@ -118,7 +118,7 @@ pub fn accuracy(a: &AccuracyArgs) -> Result<()> {
         .as_deref()
         .unwrap_or("implicit,dp8,dopri5,dop853,auto");
     let mut cfg = study_config(a, methods_text)?;
-    cfg.validate().map_err(djkr::error::Error::Param)?;
+    cfg.validate().map_err(crate::error::Error::Param)?;
     let scn = load_scenario(file, &a.set)?;
     a.set.refuse_replaced(
         "accuracy",
@@ -338,7 +338,7 @@ fn imposed_area(a: &AccuracyArgs) -> Result<()> {
     let n_values: Vec<f64> = (1..=30).map(|i| 0.05 * i as f64).collect();
     let ratios = log_space(1e-2, 1e6, 33);
     let map = accuracy::closed_form_map(&n_values, &ratios, freq, beta)
-        .map_err(djkr::error::Error::Param)?;
+        .map_err(crate::error::Error::Param)?;
     accuracy::closed_form_map_table(&map).save_csv(&out.join("closed_form_map.csv"))?;
     let (mp, ms) = plot::render_heatmap(
         &accuracy::closed_form_heatmap(&map, &n_values, &ratios, freq, beta),

@@ -233,10 +233,10 @@ pub fn beta_fit(a: &BetaFitArgs) -> Result<()> {
 }
 
 fn write_beta_outputs(dir: &std::path::Path, fit: &beta_fit::BetaFit) -> Result<()> {
-    use djkr::plot::{render, Figure, Series, Style};
+    use crate::plot::{render, Figure, Series, Style};
     std::fs::create_dir_all(dir)?;
-    djkr::reports::beta_fit::error_curve_table(fit).save_csv(&dir.join("beta_error_curve.csv"))?;
-    djkr::reports::beta_fit::ratios_table(fit).save_csv(&dir.join("beta_ratios.csv"))?;
+    crate::reports::beta_fit::error_curve_table(fit).save_csv(&dir.join("beta_error_curve.csv"))?;
+    crate::reports::beta_fit::ratios_table(fit).save_csv(&dir.join("beta_ratios.csv"))?;
     let fig = Figure::new(
         "β refit: error of the closed form",
         "β (–)",

@@ -1,19 +1,20 @@
 //! Flag parsing shared by the commands: quantities with units, the material and the law.
 
+use crate::scenario::overrides::Override;
+use crate::scenario::parse::ScenarioSource;
+use crate::scenario::Scenario;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::scenario::overrides::Override;
-use djkr::scenario::parse::ScenarioSource;
-use djkr::scenario::Scenario;
 use djkr_core::adhesion::{GentSchultz, Law};
 use djkr_core::material::Material;
 use djkr_core::units::Dimension;
 use std::path::{Path, PathBuf};
 
-pub use djkr::api::{
+pub(crate) use crate::api::{
     beta_from, fmt_force, fmt_len, key_non_negative_quantity, key_positive_quantity, limits,
-    no_negative_zero, non_negative_quantity, omega_from, positive_quantity,
+    no_negative_zero,
 };
+pub(crate) use crate::api::{non_negative_quantity, omega_from, positive_quantity};
 
 /// `--set KEY=VALUE`: scenario values overridden from the command line, shared by every command
 /// that reads a scenario file.
@@ -36,13 +37,13 @@ pub struct SetArgs {
 impl SetArgs {
     /// The overrides, parsed and their keys checked (before any file is read).
     pub fn overrides(&self) -> Result<Vec<Override>> {
-        Ok(djkr::api::overrides(&self.set)?)
+        Ok(crate::api::overrides(&self.set)?)
     }
 
     /// Refuse a `--set` of a key that `command` takes from a flag of its own instead
     /// (`replaced`: key and flag): an override is honoured or refused, never silently ignored.
     pub fn refuse_replaced(&self, command: &str, replaced: &[(&str, &str)]) -> Result<()> {
-        match djkr::api::replaced_override(&self.overrides()?, replaced) {
+        match crate::api::replaced_override(&self.overrides()?, replaced) {
             Some((key, flag)) => bail!("--set {key} has no effect on {command}: use {flag}"),
             None => Ok(()),
         }
@@ -92,10 +93,10 @@ impl MaterialArgs {
     /// tabulated law, whose w(0) is its table's); `--v0` and `--n` need a Gent–Schultz law (plain
     /// or saturated).
     pub fn resolve(&self) -> Result<(Material, Law)> {
-        let (mut m, mut law) = djkr::api::default_material();
+        let (mut m, mut law) = crate::api::default_material();
         if let Some(path) = &self.material {
             // Only [material] and [adhesion] are read (the rest of the scenario is ignored).
-            (m, law) = djkr::scenario::parse::material_and_law(path)
+            (m, law) = crate::scenario::parse::material_and_law(path)
                 .with_context(|| format!("--material {}", path.display()))?;
         }
         if let Some(t) = &self.k {
@@ -222,9 +223,9 @@ pub fn reject_unused(given: &[(&str, bool)], mode: &str) -> Result<()> {
 }
 
 /// Print a report as JSON (pretty, keys sorted), refusing non-finite numbers (serde_json would
-/// write `null`): [`djkr::api::finite_json`].
+/// write `null`): [`crate::api::finite_json`].
 pub fn print_json(report: &impl serde::Serialize) -> Result<()> {
-    let v = djkr::api::finite_json(report)?;
+    let v = crate::api::finite_json(report)?;
     outln!("{}", serde_json::to_string_pretty(&v)?)?;
     Ok(())
 }
@@ -304,16 +305,16 @@ impl Drop for CommandBudget {
 /// names the command writes, or those of them known before it runs: a file of the user's under
 /// another is refused when its turn comes). `force` (`--force`) lets djkr overwrite such files.
 pub fn claim_out(out: &std::path::Path, names: &[&str], force: bool) -> Result<()> {
-    djkr::output::folder::claim(out, names, force)?;
+    crate::output::folder::claim(out, names, force)?;
     if force {
-        djkr::output::folder::force_overwrite(out);
+        crate::output::folder::force_overwrite(out);
     }
     Ok(())
 }
 
-/// Write a file atomically (see [`djkr::output::write_atomic`]).
+/// Write a file atomically (see [`crate::output::write_atomic`]).
 pub fn write_atomic(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
-    Ok(djkr::output::write_atomic(path, bytes)?)
+    Ok(crate::output::write_atomic(path, bytes)?)
 }
 
 #[cfg(test)]

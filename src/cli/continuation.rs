@@ -6,14 +6,14 @@
 use super::common::default_out;
 use super::common::{print_json, write_atomic, SetArgs};
 use super::steady::{progress_bar, stem};
+use crate::output::hdf5_file::{hdf5_tables, Attr};
+use crate::output::table::{format_f64, format_sig};
+use crate::plot::{self, Figure, LegendPosition, Series, Style};
+use crate::reports::continuation::{self as report, ContinuationReport};
+use crate::scenario::family::{family as scenario_family, parameter};
+use crate::scenario::parse::ScenarioSource;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::output::hdf5_file::{hdf5_tables, Attr};
-use djkr::output::table::{format_f64, format_sig};
-use djkr::plot::{self, Figure, LegendPosition, Series, Style};
-use djkr::reports::continuation::{self as report, ContinuationReport};
-use djkr::scenario::family::{family as scenario_family, parameter};
-use djkr::scenario::parse::ScenarioSource;
 use djkr_core::continuation::branch::{self, Branch, BranchPoint, PointKind};
 use djkr_core::continuation::family::{Family, Parameter};
 use djkr_core::continuation::folds::{self, FoldCurve, FoldPointKind};
@@ -104,7 +104,7 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
     }
     let a = parse_quantity(flag, parts[0].trim(), p.info.dimension)?;
     let b = parse_quantity(flag, parts[1].trim(), p.info.dimension)?;
-    if !(a.is_finite() && b.is_finite()) || a == b {
+    if !(a.is_finite() && b.is_finite()) || a.partial_cmp(&b) == Some(std::cmp::Ordering::Equal) {
         bail!(
             "{flag} = {shown_text}: START and STOP must be finite and differ ({} in {})",
             p.name(),
@@ -255,7 +255,7 @@ fn problem(a: &ContinueArgs, flags: &Flags) -> Result<Problem> {
                 q.name()
             );
         }
-        fixed.push(djkr::scenario::overrides::Override::new(q.name(), *q0)?);
+        fixed.push(crate::scenario::overrides::Override::new(q.name(), *q0)?);
     }
     let family = scenario_family(&source, &fixed, vec![param], rtol)?;
     check_ends("--range", &a.range, &family, &[[p0, 0.0], [p1, 0.0]])?;
@@ -423,7 +423,7 @@ fn write_tables(
     files.push(path);
     let up_t = report::sweep_table(info.key, info.unit, "up", up);
     let down_t = report::sweep_table(info.key, info.unit, "down", down);
-    let mut groups: Vec<(&str, &str, &djkr::output::Table)> = vec![
+    let mut groups: Vec<(&str, &str, &crate::output::Table)> = vec![
         (
             "branch",
             "branch of periodic orbits by pseudo-arclength continuation, in order of arclength",

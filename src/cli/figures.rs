@@ -1,9 +1,9 @@
 //! `djkr figures`: the paper's figures as CSV + PNG + SVG.
 
 use super::common::MaterialArgs;
+use crate::figures::{write_figures, FigureId};
 use anyhow::{bail, Result};
 use clap::Args;
-use djkr::figures::{write_figures, FigureId};
 use djkr_core::units::Dimension;
 use std::path::PathBuf;
 

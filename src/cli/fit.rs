@@ -1,9 +1,9 @@
 //! `djkr gs-fit FILE`: Gent–Schultz constants from a quasi-static unloading record (Sec. 3).
 
 use super::common::{print_json, print_table, reject_unused, MaterialArgs};
+use crate::input::{read_text, InputKind};
 use anyhow::{bail, Result};
 use clap::Args;
-use djkr::input::{read_text, InputKind};
 use djkr_core::gs_fit::{self, GsFitOptions, GsFitReport};
 use std::path::PathBuf;
 

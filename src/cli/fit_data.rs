@@ -1,12 +1,12 @@
-//! `djkr fit DATA.csv --scenario FILE --free KEY[=LO:HI]... --out DIR`: thin over [`djkr::fit`].
+//! `djkr fit DATA.csv --scenario FILE --free KEY[=LO:HI]... --out DIR`: thin over [`crate::fit`].
 
 use super::signals;
 use super::sweep::Interrupted;
+use crate::fit::{self, FitData, FitEvent, FitOptions, ForwardModel, FreeKey};
+use crate::scenario::overrides::Override;
+use crate::scenario::parse::ScenarioSource;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::fit::{self, FitData, FitEvent, FitOptions, ForwardModel, FreeKey};
-use djkr::scenario::overrides::Override;
-use djkr::scenario::parse::ScenarioSource;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -149,7 +149,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
          written (none before the first evaluation has ended); Ctrl-C again to quit at once",
     );
     super::common::claim_out(&out, &fit::files::FILES, a.force).context("--out")?;
-    let _lock = djkr::output::folder::DirLock::acquire(&out)?;
+    let _lock = crate::output::folder::DirLock::acquire(&out)?;
     let expected0 = fit::expected_runs(&model, free.len(), a.starts);
     let bar = ProgressBar::new(expected0 as u64);
     bar.set_style(
@@ -294,7 +294,7 @@ fn statistic(x: f64, decimals: usize) -> String {
 }
 
 /// The readable report.
-fn report(r: &djkr::fit::FitReport, out: &Path) -> Result<()> {
+fn report(r: &crate::fit::FitReport, out: &Path) -> Result<()> {
     outln!(
         "fit of {} to {} rows: chi2 {}, dof {}, reduced chi2 {}, AIC {}, BIC {}",
         r.observable,
@@ -333,16 +333,16 @@ fn report(r: &djkr::fit::FitReport, out: &Path) -> Result<()> {
         let interval = match (p.interval, p.interval_from) {
             (Some([lo, hi]), Some("profile")) => format!(
                 ", 68 % interval [{}, {}]{unit} (profile likelihood)",
-                djkr::output::table::format_sig(lo, 4),
-                djkr::output::table::format_sig(hi, 4)
+                crate::output::table::format_sig(lo, 4),
+                crate::output::table::format_sig(hi, 4)
             ),
             _ => String::new(),
         };
         outln!(
             "  {} = {}{unit}{no_sigma}{interval}  (from {})",
             p.key,
-            djkr::output::table::format_pm(p.value, p.sigma),
-            djkr::output::table::format_f64(p.initial)
+            crate::output::table::format_pm(p.value, p.sigma),
+            crate::output::table::format_f64(p.initial)
         )?;
     }
     outln!(

@@ -4,9 +4,9 @@ use super::common::{
     beta_from, fmt_force, fmt_len, key_non_negative_quantity, key_positive_quantity,
     non_negative_quantity, omega_from, print_json, print_table, reject_unused, MaterialArgs,
 };
+use crate::api::{self, Arg, PullOffReport};
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
-use djkr::api::{self, Arg, PullOffReport};
 use djkr_core::units::Dimension;
 use serde_json::json;
 
@@ -32,7 +32,7 @@ pub struct CycleArgs {
 /// Run `djkr cycle`.
 pub fn cycle(a: &CycleArgs) -> Result<()> {
     let (m, law) = a.material.resolve()?;
-    let r = api::cycle(
+    let r = api::cycle_args(
         &m,
         &law,
         Arg::new("--freq", &a.freq),
@@ -178,7 +178,7 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
     let a_amp = match &a.a_amp {
         Some(t) => {
             let v = non_negative_quantity("--a-amp", t, Dimension::Length)?;
-            if let Some(e) = djkr::scenario::checks::contact_radius_error(v, m.r) {
+            if let Some(e) = crate::scenario::checks::contact_radius_error(v, m.r) {
                 bail!("--a-amp = {}: {e}", djkr_core::text::excerpt(t));
             }
             Some(v)
@@ -211,7 +211,7 @@ pub fn pulloff(a: &PulloffArgs) -> Result<()> {
         }
         PulloffMethod::Shui | PulloffMethod::Yi => return comparators(a, &m, &law, omega, a_amp),
     };
-    let r = api::pull_off(&m, &law, omega, method)?;
+    let r = api::pull_off_at(&m, &law, omega, method)?;
     pull_off_finite(a, &r)?;
     for w in &r.warnings {
         eprintln!("warning: {w}");
@@ -342,7 +342,7 @@ fn comparators(
             (None, Some(aa)) => cmp::yi_indentation_amplitude_from_area_amplitude(m, aa),
             (None, None) => bail!("--method yi needs --delta-amp or --a-amp (then δ_A = 2 a_A²/R)"),
         };
-        let r = api::pull_off(m, law, omega, api::PullOffMethod::Yi { delta_amp })?;
+        let r = api::pull_off_at(m, law, omega, api::PullOffMethod::Yi { delta_amp })?;
         pull_off_finite(a, &r)?;
         r
     };

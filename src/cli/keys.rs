@@ -1,6 +1,6 @@
 //! `djkr keys [--json]`: every key a scenario file takes, with unit, default, allowed range and
 //! meaning, printed from the table the parser, `--set`, sweeps and continuation read
-//! ([`djkr::scenario::keys`]), so that the reference cannot drift from the parser.
+//! ([`crate::scenario::keys`]), so that the reference cannot drift from the parser.
 
 use anyhow::Result;
 use clap::Args;
@@ -20,11 +20,11 @@ pub fn keys(a: &KeysArgs) -> Result<()> {
         // Not `print_json`: its check for non-finite numbers reads the null defaults as NaN.
         outln!(
             "{}",
-            serde_json::to_string_pretty(&djkr::scenario::keys::to_json())?
+            serde_json::to_string_pretty(&crate::scenario::keys::to_json())?
         )?;
         Ok(())
     } else {
-        out!("{}", djkr::scenario::keys::to_text())?;
+        out!("{}", crate::scenario::keys::to_text())?;
         Ok(())
     }
 }

@@ -8,6 +8,7 @@ mod accuracy;
 mod closed;
 mod common;
 mod continuation;
+mod design;
 mod figures;
 mod fit;
 mod fit_data;
@@ -129,6 +130,12 @@ enum Command {
     /// propagation, and with --samples parameter draws) and 68/95 % bands: prediction.csv,
     /// prediction.json. Exit status: 0 predicted, 2 bad input, 130 Ctrl-C
     Predict(predict::PredictArgs),
+    /// Choose the next measurements from a fit: K new measurements among candidate conditions
+    /// (a grid as `djkr sweep --set`) that minimise the free keys' expected covariance
+    /// (D-optimal, A-optimal or one key's variance; greedy, then exchange), against K spread
+    /// uniformly: design.csv, design.json, design.png. Exit status: 0 designed, 2 bad input,
+    /// 130 Ctrl-C
+    Design(design::DesignArgs),
     /// Reproduce the paper's figures (Figs. 2, 3(a), 3(b), 4–8) as CSV + PNG + SVG.
     Figures(figures::FiguresArgs),
     /// Run a scenario to its periodic steady state (shooting, time-stepping as the fallback) and
@@ -181,6 +188,7 @@ pub fn main() -> ExitCode {
         Command::GsFit(a) => fit::gs_fit(&a),
         Command::Fit(a) => fit_data::fit(&a),
         Command::Predict(a) => predict::predict(&a),
+        Command::Design(a) => design::design(&a),
         Command::Figures(a) => figures::figures(&a),
         Command::Validate(a) => validate::validate(&a),
         Command::Resonance(a) => resonance::resonance(&a),
@@ -269,7 +277,7 @@ fn short_values(mut e: clap::Error) -> clap::Error {
     e
 }
 
-/// Refuse a path argument that no system call would take ([`djkr::api::path_length_error`]),
+/// Refuse a path argument that no system call would take ([`crate::api::path_length_error`]),
 /// quoting its beginning: every later message names the file by its path, whole, which for
 /// such a path would be the 100 kB the user pasted.
 fn check_path_lengths(cmd: &clap::Command, m: &clap::ArgMatches) -> anyhow::Result<()> {
@@ -282,7 +290,7 @@ fn check_path_lengths(cmd: &clap::Command, m: &clap::ArgMatches) -> anyhow::Resu
             continue;
         };
         for value in raw {
-            if let Some(e) = djkr::api::path_length_error(std::path::Path::new(value)) {
+            if let Some(e) = crate::api::path_length_error(std::path::Path::new(value)) {
                 let name = match arg.get_long() {
                     Some(l) => format!("--{l}"),
                     None => arg

@@ -1,10 +1,10 @@
 //! `djkr plot DIR`: the figures of an existing run folder (`run.png`, `run.svg` from its
 //! `run.h5`) or sweep folder (from its `sweep.csv` and `progress.csv`).
 
+use crate::output::folder;
+use crate::sweep::files::{self, Manifest};
 use anyhow::{bail, Result};
 use clap::Args;
-use djkr::output::folder;
-use djkr::sweep::files::{self, Manifest};
 use std::path::PathBuf;
 
 /// Flags of `djkr plot`.
@@ -26,9 +26,9 @@ pub fn plot(a: &PlotArgs) -> Result<()> {
     // Whatever is at the name (a FIFO, a link to a device) decides the kind of folder; the one
     // reader of input files then refuses what is not a regular file within its limit.
     let present = |name: &str| std::fs::symlink_metadata(a.dir.join(name)).is_ok();
-    let files: Vec<PathBuf> = if present(djkr::output::HDF5_NAME) {
-        folder::check_names(&a.dir, &djkr::run_plot::RUN_PLOT_FILES, a.force)?;
-        let (png, svg) = djkr::run_plot::plot_run_dir(&a.dir)?;
+    let files: Vec<PathBuf> = if present(crate::output::HDF5_NAME) {
+        folder::check_names(&a.dir, &crate::run_plot::RUN_PLOT_FILES, a.force)?;
+        let (png, svg) = crate::run_plot::plot_run_dir(&a.dir)?;
         vec![png, svg]
     } else if present(files::MANIFEST_NAME) {
         let Some(manifest) = Manifest::read(&a.dir)? else {
@@ -36,7 +36,7 @@ pub fn plot(a: &PlotArgs) -> Result<()> {
         };
         folder::check_names(&a.dir, &manifest.plot_file_names(), a.force)?;
         let rows = files::read_rows(&a.dir, &manifest)?;
-        let points = djkr::sweep::stats::point_stats(&rows);
+        let points = crate::sweep::stats::point_stats(&rows);
         files::draw_plots(&a.dir, &manifest, &points, &rows)?
     } else {
         bail!(

@@ -1,12 +1,12 @@
 //! `djkr predict --fit DIR [--set KEY=SPEC]... [--observable NAME] [--samples N]
-//! [--ensemble N] [--seed S] --out DIR`: thin over [`djkr::fit::predict`].
+//! [--ensemble N] [--seed S] --out DIR`: thin over [`crate::fit::predict`].
 
 use super::signals;
 use super::sweep::Interrupted;
+use crate::fit::predict::{self, PredictRequest};
+use crate::sweep::Axis;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::fit::predict::{self, PredictRequest};
-use djkr::sweep::Axis;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -90,7 +90,7 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
     predict::check(&fit, &req)?;
     signals::install("stopping: forward runs in progress are abandoned; nothing is written");
     super::common::claim_out(&a.out, &predict::FILES, a.force).context("--out")?;
-    let _lock = djkr::output::folder::DirLock::acquire(&a.out)?;
+    let _lock = crate::output::folder::DirLock::acquire(&a.out)?;
     let bar = ProgressBar::new_spinner();
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed}] predict: {pos} forward runs")
@@ -100,7 +100,7 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
     let report = predict::predict(&fit, &req, Some(signals::flag()), &mut || bar.inc(1));
     bar.finish_and_clear();
     let report = match report {
-        Err(djkr::error::Error::Cancelled) => {
+        Err(crate::error::Error::Cancelled) => {
             eprintln!("stopped: nothing written in {}", a.out.display());
             return Err(Interrupted(signals::received()).into());
         }

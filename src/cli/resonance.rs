@@ -8,13 +8,13 @@ use super::common::{
     CommandBudget,
 };
 use super::steady::{progress_bar, range, stem, SteadyArgs};
+use crate::api;
+use crate::output::hdf5_file::{hdf5_tables, Attr};
+use crate::plot::{self, Figure, LegendPosition, Series, Style};
+use crate::reports::steady::{self as report, NoPeak, ResonanceReport};
+use crate::scenario::Scenario;
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use djkr::api;
-use djkr::output::hdf5_file::{hdf5_tables, Attr};
-use djkr::plot::{self, Figure, LegendPosition, Series, Style};
-use djkr::reports::steady::{self as report, NoPeak, ResonanceReport};
-use djkr::scenario::Scenario;
 use djkr_core::steady::sweep::{self, Direction, Linearisation, Sweep, SweepPoint};
 use djkr_core::steady::{Options, Problem};
 use djkr_core::units::Dimension;
@@ -180,7 +180,7 @@ fn write_tables(
     let csv_path = out.join("resonance.csv");
     res.table().save_csv(&csv_path)?;
     let tables: Vec<_> = sweeps.iter().map(report::sweep_table).collect();
-    let groups: Vec<(&str, &str, &djkr::output::Table)> = sweeps
+    let groups: Vec<(&str, &str, &crate::output::Table)> = sweeps
         .iter()
         .zip(&tables)
         .map(|(sw, t)| {

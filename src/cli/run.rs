@@ -2,13 +2,13 @@
 
 use super::common::{default_out, law_name, load_scenario, SetArgs};
 use super::signals;
+use crate::api::{close_run_folder, open_run_folder, FolderOptions};
+use crate::output::RunWriter;
+use crate::scenario::checks;
+use crate::scenario::parse::{ScenarioError, ScenarioSource};
+use crate::sensitivity::Sensitivity;
 use anyhow::{Context, Result};
 use clap::Args;
-use djkr::api::{close_run_folder, open_run_folder, FolderOptions};
-use djkr::output::RunWriter;
-use djkr::scenario::checks;
-use djkr::scenario::parse::{ScenarioError, ScenarioSource};
-use djkr::sensitivity::Sensitivity;
 use djkr_core::cancel::Cancel;
 use djkr_core::dynamics::{
     self, Ending, Event, Model, Observer, Outcome, Reason, RunResult, Sample, SimError, Status,
@@ -314,7 +314,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
 
 /// The twins of `--sensitivity` (`None` with a note when the scene has nothing to perturb).
 fn sensitivity(
-    scn: &djkr::scenario::Scenario,
+    scn: &crate::scenario::Scenario,
     result: &RunResult,
     members: usize,
 ) -> Result<Option<Sensitivity>> {
@@ -322,7 +322,7 @@ fn sensitivity(
         "--sensitivity: running {members} twin(s) of {} in parallel ...",
         scn.source_name
     );
-    match djkr::sensitivity::twins(scn, result, members, djkr::sensitivity::EPSILON) {
+    match crate::sensitivity::twins(scn, result, members, crate::sensitivity::EPSILON) {
         None => {
             eprintln!(
                 "--sensitivity: nothing to perturb (no base motion and an explicit initial \
@@ -362,7 +362,7 @@ macro_rules! summary_line {
 }
 
 fn print_summary(
-    scn: &djkr::scenario::Scenario,
+    scn: &crate::scenario::Scenario,
     r: &RunResult,
     ending: &Ending,
     sens: Option<&Sensitivity>,
@@ -406,7 +406,7 @@ fn print_summary(
 
 /// The pull-off force and time (to `digits` significant digits), or why there is none.
 fn print_pull_off(
-    scn: &djkr::scenario::Scenario,
+    scn: &crate::scenario::Scenario,
     r: &RunResult,
     digits: usize,
 ) -> anyhow::Result<()> {

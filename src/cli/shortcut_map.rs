@@ -7,12 +7,12 @@ use super::common::{
     limits, load_scenario, print_json, write_atomic, BudgetStopped, CommandBudget,
 };
 use super::steady::{progress_bar, range, SteadyArgs};
+use crate::output::hdf5_file::{hdf5_tables, Attr};
+use crate::plot::{self, Heatmap};
+use crate::reports::steady::{self as report, ShortcutMapReport};
+use crate::scenario::Scenario;
 use anyhow::{Context, Result};
 use clap::Args;
-use djkr::output::hdf5_file::{hdf5_tables, Attr};
-use djkr::plot::{self, Heatmap};
-use djkr::reports::steady::{self as report, ShortcutMapReport};
-use djkr::scenario::Scenario;
 use djkr_core::steady::map::{self as smap, MapCell, ShortcutMap};
 use djkr_core::steady::{sweep, Problem};
 use djkr_core::units::Dimension;

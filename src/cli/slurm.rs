@@ -17,7 +17,7 @@
 //! sbatch for an `#SBATCH` line). No path is evaluated twice: the merge step's `--wrap` command,
 //! which sbatch runs through `sh`, is fixed text that finds the paths in its environment.
 
-use djkr::sweep::files::shell_quote;
+use crate::sweep::files::shell_quote;
 
 /// What the script needs.
 #[derive(Debug, Clone)]

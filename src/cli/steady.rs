@@ -79,9 +79,9 @@ impl SteadyArgs {
     }
 }
 
-/// Parse START:STOP:COUNT with units ([`djkr::api::range`]).
+/// Parse START:STOP:COUNT with units ([`crate::api::range`]).
 pub fn range(flag: &str, text: &str, dim: Dimension, max: usize) -> Result<(f64, f64, usize)> {
-    Ok(djkr::api::range(flag, text, dim, max)?)
+    Ok(crate::api::range(flag, text, dim, max)?)
 }
 
 /// The scenario file's name without extension.

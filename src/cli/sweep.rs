@@ -1,14 +1,14 @@
 //! `djkr sweep FILE --set KEY=SPEC ... --out DIR` and `djkr sweep merge DIR... --out DIR`: thin
-//! over [`djkr::sweep`].
+//! over [`crate::sweep`].
 
 use super::common::fmt_force;
 use super::signals::{self, Signal};
 use crate::cli::slurm::{default_shards, SlurmScript};
+use crate::scenario::parse::ScenarioSource;
+use crate::sweep::files::{self, Manifest, Shard};
+use crate::sweep::{run_sweep, Axis, Ensemble, Grid, Row, RunOptions, Sweep};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
-use djkr::scenario::parse::ScenarioSource;
-use djkr::sweep::files::{self, Manifest, Shard};
-use djkr::sweep::{run_sweep, Axis, Ensemble, Grid, Row, RunOptions, Sweep};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -416,7 +416,7 @@ fn report(
             runs_wall / wall.max(1e-9)
         )?;
     }
-    let points = djkr::sweep::stats::point_stats(rows);
+    let points = crate::sweep::stats::point_stats(rows);
     if points.len() <= 40 {
         let names: Vec<String> = manifest.keys.iter().map(|k| k.name.clone()).collect();
         outln!(
@@ -513,9 +513,9 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
             sweep.runs()
         );
     }
-    djkr::output::folder::prepare(out)?;
-    let _lock = djkr::output::folder::DirLock::acquire(out)?;
-    djkr::output::folder::check_names(out, &[files::MANIFEST_NAME, "sweep.sbatch"], a.force)?;
+    crate::output::folder::prepare(out)?;
+    let _lock = crate::output::folder::DirLock::acquire(out)?;
+    crate::output::folder::check_names(out, &[files::MANIFEST_NAME, "sweep.sbatch"], a.force)?;
     std::fs::create_dir_all(out.join("slurm"))
         .with_context(|| format!("--out {}", out.display()))?;
     let manifest = Manifest::of(sweep, None);
@@ -528,7 +528,7 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
             );
         }
     } else {
-        djkr::output::write_atomic(
+        crate::output::write_atomic(
             &path,
             format!("{}\n", serde_json::to_string_pretty(&manifest)?).as_bytes(),
         )?;
@@ -549,7 +549,7 @@ fn slurm(a: &SweepRunArgs, file: &Path, sweep: &Sweep, out: &Path) -> Result<()>
         runs: sweep.runs(),
     };
     let sbatch = out.join("sweep.sbatch");
-    djkr::output::write_atomic(&sbatch, script.text().as_bytes())?;
+    crate::output::write_atomic(&sbatch, script.text().as_bytes())?;
     outln!(
         "{}: {} run(s) in {shards} Slurm array task(s) of about {} run(s), {} thread(s) each.",
         file.display(),

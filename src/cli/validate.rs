@@ -5,9 +5,9 @@
 use super::common::load_scenario;
 use super::common::print_json;
 use super::steady::SteadyArgs;
+use crate::reports::steady::ValidateReport;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use djkr::reports::steady::ValidateReport;
 use djkr_core::steady::crosscheck::Prediction;
 use indicatif::ProgressBar;
 use std::path::{Path, PathBuf};
@@ -37,7 +37,7 @@ pub fn validate(a: &ValidateArgs) -> Result<()> {
     let bar = ProgressBar::new_spinner();
     bar.set_message("finding the periodic steady state");
     bar.enable_steady_tick(Duration::from_millis(200));
-    let report = djkr::api::validate(&scn, &opts);
+    let report = crate::api::validate(&scn, &opts);
     bar.finish_and_clear();
     let report = report.with_context(|| format!("{}", a.file.display()))?;
     if a.json {
@@ -45,7 +45,7 @@ pub fn validate(a: &ValidateArgs) -> Result<()> {
     } else {
         print_report(&a.file, &report)?;
     }
-    if let Some(e) = djkr::api::force_balance_violation(&report) {
+    if let Some(e) = crate::api::force_balance_violation(&report) {
         bail!(e);
     }
     Ok(())

@@ -1,8 +1,8 @@
-//! The command line's words for the library's errors ([`djkr::error::Words`]): an input is the
+//! The command line's words for the library's errors ([`crate::error::Words`]): an input is the
 //! flag that gives it (`a_amp` is `--a-amp`), overrides are `--set K=V`, a sweep's axis is
 //! `--set K=SPEC`.
 
-use djkr::error::Words;
+use crate::error::Words;
 
 /// The command line's [`Words`].
 pub struct Flags;
@@ -42,10 +42,10 @@ impl Words for Flags {
 /// One error of a chain in the command line's words: the library's errors worded by [`Flags`],
 /// any other as it displays itself.
 pub fn cause_text(cause: &(dyn std::error::Error + 'static)) -> String {
-    use djkr::error::Error;
-    use djkr::scenario::overrides::OverrideError;
-    use djkr::scenario::parse::ScenarioError;
-    use djkr::sweep::{SpecError, SweepError};
+    use crate::error::Error;
+    use crate::scenario::overrides::OverrideError;
+    use crate::scenario::parse::ScenarioError;
+    use crate::sweep::{SpecError, SweepError};
     if let Some(e) = cause.downcast_ref::<Error>() {
         e.in_words(&Flags)
     } else if let Some(e) = cause.downcast_ref::<ScenarioError>() {
@@ -57,9 +57,9 @@ pub fn cause_text(cause: &(dyn std::error::Error + 'static)) -> String {
     } else if let Some(e) = cause.downcast_ref::<SweepError>() {
         e.in_words(&Flags)
     } else if let Some(e) = cause.downcast_ref::<djkr_core::continuation::ContinuationError>() {
-        djkr::error::continuation_in_words(e, &Flags)
+        crate::error::continuation_in_words(e, &Flags)
     } else {
-        djkr::error::render(&cause.to_string(), &Flags)
+        crate::error::render(&cause.to_string(), &Flags)
     }
 }
 

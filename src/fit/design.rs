@@ -1,13 +1,42 @@
-//! The choice of new measurements (`djkr design`, issue 34; the command is not written yet):
-//! which K candidates, added to a fit's data, minimise the expected covariance of the free keys
-//! (/work/shared/STATS.md, "Design of experiments").
+//! The choice of new measurements (`djkr design`, issue 34): which K candidates, added to a
+//! fit's data, minimise the expected covariance of the free keys (/work/shared/STATS.md, "Design
+//! of experiments").
 //!
-//! A candidate `c` with sensitivities `g_c` (∂prediction/∂y in the fit coordinates, divided by
-//! the new measurement's σ) adds `g_c g_cᵀ` to the Fisher information `F`. The criteria, each
-//! minimised: D-optimal `−ln det F`, A-optimal `trace F⁻¹`, or one key's variance `(F⁻¹)_jj`.
-//! The algorithm is the classic one: a greedy choice (each addition the best given those before),
-//! then exchange passes (Fedorov): each chosen measurement is replaced by the candidate that
-//! improves the criterion most, until a pass changes nothing (at most [`MAX_PASSES`]).
+//! - **The current information** `F0 = C_y⁻¹`: the inverse of the fit's covariance in the fit
+//!   coordinates (`ln x` for a key in log space), as `fit.json` holds it. It is the `JᵀWJ` of
+//!   the data the fit computed at its estimate, scaled as the fit scaled its covariance (by the
+//!   reduced χ² where the data carry no σ), with no forward run spent to compute it again; the
+//!   current σ are then the fit's own.
+//! - **A candidate** `c` (a point of the grid of conditions one could measure): the model's
+//!   gradient `∂m/∂y` at the estimate, computed as the fit computes its Jacobian (shared with
+//!   `predict`, [`super::predict`]), divided by the new measurement's expected σ_c (absolute,
+//!   or relative to the prediction; by default the data's median relative σ): `g_c`. Measuring
+//!   it adds `g_c g_cᵀ` to `F`. Its *information* is `g_cᵀ F0⁻¹ g_c`, the prediction's variance
+//!   from the parameters over the measurement's (one measurement there raises `ln det F` by
+//!   `ln(1 + information)`).
+//! - **The criteria**, each minimised: D-optimal `−ln det F`, A-optimal `trace F⁻¹`, or one key's
+//!   variance `(F⁻¹)_jj`. The algorithm is the classic one: a greedy choice (each addition the
+//!   best given those before), then exchange passes (Fedorov): each chosen measurement is
+//!   replaced by the candidate that improves the criterion most, until a pass changes nothing
+//!   (at most [`MAX_PASSES`]).
+//! - **The comparison**: the same K spread uniformly over the candidates, the i-th (from 0) at
+//!   candidate `⌊(i + ½) N / K⌋` of the N in the grid's order.
+//! - **Expected covariance** `F⁻¹` after the additions, in the keys' units `D F⁻¹ D` (D the
+//!   diagonal of `∂x/∂y`): linear, exact for a model linear in the keys.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use serde::Serialize;
+
+use crate::error::Error;
+use crate::sweep::grid::Axis;
+use crate::words::{input, input_value};
+
+use super::data::CondValue;
+use super::predict::{
+    at_estimate, forward_model, grid_data, refuse_free_axes, Cell, ConditionColumn, FitFolder,
+};
 
 use nalgebra::{DMatrix, DVector};
 
@@ -26,7 +55,7 @@ pub enum Criterion {
 }
 
 /// The criterion's value at information `f` (+∞ where `f` is singular).
-pub fn criterion_value(f: &DMatrix<f64>, c: Criterion) -> f64 {
+pub(crate) fn criterion_value(f: &DMatrix<f64>, c: Criterion) -> f64 {
     let Some(ch) = f.clone().cholesky() else {
         return f64::INFINITY;
     };
@@ -38,7 +67,7 @@ pub fn criterion_value(f: &DMatrix<f64>, c: Criterion) -> f64 {
 }
 
 /// `f0` plus `g gᵀ` for each chosen candidate.
-pub fn information(f0: &DMatrix<f64>, g: &[DVector<f64>], chosen: &[usize]) -> DMatrix<f64> {
+pub(crate) fn information(f0: &DMatrix<f64>, g: &[DVector<f64>], chosen: &[usize]) -> DMatrix<f64> {
     let mut f = f0.clone();
     for &c in chosen {
         f += &g[c] * g[c].transpose();
@@ -50,7 +79,7 @@ pub fn information(f0: &DMatrix<f64>, g: &[DVector<f64>], chosen: &[usize]) -> D
 /// minimise `criterion` of `f0 + Σ g_c g_cᵀ`. Without `repeats`, each candidate at most once
 /// (then `k` may not exceed the candidates). Ties go to the lower index, so the choice is
 /// reproducible.
-pub fn choose(
+pub(crate) fn choose(
     f0: &DMatrix<f64>,
     g: &[DVector<f64>],
     k: usize,
@@ -58,42 +87,43 @@ pub fn choose(
     criterion: Criterion,
 ) -> Vec<usize> {
     let allowed = |chosen: &[usize], c: usize| repeats || !chosen.contains(&c);
+    let outer: Vec<DMatrix<f64>> = g.iter().map(|v| v * v.transpose()).collect();
     let mut chosen: Vec<usize> = Vec::with_capacity(k);
+    let mut f = f0.clone();
     for _ in 0..k {
         let mut best: Option<(f64, usize)> = None;
-        for c in 0..g.len() {
+        for (c, o) in outer.iter().enumerate() {
             if !allowed(&chosen, c) {
                 continue;
             }
-            let mut with = chosen.clone();
-            with.push(c);
-            let v = criterion_value(&information(f0, g, &with), criterion);
+            let v = criterion_value(&(&f + o), criterion);
             if best.is_none_or(|(b, _)| v < b) {
                 best = Some((v, c));
             }
         }
         match best {
-            Some((_, c)) => chosen.push(c),
+            Some((_, c)) => {
+                chosen.push(c);
+                f += &outer[c];
+            }
             None => break,
         }
     }
-    // Exchange passes.
-    let mut current = criterion_value(&information(f0, g, &chosen), criterion);
+    // Exchange passes. The information without a slot's measurement is recomputed from `f0`
+    // after each exchange, so that rounding does not accumulate.
+    let mut current = criterion_value(&f, criterion);
     for _ in 0..MAX_PASSES {
         let mut changed = false;
         for slot in 0..chosen.len() {
+            let mut others = chosen.clone();
+            others.remove(slot);
+            let without = information(f0, g, &others);
             let mut best: Option<(f64, usize)> = None;
-            for c in 0..g.len() {
-                if c == chosen[slot] {
+            for (c, o) in outer.iter().enumerate() {
+                if c == chosen[slot] || !allowed(&others, c) {
                     continue;
                 }
-                let mut others = chosen.clone();
-                others.remove(slot);
-                if !allowed(&others, c) {
-                    continue;
-                }
-                others.push(c);
-                let v = criterion_value(&information(f0, g, &others), criterion);
+                let v = criterion_value(&(&without + o), criterion);
                 // A relative margin, so that rounding cannot swap back and forth.
                 if v < current - 1e-12 * current.abs().max(1.0) && best.is_none_or(|(b, _)| v < b) {
                     best = Some((v, c));
@@ -111,6 +141,853 @@ pub fn choose(
     }
     chosen.sort_unstable();
     chosen
+}
+
+/// `k` measurements spread uniformly over `n` candidates: the i-th (from 0) at candidate
+/// `⌊(i + ½) n / k⌋`, as counts per candidate (each candidate `k / n` times when `n` divides
+/// `k`; for `k < n`, the middles of `k` equal runs of the candidates in order).
+pub fn uniform(n: usize, k: usize) -> Vec<usize> {
+    let mut counts = vec![0; n];
+    if n == 0 {
+        return counts;
+    }
+    for i in 0..k {
+        let c = ((2 * i + 1) * n) / (2 * k);
+        counts[c.min(n - 1)] += 1;
+    }
+    counts
+}
+
+/// Counts per candidate of a list of chosen indices.
+fn counts(n: usize, chosen: &[usize]) -> Vec<usize> {
+    let mut c = vec![0; n];
+    for &i in chosen {
+        c[i] += 1;
+    }
+    c
+}
+
+/// Indices with their repeats from counts.
+fn indices(counts: &[usize]) -> Vec<usize> {
+    counts
+        .iter()
+        .enumerate()
+        .flat_map(|(i, &c)| std::iter::repeat_n(i, c))
+        .collect()
+}
+
+/// The inverse of an information matrix (NaN where it is singular).
+fn covariance(f: &DMatrix<f64>) -> DMatrix<f64> {
+    match f.clone().cholesky() {
+        Some(ch) => ch.inverse(),
+        None => DMatrix::from_element(f.nrows(), f.ncols(), f64::NAN),
+    }
+}
+
+/// A design's numbers in the fit coordinates ([`plan`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Per candidate, how many times the design measures it (summing to K).
+    pub chosen: Vec<usize>,
+    /// Per candidate, how many times K uniform measurements measure it.
+    pub uniform: Vec<usize>,
+    /// The covariance now, `F0⁻¹`.
+    pub current: DMatrix<f64>,
+    /// The covariance expected after the design's measurements.
+    pub expected: DMatrix<f64>,
+    /// The covariance expected after the uniform ones.
+    pub uniform_cov: DMatrix<f64>,
+    /// The criterion's value now, after the design and after the uniform measurements.
+    pub criterion: [f64; 3],
+    /// Each candidate's information `g_cᵀ F0⁻¹ g_c`.
+    pub information: Vec<f64>,
+}
+
+/// The design of `k` new measurements over the candidates `g` (sensitivities per unit σ, in the
+/// fit coordinates) given the current information `f0`, with the uniform spread beside it.
+pub fn plan(
+    f0: &DMatrix<f64>,
+    g: &[DVector<f64>],
+    k: usize,
+    repeats: bool,
+    criterion: Criterion,
+) -> Plan {
+    let n = g.len();
+    let chosen = counts(n, &choose(f0, g, k, repeats, criterion));
+    let uni = uniform(n, k);
+    let f_design = information(f0, g, &indices(&chosen));
+    let f_uniform = information(f0, g, &indices(&uni));
+    let current = covariance(f0);
+    let information = g
+        .iter()
+        .map(|v| (v.transpose() * &current * v)[(0, 0)])
+        .collect();
+    Plan {
+        criterion: [
+            criterion_value(f0, criterion),
+            criterion_value(&f_design, criterion),
+            criterion_value(&f_uniform, criterion),
+        ],
+        chosen,
+        uniform: uni,
+        current,
+        expected: covariance(&f_design),
+        uniform_cov: covariance(&f_uniform),
+        information,
+    }
+}
+
+/// Most measurements a design adds.
+pub(crate) const MAX_ADD: usize = 10_000;
+
+/// Most candidates (each costs 2 + free keys forward runs).
+pub(crate) const MAX_CANDIDATES: usize = 10_000;
+
+/// What a design minimises, as asked for.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub enum Target {
+    /// The determinant of the covariance (D-optimal).
+    #[default]
+    D,
+    /// The sum of the variances in the fit coordinates (A-optimal).
+    A,
+    /// The variance of one free key (the key).
+    Key(String),
+}
+
+impl Target {
+    /// `D`, `A` or a key, as typed.
+    pub fn parse(text: &str) -> Target {
+        match text.trim() {
+            "D" | "d" => Target::D,
+            "A" | "a" => Target::A,
+            k => Target::Key(k.to_string()),
+        }
+    }
+
+    fn shown(&self) -> String {
+        match self {
+            Target::D => "D".into(),
+            Target::A => "A".into(),
+            Target::Key(k) => k.clone(),
+        }
+    }
+}
+
+/// What to design.
+#[derive(Debug, Clone)]
+pub struct DesignRequest {
+    /// The fit's folder (`fit.json`, `fitted.toml`, `residuals.csv`).
+    pub fit: PathBuf,
+    /// The candidates' axes (the Cartesian grid, first key slowest).
+    pub candidates: Vec<Axis>,
+    /// Measurements to add (K).
+    pub add: usize,
+    /// The expected σ of a new measurement: `2%` (relative to the prediction) or a value in the
+    /// observable's unit (units allowed); `None`: the data's median relative σ.
+    pub sigma: Option<String>,
+    /// The criterion.
+    pub criterion: Target,
+    /// Whether a candidate may be measured more than once.
+    pub repeats: bool,
+    /// Threads (0: one per core).
+    pub jobs: usize,
+}
+
+impl DesignRequest {
+    /// A request with the defaults: D-optimal, repeats allowed, the data's median relative σ.
+    pub fn new(fit: PathBuf, candidates: Vec<Axis>, add: usize) -> DesignRequest {
+        DesignRequest {
+            fit,
+            candidates,
+            add,
+            sigma: None,
+            criterion: Target::D,
+            repeats: true,
+            jobs: 0,
+        }
+    }
+}
+
+/// One candidate of the report (`design.csv`'s row).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CandidateRow {
+    /// The conditions, in the order of [`DesignReport::conditions`] (SI).
+    pub conditions: Vec<Cell>,
+    /// The model at the estimate (the observable's unit).
+    pub value: f64,
+    /// The expected σ of a measurement there.
+    pub sigma_measurement: f64,
+    /// The σ of the prediction there from the fit's covariance (linear propagation).
+    pub sigma_prediction: f64,
+    /// `(sigma_prediction / sigma_measurement)²`.
+    pub information: f64,
+    /// Times the design measures it.
+    pub repeats: usize,
+    /// Times K uniform measurements measure it.
+    pub uniform_repeats: usize,
+}
+
+/// A chosen candidate.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Chosen {
+    /// Its conditions, `{key: value}` (SI).
+    pub conditions: std::collections::BTreeMap<String, Cell>,
+    /// Times to measure it.
+    pub repeats: usize,
+    /// Its row in `design.csv` (from 1, after the header).
+    pub row: usize,
+}
+
+/// The criterion's value now, after the design and after uniform measurements (in the fit
+/// coordinates: `−ln det F`, `trace F⁻¹` or `(F⁻¹)_jj`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CriterionValues {
+    /// With the fit's data.
+    pub current: f64,
+    /// After the design's measurements.
+    pub expected: f64,
+    /// After K uniform measurements.
+    pub uniform: f64,
+}
+
+/// What `design` reports (`design.json`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DesignReport {
+    /// `D`, `A` or the key whose variance is minimised.
+    pub criterion: String,
+    /// Measurements added (K).
+    pub add: usize,
+    /// Whether repeats were allowed.
+    pub repeats: bool,
+    /// The observable (as named in sweep.csv).
+    pub observable: String,
+    /// Its SI unit.
+    pub unit: String,
+    /// The expected σ of a new measurement: `{"relative": r}` or `{"absolute": σ}` (the
+    /// observable's unit).
+    pub sigma_measurement: std::collections::BTreeMap<String, f64>,
+    /// Where that σ came from: `sigma` (given) or `data` (the data's median relative σ).
+    pub sigma_measurement_from: String,
+    /// The free keys, in the fit's order.
+    pub keys: Vec<String>,
+    /// Their units.
+    pub key_units: Vec<String>,
+    /// The candidates' condition columns.
+    pub conditions: Vec<ConditionColumn>,
+    /// The candidates to measure, with how many times.
+    pub chosen: Vec<Chosen>,
+    /// σ of each key now (the fit's), in its unit.
+    pub current_sigma: std::collections::BTreeMap<String, f64>,
+    /// σ of each key expected after the design's measurements.
+    pub expected_sigma: std::collections::BTreeMap<String, f64>,
+    /// σ of each key expected after K measurements spread uniformly over the candidates.
+    pub uniform_sigma: std::collections::BTreeMap<String, f64>,
+    /// Correlations now (rows and columns in the order of `keys`).
+    pub current_correlation: Vec<Vec<f64>>,
+    /// Correlations expected after the design.
+    pub expected_correlation: Vec<Vec<f64>>,
+    /// Correlations expected after the uniform measurements.
+    pub uniform_correlation: Vec<Vec<f64>>,
+    /// The criterion's values.
+    pub criterion_value: CriterionValues,
+    /// Every candidate.
+    pub candidates: Vec<CandidateRow>,
+    /// Forward runs made.
+    pub forward_runs: usize,
+    /// What the numbers need said.
+    pub notes: Vec<String>,
+}
+
+/// The expected σ of a new measurement.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Noise {
+    Relative(f64),
+    Absolute(f64),
+}
+
+/// What [`check`] makes of a request and its fit.
+struct Checked {
+    fit: FitFolder,
+    criterion: Criterion,
+    noise: Noise,
+    from_data: bool,
+    points: usize,
+}
+
+/// The data's median relative σ (`sigma / |observed|` over the rows with both), if any.
+fn median_relative(fit: &FitFolder) -> Option<f64> {
+    let mut r: Vec<f64> = fit
+        .data
+        .rows
+        .iter()
+        .filter_map(|row| {
+            let s = row.sigma?;
+            (row.observed != 0.0 && row.observed.is_finite() && s.is_finite() && s > 0.0)
+                .then(|| s / row.observed.abs())
+        })
+        .collect();
+    if r.is_empty() {
+        return None;
+    }
+    r.sort_by(f64::total_cmp);
+    let m = r.len();
+    Some(if m % 2 == 1 {
+        r[m / 2]
+    } else {
+        0.5 * (r[m / 2 - 1] + r[m / 2])
+    })
+}
+
+/// Refuse what a design cannot do before a forward run: the fit's folder, K, the candidates,
+/// the criterion and the σ of the new measurements (each named with its value and what is
+/// allowed, as `«name=value»`).
+fn checked(req: &DesignRequest) -> Result<Checked, Error> {
+    let bad = |name: &str, value: &str, m: String| {
+        Error::Invalid(format!("{}: {m}", input_value(name, value)))
+    };
+    if req.add < 1 || req.add > MAX_ADD {
+        return Err(bad(
+            "add",
+            &req.add.to_string(),
+            format!("must be a whole number from 1 to {MAX_ADD} (new measurements to choose)"),
+        ));
+    }
+    if req.candidates.is_empty() {
+        return Err(Error::Invalid(format!(
+            "no {} given: give the conditions one could measure as KEY=SPEC (e.g. \
+             base.frequency=200:500:7 base.amplitude=5um:100um:20)",
+            input("candidates")
+        )));
+    }
+    let fit = FitFolder::read(&req.fit)?;
+    refuse_free_axes(&fit, &req.candidates, &|a| input_value("candidates", a))?;
+    let shown: Vec<String> = req.candidates.iter().map(Axis::shown).collect();
+    let all = shown.join(" ");
+    let points = crate::sweep::grid::Grid::new(req.candidates.clone(), false)
+        .map_err(Error::Spec)?
+        .points();
+    if points < 2 {
+        return Err(bad(
+            "candidates",
+            &all,
+            "the candidates are one point: give a key two values or more (a list or a range) \
+             to choose among"
+                .into(),
+        ));
+    }
+    if points > MAX_CANDIDATES {
+        return Err(bad(
+            "candidates",
+            &all,
+            format!(
+                "{points} candidates: at most {MAX_CANDIDATES} (each costs {} forward runs)",
+                2 + fit.free.len()
+            ),
+        ));
+    }
+    if !req.repeats && req.add > points {
+        return Err(bad(
+            "add",
+            &req.add.to_string(),
+            format!(
+                "with {} at most the {points} candidates (each measured once); allow repeats or \
+                 add candidates",
+                input("no_repeats")
+            ),
+        ));
+    }
+    let criterion = match &req.criterion {
+        Target::D => Criterion::D,
+        Target::A => Criterion::A,
+        Target::Key(k) => match fit.free.iter().position(|f| f.key.to_string() == *k) {
+            Some(j) => Criterion::Key(j),
+            None => {
+                return Err(bad(
+                    "criterion",
+                    k,
+                    format!(
+                        "must be D, A or a free key of the fit ({})",
+                        fit.free
+                            .iter()
+                            .map(|f| f.key.to_string())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                ))
+            }
+        },
+    };
+    for (j, f) in fit.free.iter().enumerate() {
+        if !fit.cov_y[(j, j)].is_finite() {
+            return Err(Error::Invalid(format!(
+                "{}: the fit gave {} no sigma (see its notes): a design needs the covariance of \
+                 every free key; fit again with data that fix it, or with it fixed",
+                input_value("fit", &req.fit.display().to_string()),
+                f.key
+            )));
+        }
+    }
+    let (noise, from_data) = match &req.sigma {
+        Some(text) => {
+            let t = text.trim();
+            let noise = if let Some(pc) = t.strip_suffix('%') {
+                match pc.trim().parse::<f64>() {
+                    Ok(p) if p.is_finite() && p > 0.0 && p <= 1000.0 => Noise::Relative(p / 100.0),
+                    _ => {
+                        return Err(bad(
+                            "sigma",
+                            text,
+                            "a relative sigma must be a percentage above 0 and at most 1000 % \
+                             (e.g. 2%)"
+                                .into(),
+                        ))
+                    }
+                }
+            } else {
+                let unit = fit.observable.unit();
+                match djkr_core::units::parse_quantity("sigma", t, fit.observable.dimension()) {
+                    Ok(v) if v.is_finite() && v > 0.0 => Noise::Absolute(v),
+                    _ => {
+                        return Err(bad(
+                            "sigma",
+                            text,
+                            format!(
+                                "must be a positive value in the unit of {} ({unit}, or with \
+                                 its units) or a percentage of the prediction (e.g. 2%)",
+                                fit.observable.name()
+                            ),
+                        ))
+                    }
+                }
+            };
+            (noise, false)
+        }
+        None => match median_relative(&fit) {
+            Some(r) => (Noise::Relative(r), true),
+            None => {
+                return Err(Error::Invalid(format!(
+                    "{}: the fit's data carry no sigma, so the noise of a new measurement is not \
+                     known: give it with {} (e.g. 2% of the prediction, or a value in {})",
+                    input_value("fit", &req.fit.display().to_string()),
+                    input("sigma"),
+                    fit.observable.unit()
+                )))
+            }
+        },
+    };
+    Ok(Checked {
+        fit,
+        criterion,
+        noise,
+        from_data,
+        points,
+    })
+}
+
+/// Refuse a request that [`design`] would refuse before its first forward run (a folder without
+/// a fit, K, the candidates, the criterion, the σ), so that a front end can refuse it before it
+/// claims an output folder.
+pub fn check(req: &DesignRequest) -> Result<(), Error> {
+    checked(req).map(|_| ())
+}
+
+/// σ and correlations in the keys' units from a covariance in the fit coordinates (`dx` the
+/// diagonal of ∂x/∂y).
+fn in_units(cov: &DMatrix<f64>, dx: &[f64]) -> (Vec<f64>, Vec<Vec<f64>>) {
+    let k = dx.len();
+    let sigma: Vec<f64> = (0..k).map(|a| dx[a] * cov[(a, a)].sqrt()).collect();
+    // Symmetric to the bit (an inverse need not be), 1 on the diagonal.
+    let corr = (0..k)
+        .map(|a| {
+            (0..k)
+                .map(|b| {
+                    if a == b {
+                        1.0
+                    } else {
+                        0.5 * (cov[(a, b)] + cov[(b, a)]) / (cov[(a, a)] * cov[(b, b)]).sqrt()
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    (sigma, corr)
+}
+
+/// Design K new measurements from a fit ([`DesignRequest`]); `stop` abandons the runs (then
+/// [`Error::Cancelled`]), `on_run` is called as each forward run ends.
+pub fn design(
+    req: &DesignRequest,
+    stop: Option<&AtomicBool>,
+    on_run: &mut dyn FnMut(),
+) -> Result<DesignReport, Error> {
+    let Checked {
+        fit,
+        criterion,
+        noise,
+        from_data,
+        points,
+    } = checked(req)?;
+    // No ensemble: the candidates' model at the scenario's own phase.
+    let model = forward_model(
+        &fit,
+        grid_data(&req.candidates, fit.observable)?,
+        None,
+        req.jobs,
+    )?;
+    let data = model.data();
+    let at = at_estimate(&fit, &model, true, &[], stop, on_run)?;
+    let jac = at
+        .jac
+        .ok_or_else(|| Error::Invalid("the candidates' Jacobian was not computed".into()))?;
+    let k = fit.free.len();
+    let mut notes = Vec::new();
+    let mut silent = 0;
+    let mut sigma_m = Vec::with_capacity(points);
+    let g: Vec<DVector<f64>> = (0..points)
+        .map(|i| {
+            let s = match noise {
+                Noise::Relative(r) => r * at.values[i].abs(),
+                Noise::Absolute(s) => s,
+            };
+            sigma_m.push(s);
+            if s > 0.0 && s.is_finite() && (0..k).all(|j| jac[(i, j)].is_finite()) {
+                DVector::from_fn(k, |j, _| jac[(i, j)] / s)
+            } else {
+                silent += 1;
+                DVector::zeros(k)
+            }
+        })
+        .collect();
+    if silent > 0 {
+        notes.push(format!(
+            "{silent} of {points} candidates predict 0 (or a number that is not finite), where a \
+             relative sigma gives no noise: they are counted as telling nothing and not chosen; \
+             give an absolute --sigma to weigh them"
+        ));
+    }
+    let f0 = {
+        let c = &fit.cov_y;
+        let sym = DMatrix::from_fn(k, k, |a, b| 0.5 * (c[(a, b)] + c[(b, a)]));
+        match sym.cholesky() {
+            Some(ch) => ch.inverse(),
+            None => {
+                return Err(Error::Invalid(format!(
+                    "{}: the fit's covariance is not positive definite, so its information is \
+                     not known",
+                    input_value("fit", &req.fit.display().to_string())
+                )))
+            }
+        }
+    };
+    let p = plan(&f0, &g, req.add, req.repeats, criterion);
+    if !fit.converged {
+        notes.push("the fit did not converge: its estimate is the best point it met".into());
+    }
+    let y_hat: Vec<f64> = fit
+        .tr
+        .iter()
+        .zip(&fit.values)
+        .map(|(t, &x)| t.y(x))
+        .collect();
+    let dx: Vec<f64> = fit
+        .tr
+        .iter()
+        .zip(&y_hat)
+        .map(|(t, &y)| t.dx_dy(y))
+        .collect();
+    let keys: Vec<String> = fit.free.iter().map(|f| f.key.to_string()).collect();
+    let (cur_s, cur_c) = in_units(&fit.cov_y, &dx);
+    let (exp_s, exp_c) = in_units(&p.expected, &dx);
+    let (uni_s, uni_c) = in_units(&p.uniform_cov, &dx);
+    let map = |s: &[f64]| -> std::collections::BTreeMap<String, f64> {
+        keys.iter().cloned().zip(s.iter().copied()).collect()
+    };
+    let cells = |i: usize| -> Vec<Cell> {
+        data.rows[i]
+            .conditions
+            .iter()
+            .map(|c| match c {
+                CondValue::Num(x) => Cell::Num(*x),
+                CondValue::Text(t) => Cell::Text(t.clone()),
+            })
+            .collect()
+    };
+    let conditions: Vec<ConditionColumn> = data
+        .conditions
+        .iter()
+        .map(|c| ConditionColumn {
+            key: c.key.to_string(),
+            unit: c.unit,
+        })
+        .collect();
+    let candidates: Vec<CandidateRow> = (0..points)
+        .map(|i| CandidateRow {
+            conditions: cells(i),
+            value: at.values[i],
+            sigma_measurement: sigma_m[i],
+            sigma_prediction: p.information[i].sqrt() * sigma_m[i],
+            information: p.information[i],
+            repeats: p.chosen[i],
+            uniform_repeats: p.uniform[i],
+        })
+        .collect();
+    let chosen = (0..points)
+        .filter(|&i| p.chosen[i] > 0)
+        .map(|i| Chosen {
+            conditions: conditions
+                .iter()
+                .map(|c| c.key.clone())
+                .zip(cells(i))
+                .collect(),
+            repeats: p.chosen[i],
+            row: i + 1,
+        })
+        .collect();
+    let mut sigma_measurement = std::collections::BTreeMap::new();
+    match noise {
+        Noise::Relative(r) => sigma_measurement.insert("relative".to_string(), r),
+        Noise::Absolute(s) => sigma_measurement.insert("absolute".to_string(), s),
+    };
+    Ok(DesignReport {
+        criterion: req.criterion.shown(),
+        add: req.add,
+        repeats: req.repeats,
+        observable: fit.observable.name().to_string(),
+        unit: fit.observable.unit().to_string(),
+        sigma_measurement,
+        sigma_measurement_from: if from_data { "data" } else { "sigma" }.to_string(),
+        keys: keys.clone(),
+        key_units: fit.free.iter().map(|f| f.unit.to_string()).collect(),
+        conditions,
+        chosen,
+        current_sigma: map(&cur_s),
+        expected_sigma: map(&exp_s),
+        uniform_sigma: map(&uni_s),
+        current_correlation: cur_c,
+        expected_correlation: exp_c,
+        uniform_correlation: uni_c,
+        criterion_value: CriterionValues {
+            current: p.criterion[0],
+            expected: p.criterion[1],
+            uniform: p.criterion[2],
+        },
+        candidates,
+        forward_runs: at.forward_runs,
+        notes,
+    })
+}
+
+/// The files `design` writes.
+pub const FILES: [&str; 4] = ["design.csv", "design.json", "design.png", "design.svg"];
+
+/// `design.csv`: one row per candidate: its conditions, `value`, `sigma_measurement`,
+/// `sigma_prediction` (the observable's unit), `information`, `repeats` and `uniform_repeats`,
+/// each headed `name [unit]` (SI).
+fn design_csv(r: &DesignReport) -> String {
+    use crate::output::table::format_f64;
+    let u = &r.unit;
+    let mut head: Vec<String> = r
+        .conditions
+        .iter()
+        .map(|c| match c.unit {
+            Some(unit) => format!("{} [{unit}]", c.key),
+            None => c.key.clone(),
+        })
+        .collect();
+    head.extend([
+        format!("value [{u}]"),
+        format!("sigma_measurement [{u}]"),
+        format!("sigma_prediction [{u}]"),
+        "information [1]".into(),
+        "repeats [1]".into(),
+        "uniform_repeats [1]".into(),
+    ]);
+    let mut out = head.join(",");
+    out.push('\n');
+    for row in &r.candidates {
+        let mut cells: Vec<String> = row
+            .conditions
+            .iter()
+            .map(|c| match c {
+                Cell::Num(x) => format_f64(*x),
+                Cell::Text(t) => {
+                    if t.contains([',', '"', '\n', '\r']) {
+                        format!("\"{}\"", t.replace('"', "\"\""))
+                    } else {
+                        t.clone()
+                    }
+                }
+            })
+            .collect();
+        cells.push(format_f64(row.value));
+        cells.push(format_f64(row.sigma_measurement));
+        cells.push(format_f64(row.sigma_prediction));
+        cells.push(format_f64(row.information));
+        cells.push(row.repeats.to_string());
+        cells.push(row.uniform_repeats.to_string());
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// Classes of information for the figure's colours: four equal steps of `log10` between the
+/// smallest positive and the largest information (one class when they are within a factor 2).
+fn classes(info: &[f64]) -> (Vec<Option<usize>>, Vec<(f64, f64)>) {
+    let pos: Vec<f64> = info
+        .iter()
+        .copied()
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .collect();
+    let (Some(lo), Some(hi)) = (
+        pos.iter().copied().reduce(f64::min),
+        pos.iter().copied().reduce(f64::max),
+    ) else {
+        return (vec![None; info.len()], Vec::new());
+    };
+    let m = if hi < 2.0 * lo { 1 } else { 4 };
+    let (a, b) = (lo.log10(), hi.log10());
+    let edges: Vec<f64> = (0..=m)
+        .map(|i| 10f64.powf(a + (b - a) * i as f64 / m as f64))
+        .collect();
+    let class = info
+        .iter()
+        .map(|&v| {
+            (v > 0.0 && v.is_finite()).then(|| {
+                // m = 1 also where all are equal (b − a = 0).
+                let t = if m == 1 {
+                    0.0
+                } else {
+                    (v.log10() - a) / (b - a) * m as f64
+                };
+                (t.floor().max(0.0) as usize).min(m - 1)
+            })
+        })
+        .collect();
+    let bounds = (0..m).map(|i| (edges[i], edges[i + 1])).collect();
+    (class, bounds)
+}
+
+/// The figure of a design: the candidates over their first condition that varies (numeric) and,
+/// where a second varies too, that one (else the information itself, log scale), each a marker
+/// coloured by its class of information; the chosen ones ringed. `None` without a numeric
+/// condition that takes two values.
+fn design_figure(r: &DesignReport) -> Option<crate::plot::Figure> {
+    use crate::plot::{axis_label, Figure, Series, Style};
+    use djkr_core::text::format_sig;
+    // A condition spread over more than a decade (a log-spaced grid) on a log axis.
+    let wide = |v: &[f64]| {
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        lo > 0.0 && hi > 20.0 * lo
+    };
+    let num = |c: &Cell| match c {
+        Cell::Num(x) => Some(*x),
+        Cell::Text(_) => None,
+    };
+    let varying: Vec<usize> = (0..r.conditions.len())
+        .filter(|&j| {
+            r.conditions[j].unit.is_some() && {
+                let first = r.candidates.first().and_then(|c| num(&c.conditions[j]));
+                r.candidates.iter().any(|c| num(&c.conditions[j]) != first)
+            }
+        })
+        .collect();
+    let xj = *varying.first()?;
+    let yj = varying.get(1).copied();
+    let xs: Vec<f64> = r
+        .candidates
+        .iter()
+        .map(|c| num(&c.conditions[xj]).unwrap_or(f64::NAN))
+        .collect();
+    let xkey = &r.conditions[xj];
+    let (fx, xlabel) = axis_label(&xkey.key, xkey.unit.unwrap_or(""), &xs);
+    let (ys, fy, ylabel, ylog) = match yj {
+        Some(j) => {
+            let ys: Vec<f64> = r
+                .candidates
+                .iter()
+                .map(|c| num(&c.conditions[j]).unwrap_or(f64::NAN))
+                .collect();
+            let key = &r.conditions[j];
+            let (f, label) = axis_label(&key.key, key.unit.unwrap_or(""), &ys);
+            (ys, f, label, false)
+        }
+        None => (
+            r.candidates.iter().map(|c| c.information).collect(),
+            1.0,
+            "information of one measurement (1)".to_string(),
+            true,
+        ),
+    };
+    let info: Vec<f64> = r.candidates.iter().map(|c| c.information).collect();
+    let (class, bounds) = classes(&info);
+    let total: usize = r.candidates.iter().map(|c| c.repeats).sum();
+    let title = match r.criterion.as_str() {
+        "D" | "A" => format!("{total} new measurements ({}-optimal)", r.criterion),
+        key => format!("{total} new measurements (least variance of {key})"),
+    };
+    let mut fig = Figure::new(
+        format!("{title}: the candidates by their information"),
+        xlabel,
+        ylabel,
+    )
+    .with_log(wide(&xs), ylog || wide(&ys));
+    let idx_where = |f: &dyn Fn(usize) -> bool| -> (Vec<f64>, Vec<f64>) {
+        (0..r.candidates.len())
+            .filter(|&i| f(i))
+            .map(|i| (xs[i] * fx, ys[i] * fy))
+            .unzip()
+    };
+    let none: Vec<usize> = (0..info.len()).filter(|&i| class[i].is_none()).collect();
+    if !none.is_empty() {
+        let (x, y) = idx_where(&|i| class[i].is_none());
+        fig = fig.with_series(
+            Series::new("information 0", x, y, Style::Markers).with_color(crate::plot::GREY),
+        );
+    }
+    for (c, (lo, hi)) in bounds.iter().enumerate() {
+        let (x, y) = idx_where(&|i| class[i] == Some(c));
+        if x.is_empty() {
+            continue;
+        }
+        let label = format!("information {}–{}", format_sig(*lo, 2), format_sig(*hi, 2));
+        fig = fig.with_series(Series::new(label, x, y, Style::Markers).with_color(c));
+    }
+    let (x, y) = idx_where(&|i| r.candidates[i].repeats > 0);
+    fig = fig.with_series(
+        Series::new("chosen (repeats in design.csv)", x, y, Style::Rings)
+            .with_color(crate::plot::GREY),
+    );
+    Some(fig)
+}
+
+/// Write `design.csv`, `design.json` and the figure (`design.png`, `design.svg`) into `out`,
+/// each atomically; the JSON text is returned (`--json` prints it). Without a numeric condition
+/// that varies no figure is drawn (a note in the report says so).
+pub fn write(r: &mut DesignReport, out: &Path) -> Result<String, Error> {
+    let fig = design_figure(r);
+    if fig.is_none() {
+        r.notes.push(
+            "no figure: no numeric condition takes two values among the candidates".to_string(),
+        );
+    }
+    let json = serde_json::to_string_pretty(r).map_err(|e| Error::NonFinite(e.to_string()))?;
+    let put = |name: &str, bytes: &[u8]| -> Result<(), Error> {
+        crate::output::write_atomic(&out.join(name), bytes).map_err(|e| Error::Output {
+            input: None,
+            context: Some(name.to_string()),
+            error: e,
+        })
+    };
+    put("design.csv", design_csv(r).as_bytes())?;
+    put("design.json", format!("{json}\n").as_bytes())?;
+    if let Some(fig) = fig {
+        crate::plot::render(&fig, &out.join("design"))
+            .map_err(|e| Error::Invalid(format!("design.png/design.svg: {e}")))?;
+    }
+    Ok(json)
 }
 
 #[cfg(test)]
@@ -166,3 +1043,8 @@ mod tests {
         assert_eq!(c, vec![10, 10, 10]);
     }
 }
+
+/// The straight line, whose optimal designs and covariances are known in closed form.
+#[cfg(test)]
+#[path = "design_tests.rs"]
+mod closed_form_tests;

@@ -128,7 +128,7 @@ fn check_start_chi2(
 
 /// Refuse a starting value outside its key's bounds, and bounds too far from it for the fit's
 /// coordinate (before anything runs).
-pub fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
+pub(crate) fn check_start(free: &[FreeKey], x0: &[f64]) -> Result<(), FitError> {
     for (f, &x) in free.iter().zip(x0) {
         let given = djkr_core::text::excerpt(&f.given);
         let t = Transform::new(f, x);
@@ -391,7 +391,7 @@ fn settle(
 }
 
 /// Fit the free keys `free` (starting at `x0`, SI) of `model` to its data.
-pub fn fit(
+pub(crate) fn fit(
     model: &ForwardModel,
     free: &[FreeKey],
     x0: &[f64],

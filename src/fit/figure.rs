@@ -256,7 +256,7 @@ pub fn fit_curves(
 
 /// The two panels of a fit's figure: data and model above, residuals below (render them with
 /// [`crate::plot::render_panels`] in one column).
-pub fn fit_figure(
+pub(crate) fn fit_figure(
     model: &ForwardModel,
     outcome: &FitOutcome,
     curves: Option<&Curves>,

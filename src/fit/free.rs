@@ -173,7 +173,7 @@ pub fn physical(key: &SetKey) -> bool {
 
 /// Every key a fit can free, as `--free` takes it (`stage[N].speed` for the stages' keys), in
 /// the order of the scenario format: the numeric keys of [`physical`].
-pub fn fittable_keys() -> Vec<String> {
+pub(crate) fn fittable_keys() -> Vec<String> {
     use crate::scenario::keys::{Kind, KEYS, STAGE_SECTION};
     KEYS.iter()
         .filter(|k| matches!(k.kind, Kind::Number(_)))

@@ -22,15 +22,15 @@
 
 pub(crate) mod analysis;
 pub(crate) mod data;
-pub mod design;
+pub(crate) mod design;
 pub(crate) mod driver;
-pub mod figure;
-pub mod files;
+pub(crate) mod figure;
+pub(crate) mod files;
 pub(crate) mod free;
 pub(crate) mod lm;
 pub(crate) mod model;
 pub(crate) mod optimiser;
-pub mod predict;
+pub(crate) mod predict;
 pub(crate) mod problem;
 pub(crate) mod report;
 pub(crate) mod starts;
@@ -39,12 +39,12 @@ pub(crate) mod tolerance;
 pub(crate) mod uncertainty;
 
 pub use data::{FitData, Observable};
-pub use driver::{check_start, fit};
-pub use figure::fit_figure;
-pub use free::{fittable_keys, FreeKey};
+pub(crate) use driver::{check_start, fit};
+pub(crate) use free::fittable_keys;
+pub use free::FreeKey;
 pub use model::ForwardModel;
-pub use model::{expected_runs, sets_per_iteration};
-pub use problem::fd_step;
+pub(crate) use model::{expected_runs, sets_per_iteration};
+pub use predict::{FitFolder, PredictReport, PredictRequest};
 pub use report::{
     FitError, FitEvent, FitOptions, FitOutcome, FitReport, Parameter, StartReport, Tolerances,
 };
@@ -73,7 +73,7 @@ fn toml_number(v: &toml::Value, key: &SetKey, dim: Dimension) -> Result<f64, Str
 /// The starting value (SI) of a free key: the `--set` override's if one sets it, else the
 /// scenario file's. A key the file does not give has no starting value (the parser's default is
 /// not a measured value): the message says to give one with `--set`.
-pub fn initial_value(
+pub(crate) fn initial_value(
     source: &ScenarioSource,
     fixed: &[Override],
     free: &FreeKey,
@@ -116,7 +116,7 @@ pub fn initial_value(
 /// named (relative to the scenario file), so that the fitted file runs from any folder. `djkr run`
 /// of it with a data row's conditions as `--set` reproduces that row's fitted value (the numbers
 /// are written in shortest round-trip form).
-pub fn fitted_toml(
+pub(crate) fn fitted_toml(
     source: &ScenarioSource,
     fixed: &[Override],
     free: &[FreeKey],
@@ -253,7 +253,7 @@ fn toml_float(x: f64) -> String {
 /// `sigma` (the file's; empty without), with an ensemble `ensemble_se` (the standard error of
 /// the members' mean at the estimate), `fitted`, `residual` (= observed − fitted) and
 /// `normalized_residual` (residual over the σ the row was weighted with).
-pub fn residuals_csv(model: &ForwardModel, outcome: &FitOutcome) -> String {
+pub(crate) fn residuals_csv(model: &ForwardModel, outcome: &FitOutcome) -> String {
     let data = model.data();
     let u = data.observable.unit();
     let mut head: Vec<String> = data
@@ -301,7 +301,7 @@ pub fn residuals_csv(model: &ForwardModel, outcome: &FitOutcome) -> String {
 
 /// A column of the residuals' table.
 #[derive(Debug, Clone, PartialEq)]
-pub enum ResidualColumn {
+pub(crate) enum ResidualColumn {
     /// Numbers (SI; NaN for a sigma the file does not give).
     Num(Vec<f64>),
     /// A text condition's cells.
@@ -309,7 +309,7 @@ pub enum ResidualColumn {
 }
 
 /// The columns of `residuals.csv` (named as its header), for Python's DataFrame.
-pub fn residual_columns(
+pub(crate) fn residual_columns(
     model: &ForwardModel,
     outcome: &FitOutcome,
 ) -> Vec<(String, ResidualColumn)> {

@@ -497,7 +497,7 @@ impl ForwardModel {
 /// Parameter sets a typical iteration evaluates (the trial step and the Jacobian's) with `k`
 /// free keys: `k + 1` with forward differences, `2k + 1` with an ensemble's central ones; for a
 /// progress bar's length.
-pub fn sets_per_iteration(members: usize, k: usize) -> usize {
+pub(crate) fn sets_per_iteration(members: usize, k: usize) -> usize {
     if members > 1 {
         2 * k + 1
     } else {
@@ -507,7 +507,7 @@ pub fn sets_per_iteration(members: usize, k: usize) -> usize {
 
 /// Forward runs a fit is expected to take (for progress): the start, and per start about 8
 /// iterations of [`sets_per_iteration`], and the check of the uncertainties.
-pub fn expected_runs(model: &ForwardModel, k: usize, starts: usize) -> usize {
+pub(crate) fn expected_runs(model: &ForwardModel, k: usize, starts: usize) -> usize {
     let per_set = model.runs_per_set();
     per_set * (1 + starts.max(1) * 8 * sets_per_iteration(model.members(), k) + 2 * k)
 }

@@ -154,6 +154,51 @@ pub struct PredictReport {
     pub notes: Vec<String>,
 }
 
+impl PredictReport {
+    /// The columns of `prediction.csv` (its header's names, `name [unit]`): a condition with
+    /// a unit as numbers (SI), one without as text, the value, σ and bands as numbers (NaN where
+    /// null).
+    pub fn columns(&self) -> Vec<(String, crate::api::Column)> {
+        use crate::api::Column;
+        let conditions = self.conditions.len();
+        csv_header(self)
+            .into_iter()
+            .enumerate()
+            .map(|(j, name)| {
+                let column = if j >= conditions {
+                    Column::Num(
+                        self.rows
+                            .iter()
+                            .map(|row| row_numbers(self, row)[j - conditions].unwrap_or(f64::NAN))
+                            .collect(),
+                    )
+                } else if self.conditions[j].unit.is_some() {
+                    Column::Num(
+                        self.rows
+                            .iter()
+                            .map(|row| match &row.conditions[j] {
+                                Cell::Num(x) => *x,
+                                Cell::Text(_) => f64::NAN,
+                            })
+                            .collect(),
+                    )
+                } else {
+                    Column::Text(
+                        self.rows
+                            .iter()
+                            .map(|row| match &row.conditions[j] {
+                                Cell::Text(t) => t.clone(),
+                                Cell::Num(x) => x.to_string(),
+                            })
+                            .collect(),
+                    )
+                };
+                (name, column)
+            })
+            .collect()
+    }
+}
+
 /// One parameter of `fit.json`, as read back.
 #[derive(Debug, Clone, Deserialize)]
 struct FitParameter {
@@ -480,7 +525,7 @@ pub fn row(
 }
 
 /// The grid's data: one row per grid point, the axes as conditions (observed 0, no sigma).
-fn grid_data(axes: &[Axis], observable: Observable) -> Result<FitData, Error> {
+pub(crate) fn grid_data(axes: &[Axis], observable: Observable) -> Result<FitData, Error> {
     let grid = Grid::new(axes.to_vec(), false).map_err(Error::Spec)?;
     let conditions: Vec<Condition> = grid
         .axes()
@@ -531,12 +576,10 @@ fn observable_of(name: Option<&str>, fit: &FitFolder) -> Result<Observable, Erro
     })
 }
 
-/// What a request makes of a fit before anything runs: the observable, the ensemble, the
-/// grid's data and the model over it.
+/// What a request makes of a fit before anything runs: the observable and the model over the
+/// grid's data (with the ensemble, the request's or the fit's).
 struct Prepared {
     observable: Observable,
-    ensemble: Option<(usize, u64)>,
-    data: FitData,
     model: ForwardModel,
 }
 
@@ -563,16 +606,7 @@ fn prepare(fit: &FitFolder, req: &PredictRequest) -> Result<Prepared, Error> {
             )));
         }
     }
-    for a in &req.grid {
-        if fit.free.iter().any(|f| f.key == a.key) {
-            return Err(Error::Invalid(format!(
-                "{}: {} is a key the fit estimated, not a condition: its value is the fit's \
-                 estimate",
-                crate::words::axis_item(&a.shown()),
-                a.key
-            )));
-        }
-    }
+    refuse_free_axes(fit, &req.grid, &crate::words::axis_item)?;
     if let (Some(s), 0, None) = (req.seed, req.samples, req.ensemble) {
         return Err(Error::Invalid(format!(
             "{}: seeds the draws of {} and the phases of {}; give one of them",
@@ -581,65 +615,85 @@ fn prepare(fit: &FitFolder, req: &PredictRequest) -> Result<Prepared, Error> {
             input("ensemble")
         )));
     }
-    let ensemble = req.ensemble.or(fit.ensemble);
     let mut data = if req.grid.is_empty() {
         fit.data.clone()
     } else {
         grid_data(&req.grid, observable)?
     };
     data.observable = observable;
-    let keys: Vec<SetKey> = fit.free.iter().map(|f| f.key).collect();
-    let model = ForwardModel::new(
-        fit.source.clone(),
-        data.clone(),
-        keys,
-        Vec::new(),
-        ensemble,
-        req.jobs,
-    )
-    .map_err(Error::Invalid)?;
-    Ok(Prepared {
-        observable,
-        ensemble,
-        data,
-        model,
-    })
+    let model = forward_model(fit, data, req.ensemble.or(fit.ensemble), req.jobs)?;
+    Ok(Prepared { observable, model })
 }
 
-/// Predict with uncertainty from the fit `fit` over a grid ([`PredictRequest`]); `stop`
-/// abandons the runs (then [`Error::Cancelled`]), `on_run` is called as each forward run ends.
-pub fn predict(
+/// The model of a fit's estimate over the rows of `data`, and what else [`at_estimate`] was
+/// asked for.
+pub(crate) struct AtEstimate {
+    /// The model at the estimate per row (SI), at the scenario's tolerances (`fitted.toml`'s),
+    /// as the fit's residuals are: the members' mean with an ensemble.
+    pub values: Vec<f64>,
+    /// The standard error of each value over the ensemble's members (0 without an ensemble).
+    pub se: Vec<f64>,
+    /// With `jacobian`: ∂prediction/∂y per row and free key (rows × keys), in the fit
+    /// coordinates, the fit's own Jacobian at the fit's tolerances.
+    pub jac: Option<DMatrix<f64>>,
+    /// The model at each of the `extra` points of the fit coordinates (rows each).
+    pub extra: Vec<Vec<f64>>,
+    /// Forward runs made.
+    pub forward_runs: usize,
+}
+
+/// Refuse a grid axis that sets a key the fit estimated; `item` words the axis in the message
+/// (the input it came from).
+pub(crate) fn refuse_free_axes(
     fit: &FitFolder,
-    req: &PredictRequest,
+    axes: &[Axis],
+    item: &dyn Fn(&str) -> String,
+) -> Result<(), Error> {
+    for a in axes {
+        if fit.free.iter().any(|f| f.key == a.key) {
+            return Err(Error::Invalid(format!(
+                "{}: {} is a key the fit estimated, not a condition: its value is the fit's \
+                 estimate",
+                item(&a.shown()),
+                a.key
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The forward model of the fit in `fit` over the rows of `data` (their conditions set on
+/// `fitted.toml`, the fit's free keys), each value the mean of an ensemble `(members, seed)` if
+/// given; `jobs` threads (0: one per core).
+pub(crate) fn forward_model(
+    fit: &FitFolder,
+    data: FitData,
+    ensemble: Option<(usize, u64)>,
+    jobs: usize,
+) -> Result<ForwardModel, Error> {
+    let keys: Vec<SetKey> = fit.free.iter().map(|f| f.key).collect();
+    ForwardModel::new(fit.source.clone(), data, keys, Vec::new(), ensemble, jobs)
+        .map_err(Error::Invalid)
+}
+
+/// The model `model` of the fit in `fit` ([`forward_model`]) at its estimate, with `jacobian`
+/// its gradient against the free keys as the fit computes it ([`Evaluator::jacobian_y`]:
+/// forward differences of step `√ε`, ε the error level of the fit's tolerances, widened where a
+/// column does not stand above the model's error; with an ensemble of two members or more, the
+/// fit's central differences whose steps widen above the members' noise,
+/// [`super::stencil`]), and the model at the points `extra` of the fit coordinates (at the
+/// fit's tolerances). Shared by `predict` and `design`; `stop` abandons the runs
+/// ([`Error::Cancelled`]), `on_run` is called as each forward run ends.
+pub(crate) fn at_estimate(
+    fit: &FitFolder,
+    model: &ForwardModel,
+    jacobian: bool,
+    extra: &[Vec<f64>],
     stop: Option<&AtomicBool>,
     on_run: &mut dyn FnMut(),
-) -> Result<PredictReport, Error> {
-    let Prepared {
-        observable,
-        ensemble,
-        data,
-        model,
-    } = prepare(fit, req)?;
-    let mut notes = Vec::new();
-    let seed = req.seed.unwrap_or(0);
-    let members = ensemble.map_or(1, |e| e.0);
-    let n = data.rows.len();
-    if observable != fit.observable {
-        notes.push(format!(
-            "{} predicted from a fit of {}: the bands carry the uncertainty of the fitted keys \
-             only, as far as the model holds for this quantity; the figure draws no data",
-            observable.name(),
-            fit.observable.name()
-        ));
-    }
-    if members == 1 && ensemble.is_some() {
-        notes.push(
-            "the fit's ensemble has 1 member: each value is the run at its drawn phase, and \
-             sigma_ensemble (0) does not measure the phases' spread: predict with an ensemble \
-             of 2 members or more for it"
-                .into(),
-        );
-    }
+) -> Result<AtEstimate, Error> {
+    let n = model.data().rows.len();
+    let members = model.ensemble().map_or(1, |e| e.0);
     let scn = fit
         .source
         .scenario(&[])
@@ -693,7 +747,7 @@ pub fn predict(
         EvalError::Failed(m) => Error::Invalid(m),
     };
     let value = ev
-        .predict_on(&model, std::slice::from_ref(&fit.values))
+        .predict_on(model, std::slice::from_ref(&fit.values))
         .map_err(failed)?
         .pop()
         .ok_or(Error::Cancelled)?;
@@ -704,20 +758,89 @@ pub fn predict(
     if members > 1 {
         ev.set_noise(value.se.clone());
     }
+    let jac = if jacobian {
+        Some(ev.jacobian_y(&y_hat).map_err(failed)?)
+    } else {
+        None
+    };
+    let extra = if extra.is_empty() {
+        Vec::new()
+    } else {
+        ev.predict_y(extra)
+            .map_err(failed)?
+            .into_iter()
+            .map(|p| p.values)
+            .collect()
+    };
+    let forward_runs = ev.st.borrow().runs;
+    Ok(AtEstimate {
+        values: value.values,
+        se: value.se,
+        jac,
+        extra,
+        forward_runs,
+    })
+}
+
+/// Predict with uncertainty from the fit `fit` over a grid ([`PredictRequest`]); `stop`
+/// abandons the runs (then [`Error::Cancelled`]), `on_run` is called as each forward run ends.
+pub fn predict(
+    fit: &FitFolder,
+    req: &PredictRequest,
+    stop: Option<&AtomicBool>,
+    on_run: &mut dyn FnMut(),
+) -> Result<PredictReport, Error> {
+    let Prepared { observable, model } = prepare(fit, req)?;
+    let ensemble = model.ensemble();
+    let data = model.data();
+    let mut notes = Vec::new();
+    let seed = req.seed.unwrap_or(0);
+    let members = ensemble.map_or(1, |e| e.0);
+    let n = data.rows.len();
+    if observable != fit.observable {
+        notes.push(format!(
+            "{} predicted from a fit of {}: the bands carry the uncertainty of the fitted keys \
+             only, as far as the model holds for this quantity; the figure draws no data",
+            observable.name(),
+            fit.observable.name()
+        ));
+    }
+    if members == 1 && ensemble.is_some() {
+        notes.push(
+            "the fit's ensemble has 1 member: each value is the run at its drawn phase, and \
+             sigma_ensemble (0) does not measure the phases' spread: predict with an ensemble \
+             of 2 members or more for it"
+                .into(),
+        );
+    }
     let has_sigma: Vec<bool> = (0..fit.free.len())
         .map(|j| fit.cov_y[(j, j)].is_finite())
         .collect();
-    let sigma_p: Vec<Option<f64>> = if has_sigma.iter().any(|&h| h) {
-        let jac = ev.jacobian_y(&y_hat).map_err(failed)?;
-        propagate(&jac, &fit.cov_y).into_iter().map(Some).collect()
+    let any_sigma = has_sigma.iter().any(|&h| h);
+    let ys = if req.samples > 0 {
+        let y_hat: Vec<f64> = fit
+            .tr
+            .iter()
+            .zip(&fit.values)
+            .map(|(t, &x)| t.y(x))
+            .collect();
+        draws(&y_hat, &fit.cov_y, req.samples, seed)
     } else {
-        notes.push(
-            "no key of the fit has a sigma (see the fit's notes): the prediction has none".into(),
-        );
-        vec![None; n]
+        Vec::new()
+    };
+    let at = at_estimate(fit, &model, any_sigma, &ys, stop, on_run)?;
+    let sigma_p: Vec<Option<f64>> = match &at.jac {
+        Some(jac) => propagate(jac, &fit.cov_y).into_iter().map(Some).collect(),
+        None => {
+            notes.push(
+                "no key of the fit has a sigma (see the fit's notes): the prediction has none"
+                    .into(),
+            );
+            vec![None; n]
+        }
     };
     for (j, f) in fit.free.iter().enumerate() {
-        if !has_sigma[j] && has_sigma.iter().any(|&h| h) {
+        if !has_sigma[j] && any_sigma {
             notes.push(format!(
                 "{}: the fit gave it no sigma; it is held at its estimate in sigma_parameters",
                 f.key
@@ -728,10 +851,7 @@ pub fn predict(
         notes.push("the fit did not converge: its estimate is the best point it met".into());
     }
     let sigma_s = if req.samples > 0 {
-        let ys = draws(&y_hat, &fit.cov_y, req.samples, seed);
-        let preds = ev.predict_y(&ys).map_err(failed)?;
-        let values: Vec<Vec<f64>> = preds.into_iter().map(|p| p.values).collect();
-        spread(&values, n)
+        spread(&at.extra, n)
     } else {
         vec![None; n]
     };
@@ -740,7 +860,7 @@ pub fn predict(
         .map(|i| {
             // With an ensemble each draw's value carries the members' noise too: the samples'
             // spread is compared with the combined sigma.
-            if let (Some(p), Some(s)) = (sigma_p[i].map(|p| p.hypot(value.se[i])), sigma_s[i]) {
+            if let (Some(p), Some(s)) = (sigma_p[i].map(|p| p.hypot(at.se[i])), sigma_s[i]) {
                 if s > DISAGREEMENT * p || p > DISAGREEMENT * s {
                     disagree += 1;
                 }
@@ -753,7 +873,7 @@ pub fn predict(
                     CondValue::Text(t) => Cell::Text(t.clone()),
                 })
                 .collect();
-            row(cells, value.values[i], sigma_p[i], value.se[i], sigma_s[i])
+            row(cells, at.values[i], sigma_p[i], at.se[i], sigma_s[i])
         })
         .collect();
     if disagree > 0 {
@@ -768,7 +888,6 @@ pub fn predict(
             }
         ));
     }
-    let forward_runs = ev.st.borrow().runs;
     Ok(PredictReport {
         observable: observable.name().to_string(),
         unit: observable.unit().to_string(),
@@ -791,7 +910,7 @@ pub fn predict(
         rows,
         samples: req.samples,
         seed,
-        forward_runs,
+        forward_runs: at.forward_runs,
         notes,
     })
 }

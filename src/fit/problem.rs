@@ -36,7 +36,7 @@ const CACHE: usize = 64;
 
 /// The forward-difference step in `y` for a model whose relative error is `eps_rel`: `√eps_rel`,
 /// kept within [1e-6, 0.1].
-pub fn fd_step(eps_rel: f64) -> f64 {
+pub(crate) fn fd_step(eps_rel: f64) -> f64 {
     eps_rel.sqrt().clamp(1e-6, 0.1)
 }
 

@@ -73,7 +73,7 @@ fn create_partial(target: &Path, tag: Option<&str>) -> Result<(File, TempPath), 
 /// committed ([`super::folder::commit`], [`super::folder::commit_all`]). Dropped uncommitted, it
 /// removes the partial.
 #[derive(Debug)]
-pub struct AtomicFile {
+pub(crate) struct AtomicFile {
     target: PathBuf,
     partial: TempPath,
     /// A file djkr appends to after publishing it (its manifest record ignores size and time).

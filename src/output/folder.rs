@@ -403,7 +403,7 @@ pub fn commit(file: AtomicFile) -> Result<PathBuf, OutputError> {
 
 /// Write one file atomically ([`super::AtomicFile`]): figures, tables, sweeps, studies. Refuses,
 /// naming it, to replace a file djkr did not write.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     commit(AtomicFile::write(path, bytes)?).map(|_| ())
 }
 

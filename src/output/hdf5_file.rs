@@ -105,8 +105,6 @@ pub enum Attr {
     F64(f64),
     /// A 64-bit integer (counts, flags 0/1).
     I64(i64),
-    /// An unsigned 64-bit integer (solver counters).
-    U64(u64),
 }
 
 impl Attr {
@@ -120,7 +118,6 @@ impl Attr {
             Attr::Text(s) => text_attr(s),
             Attr::F64(x) => AttrValue::F64(*x),
             Attr::I64(x) => AttrValue::I64(*x),
-            Attr::U64(x) => AttrValue::U64(*x),
         }
     }
 }
@@ -323,7 +320,8 @@ pub fn write_descriptions(d: &Descriptions, b: &mut FileBuilder) {
     b.add_group(g.finish());
 }
 
-/// The [`Descriptions`] of a file written by djkr (read back, for tests and readers).
+/// The [`Descriptions`] of a file written by djkr (read back, for the tests).
+#[cfg(test)]
 pub fn read_descriptions(f: &hdf5_pure::File) -> Result<Descriptions, String> {
     let read = |name: &str| {
         f.dataset(&format!("{DESCRIPTIONS_GROUP}/{name}"))
@@ -439,7 +437,9 @@ pub struct RunTables<'a> {
     pub gaps: &'a Table,
 }
 
-/// Serialise a whole run at once (layout in the module doc).
+/// Serialise a whole run at once (layout in the module doc): the tests compare it with the
+/// file the streaming writer builds.
+#[cfg(test)]
 pub fn hdf5_bytes(
     tables: RunTables,
     scenario: &Scenario,

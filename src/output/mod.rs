@@ -51,14 +51,14 @@
 //! shortcut maps, accuracy studies, figures), and every file goes to disk through [`AtomicFile`].
 
 pub(crate) mod atomic;
-pub mod cycles;
-pub mod disk;
+pub(crate) mod cycles;
+pub(crate) mod disk;
 mod error;
-pub mod folder;
-pub mod hdf5_file;
+pub(crate) mod folder;
+pub(crate) mod hdf5_file;
 mod stream;
 pub(crate) mod summary;
-pub mod table;
+pub(crate) mod table;
 
 use error::human_bytes;
 pub use error::OutputError;
@@ -69,32 +69,32 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use crate::scenario::Scenario;
-pub use atomic::AtomicFile;
+pub(crate) use atomic::AtomicFile;
 use djkr_core::dynamics::model::Model;
 use djkr_core::dynamics::StepSamples;
 use djkr_core::dynamics::{
     CycleRecord, Ending, Event, EventKind, Gap, Observer, Reason, RunResult, Sample,
 };
-pub use folder::write_atomic;
+pub(crate) use folder::write_atomic;
 use stream::{Background, Pending, Rows, Streaming};
 pub use summary::SummaryFiles;
-pub use table::{Column, CsvWriter, Field, Table};
+pub use table::{Column, Data, Field, Table};
 pub use timeseries::TimeSeriesWriter;
 
 /// File name of the HDF5 run file.
-pub const HDF5_NAME: &str = "run.h5";
+pub(crate) const HDF5_NAME: &str = "run.h5";
 /// File name of the JSON summary.
-pub const SUMMARY_NAME: &str = "summary.json";
+pub(crate) const SUMMARY_NAME: &str = "summary.json";
 /// File name of the time-series CSV.
-pub const TIMESERIES_CSV_NAME: &str = "timeseries.csv";
+pub(crate) const TIMESERIES_CSV_NAME: &str = "timeseries.csv";
 /// File name of the events CSV.
-pub const EVENTS_CSV_NAME: &str = "events.csv";
+pub(crate) const EVENTS_CSV_NAME: &str = "events.csv";
 /// File name of the per-cycle CSV.
-pub const CYCLES_CSV_NAME: &str = "cycles.csv";
+pub(crate) const CYCLES_CSV_NAME: &str = "cycles.csv";
 /// File name of the gaps CSV (the HDF5 `/gaps` group).
-pub const GAPS_CSV_NAME: &str = "gaps.csv";
+pub(crate) const GAPS_CSV_NAME: &str = "gaps.csv";
 /// The lock file a run writer holds in its output directory.
-pub const LOCK_NAME: &str = ".djkr.lock";
+pub(crate) const LOCK_NAME: &str = ".djkr.lock";
 
 /// The CSV files, written together on request.
 const CSV_NAMES: [&str; 3] = [TIMESERIES_CSV_NAME, EVENTS_CSV_NAME, CYCLES_CSV_NAME];
@@ -103,7 +103,7 @@ const CSV_NAMES: [&str; 3] = [TIMESERIES_CSV_NAME, EVENTS_CSV_NAME, CYCLES_CSV_N
 /// longer than one chunk streams, so that its writer thread starts early.
 pub const SPILL_ROWS: usize = 1 << 15;
 /// Samples per append once streaming (one chunk of every time-series dataset).
-pub const FLUSH_ROWS: usize = 1 << 15;
+pub(crate) const FLUSH_ROWS: usize = 1 << 15;
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
     move |source| OutputError::Io {
@@ -578,14 +578,17 @@ impl Observer for RunWriter {
 }
 
 /// The summary sections `sections` with `gaps` (the number of gaps in the time series) first.
-pub fn gaps_section(sections: &summary::Sections, gaps: usize) -> Vec<(String, serde_json::Value)> {
+pub(crate) fn gaps_section(
+    sections: &summary::Sections,
+    gaps: usize,
+) -> Vec<(String, serde_json::Value)> {
     let mut v = vec![("gaps".to_string(), serde_json::Value::from(gaps as u64))];
     v.extend(sections.iter().cloned());
     v
 }
 
 /// A run id unique on this machine: the start time and the process id.
-pub fn new_run_id() -> String {
+pub(crate) fn new_run_id() -> String {
     let now = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .unwrap_or_default();
@@ -596,3 +599,8 @@ pub fn new_run_id() -> String {
         std::process::id()
     )
 }
+
+#[cfg(test)]
+mod docs_reference;
+#[cfg(test)]
+mod tests;

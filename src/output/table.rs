@@ -565,6 +565,15 @@ pub struct Descriptions {
 pub const DESCRIPTIONS_GROUP: &str = "descriptions";
 
 impl Descriptions {
+    /// The description of `path`, if it has one (the tests read files back).
+    #[cfg(test)]
+    pub fn get(&self, path: &str) -> Option<&str> {
+        self.rows
+            .iter()
+            .find(|(p, _)| p == path)
+            .map(|(_, t)| t.as_str())
+    }
+
     /// No rows yet.
     pub fn new() -> Self {
         Self::default()
@@ -584,14 +593,6 @@ impl Descriptions {
             self.add(&format!("{prefix}/{}", f.name), &f.description);
         }
         self
-    }
-
-    /// The description of `path`, if it has one.
-    pub fn get(&self, path: &str) -> Option<&str> {
-        self.rows
-            .iter()
-            .find(|(p, _)| p == path)
-            .map(|(_, t)| t.as_str())
     }
 
     /// The rows, with the table's own two rows appended, as a table of columns `path` and `text`.
@@ -677,7 +678,7 @@ fn push_text(line: &mut String, s: &str) {
 /// Writes CSV with a fixed schema: the header at creation, then rows of tables with that schema,
 /// as many times as needed (streaming).
 #[derive(Debug)]
-pub struct CsvWriter<W: Write> {
+pub(crate) struct CsvWriter<W: Write> {
     out: W,
     schema: Vec<Field>,
     line: String,

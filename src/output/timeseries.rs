@@ -91,9 +91,9 @@ pub const SERIES: [SeriesColumn; 11] = [
 /// Name of the stage-index column (int64 in HDF5).
 pub const STAGE: &str = "stage";
 /// Unit of the stage index (dimensionless).
-pub const STAGE_UNIT: &str = "1";
+pub(crate) const STAGE_UNIT: &str = "1";
 /// Description of the stage index.
-pub const STAGE_DESCRIPTION: &str =
+pub(crate) const STAGE_DESCRIPTION: &str =
     "index of the protocol stage ([[stage]] in the scenario, 0-based)";
 
 /// Name of the segment-index column (int64 in HDF5).
@@ -119,13 +119,13 @@ pub fn pieces(segment: &[i64], n: usize) -> Vec<std::ops::Range<usize>> {
 }
 
 /// Description of the segment index.
-pub const SEGMENT_DESCRIPTION: &str =
+pub(crate) const SEGMENT_DESCRIPTION: &str =
     "index of the gap-free stretch of the time series the sample belongs to: 0 from the start, \
      +1 after each gap (a span envelope following skipped, listed in /gaps); never draw a line \
      between samples of different segments";
 
 /// Description of the `/gaps` group.
-pub const GAPS_DESCRIPTION: &str =
+pub(crate) const GAPS_DESCRIPTION: &str =
     "spans of the time series that envelope following jumped over (no sample inside): each gap \
      lies between two consecutive samples, where /segment steps by one";
 
@@ -137,7 +137,7 @@ impl SeriesColumn {
 }
 
 /// The time-series schema: [`SERIES`], then the stage index and the segment index (int64).
-pub fn series_schema() -> Vec<Field> {
+pub(crate) fn series_schema() -> Vec<Field> {
     let mut s: Vec<Field> = SERIES.iter().map(SeriesColumn::field).collect();
     s.push(Field::i64(STAGE, STAGE_UNIT, STAGE_DESCRIPTION));
     s.push(Field::i64(SEGMENT, "1", SEGMENT_DESCRIPTION));
@@ -146,7 +146,7 @@ pub fn series_schema() -> Vec<Field> {
 
 /// The gaps as a table: `t_start`, `t_end` (s) and `periods` (int64). The HDF5 `/gaps` group and
 /// `gaps.csv`.
-pub fn gaps_table(gaps: &[Gap]) -> Table {
+pub(crate) fn gaps_table(gaps: &[Gap]) -> Table {
     Table::from_fixed(vec![
         Column::f64(
             "t_start",
@@ -328,7 +328,7 @@ fn kind_str(kind: EventKind) -> &'static str {
 }
 
 /// Append one event to a table of the [`events_table`] schema (a run writer's buffer).
-pub fn push_event(table: &mut Table, e: &Event) {
+pub(crate) fn push_event(table: &mut Table, e: &Event) {
     let mut row = [Cell::F64(0.0); SERIES.len() + 2];
     row[0] = Cell::Text(kind_str(e.kind));
     row[1] = Cell::F64(e.time);
@@ -344,12 +344,12 @@ pub fn push_event(table: &mut Table, e: &Event) {
 }
 
 /// Description of the event `kind` column.
-pub const EVENT_KIND_DESCRIPTION: &str =
+pub(crate) const EVENT_KIND_DESCRIPTION: &str =
     "event kind: stage-start, impact, contact-loss, preload-reached, duration-elapsed, pull-off";
 
 /// The events as a table: `kind` (text), `time`, `stage`, then the state at the event (the
 /// columns of [`SERIES`] without `t`). The HDF5 `/events` group and `events.csv`.
-pub fn events_table(events: &[Event]) -> Table {
+pub(crate) fn events_table(events: &[Event]) -> Table {
     let mut columns = vec![
         Column::text(
             "kind",

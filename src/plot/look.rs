@@ -97,12 +97,6 @@ pub fn look(index: usize, dashed: bool) -> Look {
     }
 }
 
-/// Palette colour `index` as (r, g, b) ([`GREY`] is grey).
-pub fn rgb(index: usize) -> (u8, u8, u8) {
-    let c = look(index, false).color;
-    (c.0, c.1, c.2)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,6 +120,7 @@ mod tests {
             look(3, true).dash.len() >= 2,
             "a dashed style is never solid"
         );
-        assert_eq!(rgb(GREY), (128, 128, 128));
+        let grey = look(GREY, false).color;
+        assert_eq!((grey.0, grey.1, grey.2), (128, 128, 128));
     }
 }

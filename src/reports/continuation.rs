@@ -34,23 +34,6 @@ impl Orbit for FoldPoint {
     }
 }
 
-/// The columns of `branch.csv` and the `branch` group of `branch.h5`, in order (the KEY's own
-/// column, named by the key, is second).
-pub const BRANCH_COLUMNS: [&str; 12] = [
-    "arclength",
-    "KEY",
-    "delta_amp_over_xb",
-    "phase",
-    "delta_mean",
-    "force_mean",
-    "a_mean",
-    "a_amp",
-    "stable",
-    "multiplier_1_abs",
-    "multiplier_2_abs",
-    "multiplier_3_abs",
-];
-
 /// The branch table: one row per point (special points included, in order of arclength).
 pub fn branch_table(b: &Branch) -> Table {
     let p = &b.points;

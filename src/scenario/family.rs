@@ -20,7 +20,7 @@ use djkr_core::units::Dimension;
 
 /// The keys a periodic orbit can be continued in: those of the table of keys with a parameter
 /// name ([`KeyInfo::param`](super::keys::KeyInfo#structfield.param)), in table order.
-pub fn parameters() -> &'static [ParameterInfo] {
+pub(crate) fn parameters() -> &'static [ParameterInfo] {
     static TABLE: OnceLock<Vec<ParameterInfo>> = OnceLock::new();
     TABLE.get_or_init(|| {
         KEYS.iter()
@@ -43,7 +43,7 @@ pub fn parameters() -> &'static [ParameterInfo] {
 }
 
 /// The allowed keys, comma separated (for messages).
-pub fn allowed_keys() -> String {
+pub(crate) fn allowed_keys() -> String {
     parameters()
         .iter()
         .map(|p| p.key)
@@ -79,7 +79,7 @@ pub fn parameter(flag: &str, text: &str) -> Result<Parameter, ContinuationError>
 
 /// A scenario with one or two keys left free: the [`Scene`] of `djkr continue`.
 #[derive(Debug)]
-pub struct ScenarioScene {
+pub(crate) struct ScenarioScene {
     source: ScenarioSource,
     fixed: Vec<Override>,
     keys: Vec<SetKey>,

@@ -14,13 +14,13 @@
 use djkr_core::units::Dimension;
 
 /// Default gravitational acceleration (m/s²) when `sphere.gravity` is absent.
-pub const DEFAULT_GRAVITY: f64 = 9.807;
+pub(crate) const DEFAULT_GRAVITY: f64 = 9.807;
 /// Default safety limit (s) of a stage that ends on a preload or at pull-off.
-pub const DEFAULT_MAX_DURATION: f64 = 1e4;
+pub(crate) const DEFAULT_MAX_DURATION: f64 = 1e4;
 /// Relative agreement required between a tabulated law's w(0) and `material.w0`.
-pub const TABLE_W0_RTOL: f64 = 1e-6;
+pub(crate) const TABLE_W0_RTOL: f64 = 1e-6;
 /// The end conditions of a stage, of which exactly one is given.
-pub const STAGE_END_KEYS: &[&str] = &["duration", "preload", "until"];
+pub(crate) const STAGE_END_KEYS: &[&str] = &["duration", "preload", "until"];
 
 /// What the values of a key are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -107,7 +107,7 @@ impl KeyInfo {
 }
 
 /// The name of the one section that is a list of tables (`[[stage]]`, keys `stage[N].KEY`).
-pub const STAGE_SECTION: &str = "stage";
+pub(crate) const STAGE_SECTION: &str = "stage";
 const STAGE: &str = STAGE_SECTION;
 
 const fn k(
@@ -218,14 +218,14 @@ pub const KEYS: &[KeyInfo] = &[
 ];
 
 /// The sections in the order of [`KEYS`].
-pub const SECTIONS: &[&str] = &[
+pub(crate) const SECTIONS: &[&str] = &[
     "material", "adhesion", "sphere", "spring", "damping", "base", "contact", "initial", STAGE,
     "solver", "output",
 ];
 
 /// The keys section `name` takes (`""`: the top level), in table order; `None`: no such
 /// section.
-pub fn section_keys(name: &str) -> Option<Vec<&'static str>> {
+pub(crate) fn section_keys(name: &str) -> Option<Vec<&'static str>> {
     if !name.is_empty() && !SECTIONS.contains(&name) {
         return None;
     }
@@ -245,7 +245,7 @@ pub fn find(section: &str, name: &str) -> Option<&'static KeyInfo> {
 /// The table as JSON (`djkr keys --json`): a list of objects with exactly the fields `key`,
 /// `unit`, `default` (the TOML value as JSON, `null` when required or derived), `range` and
 /// `description`.
-pub fn to_json() -> serde_json::Value {
+pub(crate) fn to_json() -> serde_json::Value {
     serde_json::Value::Array(
         KEYS.iter()
             .map(|k| {
@@ -271,7 +271,7 @@ fn default_json(literal: &str) -> serde_json::Value {
 }
 
 /// The table for a terminal: one key a line, with unit, default, range and meaning.
-pub fn to_text() -> String {
+pub(crate) fn to_text() -> String {
     let rows: Vec<[String; 5]> = KEYS
         .iter()
         .map(|k| {

@@ -8,17 +8,19 @@
 //! Coordinates (docs/MODEL.md): x_s sphere position (down +), x_b base displacement (up +), x_k the far
 //! end of the holding spring (down +), δ = x_s + x_b the indentation (> 0 compresses).
 
-pub mod checks;
+pub(crate) mod checks;
 pub(crate) mod error;
 pub mod family;
 pub mod keys;
 pub mod overrides;
 pub mod parse;
-pub use parse::range_error;
+pub(crate) use parse::range_error;
 
-pub use djkr_core::dynamics::protocol::{Initial, Stage, StageKind, Until};
-pub use djkr_core::dynamics::{Method, Solver};
-pub use djkr_core::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder, Rig, Sphere};
+pub(crate) use djkr_core::dynamics::protocol::{Initial, Stage, StageKind, Until};
+pub(crate) use djkr_core::dynamics::{Method, Solver};
+pub(crate) use djkr_core::rig::{
+    BaseMotion, ContactFormation, Damping, DampingOn, Holder, Rig, Sphere,
+};
 
 /// Output settings.
 #[derive(Debug, Clone, PartialEq)]

@@ -200,6 +200,11 @@ pub struct Override {
 }
 
 impl Override {
+    /// Each of `sets` (`KEY=VALUE`) by [`Override::parse`], in order; the first error stops.
+    pub fn parse_all<S: AsRef<str>>(sets: &[S]) -> Result<Vec<Override>, OverrideError> {
+        sets.iter().map(|t| Override::parse(t.as_ref())).collect()
+    }
+
     /// Parse `KEY=VALUE` as typed after `--set` (split at the first `=`; spaces around either
     /// side are ignored).
     pub fn parse(arg: &str) -> Result<Override, OverrideError> {

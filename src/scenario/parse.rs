@@ -30,7 +30,7 @@ use super::checks;
 pub use super::error::ScenarioError;
 pub(crate) use super::error::{show, show_float};
 use super::keys::{self, STAGE_END_KEYS, STAGE_SECTION};
-pub use super::keys::{DEFAULT_GRAVITY, DEFAULT_MAX_DURATION, TABLE_W0_RTOL};
+pub(crate) use super::keys::{DEFAULT_GRAVITY, DEFAULT_MAX_DURATION, TABLE_W0_RTOL};
 use super::overrides::{self, Override, SetKey};
 use super::{
     BaseMotion, ContactFormation, Damping, DampingOn, Holder, Initial, Method, Output, Rig,
@@ -49,11 +49,11 @@ use djkr_core::material::Material;
 use djkr_core::units::{parse_quantity, Dimension};
 
 /// The scenario-file format version this parser reads.
-pub const SCENARIO_VERSION: i64 = 1;
+pub(crate) const SCENARIO_VERSION: i64 = 1;
 /// Largest allowed relative tolerance `solver.rtol`.
-pub const MAX_RTOL: f64 = 1e-2;
+pub(crate) const MAX_RTOL: f64 = 1e-2;
 /// Smallest allowed relative tolerance `solver.rtol` (a few ulps: tighter is rounding noise).
-pub const MIN_RTOL: f64 = 1e-14;
+pub(crate) const MIN_RTOL: f64 = 1e-14;
 
 type Result<T> = std::result::Result<T, ScenarioError>;
 
@@ -300,7 +300,7 @@ pub enum Tree {
 /// What depends on the rest of the scenario (a speed on a hold stage, the physics across keys)
 /// is not checked here; nor are whole-number keys, which their writer checks. `djkr fit` holds
 /// the bounds of `--free` to this.
-pub fn range_error(key: SetKey, v: f64) -> Option<String> {
+pub(crate) fn range_error(key: SetKey, v: f64) -> Option<String> {
     let info = keys::find(key.section().unwrap_or(""), key.name())?;
     let unit = if info.unit.is_empty() {
         "dimensionless"
@@ -417,7 +417,7 @@ const TABULATED_LAW_KEYS: &[&str] = &["law", "file"];
 
 /// The most windows `[output] dense` may list (each is checked at every period boundary that
 /// envelope following considers; far more than a protocol has stages).
-pub const MAX_DENSE_WINDOWS: usize = 10_000;
+pub(crate) const MAX_DENSE_WINDOWS: usize = 10_000;
 
 /// The keys of section `name` ([`keys::section_keys`], the one table of keys; `""` for the top
 /// level).
@@ -1513,7 +1513,7 @@ impl Parser<'_> {
 }
 
 /// Windows sorted by their start, with overlapping or touching ones merged into one.
-pub fn merge_windows(mut windows: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
+pub(crate) fn merge_windows(mut windows: Vec<[f64; 2]>) -> Vec<[f64; 2]> {
     windows.sort_by(|a, b| a[0].total_cmp(&b[0]));
     let mut merged: Vec<[f64; 2]> = Vec::with_capacity(windows.len());
     for w in windows {

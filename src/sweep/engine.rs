@@ -93,7 +93,7 @@ impl std::error::Error for SweepError {}
 /// at once: a sweep's points times its ensemble's members (its rows are held in memory until
 /// the tables are written), and a fit's rows times members times the parameter sets of one
 /// iteration (one grid of runs, built in memory before any runs).
-pub fn check_runs(factors: &[(usize, &str)]) -> Result<usize, String> {
+pub(crate) fn check_runs(factors: &[(usize, &str)]) -> Result<usize, String> {
     factors
         .iter()
         .try_fold(1usize, |n, (k, _)| n.checked_mul(*k))
@@ -444,7 +444,7 @@ pub struct RunOptions<'a> {
 }
 
 /// The folder of a kept run: `p000003-m0012` (digits enough for the sweep's largest indices).
-pub fn run_folder_name(sweep: &Sweep, id: RunId) -> String {
+pub(crate) fn run_folder_name(sweep: &Sweep, id: RunId) -> String {
     let pw = digits(sweep.grid().points().saturating_sub(1));
     let mw = digits(sweep.members().saturating_sub(1));
     format!(
@@ -469,7 +469,7 @@ fn digits(mut n: usize) -> usize {
 /// threads allow, handing each row to `on_row` on the calling thread as its run ends (completion
 /// order). Returns the number of runs that were not started or were abandoned because `stop`
 /// was raised (0 when all ran).
-pub fn run_sweep(
+pub(crate) fn run_sweep(
     sweep: &Sweep,
     runs: &[usize],
     opts: &RunOptions,

@@ -104,7 +104,7 @@ fn invalid(path: &Path, message: impl Into<String>) -> FilesError {
 /// One of N fixed, disjoint slices of a sweep's runs: run i belongs to shard (i mod N) + 1, so
 /// every shard gets runs from all over the grid (cheap and expensive points alike).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Shard {
+pub(crate) struct Shard {
     /// K, from 1.
     pub index: usize,
     /// N.
@@ -166,7 +166,7 @@ impl Shard {
 
 /// `sweep.json`: what a sweep is, so that a resume or a merge can check it is the same one.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Manifest {
+pub(crate) struct Manifest {
     /// Layout version ([`FORMAT_VERSION`]).
     pub format_version: i64,
     /// djkr's version.
@@ -608,8 +608,6 @@ pub fn draw_plots(
 /// What a merge found and wrote.
 #[derive(Debug, Clone)]
 pub struct Merged {
-    /// The merged sweep's manifest.
-    pub manifest: Manifest,
     /// Rows merged.
     pub rows: usize,
     /// Of them, failed runs.
@@ -696,7 +694,6 @@ pub fn merge(dirs: &[PathBuf], out: &Path, force: bool) -> Result<Merged, FilesE
     Ok(Merged {
         failed: rows.iter().filter(|r| r.result.is_err()).count(),
         rows: rows.len(),
-        manifest,
         files,
     })
 }

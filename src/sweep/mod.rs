@@ -40,19 +40,20 @@
 //! row per run (~0.3 kB).
 
 pub(crate) mod engine;
-pub mod files;
+pub(crate) mod files;
 pub(crate) mod grid;
-pub mod phase;
+pub(crate) mod phase;
 pub(crate) mod plots;
-pub mod row;
+pub(crate) mod row;
 pub(crate) mod spec;
-pub mod stats;
+pub(crate) mod stats;
 
-pub use engine::{
-    check_runs, run_all, run_folder_name, run_sweep, Ensemble, RunId, RunOptions, Sweep, SweepError,
-};
-pub use files::{Manifest, Shard};
+pub use engine::run_all;
+pub(crate) use engine::{check_runs, run_sweep};
+pub use engine::{Ensemble, RunId, RunOptions, Sweep, SweepError};
 pub use grid::{Axis, Grid};
-pub use row::{rows_table, KeyColumn, Row, RunNumbers};
+pub use phase::uniform;
+pub(crate) use row::rows_table;
+pub use row::{KeyColumn, Row, RunNumbers};
 pub use spec::{KeyCell, SpecError};
-pub use stats::{PointStats, Summary};
+pub use stats::{point_stats, points_table, PointStats, Summary};

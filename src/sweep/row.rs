@@ -11,8 +11,6 @@
 //! 2⁵³). Every number is the one `djkr run FILE --set ...` writes into `summary.json` for the
 //! same overrides (`wall_s` aside: a failed run's is the sweep's own measurement).
 
-use std::path::Path;
-
 use serde::{Deserialize, Serialize};
 
 use crate::output::table::{Column, Field, Table};
@@ -220,7 +218,7 @@ pub fn row_schema(keys: &[KeyColumn]) -> Vec<Field> {
 }
 
 /// The rows as a table of [`row_schema`].
-pub fn rows_table(keys: &[KeyColumn], rows: &[Row]) -> Table {
+pub(crate) fn rows_table(keys: &[KeyColumn], rows: &[Row]) -> Table {
     let schema = row_schema(keys);
     let mut cols: Vec<Column> = Vec::new();
     let field = |i: usize| schema[i].clone();
@@ -298,16 +296,9 @@ pub fn rows_table(keys: &[KeyColumn], rows: &[Row]) -> Table {
     Table::from_fixed(cols)
 }
 
-/// Read the rows of a row CSV written with the columns of `keys` (`sweep.csv` or the journal).
-/// A last line without its line end (a writer killed mid-line) is ignored. Errors name the
-/// file, the line and the column.
-pub fn read_rows_csv(path: &Path, keys: &[KeyColumn]) -> Result<Vec<Row>, String> {
-    let text = crate::input::read_text(path, crate::input::InputKind::SweepRows)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
-    parse_rows_csv(&text, keys).map_err(|e| format!("{}: {e}", path.display()))
-}
-
-/// [`read_rows_csv`] on text.
+/// Read the rows of a row CSV written with the columns of `keys` (`sweep.csv` or the journal),
+/// from its text. A last line without its line end (a writer killed mid-line) is ignored. Errors
+/// name the line and the column.
 pub fn parse_rows_csv(text: &str, keys: &[KeyColumn]) -> Result<Vec<Row>, String> {
     // Only complete lines: the journal is appended line by line.
     let complete = match text.rfind('\n') {

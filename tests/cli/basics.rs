@@ -1126,7 +1126,7 @@ fn run_files_spend_no_heap_collection_on_descriptions() {
             overhead <= 4096 * strings as u64 + 40_000 && overhead <= 300_000,
             "{compress}: {overhead} bytes are not dataset storage ({strings} string attributes)"
         );
-        let d = djkr::output::hdf5_file::read_descriptions(&f).unwrap();
+        let d = crate::tools::Descriptions::of(&f);
         for (path, _) in h5_datasets(&h5) {
             let ds = f.dataset(&path).unwrap();
             let attrs = ds.attrs().unwrap();
@@ -1135,4 +1135,28 @@ fn run_files_spend_no_heap_collection_on_descriptions() {
             assert!(d.get(&format!("/{path}")).is_some(), "/{path} undescribed");
         }
     }
+}
+
+/// `output.dense` is a list of windows, given in the file only (moved from the gaps tests).
+#[test]
+fn set_refuses_dense_with_a_clear_message() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("s.toml");
+    std::fs::write(
+        &file,
+        "version = 1\n[material]\nK = 1e6\nR = 0.01\nw0 = 0.1\n[sphere]\nmass = 0.001\n\
+         [spring]\nstiffness = 100\n[initial]\ngap = 1e-5\n[[stage]]\nkind = \"hold\"\n\
+         duration = 1\n",
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_djkr"))
+        .arg("check")
+        .arg(&file)
+        .args(["--set", "output.dense=[[1,2]]"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("output.dense"), "{err}");
+    assert!(err.contains("cannot be given with --set"), "{err}");
 }

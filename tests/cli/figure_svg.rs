@@ -464,6 +464,22 @@ fn every_figure_keeps_its_legend_off_the_data_and_its_axes_in_units() {
         "--out",
         &d("predict"),
     ]);
+    // design needs a fit with sigma for every key: the cheap rig's fit of two keys.
+    let cheap = tmp.path().join("cheap");
+    std::fs::create_dir_all(&cheap).unwrap();
+    let cheap_fit = crate::design::cheap_fit(&cheap);
+    djkr(&[
+        "design",
+        "--fit",
+        cheap_fit.to_str().unwrap(),
+        "--candidates",
+        "base.amplitude=0um:20um:5",
+        "stage[3].speed=30um/s:3000um/s:5log",
+        "--add",
+        "6",
+        "--out",
+        &d("design"),
+    ]);
     djkr(&["figures", "--out", &d("figures")]);
     djkr(&["beta-fit", "--out", &d("beta-fit")]);
     eprintln!("figures made in {:.1} s", t0.elapsed().as_secs_f64());
@@ -487,6 +503,7 @@ fn every_figure_keeps_its_legend_off_the_data_and_its_axes_in_units() {
         "imposed-area/closed_form_map.svg",
         "fit/fit.svg",
         "predict/prediction.svg",
+        "design/design.svg",
         "figures/fig2.svg",
         "figures/fig3a.svg",
         "figures/fig3b.svg",

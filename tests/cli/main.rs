@@ -8,6 +8,7 @@
 mod tools;
 
 mod basics;
+mod design;
 mod docs_run;
 mod figure_svg;
 mod fit_refusals;

@@ -9,12 +9,15 @@
 //! checks the measured wall time is below that.
 #![allow(dead_code)]
 
-use djkr::catalogue::{self, stage, vibrating_hold};
+use crate::catalogue::{self, stage, vibrating_hold};
 use djkr::scenario::*;
 use djkr_core::adhesion::{ConstantW, GentSchultz, Law};
+use djkr_core::dynamics::protocol::*;
+use djkr_core::dynamics::Method;
 use djkr_core::dynamics::{CycleRecord, Event, Observer, RunResult, Sample};
 use djkr_core::imposed_area;
 use djkr_core::material::Material;
+use djkr_core::rig::{ContactFormation, Damping, DampingOn, Holder};
 use std::f64::consts::PI;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::mpsc;

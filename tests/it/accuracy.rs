@@ -2,7 +2,7 @@
 //! reference against closed forms, failures reported as rows, the imposed-area studies, the CLI.
 
 use djkr::accuracy::*;
-use djkr::scenario::*;
+use djkr_core::dynamics::Method;
 use djkr_core::dynamics::{EventKind, Sample};
 use djkr_core::jkr;
 use djkr_core::material::Material;
@@ -106,7 +106,7 @@ fn errors_are_normalised_as_documented() {
 /// rate-independent law) is a failed row with its message, not a crash.
 #[test]
 fn study_of_quasi_static_jkr() {
-    let s = djkr::catalogue::quasi_static_jkr();
+    let s = crate::catalogue::quasi_static_jkr();
     let cfg = StudyConfig {
         methods: vec![Method::Implicit, Method::Dopri5],
         tolerances: vec![1e-6, 1e-9],

@@ -66,7 +66,7 @@ fn folds_of(b: &Branch) -> Vec<f64> {
 fn swept(p: &Problem, freqs: &[f64], dir: Direction) -> Vec<(f64, f64)> {
     let sw = fsweep::sweep(
         p,
-        &djkr::scenario::Initial::Preload(0.05),
+        &djkr_core::dynamics::protocol::Initial::Preload(0.05),
         freqs,
         dir,
         &Options::default(),
@@ -232,7 +232,7 @@ fn the_branch_is_the_same_traced_up_and_down() {
     {
         let u = near(d.value, d.delta_amp_over_xb());
         let setup = fam.setup(&[d.value]).unwrap_or_else(|e| panic!("{e}"));
-        let start = djkr::scenario::Initial::State {
+        let start = djkr_core::dynamics::protocol::Initial::State {
             x_s: u.state[0],
             v_s: u.state[1],
             a: u.state[2],

@@ -2,7 +2,7 @@
 //! harmonics in θ without folding, JKR finite differences, the linear transfer, loop areas). The
 //! measured tables are `examples/study_harmonic_balance.rs` → `docs/studies/harmonic-balance.md`.
 
-use djkr::catalogue;
+use crate::catalogue;
 use djkr_core::adhesion::{AdhesionLaw, ConstantW, GentSchultz, Law};
 use djkr_core::describing::{self, DescribingError, Support};
 use djkr_core::imposed_area::{self, indentation_at};
@@ -698,7 +698,7 @@ fn from_a_bundled_scenario() {
     let sc = catalogue::Bundled::Resonance400.scenario().unwrap();
     let setup = describing::Setup::new(&sc.rig, &sc.initial).unwrap();
     let p = match sc.initial {
-        djkr::scenario::Initial::Preload(p) => p,
+        djkr_core::dynamics::protocol::Initial::Preload(p) => p,
         _ => f64::NAN,
     };
     let st = describing::static_state(&setup.rig, setup.support).unwrap();
@@ -720,7 +720,7 @@ fn from_a_bundled_scenario() {
         t.transfer()
     );
     let mut rigid = sc.clone();
-    rigid.rig.holder = djkr::scenario::Holder::Rigid;
+    rigid.rig.holder = djkr_core::rig::Holder::Rigid;
     assert!(matches!(
         describing::Setup::new(&rigid.rig, &rigid.initial),
         Err(DescribingError::Unsupported(_))

@@ -5,63 +5,13 @@
 //!   (name, unit, description), taken from the library's own table builders.
 //! - `docs/guide/scenario-reference.md`: `djkr keys --json`, the key table of the scenario parser.
 //!
-//! `DJKR_BLESS=1 cargo test --release --test it docs_reference::` rewrites them; without `DJKR_BLESS`
+//! `DJKR_BLESS=1 cargo test --release docs_reference` rewrites them; without `DJKR_BLESS`
 //! a difference fails the test, naming the file, the first differing line and that command.
 
-use djkr::output::table::Field;
-use djkr::output::{cycles, timeseries};
-use djkr::sweep::KeyColumn;
 use std::path::PathBuf;
 use std::process::Command;
 
-/// The command that regenerates the generated chapters.
-const BLESS: &str = "DJKR_BLESS=1 cargo test --release --test it docs_reference::";
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// One line on the terminal, past the test harness's output capture.
-fn say(line: &str) {
-    use std::io::Write;
-    let _ = writeln!(std::io::stderr().lock(), "{line}");
-}
-
-fn bless() -> bool {
-    std::env::var_os("DJKR_BLESS").is_some_and(|v| v == "1")
-}
-
-/// Compare `generated` with the committed file `rel` (or write it under `DJKR_BLESS=1`).
-fn check(rel: &str, generated: &str) {
-    let path = root().join(rel);
-    if bless() {
-        std::fs::write(&path, generated).unwrap_or_else(|e| panic!("{rel}: {e}"));
-        return;
-    }
-    let committed = std::fs::read_to_string(&path).unwrap_or_default();
-    if committed == generated {
-        return;
-    }
-    let (n, old, new) = committed
-        .lines()
-        .map(Some)
-        .chain(std::iter::repeat(None))
-        .zip(generated.lines().map(Some).chain(std::iter::repeat(None)))
-        .enumerate()
-        .find(|(_, (a, b))| a != b)
-        .map(|(n, (a, b))| {
-            (
-                n + 1,
-                a.unwrap_or("<end of file>"),
-                b.unwrap_or("<end of file>"),
-            )
-        })
-        .unwrap_or((0, "", ""));
-    panic!(
-        "{rel} is out of date with the code (line {n}):\n  committed: {old}\n  generated: {new}\n\
-         Regenerate the generated chapters with `{BLESS}` and commit them."
-    );
-}
+use crate::tools::{check, root, say, splice};
 
 /// `djkr ARGS`, its stdout; `Err` with its stderr when it fails.
 fn djkr(args: &[&str]) -> Result<String, String> {
@@ -145,161 +95,6 @@ fn cli_reference() -> String {
     s
 }
 
-/// One Markdown table of columns: name, unit, type, description.
-fn columns_table(title: &str, intro: &str, fields: &[Field]) -> String {
-    let mut s = format!(
-        "### {title}\n\n{intro}\n\n| column | unit | type | description |\n|---|---|---|---|\n"
-    );
-    for f in fields {
-        let unit = if f.unit.is_empty() {
-            "text".to_string()
-        } else {
-            format!("`{}`", f.unit)
-        };
-        s.push_str(&format!(
-            "| `{}` | {} | {} | {} |\n",
-            f.name,
-            unit,
-            format!("{:?}", f.kind).to_lowercase(),
-            f.description.replace('|', "\\|")
-        ));
-    }
-    s
-}
-
-/// The output reference's column tables, from the writers' own table builders.
-fn output_columns() -> String {
-    let amp = [KeyColumn {
-        name: "base.amplitude".into(),
-        unit: Some("m".into()),
-    }];
-    let map = djkr_core::steady::map::ShortcutMap {
-        frequencies: Vec::new(),
-        amplitudes: Vec::new(),
-        cells: Vec::new(),
-        cycles: 0,
-        wall_s: 0.0,
-    };
-    let tables = [
-        (
-            "`run.h5` root datasets, `timeseries.csv`",
-            "One row per sample (`djkr run`; `--csv` for the CSV). Header cells are `name [unit]`.",
-            timeseries::series_schema(),
-        ),
-        (
-            "`run.h5` `events/`, `events.csv`",
-            "One row per event; the state at the event follows the time-series names.",
-            timeseries::events_table(&[]).schema(),
-        ),
-        (
-            "`run.h5` `cycles/`, `cycles.csv`",
-            "One row per base period under vibration; the harmonic convention is above.",
-            cycles::cycle_schema(),
-        ),
-        (
-            "`run.h5` `gaps/`, `gaps.csv`",
-            "One row per gap that envelope following left in the time series (see \"Gaps\").",
-            timeseries::gaps_table(&[]).schema(),
-        ),
-        (
-            "`sweep.csv`, `sweep.h5`",
-            "One row per run of `djkr sweep`; one column per swept key (here `base.amplitude`) \
-             after `point` and `member`.",
-            djkr::sweep::row::row_schema(&amp),
-        ),
-        (
-            "`points.csv`",
-            "One row per point of a sweep: statistics over its ensemble members (here a sweep of \
-             `base.amplitude`).",
-            djkr::sweep::stats::points_table(&amp, &[]).schema(),
-        ),
-        (
-            "`resonance.csv`, `resonance.h5`",
-            "One row per frequency and direction of `djkr resonance`.",
-            djkr::reports::steady::sweeps_table(&[]).schema(),
-        ),
-        (
-            "`shortcut-map.csv`, `shortcut-map.h5` `cells/`",
-            "One row per cell of `djkr shortcut-map`, row-major in amplitude; NaN where missing.",
-            djkr::reports::steady::map_table(&map).schema(),
-        ),
-        (
-            "`continue`: `sweep.csv`",
-            "The up and down sweeps overlaid on a branch (here continued in `base.frequency`).",
-            djkr::reports::continuation::sweep_table("base.frequency", "Hz", "up", &[]).schema(),
-        ),
-        (
-            "`continue --fold-param`: `fold_curves.csv`",
-            "One row per point of a fold curve (here in `base.frequency` and `base.amplitude`).",
-            djkr::reports::continuation::fold_table(
-                [("base.frequency", "Hz"), ("base.amplitude", "m")],
-                &[],
-            )
-            .schema(),
-        ),
-    ];
-    let branch = example_branch();
-    let tables = tables.into_iter().chain([
-        (
-            "`continue`: `branch.csv`, `branch.h5`",
-            "One row per point of the branch of periodic orbits (here continued in \
-             `base.frequency`).",
-            djkr::reports::continuation::branch_table(&branch).schema(),
-        ),
-        (
-            "`continue`: `bifurcations.csv`",
-            "One row per special point of the branch (folds, period doublings, Neimark–Sacker \
-             points, ends).",
-            djkr::reports::continuation::special_table(&branch).schema(),
-        ),
-    ]);
-    let mut s = String::new();
-    for (title, intro, fields) in tables {
-        s.push('\n');
-        s.push_str(&columns_table(title, intro, &fields));
-    }
-    s
-}
-
-/// A short branch of `scenarios/resonance-400hz.toml` in `base.frequency` (a fraction of a
-/// second): the branch tables' columns depend on the parameter, so they come from a real one.
-fn example_branch() -> djkr_core::continuation::branch::Branch {
-    use djkr::scenario::family::{family, parameter};
-    use djkr_core::continuation::branch;
-    let source =
-        djkr::scenario::parse::ScenarioSource::read(&root().join("scenarios/resonance-400hz.toml"))
-            .expect("bundled scenario");
-    let param = parameter("--param", "base.frequency").expect("parameter");
-    let family = family(&source, &[], vec![param], 1e-10).expect("family");
-    branch::continue_branch(
-        &family,
-        (380.0, 390.0),
-        &branch::Settings::default(),
-        &mut |_| {},
-    )
-    .expect("a short branch")
-}
-
-/// Replace the text between the `BEGIN GENERATED: name` and `END GENERATED` markers of `doc`.
-fn splice(doc: &str, name: &str, generated: &str) -> String {
-    let begin = format!("<!-- BEGIN GENERATED: {name} ");
-    let start = doc
-        .find(&begin)
-        .unwrap_or_else(|| panic!("no `{begin}...-->` marker"));
-    let after = start + doc[start..].find("-->").expect("marker closes") + 3;
-    let end = after
-        + doc[after..]
-            .find("<!-- END GENERATED -->")
-            .expect("END GENERATED marker");
-    // Blank lines off, leading spaces kept (a region inside a list item is indented).
-    format!(
-        "{}\n{}\n{}",
-        &doc[..after],
-        generated.trim_matches('\n'),
-        &doc[end..]
-    )
-}
-
 /// The scenario reference from the JSON of `djkr keys --json` (a list of objects with `key`,
 /// `unit`, `default`, `range`, `description`), grouped by section.
 fn scenario_reference(json: &str) -> String {
@@ -361,13 +156,6 @@ fn scenario_reference(json: &str) -> String {
 #[test]
 fn command_reference_is_generated_from_clap() {
     check("docs/guide/cli-reference.md", &cli_reference());
-}
-
-#[test]
-fn output_column_tables_are_generated_from_the_writers() {
-    let rel = "docs/guide/output.md";
-    let doc = std::fs::read_to_string(root().join(rel)).expect("output.md");
-    check(rel, &splice(&doc, "output columns", &output_columns()));
 }
 
 #[test]

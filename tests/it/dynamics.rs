@@ -1,14 +1,18 @@
 //! Time-domain simulator against independent references (closed forms, JKR limits, balance laws,
-//! fixed-step orders, agreement between methods), on the scenes of `djkr::catalogue`. The
+//! fixed-step orders, agreement between methods), on the scenes of `crate::catalogue`. The
 //! tolerances are the values measured by `examples/study_checks.rs` (`docs/studies/checks.md`)
 //! with a margin.
 
-use djkr::catalogue::{self, stage};
+use crate::catalogue;
+use crate::catalogue::stage;
 use djkr::scenario::*;
 use djkr_core::adhesion::{ConstantW, GentSchultz, Law};
+use djkr_core::dynamics::protocol::*;
+use djkr_core::dynamics::Method;
 use djkr_core::dynamics::{EventKind, Recorder, RunResult};
 use djkr_core::jkr;
 use djkr_core::material::Material;
+use djkr_core::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder};
 
 const M: Material = Material::PAPER;
 

@@ -1,7 +1,7 @@
 //! `solver.envelope = "auto"` never costs materially more than `"off"` (issue 36): counted in
 //! right-hand-side evaluations, which are deterministic (the wall time is the benchmark's,
 //! `benches/envelope.rs`). The reference is the same scenario integrated period by period.
-use djkr::catalogue::Bundled;
+use crate::catalogue::Bundled;
 use djkr::scenario::Scenario;
 use djkr_core::dynamics::{EnvelopeMode, NoObserver, Observer, RunResult};
 

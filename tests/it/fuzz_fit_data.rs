@@ -33,7 +33,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use djkr::fit::{self, FitData, FitOptions, ForwardModel, FreeKey};
+use djkr::api::{self, FitRequest};
+use djkr::fit::{FitData, FreeKey};
 use djkr::scenario::overrides::Override;
 use djkr::scenario::parse::ScenarioSource;
 
@@ -434,48 +435,25 @@ fn one_case(source: &ScenarioSource, inp: &Input, name: &str) -> Result<&'static
         Ok(a) => a,
         Err(e) => return check("refused: --set", e.to_string()),
     };
-    let (starts, fixed): (Vec<Override>, Vec<Override>) = all
-        .into_iter()
-        .partition(|o| free.iter().any(|f| f.key == o.key()));
     let data = match FitData::parse(&inp.data, name, inp.observable.as_deref()) {
         Ok(d) => d,
         Err(e) => return check("refused: data", e.0),
     };
-    let with_starts: Vec<Override> = fixed.iter().chain(&starts).cloned().collect();
-    if let Err(e) = source.scenario(&with_starts) {
-        return check("refused: scenario", e.to_string());
-    }
-    let x0 = match free
-        .iter()
-        .map(|f| fit::initial_value(source, &starts, f))
-        .collect::<Result<Vec<_>, _>>()
-    {
-        Ok(x) => x,
-        Err(m) => return check("refused: start", m),
-    };
-    if let Err(e) = fit::check_start(&free, &x0) {
-        return check("refused: start", e.message);
-    }
     if inp.ensemble == Some(0) {
         return Ok("refused: ensemble 0");
     }
-    let model = match ForwardModel::new(
-        source.clone(),
-        data,
-        free.iter().map(|f| f.key).collect(),
-        fixed,
-        inp.ensemble.map(|m| (m, 7)),
-        1,
-    ) {
-        Ok(m) => m,
-        Err(m) => return check("refused: model", m),
-    };
-    let opts = FitOptions {
+    let request = FitRequest {
+        set: all,
+        ensemble: inp.ensemble.map(|m| (m, 7)),
+        jobs: 1,
         max_iterations: 1,
-        ..FitOptions::default()
+        ..FitRequest::new(source.clone(), data, free)
     };
-    match fit::fit(&model, &free, &x0, opts, &mut |_| {}) {
-        Err(e) => check("fit refused or failed", e.message),
+    match api::fit(&request, None) {
+        Err(e) => check(
+            "refused or failed",
+            djkr::error::render(&e.to_string(), &djkr::error::Plain),
+        ),
         Ok(o) => {
             let r = &o.report;
             for (what, x) in [

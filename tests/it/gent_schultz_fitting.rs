@@ -4,7 +4,7 @@
 //! ȧ = crack_speed(G(a, δ)), force from the JKR relation. The measured tables are
 //! `examples/study_gs_fit.rs` → `docs/studies/gs-fit.md`.
 
-use djkr::catalogue;
+use crate::catalogue;
 use djkr_core::adhesion::GentSchultz;
 use djkr_core::gs_fit::{self, GsFitOptions, UnloadingRow};
 use djkr_core::material::Material;

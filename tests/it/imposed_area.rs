@@ -374,7 +374,7 @@ fn table_is_row_major_and_matches_single_points() {
 #[test]
 fn paper_pull_off_facts() {
     let law = GentSchultz::PAPER;
-    let (freqs, amps) = djkr::catalogue::figs_4_to_8_grid();
+    let (freqs, amps) = crate::catalogue::figs_4_to_8_grid();
     let t = pull_off_table(&M, &law, &freqs, &amps).unwrap();
     for (i, p) in t.iter().enumerate() {
         let a_a = amps[i % amps.len()];

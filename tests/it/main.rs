@@ -9,6 +9,9 @@
 #[path = "../tools/mod.rs"]
 mod tools;
 
+#[path = "../catalogue/mod.rs"]
+mod catalogue;
+
 mod accuracy;
 mod closed_form;
 mod continuation;
@@ -17,14 +20,11 @@ mod docs_reference;
 mod dynamics;
 mod envelope_cost;
 mod extremes;
-mod figures;
 mod fit;
 mod fuzz;
 mod fuzz_fit_data;
-mod gaps;
 mod gent_schultz_fitting;
 mod imposed_area;
-mod output;
 mod predict;
 mod restart;
 mod scenario_files;

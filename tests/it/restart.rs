@@ -2,8 +2,8 @@
 //! continues the same trajectory: a run split at a base-period boundary and resumed from its end
 //! state matches one unbroken run.
 
-use djkr::catalogue;
-use djkr::scenario::{Initial, Until};
+use crate::catalogue;
+use djkr_core::dynamics::protocol::{Initial, Until};
 use djkr_core::dynamics::Recorder;
 
 #[test]

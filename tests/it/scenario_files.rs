@@ -6,11 +6,12 @@ use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
 use djkr::scenario::parse::{load_scenario, material_and_law, ScenarioError};
-use djkr::scenario::{
-    ContactFormation, DampingOn, Holder, Initial, Method, Scenario, StageKind, Until,
-};
+use djkr::scenario::Scenario;
 use djkr_core::adhesion::{AdhesionLaw, Law};
+use djkr_core::dynamics::protocol::{Initial, StageKind, Until};
+use djkr_core::dynamics::Method;
 use djkr_core::jkr;
+use djkr_core::rig::{ContactFormation, DampingOn, Holder};
 
 fn dir(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)

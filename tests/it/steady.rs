@@ -2,17 +2,19 @@
 //! compared with: the force balance, the linear transfer at small amplitude, reproducible sweeps
 //! through a nonlinear resonance, and the `validate` / `resonance` / `shortcut-map` commands.
 
-use djkr::catalogue::{self, Bundled};
-use djkr::scenario::{Initial, Scenario};
+use crate::catalogue;
+use crate::catalogue::Bundled;
+use djkr::scenario::Scenario;
 use djkr_core::adhesion::{ConstantW, Law};
 use djkr_core::describing::{self, Setup};
+use djkr_core::dynamics::protocol::Initial;
 use djkr_core::material::Material;
 use djkr_core::steady::sweep::{self, Direction};
 use djkr_core::steady::{crosscheck, Options, Problem, Steady, SteadyMethod, Strategy};
 use djkr_core::transfer;
 use std::process::Command;
 
-/// A bundled scenario, by file name, through the catalogue (`djkr::catalogue::Bundled`).
+/// A bundled scenario, by file name, through the catalogue (`crate::catalogue::Bundled`).
 fn scene(name: &str) -> Scenario {
     let b = Bundled::ALL
         .into_iter()
@@ -609,7 +611,7 @@ fn reduced_models_have_fewer_unknowns() {
             s.rig.damping = None;
         }),
         ("rigid link", |s| {
-            s.rig.holder = djkr::scenario::Holder::Rigid;
+            s.rig.holder = djkr_core::rig::Holder::Rigid;
             s.rig.damping = None;
         }),
         ("m = 0, constant w", |s| {

@@ -369,7 +369,7 @@ fn a_signal_stops_a_run_and_keeps_what_it_computed() {
 fn the_memory_budget_stops_a_run_kept_in_memory() {
     let tmp = tempfile::tempdir().unwrap();
     let src = djkr::scenario::parse::ScenarioSource::read(&root().join(TINY)).unwrap();
-    let sets = api::overrides(&[
+    let sets = djkr::scenario::overrides::Override::parse_all(&[
         "solver.max_memory=1048576".to_string(),
         "output.sample_rate=0".to_string(),
         "stage[0].duration=5".to_string(),
@@ -402,7 +402,7 @@ fn the_memory_budget_stops_a_run_kept_in_memory() {
     assert_eq!(on_disk["reason"], "memory");
     assert_eq!(on_disk["samples"].as_u64().unwrap(), samples);
     // The same scene with the default budget goes on past it.
-    let sets = api::overrides(&[
+    let sets = djkr::scenario::overrides::Override::parse_all(&[
         "output.sample_rate=0".to_string(),
         "stage[0].duration=0.2".to_string(),
         "solver.max_memory=1048576".to_string(),

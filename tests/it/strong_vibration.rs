@@ -1,8 +1,8 @@
 //! Strong vibration: the base phase, the regression points of the strong-vibration issue, and
 //! (opt-in) a scan over base amplitudes.
 
-use djkr::catalogue;
-use djkr::scenario::{Stage, StageKind, Until};
+use crate::catalogue;
+use djkr_core::dynamics::protocol::{Stage, StageKind, Until};
 use djkr_core::dynamics::{EventKind, Recorder};
 use std::f64::consts::PI;
 
@@ -65,7 +65,7 @@ fn base_phase_delays_the_shaker_start() {
     assert!(sa.events.iter().all(|e| e.kind != EventKind::ContactLoss));
 }
 
-use djkr::catalogue::Bundled;
+use crate::catalogue::Bundled;
 use djkr::scenario::Scenario;
 use djkr_core::dynamics::{CycleRecord, EnvelopeMode, RunResult};
 

@@ -73,6 +73,20 @@ pub fn is_root() -> bool {
         .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
 }
 
+/// Cargo's scratch folder for tests, `target/tmp` (`CARGO_TARGET_TMPDIR`, which Cargo sets for
+/// integration tests only; the library's unit tests find it from their executable,
+/// `target/PROFILE/deps/NAME`).
+pub fn target_tmp() -> PathBuf {
+    match option_env!("CARGO_TARGET_TMPDIR") {
+        Some(d) => PathBuf::from(d),
+        None => {
+            let exe = std::env::current_exe().expect("the test executable's path");
+            let target = exe.ancestors().nth(3).expect("target/PROFILE/deps/NAME");
+            target.join("tmp")
+        }
+    }
+}
+
 /// The interpreter of the venv `target/tmp/<name>` (`CARGO_TARGET_TMPDIR`) that can `import`
 /// each of `imports`, or why there is none.
 ///
@@ -81,7 +95,7 @@ pub fn is_root() -> bool {
 /// the system `python3` already imports everything, the venv is made on top of the system's
 /// packages (`--system-site-packages`, inside the target directory only); else `Err`.
 pub fn venv(name: &str, packages: &[&str], imports: &[&str]) -> Result<PathBuf, String> {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let dir = target_tmp().join(name);
     let py = dir.join("bin/python3");
     let check = format!("import {}", imports.join(", "));
     if runs(&py, &check) {
@@ -362,4 +376,101 @@ pub fn finish_within(
     let stdout = t_out.join().expect("stdout reader");
     let stderr = t_err.join().expect("stderr reader");
     (status, stdout, stderr)
+}
+
+/// The descriptions table of a file djkr wrote (`/descriptions/path` and `/descriptions/text`,
+/// docs/guide/output.md), read here on its own as a reader of the format would.
+pub struct Descriptions(Vec<(String, String)>);
+
+impl Descriptions {
+    /// Read the table of `f`.
+    pub fn of(f: &hdf5_pure::File) -> Descriptions {
+        let read = |name: &str| {
+            f.dataset(&format!("descriptions/{name}"))
+                .and_then(|d| d.read_string())
+                .unwrap_or_else(|e| panic!("/descriptions/{name}: {e}"))
+        };
+        let (paths, texts) = (read("path"), read("text"));
+        assert_eq!(paths.len(), texts.len(), "/descriptions: paths and texts");
+        Descriptions(paths.into_iter().zip(texts).collect())
+    }
+
+    /// The description of `path`, if it has one.
+    pub fn get(&self, path: &str) -> Option<&str> {
+        self.0
+            .iter()
+            .find(|(p, _)| p == path)
+            .map(|(_, t)| t.as_str())
+    }
+}
+
+// ---------------------------------------------------------------- generated chapters of the docs
+
+/// The command that regenerates the generated chapters.
+pub const BLESS: &str = "DJKR_BLESS=1 cargo test --release docs_reference";
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// One line on the terminal, past the test harness's output capture.
+pub fn say(line: &str) {
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
+}
+
+pub fn bless() -> bool {
+    std::env::var_os("DJKR_BLESS").is_some_and(|v| v == "1")
+}
+
+/// Compare `generated` with the committed file `rel` (or write it under `DJKR_BLESS=1`).
+pub fn check(rel: &str, generated: &str) {
+    let path = root().join(rel);
+    if bless() {
+        std::fs::write(&path, generated).unwrap_or_else(|e| panic!("{rel}: {e}"));
+        return;
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_default();
+    if committed == generated {
+        return;
+    }
+    let (n, old, new) = committed
+        .lines()
+        .map(Some)
+        .chain(std::iter::repeat(None))
+        .zip(generated.lines().map(Some).chain(std::iter::repeat(None)))
+        .enumerate()
+        .find(|(_, (a, b))| a != b)
+        .map(|(n, (a, b))| {
+            (
+                n + 1,
+                a.unwrap_or("<end of file>"),
+                b.unwrap_or("<end of file>"),
+            )
+        })
+        .unwrap_or((0, "", ""));
+    panic!(
+        "{rel} is out of date with the code (line {n}):\n  committed: {old}\n  generated: {new}\n\
+         Regenerate the generated chapters with `{BLESS}` and commit them."
+    );
+}
+
+/// Replace the text between the `BEGIN GENERATED: name` and `END GENERATED` markers of `doc`.
+pub fn splice(doc: &str, name: &str, generated: &str) -> String {
+    let begin = format!("<!-- BEGIN GENERATED: {name} ");
+    let start = doc
+        .find(&begin)
+        .unwrap_or_else(|| panic!("no `{begin}...-->` marker"));
+    let after = start + doc[start..].find("-->").expect("marker closes") + 3;
+    let end = after
+        + doc[after..]
+            .find("<!-- END GENERATED -->")
+            .expect("END GENERATED marker");
+    // Blank lines off, leading spaces kept (a region inside a list item is indented).
+    format!(
+        "{}\n{}\n{}",
+        &doc[..after],
+        generated.trim_matches('\n'),
+        &doc[end..]
+    )
 }

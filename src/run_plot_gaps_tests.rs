@@ -7,10 +7,10 @@
 
 use std::path::Path;
 
-use djkr::api;
-use djkr::run_plot::{read_run, run_panels};
-use djkr::scenario::parse::parse_scenario;
-use djkr::scenario::Scenario;
+use crate::api;
+use crate::run_plot::{read_run, run_panels};
+use crate::scenario::parse::parse_scenario;
+use crate::scenario::Scenario;
 
 /// Base frequency of the scene (Hz).
 const F_BASE: f64 = 400.0;
@@ -85,7 +85,7 @@ fn read(dir: &Path) -> Read {
     let i64s = |n: &str| f.dataset(n).unwrap().read_i64().unwrap();
     // Every new dataset carries units and a description (its row in /descriptions), as the
     // others do.
-    let described = djkr::output::hdf5_file::read_descriptions(&f).unwrap();
+    let described = crate::test_tools::Descriptions::of(&f);
     for name in ["segment", "gaps/t_start", "gaps/t_end", "gaps/periods"] {
         let attrs = f.dataset(name).unwrap().attrs().unwrap();
         assert!(
@@ -155,12 +155,12 @@ fn check_plot(dir: &Path) {
     for (i, fig) in panels.iter().enumerate() {
         let time_panel = i % 2 == 0;
         for series in &fig.series {
-            if series.style == djkr::plot::Style::Band {
+            if series.style == crate::plot::Style::Band {
                 assert_eq!(series.label, format!("envelope: {periods} periods skipped"));
                 assert_eq!(series.x.len(), 2 * s.gaps.len());
                 continue;
             }
-            if !matches!(series.style, djkr::plot::Style::Line) || fig.x_label.contains("δ") {
+            if !matches!(series.style, crate::plot::Style::Line) || fig.x_label.contains("δ") {
                 continue;
             }
             for w in series.x.windows(2) {
@@ -186,7 +186,7 @@ fn check_plot(dir: &Path) {
             assert!(
                 fig.series
                     .iter()
-                    .any(|x| x.style == djkr::plot::Style::Band),
+                    .any(|x| x.style == crate::plot::Style::Band),
                 "{}: no shaded gaps",
                 fig.title
             );
@@ -317,7 +317,7 @@ fn a_run_without_gaps_has_segment_zero_and_an_empty_gaps_group() {
     let mut scn = scene("sample_rate = 2000");
     scn.solver.envelope = djkr_core::dynamics::EnvelopeMode::Off;
     scn.stages[3].max_duration = 2.0;
-    scn.stages[3].until = djkr::scenario::Until::Duration(2.0);
+    scn.stages[3].until = djkr_core::dynamics::protocol::Until::Duration(2.0);
     let dir = tempfile::tempdir().unwrap();
     api::run(&scn, Some(dir.path())).unwrap();
     let f = hdf5_pure::File::open(dir.path().join("run.h5")).unwrap();
@@ -330,27 +330,4 @@ fn a_run_without_gaps_has_segment_zero_and_an_empty_gaps_group() {
         .unwrap()
         .is_empty());
     assert_eq!(summary(dir.path())["gaps"], 0);
-}
-
-#[test]
-fn set_refuses_dense_with_a_clear_message() {
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("s.toml");
-    std::fs::write(
-        &file,
-        "version = 1\n[material]\nK = 1e6\nR = 0.01\nw0 = 0.1\n[sphere]\nmass = 0.001\n\
-         [spring]\nstiffness = 100\n[initial]\ngap = 1e-5\n[[stage]]\nkind = \"hold\"\n\
-         duration = 1\n",
-    )
-    .unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_djkr"))
-        .arg("check")
-        .arg(&file)
-        .args(["--set", "output.dense=[[1,2]]"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(err.contains("output.dense"), "{err}");
-    assert!(err.contains("cannot be given with --set"), "{err}");
 }

@@ -6,19 +6,19 @@
 //! from the package index into a venv under the target directory and h5dump from Debian's
 //! `hdf5-tools` (module `tools`). Without them the cross-checks are skipped with one line each.
 
-use crate::tools;
+use crate::test_tools as tools;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
 
-use djkr::output::folder::MANIFEST_NAME;
-use djkr::output::hdf5_file::{hdf5_bytes, RunTables};
-use djkr::output::timeseries::{events_table, gaps_table, SERIES};
-use djkr::output::{cycles::cycle_table, OutputError, RunWriter, TimeSeriesWriter};
-use djkr::output::{FLUSH_ROWS, LOCK_NAME, SPILL_ROWS};
-use djkr::scenario::parse::parse_scenario;
-use djkr::scenario::Scenario;
+use super::folder::MANIFEST_NAME;
+use super::hdf5_file::{hdf5_bytes, read_descriptions, RunTables};
+use super::timeseries::{events_table, gaps_table, SERIES};
+use super::{cycles::cycle_table, OutputError, RunWriter, TimeSeriesWriter};
+use super::{FLUSH_ROWS, LOCK_NAME, SPILL_ROWS};
+use crate::scenario::parse::parse_scenario;
+use crate::scenario::Scenario;
 use djkr_core::dynamics::{
     CycleRecord, Event, EventCounts, EventKind, Gap, Observer, PullOffSummary, RunResult, Sample,
     Stats,
@@ -303,7 +303,7 @@ fn check_with_hdf5_pure(n: usize) {
     }
     // Every dataset and group has its row in /descriptions; a period record is defined, not
     // named (it used to repeat its name: `a_cos` → 'a_cos').
-    let d = djkr::output::hdf5_file::read_descriptions(&f).unwrap();
+    let d = read_descriptions(&f).unwrap();
     for name in f.root().datasets().unwrap() {
         assert!(
             d.get(&format!("/{name}")).is_some_and(|t| !t.is_empty()),
@@ -529,13 +529,8 @@ fn a_one_second_run_file_is_compact_and_its_units_read_as_str() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("hold");
-    let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
-        .current_dir(root)
-        .args(["run", "docs/accuracy/hold-400hz-1s.toml", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let scn = crate::load_scenario(&root.join("docs/accuracy/hold-400hz-1s.toml")).unwrap();
+    crate::api::run(&scn, Some(&out)).unwrap();
     let Some((overhead, units)) = overhead_and_units(&out.join("run.h5")) else {
         return;
     };
@@ -564,14 +559,8 @@ fn a_scenario_text_longer_than_a_heap_collection_reads_back_whole() {
     let file = dir.path().join("long.toml");
     std::fs::write(&file, &long).unwrap();
     let out = dir.path().join("long");
-    let o = Command::new(env!("CARGO_BIN_EXE_djkr"))
-        .arg("run")
-        .arg(&file)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let scn = crate::load_scenario(&file).unwrap();
+    crate::api::run(&scn, Some(&out)).unwrap();
     let Some((_, units)) = overhead_and_units(&out.join("run.h5")) else {
         return;
     };
@@ -979,7 +968,10 @@ fn csv_has_units_in_the_header_and_exact_values() {
     let (header, gap_rows) = read_csv(&dir.path().join("gaps.csv"));
     assert_eq!(header, ["t_start [s]", "t_end [s]", "periods [1]"]);
     assert_eq!(gap_rows.len(), 2);
-    assert_eq!(gap_rows[0][1].parse::<f64>().unwrap(), samples[n / 3].t);
+    assert_eq!(
+        gap_rows[0][1].parse::<f64>().unwrap().to_bits(),
+        samples[n / 3].t.to_bits()
+    );
     assert_eq!(rows.len(), samples.len());
     for (row, s) in rows.iter().zip(&samples) {
         for (k, def) in SERIES.iter().enumerate() {
@@ -1278,9 +1270,9 @@ fn api_run_claims_the_figure_before_the_run_like_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let mine = dir.path().join("run.png");
     std::fs::write(&mine, b"the user's own picture").unwrap();
-    let err = djkr::api::run(&scn, Some(dir.path())).unwrap_err();
+    let err = crate::api::run(&scn, Some(dir.path())).unwrap_err();
     assert!(
-        matches!(err, djkr::error::Error::Output { .. }),
+        matches!(err, crate::error::Error::Output { .. }),
         "expected the folder to refuse before the run: {err}"
     );
     assert!(err.to_string().contains("run.png"), "{err}");

@@ -26,11 +26,18 @@
 //! All scenes use the paper's material ([`Material::PAPER`]) and, unless they say otherwise, its
 //! Gent–Schultz law ([`GentSchultz::PAPER`]). The builders only construct values; a test or
 //! study changes the solver settings or the stages of its copy as it needs.
+//!
+//! It is compiled into each test, benchmark and study that uses it (`#[path]`), not into the
+//! library: no user of djkr needs it. Each uses a part, hence `allow(dead_code)`.
+#![allow(dead_code)]
 
-use crate::scenario::parse::{parse_scenario, ScenarioError};
-use crate::scenario::*;
+use djkr::scenario::parse::{parse_scenario, ScenarioError};
+use djkr::scenario::*;
 use djkr_core::adhesion::{ConstantW, GentSchultz, Law};
+use djkr_core::dynamics::protocol::*;
+use djkr_core::dynamics::Solver;
 use djkr_core::material::Material;
+use djkr_core::rig::{BaseMotion, ContactFormation, Damping, DampingOn, Holder, Rig, Sphere};
 use std::f64::consts::PI;
 
 /// A stage with a generous safety limit (10⁷ s).
@@ -127,11 +134,11 @@ pub const PULL_OFF_400HZ: PullOffPoint = PullOffPoint {
 };
 
 /// The grid of the paper's Figs. 4–8: frequencies 200, 300, 400 Hz (Hz) and amplitudes
-/// a_A = 0, 25 µm, …, 1.5 mm (m), 3 × 61 pull-offs.
+/// a_A = 0, 25 µm, …, 1.5 mm (m), 3 × 61 pull-offs (the grid `djkr figures` draws).
 pub fn figs_4_to_8_grid() -> (Vec<f64>, Vec<f64>) {
     (
-        crate::figures::TABLE_FREQUENCIES.to_vec(),
-        crate::figures::table_amplitudes(),
+        vec![200.0, 300.0, 400.0],
+        (0..61).map(|i| i as f64 * 25e-6).collect(),
     )
 }
 
@@ -366,7 +373,7 @@ pub fn hold_400hz_1s() -> Scenario {
 /// `scenarios/resonance-400hz.toml`'s vibrating hold alone (0.5 s, 200 cycles at 400 Hz on the
 /// 2.71 g sphere whose linearised resonance is at 400 Hz), without its unload, sampled at every
 /// step.
-pub fn resonance_hold() -> Result<Scenario, ScenarioError> {
+pub(crate) fn resonance_hold() -> Result<Scenario, ScenarioError> {
     let mut s = Bundled::Resonance400.scenario()?;
     s.stages.truncate(1);
     s.output = Output::default();
@@ -778,13 +785,13 @@ impl Bundled {
     /// The file's text, as compiled in.
     pub fn text(self) -> &'static str {
         match self {
-            Bundled::PaperProtocol200 => include_str!("../scenarios/paper-protocol-200hz.toml"),
-            Bundled::PaperProtocol300 => include_str!("../scenarios/paper-protocol-300hz.toml"),
-            Bundled::PaperProtocol400 => include_str!("../scenarios/paper-protocol-400hz.toml"),
-            Bundled::QuasiStaticJkr => include_str!("../scenarios/quasi-static-jkr.toml"),
-            Bundled::Resonance400 => include_str!("../scenarios/resonance-400hz.toml"),
-            Bundled::Impacts => include_str!("../scenarios/impacts.toml"),
-            Bundled::GentleUnload300 => include_str!("../scenarios/gentle-unload-300hz.toml"),
+            Bundled::PaperProtocol200 => include_str!("../../scenarios/paper-protocol-200hz.toml"),
+            Bundled::PaperProtocol300 => include_str!("../../scenarios/paper-protocol-300hz.toml"),
+            Bundled::PaperProtocol400 => include_str!("../../scenarios/paper-protocol-400hz.toml"),
+            Bundled::QuasiStaticJkr => include_str!("../../scenarios/quasi-static-jkr.toml"),
+            Bundled::Resonance400 => include_str!("../../scenarios/resonance-400hz.toml"),
+            Bundled::Impacts => include_str!("../../scenarios/impacts.toml"),
+            Bundled::GentleUnload300 => include_str!("../../scenarios/gentle-unload-300hz.toml"),
         }
     }
 
@@ -826,7 +833,7 @@ mod tests {
         assert_eq!(code.initial, file.initial);
         assert_eq!(code.stages[0].until, file.stages[0].until);
 
-        let text = include_str!("../docs/accuracy/hold-400hz-1s.toml");
+        let text = include_str!("../../docs/accuracy/hold-400hz-1s.toml");
         let file = parse_scenario(text, "docs/accuracy/hold-400hz-1s.toml", None).unwrap();
         let mut code = hold_400hz_1s();
         // The file keeps the parser's safety limit; the catalogue a longer one.

@@ -1,7 +1,7 @@
 //! The paper's figures as data, checked against what the paper's text states and against closed
 //! forms, plus the files `write_figures` produces.
 
-use djkr::figures::{self, FigureId};
+use crate::figures::{self, FigureId};
 use djkr_core::adhesion::GentSchultz;
 use djkr_core::material::Material;
 use std::f64::consts::PI;
@@ -136,7 +136,7 @@ fn write_figures_produces_csv_png_svg() {
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         // Hidden files but djkr's record of the files it wrote: partials left behind.
-        .filter(|n| n.starts_with('.') && n != djkr::output::folder::MANIFEST_NAME)
+        .filter(|n| n.starts_with('.') && n != crate::output::folder::MANIFEST_NAME)
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
