@@ -1330,6 +1330,9 @@ pub struct FitResult {
     pub report: crate::fit::FitReport,
     /// The columns of `residuals.csv`.
     pub residuals: Vec<(String, Column)>,
+    /// The fit as `djkr predict` reads it from the fit's folder, made from the texts of its
+    /// files (the same whether or not they were written), or why it could not be.
+    pub fitted: Result<crate::fit::FitFolder, String>,
 }
 
 /// Fit the request's data: with an output folder, it is claimed and locked before the fit
@@ -1422,7 +1425,20 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
     if outcome.report.interrupted {
         return Err(Error::Cancelled);
     }
+    let fitted = f::files::texts(source, &fixed, free, &model, &outcome).and_then(
+        |[json, residuals, toml]| {
+            let toml = crate::scenario::parse::ScenarioSource::parse(
+                &toml,
+                "fitted.toml",
+                source.base_dir(),
+            )
+            .map_err(|e| e.to_string())?;
+            f::predict::FitFolder::parse("(the fit's result)", &json, toml, &residuals)
+                .map_err(|e| e.to_string())
+        },
+    );
     Ok(FitResult {
+        fitted,
         residuals: f::residual_columns(&model, &outcome)
             .into_iter()
             .map(|(name, c)| {
@@ -1437,6 +1453,47 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
             .collect(),
         report: outcome.report,
     })
+}
+
+/// Predict from a fit with uncertainty, as `djkr predict`: the report `prediction.json` holds
+/// ([`crate::fit::PredictReport::columns`] gives `prediction.csv`'s columns). The request is
+/// checked first; with an output folder `(folder, force)`, it is then claimed and locked and the
+/// prediction's files are written there. A stop raised through `stop` ends it as
+/// [`Error::Cancelled`], nothing written.
+pub fn predict(
+    fit: &crate::fit::FitFolder,
+    req: &crate::fit::PredictRequest,
+    out: Option<(PathBuf, bool)>,
+    stop: Option<&AtomicBool>,
+) -> Result<crate::fit::PredictReport, Error> {
+    use crate::fit::predict as p;
+    p::check(fit, req)?;
+    let output = |error| Error::Output {
+        input: Some("out"),
+        context: None,
+        error,
+    };
+    let _lock = match &out {
+        Some((dir, force)) => {
+            crate::output::folder::claim(dir, &p::FILES, *force).map_err(output)?;
+            if *force {
+                crate::output::folder::force_overwrite(dir);
+            }
+            crate::output::folder::DirLock::acquire(dir).map_err(output)?
+        }
+        None => None,
+    };
+    let report = p::predict(fit, req, stop, &mut || {})?;
+    if let Some((dir, _)) = &out {
+        p::write(dir, &report, fit).map_err(|m| {
+            Error::Invalid(format!(
+                "{}={}: {m}",
+                crate::error::input("out"),
+                dir.display()
+            ))
+        })?;
+    }
+    Ok(report)
 }
 
 #[cfg(test)]

@@ -9,7 +9,10 @@ Each function gives what the ``djkr`` command of the same name reports, in SI un
 - ``resonance``: the frequency response, the columns of ``resonance.csv`` as numpy arrays, and
   ``resonance_peak``: its peak as ``djkr resonance`` finds it (or that there is none in range);
 - ``sweep``: a study over scenario keys, the columns of ``sweep.csv`` (one value per run), and
-  ``points``: the per-point statistics of its rows, the columns of ``points.csv``.
+  ``points``: the per-point statistics of its rows, the columns of ``points.csv``;
+- ``fit``: scenario keys estimated from measured data (a ``Fit``: ``fit.json`` and the
+  residuals), and ``predict``: the model with its uncertainty bands from a fit over a grid of
+  conditions (a ``Prediction``: ``prediction.json`` and the columns of ``prediction.csv``).
 
 ``Run.pieces()`` splits a run's arrays at the gaps envelope following left, and ``djkr.plot``
 (``import djkr.plot``; needs matplotlib) draws a run as ``djkr plot`` does.
@@ -46,6 +49,7 @@ Examples
 from ._djkr import (
     Fit,
     OutputFolderError,
+    Prediction,
     Run,
     ScenarioError,
     ScenarioTypeError,
@@ -53,6 +57,7 @@ from ._djkr import (
     cycle,
     fit,
     points,
+    predict,
     pulloff,
     resonance,
     resonance_peak,
@@ -64,12 +69,14 @@ from ._djkr import (
 __all__ = [
     "Fit",
     "OutputFolderError",
+    "Prediction",
     "Run",
     "ScenarioError",
     "ScenarioTypeError",
     "cycle",
     "fit",
     "points",
+    "predict",
     "pulloff",
     "resonance",
     "resonance_peak",

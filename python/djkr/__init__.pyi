@@ -9,7 +9,10 @@ Each function gives what the ``djkr`` command of the same name reports, in SI un
 - ``resonance``: the frequency response, the columns of ``resonance.csv`` as numpy arrays, and
   ``resonance_peak``: its peak as ``djkr resonance`` finds it (or that there is none in range);
 - ``sweep``: a study over scenario keys, the columns of ``sweep.csv`` (one value per run), and
-  ``points``: the per-point statistics of its rows, the columns of ``points.csv``.
+  ``points``: the per-point statistics of its rows, the columns of ``points.csv``;
+- ``fit``: scenario keys estimated from measured data (a ``Fit``: ``fit.json`` and the
+  residuals), and ``predict``: the model with its uncertainty bands from a fit over a grid of
+  conditions (a ``Prediction``: ``prediction.json`` and the columns of ``prediction.csv``).
 
 ``Run.pieces()`` splits a run's arrays at the gaps envelope following left, and ``djkr.plot``
 (``import djkr.plot``; needs matplotlib) draws a run as ``djkr plot`` does.
@@ -545,9 +548,11 @@ def fit(
         ``correlation`` (matrices in the order of ``parameters``), ``chi2``, ``dof``,
         ``reduced_chi2``, ``aic`` (chi2 + 2k), ``bic`` (chi2 + k ln n), ``converged``,
         ``termination``, ``iterations``, ``forward_runs``, ``rhs_evals``, ``starts``,
-        ``tolerances``, ``observable`` and ``notes``. ``r.parameters``, ``r.sigma``,
-        ``r.intervals`` (dicts by key), ``r.covariance`` (numpy array) and ``r.residuals`` (the
-        columns of ``residuals.csv``; ``r.to_pandas()`` as a DataFrame) are the same as arrays.
+        ``tolerances``, ``observable``, ``ensemble`` (``members`` and ``seed``, or None) and
+        ``notes``. ``r.parameters``, ``r.sigma``, ``r.intervals`` (dicts by key),
+        ``r.covariance`` (numpy array) and ``r.residuals`` (the columns of ``residuals.csv``;
+        ``r.to_pandas()`` as a DataFrame) are the same as arrays. ``djkr.predict(r, ...)``
+        carries the fit into predictions with uncertainty bands.
 
     Raises
     ------
@@ -565,6 +570,117 @@ def fit(
     >>> r.parameters, r.sigma, r.covariance
     >>> r.to_pandas()                      # the residuals' table
     >>> r["aic"], r["notes"]
+    """
+    ...
+
+class Prediction:
+    """The result of ``djkr.predict``: the content of ``prediction.json`` and the columns of
+    ``prediction.csv``.
+
+    ``p["rows"]``, ``p["notes"]``, ``p["observable"]``, ... read ``prediction.json`` as a dict
+    does (``p.report`` is that dict). ``p.columns`` holds the columns of ``prediction.csv``
+    (numpy arrays named ``"name [unit]"``, SI; NaN where a sigma is null; text conditions as
+    lists): ``pandas.DataFrame(p.columns)`` is its table, as is ``p.to_pandas()``.
+
+    Examples
+    --------
+    >>> p = djkr.predict("out/fit", grid={"base.amplitude": ["10um", "30um"]})
+    >>> p.columns["value [1]"], p.columns["sigma [1]"], p["notes"]
+    """
+
+    report: Dict[str, Any]
+    """The content of ``prediction.json`` (a dict)."""
+    columns: Dict[str, Any]
+    """The columns of ``prediction.csv`` (dict of numpy arrays)."""
+    def __getitem__(self, key: str) -> Any:
+        """Return self[key]."""
+        ...
+    def __contains__(self, key: str) -> bool:
+        """Return key in self."""
+        ...
+    def __len__(self) -> int:
+        """Return len(self)."""
+        ...
+    def to_pandas(self) -> Any:
+        """The table of ``prediction.csv`` as a ``pandas.DataFrame`` (needs pandas)."""
+        ...
+
+def predict(
+    fit: Union["Fit", str, "os.PathLike[str]"],
+    grid: Optional[Mapping[str, Any]] = None,
+    samples: int = 0,
+    ensemble: Optional[int] = None,
+    seed: Optional[int] = None,
+    observable: Optional[str] = None,
+    jobs: Optional[int] = None,
+    out: Optional[Union[str, "os.PathLike[str]"]] = None,
+    force: bool = False,
+) -> "Prediction":
+    """Predictions from a fit with their uncertainty, as ``djkr predict``.
+
+    For each point of the grid: the model at the fit's estimate, its standard deviation from the
+    fitted keys' covariance by linear propagation through the fit's own finite-difference
+    Jacobian, with an ensemble the standard error of the members' mean, the 68 % and 95 % bands,
+    and with ``samples`` the spread over parameter draws. The numbers are those of
+    ``djkr predict --json`` for the same fit and arguments, to the bit.
+
+    Parameters
+    ----------
+    fit : Fit, str or os.PathLike
+        What ``djkr.fit`` returned, or the folder a fit wrote (``djkr fit --out``, or
+        ``djkr.fit(out=...)``: ``fit.json``, ``fitted.toml``, ``residuals.csv``).
+    grid : dict, optional
+        The conditions to predict at, as ``djkr.sweep``'s ``grid``: each scenario key (not one
+        the fit estimated) with its values, a list (``["10um", "30um"]``, floats in SI) or a
+        range string (``"200:500:7"``); several keys make the Cartesian grid, the first
+        slowest. Default: the fit's data's own conditions.
+    samples : int, optional
+        Parameter draws (0, the default: none; else 2 to 100000) from the fit's distribution in
+        its coordinates (log space keys stay positive): the column ``sigma_samples``.
+    ensemble : int, optional
+        Members per point (>= 2): each value is the mean over that many base phases drawn from
+        ``seed`` (chaotic rigs), ``sigma_ensemble`` its standard error. Default: the fit's
+        ensemble, if it had one (so that at the data's conditions the values are the fit's).
+    seed : int, optional
+        Seed of the draws of ``samples`` and of the phases of ``ensemble`` (default 0).
+    observable : str, optional
+        The quantity to predict, as named in ``sweep.csv`` (``"pull_off_force"``,
+        ``"pull_off_amplification"``, ``"pull_off_time"``, ``"force_mean"``, ``"delta_mean"``,
+        ``"delta_amp"``). Default: the fit's.
+    jobs : int, optional
+        Runs at a time (default: one per core).
+    out : str or os.PathLike, optional
+        A folder for ``prediction.csv``, ``prediction.json``, ``prediction.png`` and
+        ``prediction.svg``, as ``djkr predict --out``.
+    force : bool, optional
+        Overwrite files of those names in ``out`` that djkr did not write (``--force``).
+
+    Returns
+    -------
+    Prediction
+        ``p["rows"]``, ``p["notes"]``, ... are the content of ``prediction.json``
+        (``p.report``); ``p.columns`` holds the columns of ``prediction.csv`` as numpy arrays
+        (``"base.amplitude [m]"``, ``"value [1]"``, ``"sigma_parameters [1]"``,
+        ``"sigma_ensemble [1]"``, ``"sigma [1]"``, ``"lo68 [1]"``, ``"hi68 [1]"``,
+        ``"lo95 [1]"``, ``"hi95 [1]"``, with samples ``"sigma_samples [1]"``; NaN where a
+        sigma is null; text conditions as lists); ``p.to_pandas()`` is that table.
+
+    Raises
+    ------
+    ScenarioError
+        A folder without a fit, a grid key the fit estimated, an observable djkr does not
+        produce, ``samples=1``, ``ensemble=1``, ``seed`` without ``samples`` or ``ensemble``.
+    KeyboardInterrupt
+        Ctrl-C: no new run starts, nothing is written.
+
+    Examples
+    --------
+    >>> import djkr
+    >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
+    ...              free=["adhesion.v0", "adhesion.n"])
+    >>> p = djkr.predict(r, grid={"base.frequency": "250Hz",
+    ...                           "base.amplitude": "10um:60um:6"}, samples=100)
+    >>> p.to_pandas()[["base.amplitude [m]", "value [1]", "lo95 [1]", "hi95 [1]"]]
     """
     ...
 

@@ -54,7 +54,6 @@ use djkr::sweep::{point_stats, points_table};
 use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
 use djkr_core::adhesion::Law;
 use djkr_core::cancel::{Cancel, CancelFlag};
-use djkr_core::closed_form::{DeltaAmpForm, BETA_PAPER};
 use djkr_core::dynamics::Event;
 use djkr_core::material::Material;
 use djkr_core::steady::{Options, Problem};
@@ -123,7 +122,7 @@ impl djkr::error::Words for PyWords {
     fn input(&self, name: &str) -> String {
         match name {
             // An argument named alone in a sentence (`set= does not add stages`).
-            "set" | "grid" | "ensemble" | "seed" => format!("{name}="),
+            "set" | "grid" | "ensemble" | "seed" | "samples" => format!("{name}="),
             "force" => "force=True".into(),
             "out" | "resume" => format!("{name}="),
             _ => name.to_string(),
@@ -2116,9 +2115,11 @@ fn rows_of(py: Python<'_>, rows: &Bound<'_, PyAny>) -> PyResult<(Vec<KeyColumn>,
 ///     ``correlation`` (matrices in the order of ``parameters``), ``chi2``, ``dof``,
 ///     ``reduced_chi2``, ``aic`` (chi2 + 2k), ``bic`` (chi2 + k ln n), ``converged``,
 ///     ``termination``, ``iterations``, ``forward_runs``, ``rhs_evals``, ``starts``,
-///     ``tolerances``, ``observable`` and ``notes``. ``r.parameters``, ``r.sigma``,
-///     ``r.intervals`` (dicts by key), ``r.covariance`` (numpy array) and ``r.residuals`` (the
-///     columns of ``residuals.csv``; ``r.to_pandas()`` as a DataFrame) are the same as arrays.
+///     ``tolerances``, ``observable``, ``ensemble`` (``members`` and ``seed``, or None) and
+///     ``notes``. ``r.parameters``, ``r.sigma``, ``r.intervals`` (dicts by key),
+///     ``r.covariance`` (numpy array) and ``r.residuals`` (the columns of ``residuals.csv``;
+///     ``r.to_pandas()`` as a DataFrame) are the same as arrays. ``djkr.predict(r, ...)``
+///     carries the fit into predictions with uncertainty bands.
 ///
 /// Raises
 /// ------
@@ -2305,6 +2306,8 @@ struct Fit {
     /// The columns of ``residuals.csv`` (dict of numpy arrays).
     #[pyo3(get)]
     residuals: Py<PyAny>,
+    /// The fit as ``djkr.predict`` reads it (the texts of its files), or why it could not be.
+    fitted: Result<djkr::fit::FitFolder, String>,
 }
 
 impl Fit {
@@ -2353,6 +2356,7 @@ impl Fit {
             intervals: intervals.into_any().unbind(),
             covariance,
             residuals: residuals.into_any().unbind(),
+            fitted: r.fitted,
         })
     }
 }
@@ -2384,6 +2388,233 @@ impl Fit {
             r.get_item("chi2")?.repr()?,
             r.get_item("converged")?.repr()?,
             self.parameters.bind(py).repr()?
+        ))
+    }
+}
+
+/// Predictions from a fit with their uncertainty, as ``djkr predict``.
+///
+/// For each point of the grid: the model at the fit's estimate, its standard deviation from the
+/// fitted keys' covariance by linear propagation through the fit's own finite-difference
+/// Jacobian, with an ensemble the standard error of the members' mean, the 68 % and 95 % bands,
+/// and with ``samples`` the spread over parameter draws. The numbers are those of
+/// ``djkr predict --json`` for the same fit and arguments, to the bit.
+///
+/// Parameters
+/// ----------
+/// fit : Fit, str or os.PathLike
+///     What ``djkr.fit`` returned, or the folder a fit wrote (``djkr fit --out``, or
+///     ``djkr.fit(out=...)``: ``fit.json``, ``fitted.toml``, ``residuals.csv``).
+/// grid : dict, optional
+///     The conditions to predict at, as ``djkr.sweep``'s ``grid``: each scenario key (not one
+///     the fit estimated) with its values, a list (``["10um", "30um"]``, floats in SI) or a
+///     range string (``"200:500:7"``); several keys make the Cartesian grid, the first
+///     slowest. Default: the fit's data's own conditions.
+/// samples : int, optional
+///     Parameter draws (0, the default: none; else 2 to 100000) from the fit's distribution in
+///     its coordinates (log space keys stay positive): the column ``sigma_samples``.
+/// ensemble : int, optional
+///     Members per point (>= 2): each value is the mean over that many base phases drawn from
+///     ``seed`` (chaotic rigs), ``sigma_ensemble`` its standard error. Default: the fit's
+///     ensemble, if it had one (so that at the data's conditions the values are the fit's).
+/// seed : int, optional
+///     Seed of the draws of ``samples`` and of the phases of ``ensemble`` (default 0).
+/// observable : str, optional
+///     The quantity to predict, as named in ``sweep.csv`` (``"pull_off_force"``,
+///     ``"pull_off_amplification"``, ``"pull_off_time"``, ``"force_mean"``, ``"delta_mean"``,
+///     ``"delta_amp"``). Default: the fit's.
+/// jobs : int, optional
+///     Runs at a time (default: one per core).
+/// out : str or os.PathLike, optional
+///     A folder for ``prediction.csv``, ``prediction.json``, ``prediction.png`` and
+///     ``prediction.svg``, as ``djkr predict --out``.
+/// force : bool, optional
+///     Overwrite files of those names in ``out`` that djkr did not write (``--force``).
+///
+/// Returns
+/// -------
+/// Prediction
+///     ``p["rows"]``, ``p["notes"]``, ... are the content of ``prediction.json``
+///     (``p.report``); ``p.columns`` holds the columns of ``prediction.csv`` as numpy arrays
+///     (``"base.amplitude [m]"``, ``"value [1]"``, ``"sigma_parameters [1]"``,
+///     ``"sigma_ensemble [1]"``, ``"sigma [1]"``, ``"lo68 [1]"``, ``"hi68 [1]"``,
+///     ``"lo95 [1]"``, ``"hi95 [1]"``, with samples ``"sigma_samples [1]"``; NaN where a
+///     sigma is null; text conditions as lists); ``p.to_pandas()`` is that table.
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     A folder without a fit, a grid key the fit estimated, an observable djkr does not
+///     produce, ``samples=1``, ``ensemble=1``, ``seed`` without ``samples`` or ``ensemble``.
+/// KeyboardInterrupt
+///     Ctrl-C: no new run starts, nothing is written.
+///
+/// Examples
+/// --------
+/// >>> import djkr
+/// >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
+/// ...              free=["adhesion.v0", "adhesion.n"])
+/// >>> p = djkr.predict(r, grid={"base.frequency": "250Hz",
+/// ...                           "base.amplitude": "10um:60um:6"}, samples=100)
+/// >>> p.to_pandas()[["base.amplitude [m]", "value [1]", "lo95 [1]", "hi95 [1]"]]
+#[pyfunction]
+#[pyo3(
+    signature = (fit, grid = None, samples = None, ensemble = None, seed = None, observable = None, jobs = None, out = None, force = None),
+    text_signature = "(fit, grid=None, samples=0, ensemble=None, seed=None, observable=None, jobs=None, out=None, force=False)"
+)]
+#[allow(clippy::too_many_arguments)]
+fn predict(
+    py: Python<'_>,
+    fit: &Bound<'_, PyAny>,
+    grid: Option<&Bound<'_, PyAny>>,
+    samples: Option<&Bound<'_, PyAny>>,
+    ensemble: Option<&Bound<'_, PyAny>>,
+    seed: Option<&Bound<'_, PyAny>>,
+    observable: Option<&Bound<'_, PyAny>>,
+    jobs: Option<&Bound<'_, PyAny>>,
+    out: Option<&Bound<'_, PyAny>>,
+    force: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Prediction> {
+    use djkr::fit::{FitFolder, PredictRequest};
+    let (folder, req, out) = guarded(|| {
+        let folder: FitFolder = if let Ok(f) = fit.cast::<Fit>() {
+            f.get().fitted.clone().map_err(|m| {
+                PyRuntimeError::new_err(format!("fit: this fit's result cannot be read back: {m}"))
+            })?
+        } else if fit.is_instance_of::<PyString>() || fit.hasattr("__fspath__")? {
+            let dir = path_arg(Some(fit), "fit")?.unwrap_or_default();
+            FitFolder::read(&dir).map_err(api_err)?
+        } else {
+            return Err(type_err(format!(
+                "fit: expected what djkr.fit returned or a fit's folder (str or os.PathLike), \
+                 got {}",
+                type_name(fit)
+            )));
+        };
+        let mut axes = Vec::new();
+        let mut bytes = 0;
+        if let Some(g) = dict_arg(grid, "grid")? {
+            for (k, v) in g.iter() {
+                let key = key_text(&k, "grid")?;
+                let text = format!("{key}={}", spec_text(&v, &key)?);
+                bytes += text.len();
+                if bytes > text_limit() {
+                    return Err(too_large("grid", None));
+                }
+                axes.push(Axis::parse(&text).map_err(|e| spec_err("grid", &e))?);
+            }
+        }
+        let whole =
+            |v, name| whole_arg(v, name, 0, usize::MAX as u64).map(|w| w.map(|w| w as usize));
+        // The library refuses 1 and more than its bound, in its words.
+        let samples = whole(samples, "samples")?.unwrap_or(0);
+        let ensemble = whole(ensemble, "ensemble")?;
+        let seed = whole_arg(seed, "seed", 0, u64::MAX)?;
+        let observable = match observable {
+            Some(o) if !o.is_none() => Some(str_arg(o, "observable")?),
+            _ => None,
+        };
+        let jobs = whole(jobs, "jobs")?;
+        if jobs == Some(0) {
+            return Err(input_err(
+                "jobs = 0: must be a whole number >= 1 (runs at a time)",
+            ));
+        }
+        let out = path_arg(out, "out")?;
+        let force = bool_arg(force, "force")?;
+        if force && out.is_none() {
+            return Err(input_err(
+                "force=True has no effect without out= (it lets predict overwrite files in its \
+                 folder): leave it out",
+            ));
+        }
+        let req = PredictRequest {
+            grid: axes,
+            observable,
+            ensemble: ensemble.map(|m| (m, seed.unwrap_or(0))),
+            samples,
+            seed,
+            jobs: jobs.unwrap_or(0),
+        };
+        Ok((folder, req, out.map(|o| (o, force))))
+    })?;
+    let report = interruptible(py, move |stop| {
+        api::predict(&folder, &req, out, Some(stop.flag()))
+    })?;
+    guarded(|| Prediction::new(py, report))
+}
+
+/// The result of ``djkr.predict``: the content of ``prediction.json`` and the columns of
+/// ``prediction.csv``.
+///
+/// ``p["rows"]``, ``p["notes"]``, ``p["observable"]``, ... read ``prediction.json`` as a dict
+/// does (``p.report`` is that dict). ``p.columns`` holds the columns of ``prediction.csv``
+/// (numpy arrays named ``"name [unit]"``, SI; NaN where a sigma is null; text conditions as
+/// lists): ``pandas.DataFrame(p.columns)`` is its table, as is ``p.to_pandas()``.
+///
+/// Examples
+/// --------
+/// >>> p = djkr.predict("out/fit", grid={"base.amplitude": ["10um", "30um"]})
+/// >>> p.columns["value [1]"], p.columns["sigma [1]"], p["notes"]
+#[pyclass(module = "djkr", frozen)]
+struct Prediction {
+    /// The content of ``prediction.json`` (a dict).
+    #[pyo3(get)]
+    report: Py<PyAny>,
+    /// The columns of ``prediction.csv`` (dict of numpy arrays).
+    #[pyo3(get)]
+    columns: Py<PyAny>,
+}
+
+impl Prediction {
+    fn new(py: Python<'_>, r: djkr::fit::PredictReport) -> PyResult<Prediction> {
+        let report = serde_json::to_value(&r)
+            .map_err(|e| PyRuntimeError::new_err(format!("prediction report: {e}")))?;
+        let columns = PyDict::new(py);
+        for (name, c) in r.columns() {
+            match c {
+                api::Column::Num(v) => columns.set_item(name, PyArray1::from_vec(py, v))?,
+                api::Column::Text(v) => columns.set_item(name, v)?,
+            }
+        }
+        Ok(Prediction {
+            report: json_to_py(py, &report)?,
+            columns: columns.into_any().unbind(),
+        })
+    }
+}
+
+#[pymethods]
+impl Prediction {
+    /// ``prediction.json``'s entry ``key`` (``p["rows"]``, ``p["notes"]``).
+    fn __getitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+        Ok(self.report.bind(py).get_item(key)?.unbind())
+    }
+
+    /// ``prediction.json``'s keys.
+    fn __contains__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<bool> {
+        self.report.bind(py).contains(key)
+    }
+
+    /// The table of ``prediction.csv`` as a ``pandas.DataFrame`` (needs pandas).
+    fn to_pandas(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let pd = py.import("pandas")?;
+        Ok(pd
+            .call_method1("DataFrame", (self.columns.bind(py),))?
+            .unbind())
+    }
+
+    fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
+        self.report.bind(py).get_item("rows")?.len()
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let r = self.report.bind(py);
+        Ok(format!(
+            "<djkr.Prediction observable={} points={} notes={}>",
+            r.get_item("observable")?.repr()?,
+            r.get_item("rows")?.len()?,
+            r.get_item("notes")?.len()?
         ))
     }
 }
@@ -2428,6 +2659,7 @@ fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Run>()?;
     m.add_class::<Fit>()?;
+    m.add_class::<Prediction>()?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(cycle, m)?)?;
     m.add_function(wrap_pyfunction!(pulloff, m)?)?;
@@ -2437,5 +2669,6 @@ fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(points, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
+    m.add_function(wrap_pyfunction!(predict, m)?)?;
     Ok(())
 }

@@ -104,7 +104,7 @@ fn parse_range(flag: &str, text: &str, p: &Parameter) -> Result<(f64, f64)> {
     }
     let a = parse_quantity(flag, parts[0].trim(), p.info.dimension)?;
     let b = parse_quantity(flag, parts[1].trim(), p.info.dimension)?;
-    if !(a.is_finite() && b.is_finite()) || a == b {
+    if !(a.is_finite() && b.is_finite()) || a.partial_cmp(&b) == Some(std::cmp::Ordering::Equal) {
         bail!(
             "{flag} = {shown_text}: START and STOP must be finite and differ ({} in {})",
             p.name(),

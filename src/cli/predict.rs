@@ -1,5 +1,5 @@
-//! `djkr predict --fit DIR [--set KEY=SPEC]... [--samples N] --out DIR`: thin over
-//! [`crate::fit::predict`].
+//! `djkr predict --fit DIR [--set KEY=SPEC]... [--observable NAME] [--samples N]
+//! [--ensemble N] [--seed S] --out DIR`: thin over [`crate::fit::predict`].
 
 use super::signals;
 use super::sweep::Interrupted;
@@ -23,13 +23,21 @@ pub struct PredictArgs {
     /// base.amplitude=10um,30um. Without it: the fit's data's own conditions.
     #[arg(long = "set", value_name = "KEY=SPEC")]
     set: Vec<String>,
+    /// The quantity to predict, as named in sweep.csv: pull_off_force, pull_off_amplification,
+    /// pull_off_time, force_mean, delta_mean, delta_amp [default: the fit's].
+    #[arg(long, value_name = "NAME")]
+    observable: Option<String>,
     /// Also propagate by N parameter draws from the fit's distribution (in the fit
     /// coordinates): the column sigma_samples.
     #[arg(long, value_name = "N", default_value_t = 0)]
     samples: usize,
-    /// Seed of the draws.
-    #[arg(long, value_name = "S", default_value_t = 0)]
-    seed: u64,
+    /// Each value the mean of N runs of base phases drawn from --seed (chaotic rigs):
+    /// sigma_ensemble is its standard error [default: the fit's ensemble, if it had one].
+    #[arg(long, value_name = "N")]
+    ensemble: Option<usize>,
+    /// Seed of the draws of --samples and of the phases of --ensemble [default: 0].
+    #[arg(long, value_name = "S")]
+    seed: Option<u64>,
     /// Runs at a time [default: one per core].
     #[arg(long, value_name = "J")]
     jobs: Option<usize>,
@@ -49,25 +57,19 @@ const PREDICT_HELP: &str = "Example (after `djkr fit ... --out out/fit`):
       --samples 100 --out out/predict
 For each grid point: the model at the fit's estimate (value), its standard deviation from the
 parameters' covariance by linear propagation through the fit's own finite-difference Jacobian
-(sigma_parameters), the 68 % and 95 % bands (value -+ sigma, -+ 1.96 sigma), and with
---samples the standard deviation over N parameter draws (sigma_samples; a note where it differs
-from sigma_parameters by more than a factor 1.5: the model is not linear there, trust the
-samples). Forward runs: points x (2 + free keys) + points x samples.
+(sigma_parameters), with an ensemble the standard error of its mean (sigma_ensemble; a fit
+made with --ensemble lends its own), sigma = sqrt(sigma_parameters^2 + sigma_ensemble^2), the
+68 % and 95 % bands (value -+ sigma, -+ 1.96 sigma), and with --samples the standard deviation
+over N parameter draws (sigma_samples; a note where it differs from sigma by more than a
+factor 1.5: the model is not linear there, trust the samples). Forward runs: points x
+(2 + free keys) + points x samples, each times the members with an ensemble (whose Jacobian is
+central: 1 + 2 x free keys, more where a step widens).
 Exit status: 0 predicted, 2 bad input, 130 Ctrl-C (nothing written).";
-
-/// At most this many draws.
-const MAX_SAMPLES: usize = 100_000;
 
 /// Run `djkr predict`.
 pub fn predict(a: &PredictArgs) -> Result<()> {
     if a.jobs == Some(0) {
         bail!("--jobs 0: must be a whole number >= 1 (runs at a time)");
-    }
-    if a.samples == 1 || a.samples > MAX_SAMPLES {
-        bail!(
-            "--samples {}: must be 0 (none) or from 2 to {MAX_SAMPLES} (a spread needs two)",
-            a.samples
-        );
     }
     let grid = a
         .set
@@ -75,14 +77,17 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
         .map(|s| Axis::parse(s))
         .collect::<Result<Vec<_>, _>>()?;
     let req = PredictRequest {
-        fit: a.fit.clone(),
         grid,
+        observable: a.observable.clone(),
+        ensemble: a.ensemble.map(|m| (m, a.seed.unwrap_or(0))),
         samples: a.samples,
         seed: a.seed,
         jobs: a.jobs.unwrap_or(0),
     };
-    // The fit is read (and a folder without one refused) before the output folder is claimed.
-    let fit = predict::FitFolder::read(&req.fit)?;
+    // The fit is read (and a folder without one refused), and the request checked, before the
+    // output folder is claimed.
+    let fit = predict::FitFolder::read(&a.fit)?;
+    predict::check(&fit, &req)?;
     signals::install("stopping: forward runs in progress are abandoned; nothing is written");
     super::common::claim_out(&a.out, &predict::FILES, a.force).context("--out")?;
     let _lock = crate::output::folder::DirLock::acquire(&a.out)?;
@@ -92,7 +97,7 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_spinner()),
     );
     bar.enable_steady_tick(Duration::from_millis(200));
-    let report = predict::predict(&req, Some(signals::flag()), &mut || bar.inc(1));
+    let report = predict::predict(&fit, &req, Some(signals::flag()), &mut || bar.inc(1));
     bar.finish_and_clear();
     let report = match report {
         Err(crate::error::Error::Cancelled) => {
@@ -101,24 +106,14 @@ pub fn predict(a: &PredictArgs) -> Result<()> {
         }
         r => r?,
     };
-    let json = serde_json::to_string_pretty(&report)?;
-    let put = |name: &str, bytes: &[u8]| -> Result<()> {
-        crate::output::write_atomic(&a.out.join(name), bytes).with_context(|| name.to_string())
-    };
-    put(
-        "prediction.csv",
-        predict::prediction_csv(&report).as_bytes(),
-    )?;
-    put("prediction.json", format!("{json}\n").as_bytes())?;
-    match predict::prediction_figure(&report, &fit.data) {
-        Some(fig) => {
-            crate::plot::render(&fig, &a.out.join("prediction"))
-                .map_err(|e| anyhow::anyhow!("prediction.png/prediction.svg: {e}"))?;
-        }
-        None => eprintln!(
+    let (json, figure) = predict::write(&a.out, &report, &fit)
+        .map_err(anyhow::Error::msg)
+        .context("--out")?;
+    if !figure {
+        eprintln!(
             "note: no figure: no numeric condition takes two values in the grid (give --set \
              KEY=SPEC with several values)"
-        ),
+        );
     }
     if a.json {
         println!("{json}");

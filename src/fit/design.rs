@@ -34,7 +34,9 @@ use crate::sweep::grid::Axis;
 use crate::words::{input, input_value};
 
 use super::data::CondValue;
-use super::predict::{at_estimate, grid_data, refuse_free_axes, Cell, ConditionColumn, FitFolder};
+use super::predict::{
+    at_estimate, forward_model, grid_data, refuse_free_axes, Cell, ConditionColumn, FitFolder,
+};
 
 use nalgebra::{DMatrix, DVector};
 
@@ -459,7 +461,7 @@ fn checked(req: &DesignRequest) -> Result<Checked, Error> {
         )));
     }
     let fit = FitFolder::read(&req.fit)?;
-    refuse_free_axes(&fit, &req.candidates, "candidates")?;
+    refuse_free_axes(&fit, &req.candidates, &|a| input_value("candidates", a))?;
     let shown: Vec<String> = req.candidates.iter().map(Axis::shown).collect();
     let all = shown.join(" ");
     let points = crate::sweep::grid::Grid::new(req.candidates.clone(), false)
@@ -626,8 +628,15 @@ pub fn design(
         from_data,
         points,
     } = checked(req)?;
-    let data = grid_data(&req.candidates, fit.observable)?;
-    let at = at_estimate(&fit, &data, req.jobs, true, &[], stop, on_run)?;
+    // No ensemble: the candidates' model at the scenario's own phase.
+    let model = forward_model(
+        &fit,
+        grid_data(&req.candidates, fit.observable)?,
+        None,
+        req.jobs,
+    )?;
+    let data = model.data();
+    let at = at_estimate(&fit, &model, true, &[], stop, on_run)?;
     let jac = at
         .jac
         .ok_or_else(|| Error::Invalid("the candidates' Jacobian was not computed".into()))?;

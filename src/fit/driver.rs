@@ -705,6 +705,9 @@ pub(crate) fn fit(
         forward_runs: st.runs,
         rhs_evals: st.rhs_evals,
         observable: data.observable.name().to_string(),
+        ensemble: model
+            .ensemble()
+            .map(|(members, seed)| report::Ensemble { members, seed }),
         notes,
         starts: start_reports,
         tolerances: Tolerances {

@@ -54,6 +54,30 @@ fn header(
     )
 }
 
+/// The texts of `fit.json`, `residuals.csv` and `fitted.toml`, in that order: what [`write`]
+/// writes, and what `predict` reads of a fit made without a folder.
+pub(crate) fn texts(
+    source: &ScenarioSource,
+    fixed: &[Override],
+    free: &[FreeKey],
+    model: &ForwardModel,
+    outcome: &FitOutcome,
+) -> Result<[String; 3], String> {
+    let toml = super::fitted_toml(
+        source,
+        fixed,
+        free,
+        &outcome.values,
+        &header(source, fixed, model, outcome),
+    )?;
+    let json = serde_json::to_string_pretty(&outcome.report).map_err(|e| e.to_string())?;
+    Ok([
+        format!("{json}\n"),
+        super::residuals_csv(model, outcome),
+        toml,
+    ])
+}
+
 /// Write the fit's files in `out`: `fit.json`, `residuals.csv`, `fitted.toml`, then the figure
 /// (whose model grid runs with `stop` and reports each run to `on_run`). Returns `fit.json`'s
 /// text.
@@ -71,21 +95,11 @@ pub fn write(
     let put = |name: &str, bytes: &[u8]| {
         crate::output::write_atomic(&out.join(name), bytes).map_err(|e| format!("{name}: {e}"))
     };
-    let toml = super::fitted_toml(
-        source,
-        fixed,
-        free,
-        &outcome.values,
-        &header(source, fixed, model, outcome),
-    )?;
-    let json = serde_json::to_string_pretty(&outcome.report).map_err(|e| e.to_string())?;
-    put("fit.json", format!("{json}\n").as_bytes())?;
-    put(
-        "residuals.csv",
-        super::residuals_csv(model, outcome).as_bytes(),
-    )?;
+    let [json, residuals, toml] = texts(source, fixed, free, model, outcome)?;
+    put("fit.json", json.as_bytes())?;
+    put("residuals.csv", residuals.as_bytes())?;
     put("fitted.toml", toml.as_bytes())?;
     super::figure::draw(model, outcome, &out.join("fit"), stop, on_run)
         .map_err(|e| format!("fit.png/fit.svg: {e}"))?;
-    Ok(json)
+    Ok(json.trim_end().to_string())
 }

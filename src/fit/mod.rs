@@ -44,6 +44,7 @@ pub(crate) use free::fittable_keys;
 pub use free::FreeKey;
 pub use model::ForwardModel;
 pub(crate) use model::{expected_runs, sets_per_iteration};
+pub use predict::{FitFolder, PredictReport, PredictRequest};
 pub(crate) use report::{FitEvent, FitOptions};
 pub use report::{FitOutcome, FitReport, Parameter, StartReport, Tolerances};
 

@@ -3,9 +3,12 @@
 //! covariance gives it.
 //!
 //! - **The fit**: a fit's folder ([`FitFolder::read`]): `fit.json` (the estimates, their
-//!   covariance in the keys' units, the fit coordinates, the tolerances), `fitted.toml` (the
-//!   scenario with the estimates and the fit's fixed overrides written in) and `residuals.csv`
-//!   (the data's conditions).
+//!   covariance in the keys' units, the fit coordinates, the tolerances, the ensemble),
+//!   `fitted.toml` (the scenario with the estimates and the fit's fixed overrides written in)
+//!   and `residuals.csv` (the data's conditions); or the same texts from a fit just made
+//!   (`api::FitResult::fitted`, what Python's `djkr.predict` takes from a `djkr.Fit`).
+//! - **The observable**: the fit's, or another that djkr produces (the fitted keys' covariance
+//!   carried into that quantity; the fit's data are then not drawn).
 //! - **The grid**: the axes of a sweep ([`crate::sweep::Axis`], `KEY=SPEC` as `djkr sweep --set`
 //!   takes it; the Cartesian grid), or without axes the data's own conditions.
 //! - **Linear propagation** (the delta method, /work/shared/STATS.md): with `g` the gradient of
@@ -19,13 +22,19 @@
 //!   positive), the model run at each; `sigma_samples` is their standard deviation. Where it
 //!   and `sigma_parameters` differ by more than [`DISAGREEMENT`] (either way) the model is not
 //!   linear over the parameters' uncertainty, and a note says the samples are the ones to trust.
+//! - **Ensemble** (chaotic rigs): the request's `(members, seed)`, else the fit's (so that at the
+//!   data's own conditions the values are the fit's, the same phases): each value is the mean
+//!   over the members, `sigma_ensemble` its standard error, and the Jacobian the fit's central
+//!   differences whose steps widen above that noise ([`super::stencil`]). Each draw of the
+//!   samples is an ensemble mean too, so their spread holds the members' noise: it is compared
+//!   with the combined `sigma`.
 //! - **Bands**: `sigma = √(σ_parameters² + σ_ensemble²)`; `lo68, hi68 = value ∓ sigma`, `lo95,
 //!   hi95 = value ∓ 1.96 sigma` (normal quantiles).
 //!
 //! [`propagate`], [`draws`] and [`spread`] are the pure parts, tested against closed forms; the
 //! forward model is the fit's.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use nalgebra::DMatrix;
@@ -51,21 +60,27 @@ use super::FitEvent;
 /// a factor 1.5 is not reached by chance.
 pub const DISAGREEMENT: f64 = 1.5;
 
+/// At most this many parameter draws.
+pub const MAX_SAMPLES: usize = 100_000;
+
 /// The normal quantile of a two-sided 95 % band.
 pub const Z95: f64 = 1.959_963_984_540_054;
 
-/// What to predict.
-#[derive(Debug, Clone)]
+/// What to predict from a fit ([`FitFolder`]).
+#[derive(Debug, Clone, Default)]
 pub struct PredictRequest {
-    /// The fit's folder (`fit.json`, `fitted.toml`, `residuals.csv`).
-    pub fit: PathBuf,
     /// The grid's axes (the Cartesian grid, first key slowest); empty: the data's own
     /// conditions.
     pub grid: Vec<Axis>,
+    /// The observable to predict, as named in sweep.csv (`None`: the fit's).
+    pub observable: Option<String>,
+    /// An ensemble per point `(members, seed)` (`None`: the fit's, if it had one).
+    pub ensemble: Option<(usize, u64)>,
     /// Parameter draws for `sigma_samples` (0: none).
     pub samples: usize,
-    /// The draws' seed.
-    pub seed: u64,
+    /// The draws' seed (`None`: 0); refused without draws or an ensemble of the request's, as
+    /// it would seed nothing.
+    pub seed: Option<u64>,
     /// Threads (0: one per core).
     pub jobs: usize,
 }
@@ -125,16 +140,63 @@ pub struct PredictReport {
     pub conditions: Vec<ConditionColumn>,
     /// The free keys whose covariance is propagated (those with a σ).
     pub keys: Vec<String>,
+    /// The ensemble each value is the mean of (null without): the request's, else the fit's.
+    pub ensemble: Option<super::report::Ensemble>,
     /// One row per grid point.
     pub rows: Vec<PredictRow>,
     /// Parameter draws made.
     pub samples: usize,
-    /// Their seed.
+    /// The seed of the draws (and of the request's ensemble's phases).
     pub seed: u64,
     /// Forward runs made.
     pub forward_runs: usize,
     /// What the numbers need said.
     pub notes: Vec<String>,
+}
+
+impl PredictReport {
+    /// The columns of `prediction.csv` (its header's names, `name [unit]`): a condition with
+    /// a unit as numbers (SI), one without as text, the value, σ and bands as numbers (NaN where
+    /// null).
+    pub fn columns(&self) -> Vec<(String, crate::api::Column)> {
+        use crate::api::Column;
+        let conditions = self.conditions.len();
+        csv_header(self)
+            .into_iter()
+            .enumerate()
+            .map(|(j, name)| {
+                let column = if j >= conditions {
+                    Column::Num(
+                        self.rows
+                            .iter()
+                            .map(|row| row_numbers(self, row)[j - conditions].unwrap_or(f64::NAN))
+                            .collect(),
+                    )
+                } else if self.conditions[j].unit.is_some() {
+                    Column::Num(
+                        self.rows
+                            .iter()
+                            .map(|row| match &row.conditions[j] {
+                                Cell::Num(x) => *x,
+                                Cell::Text(_) => f64::NAN,
+                            })
+                            .collect(),
+                    )
+                } else {
+                    Column::Text(
+                        self.rows
+                            .iter()
+                            .map(|row| match &row.conditions[j] {
+                                Cell::Text(t) => t.clone(),
+                                Cell::Num(x) => x.to_string(),
+                            })
+                            .collect(),
+                    )
+                };
+                (name, column)
+            })
+            .collect()
+    }
 }
 
 /// One parameter of `fit.json`, as read back.
@@ -165,29 +227,34 @@ struct FitJson {
     observable: String,
     converged: bool,
     tolerances: FitTolerances,
+    /// Absent from a fit written before `fit.json` recorded its ensemble (and null without one).
+    #[serde(default)]
+    ensemble: Option<super::report::Ensemble>,
 }
 
-/// A fit's folder, read.
+/// A fit, read from its folder ([`FitFolder::read`]) or from the texts of its files.
 #[derive(Debug, Clone)]
 pub struct FitFolder {
     /// `fitted.toml`.
-    pub source: ScenarioSource,
+    pub(crate) source: ScenarioSource,
     /// The free keys (bounds as fitted).
-    pub free: Vec<FreeKey>,
+    pub(crate) free: Vec<FreeKey>,
     /// Their transforms to the fit coordinates.
-    pub tr: Vec<Transform>,
+    pub(crate) tr: Vec<Transform>,
     /// The estimates (SI).
-    pub values: Vec<f64>,
+    pub(crate) values: Vec<f64>,
     /// The covariance in the fit coordinates (NaN where a key has no σ).
-    pub cov_y: DMatrix<f64>,
+    pub(crate) cov_y: DMatrix<f64>,
     /// The observable fitted.
-    pub observable: Observable,
+    pub(crate) observable: Observable,
     /// The data (from `residuals.csv`: the conditions, observed values and sigma).
-    pub data: FitData,
+    pub(crate) data: FitData,
     /// The fit's solver tolerances, when it chose its own: `(rtol, envelope_tol)`.
-    pub tolerances: Option<(f64, f64)>,
+    pub(crate) tolerances: Option<(f64, f64)>,
+    /// The fit's ensemble `(members, seed)`, if it had one.
+    pub(crate) ensemble: Option<(usize, u64)>,
     /// Whether the fit converged.
-    pub converged: bool,
+    pub(crate) converged: bool,
 }
 
 impl FitFolder {
@@ -205,12 +272,26 @@ impl FitFolder {
                 input("out")
             )));
         }
-        let text =
+        let json =
             read_text(&json_path, InputKind::FitData).map_err(|e| bad(format!("fit.json: {e}")))?;
-        let json: FitJson = serde_json::from_str(&text)
-            .map_err(|e| bad(format!("fit.json is not a fit's report: {e}")))?;
         let source = ScenarioSource::read(&dir.join("fitted.toml"))
             .map_err(|e| bad(format!("fitted.toml: {e}")))?;
+        let residuals = read_text(&dir.join("residuals.csv"), InputKind::FitData)
+            .map_err(|e| bad(format!("residuals.csv: {e}")))?;
+        Self::parse(&shown, &json, source, &residuals)
+    }
+
+    /// The fit whose files `fit.json` and `residuals.csv` have the texts `json` and `residuals`
+    /// and whose `fitted.toml` is `source`; `shown` names it in messages.
+    pub(crate) fn parse(
+        shown: &str,
+        json: &str,
+        source: ScenarioSource,
+        residuals: &str,
+    ) -> Result<FitFolder, Error> {
+        let bad = |m: String| Error::Invalid(format!("{}: {m}", input_value("fit", shown)));
+        let json: FitJson = serde_json::from_str(json)
+            .map_err(|e| bad(format!("fit.json is not a fit's report: {e}")))?;
         let observable = Observable::parse(&json.observable).ok_or_else(|| {
             bad(format!(
                 "fit.json: observable '{}' is not one djkr produces",
@@ -246,6 +327,9 @@ impl FitFolder {
             free.push(f);
             tr.push(t);
         }
+        if json.ensemble.is_some_and(|e| e.members == 0) {
+            return Err(bad("fit.json: an ensemble of 0 members".into()));
+        }
         let values: Vec<f64> = json.parameters.iter().map(|p| p.value).collect();
         let dx: Vec<f64> = tr
             .iter()
@@ -256,7 +340,7 @@ impl FitFolder {
             Some(c) => c / (dx[a] * dx[b]),
             None => f64::NAN,
         });
-        let data = read_residuals(&dir.join("residuals.csv"), observable)
+        let data = parse_residuals(residuals, observable)
             .map_err(|m| bad(format!("residuals.csv: {m}")))?;
         Ok(FitFolder {
             source,
@@ -270,15 +354,15 @@ impl FitFolder {
                 .tolerances
                 .chosen
                 .then_some((json.tolerances.rtol, json.tolerances.envelope_tol)),
+            ensemble: json.ensemble.map(|e| (e.members, e.seed)),
             converged: json.converged,
         })
     }
 }
 
-/// The data of a fit from its `residuals.csv`: the condition columns (those before
+/// The data of a fit from its `residuals.csv`'s text: the condition columns (those before
 /// `observed`), `observed` as the observable and `sigma` where given.
-fn read_residuals(path: &Path, observable: Observable) -> Result<FitData, String> {
-    let text = read_text(path, InputKind::FitData).map_err(|e| e.to_string())?;
+fn parse_residuals(text: &str, observable: Observable) -> Result<FitData, String> {
     let mut reader = csv::ReaderBuilder::new()
         .has_headers(true)
         .from_reader(text.as_bytes());
@@ -477,12 +561,78 @@ pub(crate) fn grid_data(axes: &[Axis], observable: Observable) -> Result<FitData
     })
 }
 
-/// The model at a fit's estimate over the rows of `data`, and what else [`at_estimate`] was
+/// The observable `name` asks for (`None`: the fit's), or the refusal that lists them.
+fn observable_of(name: Option<&str>, fit: &FitFolder) -> Result<Observable, Error> {
+    let Some(name) = name else {
+        return Ok(fit.observable);
+    };
+    Observable::parse(name).ok_or_else(|| {
+        Error::Invalid(format!(
+            "{}: not an observable djkr produces; one of {} (the fit's: {})",
+            input_value("observable", &djkr_core::text::excerpt(name)),
+            Observable::list(),
+            fit.observable.name()
+        ))
+    })
+}
+
+/// What a request makes of a fit before anything runs: the observable and the model over the
+/// grid's data (with the ensemble, the request's or the fit's).
+struct Prepared {
+    observable: Observable,
+    model: ForwardModel,
+}
+
+/// Refuse a request that [`predict`] would refuse, before anything runs (so that a front end can
+/// check it before it claims an output folder).
+pub fn check(fit: &FitFolder, req: &PredictRequest) -> Result<(), Error> {
+    prepare(fit, req).map(|_| ())
+}
+
+/// The checks of a request, and what it makes of the fit ([`Prepared`]).
+fn prepare(fit: &FitFolder, req: &PredictRequest) -> Result<Prepared, Error> {
+    if req.samples == 1 || req.samples > MAX_SAMPLES {
+        return Err(Error::Invalid(format!(
+            "{}: must be 0 (none) or from 2 to {MAX_SAMPLES} (a spread needs two)",
+            input_value("samples", &req.samples.to_string())
+        )));
+    }
+    let observable = observable_of(req.observable.as_deref(), fit)?;
+    if let Some((m, _)) = req.ensemble {
+        if m < 2 {
+            return Err(Error::Invalid(format!(
+                "{}: must be a whole number >= 2 (members per point: a standard error needs two)",
+                input_value("ensemble", &m.to_string())
+            )));
+        }
+    }
+    refuse_free_axes(fit, &req.grid, &crate::words::axis_item)?;
+    if let (Some(s), 0, None) = (req.seed, req.samples, req.ensemble) {
+        return Err(Error::Invalid(format!(
+            "{}: seeds the draws of {} and the phases of {}; give one of them",
+            input_value("seed", &s.to_string()),
+            input("samples"),
+            input("ensemble")
+        )));
+    }
+    let mut data = if req.grid.is_empty() {
+        fit.data.clone()
+    } else {
+        grid_data(&req.grid, observable)?
+    };
+    data.observable = observable;
+    let model = forward_model(fit, data, req.ensemble.or(fit.ensemble), req.jobs)?;
+    Ok(Prepared { observable, model })
+}
+
+/// The model of a fit's estimate over the rows of `data`, and what else [`at_estimate`] was
 /// asked for.
 pub(crate) struct AtEstimate {
     /// The model at the estimate per row (SI), at the scenario's tolerances (`fitted.toml`'s),
-    /// as the fit's residuals are.
+    /// as the fit's residuals are: the members' mean with an ensemble.
     pub values: Vec<f64>,
+    /// The standard error of each value over the ensemble's members (0 without an ensemble).
+    pub se: Vec<f64>,
     /// With `jacobian`: ∂prediction/∂y per row and free key (rows × keys), in the fit
     /// coordinates, the fit's own Jacobian at the fit's tolerances.
     pub jac: Option<DMatrix<f64>>,
@@ -492,14 +642,19 @@ pub(crate) struct AtEstimate {
     pub forward_runs: usize,
 }
 
-/// Refuse a grid axis (of the input `input`) that sets a key the fit estimated.
-pub(crate) fn refuse_free_axes(fit: &FitFolder, axes: &[Axis], input: &str) -> Result<(), Error> {
+/// Refuse a grid axis that sets a key the fit estimated; `item` words the axis in the message
+/// (the input it came from).
+pub(crate) fn refuse_free_axes(
+    fit: &FitFolder,
+    axes: &[Axis],
+    item: &dyn Fn(&str) -> String,
+) -> Result<(), Error> {
     for a in axes {
         if fit.free.iter().any(|f| f.key == a.key) {
             return Err(Error::Invalid(format!(
                 "{}: {} is a key the fit estimated, not a condition: its value is the fit's \
                  estimate",
-                input_value(input, &a.shown()),
+                item(&a.shown()),
                 a.key
             )));
         }
@@ -507,33 +662,38 @@ pub(crate) fn refuse_free_axes(fit: &FitFolder, axes: &[Axis], input: &str) -> R
     Ok(())
 }
 
-/// The model of the fit in `fit` at its estimate over the rows of `data` (their conditions set
-/// on `fitted.toml`), with `jacobian` its gradient against the free keys as the fit computes
-/// it ([`Evaluator::jacobian_y`]: forward differences of step `√ε`, ε the error level of the
-/// fit's tolerances, widened where a column does not stand above the model's error), and the
-/// model at the points `extra` of the fit coordinates (at the fit's tolerances). Shared by
-/// `predict` and `design`; `stop` abandons the runs ([`Error::Cancelled`]), `on_run` is called
-/// as each forward run ends.
+/// The forward model of the fit in `fit` over the rows of `data` (their conditions set on
+/// `fitted.toml`, the fit's free keys), each value the mean of an ensemble `(members, seed)` if
+/// given; `jobs` threads (0: one per core).
+pub(crate) fn forward_model(
+    fit: &FitFolder,
+    data: FitData,
+    ensemble: Option<(usize, u64)>,
+    jobs: usize,
+) -> Result<ForwardModel, Error> {
+    let keys: Vec<SetKey> = fit.free.iter().map(|f| f.key).collect();
+    ForwardModel::new(fit.source.clone(), data, keys, Vec::new(), ensemble, jobs)
+        .map_err(Error::Invalid)
+}
+
+/// The model `model` of the fit in `fit` ([`forward_model`]) at its estimate, with `jacobian`
+/// its gradient against the free keys as the fit computes it ([`Evaluator::jacobian_y`]:
+/// forward differences of step `√ε`, ε the error level of the fit's tolerances, widened where a
+/// column does not stand above the model's error; with an ensemble of two members or more, the
+/// fit's central differences whose steps widen above the members' noise,
+/// [`super::stencil`]), and the model at the points `extra` of the fit coordinates (at the
+/// fit's tolerances). Shared by `predict` and `design`; `stop` abandons the runs
+/// ([`Error::Cancelled`]), `on_run` is called as each forward run ends.
 pub(crate) fn at_estimate(
     fit: &FitFolder,
-    data: &FitData,
-    jobs: usize,
+    model: &ForwardModel,
     jacobian: bool,
     extra: &[Vec<f64>],
     stop: Option<&AtomicBool>,
     on_run: &mut dyn FnMut(),
 ) -> Result<AtEstimate, Error> {
-    let n = data.rows.len();
-    let keys: Vec<SetKey> = fit.free.iter().map(|f| f.key).collect();
-    let model = ForwardModel::new(
-        fit.source.clone(),
-        data.clone(),
-        keys,
-        Vec::new(),
-        None,
-        jobs,
-    )
-    .map_err(Error::Invalid)?;
+    let n = model.data().rows.len();
+    let members = model.ensemble().map_or(1, |e| e.0);
     let scn = fit
         .source
         .scenario(&[])
@@ -577,7 +737,8 @@ pub(crate) fn at_estimate(
         vec![1.0; n],
         vec![0.0; n],
         fd_step(eps_rel),
-        None,
+        // With an ensemble, central differences whose steps widen above its noise, as the fit's.
+        (members > 1).then(|| (vec![0.0; n], super::stencil::INITIAL_HALF_STEP)),
         stop,
         &mut progress,
     );
@@ -586,7 +747,7 @@ pub(crate) fn at_estimate(
         EvalError::Failed(m) => Error::Invalid(m),
     };
     let value = ev
-        .predict_on(&model, std::slice::from_ref(&fit.values))
+        .predict_on(model, std::slice::from_ref(&fit.values))
         .map_err(failed)?
         .pop()
         .ok_or(Error::Cancelled)?;
@@ -594,6 +755,9 @@ pub(crate) fn at_estimate(
         value.values.iter().map(|v| eps_rel * v.abs()).collect(),
         fd_step(eps_rel),
     );
+    if members > 1 {
+        ev.set_noise(value.se.clone());
+    }
     let jac = if jacobian {
         Some(ev.jacobian_y(&y_hat).map_err(failed)?)
     } else {
@@ -611,44 +775,60 @@ pub(crate) fn at_estimate(
     let forward_runs = ev.st.borrow().runs;
     Ok(AtEstimate {
         values: value.values,
+        se: value.se,
         jac,
         extra,
         forward_runs,
     })
 }
 
-/// Predict with uncertainty from a fit over a grid ([`PredictRequest`]); `stop` abandons the
-/// runs (then [`Error::Cancelled`]), `on_run` is called as each forward run ends.
+/// Predict with uncertainty from the fit `fit` over a grid ([`PredictRequest`]); `stop`
+/// abandons the runs (then [`Error::Cancelled`]), `on_run` is called as each forward run ends.
 pub fn predict(
+    fit: &FitFolder,
     req: &PredictRequest,
     stop: Option<&AtomicBool>,
     on_run: &mut dyn FnMut(),
 ) -> Result<PredictReport, Error> {
-    let fit = FitFolder::read(&req.fit)?;
+    let Prepared { observable, model } = prepare(fit, req)?;
+    let ensemble = model.ensemble();
+    let data = model.data();
     let mut notes = Vec::new();
-    refuse_free_axes(&fit, &req.grid, "set")?;
-    let data = if req.grid.is_empty() {
-        fit.data.clone()
-    } else {
-        grid_data(&req.grid, fit.observable)?
-    };
+    let seed = req.seed.unwrap_or(0);
+    let members = ensemble.map_or(1, |e| e.0);
     let n = data.rows.len();
+    if observable != fit.observable {
+        notes.push(format!(
+            "{} predicted from a fit of {}: the bands carry the uncertainty of the fitted keys \
+             only, as far as the model holds for this quantity; the figure draws no data",
+            observable.name(),
+            fit.observable.name()
+        ));
+    }
+    if members == 1 && ensemble.is_some() {
+        notes.push(
+            "the fit's ensemble has 1 member: each value is the run at its drawn phase, and \
+             sigma_ensemble (0) does not measure the phases' spread: predict with an ensemble \
+             of 2 members or more for it"
+                .into(),
+        );
+    }
     let has_sigma: Vec<bool> = (0..fit.free.len())
         .map(|j| fit.cov_y[(j, j)].is_finite())
         .collect();
     let any_sigma = has_sigma.iter().any(|&h| h);
-    let y_hat: Vec<f64> = fit
-        .tr
-        .iter()
-        .zip(&fit.values)
-        .map(|(t, &x)| t.y(x))
-        .collect();
     let ys = if req.samples > 0 {
-        draws(&y_hat, &fit.cov_y, req.samples, req.seed)
+        let y_hat: Vec<f64> = fit
+            .tr
+            .iter()
+            .zip(&fit.values)
+            .map(|(t, &x)| t.y(x))
+            .collect();
+        draws(&y_hat, &fit.cov_y, req.samples, seed)
     } else {
         Vec::new()
     };
-    let at = at_estimate(&fit, &data, req.jobs, any_sigma, &ys, stop, on_run)?;
+    let at = at_estimate(fit, &model, any_sigma, &ys, stop, on_run)?;
     let sigma_p: Vec<Option<f64>> = match &at.jac {
         Some(jac) => propagate(jac, &fit.cov_y).into_iter().map(Some).collect(),
         None => {
@@ -678,7 +858,9 @@ pub fn predict(
     let mut disagree = 0;
     let rows: Vec<PredictRow> = (0..n)
         .map(|i| {
-            if let (Some(p), Some(s)) = (sigma_p[i], sigma_s[i]) {
+            // With an ensemble each draw's value carries the members' noise too: the samples'
+            // spread is compared with the combined sigma.
+            if let (Some(p), Some(s)) = (sigma_p[i].map(|p| p.hypot(at.se[i])), sigma_s[i]) {
                 if s > DISAGREEMENT * p || p > DISAGREEMENT * s {
                     disagree += 1;
                 }
@@ -691,20 +873,25 @@ pub fn predict(
                     CondValue::Text(t) => Cell::Text(t.clone()),
                 })
                 .collect();
-            row(cells, at.values[i], sigma_p[i], 0.0, sigma_s[i])
+            row(cells, at.values[i], sigma_p[i], at.se[i], sigma_s[i])
         })
         .collect();
     if disagree > 0 {
         notes.push(format!(
-            "at {disagree} of {n} points sigma_samples and sigma_parameters differ by more than a \
-             factor {DISAGREEMENT}: the model is not linear over the parameters' uncertainty \
-             there; trust sigma_samples"
+            "at {disagree} of {n} points sigma_samples and {} differ by more than a factor \
+             {DISAGREEMENT}: the model is not linear over the parameters' uncertainty there; \
+             trust sigma_samples",
+            if members > 1 {
+                "sigma"
+            } else {
+                "sigma_parameters"
+            }
         ));
     }
-    let forward_runs = at.forward_runs;
     Ok(PredictReport {
-        observable: fit.observable.name().to_string(),
-        unit: fit.observable.unit().to_string(),
+        observable: observable.name().to_string(),
+        unit: observable.unit().to_string(),
+        ensemble: ensemble.map(|(members, seed)| super::report::Ensemble { members, seed }),
         conditions: data
             .conditions
             .iter()
@@ -722,8 +909,8 @@ pub fn predict(
             .collect(),
         rows,
         samples: req.samples,
-        seed: req.seed,
-        forward_runs,
+        seed,
+        forward_runs: at.forward_runs,
         notes,
     })
 }
@@ -735,6 +922,24 @@ pub const FILES: [&str; 4] = [
     "prediction.png",
     "prediction.svg",
 ];
+
+/// Write [`FILES`] in `out` (claimed and locked by the caller), each atomically:
+/// `prediction.csv`, `prediction.json` and, where [`prediction_figure`] draws one, the figure.
+/// Returns `prediction.json`'s text (without its final newline) and whether a figure was drawn.
+pub fn write(out: &Path, r: &PredictReport, fit: &FitFolder) -> Result<(String, bool), String> {
+    let put = |name: &str, bytes: &[u8]| {
+        crate::output::write_atomic(&out.join(name), bytes).map_err(|e| format!("{name}: {e}"))
+    };
+    let json = serde_json::to_string_pretty(r).map_err(|e| e.to_string())?;
+    put("prediction.csv", prediction_csv(r).as_bytes())?;
+    put("prediction.json", format!("{json}\n").as_bytes())?;
+    let figure = prediction_figure(r, fit);
+    if let Some(fig) = &figure {
+        crate::plot::render(fig, &out.join("prediction"))
+            .map_err(|e| format!("prediction.png/prediction.svg: {e}"))?;
+    }
+    Ok((json, figure.is_some()))
+}
 
 /// Whether two condition cells are the same value (numbers within 1e-9 relative: a grid's range
 /// and a data file's decimal need not agree to the bit).
@@ -749,9 +954,12 @@ fn same(a: &Cell, b: &Cell) -> bool {
 /// The figure of a prediction: the value over the grid's first condition that varies (numeric),
 /// its 68 % band (dashed) and 95 % band (the same colour, another dash), one colour per value of
 /// the other conditions, and the fit's data (markers with ±σ where given) where the other
-/// conditions match a group's. `None` without a numeric condition that takes two values.
-pub fn prediction_figure(r: &PredictReport, data: &FitData) -> Option<crate::plot::Figure> {
+/// conditions match a group's, when the prediction is of the observable the fit was fitted to. `None` without a numeric condition that takes two values.
+pub fn prediction_figure(r: &PredictReport, fit: &FitFolder) -> Option<crate::plot::Figure> {
     use crate::plot::{axis_label, Figure, Series, Style, COLOR_COUNT};
+    let data = &fit.data;
+    // The fit's data are drawn only over a prediction of the quantity they measure.
+    let with_data = r.observable == fit.observable.name();
     let varies = |j: usize| {
         let first = &r.rows.first()?.conditions[j];
         Some(r.rows.iter().any(|row| !same(&row.conditions[j], first)))
@@ -881,7 +1089,7 @@ pub fn prediction_figure(r: &PredictReport, data: &FitData) -> Option<crate::plo
             }
         }
         // The data where the other conditions match this group's.
-        if let Some(dx) = data_col[xj] {
+        if let Some(dx) = data_col[xj].filter(|_| with_data) {
             let (mut px, mut py) = (Vec::new(), Vec::new());
             for d in &data.rows {
                 let cell = |k: usize| match &d.conditions[k] {
@@ -917,6 +1125,52 @@ pub fn prediction_figure(r: &PredictReport, data: &FitData) -> Option<crate::plo
 /// an empty cell where a σ is null.
 pub fn prediction_csv(r: &PredictReport) -> String {
     use crate::output::table::format_f64;
+    let mut out = csv_header(r).join(",");
+    out.push('\n');
+    let opt = |x: Option<f64>| x.map(format_f64).unwrap_or_default();
+    for row in &r.rows {
+        let mut cells: Vec<String> = row
+            .conditions
+            .iter()
+            .map(|c| match c {
+                Cell::Num(x) => format_f64(*x),
+                Cell::Text(t) => {
+                    if t.contains([',', '"', '\n', '\r']) {
+                        format!("\"{}\"", t.replace('"', "\"\""))
+                    } else {
+                        t.clone()
+                    }
+                }
+            })
+            .collect();
+        cells.extend(row_numbers(r, row).iter().map(|&x| opt(x)));
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// A row's numbers in the order of [`csv_header`]'s columns after the conditions: `value`,
+/// `sigma_parameters`, `sigma_ensemble`, `sigma`, the bands, and with samples `sigma_samples`.
+pub fn row_numbers(r: &PredictReport, row: &PredictRow) -> Vec<Option<f64>> {
+    let mut v = vec![
+        Some(row.value),
+        row.sigma_parameters,
+        Some(row.sigma_ensemble),
+        row.sigma,
+        row.lo68,
+        row.hi68,
+        row.lo95,
+        row.hi95,
+    ];
+    if r.samples > 0 {
+        v.push(row.sigma_samples);
+    }
+    v
+}
+
+/// The names of `prediction.csv`'s columns, `name [unit]` (SI; a text condition without).
+pub fn csv_header(r: &PredictReport) -> Vec<String> {
     let u = &r.unit;
     let mut head: Vec<String> = r
         .conditions
@@ -940,39 +1194,7 @@ pub fn prediction_csv(r: &PredictReport) -> String {
         cols.push("sigma_samples");
     }
     head.extend(cols.iter().map(|c| format!("{c} [{u}]")));
-    let mut out = head.join(",");
-    out.push('\n');
-    let opt = |x: Option<f64>| x.map(format_f64).unwrap_or_default();
-    for row in &r.rows {
-        let mut cells: Vec<String> = row
-            .conditions
-            .iter()
-            .map(|c| match c {
-                Cell::Num(x) => format_f64(*x),
-                Cell::Text(t) => {
-                    if t.contains([',', '"', '\n', '\r']) {
-                        format!("\"{}\"", t.replace('"', "\"\""))
-                    } else {
-                        t.clone()
-                    }
-                }
-            })
-            .collect();
-        cells.push(format_f64(row.value));
-        cells.push(opt(row.sigma_parameters));
-        cells.push(format_f64(row.sigma_ensemble));
-        cells.push(opt(row.sigma));
-        cells.push(opt(row.lo68));
-        cells.push(opt(row.hi68));
-        cells.push(opt(row.lo95));
-        cells.push(opt(row.hi95));
-        if r.samples > 0 {
-            cells.push(opt(row.sigma_samples));
-        }
-        out.push_str(&cells.join(","));
-        out.push('\n');
-    }
-    out
+    head
 }
 
 #[cfg(test)]

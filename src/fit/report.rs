@@ -132,6 +132,16 @@ pub struct Tolerances {
     pub why: String,
 }
 
+/// A fit's ensemble in `fit.json`: the members of each row's mean and the seed of their base
+/// phases ([`crate::sweep::phase::ensemble_phase`]`(seed, row, member)`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+pub struct Ensemble {
+    /// Members per row.
+    pub members: usize,
+    /// The seed of their phases.
+    pub seed: u64,
+}
+
 /// The content of `fit.json`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FitReport {
@@ -165,6 +175,9 @@ pub struct FitReport {
     pub rhs_evals: u64,
     /// The observable fitted (as named in sweep.csv).
     pub observable: String,
+    /// The ensemble each row's prediction was the mean of (`--ensemble N --seed S`; null
+    /// without): what `predict` needs to predict with the same members.
+    pub ensemble: Option<Ensemble>,
     /// What the numbers need said.
     pub notes: Vec<String>,
     /// Every start (one without `--starts`).

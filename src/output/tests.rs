@@ -968,7 +968,10 @@ fn csv_has_units_in_the_header_and_exact_values() {
     let (header, gap_rows) = read_csv(&dir.path().join("gaps.csv"));
     assert_eq!(header, ["t_start [s]", "t_end [s]", "periods [1]"]);
     assert_eq!(gap_rows.len(), 2);
-    assert_eq!(gap_rows[0][1].parse::<f64>().unwrap(), samples[n / 3].t);
+    assert_eq!(
+        gap_rows[0][1].parse::<f64>().unwrap().to_bits(),
+        samples[n / 3].t.to_bits()
+    );
     assert_eq!(rows.len(), samples.len());
     for (row, s) in rows.iter().zip(&samples) {
         for (k, def) in SERIES.iter().enumerate() {

@@ -8,7 +8,7 @@ use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
 
-const HEAVY: &str = "scenarios/paper-protocol-300hz.toml";
+pub(crate) const HEAVY: &str = "scenarios/paper-protocol-300hz.toml";
 
 fn djkr(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_djkr"))
@@ -43,7 +43,7 @@ fn cells3(rows: &[(f64, f64, f64)]) -> Vec<String> {
 
 /// The pull-off amplification djkr predicts for rows of conditions (`cells`, under the CSV
 /// header `header`) on `scenario` with `sets` (`KEY=VALUE`) applied.
-fn truth(scenario: &str, header: &str, cells: &[String], sets: &[&str]) -> Vec<f64> {
+pub(crate) fn truth(scenario: &str, header: &str, cells: &[String], sets: &[&str]) -> Vec<f64> {
     let mut csv = format!("{header},pull_off_amplification [1]\n");
     for c in cells {
         csv.push_str(&format!("{c},0\n"));
@@ -59,7 +59,14 @@ fn truth(scenario: &str, header: &str, cells: &[String], sets: &[&str]) -> Vec<f
 
 /// Write a data file of `values` at the rows of conditions `cells` (under `header`) with `rel`
 /// relative Gaussian noise (seed `seed`) and sigma.
-fn write_data(path: &Path, header: &str, cells: &[String], values: &[f64], rel: f64, seed: u64) {
+pub(crate) fn write_data(
+    path: &Path,
+    header: &str,
+    cells: &[String],
+    values: &[f64],
+    rel: f64,
+    seed: u64,
+) {
     let mut csv = format!("{header},pull_off_amplification [1],sigma [1]\n");
     for (i, (c, v)) in cells.iter().zip(values).enumerate() {
         let s = rel * v;
@@ -751,11 +758,11 @@ fn api_fit_stopped_before_the_first_evaluation_is_cancelled() {
 // the issue are `issue36_cases_on_the_paper_protocol` (--ignored).
 
 /// The cheap rig's fixed overrides.
-const SHORT: [&str; 2] = ["stage[1].duration=0.05", "stage[2].duration=0.1"];
+pub(crate) const SHORT: [&str; 2] = ["stage[1].duration=0.05", "stage[2].duration=0.1"];
 /// The cheap rig's conditions: amplitude, unloading speed.
-const COND_CHEAP: &str = "base.amplitude [um],stage[3].speed [um/s]";
+pub(crate) const COND_CHEAP: &str = "base.amplitude [um],stage[3].speed [um/s]";
 
-fn cheap_cells() -> Vec<String> {
+pub(crate) fn cheap_cells() -> Vec<String> {
     [
         (5.0, 100.0),
         (10.0, 100.0),
