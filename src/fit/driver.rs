@@ -737,7 +737,6 @@ pub(crate) fn fit(
                 ev.x_of_y(&y)
             })
             .collect(),
-        y: y_best,
         steps,
     })
 }

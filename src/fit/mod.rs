@@ -45,8 +45,9 @@ pub use free::FreeKey;
 pub use model::ForwardModel;
 pub(crate) use model::{expected_runs, sets_per_iteration};
 pub use predict::{FitFolder, PredictReport, PredictRequest};
+pub(crate) use report::FitOutcome;
 pub(crate) use report::{FitEvent, FitOptions};
-pub use report::{FitOutcome, FitReport, Parameter, StartReport, Tolerances};
+pub use report::{FitReport, Parameter, StartReport, Tolerances};
 
 use crate::output::table::format_f64;
 use crate::scenario::overrides::{Override, SetKey};

@@ -194,7 +194,7 @@ pub struct FitReport {
 
 /// A fit's result: the report and what the files need.
 #[derive(Debug, Clone)]
-pub struct FitOutcome {
+pub(crate) struct FitOutcome {
     /// `fit.json`.
     pub report: FitReport,
     /// The estimates (SI), in the order of the free keys.
@@ -206,8 +206,6 @@ pub struct FitOutcome {
     /// The covariance of the keys in their fit coordinates (k × k, NaN where none), and the
     /// derivative dx/dy of each key at the estimate: what a ±1σ band of the model needs.
     pub cov_y: Vec<Vec<f64>>,
-    /// The estimates in the fit coordinates.
-    pub y: Vec<f64>,
     /// Each key's forward-difference step in the fit coordinate at the end.
     pub steps: Vec<f64>,
     /// The parameter sets (SI) of the estimate with each key stepped by its step in `steps`.

@@ -110,7 +110,7 @@ pub(crate) fn check_runs(factors: &[(usize, &str)]) -> Result<usize, String> {
 
 /// A run of a sweep: its point and member.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct RunId {
+pub(crate) struct RunId {
     /// Point (from 0).
     pub point: usize,
     /// Member (from 0).
@@ -119,7 +119,7 @@ pub struct RunId {
 
 /// A scenario file, the points of a grid and an optional ensemble: every run validated.
 #[derive(Debug, Clone)]
-pub struct Sweep {
+pub(crate) struct Sweep {
     source: ScenarioSource,
     grid: Grid,
     ensemble: Option<Ensemble>,
@@ -434,7 +434,7 @@ impl Observer for SweepObserver<'_> {
 
 /// How to run a sweep's runs.
 #[derive(Debug, Clone, Default)]
-pub struct RunOptions<'a> {
+pub(crate) struct RunOptions<'a> {
     /// Worker threads (0: one per core).
     pub jobs: usize,
     /// Raised (e.g. by Ctrl-C): no new run starts, running ones are abandoned.
@@ -521,7 +521,7 @@ pub(crate) fn run_sweep(
 /// holds them ([`super::row::rows_table`] makes the table): the whole sweep in one call, for
 /// programs (and a Python binding) that want the columns rather than the files. Runs abandoned
 /// because `opts.stop` was raised are left out.
-pub fn run_all(sweep: &Sweep, opts: &RunOptions) -> Vec<Row> {
+pub(crate) fn run_all(sweep: &Sweep, opts: &RunOptions) -> Vec<Row> {
     let runs: Vec<usize> = (0..sweep.runs()).collect();
     let mut rows = Vec::with_capacity(runs.len());
     run_sweep(sweep, &runs, opts, |r| rows.push(r));

@@ -62,7 +62,7 @@ impl Axis {
 
 /// The points of a sweep.
 #[derive(Debug, Clone, PartialEq)]
-pub struct Grid {
+pub(crate) struct Grid {
     axes: Vec<Axis>,
     zip: bool,
     points: usize,

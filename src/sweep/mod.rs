@@ -48,10 +48,10 @@ pub(crate) mod row;
 pub(crate) mod spec;
 pub(crate) mod stats;
 
-pub use engine::run_all;
-pub(crate) use engine::{check_runs, run_sweep};
-pub use engine::{Ensemble, RunId, RunOptions, Sweep, SweepError};
-pub use grid::{Axis, Grid};
+pub(crate) use engine::{check_runs, run_all, run_sweep, RunOptions, Sweep};
+pub use engine::{Ensemble, SweepError};
+pub use grid::Axis;
+pub(crate) use grid::Grid;
 pub use phase::uniform;
 pub(crate) use row::rows_table;
 pub use row::{KeyColumn, Row, RunNumbers};

@@ -423,17 +423,21 @@ fn aic_tells_a_saturated_law_from_the_plain_one() {
 /// tiny scenario, to the bit for the mean.
 #[test]
 fn ensemble_rows_are_the_sweeps_members_mean() {
-    use djkr::sweep::{run_all, Axis, Ensemble, Grid, RunOptions, Sweep};
     let tiny = "tests/sweep/tiny.toml";
     let source = ScenarioSource::read(Path::new(tiny)).unwrap();
     let (members, seed) = (3, 5);
-    let grid = Grid::new(
-        vec![Axis::parse("base.amplitude=5e-6,1e-5").unwrap()],
-        false,
+    let table = djkr::api::sweep(
+        source.clone(),
+        &["base.amplitude=5e-6,1e-5"],
+        Some((members, seed)),
+        0,
+        None,
     )
     .unwrap();
-    let sweep = Sweep::new(source.clone(), grid, Some(Ensemble { members, seed })).unwrap();
-    let rows = run_all(&sweep, &RunOptions::default());
+    let column = |name: &str| table.column(name).unwrap().data.clone();
+    let points = column("point");
+    let amplifications = column("pull_off_amplification");
+    let (points, amplifications) = (points.as_i64().unwrap(), amplifications.as_f64().unwrap());
     let data = FitData::parse(
         "base.amplitude [m],pull_off_amplification [1]\n5e-6,0\n1e-5,0\n",
         "d.csv",
@@ -454,10 +458,11 @@ fn ensemble_rows_are_the_sweeps_members_mean() {
         .unwrap()
         .remove(0);
     for point in 0..2 {
-        let v: Vec<f64> = rows
+        let v: Vec<f64> = points
             .iter()
-            .filter(|r| r.point == point)
-            .map(|r| r.amplification().unwrap())
+            .zip(amplifications)
+            .filter(|(p, _)| **p == point as i64)
+            .map(|(_, a)| *a)
             .collect();
         assert_eq!(v.len(), members);
         let mean = v.iter().sum::<f64>() / members as f64;

@@ -4,37 +4,41 @@
 //! opt-in (`--ignored`).
 
 use djkr::scenario::parse::ScenarioSource;
-use djkr::sweep::{run_all, Axis, Ensemble, Grid, RunOptions, Sweep};
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
 
-/// The runs of `djkr sweep FILE --set AXIS... [--ensemble N --seed S]` in the library: one
-/// vector of the members' numbers per point, in grid order.
-fn sweep_points(
-    file: &Path,
-    axes: &[&str],
-    ensemble: Option<(usize, u64)>,
-) -> Vec<Vec<djkr::sweep::RunNumbers>> {
+/// A run's numbers the tests compare with predictions.
+struct Numbers {
+    pull_off_force: f64,
+    pull_off_amplification: f64,
+}
+
+/// The runs of `djkr sweep FILE --set AXIS... [--ensemble N --seed S]` in the library
+/// ([`djkr::api::sweep`]): one vector of the members' numbers per point, in grid order.
+fn sweep_points(file: &Path, axes: &[&str], ensemble: Option<(usize, u64)>) -> Vec<Vec<Numbers>> {
     let source = ScenarioSource::read(file).unwrap();
-    let grid = Grid::new(
-        axes.iter().map(|a| Axis::parse(a).unwrap()).collect(),
-        false,
-    )
-    .unwrap();
-    let points = grid.points();
-    let sweep = Sweep::new(
-        source,
-        grid,
-        ensemble.map(|(members, seed)| Ensemble { members, seed }),
-    )
-    .unwrap();
-    let rows = run_all(&sweep, &RunOptions::default());
+    let table = djkr::api::sweep(source, axes, ensemble, 0, None).unwrap();
+    let column = |name: &str| table.column(name).unwrap().data.clone();
+    let (point, force, amplification) = (
+        column("point"),
+        column("pull_off_force"),
+        column("pull_off_amplification"),
+    );
+    let (point, force, amplification) = (
+        point.as_i64().unwrap(),
+        force.as_f64().unwrap(),
+        amplification.as_f64().unwrap(),
+    );
+    let points = point.iter().max().map_or(0, |&p| p as usize + 1);
     (0..points)
         .map(|p| {
-            rows.iter()
-                .filter(|r| r.point == p)
-                .map(|r| r.result.clone().unwrap())
+            (0..point.len())
+                .filter(|&i| point[i] == p as i64)
+                .map(|i| Numbers {
+                    pull_off_force: force[i],
+                    pull_off_amplification: amplification[i],
+                })
                 .collect()
         })
         .collect()
