@@ -24,6 +24,7 @@ use std::sync::atomic::AtomicBool;
 use serde_json::{json, Value};
 
 use crate::error::{input, Error};
+pub use crate::fit::Column;
 use crate::output::summary::{summary_json, SummaryFiles};
 use crate::output::table::Table;
 use crate::output::{cycles, OutputError, OutputPaths, RunWriter, TimeSeriesWriter};
@@ -1311,15 +1312,6 @@ impl FitRequest {
             out: None,
         }
     }
-}
-
-/// A column of the residuals' table: numbers, or the text of a text condition.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Column {
-    /// Numbers (SI, in the column's unit).
-    Num(Vec<f64>),
-    /// Text as the data file gave it.
-    Text(Vec<String>),
 }
 
 /// What [`fit`] gives: the report `fit.json` holds (with the covariance in the keys' units) and

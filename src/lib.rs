@@ -68,11 +68,6 @@ pub mod sensitivity;
 pub mod sweep;
 mod words;
 
-/// The tests' tools (installing h5py, Python packages), shared with the integration tests.
-#[cfg(test)]
-#[path = "../tests/tools/mod.rs"]
-pub(crate) mod test_tools;
-
 pub use api::{run, validate, RunRecord};
 pub use output::{Column, Table, TimeSeriesWriter};
 pub use scenario::parse::{load_scenario, load_scenario_with, ScenarioError, ScenarioSource};

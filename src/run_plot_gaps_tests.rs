@@ -85,7 +85,7 @@ fn read(dir: &Path) -> Read {
     let i64s = |n: &str| f.dataset(n).unwrap().read_i64().unwrap();
     // Every new dataset carries units and a description (its row in /descriptions), as the
     // others do.
-    let described = crate::test_tools::Descriptions::of(&f);
+    let described = crate::output::test_tools::Descriptions::of(&f);
     for name in ["segment", "gaps/t_start", "gaps/t_end", "gaps/periods"] {
         let attrs = f.dataset(name).unwrap().attrs().unwrap();
         assert!(

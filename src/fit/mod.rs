@@ -49,6 +49,15 @@ pub(crate) use report::FitOutcome;
 pub(crate) use report::{FitEvent, FitOptions};
 pub use report::{FitReport, Parameter, StartReport, Tolerances};
 
+/// A column of a table of the fit's results (residuals, predictions): numbers, or the text of a text condition.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Column {
+    /// Numbers (SI, in the column's unit).
+    Num(Vec<f64>),
+    /// Text as the data file gave it.
+    Text(Vec<String>),
+}
+
 use crate::output::table::format_f64;
 use crate::scenario::overrides::{Override, SetKey};
 use crate::scenario::parse::ScenarioSource;

@@ -158,8 +158,8 @@ impl PredictReport {
     /// The columns of `prediction.csv` (its header's names, `name [unit]`): a condition with
     /// a unit as numbers (SI), one without as text, the value, σ and bands as numbers (NaN where
     /// null).
-    pub fn columns(&self) -> Vec<(String, crate::api::Column)> {
-        use crate::api::Column;
+    pub fn columns(&self) -> Vec<(String, crate::fit::Column)> {
+        use crate::fit::Column;
         let conditions = self.conditions.len();
         csv_header(self)
             .into_iter()

@@ -4,9 +4,9 @@
 //! other generated chapters (tests/it/docs_reference.rs).
 
 use crate::output::table::Field;
+use crate::output::test_tools::{check, root, splice};
 use crate::output::{cycles, timeseries};
 use crate::sweep::KeyColumn;
-use crate::test_tools::{check, root, splice};
 
 /// One Markdown table of columns: name, unit, type, description.
 fn columns_table(title: &str, intro: &str, fields: &[Field]) -> String {

@@ -600,6 +600,12 @@ pub(crate) fn new_run_id() -> String {
     )
 }
 
+/// The tests' tools (installing h5py and Python packages, reading descriptions back, the
+/// generated chapters of the docs), shared with the integration tests.
+#[cfg(test)]
+#[path = "../../tests/tools/mod.rs"]
+pub(crate) mod test_tools;
+
 #[cfg(test)]
 mod docs_reference;
 #[cfg(test)]

@@ -6,7 +6,7 @@
 //! from the package index into a venv under the target directory and h5dump from Debian's
 //! `hdf5-tools` (module `tools`). Without them the cross-checks are skipped with one line each.
 
-use crate::test_tools as tools;
+use crate::output::test_tools as tools;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
