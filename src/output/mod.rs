@@ -267,7 +267,7 @@ impl RunWriter {
     }
 
     /// Add a top-level section `key` to summary.json (after the standard ones).
-    pub fn add_summary_section(&mut self, key: &str, value: serde_json::Value) {
+    pub(crate) fn add_summary_section(&mut self, key: &str, value: serde_json::Value) {
         self.sections.push((key.to_string(), value));
     }
 

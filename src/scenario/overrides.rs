@@ -251,7 +251,7 @@ impl Override {
     }
 
     /// The value, as the file would hold it.
-    pub fn value(&self) -> &Value {
+    pub(crate) fn value(&self) -> &Value {
         &self.value
     }
 }
