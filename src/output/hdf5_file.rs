@@ -21,7 +21,7 @@
 //! Why `hdf5-pure`: it is pure Rust, so `cargo build` on a fresh machine needs no libhdf5, no
 //! cmake and no C toolchain (the bindings to the C library either link a system libhdf5, which
 //! then must exist at run time, or build it from source with cmake ≥ 3.26). Its files are read
-//! bit-exactly by h5py and by h5dump (tests/it/output.rs checks with both when they are installed).
+//! bit-exactly by h5py and by h5dump (src/output/tests.rs checks with both when they are installed).
 //! It is young and has one maintainer; the file layout below uses only its well-trodden parts
 //! (1-D f64/i64 datasets, contiguous or chunked, optionally with shuffle + deflate, appends to
 //! chunked datasets, variable-length string attributes and variable-length string datasets).
@@ -31,7 +31,7 @@
 //! Storage: a run written at the end ([`hdf5_bytes`]) has contiguous datasets, or chunked and
 //! deflated ones with `[output] compress = true`; a streamed run ([`H5Stream`]) has extendable
 //! datasets chunked by [`HDF5_CHUNK`] (time series) and [`RECORD_CHUNK`] (events, periods)
-//! elements. Readers see the same content either way (tests/it/output.rs checks with h5py).
+//! elements. Readers see the same content either way (src/output/tests.rs checks with h5py).
 //!
 //! Layout:
 //!
@@ -63,7 +63,7 @@
 //! released gives each variable-length string attribute a 4 KiB global-heap collection of its own:
 //! with a `description` next to every `units`, a 1 s run's file held 448 kB that were not dataset
 //! storage. The vendored hdf5-pure (`vendor/hdf5-pure/README-djkr.md`) packs the attributes into
-//! shared collections: 30 kB of that file are not dataset storage (tests/it/output.rs checks
+//! shared collections: 30 kB of that file are not dataset storage (src/output/tests.rs checks
 //! ≤ 200 kB).
 
 use std::ops::Range;

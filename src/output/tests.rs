@@ -398,7 +398,7 @@ fn h5py_python() -> Option<PathBuf> {
             match tools::venv("h5py-venv", &["h5py", "numpy"], &["h5py", "numpy"]) {
                 Ok(py) => Some(py),
                 Err(why) => {
-                    tools::skip_or_fail("the h5py cross-checks of tests/it/output.rs", &why);
+                    tools::skip_or_fail("the h5py cross-checks of src/output/tests.rs", &why);
                     None
                 }
             }
@@ -738,7 +738,7 @@ fn h5dump_reads_the_file_when_installed() {
     if !tools::have("h5dump") {
         if let Err(why) = tools::apt_install(&["hdf5-tools"]) {
             tools::skipped(
-                "the h5dump check of tests/it/output.rs",
+                "the h5dump check of src/output/tests.rs",
                 &format!("h5dump (Debian: hdf5-tools) is not installed; {why}"),
             );
             return;
