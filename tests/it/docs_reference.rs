@@ -70,8 +70,8 @@ fn cli_reference() -> String {
     }
     let mut s = String::from(
         "# Command reference\n\n\
-         <!-- GENERATED from `djkr help COMMAND` by `DJKR_BLESS=1 cargo test --release --test \
-         it docs_reference::`; do not edit by hand. -->\n\n\
+         <!-- GENERATED from `djkr help COMMAND` by `DJKR_BLESS=1 cargo test --release \
+         docs_reference`; do not edit by hand. -->\n\n\
          Every command's help, as `djkr help COMMAND` prints it. What the commands share (units, \
          the default material, errors, limits, warnings) is in [the command line](commands.md).\n\n",
     );
@@ -102,8 +102,8 @@ fn scenario_reference(json: &str) -> String {
         serde_json::from_str(json).expect("djkr keys --json: a JSON list");
     let mut s = String::from(
         "# Scenario reference\n\n\
-         <!-- GENERATED from `djkr keys --json` by `DJKR_BLESS=1 cargo test --release --test \
-         it docs_reference::`; do not edit by hand. -->\n\n\
+         <!-- GENERATED from `djkr keys --json` by `DJKR_BLESS=1 cargo test --release \
+         docs_reference`; do not edit by hand. -->\n\n\
          Every key the scenario parser and `--set` accept, from the table they use. Units are \
          SI (a value may be written with units, `\"51mm\"`); `—` as default: required, or derived \
          from other keys. How to write a scenario: [writing scenarios](scenarios.md).\n",

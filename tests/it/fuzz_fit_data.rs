@@ -450,8 +450,14 @@ fn one_case(source: &ScenarioSource, inp: &Input, name: &str) -> Result<&'static
         ..FitRequest::new(source.clone(), data, free)
     };
     match api::fit(&request, None) {
+        // Bad input is refused before the optimiser starts (the scenario with the starts, the
+        // starting values, the model); `Error::Fit` is a fit that started and failed.
         Err(e) => check(
-            "refused or failed",
+            if e.is_input() {
+                "refused: request"
+            } else {
+                "fit refused or failed"
+            },
             djkr::error::render(&e.to_string(), &djkr::error::Plain),
         ),
         Ok(o) => {
