@@ -1392,7 +1392,7 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
         if e.stopped {
             Error::Cancelled
         } else {
-            Error::Fit(e.to_string())
+            Error::Invalid(e.to_string())
         }
     })?;
     if let Some((dir, _)) = &req.out {

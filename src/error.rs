@@ -47,9 +47,6 @@ pub enum Error {
     Sweep(SweepError),
     /// Other bad input, with its message (inputs in it as `«name»`, [`render`]).
     Invalid(String),
-    /// A fit that started and failed (the optimiser's trouble, a model that cannot be evaluated
-    /// on its way): not bad input. Its message marks inputs as [`Error::Invalid`]'s does.
-    Fit(String),
     /// A run kept in memory whose known samples exceed `solver.max_memory` ([`crate::memory`]).
     Memory(crate::memory::MemoryError),
     /// The scenario cannot describe a periodic steady state (no `[base]`, ...).
@@ -165,7 +162,7 @@ impl Error {
             Error::Override(o) => o.in_words(w),
             Error::Spec(e) => e.in_words(w),
             Error::Sweep(e) => e.in_words(w),
-            Error::Invalid(m) | Error::Fit(m) => m.clone(),
+            Error::Invalid(m) => m.clone(),
             Error::Memory(e) => e.to_string(),
             Error::SteadySetup { source, error } | Error::Steady { source, error } => {
                 format!("{}: {error}", source.words(w))

@@ -450,14 +450,10 @@ fn one_case(source: &ScenarioSource, inp: &Input, name: &str) -> Result<&'static
         ..FitRequest::new(source.clone(), data, free)
     };
     match api::fit(&request, None) {
-        // Bad input is refused before the optimiser starts (the scenario with the starts, the
-        // starting values, the model); `Error::Fit` is a fit that started and failed.
+        // The library's fit refuses bad input (the scenario with the starts, the starting values,
+        // the model, data whose chi2 cannot be finite) and reports a fit that failed alike.
         Err(e) => check(
-            if e.is_input() {
-                "refused: request"
-            } else {
-                "fit refused or failed"
-            },
+            "fit refused or failed",
             djkr::error::render(&e.to_string(), &djkr::error::Plain),
         ),
         Ok(o) => {
