@@ -809,16 +809,7 @@ fn design_csv(r: &DesignReport) -> String {
         let mut cells: Vec<String> = row
             .conditions
             .iter()
-            .map(|c| match c {
-                Cell::Num(x) => format_f64(*x),
-                Cell::Text(t) => {
-                    if t.contains([',', '"', '\n', '\r']) {
-                        format!("\"{}\"", t.replace('"', "\"\""))
-                    } else {
-                        t.clone()
-                    }
-                }
-            })
+            .map(super::predict::cell_csv)
             .collect();
         cells.push(format_f64(row.value));
         cells.push(format_f64(row.sigma_measurement));

@@ -1120,6 +1120,21 @@ pub fn prediction_figure(r: &PredictReport, fit: &FitFolder) -> Option<crate::pl
     Some(fig)
 }
 
+/// A condition's cell as CSV text: a number as the tables write it, text quoted where it holds a
+/// comma, a quote or a line end (RFC 4180). Shared by prediction.csv and design.csv.
+pub(crate) fn cell_csv(c: &Cell) -> String {
+    match c {
+        Cell::Num(x) => crate::output::table::format_f64(*x),
+        Cell::Text(t) => {
+            if t.contains([',', '"', '\n', '\r']) {
+                format!("\"{}\"", t.replace('"', "\"\""))
+            } else {
+                t.clone()
+            }
+        }
+    }
+}
+
 /// `prediction.csv`: the conditions, `value`, `sigma_parameters`, `sigma_ensemble`, `sigma`,
 /// the 68 % and 95 % bands, and with samples `sigma_samples`, each headed `name [unit]` (SI);
 /// an empty cell where a σ is null.
@@ -1129,20 +1144,7 @@ pub fn prediction_csv(r: &PredictReport) -> String {
     out.push('\n');
     let opt = |x: Option<f64>| x.map(format_f64).unwrap_or_default();
     for row in &r.rows {
-        let mut cells: Vec<String> = row
-            .conditions
-            .iter()
-            .map(|c| match c {
-                Cell::Num(x) => format_f64(*x),
-                Cell::Text(t) => {
-                    if t.contains([',', '"', '\n', '\r']) {
-                        format!("\"{}\"", t.replace('"', "\"\""))
-                    } else {
-                        t.clone()
-                    }
-                }
-            })
-            .collect();
+        let mut cells: Vec<String> = row.conditions.iter().map(cell_csv).collect();
         cells.extend(row_numbers(r, row).iter().map(|&x| opt(x)));
         out.push_str(&cells.join(","));
         out.push('\n');
