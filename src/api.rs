@@ -1231,23 +1231,35 @@ pub fn resonance(
 // sweep
 
 /// A study (`djkr sweep`) run to its end in memory: the table `sweep.csv` holds, one row per
-/// run sorted by (point, member). `axes` are `KEY=SPEC` as after `--set` (a list `10um,30um`,
-/// a range `START:STOP:N` or `START:STOP:Nlog`), swept as the Cartesian grid, the first key
-/// slowest; `ensemble` is (members, seed); `jobs` 0 is one per core. A raised `stop` abandons
-/// the sweep ([`Error::Cancelled`]).
-pub fn sweep<S: AsRef<str>>(
+/// run sorted by (point, member). `axes` are the swept keys ([`Axis`], parsed from `KEY=SPEC`
+/// by [`Axis::parse`] as after `--set`), swept as the Cartesian grid, the first key slowest;
+/// `ensemble` runs every point that many times with phases drawn from its seed; `jobs` 0 is
+/// one per core. A raised `stop` abandons the sweep ([`Error::Cancelled`]).
+///
+/// ```no_run
+/// use djkr::api;
+/// use djkr::sweep::{Axis, Ensemble};
+/// use djkr::ScenarioSource;
+/// # fn main() -> Result<(), Box<dyn std::error::Error>> {
+/// let source = ScenarioSource::read("scenarios/paper-protocol-300hz.toml".as_ref())?;
+/// let axes = vec![
+///     Axis::parse("base.frequency=200,300,400")?,
+///     Axis::parse("base.amplitude=10um:60um:6")?,
+/// ];
+/// let ensemble = Some(Ensemble { members: 8, seed: 1 });
+/// let table = api::sweep(source, axes, ensemble, 2, None)?; // the columns of sweep.csv
+/// let amplification = table.column("pull_off_amplification");
+/// # let _ = amplification;
+/// # Ok(()) }
+/// ```
+pub fn sweep(
     source: crate::scenario::parse::ScenarioSource,
-    axes: &[S],
-    ensemble: Option<(usize, u64)>,
+    axes: Vec<Axis>,
+    ensemble: Option<Ensemble>,
     jobs: usize,
     stop: Option<&AtomicBool>,
 ) -> Result<Table, Error> {
-    let axes = axes
-        .iter()
-        .map(|s| Axis::parse(s.as_ref()))
-        .collect::<Result<Vec<_>, _>>()?;
     let grid = Grid::new(axes, false)?;
-    let ensemble = ensemble.map(|(members, seed)| Ensemble { members, seed });
     let sweep = Sweep::new(source, grid, ensemble)?;
     let rows = run_all(
         &sweep,

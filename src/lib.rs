@@ -68,6 +68,10 @@ pub mod sensitivity;
 pub mod sweep;
 mod words;
 
+/// The output reference's generated column tables (a test that reads the whole crate's tables).
+#[cfg(test)]
+mod docs_reference_tests;
+
 pub use api::{run, validate, RunRecord};
 pub use output::{Column, Table, TimeSeriesWriter};
 pub use scenario::parse::{load_scenario, load_scenario_with, ScenarioError, ScenarioSource};

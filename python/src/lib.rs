@@ -51,7 +51,9 @@ use djkr::scenario::overrides::Override;
 use djkr::scenario::overrides::SetKey;
 use djkr::scenario::parse::{self, ScenarioSource, Tree};
 use djkr::sweep::{point_stats, points_table};
-use djkr::sweep::{Axis, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
+use djkr::sweep::{
+    Axis, Ensemble, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError,
+};
 use djkr_core::adhesion::Law;
 use djkr_core::cancel::{Cancel, CancelFlag};
 use djkr_core::dynamics::Event;
@@ -1747,8 +1749,8 @@ fn sweep(
                     }
                 )));
             }
-            fixed.push(axis.key);
-            axes.push(text);
+            fixed.push(axis.key.clone());
+            axes.push(axis);
         }
         let mut bytes = 0;
         if let Some(g) = dict_arg(grid, "grid")? {
@@ -1768,7 +1770,7 @@ fn sweep(
                         axis.key
                     )));
                 }
-                axes.push(text);
+                axes.push(axis);
             }
         }
         let whole =
@@ -1795,20 +1797,18 @@ fn sweep(
     // The axes of `grid=` (the values of `set=` are one-value axes too).
     let grid_keys: Vec<String> = axes
         .iter()
-        .map(|a| {
-            a.split_once('=')
-                .map_or(a.as_str(), |(k, _)| k)
-                .trim()
-                .to_string()
-        })
-        .filter(|k| !fixed.iter().any(|f| f.to_string() == *k))
+        .filter(|a| !fixed.contains(&a.key))
+        .map(|a| a.key.to_string())
         .collect();
     let table = interruptible(py, move |stop| {
         let source = scn.source()?;
         api::sweep(
             source,
-            &axes,
-            ensemble.map(|m| (m, seed.unwrap_or(0))),
+            axes,
+            ensemble.map(|members| Ensemble {
+                members,
+                seed: seed.unwrap_or(0),
+            }),
             jobs.unwrap_or(0),
             Some(stop.flag()),
         )

@@ -607,6 +607,4 @@ pub(crate) fn new_run_id() -> String {
 pub(crate) mod test_tools;
 
 #[cfg(test)]
-mod docs_reference;
-#[cfg(test)]
 mod tests;

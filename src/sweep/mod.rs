@@ -1,22 +1,7 @@
 //! Studies: sweeps and ensembles over any scenario key (`djkr sweep`).
 //!
-//! A sweep is a scenario file, a grid of override sets and optionally an ensemble:
-//!
-//! ```no_run
-//! use djkr::scenario::parse::ScenarioSource;
-//! use djkr::sweep::{rows_table, run_all, Axis, Ensemble, Grid, RunOptions, Sweep};
-//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let source = ScenarioSource::read("scenarios/paper-protocol-300hz.toml".as_ref())?;
-//! let grid = Grid::new(
-//!     vec![Axis::parse("base.frequency=200,300,400")?, Axis::parse("base.amplitude=10um:60um:6")?],
-//!     false,
-//! )?;
-//! let sweep = Sweep::new(source, grid, Some(Ensemble { members: 8, seed: 1 }))?;
-//! let rows = run_all(&sweep, &RunOptions { jobs: 2, ..RunOptions::default() });
-//! let table = rows_table(&sweep.key_columns(), &rows); // the columns of sweep.csv
-//! # let _ = table;
-//! # Ok(()) }
-//! ```
+//! A sweep is a scenario file, a grid of override sets and optionally an ensemble; from outside
+//! the crate it runs through [`crate::api::sweep`] (or `djkr sweep`, which writes a folder).
 //!
 //! - `spec`: `KEY=SPEC` (a list `10um,30um`, `START:STOP:N`, `START:STOP:Nlog`) and the unit of
 //!   every key; `grid` ([`Grid`]): the points (Cartesian in the order given, or `zip`).

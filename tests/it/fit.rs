@@ -428,8 +428,8 @@ fn ensemble_rows_are_the_sweeps_members_mean() {
     let (members, seed) = (3, 5);
     let table = djkr::api::sweep(
         source.clone(),
-        &["base.amplitude=5e-6,1e-5"],
-        Some((members, seed)),
+        vec![djkr::sweep::Axis::parse("base.amplitude=5e-6,1e-5").unwrap()],
+        Some(djkr::sweep::Ensemble { members, seed }),
         0,
         None,
     )

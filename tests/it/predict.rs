@@ -4,6 +4,7 @@
 //! opt-in (`--ignored`).
 
 use djkr::scenario::parse::ScenarioSource;
+use djkr::sweep::{Axis, Ensemble};
 use serde_json::Value;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -18,6 +19,8 @@ struct Numbers {
 /// ([`djkr::api::sweep`]): one vector of the members' numbers per point, in grid order.
 fn sweep_points(file: &Path, axes: &[&str], ensemble: Option<(usize, u64)>) -> Vec<Vec<Numbers>> {
     let source = ScenarioSource::read(file).unwrap();
+    let axes = axes.iter().map(|a| Axis::parse(a).unwrap()).collect();
+    let ensemble = ensemble.map(|(members, seed)| Ensemble { members, seed });
     let table = djkr::api::sweep(source, axes, ensemble, 0, None).unwrap();
     let column = |name: &str| table.column(name).unwrap().data.clone();
     let (point, force, amplification) = (
