@@ -1355,7 +1355,7 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
     source.scenario(&with_starts)?;
     let x0 = free
         .iter()
-        .map(|k| f::initial_value(source, &starts, k).map_err(Error::Invalid))
+        .map(|k| f::fitted::initial_value(source, &starts, k).map_err(Error::Invalid))
         .collect::<Result<Vec<_>, _>>()?;
     f::check_start(free, &x0).map_err(|e| Error::Invalid(e.to_string()))?;
     if ensemble.is_some_and(|e| e.0 == 0) {
@@ -1443,18 +1443,7 @@ pub fn fit(req: &FitRequest, stop: Option<&AtomicBool>) -> Result<FitResult, Err
     );
     Ok(FitResult {
         fitted,
-        residuals: f::residual_columns(&model, &outcome)
-            .into_iter()
-            .map(|(name, c)| {
-                (
-                    name,
-                    match c {
-                        f::ResidualColumn::Num(v) => Column::Num(v),
-                        f::ResidualColumn::Text(v) => Column::Text(v),
-                    },
-                )
-            })
-            .collect(),
+        residuals: f::residuals::residual_columns(&model, &outcome),
         report: outcome.report,
     })
 }

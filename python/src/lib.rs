@@ -51,9 +51,7 @@ use djkr::scenario::overrides::Override;
 use djkr::scenario::overrides::SetKey;
 use djkr::scenario::parse::{self, ScenarioSource, Tree};
 use djkr::sweep::{point_stats, points_table};
-use djkr::sweep::{
-    Axis, Ensemble, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError,
-};
+use djkr::sweep::{Axis, Ensemble, KeyCell, KeyColumn, Row, RunNumbers, SpecError, SweepError};
 use djkr_core::adhesion::Law;
 use djkr_core::cancel::{Cancel, CancelFlag};
 use djkr_core::dynamics::Event;

@@ -129,7 +129,7 @@ pub fn fit(a: &FitArgs) -> Result<()> {
     source.scenario(&with_starts)?;
     let x0 = free
         .iter()
-        .map(|f| fit::initial_value(&source, &starts, f).map_err(anyhow::Error::msg))
+        .map(|f| fit::fitted::initial_value(&source, &starts, f).map_err(anyhow::Error::msg))
         .collect::<Result<Vec<_>>>()?;
     fit::check_start(&free, &x0)?;
     let model = ForwardModel::new(

@@ -766,6 +766,16 @@ fn describe(free: &[FreeKey], tr: &[Transform], y: &[f64]) -> String {
 mod tests {
     use super::*;
 
+    /// A start whose bounds' transform overflows is refused before any run (the transform
+    /// itself stays finite: free.rs's `wide_bounds_stay_finite_or_are_refused`).
+    #[test]
+    fn a_start_too_far_inside_huge_bounds_is_refused() {
+        let f = FreeKey::parse("damping.c=0:1e9").unwrap();
+        assert!(check_start(std::slice::from_ref(&f), &[1.0]).is_ok());
+        let e = check_start(&[f], &[1e-300]).unwrap_err();
+        assert!(e.message.contains("too far from the starting value"), "{e}");
+    }
+
     /// The step balances truncation against the model's error: √ε (1e-3 at 1e-6), kept within
     /// [1e-6, 0.1].
     #[test]

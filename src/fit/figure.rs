@@ -21,7 +21,7 @@ use djkr_core::text::format_sig;
 
 use super::data::{CondValue, DataRow, FitData};
 use super::model::{EvalError, ForwardModel};
-use super::FitOutcome;
+use super::report::FitOutcome;
 
 /// Points of the model's grid per group.
 pub const GRID: usize = 16;

@@ -9,7 +9,9 @@ use crate::output::table::format_f64;
 use crate::scenario::overrides::Override;
 use crate::scenario::parse::ScenarioSource;
 
-use super::{FitOutcome, ForwardModel, FreeKey};
+use super::free::FreeKey;
+use super::model::ForwardModel;
+use super::report::FitOutcome;
 
 /// The files a fit writes.
 pub const FILES: [&str; 5] = [
@@ -63,7 +65,7 @@ pub(crate) fn texts(
     model: &ForwardModel,
     outcome: &FitOutcome,
 ) -> Result<[String; 3], String> {
-    let toml = super::fitted_toml(
+    let toml = super::fitted::fitted_toml(
         source,
         fixed,
         free,
@@ -73,7 +75,7 @@ pub(crate) fn texts(
     let json = serde_json::to_string_pretty(&outcome.report).map_err(|e| e.to_string())?;
     Ok([
         format!("{json}\n"),
-        super::residuals_csv(model, outcome),
+        super::residuals::residuals_csv(model, outcome),
         toml,
     ])
 }

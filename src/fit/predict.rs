@@ -52,7 +52,7 @@ use super::data::{CondValue, Condition, DataRow, FitData, Observable};
 use super::free::{FreeKey, Transform};
 use super::model::{EvalError, ForwardModel};
 use super::problem::{fd_step, Evaluator};
-use super::FitEvent;
+use super::report::FitEvent;
 
 /// The factor beyond which `sigma_samples` and `sigma_parameters` are said to disagree (a
 /// ratio above it or below its inverse): a model that is not linear over the parameters'
@@ -158,8 +158,8 @@ impl PredictReport {
     /// The columns of `prediction.csv` (its header's names, `name [unit]`): a condition with
     /// a unit as numbers (SI), one without as text, the value, σ and bands as numbers (NaN where
     /// null).
-    pub fn columns(&self) -> Vec<(String, crate::fit::Column)> {
-        use crate::fit::Column;
+    pub fn columns(&self) -> Vec<(String, super::residuals::Column)> {
+        use super::residuals::Column;
         let conditions = self.conditions.len();
         csv_header(self)
             .into_iter()
@@ -1125,13 +1125,7 @@ pub fn prediction_figure(r: &PredictReport, fit: &FitFolder) -> Option<crate::pl
 pub(crate) fn cell_csv(c: &Cell) -> String {
     match c {
         Cell::Num(x) => crate::output::table::format_f64(*x),
-        Cell::Text(t) => {
-            if t.contains([',', '"', '\n', '\r']) {
-                format!("\"{}\"", t.replace('"', "\"\""))
-            } else {
-                t.clone()
-            }
-        }
+        Cell::Text(t) => super::residuals::csv_text(t),
     }
 }
 

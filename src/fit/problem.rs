@@ -28,8 +28,8 @@ use nalgebra::{DMatrix, DVector};
 use super::free::Transform;
 use super::lm::{Halt, LeastSquares};
 use super::model::{EvalError, ForwardModel, ParamSet, Prediction};
+use super::report::FitEvent;
 use super::stencil::{max_step, snr, stencil, widen, MAX_WIDENINGS};
-use super::FitEvent;
 
 /// Predictions kept for reuse (a stencil point met again): a few Jacobians' worth.
 const CACHE: usize = 64;
@@ -242,7 +242,7 @@ impl<'a, 'b> Evaluator<'a, 'b> {
             .filter(|(_, o)| o.is_none())
             .map(|(s, _)| s.clone())
             .collect();
-        let chunk = super::sets_per_iteration(self.model.members(), self.k()).max(1);
+        let chunk = super::model::sets_per_iteration(self.model.members(), self.k()).max(1);
         let mut fresh = Vec::with_capacity(missing.len());
         for part in missing.chunks(chunk) {
             let mut runs = 0;

@@ -14,7 +14,6 @@ pub mod family;
 pub mod keys;
 pub mod overrides;
 pub mod parse;
-pub(crate) use parse::range_error;
 
 pub(crate) use djkr_core::dynamics::protocol::{Initial, Stage, StageKind, Until};
 pub(crate) use djkr_core::dynamics::{Method, Solver};
