@@ -1747,7 +1747,7 @@ fn sweep(
                     }
                 )));
             }
-            fixed.push(axis.key.clone());
+            fixed.push(axis.key);
             axes.push(axis);
         }
         let mut bytes = 0;
