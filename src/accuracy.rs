@@ -38,13 +38,13 @@
 //!
 //! A method that fails at a tolerance is a row with its error message, never a crash.
 //!
-//! # Imposed area ([`quadrature_study`], [`closed_form_map`])
+//! # Imposed area (`quadrature_study`, `closed_form_map`)
 //!
-//! The imposed-area cycle costs two law evaluations per quadrature node; [`quadrature_study`]
+//! The imposed-area cycle costs two law evaluations per quadrature node; `quadrature_study`
 //! gives the worst relative error of F_m (and of δ_m, δ_A on the JKR indentation scale) over a box
 //! of cases, per tanh-sinh node count, against the graded Gauss–Legendre reference
 //! ([`QuadratureRule::graded_gauss_legendre`], an independent rule; its own uncertainty is the
-//! difference between two gradings), with the median time per cycle. [`closed_form_map`] maps the
+//! difference between two gradings), with the median time per cycle. `closed_form_map` maps the
 //! closed form's error against the exact pull-off, ln(A_exact / A_approx), over (n, v_max/v0).
 
 use crate::output::{Column, Table};

@@ -3,16 +3,19 @@
 //! the same keys and the same numbers, and `djkr.run(...)` the same arrays as `djkr run`'s
 //! `run.h5`.
 //!
-//! - Arguments arrive as text with their names ([`Arg`]): bare numbers are SI, units are
-//!   welcome (`400Hz`, `0.5mm`), and an error names the argument as the caller spells it
-//!   (`--a-amp` on the command line, `a_amp` in Python).
+//! - Requests are typed: a [`Scenario`] or its parsed source, overrides ([`Override`]), numbers
+//!   as [`Quantity`] (a value parsed for its dimension that keeps the text it came from, so a
+//!   message can quote it), swept keys as [`Axis`]. An error ([`Error`]) says what happened and
+//!   to which input; each front end words the input (`--a-amp` on the command line, `a_amp` in
+//!   Python).
 //! - [`cycle`] and [`pull_off`]: the reports of `djkr cycle` and `djkr pulloff` (exact, approx,
-//!   Yi), with [`CycleReport::json`] and [`PullOffReport::json`] the objects `--json` prints.
+//!   Yi), serialised as `--json` prints them.
 //! - [`run`]: a run kept in memory (the time series, events and period records as the run file's
-//!   tables) and optionally written into a run folder by the same [`RunWriter`] as `djkr run`.
-//! - [`validate`], [`resonance`], [`sweep`]: the steady-state comparison, the frequency response
-//!   and a study, each returning what the command's `--json` or table holds.
-//! - [`finite_json`]: a report as JSON, refusing non-finite numbers (JSON has none).
+//!   tables) and optionally written into a run folder by the same writer as `djkr run`.
+//! - [`validate`], [`resonance`], [`sweep`], [`fit`], [`predict`]: the steady-state comparison,
+//!   the frequency response, a study, a fit of measured data and a prediction from a fit, each
+//!   returning a typed report (what the command's `--json` or table holds).
+//! - [`check_finite`]: whether a report can be written as JSON (JSON has no NaN or infinity).
 //!
 //! Every long computation here takes its cancellation from the scenario's
 //! [`Solver::cancel`](djkr_core::dynamics::Solver::cancel) (or, for a sweep, a stop flag), so a
@@ -88,8 +91,8 @@ pub(crate) const PATH_BYTES: usize = if cfg!(target_os = "macos") {
 /// See [`PATH_BYTES`].
 pub(crate) const NAME_BYTES: usize = 255;
 
-/// Why no system call would take `path` (longer than [`PATH_BYTES`], or a name in it longer
-/// than [`NAME_BYTES`]), quoting its beginning, or `None`. A path argument is checked so before
+/// Why no system call would take `path` (longer than `PATH_BYTES`, or a name in it longer
+/// than `NAME_BYTES`), quoting its beginning, or `None`. A path argument is checked so before
 /// anything else: every later message names files by their path, whole, which for such a path
 /// would be the 100 kB a user pasted.
 pub fn path_length_error(path: &Path) -> Option<String> {
@@ -1012,7 +1015,7 @@ pub(crate) fn close_run_folder(
 /// Run `scn` and keep its samples, events and period records in memory; with `out`, also write
 /// the run folder `djkr run --out` writes (`run.h5`, `summary.json`, the CSV files and figure
 /// its `[output]` asks for), by the same writer. A run whose known samples would not fit in
-/// `solver.max_memory` is refused before it starts ([`crate::memory::check_in_memory`]; an input
+/// `solver.max_memory` is refused before it starts (`crate::memory::check_in_memory`; an input
 /// error). Cancelled through `scn.solver.cancel` ([`Error::Cancelled`]; a run folder is still
 /// published, with reason `SIGINT`). A run stopped by a budget (`solver.max_memory` included: the
 /// bytes held in memory) or failed mid-way returns [`Error::Ended`] with what it computed, and
@@ -1126,7 +1129,7 @@ pub fn run_into(scn: &Scenario, out: Option<&Path>, force: bool) -> Result<RunRe
 // validate, resonance
 
 /// The periodic steady state of `scn` compared with the predictors (`djkr validate`; its
-/// `--json` is [`finite_json`] of the report).
+/// `--json` is `finite_json` of the report).
 pub fn validate(scn: &Scenario, opts: &Options) -> Result<ValidateReport, SteadyError> {
     let c = crosscheck::compare(&scn.plan(), opts)?;
     Ok(ValidateReport::new(&c))
@@ -1277,7 +1280,7 @@ pub fn sweep(
 
 /// A fit of measured data ([`fit`]): the scenario, the data, the keys to free and the options,
 /// all typed (the front ends parse their text: [`crate::fit::FreeKey::parse_all`],
-/// [`overrides`], [`crate::fit::FitData::parse`]).
+/// `overrides`, [`crate::fit::FitData::parse`]).
 #[derive(Debug, Clone)]
 pub struct FitRequest {
     /// The scenario file, read and parsed.

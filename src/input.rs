@@ -6,7 +6,7 @@
 //!
 //! A user may name anything, and a folder may hold anything under the names djkr reads:
 //! `/dev/zero`, `/dev/urandom`, a FIFO, a directory, a 5 GB log, a link to any of them. So
-//! [`open`] (and [`read_bytes`], [`read_text`] on top of it)
+//! `open` (and `read_bytes`, [`read_text`] on top of it)
 //! - refuses anything that is not a regular file *before* opening it (checked with the file's
 //!   metadata), naming what it is (a directory, a FIFO, a character device, ...); djkr's own
 //!   bookkeeping files (its record of a folder, its lock) are not followed through a symbolic

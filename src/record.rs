@@ -19,7 +19,7 @@ pub struct RunRecord {
     /// The period records (the HDF5 `cycles/` group's columns).
     pub cycles: Table,
     /// The gaps of the time series (the HDF5 `gaps/` group's columns,
-    /// [`crate::output::timeseries::gaps_table`]).
+    /// `crate::output::timeseries::gaps_table`).
     pub gaps: Table,
     /// The run's result.
     pub result: RunResult,

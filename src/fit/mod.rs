@@ -8,7 +8,7 @@
 //!   transformation.
 //! - `model` ([`ForwardModel`]): the forward model, every row a run of the sweep engine (with an ensemble, the
 //!   mean over members whose phases are fixed by the seed).
-//! - `driver` ([`fit()`]): the fit's steps, over
+//! - `driver` (`fit()`): the fit's steps, over
 //!   - `problem`: the model's evaluation at points of the fit coordinates, finite-difference
 //!     Jacobians checked against the model's error;
 //!   - `lm`: the optimiser, Levenberg–Marquardt with Nielsen's damping;

@@ -2,7 +2,7 @@
 //! allowed range and a one-line meaning.
 //!
 //! Everything that names a scenario key reads this table: the parser's unknown-key checks
-//! ([`section_keys`]), `--set` and sweeps (which keys exist, what their values are), continuation
+//! (`section_keys`), `--set` and sweeps (which keys exist, what their values are), continuation
 //! (which keys are constants of a periodic orbit, [`KeyInfo::param`](KeyInfo#structfield.param)),
 //! and `djkr keys [--json]`, the generated reference. A key added here is at once accepted in
 //! files, settable, and documented; a test checks that the
@@ -54,7 +54,7 @@ pub struct KeyInfo {
     /// or derived from other keys (see the description).
     pub default: Option<&'static str>,
     /// The allowed values, as error messages write them (bounds of
-    /// [`super::checks::UPPER_BOUNDS`] and [`super::checks::LOWER_BOUNDS`] are added by
+    /// `super::checks::UPPER_BOUNDS` and `super::checks::LOWER_BOUNDS` are added by
     /// [`KeyInfo::range`]).
     pub allowed: &'static str,
     /// What it is, in one line.

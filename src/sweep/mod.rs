@@ -4,20 +4,20 @@
 //! the crate it runs through [`crate::api::sweep`] (or `djkr sweep`, which writes a folder).
 //!
 //! - `spec`: `KEY=SPEC` (a list `10um,30um`, `START:STOP:N`, `START:STOP:Nlog`) and the unit of
-//!   every key; `grid` ([`Grid`]): the points (Cartesian in the order given, or `zip`).
-//! - `engine`: [`Sweep::new`] validates every point before anything runs (a bad one is named:
-//!   `--set base.amplitude=-1um (point 3): ...`); [`run_sweep`] runs on a pool of threads and
+//!   every key; `grid` (`Grid`): the points (Cartesian in the order given, or `zip`).
+//! - `engine`: `Sweep::new` validates every point before anything runs (a bad one is named:
+//!   `--set base.amplitude=-1um (point 3): ...`); `run_sweep` runs on a pool of threads and
 //!   hands each [`Row`] back as it ends. A run is exactly `djkr run FILE --set KEY=VALUE ...`:
 //!   the same override list on the same parsed file, the same `Scenario::simulate` with an
 //!   observer of the same kind as the run writer's (the step control depends on whether samples
 //!   are wanted), the same `RunResult` fields. A run that fails is a row with its error.
-//! - [`phase`]: an ensemble member's base phase at shaker-on ([`crate::scenario::BaseMotion`]
+//! - `phase`: an ensemble member's base phase at shaker-on ([`crate::scenario::BaseMotion`]
 //!   `phase`, applied as `--set base.phase=PHI`) is a hash of (seed, point, member), so rows do
 //!   not depend on thread count, order, resume or sharding.
-//! - [`row`], [`stats`]: the tables `sweep.csv`/`sweep.h5` (one row per run) and `points.csv`
+//! - `row`, `stats`: the tables `sweep.csv`/`sweep.h5` (one row per run) and `points.csv`
 //!   (one row per point, the members' statistics); `plots`: the figures.
-//! - [`files`]: the sweep folder (`sweep.json`, the `progress.csv` journal read by `--resume`,
-//!   the final files written atomically), Slurm shards ([`Shard`]: run i belongs to shard
+//! - `files`: the sweep folder (`sweep.json`, the `progress.csv` journal read by `--resume`,
+//!   the final files written atomically), Slurm shards (`Shard`: run i belongs to shard
 //!   (i mod N) + 1) and their merge.
 //!
 //! Memory: a run's time series is never kept (the observer drops samples; with `--keep-runs`

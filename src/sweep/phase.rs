@@ -34,7 +34,7 @@ pub fn draw(seed: u64, point: u64, member: u64) -> u64 {
         .wrapping_mul(GOLDEN))
 }
 
-/// A uniform number in [0, 1) from the top 53 bits of [`draw`].
+/// A uniform number in [0, 1) from the top 53 bits of `draw`.
 pub fn uniform(seed: u64, point: u64, member: u64) -> f64 {
     (draw(seed, point, member) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
 }
