@@ -6,7 +6,7 @@
 //! folder policy above it ([`super::folder`]) decides whether a target may be replaced and
 //! records what djkr wrote: [`super::folder::write_atomic`] for one file,
 //! [`super::folder::commit_all`] for a writer that must commit several files together (the run
-//! writer: `summary.json` last, see [`super::RunWriter`]). An [`AtomicFile`] dropped without
+//! writer: `summary.json` last, see [`super::run::RunWriter`]). An [`AtomicFile`] dropped without
 //! committing removes its partial.
 //!
 //! **Partials are never a path a user can plant.** Each partial is created new
@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 
 use tempfile::TempPath;
 
-use super::OutputError;
+use super::error::OutputError;
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
     move |source| OutputError::Io {

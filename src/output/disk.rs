@@ -16,7 +16,7 @@
 //! batches queued and not yet written, the next batch, the writer's partial chunks, and the
 //! closing writes (the event kinds, the last records, summary.json): [`Sizes::reserve`]. The run
 //! then publishes what it computed, complete files, as every stopped run does. A run that never
-//! streams writes at most [`super::SPILL_ROWS`] samples (a few MB), all at its end.
+//! streams writes at most [`super::names::SPILL_ROWS`] samples (a few MB), all at its end.
 //!
 //! What this cannot see: another process filling the disk faster than one check to the next
 //! (then the write fails, `No space left on device`, and the run's partial files are removed as
@@ -26,8 +26,9 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
+use super::error::OutputError;
 use super::hdf5_file::RECORD_CHUNK;
-use super::{OutputError, FLUSH_ROWS};
+use super::names::FLUSH_ROWS;
 use crate::scenario::Scenario;
 
 /// Bytes per sample in the HDF5 file (13 columns of 8 bytes, uncompressed).

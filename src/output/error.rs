@@ -1,10 +1,10 @@
 //! Why output could not be written ([`OutputError`]).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use thiserror::Error;
 
-use super::LOCK_NAME;
+use super::names::LOCK_NAME;
 
 /// Why output could not be written.
 #[derive(Debug, Error)]
@@ -101,4 +101,12 @@ pub(super) fn human_bytes(b: f64) -> String {
         i += 1;
     }
     format!("{x:.1} {}", units[i])
+}
+
+/// An I/O error on `path` as [`OutputError::Io`] (for `map_err`).
+pub(super) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
+    move |source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
 }

@@ -38,7 +38,8 @@ use std::sync::Mutex;
 use serde::{Deserialize, Serialize};
 
 use super::atomic::AtomicFile;
-use super::{OutputError, LOCK_NAME};
+use super::error::OutputError;
+use super::names::{LOCK_NAME, SUMMARY_NAME};
 use crate::input::{self, InputError, InputKind};
 
 /// djkr's record of the files it wrote in a folder.
@@ -231,7 +232,7 @@ impl Record {
 /// djkr's, so that rerunning into such a folder needs no `--force`. Empty for anything else.
 fn legacy_run(dir: &Path) -> BTreeMap<String, u64> {
     let mut files = BTreeMap::new();
-    let path = dir.join(super::SUMMARY_NAME);
+    let path = dir.join(SUMMARY_NAME);
     // Anything that is not a regular file within a summary's limit is not one.
     let Ok(text) = input::read_bytes(&path, InputKind::Summary) else {
         return files;
@@ -251,7 +252,7 @@ fn legacy_run(dir: &Path) -> BTreeMap<String, u64> {
             files.insert(name.clone(), size);
         }
     }
-    files.insert(super::SUMMARY_NAME.to_string(), len);
+    files.insert(SUMMARY_NAME.to_string(), len);
     files
 }
 
@@ -401,7 +402,7 @@ pub fn commit(file: AtomicFile) -> Result<PathBuf, OutputError> {
     Ok(done.pop().unwrap_or_default())
 }
 
-/// Write one file atomically ([`super::AtomicFile`]): figures, tables, sweeps, studies. Refuses,
+/// Write one file atomically ([`super::atomic::AtomicFile`]): figures, tables, sweeps, studies. Refuses,
 /// naming it, to replace a file djkr did not write.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     commit(AtomicFile::write(path, bytes)?).map(|_| ())

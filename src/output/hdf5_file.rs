@@ -75,9 +75,9 @@ use hdf5_pure::{
 };
 
 use super::cycles::{cycle_schema, HARMONIC_CONVENTION};
+use super::error::OutputError;
 use super::table::{Column, Data, Descriptions, Kind, Table, DESCRIPTIONS_GROUP};
 use super::timeseries::{events_table, gaps_table, TimeSeriesWriter, GAPS_DESCRIPTION};
-use super::OutputError;
 use crate::scenario::Scenario;
 use djkr_core::dynamics::RunResult;
 
@@ -524,7 +524,7 @@ fn extendable(compress: bool, chunk: usize) -> Storage {
 
 impl H5Stream {
     /// Write the file at `path`, just created empty and open as `handle` (a partial of a name no
-    /// one can plant: [`super::AtomicFile`]), with its datasets empty (the period datasets are
+    /// one can plant: [`super::atomic::AtomicFile`]), with its datasets empty (the period datasets are
     /// created with the first period record), and open it for appending. hdf5-pure syncs it
     /// once, when it is finished (`SyncPolicy::OnClose`).
     pub fn create(

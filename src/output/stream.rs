@@ -1,16 +1,16 @@
 //! Streaming a long run to disk: the rows buffered between two writes ([`Rows`]), the files of
 //! a streamed run ([`Streaming`]) and the thread that writes them ([`Background`]).
 //!
-//! Once a run is long enough to stream ([`super::SPILL_ROWS`] samples), its files are created
+//! Once a run is long enough to stream ([`super::names::SPILL_ROWS`] samples), its files are created
 //! (empty) and everything after is written on a thread of its own while the integration goes
 //! on: the samples of each step travel as the step ([`StepSamples`]: its two end points and the
 //! output grid) and the thread builds them (interpolation, force, G, w), buffers them and appends
-//! them to the HDF5 file (and CSV) a whole chunk ([`super::FLUSH_ROWS`] rows) at a time. On the
+//! them to the HDF5 file (and CSV) a whole chunk ([`super::names::FLUSH_ROWS`] rows) at a time. On the
 //! full-length paper protocol (1 M samples) building and appending the samples was half of the
 //! run's time on one thread; appending is mostly copying (hdf5-pure copies a batch twice on its
 //! way to the file), and whole chunks keep it from rewriting a partial one at every append.
 //!
-//! Memory stays bounded: a batch is at most [`super::FLUSH_ROWS`] samples or 2048 steps, the
+//! Memory stays bounded: a batch is at most [`super::names::FLUSH_ROWS`] samples or 2048 steps, the
 //! channel holds at most `QUEUE` (32) of them, the thread works on one and the run fills one;
 //! written batches come back emptied (keeping their capacity) for the run to refill. The
 //! thread owns the partial files: when the run is dropped without finishing, the channel closes,
@@ -26,10 +26,13 @@ use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
+use super::atomic::AtomicFile;
+use super::cycles;
+use super::error::{io_err, OutputError};
 use super::hdf5_file::{H5Stream, RunTables, RECORD_CHUNK};
+use super::names::{CSV_NAMES, FLUSH_ROWS, HDF5_NAME};
 use super::table::{CsvWriter, Table};
 use super::timeseries::{self, TimeSeriesWriter};
-use super::{cycles, io_err, AtomicFile, OutputError, CSV_NAMES, FLUSH_ROWS, HDF5_NAME};
 use crate::scenario::Scenario;
 use djkr_core::dynamics::model::Model;
 use djkr_core::dynamics::Sample;

@@ -28,7 +28,7 @@ use std::path::Path;
 use thiserror::Error;
 
 use super::atomic::AtomicFile;
-use super::OutputError;
+use super::error::OutputError;
 
 /// The type of a column's values.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

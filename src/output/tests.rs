@@ -14,9 +14,9 @@ use std::sync::OnceLock;
 
 use super::folder::MANIFEST_NAME;
 use super::hdf5_file::{hdf5_bytes, read_descriptions, RunTables};
+use super::names::{FLUSH_ROWS, LOCK_NAME, SPILL_ROWS};
 use super::timeseries::{events_table, gaps_table, SERIES};
 use super::{cycles::cycle_table, OutputError, RunWriter, TimeSeriesWriter};
-use super::{FLUSH_ROWS, LOCK_NAME, SPILL_ROWS};
 use crate::scenario::parse::parse_scenario;
 use crate::scenario::Scenario;
 use djkr_core::dynamics::{

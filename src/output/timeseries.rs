@@ -3,7 +3,7 @@
 //! [`Table`], and the events as a table ([`events_table`]).
 //!
 //! The run writer buffers samples here column by column and, once a run is long, appends them
-//! to the HDF5 file in batches ([`super::RunWriter`]: memory independent of run length).
+//! to the HDF5 file in batches ([`super::run::RunWriter`]: memory independent of run length).
 
 use super::table::{Cell, Column, Data, Field, Table};
 use djkr_core::dynamics::{Event, EventKind, Gap, Observer, Sample};
