@@ -49,6 +49,7 @@
 //! The command line is the private module behind [`cli::main`], which the `djkr` binary calls.
 #![deny(clippy::float_cmp)]
 #![deny(missing_docs)]
+#![deny(rustdoc::broken_intra_doc_links, rustdoc::private_intra_doc_links)]
 
 pub mod accuracy;
 pub mod api;

@@ -67,6 +67,7 @@
 //! ```
 #![deny(clippy::float_cmp)]
 #![deny(missing_docs)]
+#![deny(rustdoc::broken_intra_doc_links, rustdoc::private_intra_doc_links)]
 
 pub mod adhesion;
 pub mod beta_fit;

@@ -70,7 +70,7 @@ pub enum OutputError {
         /// What it is.
         what: String,
     },
-    /// The run's certain samples would not fit on the disk ([`disk::check_up_front`]).
+    /// The run's certain samples would not fit on the disk (`disk::check_up_front`).
     #[error(
         "{}: the run's output would take about {} ({samples:.3e} samples of the stages with a \
          fixed duration at [output] sample_rate), more than the {} free; lower [output] \

@@ -1,4 +1,4 @@
-//! Output: the one table writer ([`table`]: CSV and HDF5) and the one atomic writer ([`AtomicFile`])
+//! Output: the one table writer (`table`: CSV and HDF5) and the one atomic writer (`AtomicFile`)
 //! every command uses, and the writers of `djkr run`: the HDF5 run file, `summary.json` and, on
 //! request, CSV.
 //!
@@ -12,11 +12,11 @@
 //! them, the events and the period records to it (and to the CSV files) a whole chunk at a time,
 //! so memory stays bounded however long the run, and the integration goes on meanwhile. The
 //! event kinds (one byte per event; `solver.max_events` bounds them) are written when the run
-//! ends, as are the results. Both ways give files of the same content ([`hdf5_file`] has the
+//! ends, as are the results. Both ways give files of the same content (`hdf5_file` has the
 //! layout).
 //!
 //! **Atomic output.** Every file is written under a hidden partial name of its own, created new
-//! and never through a symbolic link (`DIR/.run.h5.<run_id>.XXXXXX.partial`, ...: [`AtomicFile`]),
+//! and never through a symbolic link (`DIR/.run.h5.<run_id>.XXXXXX.partial`, ...: `AtomicFile`),
 //! and renamed into place only when the run has ended, `summary.json` last: its presence marks
 //! complete files, and it records the size of every other file of the run (`file_bytes`) and
 //! how the run ended (`status`: a run stopped by a budget or failed mid-way is published by
@@ -27,11 +27,11 @@
 //! directory fails at once, naming the directory and the holder's process id, instead of
 //! interleaving; the lock file records the partials the holder created, and the next holder
 //! removes those a killed run left behind. Files djkr did not write are never removed or
-//! replaced ([`folder`]: a name the run would publish that holds a file of the user's is refused
+//! replaced (`folder`: a name the run would publish that holds a file of the user's is refused
 //! before the run, unless `--force`); an earlier run's CSV files stay when this run writes none
 //! (`files` in summary.json lists this run's).
 //!
-//! **Disk space** ([`disk`]). A run whose certain samples (the stages with a fixed duration)
+//! **Disk space** (`disk`). A run whose certain samples (the stages with a fixed duration)
 //! would not fit on the folder's disk is refused before it starts; while a run streams, the
 //! writer watches the free space and stops the run (`status` `stopped`, `reason` `disk`) while
 //! what it must still write fits, so that it publishes complete files of what it computed.
@@ -45,15 +45,15 @@
 //! and the directory before the run counts as written (about 3.5 ms per file on the reference
 //! machine) for runs whose output must survive a power loss.
 //!
-//! File layouts: [`hdf5_file`] (HDF5), [`SummaryFiles`] (JSON and its non-finite rule); the four CSV
-//! files are the tables of the HDF5 file ([`timeseries`], [`timeseries::events_table`],
-//! [`cycles`], [`timeseries::gaps_table`]) written by [`table`], which writes every table of djkr (runs, resonance sweeps,
-//! shortcut maps, accuracy studies, figures), and every file goes to disk through [`AtomicFile`].
+//! File layouts: `hdf5_file` (HDF5), `SummaryFiles` (JSON and its non-finite rule); the four CSV
+//! files are the tables of the HDF5 file ([`timeseries`], `timeseries::events_table`,
+//! `cycles`, `timeseries::gaps_table`) written by `table`, which writes every table of djkr (runs, resonance sweeps,
+//! shortcut maps, accuracy studies, figures), and every file goes to disk through `AtomicFile`.
 //!
 //! [`Observer`]: djkr_core::dynamics::Observer
 //! [`RunResult`]: djkr_core::dynamics::RunResult
-//! [`AtomicFile`]: atomic::AtomicFile
-//! [`SummaryFiles`]: summary::SummaryFiles
+//! `AtomicFile`: atomic::AtomicFile
+//! `SummaryFiles`: summary::SummaryFiles
 
 pub(crate) mod atomic;
 pub(crate) mod cycles;

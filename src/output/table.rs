@@ -452,7 +452,7 @@ impl Table {
     }
 
     /// Append one row of a table whose columns are `f.len()` f64 columns followed by `i.len()`
-    /// i64 columns (the time series): the per-sample path, without a [`Cell`] per value. A row
+    /// i64 columns (the time series): the per-sample path, without a `Cell` per value. A row
     /// of another shape is refused.
     pub fn push_numeric_row(&mut self, f: &[f64], i: &[i64]) -> Result<(), TableError> {
         let shape_ok = self.columns.len() == f.len() + i.len()
@@ -514,7 +514,7 @@ impl Table {
         w.write_rows(self)
     }
 
-    /// Write the table as the CSV file `path`, atomically ([`super::folder::commit`]).
+    /// Write the table as the CSV file `path`, atomically (`super::folder::commit`).
     pub fn save_csv(&self, path: &Path) -> Result<(), OutputError> {
         super::folder::commit(AtomicFile::write_with(path, |w| self.write_csv(w))?).map(|_| ())
     }

@@ -1,6 +1,6 @@
 //! The time-series columns (names, units, descriptions: one schema shared by the HDF5, CSV and JSON
 //! writers), [`TimeSeriesWriter`], the observer that buffers a run's samples and events as a
-//! [`Table`], and the events as a table ([`events_table`]).
+//! [`Table`], and the events as a table (`events_table`).
 //!
 //! The run writer buffers samples here column by column and, once a run is long, appends them
 //! to the HDF5 file in batches ([`super::run::RunWriter`]: memory independent of run length).
@@ -171,7 +171,7 @@ pub(crate) fn gaps_table(gaps: &[Gap]) -> Table {
     ])
 }
 
-/// Buffers a run's samples (as a table of [`series_schema`]) and events; the writers read them
+/// Buffers a run's samples (as a table of `series_schema`) and events; the writers read them
 /// at the end.
 #[derive(Debug, Clone)]
 pub struct TimeSeriesWriter {
