@@ -280,11 +280,11 @@ mod tests {
 
     #[test]
     fn rejects_unknown_units_and_garbage() {
-        let e = parse_quantity("--radius", "3Hz", Dimension::Length).unwrap_err();
-        assert!(e.to_string().contains("--radius") && e.to_string().contains("unknown unit"));
-        assert!(parse_quantity("--n", "abc", Dimension::Dimensionless).is_err());
-        assert!(parse_quantity("--n", "1mm", Dimension::Dimensionless).is_err());
-        assert!(parse_quantity("--n", "inf", Dimension::Dimensionless).is_err());
+        let e = parse_quantity("radius", "3Hz", Dimension::Length).unwrap_err();
+        assert!(e.to_string().contains("radius") && e.to_string().contains("unknown unit"));
+        assert!(parse_quantity("n", "abc", Dimension::Dimensionless).is_err());
+        assert!(parse_quantity("n", "1mm", Dimension::Dimensionless).is_err());
+        assert!(parse_quantity("n", "inf", Dimension::Dimensionless).is_err());
     }
 
     #[test]
