@@ -17,16 +17,9 @@ const SHORT: [&str; 4] = [
 ];
 
 /// Data of the cheap rig: its pull-off amplification with adhesion.v0 = 60 µm/s and
-/// adhesion.n = 0.5 (djkr sweep), each with 2 % noise (a fixed draw) and that σ.
-pub(crate) const CHEAP_DATA: &str = "\
-base.amplitude [um],stage[3].speed [um/s],pull_off_amplification [1],sigma [1]
-5,100,4.0513,0.0797
-10,100,3.6627,0.0749
-20,100,3.3155,0.0659
-0,30,3.1569,0.0614
-0,300,4.9378,0.1000
-0,3000,8.0308,0.1613
-";
+/// adhesion.n = 0.5 (djkr sweep), each with 2 % noise (a fixed draw) and that σ: the bundled
+/// example data, which docs/guide/planning.md starts from (examples/data/README.md).
+const CHEAP_DATA: &str = "examples/data/pull-off-300hz.csv";
 
 fn djkr(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_djkr"))
@@ -38,12 +31,10 @@ fn djkr(args: &[&str]) -> Output {
 
 /// A fit of adhesion.v0 and adhesion.n to [`CHEAP_DATA`] in `dir/fit`.
 pub(crate) fn cheap_fit(dir: &Path) -> std::path::PathBuf {
-    let data = dir.join("cheap.csv");
-    std::fs::write(&data, CHEAP_DATA).unwrap();
     let fit = dir.join("fit");
     let mut args = vec![
         "fit",
-        data.to_str().unwrap(),
+        CHEAP_DATA,
         "--scenario",
         SCENARIO,
         "--free",

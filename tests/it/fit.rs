@@ -19,7 +19,7 @@ fn djkr(args: &[&str]) -> Output {
 
 /// A standard normal deviate for (seed, i), by Box–Muller on the ensemble's counter-based
 /// uniform numbers (reproducible, no dependency).
-fn gauss(seed: u64, i: u64) -> f64 {
+pub(crate) fn gauss(seed: u64, i: u64) -> f64 {
     use djkr::sweep::uniform;
     let u1 = uniform(seed, i, 0).max(1e-300);
     let u2 = uniform(seed, i, 1);
