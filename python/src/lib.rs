@@ -2339,13 +2339,7 @@ impl Fit {
             .reshape([k, k])?
             .into_any()
             .unbind();
-        let residuals = PyDict::new(py);
-        for (name, c) in r.residuals {
-            match c {
-                api::Column::Num(v) => residuals.set_item(name, PyArray1::from_vec(py, v))?,
-                api::Column::Text(v) => residuals.set_item(name, v)?,
-            }
-        }
+        let residuals = columns_to_py(py, r.residuals)?;
         Ok(Fit {
             report: json_to_py(py, &report)?,
             keys: keys.into_any().unbind(),
@@ -2568,13 +2562,7 @@ impl Prediction {
     fn new(py: Python<'_>, r: djkr::fit::PredictReport) -> PyResult<Prediction> {
         let report = serde_json::to_value(&r)
             .map_err(|e| PyRuntimeError::new_err(format!("prediction report: {e}")))?;
-        let columns = PyDict::new(py);
-        for (name, c) in r.columns() {
-            match c {
-                api::Column::Num(v) => columns.set_item(name, PyArray1::from_vec(py, v))?,
-                api::Column::Text(v) => columns.set_item(name, v)?,
-            }
-        }
+        let columns = columns_to_py(py, r.columns())?;
         Ok(Prediction {
             report: json_to_py(py, &report)?,
             columns: columns.into_any().unbind(),
@@ -2615,6 +2603,26 @@ impl Prediction {
             r.get_item("notes")?.len()?
         ))
     }
+}
+
+/// A table's columns by name: numbers and counts as numpy arrays (float64, int64), text as
+/// lists.
+fn columns_to_py<'py>(
+    py: Python<'py>,
+    columns: Vec<(String, api::Column)>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    for (name, c) in columns {
+        match c {
+            api::Column::Num(v) => out.set_item(name, PyArray1::from_vec(py, v))?,
+            api::Column::Whole(v) => {
+                let v: Vec<i64> = v.into_iter().map(|x| x as i64).collect();
+                out.set_item(name, PyArray1::from_vec(py, v))?
+            }
+            api::Column::Text(v) => out.set_item(name, v)?,
+        }
+    }
+    Ok(out)
 }
 
 /// A grid value as a sweep SPEC: a string as given (`"10um:60um:6"`, `"10um,30um"`), a list

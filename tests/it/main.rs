@@ -15,6 +15,7 @@ mod catalogue;
 mod closed_form;
 mod continuation;
 mod describing;
+mod design;
 mod docs_reference;
 mod dynamics;
 mod envelope_cost;
