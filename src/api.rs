@@ -12,9 +12,11 @@
 //!   Yi), serialised as `--json` prints them.
 //! - [`run`]: a run kept in memory (the time series, events and period records as the run file's
 //!   tables) and optionally written into a run folder by the same writer as `djkr run`.
-//! - [`validate`], [`resonance`], [`sweep`], [`fit`], [`predict`]: the steady-state comparison,
-//!   the frequency response, a study, a fit of measured data and a prediction from a fit, each
-//!   returning a typed report (what the command's `--json` or table holds).
+//! - [`validate`], [`resonance`], [`sweep`]: the steady-state comparison, the frequency response
+//!   and a study, each returning a typed report (what the command's `--json` or table holds).
+//! - [`fit`], [`predict`], [`design`]: measured data turned into the rig's unknowns, the model's
+//!   predictions with their uncertainty from such a fit, and the new measurements that would
+//!   pin the unknowns down best.
 //! - [`check_finite`]: whether a report can be written as JSON (JSON has no NaN or infinity).
 //!
 //! Every long computation here takes its cancellation from the scenario's
@@ -1488,6 +1490,61 @@ pub fn predict(
                 dir.display()
             ))
         })?;
+    }
+    Ok(report)
+}
+
+/// Design new measurements from a fit, as `djkr design`: which K of the candidates, added to
+/// the fit's data, pin the free keys down best, and the report `design.json` holds
+/// ([`crate::fit::DesignReport::columns`] gives `design.csv`'s columns). The request is typed
+/// (the front ends parse their text: [`crate::sweep::Axis::parse`],
+/// [`crate::fit::Sigma::parse`], [`crate::fit::Target::parse`]) and checked first; with an output
+/// folder `(folder, force)`, it is then claimed and locked and the design's files are written
+/// there. A stop raised through `stop` ends it as [`Error::Cancelled`], nothing written.
+pub fn design(
+    fit: &crate::fit::FitFolder,
+    req: &crate::fit::DesignRequest,
+    out: Option<(PathBuf, bool)>,
+    stop: Option<&AtomicBool>,
+) -> Result<crate::fit::DesignReport, Error> {
+    design_with_progress(fit, req, out, stop, &mut || {})
+}
+
+/// [`design`], calling `on_run` as each forward run ends (the command line counts them).
+pub fn design_with_progress(
+    fit: &crate::fit::FitFolder,
+    req: &crate::fit::DesignRequest,
+    out: Option<(PathBuf, bool)>,
+    stop: Option<&AtomicBool>,
+    on_run: &mut dyn FnMut(),
+) -> Result<crate::fit::DesignReport, Error> {
+    use crate::fit::design as d;
+    d::check(fit, req)?;
+    // A folder that refuses the design is named as the input that gave it; a folder another
+    // process holds is named by its own message, which says to choose another «out».
+    let _lock = match &out {
+        Some((dir, force)) => {
+            crate::output::folder::claim(dir, &d::FILES, *force).map_err(|error| {
+                Error::Output {
+                    input: Some("out"),
+                    context: None,
+                    error,
+                }
+            })?;
+            if *force {
+                crate::output::folder::force_overwrite(dir);
+            }
+            crate::output::folder::DirLock::acquire(dir).map_err(|error| Error::Output {
+                input: None,
+                context: None,
+                error,
+            })?
+        }
+        None => None,
+    };
+    let report = d::design(fit, req, stop, on_run)?;
+    if let Some((dir, _)) = &out {
+        d::write(&report, dir)?;
     }
     Ok(report)
 }

@@ -38,8 +38,8 @@
 //! - commands, each a typed request and a typed report that derives or implements `Serialize`
 //!   ([`api`]): [`run`], [`validate`], [`api::cycle`], [`api::pull_off`], [`api::resonance`],
 //!   [`api::sweep`] (and [`sweep`] for sweep folders), [`api::fit`] (and [`fit`] for data and
-//!   free keys); the accuracy study ([`accuracy`]) and the sensitivity to one ulp
-//!   ([`sensitivity`]);
+//!   free keys), [`api::predict`] and [`api::design`] (from a fit); the accuracy study
+//!   ([`accuracy`]) and the sensitivity to one ulp ([`sensitivity`]);
 //! - errors that carry what happened and where ([`error::Error`], [`ScenarioError`]), worded by
 //!   each front end through [`error::Words`];
 //! - output: [`TimeSeriesWriter`], the format-neutral [`Table`] and its

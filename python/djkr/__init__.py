@@ -12,7 +12,9 @@ Each function gives what the ``djkr`` command of the same name reports, in SI un
   ``points``: the per-point statistics of its rows, the columns of ``points.csv``;
 - ``fit``: scenario keys estimated from measured data (a ``Fit``: ``fit.json`` and the
   residuals), and ``predict``: the model with its uncertainty bands from a fit over a grid of
-  conditions (a ``Prediction``: ``prediction.json`` and the columns of ``prediction.csv``).
+  conditions (a ``Prediction``: ``prediction.json`` and the columns of ``prediction.csv``),
+  and ``design``: the new measurements that would pin a fit's keys down best (a ``Design``:
+  ``design.json`` and the columns of ``design.csv``).
 
 ``Run.pieces()`` splits a run's arrays at the gaps envelope following left, and ``djkr.plot``
 (``import djkr.plot``; needs matplotlib) draws a run as ``djkr plot`` does.
@@ -47,6 +49,7 @@ Examples
 """
 
 from ._djkr import (
+    Design,
     Fit,
     OutputFolderError,
     Prediction,
@@ -55,6 +58,7 @@ from ._djkr import (
     ScenarioTypeError,
     __version__,
     cycle,
+    design,
     fit,
     points,
     predict,
@@ -67,6 +71,7 @@ from ._djkr import (
 )
 
 __all__ = [
+    "Design",
     "Fit",
     "OutputFolderError",
     "Prediction",
@@ -74,6 +79,7 @@ __all__ = [
     "ScenarioError",
     "ScenarioTypeError",
     "cycle",
+    "design",
     "fit",
     "points",
     "predict",

@@ -12,7 +12,9 @@ Each function gives what the ``djkr`` command of the same name reports, in SI un
   ``points``: the per-point statistics of its rows, the columns of ``points.csv``;
 - ``fit``: scenario keys estimated from measured data (a ``Fit``: ``fit.json`` and the
   residuals), and ``predict``: the model with its uncertainty bands from a fit over a grid of
-  conditions (a ``Prediction``: ``prediction.json`` and the columns of ``prediction.csv``).
+  conditions (a ``Prediction``: ``prediction.json`` and the columns of ``prediction.csv``),
+  and ``design``: the new measurements that would pin a fit's keys down best (a ``Design``:
+  ``design.json`` and the columns of ``design.csv``).
 
 ``Run.pieces()`` splits a run's arrays at the gaps envelope following left, and ``djkr.plot``
 (``import djkr.plot``; needs matplotlib) draws a run as ``djkr plot`` does.
@@ -681,6 +683,120 @@ def predict(
     >>> p = djkr.predict(r, grid={"base.frequency": "250Hz",
     ...                           "base.amplitude": "10um:60um:6"}, samples=100)
     >>> p.to_pandas()[["base.amplitude [m]", "value [1]", "lo95 [1]", "hi95 [1]"]]
+    """
+    ...
+
+class Design:
+    """The result of ``djkr.design``: the content of ``design.json`` and the columns of
+    ``design.csv``.
+
+    ``d["chosen"]``, ``d["expected_sigma"]``, ``d["notes"]``, ... read ``design.json`` as a dict
+    does (``d.report`` is that dict). ``d.columns`` holds the columns of ``design.csv`` (numpy
+    arrays named ``"name [unit]"``, SI; ``repeats`` and ``uniform_repeats`` as int64; text
+    conditions as lists): ``pandas.DataFrame(d.columns)`` is its table, as is ``d.to_pandas()``.
+
+    Examples
+    --------
+    >>> d = djkr.design("out/fit", {"base.amplitude": "0um:20um:5"}, add=4)
+    >>> d["chosen"], d.columns["information [1]"], d["notes"]
+    """
+
+    report: Dict[str, Any]
+    """The content of ``design.json`` (a dict)."""
+    columns: Dict[str, Any]
+    """The columns of ``design.csv`` (dict of numpy arrays)."""
+    def __getitem__(self, key: str) -> Any:
+        """Return self[key]."""
+        ...
+    def __contains__(self, key: str) -> bool:
+        """Return key in self."""
+        ...
+    def to_pandas(self) -> Any:
+        """The table of ``design.csv`` as a ``pandas.DataFrame`` (needs pandas)."""
+        ...
+
+def design(
+    fit: Union["Fit", str, "os.PathLike[str]"],
+    candidates: Mapping[str, Any],
+    add: int,
+    sigma: Optional[Union[float, str]] = None,
+    criterion: str = "D",
+    repeats: bool = True,
+    jobs: Optional[int] = None,
+    out: Optional[Union[str, "os.PathLike[str]"]] = None,
+    force: bool = False,
+) -> "Design":
+    """New measurements chosen from a fit, as ``djkr design``.
+
+    Of the candidates (a grid of conditions one could measure), the ``add`` new measurements
+    that, added to the fit's data, minimise the expected covariance of the fitted keys: the
+    model's sensitivities at the estimate (the fit's own finite-difference Jacobian) over the
+    expected noise of a measurement, a greedy choice then exchanges (Fedorov). Reported beside
+    them: the same number spread uniformly over the candidates. The numbers are those of
+    ``djkr design --json`` for the same fit and arguments, to the bit.
+
+    Parameters
+    ----------
+    fit : Fit, str or os.PathLike
+        What ``djkr.fit`` returned, or the folder a fit wrote (``djkr fit --out``, or
+        ``djkr.fit(out=...)``: ``fit.json``, ``fitted.toml``, ``residuals.csv``).
+    candidates : dict
+        The conditions one could measure, as ``djkr.sweep``'s ``grid``: each scenario key (not
+        one the fit estimated) with its values, a list (``["10um", "30um"]``, floats in SI) or a
+        range string (``"200:500:7"``, ``"30um/s:3mm/s:5log"``); several keys make the
+        Cartesian grid, the first slowest. 2 to 10000 candidates.
+    add : int
+        New measurements to choose (1 to 10000).
+    sigma : float or str, optional
+        The expected standard deviation of a new measurement: a number in the observable's SI
+        unit (or a string with a unit), or a percentage of the prediction (``"2%"``). Default:
+        the median relative sigma of the fit's data.
+    criterion : str, optional
+        What the design minimises: ``"D"`` (the default: the determinant of the keys'
+        covariance), ``"A"`` (the sum of their variances, in the fit coordinates) or a free key
+        of the fit (``"adhesion.n"``: its variance).
+    repeats : bool, optional
+        Whether a candidate may be chosen more than once (default True; ``False`` is
+        ``--no-repeats``).
+    jobs : int, optional
+        Runs at a time (default: one per core).
+    out : str or os.PathLike, optional
+        A folder for ``design.csv``, ``design.json``, ``design.png`` and ``design.svg``, as
+        ``djkr design --out``.
+    force : bool, optional
+        Overwrite files of those names in ``out`` that djkr did not write (``--force``).
+
+    Returns
+    -------
+    Design
+        ``d["chosen"]`` (a list of ``{"conditions": {key: value in SI}, "repeats": n, "row":
+        i}``), ``d["current_sigma"]``, ``d["expected_sigma"]``, ``d["uniform_sigma"]`` (each
+        ``{key: sigma}`` in the keys' SI units), ``d["criterion"]``, ``d["notes"]``, ... are the
+        content of ``design.json`` (``d.report``); ``d.columns`` holds the columns of
+        ``design.csv`` as numpy arrays (``"base.amplitude [m]"``, ``"value [1]"``,
+        ``"sigma_measurement [1]"``, ``"sigma_prediction [1]"``, ``"information [1]"``, and the
+        int64 ``"repeats [1]"``, ``"uniform_repeats [1]"``; text conditions as lists);
+        ``d.to_pandas()`` is that table.
+
+    Raises
+    ------
+    ScenarioError
+        A folder without a fit, a candidate key that is not a condition (unknown, or a key the
+        fit estimated), candidates that vary nothing (one point), ``add=0``, ``add`` above the
+        candidates with ``repeats=False``, a criterion that is not D, A or a free key, a sigma
+        that is not positive, no sigma where the fit's data carry none, a fit that gave a key no
+        sigma.
+    KeyboardInterrupt
+        Ctrl-C: no new run starts, nothing is written.
+
+    Examples
+    --------
+    >>> import djkr
+    >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
+    ...              free=["adhesion.v0", "adhesion.n"])
+    >>> d = djkr.design(r, {"base.amplitude": "0um:20um:5",
+    ...                     "stage[3].speed": "30um/s:3000um/s:5log"}, add=6)
+    >>> d["chosen"], d["expected_sigma"]["adhesion.n"], d["uniform_sigma"]["adhesion.n"]
     """
     ...
 

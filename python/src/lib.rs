@@ -122,8 +122,10 @@ impl djkr::error::Words for PyWords {
     fn input(&self, name: &str) -> String {
         match name {
             // An argument named alone in a sentence (`set= does not add stages`).
-            "set" | "grid" | "ensemble" | "seed" | "samples" => format!("{name}="),
+            "set" | "grid" | "ensemble" | "seed" | "samples" | "sigma" => format!("{name}="),
             "force" => "force=True".into(),
+            // The command line's --no-repeats.
+            "no_repeats" => "repeats=False".into(),
             "out" | "resume" => format!("{name}="),
             _ => name.to_string(),
         }
@@ -161,7 +163,19 @@ impl djkr::error::Words for PyWords {
         format!("grid={{'{}': ...}}", key.trim())
     }
     fn input_value(&self, name: &str, value: &str) -> String {
-        format!("{name} = {value}")
+        match name {
+            // `KEY=SPEC` axes, one or several (space-separated): named by their keys, as a
+            // `grid=` is.
+            "candidates" => {
+                let keys: Vec<String> = value
+                    .split(' ')
+                    .filter_map(|a| a.split_once('='))
+                    .map(|(k, _)| format!("'{}': ...", k.trim()))
+                    .collect();
+                format!("candidates={{{}}}", keys.join(", "))
+            }
+            _ => format!("{name} = {value}"),
+        }
     }
 }
 
@@ -1754,7 +1768,7 @@ fn sweep(
         if let Some(g) = dict_arg(grid, "grid")? {
             for (k, v) in g.iter() {
                 let key = key_text(&k, "grid")?;
-                let text = format!("{key}={}", spec_text(&v, &key)?);
+                let text = format!("{key}={}", spec_text(&v, &key, "grid")?);
                 bytes += text.len();
                 if bytes > text_limit() {
                     return Err(too_large("grid", None));
@@ -2339,13 +2353,7 @@ impl Fit {
             .reshape([k, k])?
             .into_any()
             .unbind();
-        let residuals = PyDict::new(py);
-        for (name, c) in r.residuals {
-            match c {
-                api::Column::Num(v) => residuals.set_item(name, PyArray1::from_vec(py, v))?,
-                api::Column::Text(v) => residuals.set_item(name, v)?,
-            }
-        }
+        let residuals = columns_to_py(py, r.residuals)?;
         Ok(Fit {
             report: json_to_py(py, &report)?,
             keys: keys.into_any().unbind(),
@@ -2473,28 +2481,15 @@ fn predict(
     out: Option<&Bound<'_, PyAny>>,
     force: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Prediction> {
-    use djkr::fit::{FitFolder, PredictRequest};
+    use djkr::fit::PredictRequest;
     let (folder, req, out) = guarded(|| {
-        let folder: FitFolder = if let Ok(f) = fit.cast::<Fit>() {
-            f.get().fitted.clone().map_err(|m| {
-                PyRuntimeError::new_err(format!("fit: this fit's result cannot be read back: {m}"))
-            })?
-        } else if fit.is_instance_of::<PyString>() || fit.hasattr("__fspath__")? {
-            let dir = path_arg(Some(fit), "fit")?.unwrap_or_default();
-            FitFolder::read(&dir).map_err(api_err)?
-        } else {
-            return Err(type_err(format!(
-                "fit: expected what djkr.fit returned or a fit's folder (str or os.PathLike), \
-                 got {}",
-                type_name(fit)
-            )));
-        };
+        let folder = fit_folder(fit)?;
         let mut axes = Vec::new();
         let mut bytes = 0;
         if let Some(g) = dict_arg(grid, "grid")? {
             for (k, v) in g.iter() {
                 let key = key_text(&k, "grid")?;
-                let text = format!("{key}={}", spec_text(&v, &key)?);
+                let text = format!("{key}={}", spec_text(&v, &key, "grid")?);
                 bytes += text.len();
                 if bytes > text_limit() {
                     return Err(too_large("grid", None));
@@ -2568,13 +2563,7 @@ impl Prediction {
     fn new(py: Python<'_>, r: djkr::fit::PredictReport) -> PyResult<Prediction> {
         let report = serde_json::to_value(&r)
             .map_err(|e| PyRuntimeError::new_err(format!("prediction report: {e}")))?;
-        let columns = PyDict::new(py);
-        for (name, c) in r.columns() {
-            match c {
-                api::Column::Num(v) => columns.set_item(name, PyArray1::from_vec(py, v))?,
-                api::Column::Text(v) => columns.set_item(name, v)?,
-            }
-        }
+        let columns = columns_to_py(py, r.columns())?;
         Ok(Prediction {
             report: json_to_py(py, &report)?,
             columns: columns.into_any().unbind(),
@@ -2617,9 +2606,258 @@ impl Prediction {
     }
 }
 
-/// A grid value as a sweep SPEC: a string as given (`"10um:60um:6"`, `"10um,30um"`), a list
-/// of values joined by commas, a single value alone.
-fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
+/// The argument `fit` of `predict` and `design`: what `djkr.fit` returned, or a fit's folder.
+fn fit_folder(fit: &Bound<'_, PyAny>) -> PyResult<djkr::fit::FitFolder> {
+    if let Ok(f) = fit.cast::<Fit>() {
+        f.get().fitted.clone().map_err(|m| {
+            PyRuntimeError::new_err(format!("fit: this fit's result cannot be read back: {m}"))
+        })
+    } else if fit.is_instance_of::<PyString>() || fit.hasattr("__fspath__")? {
+        let dir = path_arg(Some(fit), "fit")?.unwrap_or_default();
+        djkr::fit::FitFolder::read(&dir).map_err(api_err)
+    } else {
+        Err(type_err(format!(
+            "fit: expected what djkr.fit returned or a fit's folder (str or os.PathLike), got {}",
+            type_name(fit)
+        )))
+    }
+}
+
+/// A table's columns by name: numbers and counts as numpy arrays (float64, int64), text as
+/// lists.
+fn columns_to_py<'py>(
+    py: Python<'py>,
+    columns: Vec<(String, api::Column)>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    for (name, c) in columns {
+        match c {
+            api::Column::Num(v) => out.set_item(name, PyArray1::from_vec(py, v))?,
+            api::Column::Whole(v) => {
+                let v: Vec<i64> = v.into_iter().map(|x| x as i64).collect();
+                out.set_item(name, PyArray1::from_vec(py, v))?
+            }
+            api::Column::Text(v) => out.set_item(name, v)?,
+        }
+    }
+    Ok(out)
+}
+
+/// New measurements chosen from a fit, as ``djkr design``.
+///
+/// Of the candidates (a grid of conditions one could measure), the ``add`` new measurements
+/// that, added to the fit's data, minimise the expected covariance of the fitted keys: the
+/// model's sensitivities at the estimate (the fit's own finite-difference Jacobian) over the
+/// expected noise of a measurement, a greedy choice then exchanges (Fedorov). Reported beside
+/// them: the same number spread uniformly over the candidates. The numbers are those of
+/// ``djkr design --json`` for the same fit and arguments, to the bit.
+///
+/// Parameters
+/// ----------
+/// fit : Fit, str or os.PathLike
+///     What ``djkr.fit`` returned, or the folder a fit wrote (``djkr fit --out``, or
+///     ``djkr.fit(out=...)``: ``fit.json``, ``fitted.toml``, ``residuals.csv``).
+/// candidates : dict
+///     The conditions one could measure, as ``djkr.sweep``'s ``grid``: each scenario key (not
+///     one the fit estimated) with its values, a list (``["10um", "30um"]``, floats in SI) or a
+///     range string (``"200:500:7"``, ``"30um/s:3mm/s:5log"``); several keys make the
+///     Cartesian grid, the first slowest. 2 to 10000 candidates.
+/// add : int
+///     New measurements to choose (1 to 10000).
+/// sigma : float or str, optional
+///     The expected standard deviation of a new measurement: a number in the observable's SI
+///     unit (or a string with a unit), or a percentage of the prediction (``"2%"``). Default:
+///     the median relative sigma of the fit's data.
+/// criterion : str, optional
+///     What the design minimises: ``"D"`` (the default: the determinant of the keys'
+///     covariance), ``"A"`` (the sum of their variances, in the fit coordinates) or a free key
+///     of the fit (``"adhesion.n"``: its variance).
+/// repeats : bool, optional
+///     Whether a candidate may be chosen more than once (default True; ``False`` is
+///     ``--no-repeats``).
+/// jobs : int, optional
+///     Runs at a time (default: one per core).
+/// out : str or os.PathLike, optional
+///     A folder for ``design.csv``, ``design.json``, ``design.png`` and ``design.svg``, as
+///     ``djkr design --out``.
+/// force : bool, optional
+///     Overwrite files of those names in ``out`` that djkr did not write (``--force``).
+///
+/// Returns
+/// -------
+/// Design
+///     ``d["chosen"]`` (a list of ``{"conditions": {key: value in SI}, "repeats": n, "row":
+///     i}``), ``d["current_sigma"]``, ``d["expected_sigma"]``, ``d["uniform_sigma"]`` (each
+///     ``{key: sigma}`` in the keys' SI units), ``d["criterion"]``, ``d["notes"]``, ... are the
+///     content of ``design.json`` (``d.report``); ``d.columns`` holds the columns of
+///     ``design.csv`` as numpy arrays (``"base.amplitude [m]"``, ``"value [1]"``,
+///     ``"sigma_measurement [1]"``, ``"sigma_prediction [1]"``, ``"information [1]"``, and the
+///     int64 ``"repeats [1]"``, ``"uniform_repeats [1]"``; text conditions as lists);
+///     ``d.to_pandas()`` is that table.
+///
+/// Raises
+/// ------
+/// ScenarioError
+///     A folder without a fit, a candidate key that is not a condition (unknown, or a key the
+///     fit estimated), candidates that vary nothing (one point), ``add=0``, ``add`` above the
+///     candidates with ``repeats=False``, a criterion that is not D, A or a free key, a sigma
+///     that is not positive, no sigma where the fit's data carry none, a fit that gave a key no
+///     sigma.
+/// KeyboardInterrupt
+///     Ctrl-C: no new run starts, nothing is written.
+///
+/// Examples
+/// --------
+/// >>> import djkr
+/// >>> r = djkr.fit("measured.csv", "scenarios/paper-protocol-300hz.toml",
+/// ...              free=["adhesion.v0", "adhesion.n"])
+/// >>> d = djkr.design(r, {"base.amplitude": "0um:20um:5",
+/// ...                     "stage[3].speed": "30um/s:3000um/s:5log"}, add=6)
+/// >>> d["chosen"], d["expected_sigma"]["adhesion.n"], d["uniform_sigma"]["adhesion.n"]
+#[pyfunction]
+#[pyo3(
+    signature = (fit, candidates, add, sigma = None, criterion = None, repeats = None, jobs = None, out = None, force = None),
+    text_signature = "(fit, candidates, add, sigma=None, criterion='D', repeats=True, jobs=None, out=None, force=False)"
+)]
+#[allow(clippy::too_many_arguments)]
+fn design(
+    py: Python<'_>,
+    fit: &Bound<'_, PyAny>,
+    candidates: &Bound<'_, PyAny>,
+    add: &Bound<'_, PyAny>,
+    sigma: Option<&Bound<'_, PyAny>>,
+    criterion: Option<&Bound<'_, PyAny>>,
+    repeats: Option<&Bound<'_, PyAny>>,
+    jobs: Option<&Bound<'_, PyAny>>,
+    out: Option<&Bound<'_, PyAny>>,
+    force: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Design> {
+    use djkr::fit::{DesignRequest, Sigma, Target};
+    let (folder, req, out) = guarded(|| {
+        let folder = fit_folder(fit)?;
+        let grid = dict_arg(Some(candidates), "candidates")?.filter(|d| !d.is_empty());
+        let Some(grid) = grid else {
+            return Err(input_err(
+                "candidates: give the conditions one could measure as a dict of scenario keys \
+                 and their values, e.g. {'base.frequency': '200:500:7', 'base.amplitude': \
+                 '5um:100um:20'}",
+            ));
+        };
+        let mut axes = Vec::new();
+        let mut bytes = 0;
+        for (k, v) in grid.iter() {
+            let key = key_text(&k, "candidates")?;
+            let text = format!("{key}={}", spec_text(&v, &key, "candidates")?);
+            bytes += text.len();
+            if bytes > text_limit() {
+                return Err(too_large("candidates", None));
+            }
+            axes.push(Axis::parse(&text).map_err(|e| spec_err("candidates", &e))?);
+        }
+        // The library refuses 0 and more than its bound, in its words.
+        let add = whole_arg(Some(add), "add", 0, usize::MAX as u64)?.unwrap_or(0) as usize;
+        let mut req = DesignRequest::new(axes, add);
+        if let Some(s) = sigma.filter(|s| !s.is_none()) {
+            req.sigma = Some(Sigma::parse(&arg_text(s, "sigma")?, &folder).map_err(api_err)?);
+        }
+        if let Some(c) = criterion.filter(|c| !c.is_none()) {
+            req.criterion = Target::parse(&str_arg(c, "criterion")?);
+        }
+        req.repeats = match repeats.filter(|r| !r.is_none()) {
+            Some(r) => bool_arg(Some(r), "repeats")?,
+            None => true,
+        };
+        let jobs = whole_arg(jobs, "jobs", 0, usize::MAX as u64)?;
+        if jobs == Some(0) {
+            return Err(input_err(
+                "jobs = 0: must be a whole number >= 1 (runs at a time)",
+            ));
+        }
+        req.jobs = jobs.unwrap_or(0) as usize;
+        let out = path_arg(out, "out")?;
+        let force = bool_arg(force, "force")?;
+        if force && out.is_none() {
+            return Err(input_err(
+                "force=True has no effect without out= (it lets design overwrite files in its \
+                 folder): leave it out",
+            ));
+        }
+        Ok((folder, req, out.map(|o| (o, force))))
+    })?;
+    let report = interruptible(py, move |stop| {
+        api::design(&folder, &req, out, Some(stop.flag()))
+    })?;
+    guarded(|| Design::new(py, report))
+}
+
+/// The result of ``djkr.design``: the content of ``design.json`` and the columns of
+/// ``design.csv``.
+///
+/// ``d["chosen"]``, ``d["expected_sigma"]``, ``d["notes"]``, ... read ``design.json`` as a dict
+/// does (``d.report`` is that dict). ``d.columns`` holds the columns of ``design.csv`` (numpy
+/// arrays named ``"name [unit]"``, SI; ``repeats`` and ``uniform_repeats`` as int64; text
+/// conditions as lists): ``pandas.DataFrame(d.columns)`` is its table, as is ``d.to_pandas()``.
+///
+/// Examples
+/// --------
+/// >>> d = djkr.design("out/fit", {"base.amplitude": "0um:20um:5"}, add=4)
+/// >>> d["chosen"], d.columns["information [1]"], d["notes"]
+#[pyclass(module = "djkr", frozen)]
+struct Design {
+    /// The content of ``design.json`` (a dict).
+    #[pyo3(get)]
+    report: Py<PyAny>,
+    /// The columns of ``design.csv`` (dict of numpy arrays).
+    #[pyo3(get)]
+    columns: Py<PyAny>,
+}
+
+impl Design {
+    fn new(py: Python<'_>, r: djkr::fit::DesignReport) -> PyResult<Design> {
+        let report = serde_json::to_value(&r)
+            .map_err(|e| PyRuntimeError::new_err(format!("design report: {e}")))?;
+        Ok(Design {
+            report: json_to_py(py, &report)?,
+            columns: columns_to_py(py, r.columns())?.into_any().unbind(),
+        })
+    }
+}
+
+#[pymethods]
+impl Design {
+    /// ``design.json``'s entry ``key`` (``d["chosen"]``, ``d["expected_sigma"]``).
+    fn __getitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+        Ok(self.report.bind(py).get_item(key)?.unbind())
+    }
+
+    /// ``design.json``'s keys.
+    fn __contains__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<bool> {
+        self.report.bind(py).contains(key)
+    }
+
+    /// The table of ``design.csv`` as a ``pandas.DataFrame`` (needs pandas).
+    fn to_pandas(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        let pd = py.import("pandas")?;
+        Ok(pd
+            .call_method1("DataFrame", (self.columns.bind(py),))?
+            .unbind())
+    }
+
+    fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
+        let r = self.report.bind(py);
+        Ok(format!(
+            "<djkr.Design criterion={} add={} chosen={} candidates={}>",
+            r.get_item("criterion")?.repr()?,
+            r.get_item("add")?.repr()?,
+            r.get_item("chosen")?.len()?,
+            r.get_item("candidates")?.len()?
+        ))
+    }
+}
+
+/// A grid value of the argument `arg` (`grid`, `candidates`) as a sweep SPEC: a string as given
+/// (`"10um:60um:6"`, `"10um,30um"`), a list of values joined by commas, a single value alone.
+fn spec_text(v: &Bound<'_, PyAny>, key: &str, arg: &str) -> PyResult<String> {
     if v.is_instance_of::<PyString>() {
         return set_value_text(v, key);
     }
@@ -2630,7 +2868,7 @@ fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
             let t = set_value_text(&x?, key)?;
             if t.contains(',') {
                 return Err(input_err(format!(
-                    "grid: {} value {} '{}' holds a comma, which separates values",
+                    "{arg}: {} value {} '{}' holds a comma, which separates values",
                     excerpt(key),
                     i + 1,
                     excerpt(&t)
@@ -2639,7 +2877,7 @@ fn spec_text(v: &Bound<'_, PyAny>, key: &str) -> PyResult<String> {
             // An array of a billion values is refused at its first megabyte.
             bytes += t.len() + 1;
             if bytes > text_limit() {
-                return Err(too_large("grid", None));
+                return Err(too_large(arg, None));
             }
             items.push(t);
         }
@@ -2658,6 +2896,7 @@ fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Run>()?;
     m.add_class::<Fit>()?;
     m.add_class::<Prediction>()?;
+    m.add_class::<Design>()?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(cycle, m)?)?;
     m.add_function(wrap_pyfunction!(pulloff, m)?)?;
@@ -2668,5 +2907,6 @@ fn djkr_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(points, m)?)?;
     m.add_function(wrap_pyfunction!(fit, m)?)?;
     m.add_function(wrap_pyfunction!(predict, m)?)?;
+    m.add_function(wrap_pyfunction!(design, m)?)?;
     Ok(())
 }

@@ -99,7 +99,8 @@ def test_every_public_name_is_in_the_stub_with_the_same_parameters():
     tree = ast.parse(SOURCE_STUB.read_text())
     stubs = {n.name: n for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
     assert set(FUNCTIONS) >= {"run", "cycle", "pulloff", "validate", "resonance", "sweep", "points"}
-    assert set(CLASSES) == {"Run", "Fit", "ScenarioError", "ScenarioTypeError", "OutputFolderError", "Prediction"}
+    assert set(CLASSES) == {"Run", "Fit", "ScenarioError", "ScenarioTypeError", "OutputFolderError", "Prediction",
+                            "Design"}
     for name in FUNCTIONS:
         params = [a.arg for a in stubs[name].args.args]
         assert list(inspect.signature(getattr(djkr, name)).parameters) == params, name

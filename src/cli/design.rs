@@ -1,12 +1,12 @@
 //! `djkr design --fit DIR --candidates KEY=SPEC... --add K --out DIR`: thin over
-//! [`crate::fit::design`].
+//! [`crate::api::design`] (the call Python's `djkr.design` makes).
 
 use super::signals;
 use super::sweep::Interrupted;
-use crate::fit::design::{self, DesignRequest, Target};
-use crate::fit::predict::Cell;
+use crate::fit::design::{self, DesignRequest, Sigma, Target};
+use crate::fit::predict::{Cell, FitFolder};
 use crate::sweep::Axis;
-use anyhow::{anyhow, bail, Context, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -87,32 +87,43 @@ pub fn design(a: &DesignArgs) -> Result<()> {
         .iter()
         .map(|s| axis(s))
         .collect::<Result<Vec<_>>>()?;
-    let mut req = DesignRequest::new(a.fit.clone(), candidates, a.add);
-    req.sigma = a.sigma.clone();
+    let mut req = DesignRequest::new(candidates, a.add);
     req.criterion = Target::parse(&a.criterion);
     req.repeats = !a.no_repeats;
     req.jobs = a.jobs.unwrap_or(0);
-    // Everything that can be refused is, before the output folder is claimed.
-    design::check(&req)?;
+    // Everything that can be refused is, before the output folder is claimed, in this order:
+    // K and the candidates, the folder, what the fit refuses, the σ (read for the fit's
+    // observable).
+    design::check_request(&req)?;
+    let fit = FitFolder::read(&a.fit)?;
+    if let Some(text) = &a.sigma {
+        design::check_before_sigma(&fit, &req)?;
+        req.sigma = Some(Sigma::parse(text, &fit)?);
+    }
+    design::check(&fit, &req)?;
     signals::install("stopping: forward runs in progress are abandoned; nothing is written");
-    super::common::claim_out(&a.out, &design::FILES, a.force).context("--out")?;
-    let _lock = crate::output::folder::DirLock::acquire(&a.out)?;
     let bar = ProgressBar::new_spinner();
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed}] design: {pos} forward runs")
             .unwrap_or_else(|_| ProgressStyle::default_spinner()),
     );
     bar.enable_steady_tick(Duration::from_millis(200));
-    let report = design::design(&req, Some(signals::flag()), &mut || bar.inc(1));
+    let report = crate::api::design_with_progress(
+        &fit,
+        &req,
+        Some((a.out.clone(), a.force)),
+        Some(signals::flag()),
+        &mut || bar.inc(1),
+    );
     bar.finish_and_clear();
-    let mut report = match report {
+    let report = match report {
         Err(crate::error::Error::Cancelled) => {
             eprintln!("stopped: nothing written in {}", a.out.display());
             return Err(Interrupted(signals::received()).into());
         }
         r => r?,
     };
-    let json = design::write(&mut report, &a.out)?;
+    let json = serde_json::to_string_pretty(&report)?;
     if a.json {
         println!("{json}");
     } else {

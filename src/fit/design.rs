@@ -24,7 +24,7 @@
 //! - **Expected covariance** `F⁻¹` after the additions, in the keys' units `D F⁻¹ D` (D the
 //!   diagonal of `∂x/∂y`): linear, exact for a model linear in the keys.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use serde::Serialize;
@@ -274,18 +274,69 @@ impl Target {
     }
 }
 
-/// What to design.
+/// The expected σ of a new measurement, typed: a fraction of the prediction at the candidate
+/// (`Relative(0.02)` is 2 %) or a value in the observable's SI unit. A front end reads the text
+/// `2%` or `0.05` (units welcome) with [`Sigma::parse`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Sigma {
+    /// A fraction of the prediction, above 0 and at most 10 (1000 %).
+    Relative(f64),
+    /// A value in the observable's SI unit, finite and above 0.
+    Absolute(f64),
+}
+
+/// The largest relative σ of a new measurement (1000 %).
+const MAX_RELATIVE: f64 = 10.0;
+
+impl Sigma {
+    /// `text` as the σ of a new measurement for `fit`: a percentage of the prediction (`2%`) or
+    /// a value in the unit of the fit's observable (units allowed where it has one), refused as
+    /// the input `sigma`.
+    pub fn parse(text: &str, fit: &FitFolder) -> Result<Sigma, Error> {
+        let t = text.trim();
+        if let Some(pc) = t.strip_suffix('%') {
+            return match pc.trim().parse::<f64>() {
+                Ok(p) if p.is_finite() && p > 0.0 && p <= 100.0 * MAX_RELATIVE => {
+                    Ok(Sigma::Relative(p / 100.0))
+                }
+                _ => Err(bad_relative(text)),
+            };
+        }
+        match djkr_core::units::parse_quantity("sigma", t, fit.observable.dimension()) {
+            Ok(v) if v.is_finite() && v > 0.0 => Ok(Sigma::Absolute(v)),
+            _ => Err(bad_absolute(text, fit)),
+        }
+    }
+}
+
+/// `«sigma=text»`: a relative σ out of its range.
+fn bad_relative(text: &str) -> Error {
+    Error::Invalid(format!(
+        "{}: a relative sigma must be a percentage above 0 and at most 1000 % (e.g. 2%)",
+        input_value("sigma", text)
+    ))
+}
+
+/// `«sigma=text»`: an absolute σ that is no positive value of the observable.
+fn bad_absolute(text: &str, fit: &FitFolder) -> Error {
+    Error::Invalid(format!(
+        "{}: must be a positive value in the unit of {} ({}, or with its units) or a \
+         percentage of the prediction (e.g. 2%)",
+        input_value("sigma", text),
+        fit.observable.name(),
+        fit.observable.unit()
+    ))
+}
+
+/// What to design, typed (the fit itself is given beside it: [`check`], [`design`]).
 #[derive(Debug, Clone)]
 pub struct DesignRequest {
-    /// The fit's folder (`fit.json`, `fitted.toml`, `residuals.csv`).
-    pub fit: PathBuf,
     /// The candidates' axes (the Cartesian grid, first key slowest).
     pub candidates: Vec<Axis>,
     /// Measurements to add (K).
     pub add: usize,
-    /// The expected σ of a new measurement: `2%` (relative to the prediction) or a value in the
-    /// observable's unit (units allowed); `None`: the data's median relative σ.
-    pub sigma: Option<String>,
+    /// The expected σ of a new measurement; `None`: the data's median relative σ.
+    pub sigma: Option<Sigma>,
     /// The criterion.
     pub criterion: Target,
     /// Whether a candidate may be measured more than once.
@@ -296,9 +347,8 @@ pub struct DesignRequest {
 
 impl DesignRequest {
     /// A request with the defaults: D-optimal, repeats allowed, the data's median relative σ.
-    pub fn new(fit: PathBuf, candidates: Vec<Axis>, add: usize) -> DesignRequest {
+    pub fn new(candidates: Vec<Axis>, add: usize) -> DesignRequest {
         DesignRequest {
-            fit,
             candidates,
             add,
             sigma: None,
@@ -399,18 +449,10 @@ pub struct DesignReport {
     pub notes: Vec<String>,
 }
 
-/// The expected σ of a new measurement.
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum Noise {
-    Relative(f64),
-    Absolute(f64),
-}
-
 /// What [`check`] makes of a request and its fit.
 struct Checked {
-    fit: FitFolder,
     criterion: Criterion,
-    noise: Noise,
+    noise: Sigma,
     from_data: bool,
     points: usize,
 }
@@ -439,13 +481,15 @@ fn median_relative(fit: &FitFolder) -> Option<f64> {
     })
 }
 
-/// Refuse what a design cannot do before a forward run: the fit's folder, K, the candidates,
-/// the criterion and the σ of the new measurements (each named with its value and what is
-/// allowed, as `«name=value»`).
-fn checked(req: &DesignRequest) -> Result<Checked, Error> {
-    let bad = |name: &str, value: &str, m: String| {
-        Error::Invalid(format!("{}: {m}", input_value(name, value)))
-    };
+/// `«name=value»: m`.
+fn bad(name: &str, value: &str, m: String) -> Error {
+    Error::Invalid(format!("{}: {m}", input_value(name, value)))
+}
+
+/// Refuse what a request cannot be whatever the fit: K out of its range, no candidates. A front
+/// end that reads the fit from a folder checks this first, so that these refusals come before
+/// those of the folder.
+pub fn check_request(req: &DesignRequest) -> Result<(), Error> {
     if req.add < 1 || req.add > MAX_ADD {
         return Err(bad(
             "add",
@@ -460,8 +504,15 @@ fn checked(req: &DesignRequest) -> Result<Checked, Error> {
             input("candidates")
         )));
     }
-    let fit = FitFolder::read(&req.fit)?;
-    refuse_free_axes(&fit, &req.candidates, &|a| input_value("candidates", a))?;
+    Ok(())
+}
+
+/// [`check_request`], then what a design of `fit` refuses before its σ: the candidates (no key
+/// the fit estimated, two points or more, at most [`MAX_CANDIDATES`]), K without repeats, the
+/// criterion and the fit's covariance. Returns the number of candidates and the criterion.
+fn checked_before_sigma(fit: &FitFolder, req: &DesignRequest) -> Result<(usize, Criterion), Error> {
+    check_request(req)?;
+    refuse_free_axes(fit, &req.candidates, &|a| input_value("candidates", a))?;
     let shown: Vec<String> = req.candidates.iter().map(Axis::shown).collect();
     let all = shown.join(" ");
     let points = crate::sweep::grid::Grid::new(req.candidates.clone(), false)
@@ -523,53 +574,46 @@ fn checked(req: &DesignRequest) -> Result<Checked, Error> {
             return Err(Error::Invalid(format!(
                 "{}: the fit gave {} no sigma (see its notes): a design needs the covariance of \
                  every free key; fit again with data that fix it, or with it fixed",
-                input_value("fit", &req.fit.display().to_string()),
+                input_value("fit", &fit.shown),
                 f.key
             )));
         }
     }
-    let (noise, from_data) = match &req.sigma {
-        Some(text) => {
-            let t = text.trim();
-            let noise = if let Some(pc) = t.strip_suffix('%') {
-                match pc.trim().parse::<f64>() {
-                    Ok(p) if p.is_finite() && p > 0.0 && p <= 1000.0 => Noise::Relative(p / 100.0),
-                    _ => {
-                        return Err(bad(
-                            "sigma",
-                            text,
-                            "a relative sigma must be a percentage above 0 and at most 1000 % \
-                             (e.g. 2%)"
-                                .into(),
-                        ))
-                    }
-                }
-            } else {
-                let unit = fit.observable.unit();
-                match djkr_core::units::parse_quantity("sigma", t, fit.observable.dimension()) {
-                    Ok(v) if v.is_finite() && v > 0.0 => Noise::Absolute(v),
-                    _ => {
-                        return Err(bad(
-                            "sigma",
-                            text,
-                            format!(
-                                "must be a positive value in the unit of {} ({unit}, or with \
-                                 its units) or a percentage of the prediction (e.g. 2%)",
-                                fit.observable.name()
-                            ),
-                        ))
-                    }
-                }
-            };
-            (noise, false)
+    Ok((points, criterion))
+}
+
+/// Refuse what a design of `fit` refuses before its σ ([`check`] without the σ): a front end
+/// that reads the σ as text ([`Sigma::parse`]) checks this first, so that the refusals come in
+/// the order [`check`] gives them.
+pub fn check_before_sigma(fit: &FitFolder, req: &DesignRequest) -> Result<(), Error> {
+    checked_before_sigma(fit, req).map(|_| ())
+}
+
+/// Refuse what a design cannot do before a forward run: K, the candidates, the criterion, the
+/// fit's covariance and the σ of the new measurements (each named with its value and what is
+/// allowed, as `«name=value»`).
+fn checked(fit: &FitFolder, req: &DesignRequest) -> Result<Checked, Error> {
+    let (points, criterion) = checked_before_sigma(fit, req)?;
+    let (noise, from_data) = match req.sigma {
+        Some(s @ Sigma::Relative(r)) => {
+            if !(r.is_finite() && r > 0.0 && r <= MAX_RELATIVE) {
+                return Err(bad_relative(&format!("{}%", 100.0 * r)));
+            }
+            (s, false)
         }
-        None => match median_relative(&fit) {
-            Some(r) => (Noise::Relative(r), true),
+        Some(s @ Sigma::Absolute(v)) => {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(bad_absolute(&v.to_string(), fit));
+            }
+            (s, false)
+        }
+        None => match median_relative(fit) {
+            Some(r) => (Sigma::Relative(r), true),
             None => {
                 return Err(Error::Invalid(format!(
                     "{}: the fit's data carry no sigma, so the noise of a new measurement is not \
                      known: give it with {} (e.g. 2% of the prediction, or a value in {})",
-                    input_value("fit", &req.fit.display().to_string()),
+                    input_value("fit", &fit.shown),
                     input("sigma"),
                     fit.observable.unit()
                 )))
@@ -577,7 +621,6 @@ fn checked(req: &DesignRequest) -> Result<Checked, Error> {
         },
     };
     Ok(Checked {
-        fit,
         criterion,
         noise,
         from_data,
@@ -585,11 +628,11 @@ fn checked(req: &DesignRequest) -> Result<Checked, Error> {
     })
 }
 
-/// Refuse a request that [`design`] would refuse before its first forward run (a folder without
-/// a fit, K, the candidates, the criterion, the σ), so that a front end can refuse it before it
-/// claims an output folder.
-pub fn check(req: &DesignRequest) -> Result<(), Error> {
-    checked(req).map(|_| ())
+/// Refuse a request that [`design`] would refuse before its first forward run (K, the
+/// candidates, the criterion, the fit's covariance, the σ), so that a front end can refuse it
+/// before it claims an output folder.
+pub fn check(fit: &FitFolder, req: &DesignRequest) -> Result<(), Error> {
+    checked(fit, req).map(|_| ())
 }
 
 /// σ and correlations in the keys' units from a covariance in the fit coordinates (`dx` the
@@ -614,29 +657,29 @@ fn in_units(cov: &DMatrix<f64>, dx: &[f64]) -> (Vec<f64>, Vec<Vec<f64>>) {
     (sigma, corr)
 }
 
-/// Design K new measurements from a fit ([`DesignRequest`]); `stop` abandons the runs (then
+/// Design K new measurements from `fit` ([`DesignRequest`]); `stop` abandons the runs (then
 /// [`Error::Cancelled`]), `on_run` is called as each forward run ends.
 pub fn design(
+    fit: &FitFolder,
     req: &DesignRequest,
     stop: Option<&AtomicBool>,
     on_run: &mut dyn FnMut(),
 ) -> Result<DesignReport, Error> {
     let Checked {
-        fit,
         criterion,
         noise,
         from_data,
         points,
-    } = checked(req)?;
+    } = checked(fit, req)?;
     // No ensemble: the candidates' model at the scenario's own phase.
     let model = forward_model(
-        &fit,
+        fit,
         grid_data(&req.candidates, fit.observable)?,
         None,
         req.jobs,
     )?;
     let data = model.data();
-    let at = at_estimate(&fit, &model, true, &[], stop, on_run)?;
+    let at = at_estimate(fit, &model, true, &[], stop, on_run)?;
     let jac = at
         .jac
         .ok_or_else(|| Error::Invalid("the candidates' Jacobian was not computed".into()))?;
@@ -647,8 +690,8 @@ pub fn design(
     let g: Vec<DVector<f64>> = (0..points)
         .map(|i| {
             let s = match noise {
-                Noise::Relative(r) => r * at.values[i].abs(),
-                Noise::Absolute(s) => s,
+                Sigma::Relative(r) => r * at.values[i].abs(),
+                Sigma::Absolute(s) => s,
             };
             sigma_m.push(s);
             if s > 0.0 && s.is_finite() && (0..k).all(|j| jac[(i, j)].is_finite()) {
@@ -675,7 +718,7 @@ pub fn design(
                 return Err(Error::Invalid(format!(
                     "{}: the fit's covariance is not positive definite, so its information is \
                      not known",
-                    input_value("fit", &req.fit.display().to_string())
+                    input_value("fit", &fit.shown)
                 )))
             }
         }
@@ -746,10 +789,10 @@ pub fn design(
         .collect();
     let mut sigma_measurement = std::collections::BTreeMap::new();
     match noise {
-        Noise::Relative(r) => sigma_measurement.insert("relative".to_string(), r),
-        Noise::Absolute(s) => sigma_measurement.insert("absolute".to_string(), s),
+        Sigma::Relative(r) => sigma_measurement.insert("relative".to_string(), r),
+        Sigma::Absolute(s) => sigma_measurement.insert("absolute".to_string(), s),
     };
-    Ok(DesignReport {
+    let mut report = DesignReport {
         criterion: req.criterion.shown(),
         add: req.add,
         repeats: req.repeats,
@@ -775,7 +818,14 @@ pub fn design(
         candidates,
         forward_runs: at.forward_runs,
         notes,
-    })
+    };
+    // Said whether or not the files are written, so that the report is the same either way.
+    if design_figure(&report).is_none() {
+        report.notes.push(
+            "no figure: no numeric condition takes two values among the candidates".to_string(),
+        );
+    }
+    Ok(report)
 }
 
 /// The files `design` writes.
@@ -786,24 +836,7 @@ pub const FILES: [&str; 4] = ["design.csv", "design.json", "design.png", "design
 /// each headed `name [unit]` (SI).
 fn design_csv(r: &DesignReport) -> String {
     use crate::output::table::format_f64;
-    let u = &r.unit;
-    let mut head: Vec<String> = r
-        .conditions
-        .iter()
-        .map(|c| match c.unit {
-            Some(unit) => format!("{} [{unit}]", c.key),
-            None => c.key.clone(),
-        })
-        .collect();
-    head.extend([
-        format!("value [{u}]"),
-        format!("sigma_measurement [{u}]"),
-        format!("sigma_prediction [{u}]"),
-        "information [1]".into(),
-        "repeats [1]".into(),
-        "uniform_repeats [1]".into(),
-    ]);
-    let mut out = head.join(",");
+    let mut out = csv_header(r).join(",");
     out.push('\n');
     for row in &r.candidates {
         let mut cells: Vec<String> = row
@@ -821,6 +854,71 @@ fn design_csv(r: &DesignReport) -> String {
         out.push('\n');
     }
     out
+}
+
+/// The header of `design.csv`: the conditions, then `value`, `sigma_measurement`,
+/// `sigma_prediction`, `information`, `repeats`, `uniform_repeats`, each `name [unit]`.
+fn csv_header(r: &DesignReport) -> Vec<String> {
+    let u = &r.unit;
+    let mut head: Vec<String> = r
+        .conditions
+        .iter()
+        .map(|c| match c.unit {
+            Some(unit) => format!("{} [{unit}]", c.key),
+            None => c.key.clone(),
+        })
+        .collect();
+    head.extend([
+        format!("value [{u}]"),
+        format!("sigma_measurement [{u}]"),
+        format!("sigma_prediction [{u}]"),
+        "information [1]".into(),
+        "repeats [1]".into(),
+        "uniform_repeats [1]".into(),
+    ]);
+    head
+}
+
+impl DesignReport {
+    /// The columns of `design.csv` (its header's names, `name [unit]`): a condition with a unit
+    /// as numbers (SI), one without as text, `value`, the σ and `information` as numbers,
+    /// `repeats` and `uniform_repeats` as whole numbers.
+    pub fn columns(&self) -> Vec<(String, super::residuals::Column)> {
+        use super::residuals::Column;
+        let rows = &self.candidates;
+        let num = |f: &dyn Fn(&CandidateRow) -> f64| Column::Num(rows.iter().map(f).collect());
+        let whole = |f: &dyn Fn(&CandidateRow) -> usize| {
+            Column::Whole(rows.iter().map(|r| f(r) as u64).collect())
+        };
+        let mut columns: Vec<Column> = self
+            .conditions
+            .iter()
+            .enumerate()
+            .map(|(j, c)| match c.unit {
+                Some(_) => num(&|r| match &r.conditions[j] {
+                    Cell::Num(x) => *x,
+                    Cell::Text(_) => f64::NAN,
+                }),
+                None => Column::Text(
+                    rows.iter()
+                        .map(|r| match &r.conditions[j] {
+                            Cell::Text(t) => t.clone(),
+                            Cell::Num(x) => x.to_string(),
+                        })
+                        .collect(),
+                ),
+            })
+            .collect();
+        columns.extend([
+            num(&|r| r.value),
+            num(&|r| r.sigma_measurement),
+            num(&|r| r.sigma_prediction),
+            num(&|r| r.information),
+            whole(&|r| r.repeats),
+            whole(&|r| r.uniform_repeats),
+        ]);
+        csv_header(self).into_iter().zip(columns).collect()
+    }
 }
 
 /// Classes of information for the figure's colours: four equal steps of `log10` between the
@@ -956,14 +1054,9 @@ fn design_figure(r: &DesignReport) -> Option<crate::plot::Figure> {
 
 /// Write `design.csv`, `design.json` and the figure (`design.png`, `design.svg`) into `out`,
 /// each atomically; the JSON text is returned (`--json` prints it). Without a numeric condition
-/// that varies no figure is drawn (a note in the report says so).
-pub fn write(r: &mut DesignReport, out: &Path) -> Result<String, Error> {
+/// that varies no figure is drawn (the report's notes say so).
+pub fn write(r: &DesignReport, out: &Path) -> Result<String, Error> {
     let fig = design_figure(r);
-    if fig.is_none() {
-        r.notes.push(
-            "no figure: no numeric condition takes two values among the candidates".to_string(),
-        );
-    }
     let json = serde_json::to_string_pretty(r).map_err(|e| Error::NonFinite(e.to_string()))?;
     let put = |name: &str, bytes: &[u8]| -> Result<(), Error> {
         crate::output::write_atomic(&out.join(name), bytes).map_err(|e| Error::Output {

@@ -18,7 +18,11 @@
 //!   - `report` ([`FitReport`] is `fit.json`).
 //!
 //! - `fitted`: the starting values from the scenario and the fitted scenario (`fitted.toml`);
-//! - `residuals`: the residual table (`residuals.csv`, and as columns for Python).
+//! - `residuals`: the residual table (`residuals.csv`, and as columns for Python);
+//! - `predict` ([`FitFolder`], [`PredictRequest`], [`PredictReport`]): a fit read back, and the
+//!   model's predictions with their uncertainty from it (`djkr predict`);
+//! - `design` ([`DesignRequest`], [`Sigma`], [`Target`], [`DesignReport`]): the new measurements
+//!   that would pin the free keys down best (`djkr design`).
 
 pub(crate) mod analysis;
 pub(crate) mod data;
@@ -41,6 +45,7 @@ pub(crate) mod tolerance;
 pub(crate) mod uncertainty;
 
 pub use data::{FitData, Observable};
+pub use design::{DesignReport, DesignRequest, Sigma, Target};
 pub(crate) use driver::{check_start, fit};
 pub(crate) use free::fittable_keys;
 pub use free::FreeKey;

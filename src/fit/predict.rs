@@ -235,6 +235,8 @@ struct FitJson {
 /// A fit, read from its folder ([`FitFolder::read`]) or from the texts of its files.
 #[derive(Debug, Clone)]
 pub struct FitFolder {
+    /// How messages name the fit: its folder's path, or `(the fit's result)`.
+    pub(crate) shown: String,
     /// `fitted.toml`.
     pub(crate) source: ScenarioSource,
     /// The free keys (bounds as fitted).
@@ -343,6 +345,7 @@ impl FitFolder {
         let data = parse_residuals(residuals, observable)
             .map_err(|m| bad(format!("residuals.csv: {m}")))?;
         Ok(FitFolder {
+            shown: shown.to_string(),
             source,
             free,
             tr,

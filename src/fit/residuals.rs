@@ -6,11 +6,14 @@ use super::model::ForwardModel;
 use super::report::FitOutcome;
 use crate::output::table::format_f64;
 
-/// A column of a table of the fit's results (residuals, predictions): numbers, or the text of a text condition.
+/// A column of a table of the fit's results (residuals, predictions, designs): numbers, counts,
+/// or the text of a text condition.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Column {
     /// Numbers (SI, in the column's unit).
     Num(Vec<f64>),
+    /// Whole numbers (a design's repeats).
+    Whole(Vec<u64>),
     /// Text as the data file gave it.
     Text(Vec<String>),
 }

@@ -3,8 +3,8 @@
 //! command line's output for the same input: `djkr.run`'s arrays with `run.h5` bit for bit,
 //! `cycle`, `pulloff` and `validate` with `--json`, `resonance` and `sweep` with their CSV
 //! tables, `set=` with `--set`, errors with the command's message, Ctrl-C, the example, the
-//! docstrings against the type stub, and the example notebook (executed with nbclient, its key
-//! numbers against the command line's).
+//! docstrings against the type stub, and the example notebooks (executed with nbclient, their
+//! key numbers against the command line's).
 //!
 //! The venv (pytest, numpy, h5py, pandas, matplotlib, maturin from the package index) is made
 //! once. The package is rebuilt only when the sources it is built from changed since the last
