@@ -51,6 +51,9 @@ struct ProfileOf<'e, 'a, 'b> {
     ev: &'e Evaluator<'a, 'b>,
     s: lm::Settings,
     dir: Vec<f64>,
+    /// What one unit of Δχ² is: 1 with the data's σ, the reduced χ² without (the profile's
+    /// χ² is returned in these units, so its Δχ² = 1 is the interval of the σ reported).
+    scale: f64,
 }
 
 impl uncertainty::Profiler for ProfileOf<'_, '_, '_> {
@@ -78,13 +81,13 @@ impl uncertainty::Profiler for ProfileOf<'_, '_, '_> {
             return Ok(None);
         };
         if u0.is_empty() {
-            return Ok(Some((r0.norm_squared(), base)));
+            return Ok(Some((r0.norm_squared() / self.scale, base)));
         }
         let o = lm::minimise(&mut view, &u0, r0, &self.s);
         if o.end == End::Halted(Halt::Stopped) {
             return Err(Halt::Stopped);
         }
-        Ok(Some((o.chi2, view.y_of(&o.u))))
+        Ok(Some((o.chi2 / self.scale, view.y_of(&o.u))))
     }
 }
 
@@ -129,6 +132,13 @@ pub(super) fn analyse(
     }
     let usable: Vec<bool> = at_bound.iter().map(|b| !b).collect();
     let c = uncertainty::curvature(&jy, &usable, scale, ratio);
+    // One unit of Δχ² for the checks and the profiles: 1 with the data's σ, the reduced χ²
+    // without (the σ reported are scaled by it, so their Δχ² = 1 is that many raw units).
+    let unit = if scale.is_finite() && scale > 0.0 {
+        scale
+    } else {
+        1.0
+    };
     for d in &c.unidentified {
         let keys: Vec<String> = free.iter().map(|f| f.key.to_string()).collect();
         let combo = combination(&d.loadings, &keys);
@@ -189,7 +199,8 @@ pub(super) fn analyse(
         let mut found: Vec<Vec<String>> = vec![Vec::new(); k];
         let mut sides: Vec<Vec<f64>> = vec![Vec::new(); k];
         for ((j, sign), p) in which.iter().zip(&preds) {
-            let d = p.as_ref().map_or(f64::NAN, |p| ev.chi2(p) - chi2);
+            // In units of the σ reported: scaled by the reduced χ² without the data's σ.
+            let d = p.as_ref().map_or(f64::NAN, |p| (ev.chi2(p) - chi2) / unit);
             sides[*j].push(d);
             if !uncertainty::linear_agrees(d) {
                 flagged[*j] = true;
@@ -225,7 +236,7 @@ pub(super) fn analyse(
             }
         }
         if let Some(st) = last {
-            if uncertainty::step_disagrees(st.predicted, st.actual) {
+            if uncertainty::step_disagrees(st.predicted / unit, st.actual / unit) {
                 notes.push(format!(
                     "along the optimiser's last step the linear model predicted a fall of chi2 \
                      of {:.3}, the model gave {:.3}: every interval is the profile \
@@ -266,13 +277,22 @@ pub(super) fn analyse(
                 gtol: 1e-2,
                 ..*s
             },
+            scale: unit,
         };
-        let prof =
-            match uncertainty::scan(&mut p, j, y, chi2, first, limits, flagged[j], may_restart) {
-                Ok(p) => p,
-                Err(_) => return Err(EvalError::Stopped),
-            };
-        if let Some((c2, yl)) = prof.lower.clone() {
+        let prof = match uncertainty::scan(
+            &mut p,
+            j,
+            y,
+            chi2 / unit,
+            first,
+            limits,
+            flagged[j],
+            may_restart,
+        ) {
+            Ok(p) => p,
+            Err(_) => return Err(EvalError::Stopped),
+        };
+        if let Some((c2, yl)) = prof.lower.clone().map(|(c2, yl)| (c2 * unit, yl)) {
             if lower.as_ref().is_none_or(|(b, _)| c2 < *b) {
                 lower = Some((c2, yl));
             }

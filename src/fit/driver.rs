@@ -647,10 +647,23 @@ pub(crate) fn fit(
         let snr = ev.jacobian_snr(&y_best).map(|(_, s)| s).unwrap_or_default();
         notes.extend(report::columns(&keys_named, None, &snr, &at_bound));
     }
-    // Minima of the starts.
+    // Minima of the starts, their χ² in units of one Δχ² of the σ reported: 1 with the data's
+    // σ, the reduced χ² of the estimate without (the σ are scaled by it).
+    let unit = if data.has_sigma {
+        1.0
+    } else {
+        Some(chi2_fit / dof as f64)
+            .filter(|u| u.is_finite() && *u > 0.0)
+            .unwrap_or(1.0)
+    };
     let ends_y: Vec<Option<(Vec<f64>, f64)>> = ends
         .iter()
-        .map(|e| e.outcome.as_ref().ok().map(|o| (e.y.clone(), o.chi2)))
+        .map(|e| {
+            e.outcome
+                .as_ref()
+                .ok()
+                .map(|o| (e.y.clone(), o.chi2 / unit))
+        })
         .collect();
     let minima = starts::minima(&ends_y);
     if opts.starts > 1 {
@@ -660,10 +673,16 @@ pub(crate) fn fit(
                 e.outcome
                     .as_ref()
                     .ok()
-                    .map(|o| (o.chi2, o.end.converged(), describe(free, &tr, &e.y)))
+                    .map(|o| (o.chi2 / unit, o.end.converged(), describe(free, &tr, &e.y)))
             })
             .collect();
-        notes.extend(report::other_minima(&found, &minima, best_i, chi2_fit, k));
+        notes.extend(report::other_minima(
+            &found,
+            &minima,
+            best_i,
+            chi2_fit / unit,
+            k,
+        ));
     }
     let start_reports: Vec<StartReport> = ends
         .iter()

@@ -932,6 +932,70 @@ fn issue36_a_useless_key_removes_only_its_own_sigma() {
     );
 }
 
+/// Data without a sigma column weigh every row the same and scale the parameters' σ by the
+/// reduced χ² s²; the check of the linear model at ±1σ, the profiles and the other minima must
+/// measure Δχ² in the same unit (s², not 1). The reference: the same rows with a sigma column
+/// of s for every row, whose reduced χ² is 1. With the same forward model, both fits give the
+/// same estimates and σ (the objectives differ by the constant s²; measured: the same to
+/// 1e-15), and neither says the model is not linear over one σ. Before, the fit without sigma
+/// took Δχ² = 1 in raw units, 200 times its s², called every key non-linear and walked its
+/// profiles silently for minutes. About 3 s.
+#[test]
+fn a_fit_without_sigma_measures_delta_chi2_in_its_reduced_chi2() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = cheap_data(dir.path());
+    let text = std::fs::read_to_string(&data).unwrap();
+    let rows: Vec<Vec<&str>> = text.lines().map(|l| l.split(',').collect()).collect();
+    let bare: String = rows.iter().map(|r| r[..3].join(",") + "\n").collect();
+    let no_sigma = dir.path().join("no-sigma.csv");
+    std::fs::write(&no_sigma, bare).unwrap();
+    // The same forward model for both: a fit chooses its runs' tolerances from the data's σ,
+    // and keeps the scenario's without; given, they hold for both.
+    let two = [
+        "--free",
+        "adhesion.v0",
+        "--free",
+        "adhesion.n",
+        "--set",
+        "solver.rtol=1e-8",
+        "--set",
+        "solver.envelope_tol=1e-6",
+    ];
+    let (a, _) = fit_cheap(&no_sigma, &dir.path().join("a"), &two);
+    assert_eq!(a["converged"], true, "{a}");
+    let s = a["reduced_chi2"].as_f64().unwrap().sqrt();
+    let weighted: String = std::iter::once(format!("{},sigma [1]\n", rows[0][..3].join(",")))
+        .chain(
+            rows[1..]
+                .iter()
+                .map(|r| format!("{},{s:e}\n", r[..3].join(","))),
+        )
+        .collect();
+    let with_sigma = dir.path().join("with-sigma.csv");
+    std::fs::write(&with_sigma, weighted).unwrap();
+    let (b, _) = fit_cheap(&with_sigma, &dir.path().join("b"), &two);
+    assert_eq!(b["converged"], true, "{b}");
+    assert!(
+        (b["reduced_chi2"].as_f64().unwrap() - 1.0).abs() < 1e-3,
+        "{b}"
+    );
+    for key in ["adhesion.v0", "adhesion.n"] {
+        let (pa, pb) = (param(&a, key), param(&b, key));
+        let (va, vb) = (pa["value"].as_f64().unwrap(), pb["value"].as_f64().unwrap());
+        let (sa, sb) = (pa["sigma"].as_f64().unwrap(), pb["sigma"].as_f64().unwrap());
+        eprintln!("{key}: without sigma {va:e} ± {sa:e}, with sigma s {vb:e} ± {sb:e}");
+        assert!((va - vb).abs() <= 1e-9 * va.abs(), "{key}: {va} {vb}");
+        assert!((sa / sb - 1.0).abs() <= 1e-9, "{key}: sigma {sa} {sb}");
+    }
+    for j in [&a, &b] {
+        let n = notes(j);
+        assert!(
+            !n.iter().any(|n| n.contains("not linear over one sigma")),
+            "{n:?}"
+        );
+    }
+}
+
 /// Case 4. Numerical settings are refused as fit parameters (exit status 2, one line, the keys
 /// that can be freed listed), and `djkr help fit` lists them.
 #[test]
