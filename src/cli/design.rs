@@ -57,9 +57,9 @@ const DESIGN_HELP: &str = "Example (after `djkr fit ... --out out/fit`):
   djkr design --fit out/fit --candidates base.frequency=200:500:4 base.amplitude=10um:60um:6 \\
       --add 6 --out out/design
 The current information is the inverse of the fit's covariance (in its coordinates: log for a
-positive scale). For each candidate: the model's change with each free key over that key's
-current uncertainty (the secant from minus to plus one sigma, in the fit's coordinates), divided
-by the expected sigma of a measurement there. K measurements are chosen greedily, then exchanged one at a time (Fedorov)
+positive scale). For each candidate: the model's change from -1 to +1 sigma of each free key
+(a secant in the fit's coordinates, not a local slope), divided by the expected sigma of a
+measurement there. K measurements are chosen greedily, then exchanged one at a time (Fedorov)
 while that improves the criterion. Reported, for them and for K spread uniformly over the
 candidates: each key's expected sigma and the correlations (design.json); which candidates to
 measure how many times (design.csv: repeats). The expected sigma are linear predictions: a fit
