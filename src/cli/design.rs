@@ -57,13 +57,13 @@ const DESIGN_HELP: &str = "Example (after `djkr fit ... --out out/fit`):
   djkr design --fit out/fit --candidates base.frequency=200:500:4 base.amplitude=10um:60um:6 \\
       --add 6 --out out/design
 The current information is the inverse of the fit's covariance (in its coordinates: log for a
-positive scale). For each candidate: the model's gradient against the free keys at the
-estimate (the fit's own finite-difference Jacobian), divided by the expected sigma of a
+positive scale). For each candidate: the model's change from -1 to +1 sigma of each free key
+(a secant in the fit's coordinates, not a local slope), divided by the expected sigma of a
 measurement there. K measurements are chosen greedily, then exchanged one at a time (Fedorov)
 while that improves the criterion. Reported, for them and for K spread uniformly over the
 candidates: each key's expected sigma and the correlations (design.json); which candidates to
 measure how many times (design.csv: repeats). The expected sigma are linear predictions: a fit
-of the new data confirms them. Forward runs: candidates x (2 + free keys).
+of the new data confirms them. Forward runs: candidates x (1 + 2 x free keys).
 Exit status: 0 designed, 2 bad input, 130 Ctrl-C (nothing written).";
 
 /// `KEY=SPEC` of `--candidates`, refused in the flag's own words.

@@ -8,12 +8,18 @@
 //!   reduced χ² where the data carry no σ), with no forward run spent to compute it again; the
 //!   current σ are then the fit's own.
 //! - **A candidate** `c` (a point of the grid of conditions one could measure): the model's
-//!   gradient `∂m/∂y` at the estimate, computed as the fit computes its Jacobian (shared with
-//!   `predict`, [`super::predict`]), divided by the new measurement's expected σ_c (absolute,
-//!   or relative to the prediction; by default the data's median relative σ): `g_c`. Measuring
-//!   it adds `g_c g_cᵀ` to `F`. Its *information* is `g_cᵀ F0⁻¹ g_c`, the prediction's variance
-//!   from the parameters over the measurement's (one measurement there raises `ln det F` by
-//!   `ln(1 + information)`).
+//!   sensitivity to each free key over that key's current uncertainty, the central secant
+//!   `(m(y + σ_j e_j) − m(y − σ_j e_j)) / 2σ_j` in the fit coordinates (σ_j from the fit's
+//!   covariance, the interval clipped to the key's bounds; [`secant_ends`], [`secants`]),
+//!   divided by the new measurement's expected σ_c (absolute, or relative to the prediction; by
+//!   default the data's median relative σ): `g_c`. Not the fit's Jacobian at the estimate
+//!   (forward differences of a tiny step): where the model jumps (a pull-off that moves by one
+//!   shaker period as a key changes) the local slope is a tooth of a sawtooth, and the design
+//!   would pick the candidate whose tooth happens to be steepest; the secant is the change a
+//!   new measurement can resolve over the keys' uncertainty, and a secant of a model linear in
+//!   its keys is its slope, so the closed forms hold. Measuring it adds `g_c g_cᵀ` to `F`. Its
+//!   *information* is `g_cᵀ F0⁻¹ g_c`, the prediction's variance from the parameters over the
+//!   measurement's (one measurement there raises `ln det F` by `ln(1 + information)`).
 //! - **The criteria**, each minimised: D-optimal `−ln det F`, A-optimal `trace F⁻¹`, or one key's
 //!   variance `(F⁻¹)_jj`. The algorithm is the classic one: a greedy choice (each addition the
 //!   best given those before), then exchange passes (Fedorov): each chosen measurement is
@@ -34,6 +40,7 @@ use crate::sweep::grid::Axis;
 use crate::words::{input, input_value};
 
 use super::data::CondValue;
+use super::free::Transform;
 use super::predict::{
     at_estimate, forward_model, grid_data, refuse_free_axes, Cell, ConditionColumn, FitFolder,
 };
@@ -143,6 +150,71 @@ pub(crate) fn choose(
     chosen
 }
 
+/// The interval of each key's fit coordinate over which its secant is taken: `y_j ± σ_j`,
+/// clipped to the key's bounds (`tr`), as `(lower, upper)`.
+pub(crate) fn secant_ends(tr: &[Transform], y: &[f64], sigma: &[f64]) -> Vec<(f64, f64)> {
+    tr.iter()
+        .zip(y.iter().zip(sigma))
+        .map(|(t, (&y, &s))| {
+            let lo = t.lo.map_or(y - s, |l| (y - s).max(l));
+            let hi = t.hi.map_or(y + s, |h| (y + s).min(h));
+            (lo, hi)
+        })
+        .collect()
+}
+
+/// The points of the fit coordinates at which the secants' model runs: for each key `j` in
+/// turn, `y` with key `j` at the lower end of its interval (`ends`), then at the upper end.
+pub(crate) fn secant_points(y: &[f64], ends: &[(f64, f64)]) -> Vec<Vec<f64>> {
+    ends.iter()
+        .enumerate()
+        .flat_map(|(j, &(lo, hi))| {
+            [lo, hi].map(|v| {
+                let mut p = y.to_vec();
+                p[j] = v;
+                p
+            })
+        })
+        .collect()
+}
+
+/// The secants `∂m/∂y` (rows the candidates, columns the keys) from the model's values at
+/// [`secant_points`] (in their order): column `j` is `(m(upper) − m(lower)) / (upper − lower)`;
+/// 0 for an interval of no width.
+pub(crate) fn secants(values: &[Vec<f64>], ends: &[(f64, f64)]) -> DMatrix<f64> {
+    let n = values.first().map_or(0, Vec::len);
+    DMatrix::from_fn(n, ends.len(), |i, j| {
+        let (lo, hi) = ends[j];
+        if hi > lo {
+            (values[2 * j + 1][i] - values[2 * j][i]) / (hi - lo)
+        } else {
+            0.0
+        }
+    })
+}
+
+/// Each candidate's sensitivities per unit of its measurement's σ, `g_c = (∂m/∂y)_c / σ_c`, from
+/// the sensitivities `jac` (rows the candidates) and the σ `sigma`; a candidate whose σ is not
+/// positive and finite, or whose sensitivities are not finite, tells nothing (zeros), and is
+/// counted (the second value).
+pub(crate) fn weighted(jac: &DMatrix<f64>, sigma: &[f64]) -> (Vec<DVector<f64>>, usize) {
+    let k = jac.ncols();
+    let mut silent = 0;
+    let g = sigma
+        .iter()
+        .enumerate()
+        .map(|(i, &s)| {
+            if s > 0.0 && s.is_finite() && (0..k).all(|j| jac[(i, j)].is_finite()) {
+                DVector::from_fn(k, |j, _| jac[(i, j)] / s)
+            } else {
+                silent += 1;
+                DVector::zeros(k)
+            }
+        })
+        .collect();
+    (g, silent)
+}
+
 /// `k` measurements spread uniformly over `n` candidates: the i-th (from 0) at candidate
 /// `⌊(i + ½) n / k⌋`, as counts per candidate (each candidate `k / n` times when `n` divides
 /// `k`; for `k < n`, the middles of `k` equal runs of the candidates in order).
@@ -240,7 +312,7 @@ pub fn plan(
 /// Most measurements a design adds.
 pub(crate) const MAX_ADD: usize = 10_000;
 
-/// Most candidates (each costs 2 + free keys forward runs).
+/// Most candidates (each costs 1 + 2 × free keys forward runs).
 pub(crate) const MAX_CANDIDATES: usize = 10_000;
 
 /// What a design minimises, as asked for.
@@ -533,7 +605,7 @@ fn checked_before_sigma(fit: &FitFolder, req: &DesignRequest) -> Result<(usize, 
             &all,
             format!(
                 "{points} candidates: at most {MAX_CANDIDATES} (each costs {} forward runs)",
-                2 + fit.free.len()
+                1 + 2 * fit.free.len()
             ),
         ));
     }
@@ -679,29 +751,36 @@ pub fn design(
         req.jobs,
     )?;
     let data = model.data();
-    let at = at_estimate(fit, &model, true, &[], stop, on_run)?;
-    let jac = at
-        .jac
-        .ok_or_else(|| Error::Invalid("the candidates' Jacobian was not computed".into()))?;
     let k = fit.free.len();
+    // The sensitivities: each key's secant over ±σ in the fit coordinates (see the module
+    // documentation), two runs per key and candidate at the fit's tolerances.
+    let y_hat: Vec<f64> = fit
+        .tr
+        .iter()
+        .zip(&fit.values)
+        .map(|(t, &x)| t.y(x))
+        .collect();
+    let sigma_y: Vec<f64> = (0..k).map(|j| fit.cov_y[(j, j)].sqrt()).collect();
+    let ends = secant_ends(&fit.tr, &y_hat, &sigma_y);
+    let at = at_estimate(
+        fit,
+        &model,
+        false,
+        &secant_points(&y_hat, &ends),
+        stop,
+        on_run,
+    )?;
+    let jac = secants(&at.extra, &ends);
     let mut notes = Vec::new();
-    let mut silent = 0;
-    let mut sigma_m = Vec::with_capacity(points);
-    let g: Vec<DVector<f64>> = (0..points)
-        .map(|i| {
-            let s = match noise {
-                Sigma::Relative(r) => r * at.values[i].abs(),
-                Sigma::Absolute(s) => s,
-            };
-            sigma_m.push(s);
-            if s > 0.0 && s.is_finite() && (0..k).all(|j| jac[(i, j)].is_finite()) {
-                DVector::from_fn(k, |j, _| jac[(i, j)] / s)
-            } else {
-                silent += 1;
-                DVector::zeros(k)
-            }
+    let sigma_m: Vec<f64> = at
+        .values
+        .iter()
+        .map(|v| match noise {
+            Sigma::Relative(r) => r * v.abs(),
+            Sigma::Absolute(s) => s,
         })
         .collect();
+    let (g, silent) = weighted(&jac, &sigma_m);
     if silent > 0 {
         notes.push(format!(
             "{silent} of {points} candidates predict 0 (or a number that is not finite), where a \
@@ -727,12 +806,6 @@ pub fn design(
     if !fit.converged {
         notes.push("the fit did not converge: its estimate is the best point it met".into());
     }
-    let y_hat: Vec<f64> = fit
-        .tr
-        .iter()
-        .zip(&fit.values)
-        .map(|(t, &x)| t.y(x))
-        .collect();
     let dx: Vec<f64> = fit
         .tr
         .iter()

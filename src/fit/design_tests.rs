@@ -1,14 +1,44 @@
 //! `djkr design` (issue 34): the design's mathematics on a model linear in its keys, where the
 //! D-optimal design and the expected covariance are known in closed form. The design is
-//! computed by [`super::plan`], the function the command calls with the model's
-//! sensitivities; here the sensitivities are those of a straight line, exact.
+//! computed by [`super::plan`], the function the command calls, with the candidates'
+//! sensitivities made as the command makes them: each key's central secant over ±σ of the
+//! current covariance ([`super::secant_ends`], [`super::secant_points`], [`super::secants`]),
+//! per unit of the measurement's σ ([`super::weighted`]), here of a straight line evaluated at
+//! those points. A secant of a linear model is its slope, so the closed forms hold; and a secant
+//! of a model that jumps is its trend over the keys' uncertainty, not a tooth's slope.
 
-use super::{plan, uniform, Criterion};
+use super::{plan, secant_ends, secant_points, secants, uniform, weighted, Criterion};
+use crate::fit::free::Transform;
 use nalgebra::{DMatrix, DVector};
 
-/// The weighted sensitivities of `y = a + b x` to (a, b) at `x` with noise `sigma`.
+/// The weighted sensitivities of `y = a + b x` to (a, b) at `x` with noise `sigma`, exact: the
+/// information of the measurements already made (the fit's `JᵀWJ`).
 fn line(x: f64, sigma: f64) -> DVector<f64> {
     DVector::from_vec(vec![1.0 / sigma, x / sigma])
+}
+
+/// A key in its own units, unbounded (`y = x`).
+const PLAIN: Transform = Transform {
+    log: false,
+    scale: 1.0,
+    lo: None,
+    hi: None,
+};
+
+/// The candidates' weighted sensitivities as `design` makes them: the line `a + b x` at each of
+/// `xs` run at the secant points of (a, b) = `at` over ±σ of the covariance `f0⁻¹`, the secants
+/// divided by the noise `sigma`.
+fn line_by_secants(xs: &[f64], at: [f64; 2], f0: &DMatrix<f64>, sigma: f64) -> Vec<DVector<f64>> {
+    let cov = f0.clone().cholesky().unwrap().inverse();
+    let sd = [cov[(0, 0)].sqrt(), cov[(1, 1)].sqrt()];
+    let ends = secant_ends(&[PLAIN, PLAIN], &at, &sd);
+    let values: Vec<Vec<f64>> = secant_points(&at, &ends)
+        .iter()
+        .map(|p| xs.iter().map(|x| p[0] + p[1] * x).collect())
+        .collect();
+    let (g, silent) = weighted(&secants(&values, &ends), &vec![sigma; xs.len()]);
+    assert_eq!(silent, 0);
+    g
 }
 
 /// The covariance of (a, b) of a straight line fitted by least squares to measurements at `xs`,
@@ -40,13 +70,13 @@ fn close(a: f64, b: f64, rel: f64) -> bool {
 fn a_straight_lines_d_optimal_design_and_its_exact_covariance() {
     let sigma = 0.1;
     let xs: Vec<f64> = (0..=10).map(|i| i as f64 / 10.0).collect();
-    let g: Vec<DVector<f64>> = xs.iter().map(|&x| line(x, sigma)).collect();
     let before = [0.5, 0.5, 0.5, 0.5, 0.2, 0.9];
     let mut f0 = DMatrix::zeros(2, 2);
     for &x in &before {
         let v = line(x, sigma);
         f0 += &v * v.transpose();
     }
+    let g = line_by_secants(&xs, [1.3, -0.7], &f0, sigma);
     let k = 6;
     let p = plan(&f0, &g, k, true, Criterion::D);
     assert_eq!(p.chosen.iter().sum::<usize>(), k, "{:?}", p.chosen);
@@ -128,8 +158,10 @@ fn a_straight_lines_d_optimal_design_and_its_exact_covariance() {
 #[test]
 fn without_data_half_at_each_end_and_the_slopes_variance_is_4_sigma2_over_k() {
     let sigma = 0.05;
-    let g: Vec<DVector<f64>> = (0..=20).map(|i| line(i as f64 / 20.0, sigma)).collect();
+    let xs: Vec<f64> = (0..=20).map(|i| i as f64 / 20.0).collect();
     let f0 = DMatrix::identity(2, 2) * 1e-9;
+    // Secants over ±σ ≈ ±3e4 of each key: still the slopes.
+    let g = line_by_secants(&xs, [0.4, 2.5], &f0, sigma);
     for k in [2, 4, 8] {
         let p = plan(&f0, &g, k, true, Criterion::D);
         assert_eq!((p.chosen[0], p.chosen[20]), (k / 2, k / 2), "K = {k}");
@@ -151,4 +183,58 @@ fn uniform_spreads_evenly_in_the_grids_order() {
     assert_eq!(uniform(3, 6), vec![2, 2, 2]);
     assert_eq!(uniform(4, 1), vec![0, 0, 1, 0]);
     assert_eq!(uniform(5, 7).iter().sum::<usize>(), 7);
+}
+
+/// A staircase `m(y) = h ⌊y / h⌋`: its slope is 0 wherever it is defined (a finite difference
+/// of a small step sees nothing, or a jump), while over ±σ = ±h its central secant is 2h / 2h
+/// = 1, its trend, wherever the estimate falls between the steps. And a sawtooth-like model,
+/// `m(y) = y + A sin(2π y / h)`, whose local slope `1 + (2πA/h) cos(2π y / h)` swings between
+/// −2.8 and 4.8 here: over ±σ = ±h (a whole period either side) its secant is 1.
+#[test]
+fn a_secant_over_one_sigma_is_the_trend_of_a_model_that_jumps() {
+    let h = 0.25;
+    for y in [1.1, 1.2, 1.37, -0.6] {
+        let ends = secant_ends(&[PLAIN], &[y], &[h]);
+        assert_eq!(ends, vec![(y - h, y + h)]);
+        let pts = secant_points(&[y], &ends);
+        let stair: Vec<Vec<f64>> = pts.iter().map(|p| vec![h * (p[0] / h).floor()]).collect();
+        let s = secants(&stair, &ends)[(0, 0)];
+        assert!((s - 1.0).abs() < 1e-12, "staircase at {y}: {s}");
+        let a = 0.15;
+        let saw: Vec<Vec<f64>> = pts
+            .iter()
+            .map(|p| vec![p[0] + a * (2.0 * std::f64::consts::PI * p[0] / h).sin()])
+            .collect();
+        let s = secants(&saw, &ends)[(0, 0)];
+        assert!((s - 1.0).abs() < 1e-12, "sawtooth at {y}: {s}");
+    }
+}
+
+/// The secant's interval stays inside a key's bounds: ±σ clipped at a bound, the secant then
+/// taken over what is left (for a line, still its slope), and the points are `y` with one key
+/// moved at a time, lower end first.
+#[test]
+fn the_secants_interval_is_clipped_to_the_keys_bounds() {
+    let bounded = Transform {
+        lo: Some(0.0),
+        hi: Some(1.0),
+        ..PLAIN
+    };
+    let y = [0.9, 0.05];
+    let ends = secant_ends(&[bounded, bounded], &y, &[0.2, 0.1]);
+    assert_eq!(ends, vec![(0.9 - 0.2, 1.0), (0.0, 0.05 + 0.1)]);
+    let pts = secant_points(&y, &ends);
+    assert_eq!(
+        pts,
+        vec![
+            vec![0.9 - 0.2, 0.05],
+            vec![1.0, 0.05],
+            vec![0.9, 0.0],
+            vec![0.9, 0.05 + 0.1]
+        ]
+    );
+    // m = 3 y0 − 2 y1 at one candidate.
+    let values: Vec<Vec<f64>> = pts.iter().map(|p| vec![3.0 * p[0] - 2.0 * p[1]]).collect();
+    let s = secants(&values, &ends);
+    assert!((s[(0, 0)] - 3.0).abs() < 1e-12 && (s[(0, 1)] + 2.0).abs() < 1e-12);
 }

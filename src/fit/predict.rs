@@ -685,7 +685,8 @@ pub(crate) fn forward_model(
 /// column does not stand above the model's error; with an ensemble of two members or more, the
 /// fit's central differences whose steps widen above the members' noise,
 /// [`super::stencil`]), and the model at the points `extra` of the fit coordinates (at the
-/// fit's tolerances). Shared by `predict` and `design`; `stop` abandons the runs
+/// fit's tolerances). Shared by `predict` (the Jacobian, and its samples at `extra`) and
+/// `design` (no Jacobian: its secants' points at `extra`); `stop` abandons the runs
 /// ([`Error::Cancelled`]), `on_run` is called as each forward run ends.
 pub(crate) fn at_estimate(
     fit: &FitFolder,

@@ -1,7 +1,8 @@
 //! `djkr design` end to end (issue 34): a real fit of two keys on a cheap rig, then a design of
 //! six new measurements over a 5 × 5 grid of candidates; its files, its numbers' consistency
 //! (repeats summing to K, expected σ no larger than now, the design's covariance determinant no
-//! larger than the uniform spread's), `--json`, and its refusals. About 5 s.
+//! larger than the uniform spread's), its sensitivities (secants over ±σ, checked by
+//! independent runs of `djkr sweep`), `--json`, and its refusals. About 5 s.
 
 use serde_json::Value;
 use std::path::Path;
@@ -157,6 +158,80 @@ fn design_writes_its_files_and_beats_the_uniform_spread() {
     assert!(d_design <= d_uniform, "{d_design} > {d_uniform}");
     let cv = &j["criterion_value"];
     assert!(cv["expected"].as_f64().unwrap() <= cv["uniform"].as_f64().unwrap());
+
+    // The sensitivities are each key's secant over ±σ (docs/guide/design.md): the value once
+    // and two runs per free key at each candidate.
+    assert_eq!(j["forward_runs"].as_u64().unwrap(), 25 * (1 + 2 * 2));
+    // At 20 µm and 3 mm/s (row 25, where the amplification's local slope in n jumps), the
+    // prediction's σ from the secants, by independent runs of `djkr sweep` on fitted.toml at
+    // the fit's tolerances: with the model's changes Δv (v0 from v0·e^(−σ/v0) to v0·e^(σ/v0),
+    // ±σ of ln v0) and Δn (n ± σ_n), σ² = (Δv/2)² + 2ρ (Δv/2)(Δn/2) + (Δn/2)², whatever the
+    // coordinates (a secant over ±σ times σ is half the change). The same runs as design's, up
+    // to the rounding of the points' coordinates and of the files' numbers.
+    let params = fit_json["parameters"].as_array().unwrap();
+    let (v0, sv) = (
+        params[0]["value"].as_f64().unwrap(),
+        params[0]["sigma"].as_f64().unwrap(),
+    );
+    let (n, sn) = (
+        params[1]["value"].as_f64().unwrap(),
+        params[1]["sigma"].as_f64().unwrap(),
+    );
+    let rho = fit_json["correlation"][0][1].as_f64().unwrap();
+    let tol = &fit_json["tolerances"];
+    let (rtol, etol) = (
+        tol["rtol"].as_f64().unwrap(),
+        tol["envelope_tol"].as_f64().unwrap(),
+    );
+    let change = |set: String, name: &str| -> f64 {
+        let sweep = dir.path().join(name);
+        let o = djkr(&[
+            "sweep",
+            fit.join("fitted.toml").to_str().unwrap(),
+            "--set",
+            "base.amplitude=20um",
+            "--set",
+            "stage[3].speed=3mm/s",
+            "--set",
+            &format!("solver.rtol={rtol:e}"),
+            "--set",
+            &format!("solver.envelope_tol={etol:e}"),
+            "--set",
+            &set,
+            "--out",
+            sweep.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let csv = std::fs::read_to_string(sweep.join("sweep.csv")).unwrap();
+        let mut lines = csv.lines();
+        let col = lines
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|h| h == "pull_off_amplification [1]")
+            .unwrap();
+        let v: Vec<f64> = lines
+            .map(|l| l.split(',').nth(col).unwrap().parse().unwrap())
+            .collect();
+        assert_eq!(v.len(), 2);
+        v[1] - v[0]
+    };
+    let dv = change(
+        format!(
+            "adhesion.v0={:e},{:e}",
+            v0 * (-sv / v0).exp(),
+            v0 * (sv / v0).exp()
+        ),
+        "sweep-v0",
+    );
+    let dn = change(format!("adhesion.n={:e},{:e}", n - sn, n + sn), "sweep-n");
+    let want = ((dv / 2.0).powi(2) + rho * dv * dn / 2.0 + (dn / 2.0).powi(2)).sqrt();
+    let got: f64 = rows[24][4].parse().unwrap();
+    assert_eq!(rows[24][0].parse::<f64>().unwrap(), 2e-5);
+    assert!(
+        (got - want).abs() <= 1e-9 * want,
+        "sigma_prediction at 20 um, 3 mm/s: {got} from design, {want} from the secants"
+    );
 }
 
 /// Bad input: one line each, exit status 2, nothing written.
