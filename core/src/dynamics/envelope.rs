@@ -26,8 +26,8 @@
 //! at a step of two periods from directly integrated boundaries (scaled): the predictor missed
 //! the map's orbit (the trial periods iterated) by 4e-10, the plain BDF2 corrector (ℓⱼ′ at
 //! τ_n + m) by 2.4e-8 — 0.6 times the second difference of the boundaries, 4.6e-8, as above —
-//! and this one by 1.6e-10. On a map whose orbit is known in closed form it misses by 60–370
-//! times less for steps of 2–16 periods (the module's tests). The fast mechanical modes (the
+//! and this one by 1.6e-10. On a map whose orbit is known in closed form it misses by 10–370
+//! times less for steps of 16 down to 2 periods (the module's tests). The fast mechanical modes (the
 //! sphere's ring-down, multipliers ~0.9 e^{±i ω_r T} per period) are stiff in slow time: an
 //! explicit step over many periods would blow them up; the corrector damps them as BDF2 does
 //! (tested for every multiplier in the disc of radius 0.99, steps of 2–128 periods).
@@ -1226,8 +1226,8 @@ mod tests {
     /// P(z) − z lands on the orbit to third order, and Milne's device predicts its miss within
     /// 5 % (20 % for a step of 64 periods, where the fourth derivative shows). Set at τ itself
     /// (the plain BDF2, taking g as the derivative where it is only the forward difference),
-    /// the corrector misses by 60–370 times as much for steps of 2–16 periods, and by 3–5 times
-    /// what its Milne estimate says.
+    /// the corrector misses by 10–370 times as much for steps of 16 down to 2 periods, and by
+    /// 3–5 times what its Milne estimate says.
     #[test]
     fn corrector_lands_on_the_maps_orbit() {
         let (mu, amp, om) = (0.997, 1e-3, 2.0 * std::f64::consts::PI / 4000.0);
