@@ -27,10 +27,10 @@
 //! the map's orbit (the trial periods iterated) by 4e-10, the plain BDF2 corrector (ℓⱼ′ at
 //! τ_n + m) by 2.4e-8 — 0.6 times the second difference of the boundaries, 4.6e-8, as above —
 //! and this one by 1.6e-10. On a map whose orbit is known in closed form it misses by 10–370
-//! times less for steps of 16 down to 2 periods (the module's tests). The fast mechanical modes (the
-//! sphere's ring-down, multipliers ~0.9 e^{±i ω_r T} per period) are stiff in slow time: an
-//! explicit step over many periods would blow them up; the corrector damps them as BDF2 does
-//! (tested for every multiplier in the disc of radius 0.99, steps of 2–128 periods).
+//! times less for steps of 16 down to 2 periods (the module's tests). The fast mechanical
+//! modes (the sphere's ring-down, multipliers ~0.9 e^{±i ω_r T} per period) are stiff in slow
+//! time: an explicit step over many periods would blow them up; the corrector damps them as
+//! BDF2 does (tested for every multiplier in the disc of radius 0.99, steps of 2–128 periods).
 //! Consecutive steps may grow at most 2× (variable-step BDF2 is zero-stable below 1 + √2).
 //! The envelope points are the exact boundaries while the run integrates directly and the jump
 //! targets while it jumps (the boundary one period after a jump target, integrated for the
