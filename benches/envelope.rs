@@ -1,9 +1,11 @@
 //! Envelope following against integrating every period, on the paper protocol
 //! (`scenarios/paper-protocol-300hz.toml`, `catalogue::Bundled::PaperProtocol300`, a forward
-//! run of `djkr fit`): `solver.envelope = "auto"` must cost no more than `"off"` where its
-//! trial jumps keep failing (the default `envelope_tol = 1e-6`, where the radius barely forgets
-//! and the error share leaves jumps of two periods at most), and save where they pay
-//! (`envelope_tol = 1e-5`, shown for comparison).
+//! run of `djkr fit`): `solver.envelope = "auto"` must cost no more than `"off"` at the
+//! default `envelope_tol = 1e-6`, where the radius barely forgets (μ ≈ 0.997) and the error
+//! share leaves skips of tens of periods (RHS evaluations 62 % of `off`'s with samples, 69 %
+//! without; above `off`'s while the corrector read P(z) − z as the derivative at the new point
+//! and got no further than jumps of two periods), and save more at `envelope_tol = 1e-5` (shown
+//! for comparison).
 //!
 //! - `run/{off,auto}`: the scenario as shipped, at the default tolerances, integrated as `djkr
 //!   run` integrates it (an observer that takes the 12 kHz time-series samples, here to drop

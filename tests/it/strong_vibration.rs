@@ -151,15 +151,15 @@ fn gentle_rig_unload_runs_at_both_tolerances() {
 /// means of every period both integrate, up to the pull-off, within 1e-5 (of the force scale
 /// 3/2 πRw0 for ⟨F⟩, of the indentation's mean or amplitude for ⟨δ⟩, of the radius for ⟨a⟩).
 /// On the bundled protocols as shipped (X_b = 10 µm, where the contact radius creeps with a
-/// multiplier within 0.3 % of 1 and the error estimate allows few jumps, so envelope following
-/// may cost at most 5 % more evaluations than direct integration) and on two of them in the
-/// strong regime, where envelope following must skip most periods.
+/// multiplier within 0.3 % of 1, so the error share leaves moderate skips: at least 30 % of the
+/// periods skipped, measured 42–59 %) and on two of them in the strong regime, where envelope
+/// following must skip most periods; never more evaluations than direct integration.
 #[test]
 fn envelope_following_matches_direct_integration() {
     for (b, xb, min_skipped) in [
-        (Bundled::PaperProtocol200, None, 0.0),
-        (Bundled::PaperProtocol300, None, 0.0),
-        (Bundled::PaperProtocol400, None, 0.0),
+        (Bundled::PaperProtocol200, None, 0.3),
+        (Bundled::PaperProtocol300, None, 0.3),
+        (Bundled::PaperProtocol400, None, 0.3),
         (Bundled::PaperProtocol200, Some(60e-6), 0.8),
         (Bundled::PaperProtocol400, Some(80e-6), 0.8),
     ] {
@@ -170,12 +170,13 @@ fn envelope_following_matches_direct_integration() {
         assert!(rd.detached && re.detached, "{name}");
         let skipped = 1.0 - ce.len() as f64 / cd.len() as f64;
         assert!(skipped >= min_skipped, "{name}: skipped {skipped}");
-        // Where it can skip little, its trial periods must not cost much more than they save
-        // (measured 1.02–1.03; 1.19–1.25 when every run of attempts was retried after 16
-        // periods whether it had paid or not).
+        // Its trial periods must not cost more than the periods they skip (measured 0.60–0.79
+        // at 10 µm, 0.05–0.11 in the strong regime; 1.02–1.03 at 10 µm while the corrector read
+        // P(z) − z as the derivative at the new point, 1.19–1.25 when every run of attempts was
+        // retried after 16 periods whether it had paid or not).
         let cost = re.stats.rhs_evals as f64 / rd.stats.rhs_evals as f64;
         println!("{name}: envelope/direct evaluations {cost:.4}, skipped {skipped:.4}");
-        assert!(cost <= 1.05, "{name}: envelope/direct evaluations {cost}");
+        assert!(cost <= 1.0, "{name}: envelope/direct evaluations {cost}");
         let rel = (re.pull_off.force / rd.pull_off.force - 1.0).abs();
         assert!(rel < 1e-4, "{name}: pull-off {rel:e}");
         let f0 = 1.5 * PI * 0.051 * 0.240;
