@@ -754,12 +754,7 @@ pub fn design(
     let k = fit.free.len();
     // The sensitivities: each key's secant over ±σ in the fit coordinates (see the module
     // documentation), two runs per key and candidate at the fit's tolerances.
-    let y_hat: Vec<f64> = fit
-        .tr
-        .iter()
-        .zip(&fit.values)
-        .map(|(t, &x)| t.y(x))
-        .collect();
+    let y_hat = fit.y_estimate();
     let sigma_y: Vec<f64> = (0..k).map(|j| fit.cov_y[(j, j)].sqrt()).collect();
     let ends = secant_ends(&fit.tr, &y_hat, &sigma_y);
     let at = at_estimate(

@@ -260,6 +260,15 @@ pub struct FitFolder {
 }
 
 impl FitFolder {
+    /// The estimate in the fit coordinates `y`.
+    pub(crate) fn y_estimate(&self) -> Vec<f64> {
+        self.tr
+            .iter()
+            .zip(&self.values)
+            .map(|(t, &x)| t.y(x))
+            .collect()
+    }
+
     /// Read the fit in `dir`. A folder without `fit.json` (no fit) is refused in one line.
     pub fn read(dir: &Path) -> Result<FitFolder, Error> {
         let shown = dir.display().to_string();
@@ -724,12 +733,7 @@ pub(crate) fn at_estimate(
         } else {
             0.0
         };
-    let y_hat: Vec<f64> = fit
-        .tr
-        .iter()
-        .zip(&fit.values)
-        .map(|(t, &x)| t.y(x))
-        .collect();
+    let y_hat = fit.y_estimate();
     let mut progress = |e: FitEvent| {
         if e == FitEvent::Run {
             on_run();
@@ -822,13 +826,7 @@ pub fn predict(
         .collect();
     let any_sigma = has_sigma.iter().any(|&h| h);
     let ys = if req.samples > 0 {
-        let y_hat: Vec<f64> = fit
-            .tr
-            .iter()
-            .zip(&fit.values)
-            .map(|(t, &x)| t.y(x))
-            .collect();
-        draws(&y_hat, &fit.cov_y, req.samples, seed)
+        draws(&fit.y_estimate(), &fit.cov_y, req.samples, seed)
     } else {
         Vec::new()
     };
