@@ -931,10 +931,7 @@ fn csv_header(r: &DesignReport) -> Vec<String> {
     let mut head: Vec<String> = r
         .conditions
         .iter()
-        .map(|c| match c.unit {
-            Some(unit) => format!("{} [{unit}]", c.key),
-            None => c.key.clone(),
-        })
+        .map(|c| super::residuals::column_name(&c.key, c.unit))
         .collect();
     head.extend([
         format!("value [{u}]"),

@@ -1173,10 +1173,7 @@ pub fn csv_header(r: &PredictReport) -> Vec<String> {
     let mut head: Vec<String> = r
         .conditions
         .iter()
-        .map(|c| match c.unit {
-            Some(unit) => format!("{} [{unit}]", c.key),
-            None => c.key.clone(),
-        })
+        .map(|c| super::residuals::column_name(&c.key, c.unit))
         .collect();
     let mut cols = vec![
         "value",

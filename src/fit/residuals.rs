@@ -28,10 +28,7 @@ pub(crate) fn residuals_csv(model: &ForwardModel, outcome: &FitOutcome) -> Strin
     let mut head: Vec<String> = data
         .conditions
         .iter()
-        .map(|c| match c.unit {
-            Some(unit) => format!("{} [{unit}]", c.key),
-            None => c.key.to_string(),
-        })
+        .map(|c| column_name(c.key, c.unit))
         .collect();
     head.push(format!("observed [{u}]"));
     head.push(format!("sigma [{u}]"));
@@ -77,10 +74,7 @@ pub(crate) fn residual_columns(
     let u = data.observable.unit();
     let mut out = Vec::new();
     for (j, c) in data.conditions.iter().enumerate() {
-        let name = match c.unit {
-            Some(unit) => format!("{} [{unit}]", c.key),
-            None => c.key.to_string(),
-        };
+        let name = column_name(c.key, c.unit);
         let col = match c.unit {
             Some(_) => Column::Num(
                 data.rows
@@ -132,6 +126,15 @@ pub(crate) fn residual_columns(
             .collect(),
     ));
     out
+}
+
+/// A condition's column name: `key [unit]`, or the bare key for a text condition. Shared by
+/// residuals.csv, prediction.csv and design.csv.
+pub(crate) fn column_name(key: impl std::fmt::Display, unit: Option<&str>) -> String {
+    match unit {
+        Some(unit) => format!("{key} [{unit}]"),
+        None => key.to_string(),
+    }
 }
 
 /// A text cell, quoted where it holds a comma, a quote or a line end (RFC 4180).
