@@ -332,76 +332,82 @@ fn coverage_study_heavy_rig() {
     }
 }
 
-/// The law comparison (the paper's open question). Data from a saturated law (v_sat = 1 mm/s)
-/// with 2 % noise, on the paper protocol with short dwells (0.1 s, 0.2 s): two vibrating rows
-/// (300 Hz, 5 and 10 um, unloading at 100 um/s; the saturated values fall > 10 % below the
-/// plain law's) and five rows without vibration unloading at 30 um/s to 3 mm/s, which pin the
-/// law at crack speeds below and above v_sat. (With vibrating rows alone, 200 and 400 Hz at 1 to
-/// 10 um, a plain law with n about 0.2 mimicked the saturated data: AIC 6.0 against 7.8.)
-/// Fitted by both laws, the saturated law's AIC is lower by more than 10. Data from the plain
-/// law: the saturated fit's v_sat runs to its bound or its AIC is not lower by more than 2.
-/// About 4 s (two-core release build).
-#[test]
-fn aic_tells_a_saturated_law_from_the_plain_one() {
-    let dir = tempfile::tempdir().unwrap();
-    let short = ["stage[1].duration=0.1", "stage[2].duration=0.2"];
-    let mut rows: Vec<(f64, f64, f64)> = vec![(300.0, 5.0, 100.0), (300.0, 10.0, 100.0)];
-    rows.extend([30.0, 100.0, 300.0, 1000.0, 3000.0].map(|v| (300.0, 0.0, v)));
-    let sat_law = ["adhesion.law=gent-schultz-saturated", "adhesion.v_sat=1e-3"];
-    let with = |extra: &[&'static str]| -> Vec<&'static str> {
-        short.iter().chain(extra).copied().collect::<Vec<_>>()
-    };
-    let sat = truth(HEAVY, COND3, &cells3(&rows), &with(&sat_law));
-    let plain = truth(HEAVY, COND3, &cells3(&rows), &with(&[]));
-    assert!(
-        sat[1] < 0.9 * plain[1],
-        "saturation must lower the largest amplitude's value by 10 %: {sat:?} {plain:?}"
-    );
-    let sets = |extra: &[&str]| -> Vec<String> {
-        short
-            .iter()
-            .chain(extra)
-            .flat_map(|s| ["--set".to_string(), s.to_string()])
-            .collect()
-    };
-    let fit_both = |name: &str, values: &[f64]| -> (Value, Value) {
-        let data = dir.path().join(format!("{name}.csv"));
-        write_data(&data, COND3, &cells3(&rows), values, 0.02, 11);
-        let mut a = sets(&[]);
-        a.extend(["--free", "adhesion.v0", "--free", "adhesion.n"].map(String::from));
-        let a: Vec<&str> = a.iter().map(String::as_str).collect();
-        let t0 = std::time::Instant::now();
-        let p = run_fit(&data, &dir.path().join(format!("{name}-plain")), HEAVY, &a);
-        let t1 = t0.elapsed().as_secs_f64();
-        let mut a = sets(&["adhesion.law=gent-schultz-saturated", "adhesion.v_sat=3e-3"]);
-        a.extend(
-            [
-                "--free",
-                "adhesion.v0",
-                "--free",
-                "adhesion.n",
-                "--free",
-                "adhesion.v_sat=1e-5:1",
-            ]
-            .map(String::from),
-        );
-        let a: Vec<&str> = a.iter().map(String::as_str).collect();
-        let s = run_fit(&data, &dir.path().join(format!("{name}-sat")), HEAVY, &a);
-        eprintln!(
-            "{name}: plain ({t1:.1} s) {p}\nsaturated ({:.1} s) {s}",
-            t0.elapsed().as_secs_f64() - t1
+/// The rows of the law comparison (docs/guide/fit.md, "Comparing laws"), on the paper protocol
+/// with short dwells (0.1 s, 0.2 s): two vibrating rows (300 Hz, 5 and 10 um, unloading at
+/// 100 um/s; the saturated law's values fall > 10 % below the plain law's) and five rows without
+/// vibration unloading at 30 um/s to 3 mm/s, which pin the law at crack speeds below and above
+/// v_sat. (With vibrating rows alone, 200 and 400 Hz at 1 to 10 um, a plain law with n about 0.2
+/// mimicked the saturated data: AIC 6.0 against 7.8.)
+struct LawComparison {
+    dir: tempfile::TempDir,
+    rows: Vec<(f64, f64, f64)>,
+}
+
+impl LawComparison {
+    const SHORT: [&'static str; 2] = ["stage[1].duration=0.1", "stage[2].duration=0.2"];
+
+    fn new() -> Self {
+        let mut rows: Vec<(f64, f64, f64)> = vec![(300.0, 5.0, 100.0), (300.0, 10.0, 100.0)];
+        rows.extend([30.0, 100.0, 300.0, 1000.0, 3000.0].map(|v| (300.0, 0.0, v)));
+        LawComparison {
+            dir: tempfile::tempdir().unwrap(),
+            rows,
+        }
+    }
+
+    /// The noise-free values of the rows by the plain law, or by the saturated law with
+    /// v_sat = 1 mm/s.
+    fn truth(&self, saturated: bool) -> Vec<f64> {
+        let law = ["adhesion.law=gent-schultz-saturated", "adhesion.v_sat=1e-3"];
+        let extra: &[&str] = if saturated { &law } else { &[] };
+        let sets: Vec<&str> = Self::SHORT.iter().chain(extra).copied().collect();
+        truth(HEAVY, COND3, &cells3(&self.rows), &sets)
+    }
+
+    /// The data `values` with 2 % noise (seed 11), fitted by the plain law (v0, n free) and by the
+    /// saturated law (v0, n, v_sat free, v_sat from 3 mm/s within 10 um/s to 1 m/s).
+    fn fit_both(&self, name: &str, values: &[f64]) -> (Value, Value) {
+        let data = self.dir.path().join(format!("{name}.csv"));
+        write_data(&data, COND3, &cells3(&self.rows), values, 0.02, 11);
+        let args = |extra: &[&str], free: &[&str]| -> Vec<String> {
+            let sets = Self::SHORT.iter().chain(extra);
+            let sets = sets.flat_map(|s| ["--set".to_string(), s.to_string()]);
+            let free = free
+                .iter()
+                .flat_map(|k| ["--free".to_string(), k.to_string()]);
+            sets.chain(free).collect()
+        };
+        let fit = |what: &str, a: Vec<String>| -> Value {
+            let a: Vec<&str> = a.iter().map(String::as_str).collect();
+            let t0 = std::time::Instant::now();
+            let out = self.dir.path().join(format!("{name}-{what}"));
+            let j = run_fit(&data, &out, HEAVY, &a);
+            eprintln!("{name}, {what} ({:.1} s): {j}", t0.elapsed().as_secs_f64());
+            j
+        };
+        let p = fit("plain", args(&[], &["adhesion.v0", "adhesion.n"]));
+        let s = fit(
+            "saturated",
+            args(
+                &["adhesion.law=gent-schultz-saturated", "adhesion.v_sat=3e-3"],
+                &["adhesion.v0", "adhesion.n", "adhesion.v_sat=1e-5:1"],
+            ),
         );
         (p, s)
-    };
-    let aic = |j: &Value| j["aic"].as_f64().unwrap();
-    let (p, s) = fit_both("saturated-data", &sat);
-    assert!(
-        aic(&p) - aic(&s) > 10.0,
-        "AIC plain {} saturated {}",
-        aic(&p),
-        aic(&s)
-    );
-    let (p, s) = fit_both("plain-data", &plain);
+    }
+}
+
+fn aic(j: &Value) -> f64 {
+    j["aic"].as_f64().unwrap()
+}
+
+/// Data from the plain law, fitted by both laws: the saturated fit's v_sat runs to its bound or
+/// its AIC is not lower by more than 2 (the extra key buys nothing). About 5 s (two-core release
+/// build).
+#[test]
+fn a_saturated_law_gains_nothing_on_plain_data() {
+    let case = LawComparison::new();
+    let (p, s) = case.fit_both("plain-data", &case.truth(false));
     let v_sat = param(&s, "adhesion.v_sat");
     let at_bound = v_sat["sigma"].is_null()
         && s["notes"].as_array().unwrap().iter().any(|n| {
@@ -414,6 +420,103 @@ fn aic_tells_a_saturated_law_from_the_plain_one() {
         "AIC plain {} saturated {}: {s}",
         aic(&p),
         aic(&s)
+    );
+}
+
+/// An estimate for the law comparison's table: the value and its sigma (`a ± s`), or, where the
+/// fit gives no sigma, its profile-likelihood interval (`a (lo to hi)`), in `unit` (`scale` SI
+/// units per unit) to two significant digits of the uncertainty.
+fn estimate_cell(p: &Value, name: &str, unit: &str, scale: f64) -> String {
+    let v = p["value"].as_f64().unwrap() / scale;
+    let sig = |x: f64| {
+        let digits = (1 - x.abs().log10().floor() as i32).max(0) as usize;
+        format!("{x:.digits$}")
+    };
+    match p["sigma"].as_f64() {
+        Some(s) => {
+            let s = s / scale;
+            let digits = (1 - s.log10().floor() as i32).max(0) as usize;
+            format!("{name} = {v:.digits$} ± {s:.digits$}{unit}")
+        }
+        None => {
+            let i = p["interval"].as_array().unwrap();
+            let (lo, hi) = (
+                i[0].as_f64().unwrap() / scale,
+                i[1].as_f64().unwrap() / scale,
+            );
+            format!("{name} = {} ({} to {}){unit}", sig(v), sig(lo), sig(hi))
+        }
+    }
+}
+
+/// The law comparison (the paper's open question) of docs/guide/fit.md, whose table and verdict
+/// this test writes (`DJKR_BLESS=1`) or checks: data from a saturated law (v_sat = 1 mm/s) with
+/// 2 % noise, fitted by both laws; the saturated law's AIC is lower by more than 10, and its
+/// intervals (sigma, or the profile likelihood's where the model is not linear over one sigma)
+/// hold the truth. Opt-in: the saturated fit computes three profile likelihoods (about 4 000
+/// forward runs, a minute on two cores):
+/// `cargo test --release --test it fit::aic -- --ignored --nocapture`.
+#[test]
+#[ignore = "three profile likelihoods of the saturated law: about a minute"]
+fn aic_tells_a_saturated_law_from_the_plain_one() {
+    let case = LawComparison::new();
+    let (sat, plain) = (case.truth(true), case.truth(false));
+    assert!(
+        sat[1] < 0.9 * plain[1],
+        "saturation must lower the largest amplitude's value by 10 %: {sat:?} {plain:?}"
+    );
+    let (p, s) = case.fit_both("saturated-data", &sat);
+    assert!(
+        aic(&p) - aic(&s) > 10.0,
+        "AIC plain {} saturated {}",
+        aic(&p),
+        aic(&s)
+    );
+    let truth = [
+        ("adhesion.v0", 4.45e-5),
+        ("adhesion.n", 0.531),
+        ("adhesion.v_sat", 1e-3),
+    ];
+    for (key, t) in truth {
+        let i = param(&s, key)["interval"].as_array().unwrap().clone();
+        let (lo, hi) = (i[0].as_f64().unwrap(), i[1].as_f64().unwrap());
+        assert!((lo..=hi).contains(&t), "{key}: {t} outside [{lo}, {hi}]");
+    }
+    let cells = |j: &Value, keys: &[(&str, &str, &str, f64)]| -> String {
+        keys.iter()
+            .map(|(k, name, unit, scale)| estimate_cell(param(j, k), name, unit, *scale))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let v0 = ("adhesion.v0", "v0", " µm/s", 1e-6);
+    let n = ("adhesion.n", "n", "", 1.0);
+    let v_sat = ("adhesion.v_sat", "v_sat", " mm/s", 1e-3);
+    let row = |law: &str, keys: &str, j: &Value, est: String| -> String {
+        format!(
+            "| {law} | {keys} | {:.3} | {:.1} | {est} | {} |",
+            j["chi2"].as_f64().unwrap(),
+            aic(j),
+            j["forward_runs"]
+        )
+    };
+    let table = [
+        "| law | free keys | χ² | AIC | estimates | forward runs |".to_string(),
+        "|---|---|---|---|---|---|".to_string(),
+        row("Gent–Schultz", "v0, n", &p, cells(&p, &[v0, n])),
+        row("saturated", "v0, n, v_sat", &s, cells(&s, &[v0, n, v_sat])),
+    ];
+    let generated = format!(
+        "{}\n\nThe saturated law is preferred by ΔAIC = {:.1}.\n",
+        table.join("\n"),
+        aic(&p) - aic(&s)
+    );
+    crate::tools::check(
+        "docs/guide/fit.md",
+        &crate::tools::splice(
+            &std::fs::read_to_string(crate::tools::root().join("docs/guide/fit.md")).unwrap(),
+            "law comparison",
+            &generated,
+        ),
     );
 }
 
