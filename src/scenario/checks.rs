@@ -133,30 +133,31 @@ pub const LOWER_BOUNDS: &[(&str, f64, &str)] = &[
     ),
 ];
 
-/// A dotted key with a stage index dropped: `stage[3].speed` → `stage.speed`.
-fn generic_key(key: &str) -> String {
+/// A dotted key with a stage index dropped: `stage[3].speed` → `stage.speed` (borrowed when it
+/// has none: the parser asks for every number it reads).
+fn generic_key(key: &str) -> std::borrow::Cow<'_, str> {
     match key.strip_prefix("stage[") {
-        Some(rest) => format!("stage{}", &rest[rest.find(']').map_or(0, |i| i + 1)..]),
-        None => key.to_string(),
+        Some(rest) => format!("stage{}", &rest[rest.find(']').map_or(0, |i| i + 1)..]).into(),
+        None => key.into(),
     }
+}
+
+/// The bound of `table` at the generic key `key`, with why.
+fn bound(table: &[(&str, f64, &'static str)], key: &str) -> Option<(f64, &'static str)> {
+    table
+        .iter()
+        .find(|(k, _, _)| *k == key)
+        .map(|&(_, b, why)| (b, why))
 }
 
 /// The upper bound of the value at dotted `key`, with why, if it has one.
 pub fn upper_bound(key: &str) -> Option<(f64, &'static str)> {
-    let key = generic_key(key);
-    UPPER_BOUNDS
-        .iter()
-        .find(|(k, _, _)| *k == key)
-        .map(|&(_, max, why)| (max, why))
+    bound(UPPER_BOUNDS, &generic_key(key))
 }
 
 /// The lower bound of the positive value at dotted `key`, with why, if it has one.
 pub fn lower_bound(key: &str) -> Option<(f64, &'static str)> {
-    let key = generic_key(key);
-    LOWER_BOUNDS
-        .iter()
-        .find(|(k, _, _)| *k == key)
-        .map(|&(_, min, why)| (min, why))
+    bound(LOWER_BOUNDS, &generic_key(key))
 }
 
 /// Why `v` (SI, finite) is outside the range of the scenario key `key` (`unit`: its SI unit, for
@@ -165,18 +166,19 @@ pub fn lower_bound(key: &str) -> Option<(f64, &'static str)> {
 /// a scenario's values by the parser and to the commands' flags that set the same quantity
 /// (`--modulus` is `material.K`, `--freq` is `base.frequency`, ...).
 pub fn key_range_error(key: &str, v: f64, unit: &str) -> Option<String> {
-    if generic_key(key) == "base.frequency" && !(MIN_FREQUENCY..=MAX_FREQUENCY).contains(&v) {
+    let key = generic_key(key);
+    if key == "base.frequency" && !(MIN_FREQUENCY..=MAX_FREQUENCY).contains(&v) {
         return Some(format!(
             "must lie in [{MIN_FREQUENCY:e}, {MAX_FREQUENCY:e}] ({unit}): a period longer than 1e6 \
              s outlasts any run, one shorter than 1 us is below the time resolution of a long run"
         ));
     }
-    if let Some((max, why)) = upper_bound(key) {
+    if let Some((max, why)) = bound(UPPER_BOUNDS, &key) {
         if v > max {
             return Some(format!("must not exceed {max:e} ({unit}): {why}"));
         }
     }
-    if let Some((min, why)) = lower_bound(key) {
+    if let Some((min, why)) = bound(LOWER_BOUNDS, &key) {
         // 0 is the caller's to allow or refuse (allowed for the keys >= 0).
         if v != 0.0 && v < min {
             return Some(format!("must be at least {min:e} ({unit}): {why}"));

@@ -11,6 +11,8 @@
 //! Stage keys are spelled `stage[].speed` here (as `djkr keys` prints them); a key of one stage
 //! is `stage[N].speed` in messages and `--set`.
 
+use std::sync::OnceLock;
+
 use djkr_core::units::Dimension;
 
 /// Default gravitational acceleration (m/s²) when `sphere.gravity` is absent.
@@ -225,16 +227,23 @@ pub(crate) const SECTIONS: &[&str] = &[
 
 /// The keys section `name` takes (`""`: the top level), in table order; `None`: no such
 /// section.
-pub(crate) fn section_keys(name: &str) -> Option<Vec<&'static str>> {
-    if !name.is_empty() && !SECTIONS.contains(&name) {
-        return None;
-    }
-    Some(
-        KEYS.iter()
-            .filter(|k| k.section == name)
-            .map(|k| k.name)
-            .collect(),
-    )
+pub(crate) fn section_keys(name: &str) -> Option<&'static [&'static str]> {
+    // Built once: the parser asks for a section's keys at every build (a continuation builds a
+    // scenario per period).
+    static BY_SECTION: OnceLock<Vec<(&'static str, Vec<&'static str>)>> = OnceLock::new();
+    let table = BY_SECTION.get_or_init(|| {
+        std::iter::once("")
+            .chain(SECTIONS.iter().copied())
+            .map(|s| {
+                let keys = KEYS.iter().filter(|k| k.section == s).map(|k| k.name);
+                (s, keys.collect())
+            })
+            .collect()
+    });
+    table
+        .iter()
+        .find(|(s, _)| *s == name)
+        .map(|(_, keys)| keys.as_slice())
 }
 
 /// The entry of `section.name` (`section` `""` for the top level).

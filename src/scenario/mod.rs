@@ -68,7 +68,7 @@ pub struct Scenario {
     pub output: Output,
     /// The scenario file's text, stored with the results (as in the file: without the
     /// overrides, which `overrides` lists).
-    pub source_text: String,
+    pub source_text: std::sync::Arc<str>,
     /// Where it came from (path, or `<string>`), followed by its overrides as on the command
     /// line: `scenarios/impacts.toml --set base.amplitude=30um`.
     pub source_name: String,

@@ -373,7 +373,7 @@ fn parse_key(t: &str) -> Result<SetKey, String> {
 
 /// A key without a dot: a top-level key, or a section or section key written without it.
 fn top_level_key(t: &str) -> Result<SetKey, String> {
-    if let Some(name) = top_level_keys().into_iter().find(|k| *k == t) {
+    if let Some(name) = top_level_keys().iter().copied().find(|k| *k == t) {
         return Ok(SetKey {
             section: None,
             index: None,
@@ -419,7 +419,7 @@ fn top_level_key(t: &str) -> Result<SetKey, String> {
 }
 
 /// The keys of the top level that are not sections (`version`).
-fn top_level_keys() -> Vec<&'static str> {
+fn top_level_keys() -> &'static [&'static str] {
     section_keys("").unwrap_or_default()
 }
 
@@ -451,7 +451,8 @@ fn section_names() -> String {
 pub(crate) fn describe(file: &str, overrides: &[String]) -> String {
     let mut s = file.to_string();
     for o in overrides {
-        s.push_str(&format!(" --set {o}"));
+        s.push_str(" --set ");
+        s.push_str(o);
     }
     s
 }
@@ -833,7 +834,7 @@ until = "pull-off"
         assert_eq!(got.rig, want.rig);
         assert_eq!(got.overrides, vec!["stage[1].speed=2um/s".to_string()]);
         assert_eq!(got.source_name, "x.toml --set stage[1].speed=2um/s");
-        assert_eq!(got.source_text, FILE);
+        assert_eq!(&*got.source_text, FILE);
         // Without overrides: the file as written, nothing recorded.
         let plain = source().scenario(&[]).unwrap();
         assert_eq!(plain.source_name, "x.toml");

@@ -81,11 +81,68 @@ pub fn load_scenario_with(path: &Path, overrides: &[Override]) -> Result<Scenari
 /// (a sweep applies thousands of override sets to one file).
 #[derive(Debug, Clone)]
 pub struct ScenarioSource {
-    text: String,
+    /// Shared with every scenario built (a continuation builds one per period).
+    text: Arc<str>,
     name: String,
     base_dir: Option<PathBuf>,
     table: Table,
     tables: LawTables,
+    memo: Arc<Mutex<Option<Memo>>>,
+}
+
+/// The last scenario built with overrides from a [`ScenarioSource`] (and its clones): the
+/// overrides, the table they were applied to, and the parsed sections. When the next build sets
+/// the same keys (a continuation sets its free keys every period, a sweep its axes every point),
+/// the overrides are applied to this table instead of a fresh copy of the file's (the same
+/// keys, so the same table but for their values), and a section none of whose keys changed
+/// value is taken from here instead of parsed again: each section's parse is a function of its
+/// own table and of the sections [`build`] passes it. The checks across sections run every
+/// time. Building the whole scenario each period had become a third of a continuation's time.
+#[derive(Debug)]
+struct Memo {
+    set: Vec<(SetKey, Value)>,
+    table: Table,
+    parts: Parts,
+}
+
+/// A scenario's parsed sections.
+#[derive(Debug)]
+struct Parts {
+    rig: Rig,
+    initial: Initial,
+    stages: Vec<Stage>,
+    solver: Solver,
+    output: Output,
+}
+
+/// The sections of the last build ([`Memo`]), with the sections whose keys changed value since.
+struct Last {
+    parts: Parts,
+    changed: Vec<&'static str>,
+}
+
+impl Last {
+    /// The last build's sections, if none of the sections `names` changed.
+    fn unless(&self, names: &[&str]) -> Option<&Parts> {
+        (!names.iter().any(|n| self.changed.contains(n))).then_some(&self.parts)
+    }
+}
+
+/// `a == b`, but numbers compared bit for bit (`-0.0` is not `0.0`, a NaN is itself).
+fn same_value(a: &Value, b: &Value) -> bool {
+    match (a, b) {
+        (Value::Float(x), Value::Float(y)) => x.to_bits() == y.to_bits(),
+        (Value::Array(x), Value::Array(y)) => {
+            x.len() == y.len() && x.iter().zip(y).all(|(a, b)| same_value(a, b))
+        }
+        (Value::Table(x), Value::Table(y)) => {
+            x.len() == y.len()
+                && x.iter()
+                    .zip(y)
+                    .all(|((ka, a), (kb, b))| ka == kb && same_value(a, b))
+        }
+        _ => a == b,
+    }
 }
 
 impl ScenarioSource {
@@ -106,11 +163,12 @@ impl ScenarioSource {
         }
         .parse_toml(text)?;
         Ok(Self {
-            text: text.to_string(),
+            text: text.into(),
             name: source_name.to_string(),
             base_dir: base_dir.map(Path::to_path_buf),
             table,
             tables: LawTables::default(),
+            memo: Arc::default(),
         })
     }
 
@@ -139,11 +197,12 @@ impl ScenarioSource {
             });
         }
         Ok(Self {
-            text,
+            text: text.into(),
             name: source_name.to_string(),
             base_dir: base_dir.map(Path::to_path_buf),
             table,
             tables: LawTables::default(),
+            memo: Arc::default(),
         })
     }
 
@@ -182,26 +241,74 @@ impl ScenarioSource {
         let base_dir = self.base_dir.as_deref();
         let file = Source::file(&self.name);
         if overrides.is_empty() {
-            return build(&self.table, &self.text, &file, base_dir, &self.tables);
+            return build(&self.table, &self.text, &file, base_dir, &self.tables, None);
         }
-        let mut table = self.table.clone();
+        // Another thread building from the same source meanwhile builds without the memo.
+        let mut slot = self.memo.try_lock().ok();
+        let same_keys = |m: &mut Memo| {
+            m.set.len() == overrides.len()
+                && m.set.iter().zip(overrides).all(|((k, _), o)| *k == o.key())
+        };
+        let memo = slot
+            .as_deref_mut()
+            .and_then(|m| m.take_if(|m| same_keys(m)));
+        let (mut table, last) = match memo {
+            Some(Memo { set, table, parts }) => {
+                let changed = set
+                    .iter()
+                    .zip(overrides)
+                    .filter(|((_, was), o)| !same_value(was, o.value()))
+                    .map(|((key, _), _)| key.section().unwrap_or(""))
+                    .collect();
+                (table, Some(Last { parts, changed }))
+            }
+            None => (self.table.clone(), None),
+        };
         overrides::apply(&mut table, overrides, &file)?;
         let source = Source {
             file: self.name.clone(),
             set: overrides.iter().map(ToString::to_string).collect(),
         };
-        build(&table, &self.text, &source, base_dir, &self.tables)
-            .map_err(|e| overrides::attribute(e, overrides, &file))
+        let scn = build(
+            &table,
+            &self.text,
+            &source,
+            base_dir,
+            &self.tables,
+            last.as_ref(),
+        )
+        .map_err(|e| overrides::attribute(e, overrides, &file))?;
+        if let Some(m) = slot.as_deref_mut() {
+            *m = Some(Memo {
+                set: overrides
+                    .iter()
+                    .map(|o| (o.key(), o.value().clone()))
+                    .collect(),
+                table,
+                parts: Parts {
+                    rig: scn.rig.clone(),
+                    initial: scn.initial,
+                    stages: scn.stages.clone(),
+                    solver: scn.solver,
+                    output: scn.output.clone(),
+                },
+            });
+        }
+        Ok(scn)
     }
 }
 
-/// The section walk: validate a parsed table into a scenario.
+/// The section walk: validate a parsed table into a scenario. A section that neither it nor the
+/// sections its parse reads besides changed since `last` (the last build from the same source
+/// with the same keys set) is taken from there ([`Memo`]); the checks across sections run every
+/// time.
 fn build(
     root: &Table,
-    text: &str,
+    text: &Arc<str>,
     source: &Source,
     base_dir: Option<&Path>,
     tables: &LawTables,
+    last: Option<&Last>,
 ) -> Result<Scenario> {
     let p = Parser {
         source,
@@ -210,17 +317,52 @@ fn build(
     let top = Section::root(root);
     p.check_top_level(&top)?;
     p.version(&top, true)?;
-    let material = p.material(&top)?;
-    let law = p.law(&top, &material, base_dir)?;
-    let holder = p.holder(&top)?;
-    let sphere = p.sphere(&top, holder)?;
-    let damping = p.damping(&top)?;
-    let base = p.base(&top)?;
-    let formation = p.formation(&top, &material)?;
-    let initial = p.initial(&top, holder, sphere)?;
-    let stages = p.stages(&top, holder, base.is_some())?;
-    let solver = p.solver(&top)?;
-    let output = p.output(&top)?;
+    let same = |names: &[&str]| last.and_then(|l| l.unless(names));
+    let material = match same(&["material"]) {
+        Some(m) => m.rig.material,
+        None => p.material(&top)?,
+    };
+    let law = match same(&["material", "adhesion"]) {
+        Some(m) => m.rig.law.clone(),
+        None => p.law(&top, &material, base_dir)?,
+    };
+    let holder = match same(&["spring"]) {
+        Some(m) => m.rig.holder,
+        None => p.holder(&top)?,
+    };
+    let sphere = match same(&["spring", "sphere"]) {
+        Some(m) => m.rig.sphere,
+        None => p.sphere(&top, holder)?,
+    };
+    let damping = match same(&["damping"]) {
+        Some(m) => m.rig.damping,
+        None => p.damping(&top)?,
+    };
+    let base = match same(&["base"]) {
+        Some(m) => m.rig.base,
+        None => p.base(&top)?,
+    };
+    let formation = match same(&["material", "contact"]) {
+        Some(m) => m.rig.formation,
+        None => p.formation(&top, &material)?,
+    };
+    let initial = match same(&["spring", "sphere", "initial"]) {
+        Some(m) => m.initial,
+        None => p.initial(&top, holder, sphere)?,
+    };
+    // The stages read whether there is a base motion, not its values.
+    let stages = match same(&["spring", "stage"]) {
+        Some(m) if m.rig.base.is_some() == base.is_some() => m.stages.clone(),
+        _ => p.stages(&top, holder, base.is_some())?,
+    };
+    let solver = match same(&["solver"]) {
+        Some(m) => m.solver,
+        None => p.solver(&top)?,
+    };
+    let output = match same(&["output"]) {
+        Some(m) => m.output.clone(),
+        None => p.output(&top)?,
+    };
     p.physics(&top, &material, holder, sphere, &initial, &stages)?;
     let scenario = Scenario {
         rig: Rig {
@@ -236,7 +378,7 @@ fn build(
         stages,
         solver,
         output,
-        source_text: text.to_string(),
+        source_text: Arc::clone(text),
         source_name: overrides::describe(&source.file, &source.set),
         overrides: source.set.to_vec(),
     };
@@ -421,7 +563,7 @@ pub(crate) const MAX_DENSE_WINDOWS: usize = 10_000;
 
 /// The keys of section `name` ([`keys::section_keys`], the one table of keys; `""` for the top
 /// level).
-fn keys_of(name: &str) -> Vec<&'static str> {
+fn keys_of(name: &str) -> &'static [&'static str] {
     keys::section_keys(name).unwrap_or_default()
 }
 
@@ -753,8 +895,9 @@ impl Parser<'_> {
     }
 
     fn check_top_level(&self, top: &Section) -> Result<()> {
+        let top_keys = keys_of("");
         for (k, v) in top.table {
-            if !keys_of("").contains(&k.as_str()) && !keys::SECTIONS.contains(&k.as_str()) {
+            if !top_keys.contains(&k.as_str()) && !keys::SECTIONS.contains(&k.as_str()) {
                 return Err(match v {
                     Value::Table(_) => self.key_err(
                         &format!("[{k}]"),
@@ -830,7 +973,7 @@ impl Parser<'_> {
     }
 
     fn string<'t>(&self, s: &Section<'t>, k: &str, choices: &[&str]) -> Result<Option<&'t str>> {
-        let key = s.key(k);
+        let key = || s.key(k);
         let list = || {
             choices
                 .iter()
@@ -844,13 +987,13 @@ impl Parser<'_> {
                 Ok(Some(v.as_str()))
             }
             Some(v @ Value::String(_)) => {
-                Err(self.value_err(&key, show(v), format!("must be one of {}", list())))
+                Err(self.value_err(&key(), show(v), format!("must be one of {}", list())))
             }
             Some(v) if choices.is_empty() => {
-                Err(self.value_err(&key, show(v), "must be a string (in quotes)"))
+                Err(self.value_err(&key(), show(v), "must be a string (in quotes)"))
             }
             Some(v) => Err(self.value_err(
-                &key,
+                &key(),
                 show(v),
                 format!("must be a string, one of {}", list()),
             )),
@@ -866,15 +1009,17 @@ impl Parser<'_> {
     }
 
     fn positive(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        match positive_error(&s.key(k), n.v, unit) {
-            Some(e) => Err(self.value_err(&s.key(k), &n.shown, e)),
+        let key = s.key(k);
+        match positive_error(&key, n.v, unit) {
+            Some(e) => Err(self.value_err(&key, &n.shown, e)),
             None => Ok(n.v),
         }
     }
 
     fn non_negative(&self, s: &Section, k: &str, n: &Num, unit: &str) -> Result<f64> {
-        match non_negative_error(&s.key(k), n.v, unit) {
-            Some(e) => Err(self.value_err(&s.key(k), &n.shown, e)),
+        let key = s.key(k);
+        match non_negative_error(&key, n.v, unit) {
+            Some(e) => Err(self.value_err(&key, &n.shown, e)),
             None => Ok(n.v),
         }
     }
@@ -919,7 +1064,7 @@ impl Parser<'_> {
                 "missing section: give [material] with K (Pa), R (m) and w0 (J/m^2)",
             )
         })?;
-        self.check_keys(&s, &keys_of("material"), "")?;
+        self.check_keys(&s, keys_of("material"), "")?;
         let k = self.req_positive(
             &s,
             "K",
@@ -1036,7 +1181,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "spring")? else {
             return Ok(Holder::None);
         };
-        self.check_keys(&s, &keys_of("spring"), "")?;
+        self.check_keys(&s, keys_of("spring"), "")?;
         let rigid = self.boolean(&s, "rigid")?;
         let stiffness = self.number(&s, "stiffness", STIFFNESS)?;
         match (rigid, stiffness) {
@@ -1070,7 +1215,7 @@ impl Parser<'_> {
                  only a rigid link ([spring] rigid = true) needs no mass",
             ));
         };
-        self.check_keys(&s, &keys_of("sphere"), "")?;
+        self.check_keys(&s, keys_of("sphere"), "")?;
         let mass = match self.number(&s, "mass", MASS)? {
             Some(n) => self.non_negative(&s, "mass", &n, MASS.unit)?,
             None if rigid => 0.0,
@@ -1092,7 +1237,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "damping")? else {
             return Ok(None);
         };
-        self.check_keys(&s, &keys_of("damping"), "")?;
+        self.check_keys(&s, keys_of("damping"), "")?;
         let n = self.required(&s, "c", DAMPING, "damping coefficient c (N s/m, >= 0)")?;
         let c = self.non_negative(&s, "c", &n, DAMPING.unit)?;
         let on = match self.string(&s, "on", &["sphere", "contact"])? {
@@ -1106,7 +1251,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "base")? else {
             return Ok(None);
         };
-        self.check_keys(&s, &keys_of("base"), "")?;
+        self.check_keys(&s, keys_of("base"), "")?;
         let na = self.required(&s, "amplitude", LENGTH, "base amplitude X_b (m, >= 0)")?;
         let amplitude = self.non_negative(&s, "amplitude", &na, LENGTH.unit)?;
         let n = self.required(&s, "frequency", FREQUENCY, "base frequency f (Hz, > 0)")?;
@@ -1135,7 +1280,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "contact")? else {
             return Ok(ContactFormation::JumpIn);
         };
-        self.check_keys(&s, &keys_of("contact"), "")?;
+        self.check_keys(&s, keys_of("contact"), "")?;
         match self.string(&s, "formation", &["jump-in", "seed"])? {
             Some("seed") => {
                 let n = self.required(
@@ -1174,7 +1319,7 @@ impl Parser<'_> {
                 "missing section: give [initial] with preload (N, > 0: static JKR equilibrium under this force) or gap (m, > 0)",
             ));
         };
-        self.check_keys(&s, &keys_of("initial"), "")?;
+        self.check_keys(&s, keys_of("initial"), "")?;
         let preload = self.opt_positive(&s, "preload", FORCE)?;
         let gap = self.opt_positive(&s, "gap", LENGTH)?;
         match (preload, gap) {
@@ -1256,7 +1401,7 @@ impl Parser<'_> {
     }
 
     fn stage(&self, s: &Section, holder: Holder, has_base: bool) -> Result<Stage> {
-        self.check_keys(s, &keys_of(STAGE_SECTION), "")?;
+        self.check_keys(s, keys_of(STAGE_SECTION), "")?;
         let kind = match self.string(s, "kind", &["approach", "hold", "unload"])? {
             Some("approach") => StageKind::Approach,
             Some("hold") => StageKind::Hold,
@@ -1380,7 +1525,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "solver")? else {
             return Ok(solver);
         };
-        self.check_keys(&s, &keys_of("solver"), "")?;
+        self.check_keys(&s, keys_of("solver"), "")?;
         if let Some(name) = self.string(&s, "method", &method_names())? {
             solver.method = method_from_name(name).unwrap_or(Method::Auto);
         }
@@ -1461,7 +1606,7 @@ impl Parser<'_> {
         let Some(s) = self.section(top, "output")? else {
             return Ok(out);
         };
-        self.check_keys(&s, &keys_of("output"), "")?;
+        self.check_keys(&s, keys_of("output"), "")?;
         if let Some(n) = self.number(&s, "sample_rate", RATE)? {
             out.sample_rate =
                 self.non_negative(&s, "sample_rate", &n, "samples per second; 0 = every step")?;
@@ -1574,6 +1719,59 @@ speed = 5e-6
 until = "pull-off"
 "#;
 
+    /// Scenarios built one after another from one source with the same keys set (the memo's
+    /// path: the last build's table and unchanged sections reused) are those a fresh source
+    /// builds, bit for bit (a sign of zero included), errors included; builds with other keys,
+    /// or none, between them change nothing.
+    #[test]
+    fn builds_with_the_same_keys_are_those_of_a_fresh_source() {
+        let path =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/paper-protocol-300hz.toml");
+        let text = std::fs::read_to_string(path).unwrap();
+        let fresh = || ScenarioSource::parse(&text, "p.toml", None).unwrap();
+        let src = fresh();
+        // As a continuation sets its keys: typed values.
+        let keys = |values: [f64; 4]| -> Vec<Override> {
+            [
+                "base.frequency",
+                "adhesion.n",
+                "base.phase",
+                "stage[1].duration",
+            ]
+            .iter()
+            .zip(values)
+            .map(|(k, v)| Override::from_key(SetKey::parse(k).unwrap(), v).unwrap())
+            .collect()
+        };
+        let sets = [
+            keys([300.0, 0.5, 0.0, 0.1]),
+            keys([310.0, 0.5, 0.0, 0.1]),
+            // Only the sign of a zero changes.
+            keys([310.0, 0.5, -0.0, 0.1]),
+            keys([310.0, 0.6, -0.0, 0.2]),
+            // Refused (n), then refused (the frequency's range): the next build is right.
+            keys([310.0, -1.0, 0.0, 0.2]),
+            keys([1e9, 0.6, 0.0, 0.2]),
+            keys([320.0, 0.6, 0.0, 0.2]),
+            Override::parse_all(&["base.frequency=320"]).unwrap(),
+            keys([330.0, 0.6, 0.5, 0.3]),
+            vec![],
+            keys([330.0, 0.6, 0.5, 0.3]),
+            keys([330.0, 0.6, 0.5, 0.4]),
+        ];
+        let show = |r: Result<Scenario>| match r {
+            Ok(s) => format!("{s:?}"),
+            Err(e) => format!("error {e:?}"),
+        };
+        let mut refused = 0;
+        for o in &sets {
+            let got = show(src.scenario(o));
+            refused += usize::from(got.starts_with("error"));
+            assert_eq!(got, show(fresh().scenario(o)), "{o:?}");
+        }
+        assert_eq!(refused, 2);
+    }
+
     /// A tabulated law's table is read once per source: scenarios built from it afterwards, with
     /// any overrides, share its rows even when the file has gone.
     #[test]
@@ -1613,7 +1811,7 @@ until = "pull-off"
         .concat();
         union.sort_unstable();
         union.dedup();
-        let mut all = keys_of("adhesion");
+        let mut all = keys_of("adhesion").to_vec();
         all.sort_unstable();
         assert_eq!(union, all);
         assert!(STAGE_END_KEYS
@@ -1621,7 +1819,7 @@ until = "pull-off"
             .all(|k| keys_of(STAGE_SECTION).contains(k)));
         assert_eq!(
             keys::section_keys("base"),
-            Some(vec!["amplitude", "frequency", "phase"])
+            Some(&["amplitude", "frequency", "phase"][..])
         );
         assert_eq!(keys::section_keys("version"), None);
         let e = parse_scenario(&format!("{MINIMAL}[bogus]\nx = 1\n"), "m.toml", None)
@@ -1662,7 +1860,7 @@ until = "pull-off"
                 max_duration: DEFAULT_MAX_DURATION,
             }]
         );
-        assert_eq!(s.source_text, MINIMAL);
+        assert_eq!(&*s.source_text, MINIMAL);
         assert_eq!(s.source_name, "min.toml");
         assert!(s.overrides.is_empty());
     }

@@ -58,7 +58,7 @@ fn scene(rig: Rig, initial: Initial, stages: Vec<Stage>, solver: Solver) -> Scen
         stages,
         solver,
         output: Output::default(),
-        source_text: String::new(),
+        source_text: "".into(),
         source_name: "<catalogue>".into(),
         overrides: Vec::new(),
     }
@@ -807,7 +807,7 @@ mod tests {
 
     /// A scenario without its provenance (text and name), to compare scenes built two ways.
     fn bare(mut s: Scenario) -> Scenario {
-        s.source_text.clear();
+        s.source_text = "".into();
         s.source_name.clear();
         s
     }
