@@ -160,7 +160,13 @@ pub fn show_float(x: f64) -> String {
     } else if x.is_infinite() {
         if x > 0.0 { "inf" } else { "-inf" }.to_string()
     } else if x == 0.0 || (1e-3..1e9).contains(&x.abs()) {
-        Value::Float(x).to_string()
+        // As TOML writes it (`Value::Float(x).to_string()`, which goes through a document
+        // writer: a continuation formats a value per period): a whole number gets `.0`.
+        if x.fract() == 0.0 {
+            format!("{x:.1}")
+        } else {
+            format!("{x}")
+        }
     } else {
         format!("{x:e}")
     }
@@ -172,5 +178,52 @@ pub fn show(v: &Value) -> String {
         Value::Table(_) => "(a table)".to_string(),
         Value::Float(f) => show_float(*f),
         other => other.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `show_float` writes a number between 1e-3 and 1e9 (and a zero) as TOML does, without
+    /// TOML's writer: checked against it on whole numbers, zeros of both signs, the ends of the
+    /// range and 200 000 values of random bits.
+    #[test]
+    fn show_float_writes_what_toml_writes() {
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            1e-3,
+            -1e-3,
+            0.1,
+            1.5,
+            300.0,
+            -300.0,
+            999_999_999.0,
+        ];
+        xs.extend([
+            123_456_789.0,
+            1e9 - 0.5,
+            2.0f64.powi(29),
+            1.0 / 3.0,
+            0.000_999_999,
+        ]);
+        let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+        while xs.len() < 200_000 {
+            // xorshift64*: random bits; a third of them rounded to a whole number.
+            state ^= state >> 12;
+            state ^= state << 25;
+            state ^= state >> 27;
+            let bits = state.wrapping_mul(0x2545_F491_4F6C_DD1D);
+            let x = f64::from_bits(bits);
+            if x.is_finite() && (1e-3..1e9).contains(&x.abs()) {
+                xs.push(if bits.is_multiple_of(3) { x.round() } else { x });
+            }
+        }
+        for x in xs {
+            if x == 0.0 || (1e-3..1e9).contains(&x.abs()) {
+                assert_eq!(show_float(x), Value::Float(x).to_string(), "{x:e}");
+            }
+        }
     }
 }

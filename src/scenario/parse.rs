@@ -241,7 +241,7 @@ impl ScenarioSource {
         let base_dir = self.base_dir.as_deref();
         let file = Source::file(&self.name);
         if overrides.is_empty() {
-            return build(&self.table, &self.text, &file, base_dir, &self.tables, None);
+            return build(&self.table, &self.text, file, base_dir, &self.tables, None);
         }
         // Another thread building from the same source meanwhile builds without the memo.
         let mut slot = self.memo.try_lock().ok();
@@ -272,7 +272,7 @@ impl ScenarioSource {
         let scn = build(
             &table,
             &self.text,
-            &source,
+            source,
             base_dir,
             &self.tables,
             last.as_ref(),
@@ -305,13 +305,13 @@ impl ScenarioSource {
 fn build(
     root: &Table,
     text: &Arc<str>,
-    source: &Source,
+    source: Source,
     base_dir: Option<&Path>,
     tables: &LawTables,
     last: Option<&Last>,
 ) -> Result<Scenario> {
     let p = Parser {
-        source,
+        source: &source,
         tables: Some(tables),
     };
     let top = Section::root(root);
@@ -380,12 +380,15 @@ fn build(
         output,
         source_text: Arc::clone(text),
         source_name: overrides::describe(&source.file, &source.set),
-        overrides: source.set.to_vec(),
+        overrides: source.set.into_vec(),
     };
     // What the simulator would refuse when it sets the run up is refused here, so `check` and
     // every command agree with `run`.
     checks::setup_check(&scenario).map_err(|e| ScenarioError::Setup {
-        source: source.clone(),
+        source: Source {
+            file: source.file,
+            set: scenario.overrides.clone().into(),
+        },
         message: e.to_string(),
     })?;
     Ok(scenario)
