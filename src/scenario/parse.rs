@@ -77,8 +77,9 @@ pub fn load_scenario_with(path: &Path, overrides: &[Override]) -> Result<Scenari
 }
 
 /// A scenario file read and parsed (TOML syntax only) once, to be validated with any number of
-/// override sets: each [`scenario`](Self::scenario) call clones the parsed table, not the file
-/// (a sweep applies thousands of override sets to one file).
+/// override sets: each [`scenario`](Self::scenario) call works on the parsed table, not the file
+/// (a sweep applies thousands of override sets to one file), and one that sets the same keys as
+/// the call before re-reads only the sections whose values changed.
 #[derive(Debug, Clone)]
 pub struct ScenarioSource {
     /// Shared with every scenario built (a continuation builds one per period).
