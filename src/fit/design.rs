@@ -400,7 +400,7 @@ fn bad_absolute(text: &str, fit: &FitFolder) -> Error {
     ))
 }
 
-/// What to design, typed (the fit itself is given beside it: [`check`], [`design`]).
+/// What to design, typed (the fit itself is given beside it: [`crate::api::design`]).
 #[derive(Debug, Clone)]
 pub struct DesignRequest {
     /// The candidates' axes (the Cartesian grid, first key slowest).
