@@ -243,8 +243,11 @@ pub fn summary_json(
     run_id: &str,
     sections: &Sections,
 ) -> String {
+    // What the scenario's checks say of the result, asked once.
+    let recorded = checks::pull_off_recorded(result);
+    let warnings = checks::result_warnings(scenario, result);
     let mut b = Builder::default();
-    let (pull_off, most_tensile) = b.pull_off(result);
+    let (pull_off, most_tensile) = b.pull_off(result, recorded);
     // Absent (not NaN) without detachment: that is a run's outcome, not a number gone wrong.
     let mut detachment = Map::new();
     if result.detached {
@@ -306,10 +309,7 @@ pub fn summary_json(
                     .collect(),
             ),
         ),
-        (
-            "warnings",
-            Value::from(checks::result_warnings(scenario, result)),
-        ),
+        ("warnings", Value::from(warnings)),
         (
             "non_finite",
             Value::Object(b.non_finite.into_iter().collect()),
@@ -342,9 +342,14 @@ impl Builder {
     /// `pull_off`: force, amplification and time, for a run that detached. No pull-off force
     /// recorded (the simulator's placeholder 0 N at t = 0): left out, as NaN. A run that did not
     /// detach had no pull-off: `pull_off` is empty and the second map, `most_tensile`, holds the
-    /// most tensile force it saw and when (no amplification: that is of a pull-off).
-    fn pull_off(&mut self, result: &RunResult) -> (Map<String, Value>, Option<Map<String, Value>>) {
-        if !result.detached && checks::pull_off_recorded(result) {
+    /// most tensile force it saw and when (no amplification: that is of a pull-off). `recorded`:
+    /// [`checks::pull_off_recorded`].
+    fn pull_off(
+        &mut self,
+        result: &RunResult,
+        recorded: bool,
+    ) -> (Map<String, Value>, Option<Map<String, Value>>) {
+        if !result.detached && recorded {
             let po = result.pull_off;
             let p = "most_tensile.";
             let mut m = Map::new();
@@ -364,12 +369,12 @@ impl Builder {
             }
             return (Map::new(), Some(m));
         }
-        (self.detached_pull_off(result), None)
+        (self.detached_pull_off(result, recorded), None)
     }
 
     /// `pull_off` of a run that detached (or recorded no force).
-    fn detached_pull_off(&mut self, result: &RunResult) -> Map<String, Value> {
-        let po = if checks::pull_off_recorded(result) {
+    fn detached_pull_off(&mut self, result: &RunResult, recorded: bool) -> Map<String, Value> {
+        let po = if recorded {
             result.pull_off
         } else {
             djkr_core::dynamics::PullOffSummary {
