@@ -2371,7 +2371,7 @@ impl Fit {
 impl Fit {
     /// ``fit.json``'s entry ``key`` (``r["chi2"]``, ``r["parameters"]``, ``r["notes"]``).
     fn __getitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
-        Ok(self.report.bind(py).get_item(key)?.unbind())
+        report_item(&self.report, py, key)
     }
 
     /// ``fit.json``'s keys.
@@ -2381,10 +2381,7 @@ impl Fit {
 
     /// The residuals' table as a ``pandas.DataFrame`` (needs pandas).
     fn to_pandas(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-        let pd = py.import("pandas")?;
-        Ok(pd
-            .call_method1("DataFrame", (self.residuals.bind(py),))?
-            .unbind())
+        table_to_pandas(&self.residuals, py)
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
@@ -2561,13 +2558,9 @@ struct Prediction {
 
 impl Prediction {
     fn new(py: Python<'_>, r: djkr::fit::PredictReport) -> PyResult<Prediction> {
-        let report = serde_json::to_value(&r)
-            .map_err(|e| PyRuntimeError::new_err(format!("prediction report: {e}")))?;
-        let columns = columns_to_py(py, r.columns())?;
-        Ok(Prediction {
-            report: json_to_py(py, &report)?,
-            columns: columns.into_any().unbind(),
-        })
+        let (report, columns) =
+            report_and_table(py, serde_json::to_value(&r), r.columns(), "prediction")?;
+        Ok(Prediction { report, columns })
     }
 }
 
@@ -2575,7 +2568,7 @@ impl Prediction {
 impl Prediction {
     /// ``prediction.json``'s entry ``key`` (``p["rows"]``, ``p["notes"]``).
     fn __getitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
-        Ok(self.report.bind(py).get_item(key)?.unbind())
+        report_item(&self.report, py, key)
     }
 
     /// ``prediction.json``'s keys.
@@ -2585,10 +2578,7 @@ impl Prediction {
 
     /// The table of ``prediction.csv`` as a ``pandas.DataFrame`` (needs pandas).
     fn to_pandas(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-        let pd = py.import("pandas")?;
-        Ok(pd
-            .call_method1("DataFrame", (self.columns.bind(py),))?
-            .unbind())
+        table_to_pandas(&self.columns, py)
     }
 
     fn __len__(&self, py: Python<'_>) -> PyResult<usize> {
@@ -2604,6 +2594,36 @@ impl Prediction {
             r.get_item("notes")?.len()?
         ))
     }
+}
+
+// `djkr.Fit`, `djkr.Prediction` and `djkr.Design` are each a report (a dict, what the JSON file
+// holds) and a table (a dict of columns); pyo3 classes cannot share a generic type, so they share
+// these.
+
+/// A report (as JSON) as the dict its JSON file holds, and `columns` as a dict of numpy arrays
+/// (`what` names the report in an error).
+fn report_and_table(
+    py: Python<'_>,
+    json: serde_json::Result<serde_json::Value>,
+    columns: Vec<(String, api::Column)>,
+    what: &str,
+) -> PyResult<(Py<PyAny>, Py<PyAny>)> {
+    let json = json.map_err(|e| PyRuntimeError::new_err(format!("{what} report: {e}")))?;
+    Ok((
+        json_to_py(py, &json)?,
+        columns_to_py(py, columns)?.into_any().unbind(),
+    ))
+}
+
+/// The report's entry `key`.
+fn report_item(report: &Py<PyAny>, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
+    Ok(report.bind(py).get_item(key)?.unbind())
+}
+
+/// A table (a dict of columns) as a `pandas.DataFrame`.
+fn table_to_pandas(table: &Py<PyAny>, py: Python<'_>) -> PyResult<Py<PyAny>> {
+    let pd = py.import("pandas")?;
+    Ok(pd.call_method1("DataFrame", (table.bind(py),))?.unbind())
 }
 
 /// The argument `fit` of `predict` and `design`: what `djkr.fit` returned, or a fit's folder.
@@ -2814,12 +2834,9 @@ struct Design {
 
 impl Design {
     fn new(py: Python<'_>, r: djkr::fit::DesignReport) -> PyResult<Design> {
-        let report = serde_json::to_value(&r)
-            .map_err(|e| PyRuntimeError::new_err(format!("design report: {e}")))?;
-        Ok(Design {
-            report: json_to_py(py, &report)?,
-            columns: columns_to_py(py, r.columns())?.into_any().unbind(),
-        })
+        let (report, columns) =
+            report_and_table(py, serde_json::to_value(&r), r.columns(), "design")?;
+        Ok(Design { report, columns })
     }
 }
 
@@ -2827,7 +2844,7 @@ impl Design {
 impl Design {
     /// ``design.json``'s entry ``key`` (``d["chosen"]``, ``d["expected_sigma"]``).
     fn __getitem__(&self, py: Python<'_>, key: &Bound<'_, PyAny>) -> PyResult<Py<PyAny>> {
-        Ok(self.report.bind(py).get_item(key)?.unbind())
+        report_item(&self.report, py, key)
     }
 
     /// ``design.json``'s keys.
@@ -2837,10 +2854,7 @@ impl Design {
 
     /// The table of ``design.csv`` as a ``pandas.DataFrame`` (needs pandas).
     fn to_pandas(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-        let pd = py.import("pandas")?;
-        Ok(pd
-            .call_method1("DataFrame", (self.columns.bind(py),))?
-            .unbind())
+        table_to_pandas(&self.columns, py)
     }
 
     fn __repr__(&self, py: Python<'_>) -> PyResult<String> {
