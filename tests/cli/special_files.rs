@@ -400,12 +400,7 @@ fn the_paper_protocol_runs_on_a_200_mb_file_system() {
     let h5 = std::fs::metadata(kept.join("run.h5")).unwrap().len();
     assert_eq!(j["file_bytes"]["run.h5"], h5);
     assert!(h5 > 10_000_000 && h5 < 200_000_000, "{h5}");
-    let t = hdf5_pure::File::open(kept.join("run.h5"))
-        .unwrap()
-        .dataset("t")
-        .unwrap()
-        .read_f64()
-        .unwrap();
+    let t = sample_times(&kept.join("run.h5"));
     assert_eq!(t.len() as u64, j["samples"].as_u64().unwrap());
     // The last sample is the last of the 12 kHz grid before the run ends at the detachment.
     let (detached, t_end) = (
@@ -446,12 +441,7 @@ fn a_run_that_fills_the_disk_stops_and_keeps_what_it_wrote() {
         j["file_bytes"]["run.h5"],
         std::fs::metadata(&h5).unwrap().len()
     );
-    let t = hdf5_pure::File::open(&h5)
-        .unwrap()
-        .dataset("t")
-        .unwrap()
-        .read_f64()
-        .unwrap();
+    let t = sample_times(&h5);
     assert_eq!(t.len() as u64, j["samples"].as_u64().unwrap());
     let t_end = j["final_state"]["t"].as_f64().unwrap();
     let last = *t.last().unwrap();
@@ -499,4 +489,14 @@ fn summary_reports_the_time_spent_writing_after_the_budget() {
     let j = summary(&ok_dir);
     assert_eq!(j["status"], "ok");
     assert!(j["stats"]["write_s"].as_f64().unwrap() >= 0.0);
+}
+
+/// The sample times (`t`, s) of a run's `run.h5`.
+fn sample_times(h5: &Path) -> Vec<f64> {
+    hdf5_pure::File::open(h5)
+        .unwrap()
+        .dataset("t")
+        .unwrap()
+        .read_f64()
+        .unwrap()
 }
